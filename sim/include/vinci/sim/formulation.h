@@ -1,0 +1,70 @@
+// The time-stepping formulation interface. A Formulation has two faces: it solves one step,
+// and it evaluates the same step equations as residuals + complementarity pairs (with
+// Jacobians) so that an estimator imposing them as constraints cannot drift from the simulator.
+#pragma once
+
+#include <memory>
+#include <string_view>
+#include <vector>
+
+#include "vinci/sim/contact.h"
+#include "vinci/sim/lcp.h"
+#include "vinci/sim/scene.h"
+#include "vinci/sim/state.h"
+
+namespace vinci::sim {
+
+/// The unknowns of one step for a fixed contact set (found at x_ℓ), stacked in this order:
+///   z = [q_ℓ+1 (nq); ν_ℓ+1 (nv); p_n (nc); p_f (nc·nd); σ (nc); p_b (nb)]
+/// followed, for derivatives only, by the scene's parameters θ (Scene::param_table(); only
+/// friction parameters have non-zero derivatives in the Stewart–Trinkle equations).
+struct StepLayout {
+  int nq = 0, nv = 0, nc = 0, nd = 0, nb = 0;
+  int q1() const { return 0; }
+  int v1() const { return nq; }
+  int pn() const { return nq + nv; }
+  int pf() const { return pn() + nc; }
+  int sigma() const { return pf() + nc * nd; }
+  int pb() const { return sigma() + nc; }
+  int size() const { return pb() + nb; }
+};
+
+/// Step equations at a point: equality = 0 and 0 ≤ comp_a ⊥ comp_b ≥ 0 (componentwise).
+/// Jacobians are with respect to [z; θ] (columns: layout.size() + num params).
+struct StepResiduals {
+  StepLayout layout;
+  VectorXd equality;
+  VectorXd comp_a, comp_b;
+  MatrixXd d_equality, d_comp_a, d_comp_b;
+  /// max(|equality|_∞, |min(comp_a, comp_b)|_∞)
+  double Violation() const;
+};
+
+/// Reusable per-thread scratch: one per thread, never shared. Holds the params-resolved scene.
+struct Workspace {
+  Params resolved_for;
+  std::shared_ptr<const Scene> model;  ///< scene with `resolved_for` applied
+  std::vector<Contact> contacts;
+};
+
+class Formulation {
+ public:
+  virtual ~Formulation() = default;
+  virtual std::string_view name() const = 0;
+  /// One step from x to *next. `model` is the scene with params applied. Never throws on
+  /// numerical trouble: info->ok = false with a reason, *next then equals x.
+  virtual void Step(const Scene& model, const State& x, const StepInput& u, Workspace* ws,
+                    State* next, StepInfo* info) const = 0;
+  /// Evaluates the step equations from x (contacts found at x) for the unknowns z.
+  /// `params` must be the vector `model` was built from (for the θ columns).
+  virtual StepResiduals Evaluate(const Scene& model, const Params& params, const State& x,
+                                 const StepInput& u, const VectorXd& z) const = 0;
+  /// The layout Evaluate expects from x (contact set at x).
+  virtual StepLayout Layout(const Scene& model, const State& x) const = 0;
+};
+
+/// The formulation selected by the scene's options (Stewart–Trinkle or Anitescu–Potra) and
+/// solver (by name). Throws std::invalid_argument for an unknown solver name.
+std::unique_ptr<Formulation> MakeFormulation(const StepperOptions& options);
+
+}  // namespace vinci::sim

@@ -1,0 +1,59 @@
+// Linear complementarity problems and the solver interface.
+//
+// LCP(M, q): find z ≥ 0 with w = M z + q ≥ 0 and zᵀw = 0.
+// A solver sees only these numbers, never a body.
+#pragma once
+
+#include <string>
+#include <string_view>
+
+#include "vinci/sim/types.h"
+
+namespace vinci::sim {
+
+/// Outcome of a complementarity solve.
+enum class SolverStatus {
+  kSolved,           ///< residual ≤ tolerance
+  kSecondaryRay,     ///< Lemke terminated on a secondary ray (problem may be infeasible)
+  kMaxIterations,    ///< iteration limit reached
+  kNumericalFailure, ///< singular pivot / NaN
+  kInvalidInput,     ///< malformed problem (size mismatch, NaN in data)
+};
+std::string_view ToString(SolverStatus s);
+
+/// What every solve reports.
+struct SolverReport {
+  SolverStatus status = SolverStatus::kNumericalFailure;
+  int iterations = 0;      ///< pivots (Lemke) or sweeps/Newton steps (iterative)
+  double residual = 0.0;   ///< complementarity residual ‖min(z, Mz+q)‖_∞ of the returned z
+  double time_s = 0.0;     ///< wall time of the solve (s)
+  bool regularized = false;  ///< true if the solution came from a regularized retry M + εI
+  double regularization = 0.0;  ///< the ε used, if regularized
+  std::string message;     ///< human-readable detail on failure
+  bool ok() const { return status == SolverStatus::kSolved; }
+};
+
+/// Standard LCP data.
+struct LcpProblem {
+  MatrixXd M;
+  VectorXd q;
+  int size() const { return static_cast<int>(q.size()); }
+};
+
+/// ‖min(z, Mz + q)‖_∞: zero exactly at a solution. Independent of any solver.
+double LcpResidual(const LcpProblem& problem, const VectorXd& z);
+
+/// Interface of an LCP solver. Implementations are stateless and thread-safe.
+class LcpSolver {
+ public:
+  virtual ~LcpSolver() = default;
+  virtual std::string_view name() const = 0;
+  /// Solves `problem`. `z` is the output; if `warm_start` is non-null and of the right
+  /// size it is used as a starting guess (an exact solution must be accepted with 0
+  /// iterations). On failure z holds the solver's best iterate (possibly zeros) and the
+  /// report says why.
+  virtual SolverReport Solve(const LcpProblem& problem, const VectorXd* warm_start,
+                             VectorXd* z) const = 0;
+};
+
+}  // namespace vinci::sim

@@ -1,0 +1,51 @@
+// Lemke's complementary pivoting method for the LCP, the reference solver for the
+// Stewart–Trinkle step (copositive-plus, non-symmetric, often degenerate matrices).
+#pragma once
+
+#include "vinci/sim/lcp.h"
+
+namespace vinci::sim {
+
+struct LemkeOptions {
+  int max_pivots = 0;            ///< 0: 50·n + 100
+  double pivot_tolerance = 1e-12;  ///< smallest admissible |pivot| in the ratio test
+  double residual_tolerance = 1e-9;  ///< accept z when LcpResidual ≤ this (scaled by data size)
+  bool lexicographic = true;     ///< lexicographic ratio test (anti-cycling)
+  bool scale = true;             ///< row/column equilibration before pivoting
+  /// On failure, retry with M + εI for ε in this sequence (0 disables); the report says so.
+  double regularization = 1e-10;
+  /// Recompute the explicit basis inverse from scratch every this many pivots to bound the
+  /// drift of the rank-1 updates (0: max(50, n)).
+  int refactor_interval = 0;
+};
+
+/// Lemke with covering vector e, lexicographic anti-cycling, optional scaling, warm start
+/// from a guessed basis (z_i > 0 → basic), and a reported regularized retry.
+///
+/// Details of the contract:
+/// - Scaling is symmetric, D M D with z = D z̃ and D a power-of-two diagonal (so the scaling
+///   is exact), because a symmetric scaling keeps M copositive-plus / PSD and hence keeps
+///   Lemke's termination guarantee.
+/// - The pivot tolerance is relative: a ratio-test entry d_i is admissible only if
+///   d_i > pivot_tolerance · max(1, ‖d‖_∞).
+/// - The retry sequence is ε = r, 1e3·r, 1e6·r (r = regularization); it stops at the first ε
+///   for which Lemke terminates on M + εI. The z returned is the one of the attempts with the
+///   smallest residual on the original problem; `regularized` is true iff it came from a retry.
+///   The status is kSolved iff that residual passes, otherwise the first attempt's status.
+/// - `iterations` counts all pivots, including those of retries. On failure z holds the last
+///   almost-complementary iterate (clamped to z ≥ 0), or zeros for invalid input.
+/// - Invalid options (negative tolerances or limits) throw std::invalid_argument, as does a
+///   null `z`.
+class LemkeSolver final : public LcpSolver {
+ public:
+  explicit LemkeSolver(LemkeOptions options = {}) : options_(options) {}
+  std::string_view name() const override { return "lemke"; }
+  SolverReport Solve(const LcpProblem& problem, const VectorXd* warm_start,
+                     VectorXd* z) const override;
+  const LemkeOptions& options() const { return options_; }
+
+ private:
+  LemkeOptions options_;
+};
+
+}  // namespace vinci::sim

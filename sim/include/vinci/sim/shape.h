@@ -1,0 +1,82 @@
+// Collision geometry attached to bodies.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "vinci/sim/types.h"
+
+namespace vinci::sim {
+
+/// Shape kinds. Spatial scenes use the first five, planar scenes the last four.
+/// All shapes are convex; a non-convex part is a body with several shapes.
+enum class ShapeType {
+  kHalfSpace,   ///< {z ≤ 0} in the shape frame; outward normal +z. Usually on a static body.
+  kSphere,      ///< radius
+  kBox,         ///< half_extents (x, y, z)
+  kCapsule,     ///< segment from −half_length to +half_length along shape z, swept by radius
+  kPolyhedron,  ///< convex hull of `vertices` (shape frame)
+  kHalfPlane,   ///< {y ≤ 0} in the planar shape frame; outward normal +y
+  kDisc,        ///< radius
+  kPolygon,     ///< convex polygon, `vertices` counter-clockwise (only x, y used)
+  kSegment,     ///< segment from −half_length to +half_length along shape x, swept by radius
+                ///< (radius 0 gives a bare segment)
+};
+
+/// True for the planar shape kinds.
+constexpr bool IsPlanar(ShapeType t) {
+  return t == ShapeType::kHalfPlane || t == ShapeType::kDisc || t == ShapeType::kPolygon ||
+         t == ShapeType::kSegment;
+}
+
+/// Convex collision shape, expressed in its own frame S, attached to a body B at X_BS.
+struct Shape {
+  ShapeType type = ShapeType::kSphere;
+  std::string name;                   ///< unique within the body ("s0", "s1", ... by default)
+  Isometry3d X_BS = Isometry3d::Identity();  ///< pose of S in the body frame (planar: about z)
+  double radius = 0.0;                ///< m; sphere, capsule, disc, segment
+  Vector3d half_extents = Vector3d::Zero();  ///< m; box
+  double half_length = 0.0;           ///< m; capsule, segment
+  std::vector<Vector3d> vertices;     ///< m; polyhedron, polygon (z ignored for polygons)
+  int material = 0;                   ///< index into Scene::materials
+};
+
+/// One contact between two shapes, found within the envelope.
+/// The normal points from shape B toward shape A; A is pushed along +n.
+/// gap = n · (p_A − p_B): > 0 apart, < 0 penetrating.
+struct ContactPoint {
+  Vector3d p_A_W = Vector3d::Zero();  ///< witness point on A, world frame (m)
+  Vector3d p_B_W = Vector3d::Zero();  ///< witness point on B, world frame (m)
+  Vector3d n_W = Vector3d::UnitZ();   ///< unit normal from B to A, world frame
+  double gap = 0.0;                   ///< signed distance (m)
+};
+
+/// Appends to `out` every contact between shape a (at X_WA) and shape b (at X_WB)
+/// whose gap is ≤ envelope. X_WA/X_WB are the world poses of the *shape* frames.
+/// A box face on a half-space gives its four corners; all contacts of a pair are
+/// reported, not only the deepest. Throws std::invalid_argument for a pair of kinds
+/// that cannot collide (planar with spatial) or two half-spaces/half-planes.
+void CollideShapes(const Shape& a, const Isometry3d& X_WA, const Shape& b, const Isometry3d& X_WB,
+                   double envelope, std::vector<ContactPoint>* out);
+
+/// Mass properties of a shape of unit density: volume (area in 2D) and the inertia
+/// about the shape's centroid in the shape frame (planar: only (2,2) is used).
+/// Half-spaces/half-planes have infinite extent and throw std::invalid_argument.
+struct UnitMassProperties {
+  double volume = 0.0;
+  Vector3d centroid_S = Vector3d::Zero();
+  Matrix3d inertia_per_mass_S = Matrix3d::Zero();  ///< inertia / mass about centroid
+};
+UnitMassProperties ComputeUnitMassProperties(const Shape& shape);
+
+/// Axis-aligned bounding box of the shape in world frame (for the broad phase).
+/// Half-spaces return an infinite box.
+struct Aabb {
+  Vector3d lo, hi;
+  bool Overlaps(const Aabb& o, double margin) const {
+    return (lo.array() - margin <= o.hi.array()).all() && (o.lo.array() - margin <= hi.array()).all();
+  }
+};
+Aabb ComputeAabb(const Shape& shape, const Isometry3d& X_WS);
+
+}  // namespace vinci::sim

@@ -1,0 +1,62 @@
+// The Stewart–Trinkle time-stepper (linearized friction cone, an LCP) and its Anitescu–Potra
+// variant.
+//
+// Discrete equations (formulations.md §1; Stewart & Trinkle, IJNME 39, 1996; Anitescu & Potra,
+// Nonlinear Dynamics 14, 1997), contacts found at q_ℓ within the envelope ε:
+//
+//   M ν_ℓ+1 = M ν_ℓ + G_n p_n + G_f p_f + G_b p_b + p_ext + p_vp
+//   0 = G_bᵀ ν_ℓ+1 + ψ_b/h + ∂ψ_b/∂t
+//   0 ≤ p_n ⊥ G_nᵀ ν_ℓ+1 + ψ_n/h + ∂ψ_n/∂t ≥ 0      (Anitescu–Potra: without ψ_n/h)
+//   0 ≤ p_f ⊥ G_fᵀ ν_ℓ+1 + E σ + ∂ψ_f/∂t ≥ 0
+//   0 ≤ σ   ⊥ U p_n − Eᵀ p_f ≥ 0
+//   q_ℓ+1 = q_ℓ + h G(q_ℓ) ν_ℓ+1
+//
+// with p_ext = h (m g + F_applied + u) and p_vp = −h ω × (I ω) (spatial, body frame).
+// The mixed LCP with joints is solved by eliminating (ν, p_b) through the Schur complement
+// S = G_bᵀ M⁻¹ G_b, leaving a standard LCP in (p_n, p_f, σ) with matrix
+// A = [[G_nᵀWG_n, G_nᵀWG_f, 0], [G_fᵀWG_n, G_fᵀWG_f, E], [U, −Eᵀ, 0]],
+// W = M⁻¹ − M⁻¹G_b S⁻¹ G_bᵀ M⁻¹ (= M⁻¹ without joints).
+// Planar friction uses n_d = 2 (d = ±t, exact); spatial uses n_d equally spaced directions.
+#pragma once
+
+#include <memory>
+
+#include "vinci/sim/formulation.h"
+
+namespace vinci::sim {
+
+class StewartTrinkle final : public Formulation {
+ public:
+  StewartTrinkle(StepperOptions options, std::shared_ptr<const LcpSolver> solver);
+  std::string_view name() const override;
+  void Step(const Scene& model, const State& x, const StepInput& u, Workspace* ws, State* next,
+            StepInfo* info) const override;
+  StepResiduals Evaluate(const Scene& model, const Params& params, const State& x,
+                         const StepInput& u, const VectorXd& z) const override;
+  StepLayout Layout(const Scene& model, const State& x) const override;
+
+  /// The step's matrices at x (exposed for tests, benchmarks and the solver library).
+  struct Assembly {
+    std::vector<Contact> contacts;
+    int nd = 0;
+    MatrixXd M, M_inv;    ///< nv × nv
+    MatrixXd G_n, G_f, G_b;  ///< nv × nc, nv × nc·nd, nv × nb
+    VectorXd psi_n, dpsi_n;  ///< ψ_n, ∂ψ_n/∂t (nc)
+    VectorXd dpsi_f;         ///< ∂ψ_f/∂t (nc·nd)
+    VectorXd psi_b, dpsi_b;  ///< ψ_b, ∂ψ_b/∂t (nb)
+    VectorXd mu;             ///< μ per contact
+    VectorXd p_ext;          ///< h (forces) + p_vp (nv)
+  };
+  Assembly Assemble(const Scene& model, const State& x, const StepInput& u) const;
+  /// The LCP of the step (after eliminating ν and p_b), and the pieces to recover ν.
+  LcpProblem BuildLcp(const Assembly& a, const VectorXd& v, MatrixXd* WGc, VectorXd* v_star) const;
+
+  const StepperOptions& options() const { return options_; }
+
+ private:
+  StepperOptions options_;
+  std::shared_ptr<const LcpSolver> solver_;
+  bool velocity_level_;  // Anitescu–Potra
+};
+
+}  // namespace vinci::sim

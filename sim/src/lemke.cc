@@ -1,0 +1,485 @@
+// Lemke's complementary pivoting method with covering vector e (Cottle, Pang & Stone, The
+// Linear Complementarity Problem, 1992, §4.4), in revised form: the system
+//
+//   w − M z − e z0 = q,   w, z, z0 ≥ 0,   wᵀz = 0,
+//
+// is pivoted on an explicit basis inverse B⁻¹ kept up to date by rank-1 updates (O(n²) per
+// pivot) and recomputed from an LU factorization every `refactor_interval` pivots. The
+// lexicographic ratio test on the rows of [B⁻¹q, B⁻¹] is the perturbation q + (ε, ε², …)
+// and makes the pivot choice unique, so the method cannot cycle.
+#include "vinci/sim/lemke.h"
+
+#include <Eigen/LU>
+#include <Eigen/QR>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace vinci::sim {
+namespace {
+
+// Ratios within this relative distance of the minimum ratio are ties (degenerate pivots).
+constexpr double kTieTolerance = 1e-12;
+// Symmetric equilibration sweeps; the loop stops earlier once no scale factor changes.
+constexpr int kScalingSweeps = 10;
+// Iterative-refinement steps at termination (each O(n²) with the kept inverse).
+constexpr int kRefinementSteps = 2;
+// Retry factors applied to options.regularization.
+constexpr double kRegularizationFactors[] = {1.0, 1e3, 1e6};
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+std::string FormatDouble(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof(buf), "%.3g", v);
+  return buf;
+}
+
+// NaN sorts last: a NaN residual is worse than any number.
+double OrInf(double v) { return std::isnan(v) ? kInf : v; }
+
+void ValidateOptions(const LemkeOptions& o) {
+  auto fail = [](const std::string& field, double value, const char* expected) {
+    throw std::invalid_argument("LemkeOptions." + field + " = " + FormatDouble(value) +
+                                "; expected " + expected);
+  };
+  if (o.max_pivots < 0) fail("max_pivots", o.max_pivots, ">= 0");
+  if (!(o.pivot_tolerance >= 0.0) || !std::isfinite(o.pivot_tolerance)) {
+    fail("pivot_tolerance", o.pivot_tolerance, "a finite value >= 0");
+  }
+  if (!(o.residual_tolerance >= 0.0) || !std::isfinite(o.residual_tolerance)) {
+    fail("residual_tolerance", o.residual_tolerance, "a finite value >= 0");
+  }
+  if (!(o.regularization >= 0.0) || !std::isfinite(o.regularization)) {
+    fail("regularization", o.regularization, "a finite value >= 0");
+  }
+  if (o.refactor_interval < 0) fail("refactor_interval", o.refactor_interval, ">= 0");
+}
+
+// Power-of-two diagonal D such that D M D has each row and column max-abs within a factor of
+// about 4 of 1 (where M has a nonzero there). Symmetric, so copositivity / PSD of M and with
+// it Lemke's termination guarantee are preserved; powers of two make the scaling exact.
+VectorXd SymmetricScaling(const MatrixXd& M) {
+  const Eigen::Index n = M.rows();
+  VectorXd d = VectorXd::Ones(n);
+  MatrixXd a = M.cwiseAbs();
+  VectorXd s(n);
+  for (int sweep = 0; sweep < kScalingSweeps; ++sweep) {
+    bool changed = false;
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const double m = std::max(a.row(i).maxCoeff(), a.col(i).maxCoeff());
+      int k = 0;
+      if (m > 0.0 && std::isfinite(m)) k = -static_cast<int>(std::trunc(0.5 * std::log2(m)));
+      s(i) = std::ldexp(1.0, k);
+      changed = changed || k != 0;
+    }
+    if (!changed) break;
+    a.array().colwise() *= s.array();
+    a.array().rowwise() *= s.transpose().array();
+    d.array() *= s.array();
+  }
+  return d;
+}
+
+struct CoreOutcome {
+  SolverStatus status = SolverStatus::kNumericalFailure;
+  int pivots = 0;
+  std::string message;
+};
+
+// ‖min(z, Mz + q)‖_∞ on the problem being pivoted (possibly scaled), NaN-safe.
+double ScaledResidual(const MatrixXd& M, const VectorXd& q, const VectorXd& z, VectorXd* w) {
+  w->noalias() = M * z;
+  *w += q;
+  double r = 0.0;
+  for (Eigen::Index i = 0; i < z.size(); ++i) {
+    if (std::isnan(z(i)) || std::isnan((*w)(i))) return kInf;
+    r = std::max(r, std::abs(std::min(z(i), (*w)(i))));
+  }
+  return r;
+}
+
+// Lemke's method on LCP(M, q), q not ≥ 0. Writes the z part of the final iterate (clamped to
+// ≥ 0) into *z. kSolved here means only that z0 left the basis.
+CoreOutcome RunLemke(const MatrixXd& M, const VectorXd& q, const LemkeOptions& options,
+                     VectorXd* z) {
+  const int n = static_cast<int>(q.size());
+  const int max_pivots = options.max_pivots > 0 ? options.max_pivots : 50 * n + 100;
+  const int refactor_interval =
+      options.refactor_interval > 0 ? options.refactor_interval : std::max(50, n);
+  // Variables: w_i = i, z_i = n + i, z0 = 2n.
+  const int kZ0 = 2 * n;
+  auto complement = [n](int var) { return var < n ? var + n : var - n; };
+
+  std::vector<int> basis(n);  // variable basic in each row
+  for (int i = 0; i < n; ++i) basis[i] = i;
+  std::vector<int> ties, kept;
+  ties.reserve(n);
+  kept.reserve(n);
+  MatrixXd binv = MatrixXd::Identity(n, n);
+  VectorXd x = q;  // values of the basic variables
+  VectorXd d(n), pivot_row(n);
+  MatrixXd bmat;  // allocated on the first refactorization
+  Eigen::PartialPivLU<MatrixXd> lu;
+
+  CoreOutcome out;
+  auto extract_z = [&]() {
+    z->setZero(n);
+    for (int k = 0; k < n; ++k) {
+      if (basis[k] >= n && basis[k] < kZ0) (*z)(basis[k] - n) = std::max(x(k), 0.0);
+    }
+  };
+  auto fail = [&](SolverStatus status, std::string message) {
+    extract_z();
+    out.status = status;
+    out.message = std::move(message);
+    return out;
+  };
+  // Column of the entering variable in B⁻¹ coordinates: d = B⁻¹ a, a ∈ {e_i, −M_i, −e}.
+  auto entering_column = [&](int var) {
+    if (var < n) {
+      d = binv.col(var);
+    } else if (var < kZ0) {
+      d.noalias() = binv * M.col(var - n);
+      d = -d;
+    } else {
+      d = -binv.rowwise().sum();
+    }
+  };
+  // Pivot on row r: `entering` replaces basis[r]; returns the leaving variable.
+  auto pivot = [&](int r, int entering) {
+    const double p = d(r);
+    pivot_row = binv.row(r).transpose() / p;
+    const double xr = x(r) / p;
+    binv.noalias() -= d * pivot_row.transpose();
+    binv.row(r) = pivot_row.transpose();
+    x -= xr * d;
+    x(r) = xr;
+    const int leaving = basis[r];
+    basis[r] = entering;
+    return leaving;
+  };
+  auto refactor = [&]() {
+    if (bmat.rows() != n) bmat.resize(n, n);
+    for (int k = 0; k < n; ++k) {
+      const int var = basis[k];
+      if (var < n) {
+        bmat.col(k).setZero();
+        bmat(var, k) = 1.0;
+      } else if (var < kZ0) {
+        bmat.col(k) = -M.col(var - n);
+      } else {
+        bmat.col(k).setConstant(-1.0);
+      }
+    }
+    lu.compute(bmat);
+    if (!(lu.rcond() > std::numeric_limits<double>::epsilon())) return false;
+    binv = lu.inverse();
+    x.noalias() = binv * q;
+    return binv.allFinite() && x.allFinite();
+  };
+
+  // Initial pivot: z0 enters (d = −e) in the row of the most negative q_i. Among ties the
+  // lexicographic rule for d = −e picks the largest index.
+  {
+    const double q_min = q.minCoeff();
+    const double tau = kTieTolerance * std::max(1.0, std::abs(q_min));
+    int r = 0;
+    for (int i = 0; i < n; ++i) {
+      if (q(i) <= q_min + tau) r = i;
+    }
+    d.setConstant(-1.0);
+    int leaving = pivot(r, kZ0);
+    out.pivots = 1;
+    int entering = complement(leaving);
+
+    while (true) {
+      if (out.pivots >= max_pivots) {
+        return fail(SolverStatus::kMaxIterations,
+                    "Lemke reached the pivot limit " + std::to_string(max_pivots));
+      }
+      entering_column(entering);
+      if (!d.allFinite()) {
+        return fail(SolverStatus::kNumericalFailure,
+                    "non-finite pivot column at pivot " + std::to_string(out.pivots));
+      }
+      const double pivot_tol = options.pivot_tolerance * std::max(1.0, d.cwiseAbs().maxCoeff());
+      double theta = kInf;
+      for (int i = 0; i < n; ++i) {
+        if (d(i) > pivot_tol) theta = std::min(theta, std::max(x(i), 0.0) / d(i));
+      }
+      if (theta == kInf) {
+        return fail(SolverStatus::kSecondaryRay,
+                    "Lemke terminated on a secondary ray at pivot " +
+                        std::to_string(out.pivots) + " (entering " +
+                        (entering < n ? "w_" + std::to_string(entering)
+                                      : "z_" + std::to_string(entering - n)) +
+                        "); the LCP may be infeasible");
+      }
+      const double tau_theta = kTieTolerance * std::max(1.0, theta);
+      ties.clear();
+      r = -1;
+      for (int i = 0; i < n; ++i) {
+        if (d(i) > pivot_tol && std::max(x(i), 0.0) / d(i) <= theta + tau_theta) {
+          ties.push_back(i);
+          if (basis[i] == kZ0) r = i;  // z0 blocks: leave now and terminate
+        }
+      }
+      if (r < 0) {
+        if (options.lexicographic) {
+          for (int k = 0; k < n && ties.size() > 1; ++k) {
+            double m = kInf;
+            for (int i : ties) m = std::min(m, binv(i, k) / d(i));
+            const double tau_k = kTieTolerance * std::max(1.0, std::abs(m));
+            kept.clear();
+            for (int i : ties) {
+              if (binv(i, k) / d(i) <= m + tau_k) kept.push_back(i);
+            }
+            ties.swap(kept);
+          }
+          r = ties.front();
+        } else {
+          r = ties.front();  // largest pivot among the ties, for stability
+          for (int i : ties) {
+            if (d(i) > d(r)) r = i;
+          }
+        }
+      }
+      leaving = pivot(r, entering);
+      ++out.pivots;
+      if (!std::isfinite(x(r))) {
+        return fail(SolverStatus::kNumericalFailure,
+                    "non-finite basic value at pivot " + std::to_string(out.pivots));
+      }
+      if (leaving == kZ0) break;
+      entering = complement(leaving);
+      if (out.pivots % refactor_interval == 0 && !refactor()) {
+        return fail(SolverStatus::kNumericalFailure,
+                    "singular basis at refactorization after pivot " + std::to_string(out.pivots));
+      }
+    }
+  }
+
+  // z0 left: complementary basis. Polish x by iterative refinement of B x = q with the kept
+  // inverse, keeping a step only if the complementarity residual improves.
+  extract_z();
+  VectorXd w(n), z_raw(n), w_raw(n), eq_residual(n), z_try(n);
+  double best = ScaledResidual(M, q, *z, &w);
+  for (int step = 0; step < kRefinementSteps && best > 0.0; ++step) {
+    // Residual of the basis equations B x = q, i.e. q − (w_B − M z_B).
+    z_raw.setZero();
+    w_raw.setZero();
+    for (int k = 0; k < n; ++k) {
+      if (basis[k] < n) {
+        w_raw(basis[k]) = x(k);
+      } else if (basis[k] < kZ0) {
+        z_raw(basis[k] - n) = x(k);
+      }
+    }
+    eq_residual.noalias() = M * z_raw;
+    eq_residual += q - w_raw;
+    x.noalias() += binv * eq_residual;
+    z_try.setZero();
+    for (int k = 0; k < n; ++k) {
+      if (basis[k] >= n && basis[k] < kZ0) z_try(basis[k] - n) = std::max(x(k), 0.0);
+    }
+    const double r = ScaledResidual(M, q, z_try, &w);
+    if (!(r < best)) break;
+    best = r;
+    z->swap(z_try);
+  }
+  out.status = SolverStatus::kSolved;
+  return out;
+}
+
+struct Attempt {
+  SolverStatus status = SolverStatus::kNumericalFailure;
+  bool terminated = false;  // z0 left the basis
+  int pivots = 0;
+  double epsilon = 0.0;  // regularization of this attempt
+  double residual = kInf;  // on the original problem
+  std::string message;
+  VectorXd z;
+};
+
+// One Lemke run on M + εI (scaled if asked), z and residual reported on the original problem.
+Attempt RunAttempt(const LcpProblem& problem, double epsilon, const LemkeOptions& options,
+                   double tolerance) {
+  MatrixXd m = problem.M;
+  if (epsilon > 0.0) m.diagonal().array() += epsilon;
+  VectorXd q = problem.q;
+  VectorXd scale;
+  if (options.scale) {
+    scale = SymmetricScaling(m);
+    m.array().colwise() *= scale.array();
+    m.array().rowwise() *= scale.transpose().array();
+    q.array() *= scale.array();
+  }
+  Attempt a;
+  a.epsilon = epsilon;
+  const CoreOutcome core = RunLemke(m, q, options, &a.z);
+  if (options.scale) a.z.array() *= scale.array();
+  a.pivots = core.pivots;
+  a.terminated = core.status == SolverStatus::kSolved;
+  a.residual = OrInf(LcpResidual(problem, a.z));
+  a.status = core.status;
+  a.message = core.message;
+  if (a.terminated && !(a.residual <= tolerance)) {
+    a.status = SolverStatus::kNumericalFailure;
+    a.message = "Lemke terminated but the residual " + FormatDouble(a.residual) +
+                " exceeds the tolerance " + FormatDouble(tolerance);
+  }
+  return a;
+}
+
+bool Passes(const Attempt& a, double tolerance) { return a.terminated && a.residual <= tolerance; }
+
+// Warm start: basis {i : warm_i > 0}, solve M_BB z_B = −q_B and accept if z_B ≥ −tol,
+// w_N ≥ −tol and the residual passes.
+bool TryWarmStart(const LcpProblem& problem, const VectorXd& warm, double tolerance,
+                  VectorXd* z) {
+  const Eigen::Index n = problem.q.size();
+  std::vector<Eigen::Index> active;
+  for (Eigen::Index i = 0; i < n; ++i) {
+    if (warm(i) > 0.0) active.push_back(i);
+  }
+  if (active.empty()) return false;  // z = 0 was already ruled out (q has a negative entry)
+  const MatrixXd m_bb = problem.M(active, active);
+  const VectorXd q_b = problem.q(active);
+  const Eigen::ColPivHouseholderQR<MatrixXd> qr(m_bb);
+  const VectorXd z_b = qr.solve(-q_b);
+  if (!z_b.allFinite() || z_b.minCoeff() < -tolerance) return false;
+  VectorXd candidate = VectorXd::Zero(n);
+  candidate(active) = z_b;
+  const VectorXd w = problem.M * candidate + problem.q;
+  for (Eigen::Index i = 0; i < n; ++i) {
+    if (!(warm(i) > 0.0) && w(i) < -tolerance) return false;
+  }
+  candidate = candidate.cwiseMax(0.0);
+  if (!(LcpResidual(problem, candidate) <= tolerance)) return false;
+  *z = std::move(candidate);
+  return true;
+}
+
+}  // namespace
+
+SolverReport LemkeSolver::Solve(const LcpProblem& problem, const VectorXd* warm_start,
+                                VectorXd* z) const {
+  if (z == nullptr) {
+    throw std::invalid_argument("LemkeSolver::Solve: z is null; expected an output vector");
+  }
+  ValidateOptions(options_);
+  const auto start = std::chrono::steady_clock::now();
+  SolverReport report;
+  auto finish = [&]() {
+    report.time_s =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return report;
+  };
+
+  const Eigen::Index n = problem.q.size();
+  if (problem.M.rows() != n || problem.M.cols() != n) {
+    z->setZero(n);
+    report.status = SolverStatus::kInvalidInput;
+    report.residual = std::numeric_limits<double>::quiet_NaN();
+    report.message = "M is " + std::to_string(problem.M.rows()) + "x" +
+                     std::to_string(problem.M.cols()) + " but q has size " + std::to_string(n) +
+                     "; expected a square M matching q";
+    return finish();
+  }
+  if (!problem.M.allFinite() || !problem.q.allFinite()) {
+    z->setZero(n);
+    report.status = SolverStatus::kInvalidInput;
+    report.residual = std::numeric_limits<double>::quiet_NaN();
+    report.message = "M or q contains NaN or Inf";
+    return finish();
+  }
+
+  // 1. Trivial solution.
+  if (n == 0 || problem.q.minCoeff() >= 0.0) {
+    z->setZero(n);
+    report.status = SolverStatus::kSolved;
+    report.residual = LcpResidual(problem, *z);
+    return finish();
+  }
+  const double tolerance =
+      options_.residual_tolerance * std::max(1.0, problem.q.lpNorm<Eigen::Infinity>());
+
+  // 2. Warm start from a guessed basis.
+  if (warm_start != nullptr && warm_start->size() == n &&
+      TryWarmStart(problem, *warm_start, tolerance, z)) {
+    report.status = SolverStatus::kSolved;
+    report.residual = LcpResidual(problem, *z);
+    report.message = "accepted the warm-start basis";
+    return finish();
+  }
+
+  // 3. Cold Lemke, then 4. regularized retries if that fails.
+  Attempt first = RunAttempt(problem, 0.0, options_, tolerance);
+  int total_pivots = first.pivots;
+  Attempt best;
+  bool have_retry = false;
+  std::string retry_log;
+  if (!Passes(first, tolerance) && options_.regularization > 0.0) {
+    for (double factor : kRegularizationFactors) {
+      Attempt a = RunAttempt(problem, factor * options_.regularization, options_, tolerance);
+      total_pivots += a.pivots;
+      retry_log += (retry_log.empty() ? "" : ", ") + std::string("eps=") +
+                   FormatDouble(a.epsilon) + ": " +
+                   (a.terminated ? "terminated, residual " + FormatDouble(a.residual)
+                                 : std::string(ToString(a.status)));
+      const bool terminated = a.terminated;
+      const bool better = !have_retry || (Passes(a, tolerance) && !Passes(best, tolerance)) ||
+                          (!Passes(best, tolerance) && a.residual < best.residual);
+      if (better) {
+        best = std::move(a);
+        have_retry = true;
+      }
+      // Stop at the first ε on which Lemke terminates: a larger ε only moves further away
+      // from the original problem.
+      if (terminated) break;
+    }
+  }
+
+  // Keep the retry only if it is better than the plain attempt on the original problem.
+  const bool use_retry =
+      have_retry && (Passes(best, tolerance) || best.residual < first.residual);
+  const Attempt& chosen = use_retry ? best : first;
+  *z = chosen.z;
+  report.iterations = total_pivots;
+  report.residual = LcpResidual(problem, *z);
+  report.regularized = use_retry;
+  report.regularization = use_retry ? chosen.epsilon : 0.0;
+  const bool passes = chosen.terminated && report.residual <= tolerance;
+  report.status = passes ? SolverStatus::kSolved : first.status;
+  if (report.status == SolverStatus::kSolved && !passes) {
+    // RunAttempt turns a terminated-but-inaccurate run into kNumericalFailure.
+    throw std::logic_error("LemkeSolver: failed solve reported as kSolved");
+  }
+  if (passes && !use_retry) {
+    report.message.clear();
+  } else if (passes) {
+    report.message = "solved on the regularized problem M + eps*I with eps = " +
+                     FormatDouble(chosen.epsilon) + " after the plain solve failed (" +
+                     first.message + "); residual on the original problem " +
+                     FormatDouble(report.residual);
+  } else {
+    report.message = first.message;
+    if (!retry_log.empty()) {
+      report.message += "; regularized retries (" + retry_log + ") did not solve the original " +
+                        "problem";
+      if (use_retry) {
+        report.message += "; returning the retry iterate with eps = " +
+                          FormatDouble(chosen.epsilon) + " (smallest residual)";
+      }
+    }
+  }
+  return finish();
+}
+
+}  // namespace vinci::sim

@@ -1,0 +1,367 @@
+#include "vinci/sim/stewart_trinkle.h"
+
+#include <cmath>
+#include <stdexcept>
+
+#include "vinci/sim/joint.h"
+#include "vinci/sim/kinematics.h"
+
+namespace vinci::sim {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// Tangent directions d_j, j = 0..nd−1, equally spaced in the plane ⟂ n (planar: ±t).
+void FrictionDirections(Dim dim, const Vector3d& n, int nd, std::vector<Vector3d>* d) {
+  d->clear();
+  if (dim == Dim::kPlanar) {
+    const Vector3d t(-n.y(), n.x(), 0.0);
+    d->push_back(t);
+    d->push_back(-t);
+    return;
+  }
+  // A deterministic orthonormal tangent basis (t1, t2) for n.
+  const Vector3d a = std::abs(n.x()) < 0.9 ? Vector3d::UnitX() : Vector3d::UnitY();
+  const Vector3d t1 = n.cross(a).normalized();
+  const Vector3d t2 = n.cross(t1);
+  for (int j = 0; j < nd; ++j) {
+    const double phi = 2.0 * kPi * j / nd;
+    d->push_back(std::cos(phi) * t1 + std::sin(phi) * t2);
+  }
+}
+
+// Adds `row` (the body's point-velocity row) into column `col` of G at the body's ν block,
+// or, for a non-dynamic body, adds its contribution row·ν_body to *dpsi.
+void Scatter(const Scene& model, int body, const BodyKinematics& k, const Vector3d& p,
+             const Vector3d& d, double sign, MatrixXd* G, int col, double* dpsi) {
+  if (model.bodies[body].kind == BodyKind::kDynamic) {
+    const int nvb = VelocitySize(model.dim);
+    G->block(model.index(body).v, col, nvb, 1) +=
+        sign * PointVelocityRow(model.dim, k.X_WB, p, d).transpose();
+  } else {
+    *dpsi += sign * d.dot(PointVelocity(k, p));
+  }
+}
+
+}  // namespace
+
+StewartTrinkle::StewartTrinkle(StepperOptions options, std::shared_ptr<const LcpSolver> solver)
+    : options_(std::move(options)),
+      solver_(std::move(solver)),
+      velocity_level_(options_.formulation == FormulationType::kAnitescuPotra) {
+  if (!solver_) throw std::invalid_argument("StewartTrinkle: null solver");
+}
+
+std::string_view StewartTrinkle::name() const {
+  return velocity_level_ ? "anitescu-potra" : "stewart-trinkle";
+}
+
+StewartTrinkle::Assembly StewartTrinkle::Assemble(const Scene& model, const State& x,
+                                                  const StepInput& u) const {
+  Assembly a;
+  const Dim dim = model.dim;
+  const double h = options_.dt;
+  const int nv = model.num_velocities();
+  const int nvb = VelocitySize(dim);
+  const std::vector<BodyKinematics> kin = ComputeBodyKinematics(model, x);
+  FindContacts(model, kin, options_.envelope, &a.contacts);
+  const int nc = static_cast<int>(a.contacts.size());
+  a.nd = dim == Dim::kPlanar ? 2 : options_.friction_directions;
+  const int nd = a.nd;
+
+  // Mass matrix and external impulses.
+  a.M = MatrixXd::Zero(nv, nv);
+  a.M_inv = MatrixXd::Zero(nv, nv);
+  a.p_ext = VectorXd::Zero(nv);
+  for (int bi : model.dynamic_bodies()) {
+    const Body& b = model.bodies[bi];
+    const int o = model.index(bi).v;
+    const Vector3d f = b.applied_force_W + (b.gravity ? Vector3d(b.mass * model.gravity_W) : Vector3d::Zero());
+    if (dim == Dim::kPlanar) {
+      a.M(o, o) = a.M(o + 1, o + 1) = b.mass;
+      a.M(o + 2, o + 2) = b.inertia(2, 2);
+      a.M_inv(o, o) = a.M_inv(o + 1, o + 1) = 1.0 / b.mass;
+      a.M_inv(o + 2, o + 2) = 1.0 / b.inertia(2, 2);
+      a.p_ext.segment<3>(o) = h * Vector3d(f.x(), f.y(), b.applied_torque_W.z());
+    } else {
+      a.M.block<3, 3>(o, o) = b.mass * Matrix3d::Identity();
+      a.M.block<3, 3>(o + 3, o + 3) = b.inertia;
+      a.M_inv.block<3, 3>(o, o) = Matrix3d::Identity() / b.mass;
+      a.M_inv.block<3, 3>(o + 3, o + 3) = b.inertia.inverse();
+      const Matrix3d& R = kin[bi].X_WB.linear();
+      const Vector3d w_B = x.v.segment<3>(o + 3);
+      a.p_ext.segment<3>(o) = h * f;
+      a.p_ext.segment<3>(o + 3) =
+          h * (R.transpose() * b.applied_torque_W - w_B.cross(b.inertia * w_B));
+    }
+  }
+  if (u.generalized_force.size() == nv) a.p_ext += h * u.generalized_force;
+
+  // Contacts.
+  a.G_n = MatrixXd::Zero(nv, nc);
+  a.G_f = MatrixXd::Zero(nv, nc * nd);
+  a.psi_n.resize(nc);
+  a.dpsi_n = VectorXd::Zero(nc);
+  a.dpsi_f = VectorXd::Zero(nc * nd);
+  a.mu.resize(nc);
+  std::vector<Vector3d> dirs;
+  for (int c = 0; c < nc; ++c) {
+    const Contact& ct = a.contacts[c];
+    const ContactPoint& p = ct.point;
+    a.psi_n[c] = p.gap;
+    a.mu[c] = ct.mu;
+    Scatter(model, ct.body_a, kin[ct.body_a], p.p_A_W, p.n_W, 1.0, &a.G_n, c, &a.dpsi_n[c]);
+    Scatter(model, ct.body_b, kin[ct.body_b], p.p_B_W, p.n_W, -1.0, &a.G_n, c, &a.dpsi_n[c]);
+    FrictionDirections(dim, p.n_W, nd, &dirs);
+    for (int j = 0; j < nd; ++j) {
+      const int col = c * nd + j;
+      Scatter(model, ct.body_a, kin[ct.body_a], p.p_A_W, dirs[j], 1.0, &a.G_f, col, &a.dpsi_f[col]);
+      Scatter(model, ct.body_b, kin[ct.body_b], p.p_B_W, dirs[j], -1.0, &a.G_f, col,
+              &a.dpsi_f[col]);
+    }
+  }
+
+  // Joints.
+  int nb = 0;
+  for (const Joint& j : model.joints) nb += JointRowCount(j.type, dim);
+  a.G_b = MatrixXd::Zero(nv, nb);
+  a.psi_b.resize(nb);
+  a.dpsi_b = VectorXd::Zero(nb);
+  JointRows rows;
+  const BodyKinematics world;
+  int r = 0;
+  for (const Joint& j : model.joints) {
+    const BodyKinematics& ka = kin[j.body_a];
+    const BodyKinematics& kb = j.body_b < 0 ? world : kin[j.body_b];
+    EvaluateJoint(j, dim, ka, kb, &rows);
+    const int m = static_cast<int>(rows.psi.size());
+    a.psi_b.segment(r, m) = rows.psi;
+    const auto add = [&](int body, const BodyKinematics& k, const MatrixXd& J) {
+      if (body < 0) return;  // the world does not move
+      if (model.bodies[body].kind == BodyKind::kDynamic)
+        a.G_b.block(model.index(body).v, r, nvb, m) += J.transpose();
+      else
+        a.dpsi_b.segment(r, m) += J * BodyVelocity(dim, k);
+    };
+    add(j.body_a, ka, rows.J_a);
+    add(j.body_b, kb, rows.J_b);
+    r += m;
+  }
+  return a;
+}
+
+LcpProblem StewartTrinkle::BuildLcp(const Assembly& a, const VectorXd& v, MatrixXd* WGc,
+                                    VectorXd* v_star) const {
+  const double h = options_.dt;
+  const int nc = static_cast<int>(a.contacts.size());
+  const int nd = a.nd;
+  const int nf = nc * nd;
+  const int nb = static_cast<int>(a.psi_b.size());
+  const int nv = static_cast<int>(v.size());
+
+  MatrixXd G_c(nv, nc + nf);
+  G_c << a.G_n, a.G_f;
+  *v_star = v + a.M_inv * a.p_ext;
+  *WGc = a.M_inv * G_c;
+  if (nb > 0) {
+    // Eliminate p_b: S p_b = −(G_bᵀ ν* + ψ_b/h + ∂ψ_b/∂t + G_bᵀ M⁻¹ G_c p_c).
+    const MatrixXd MinvGb = a.M_inv * a.G_b;
+    const MatrixXd S = a.G_b.transpose() * MinvGb;
+    const Eigen::LDLT<MatrixXd> S_ldlt(S);
+    VectorXd rhs = a.G_b.transpose() * *v_star + a.dpsi_b;
+    if (options_.joint_stabilization) rhs += a.psi_b / h;
+    *v_star -= MinvGb * S_ldlt.solve(rhs);
+    *WGc -= MinvGb * S_ldlt.solve(a.G_b.transpose() * *WGc);
+  }
+
+  const int m = nc + nf + nc;
+  LcpProblem lcp;
+  lcp.M = MatrixXd::Zero(m, m);
+  lcp.q = VectorXd::Zero(m);
+  lcp.M.topLeftCorner(nc + nf, nc + nf) = G_c.transpose() * *WGc;
+  for (int c = 0; c < nc; ++c) {
+    for (int j = 0; j < nd; ++j) {
+      lcp.M(nc + c * nd + j, nc + nf + c) = 1.0;   // E
+      lcp.M(nc + nf + c, nc + c * nd + j) = -1.0;  // −Eᵀ
+    }
+    lcp.M(nc + nf + c, c) = a.mu[c];  // U
+  }
+  lcp.q.head(nc) = a.G_n.transpose() * *v_star + a.dpsi_n;
+  if (!velocity_level_) lcp.q.head(nc) += a.psi_n / h;
+  lcp.q.segment(nc, nf) = a.G_f.transpose() * *v_star + a.dpsi_f;
+  return lcp;
+}
+
+void StewartTrinkle::Step(const Scene& model, const State& x, const StepInput& u, Workspace* ws,
+                          State* next, StepInfo* info) const {
+  *info = StepInfo{};
+  *next = x;
+  const double h = options_.dt;
+  Assembly a = Assemble(model, x, u);
+  const int nc = static_cast<int>(a.contacts.size());
+  info->contacts = nc;
+  info->joint_rows = static_cast<int>(a.psi_b.size());
+  info->min_gap = nc > 0 ? a.psi_n.minCoeff() : 0.0;
+  if (nc > 0 && info->min_gap < -options_.max_penetration) {
+    info->failure = "penetration " + std::to_string(-info->min_gap) + " m exceeds max_penetration " +
+                    std::to_string(options_.max_penetration) + " m";
+    info->solver.status = SolverStatus::kNumericalFailure;
+    return;
+  }
+
+  MatrixXd WGc;
+  VectorXd v_star;
+  const LcpProblem lcp = BuildLcp(a, x.v, &WGc, &v_star);
+  VectorXd z = VectorXd::Zero(lcp.size());
+  if (lcp.size() > 0) {
+    const VectorXd* warm = x.warm_start.size() == lcp.size() ? &x.warm_start : nullptr;
+    info->solver = solver_->Solve(lcp, warm, &z);
+    if (!info->solver.ok()) {
+      info->failure = "LCP solver '" + std::string(solver_->name()) + "' failed: " +
+                      std::string(ToString(info->solver.status)) +
+                      (info->solver.message.empty() ? "" : " (" + info->solver.message + ")");
+      return;
+    }
+  } else {
+    info->solver.status = SolverStatus::kSolved;
+  }
+
+  const int nf = nc * a.nd;
+  const VectorXd v1 = v_star + WGc * z.head(nc + nf);
+  if (!v1.allFinite()) {
+    info->failure = "non-finite velocity after the step";
+    info->solver.status = SolverStatus::kNumericalFailure;
+    return;
+  }
+  next->t = x.t + h;
+  next->v = v1;
+  next->q.resize(x.q.size());
+  const int nqb = PositionSize(model.dim), nvb = VelocitySize(model.dim);
+  for (int bi : model.dynamic_bodies()) {
+    const BodyIndex& idx = model.index(bi);
+    IntegratePosition(model.dim, x.q.data() + idx.q, v1.data() + idx.v, h, next->q.data() + idx.q);
+  }
+  (void)nqb;
+  (void)nvb;
+  next->warm_start = z;
+  if (ws) ws->contacts = std::move(a.contacts);
+  info->ok = true;
+}
+
+StepLayout StewartTrinkle::Layout(const Scene& model, const State& x) const {
+  const std::vector<BodyKinematics> kin = ComputeBodyKinematics(model, x);
+  std::vector<Contact> contacts;
+  FindContacts(model, kin, options_.envelope, &contacts);
+  StepLayout l;
+  l.nq = model.num_positions();
+  l.nv = model.num_velocities();
+  l.nc = static_cast<int>(contacts.size());
+  l.nd = model.dim == Dim::kPlanar ? 2 : options_.friction_directions;
+  for (const Joint& j : model.joints) l.nb += JointRowCount(j.type, model.dim);
+  return l;
+}
+
+StepResiduals StewartTrinkle::Evaluate(const Scene& model, const Params& params, const State& x,
+                                       const StepInput& u, const VectorXd& z) const {
+  const Assembly a = Assemble(model, x, u);
+  const double h = options_.dt;
+  StepResiduals r;
+  StepLayout& l = r.layout;
+  l.nq = model.num_positions();
+  l.nv = model.num_velocities();
+  l.nc = static_cast<int>(a.contacts.size());
+  l.nd = a.nd;
+  l.nb = static_cast<int>(a.psi_b.size());
+  if (z.size() != l.size())
+    throw std::invalid_argument("StewartTrinkle::Evaluate: z has " + std::to_string(z.size()) +
+                                " entries, the step layout needs " + std::to_string(l.size()));
+  const int np = static_cast<int>(params.values.size());
+  const int nz = l.size(), ncol = nz + np;
+  const int nc = l.nc, nd = l.nd, nf = nc * nd, nv = l.nv, nq = l.nq, nb = l.nb;
+  const auto q1 = z.segment(l.q1(), nq);
+  const auto v1 = z.segment(l.v1(), nv);
+  const auto pn = z.segment(l.pn(), nc);
+  const auto pf = z.segment(l.pf(), nf);
+  const auto sigma = z.segment(l.sigma(), nc);
+  const auto pb = z.segment(l.pb(), nb);
+
+  // Equalities: [dynamics (nv); kinematics (nq); joints (nb)].
+  r.equality.resize(nv + nq + nb);
+  r.d_equality = MatrixXd::Zero(nv + nq + nb, ncol);
+  r.equality.head(nv) = a.M * (v1 - x.v) - a.G_n * pn - a.G_f * pf - a.G_b * pb - a.p_ext;
+  r.d_equality.block(0, l.v1(), nv, nv) = a.M;
+  r.d_equality.block(0, l.pn(), nv, nc) = -a.G_n;
+  r.d_equality.block(0, l.pf(), nv, nf) = -a.G_f;
+  r.d_equality.block(0, l.pb(), nv, nb) = -a.G_b;
+
+  VectorXd q_pred(nq);
+  for (int bi : model.dynamic_bodies()) {
+    const BodyIndex& idx = model.index(bi);
+    IntegratePosition(model.dim, x.q.data() + idx.q, v1.data() + idx.v, h, q_pred.data() + idx.q);
+  }
+  r.equality.segment(nv, nq) = q1 - q_pred;
+  r.d_equality.block(nv, l.q1(), nq, nq).setIdentity();
+  // ∂q_pred/∂ν: planar and the position part of spatial bodies are exactly h·I; the quaternion
+  // block (exponential map) is differentiated by central differences.
+  for (int bi : model.dynamic_bodies()) {
+    const BodyIndex& idx = model.index(bi);
+    for (int k = 0; k < 3; ++k) r.d_equality(nv + idx.q + k, l.v1() + idx.v + k) = -h;
+    if (model.dim == Dim::kSpatial) {
+      const double eps = 1e-7;
+      for (int k = 3; k < 6; ++k) {
+        VectorXd vp = v1.segment(idx.v, 6), vm = vp;
+        vp[k] += eps;
+        vm[k] -= eps;
+        double qp[7], qm[7];
+        IntegratePosition(model.dim, x.q.data() + idx.q, vp.data(), h, qp);
+        IntegratePosition(model.dim, x.q.data() + idx.q, vm.data(), h, qm);
+        for (int i = 3; i < 7; ++i)
+          r.d_equality(nv + idx.q + i, l.v1() + idx.v + k) = -(qp[i] - qm[i]) / (2 * eps);
+      }
+    }
+  }
+  if (nb > 0) {
+    VectorXd jr = a.G_b.transpose() * v1 + a.dpsi_b;
+    if (options_.joint_stabilization) jr += a.psi_b / h;
+    r.equality.tail(nb) = jr;
+    r.d_equality.block(nv + nq, l.v1(), nb, nv) = a.G_b.transpose();
+  }
+
+  // Complementarity pairs: (p_n, normal), (p_f, friction), (σ, cone).
+  const int ncomp = nc + nf + nc;
+  r.comp_a.resize(ncomp);
+  r.comp_b.resize(ncomp);
+  r.d_comp_a = MatrixXd::Zero(ncomp, ncol);
+  r.d_comp_b = MatrixXd::Zero(ncomp, ncol);
+  r.comp_a << pn, pf, sigma;
+  r.d_comp_a.block(0, l.pn(), ncomp, ncomp).setIdentity();  // p_n, p_f, σ are contiguous
+
+  r.comp_b.head(nc) = a.G_n.transpose() * v1 + a.dpsi_n;
+  if (!velocity_level_) r.comp_b.head(nc) += a.psi_n / h;
+  r.d_comp_b.block(0, l.v1(), nc, nv) = a.G_n.transpose();
+
+  r.comp_b.segment(nc, nf) = a.G_f.transpose() * v1 + a.dpsi_f;
+  r.d_comp_b.block(nc, l.v1(), nf, nv) = a.G_f.transpose();
+  for (int c = 0; c < nc; ++c) {
+    double sum_pf = 0.0;
+    for (int j = 0; j < nd; ++j) {
+      r.comp_b[nc + c * nd + j] += sigma[c];
+      r.d_comp_b(nc + c * nd + j, l.sigma() + c) = 1.0;
+      sum_pf += pf[c * nd + j];
+      r.d_comp_b(nc + nf + c, l.pf() + c * nd + j) = -1.0;
+    }
+    r.comp_b[nc + nf + c] = a.mu[c] * pn[c] - sum_pf;
+    r.d_comp_b(nc + nf + c, l.pn() + c) = a.mu[c];
+    r.d_comp_b(nc + nf + c, nz + a.contacts[c].mu_param) = pn[c];
+  }
+  return r;
+}
+
+double StepResiduals::Violation() const {
+  double v = equality.size() ? equality.cwiseAbs().maxCoeff() : 0.0;
+  for (int i = 0; i < comp_a.size(); ++i)
+    v = std::max(v, std::abs(std::min(comp_a[i], comp_b[i])));
+  return v;
+}
+
+}  // namespace vinci::sim
