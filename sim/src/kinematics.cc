@@ -86,9 +86,9 @@ void IntegratePosition(Dim dim, const double* q, const double* v, double h, doub
   }
   for (int i = 0; i < 3; ++i) q_next[i] = q[i] + h * v[i];
   const Vector3d w_B(v[3], v[4], v[5]);
-  const double angle = h * w_B.norm();
+  const double w_norm = w_B.norm();
   Quaterniond dq = Quaterniond::Identity();
-  if (angle > 0.0) dq = Quaterniond(Eigen::AngleAxisd(angle, w_B.normalized()));
+  if (w_norm > 0.0) dq = Quaterniond(Eigen::AngleAxisd(h * w_norm, w_B / w_norm));
   Quaterniond Q = (Quaterniond(q[3], q[4], q[5], q[6]) * dq).normalized();
   q_next[3] = Q.w();
   q_next[4] = Q.x();

@@ -24,7 +24,12 @@ namespace vinci::sim {
 namespace {
 
 // Ratios within this relative distance of the minimum ratio are ties (degenerate pivots).
-constexpr double kTieTolerance = 1e-12;
+// Degenerate basic values carry roundoff of order ε‖B⁻¹‖‖q‖ ≈ 1e-14, which pivots of order
+// 1e-3 turn into ratios of 1e-11; 1e-12 missed such ties on a random contact LCP (n = 108)
+// and ended on a spurious secondary ray, 1e-10 solved 14 400 random stress problems.
+constexpr double kRatioTieTolerance = 1e-10;
+// Relative tolerance of the lexicographic comparisons of B⁻¹ rows among tied ratios.
+constexpr double kLexTieTolerance = 1e-12;
 // Symmetric equilibration sweeps; the loop stops earlier once no scale factor changes.
 constexpr int kScalingSweeps = 10;
 // Iterative-refinement steps at termination (each O(n²) with the kept inverse).
@@ -188,7 +193,7 @@ CoreOutcome RunLemke(const MatrixXd& M, const VectorXd& q, const LemkeOptions& o
   // lexicographic rule for d = −e picks the largest index.
   {
     const double q_min = q.minCoeff();
-    const double tau = kTieTolerance * std::max(1.0, std::abs(q_min));
+    const double tau = kRatioTieTolerance * std::max(1.0, std::abs(q_min));
     int r = 0;
     for (int i = 0; i < n; ++i) {
       if (q(i) <= q_min + tau) r = i;
@@ -215,13 +220,13 @@ CoreOutcome RunLemke(const MatrixXd& M, const VectorXd& q, const LemkeOptions& o
       }
       if (theta == kInf) {
         return fail(SolverStatus::kSecondaryRay,
-                    "Lemke terminated on a secondary ray at pivot " +
-                        std::to_string(out.pivots) + " (entering " +
+                    "Lemke terminated on a secondary ray at pivot " + std::to_string(out.pivots) +
+                        " (entering " +
                         (entering < n ? "w_" + std::to_string(entering)
                                       : "z_" + std::to_string(entering - n)) +
                         "); the LCP may be infeasible");
       }
-      const double tau_theta = kTieTolerance * std::max(1.0, theta);
+      const double tau_theta = kRatioTieTolerance * std::max(1.0, theta);
       ties.clear();
       r = -1;
       for (int i = 0; i < n; ++i) {
@@ -235,7 +240,7 @@ CoreOutcome RunLemke(const MatrixXd& M, const VectorXd& q, const LemkeOptions& o
           for (int k = 0; k < n && ties.size() > 1; ++k) {
             double m = kInf;
             for (int i : ties) m = std::min(m, binv(i, k) / d(i));
-            const double tau_k = kTieTolerance * std::max(1.0, std::abs(m));
+            const double tau_k = kLexTieTolerance * std::max(1.0, std::abs(m));
             kept.clear();
             for (int i : ties) {
               if (binv(i, k) / d(i) <= m + tau_k) kept.push_back(i);
@@ -301,7 +306,7 @@ struct Attempt {
   SolverStatus status = SolverStatus::kNumericalFailure;
   bool terminated = false;  // z0 left the basis
   int pivots = 0;
-  double epsilon = 0.0;  // regularization of this attempt
+  double epsilon = 0.0;    // regularization of this attempt
   double residual = kInf;  // on the original problem
   std::string message;
   VectorXd z;
@@ -339,10 +344,13 @@ Attempt RunAttempt(const LcpProblem& problem, double epsilon, const LemkeOptions
 
 bool Passes(const Attempt& a, double tolerance) { return a.terminated && a.residual <= tolerance; }
 
-// Warm start: basis {i : warm_i > 0}, solve M_BB z_B = −q_B and accept if z_B ≥ −tol,
-// w_N ≥ −tol and the residual passes.
-bool TryWarmStart(const LcpProblem& problem, const VectorXd& warm, double tolerance,
-                  VectorXd* z) {
+// Warm start: basis B = {i : warm_i > 0}; solve M_BB z_B = −q_B and accept if z_B ≥ −tol,
+// w_N ≥ −tol and the residual passes. The solve is anchored at the guess, z_B = warm_B + δ
+// with M_BB δ = −(M_BB warm_B + q_B) by column-pivoted QR: for a nonsingular M_BB this is
+// the same z_B, and for a singular one (degenerate contact LCPs: a sliding-speed λ_i whose
+// contact carries no force is not determined by the B rows) the undetermined components keep
+// the guessed values instead of being set to zero.
+bool TryWarmStart(const LcpProblem& problem, const VectorXd& warm, double tolerance, VectorXd* z) {
   const Eigen::Index n = problem.q.size();
   std::vector<Eigen::Index> active;
   for (Eigen::Index i = 0; i < n; ++i) {
@@ -350,9 +358,10 @@ bool TryWarmStart(const LcpProblem& problem, const VectorXd& warm, double tolera
   }
   if (active.empty()) return false;  // z = 0 was already ruled out (q has a negative entry)
   const MatrixXd m_bb = problem.M(active, active);
-  const VectorXd q_b = problem.q(active);
+  const VectorXd warm_b = warm(active);
+  const VectorXd rhs = -(m_bb * warm_b + problem.q(active));
   const Eigen::ColPivHouseholderQR<MatrixXd> qr(m_bb);
-  const VectorXd z_b = qr.solve(-q_b);
+  const VectorXd z_b = warm_b + qr.solve(rhs);
   if (!z_b.allFinite() || z_b.minCoeff() < -tolerance) return false;
   VectorXd candidate = VectorXd::Zero(n);
   candidate(active) = z_b;
@@ -377,8 +386,7 @@ SolverReport LemkeSolver::Solve(const LcpProblem& problem, const VectorXd* warm_
   const auto start = std::chrono::steady_clock::now();
   SolverReport report;
   auto finish = [&]() {
-    report.time_s =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    report.time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return report;
   };
 
@@ -429,8 +437,8 @@ SolverReport LemkeSolver::Solve(const LcpProblem& problem, const VectorXd* warm_
     for (double factor : kRegularizationFactors) {
       Attempt a = RunAttempt(problem, factor * options_.regularization, options_, tolerance);
       total_pivots += a.pivots;
-      retry_log += (retry_log.empty() ? "" : ", ") + std::string("eps=") +
-                   FormatDouble(a.epsilon) + ": " +
+      retry_log += (retry_log.empty() ? "" : ", ") + std::string("eps=") + FormatDouble(a.epsilon) +
+                   ": " +
                    (a.terminated ? "terminated, residual " + FormatDouble(a.residual)
                                  : std::string(ToString(a.status)));
       const bool terminated = a.terminated;
@@ -447,8 +455,7 @@ SolverReport LemkeSolver::Solve(const LcpProblem& problem, const VectorXd* warm_
   }
 
   // Keep the retry only if it is better than the plain attempt on the original problem.
-  const bool use_retry =
-      have_retry && (Passes(best, tolerance) || best.residual < first.residual);
+  const bool use_retry = have_retry && (Passes(best, tolerance) || best.residual < first.residual);
   const Attempt& chosen = use_retry ? best : first;
   *z = chosen.z;
   report.iterations = total_pivots;
@@ -464,18 +471,19 @@ SolverReport LemkeSolver::Solve(const LcpProblem& problem, const VectorXd* warm_
   if (passes && !use_retry) {
     report.message.clear();
   } else if (passes) {
-    report.message = "solved on the regularized problem M + eps*I with eps = " +
-                     FormatDouble(chosen.epsilon) + " after the plain solve failed (" +
-                     first.message + "); residual on the original problem " +
-                     FormatDouble(report.residual);
+    report.message =
+        "solved on the regularized problem M + eps*I with eps = " + FormatDouble(chosen.epsilon) +
+        " after the plain solve failed (" + first.message + "); residual on the original problem " +
+        FormatDouble(report.residual);
   } else {
     report.message = first.message;
     if (!retry_log.empty()) {
-      report.message += "; regularized retries (" + retry_log + ") did not solve the original " +
-                        "problem";
+      report.message +=
+          "; regularized retries (" + retry_log + ") did not solve the original " + "problem";
       if (use_retry) {
-        report.message += "; returning the retry iterate with eps = " +
-                          FormatDouble(chosen.epsilon) + " (smallest residual)";
+        report.message +=
+            "; returning the retry iterate with eps = " + FormatDouble(chosen.epsilon) +
+            " (smallest residual)";
       }
     }
   }

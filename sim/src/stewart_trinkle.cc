@@ -43,6 +43,22 @@ void Scatter(const Scene& model, int body, const BodyKinematics& k, const Vector
   }
 }
 
+// Kinematics of a non-dynamic body for ∂ψ/∂t: the pose at t and the *secant* velocity over the
+// step, v = (o(t+h) − o(t))/h, ω = log(R(t+h) R(t)ᵀ)/h. With it the linearized end-of-step gap
+// ψ + h(Gᵀν + ∂ψ/∂t) moves exactly with a translating prescribed body (a moving floor is
+// followed without lag); the instantaneous velocity would lag by O(h²) per step.
+BodyKinematics SecantKinematics(const Scene& model, int body, const BodyKinematics& at_t, double t,
+                                double h) {
+  const Body& b = model.bodies[body];
+  if (b.kind != BodyKind::kPrescribed) return at_t;
+  const BodyKinematics next = EvaluateMotion(b.motion, b.X_WB0, model.dim == Dim::kPlanar, t + h);
+  BodyKinematics k = at_t;
+  k.v_WB = (next.X_WB.translation() - at_t.X_WB.translation()) / h;
+  const Eigen::AngleAxisd dR(next.X_WB.linear() * at_t.X_WB.linear().transpose());
+  k.w_WB = dR.axis() * (dR.angle() / h);
+  return k;
+}
+
 }  // namespace
 
 StewartTrinkle::StewartTrinkle(StepperOptions options, std::shared_ptr<const LcpSolver> solver)
@@ -63,8 +79,11 @@ StewartTrinkle::Assembly StewartTrinkle::Assemble(const Scene& model, const Stat
   const double h = options_.dt;
   const int nv = model.num_velocities();
   const int nvb = VelocitySize(dim);
-  const std::vector<BodyKinematics> kin = ComputeBodyKinematics(model, x);
+  std::vector<BodyKinematics> kin = ComputeBodyKinematics(model, x);
   FindContacts(model, kin, options_.envelope, &a.contacts);
+  // From here on, non-dynamic bodies carry their secant velocity over the step.
+  for (std::size_t i = 0; i < kin.size(); ++i)
+    kin[i] = SecantKinematics(model, static_cast<int>(i), kin[i], x.t, h);
   const int nc = static_cast<int>(a.contacts.size());
   a.nd = dim == Dim::kPlanar ? 2 : options_.friction_directions;
   const int nd = a.nd;
@@ -275,7 +294,19 @@ StepResiduals StewartTrinkle::Evaluate(const Scene& model, const Params& params,
   if (z.size() != l.size())
     throw std::invalid_argument("StewartTrinkle::Evaluate: z has " + std::to_string(z.size()) +
                                 " entries, the step layout needs " + std::to_string(l.size()));
-  const int np = static_cast<int>(params.values.size());
+  if (params.values.size() != model.param_table().size())
+    throw std::invalid_argument("StewartTrinkle::Evaluate: params do not match the scene");
+  // Differentiable parameters: friction coefficients and masses; column of each param.
+  std::vector<int> column_of(params.values.size(), -1);
+  for (int i = 0; i < model.param_table().size(); ++i) {
+    const ParamKind kind = model.param_table().info(i).kind;
+    if (kind == ParamKind::kDefaultFriction || kind == ParamKind::kFriction ||
+        kind == ParamKind::kMass) {
+      column_of[i] = l.size() + static_cast<int>(r.param_columns.size());
+      r.param_columns.push_back(i);
+    }
+  }
+  const int np = static_cast<int>(r.param_columns.size());
   const int nz = l.size(), ncol = nz + np;
   const int nc = l.nc, nd = l.nd, nf = nc * nd, nv = l.nv, nq = l.nq, nb = l.nb;
   const auto q1 = z.segment(l.q1(), nq);
@@ -293,6 +324,24 @@ StepResiduals StewartTrinkle::Evaluate(const Scene& model, const Params& params,
   r.d_equality.block(0, l.pn(), nv, nc) = -a.G_n;
   r.d_equality.block(0, l.pf(), nv, nf) = -a.G_f;
   r.d_equality.block(0, l.pb(), nv, nb) = -a.G_b;
+  // ∂/∂m of body b's rows: M_b and p_ext scale with the mass (inertia ∝ mass, same shape).
+  for (int i = 0; i < model.param_table().size(); ++i) {
+    const ParamInfo& info = model.param_table().info(i);
+    if (info.kind != ParamKind::kMass) continue;
+    const Body& b = model.bodies[info.a];
+    const int o = model.index(info.a).v, nvb = VelocitySize(model.dim);
+    const VectorXd dv = v1.segment(o, nvb) - x.v.segment(o, nvb);
+    VectorXd d = a.M.block(o, o, nvb, nvb) * dv / b.mass;
+    if (b.gravity) {
+      d.head(model.dim == Dim::kPlanar ? 2 : 3) -=
+          h * model.gravity_W.head(model.dim == Dim::kPlanar ? 2 : 3);
+    }
+    if (model.dim == Dim::kSpatial) {
+      const Vector3d w_B = x.v.segment<3>(o + 3);
+      d.tail<3>() += h * w_B.cross(b.inertia * w_B) / b.mass;
+    }
+    r.d_equality.block(o, column_of[i], nvb, 1) = d;
+  }
 
   VectorXd q_pred(nq);
   for (int bi : model.dynamic_bodies()) {
@@ -352,7 +401,7 @@ StepResiduals StewartTrinkle::Evaluate(const Scene& model, const Params& params,
     }
     r.comp_b[nc + nf + c] = a.mu[c] * pn[c] - sum_pf;
     r.d_comp_b(nc + nf + c, l.pn() + c) = a.mu[c];
-    r.d_comp_b(nc + nf + c, nz + a.contacts[c].mu_param) = pn[c];
+    r.d_comp_b(nc + nf + c, column_of[a.contacts[c].mu_param]) = pn[c];
   }
   return r;
 }

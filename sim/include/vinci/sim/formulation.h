@@ -15,9 +15,7 @@
 namespace vinci::sim {
 
 /// The unknowns of one step for a fixed contact set (found at x_ℓ), stacked in this order:
-///   z = [q_ℓ+1 (nq); ν_ℓ+1 (nv); p_n (nc); p_f (nc·nd); σ (nc); p_b (nb)]
-/// followed, for derivatives only, by the scene's parameters θ (Scene::param_table(); only
-/// friction parameters have non-zero derivatives in the Stewart–Trinkle equations).
+///   z = [q_ℓ+1 (nq); ν_ℓ+1 (nv); p_n (nc); p_f (nc·nd); σ (nc); p_b (nb)].
 struct StepLayout {
   int nq = 0, nv = 0, nc = 0, nd = 0, nb = 0;
   int q1() const { return 0; }
@@ -30,9 +28,14 @@ struct StepLayout {
 };
 
 /// Step equations at a point: equality = 0 and 0 ≤ comp_a ⊥ comp_b ≥ 0 (componentwise).
-/// Jacobians are with respect to [z; θ] (columns: layout.size() + num params).
+/// Jacobians are with respect to [z; θ_d]: the layout.size() step unknowns followed by the
+/// differentiable scene parameters θ_d listed in `param_columns` (indices into the scene's
+/// ParamTable: every friction coefficient and every mass). Geometry-size and motion parameters
+/// have no column (the contact set and ∂ψ/∂t depend on them non-smoothly); difference them
+/// through the simulator if needed.
 struct StepResiduals {
   StepLayout layout;
+  std::vector<int> param_columns;
   VectorXd equality;
   VectorXd comp_a, comp_b;
   MatrixXd d_equality, d_comp_a, d_comp_b;

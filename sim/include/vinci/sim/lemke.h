@@ -7,11 +7,11 @@
 namespace vinci::sim {
 
 struct LemkeOptions {
-  int max_pivots = 0;            ///< 0: 50·n + 100
-  double pivot_tolerance = 1e-12;  ///< smallest admissible |pivot| in the ratio test
+  int max_pivots = 0;                ///< 0: 50·n + 100
+  double pivot_tolerance = 1e-12;    ///< smallest admissible |pivot| in the ratio test
   double residual_tolerance = 1e-9;  ///< accept z when LcpResidual ≤ this (scaled by data size)
-  bool lexicographic = true;     ///< lexicographic ratio test (anti-cycling)
-  bool scale = true;             ///< row/column equilibration before pivoting
+  bool lexicographic = true;         ///< lexicographic ratio test (anti-cycling)
+  bool scale = true;                 ///< row/column equilibration before pivoting
   /// On failure, retry with M + εI for ε in this sequence (0 disables); the report says so.
   double regularization = 1e-10;
   /// Recompute the explicit basis inverse from scratch every this many pivots to bound the
@@ -26,6 +26,9 @@ struct LemkeOptions {
 /// - Scaling is symmetric, D M D with z = D z̃ and D a power-of-two diagonal (so the scaling
 ///   is exact), because a symmetric scaling keeps M copositive-plus / PSD and hence keeps
 ///   Lemke's termination guarantee.
+/// - Warm start: with B = {i : warm_i > 0}, z_B solves M_BB z_B = −q_B (anchored at the
+///   guess where M_BB is singular) and is accepted with 0 iterations if z_B ≥ −tol,
+///   w_N ≥ −tol and the residual passes; otherwise Lemke runs cold.
 /// - The pivot tolerance is relative: a ratio-test entry d_i is admissible only if
 ///   d_i > pivot_tolerance · max(1, ‖d‖_∞).
 /// - The retry sequence is ε = r, 1e3·r, 1e6·r (r = regularization); it stops at the first ε

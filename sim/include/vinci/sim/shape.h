@@ -29,6 +29,13 @@ constexpr bool IsPlanar(ShapeType t) {
          t == ShapeType::kSegment;
 }
 
+/// One face of a convex polyhedron's hull (see PrepareShape).
+struct HullFace {
+  Vector3d normal_S = Vector3d::UnitZ();  ///< outward unit normal, shape frame
+  double offset = 0.0;                    ///< m; the face plane is normal_S · x = offset
+  std::vector<int> vertices;  ///< indices into Shape::vertices, counter-clockwise about normal_S
+};
+
 /// Convex collision shape, expressed in its own frame S, attached to a body B at X_BS.
 struct Shape {
   ShapeType type = ShapeType::kSphere;
@@ -39,7 +46,19 @@ struct Shape {
   double half_length = 0.0;           ///< m; capsule, segment
   std::vector<Vector3d> vertices;     ///< m; polyhedron, polygon (z ignored for polygons)
   int material = 0;                   ///< index into Scene::materials
+  /// Polyhedron only, filled by PrepareShape(): the hull's faces, and the indices of the points
+  /// of `vertices` that are hull corners (points inside the hull or inside a hull face or edge
+  /// are left out). While empty, CollideShapes/ComputeUnitMassProperties compute the hull on
+  /// every call (correct, but O(n⁴) and allocating). Re-run PrepareShape after editing
+  /// `vertices`.
+  std::vector<HullFace> faces;
+  std::vector<int> hull_vertices;  ///< see `faces`
 };
+
+/// Precomputes derived collision data once per shape (the scene builder calls it): for a
+/// polyhedron, its convex hull (`faces`, `hull_vertices`); other kinds are left unchanged.
+/// Throws std::invalid_argument if a polyhedron has fewer than four non-coplanar vertices.
+void PrepareShape(Shape* shape);
 
 /// One contact between two shapes, found within the envelope.
 /// The normal points from shape B toward shape A; A is pushed along +n.

@@ -1,0 +1,512 @@
+// vinci vs MuJoCo on the same two scenes: a box resting on a plane and a box at rest on a
+// 0.3 rad incline with μ = 1.05 tan θ. Prints a table and optionally writes it as CSV.
+//
+//   vinci_vs_mujoco [--quick] [--steps N] [--csv FILE]
+//
+// The MuJoCo models are generated as MJCF from the vinci scene files (dt, gravity, box size,
+// mass, poses, μ), so both simulators see the same numbers. What cannot be matched — MuJoCo's
+// soft contacts and its friction cones vs vinci's rigid LCP contact and 8-direction polyhedral
+// cone — is described in bench/README.md and printed with the table.
+#include <mujoco/mujoco.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <ctime>
+#include <fstream>
+#include <functional>
+#include <iostream>
+#include <limits>
+#include <memory>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "vinci/sim/scene_file.h"
+#include "vinci/sim/simulator.h"
+
+namespace {
+
+using vinci::sim::Isometry3d;
+using vinci::sim::Quaterniond;
+using vinci::sim::Vector3d;
+
+constexpr double kTheta = 0.3;  // incline angle (rad), as in block_on_incline.yaml
+const double kInclineMu = 1.05 * std::tan(kTheta);
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+std::string ScenePath(const std::string& file) {
+  return std::string(VINCI_SOURCE_DIR "/examples/scenes/") + file;
+}
+
+// Run lengths. Full: 10⁴ timed steps after 10³ warm-up steps, best of 3; creep over 10⁴ steps
+// (10 s) after 0.5 s of settling. Quick (ctest smoke test): 200 steps each.
+struct RunConfig {
+  int warmup_steps = 1000;
+  int timing_steps = 10000;
+  int repeats = 3;
+  int settle_steps = 500;
+  int creep_steps = 10000;
+};
+
+// The scene as both simulators see it.
+struct SceneSpec {
+  std::string label;       // table row
+  std::string file;        // vinci scene file
+  std::string box_body;    // name of the box in the file
+  std::string floor_body;  // name of the static halfspace body
+  double mu = 0.0;
+  bool incline = false;  // creep = downhill displacement; otherwise horizontal drift
+};
+
+// Unit vector down the incline in world coordinates (the plane is rotated by θ about +y, so
+// its tangent (cos θ, 0, −sin θ) points down the slope). For the flat plane the drift is the
+// horizontal distance instead (see Creep).
+Vector3d Downhill() { return Vector3d(std::cos(kTheta), 0.0, -std::sin(kTheta)); }
+
+double Creep(const SceneSpec& spec, const Vector3d& from, const Vector3d& to) {
+  const Vector3d d = to - from;
+  if (spec.incline) return Downhill().dot(d);
+  return std::hypot(d.x(), d.y());
+}
+
+// Wall time and this thread's CPU time (s). On a loaded machine wall time includes the time
+// the thread waited for a core; CPU time does not.
+struct Clock {
+  std::chrono::steady_clock::time_point wall = std::chrono::steady_clock::now();
+  double cpu = ThreadCpuSeconds();
+  static double ThreadCpuSeconds() {
+    timespec ts{};
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+    return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
+  }
+  double WallSince() const {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - wall).count();
+  }
+  double CpuSince() const { return ThreadCpuSeconds() - cpu; }
+};
+
+// ------------------------------------------------------------------------------------------------
+// vinci
+
+class VinciRun {
+ public:
+  explicit VinciRun(const SceneSpec& spec)
+      : sim_(vinci::sim::LoadSceneFile(ScenePath(spec.file))), params_(sim_.DefaultParams()) {
+    params_.values[sim_.scene().param_table().Index("mu.default")] = spec.mu;
+    box_ = sim_.scene().FindBody(spec.box_body);
+    if (box_ < 0) throw std::runtime_error(spec.file + ": no body '" + spec.box_body + "'");
+    Reset();
+  }
+
+  const vinci::sim::Scene& scene() const { return sim_.scene(); }
+  void Reset() { x_ = sim_.InitialState(); }
+  vinci::sim::State Save() const { return x_; }
+  void Restore(const vinci::sim::State& x) { x_ = x; }
+
+  // One step; throws with the simulator's reason if it fails.
+  void Step() {
+    const vinci::sim::StepInfo info = sim_.Step(params_, x_, input_, &ws_, &next_);
+    if (!info.ok)
+      throw std::runtime_error("vinci step failed at t = " + std::to_string(x_.t) + ": " +
+                               info.failure);
+    contacts_ += info.contacts;
+    ++steps_;
+    last_min_gap_ = info.min_gap;
+    std::swap(x_, next_);
+  }
+
+  Vector3d BoxPosition() const { return x_.q.segment<3>(sim_.scene().index(box_).q); }
+  void ResetCounters() { contacts_ = 0, steps_ = 0; }
+  double ContactsPerStep() const { return steps_ ? contacts_ / steps_ : 0.0; }
+  // Penetration depth (m) at the start of the last step (0 if separated).
+  double Penetration() const { return std::max(0.0, -last_min_gap_); }
+
+ private:
+  vinci::sim::Simulator sim_;
+  vinci::sim::Params params_;
+  int box_ = -1;
+  vinci::sim::State x_, next_;
+  vinci::sim::Workspace ws_;
+  vinci::sim::StepInput input_;
+  double contacts_ = 0.0;
+  long steps_ = 0;
+  double last_min_gap_ = 0.0;
+};
+
+// ------------------------------------------------------------------------------------------------
+// MuJoCo
+
+// MuJoCo variants compared against the one vinci model.
+struct MujocoVariant {
+  std::string name;  // table column "MuJoCo cone"
+  std::string cone;  // "pyramidal" | "elliptic"
+  int noslip_iterations = 0;
+};
+
+std::string Num(double x) {
+  char buf[64];
+  std::snprintf(buf, sizeof(buf), "%.17g", x);
+  return buf;
+}
+std::string Vec(const Vector3d& v) { return Num(v.x()) + " " + Num(v.y()) + " " + Num(v.z()); }
+std::string Quat(const Isometry3d& X) {
+  const Quaterniond q(X.linear());
+  return Num(q.w()) + " " + Num(q.x()) + " " + Num(q.y()) + " " + Num(q.z());
+}
+
+// MJCF of the vinci scene: the static halfspace becomes a plane geom with the same pose, the
+// box a free body with the same pose, size and mass (inertia from uniform density, as vinci
+// computes it). Both geoms get friction μ (MuJoCo combines per-geom friction by max); torsional
+// and rolling friction are irrelevant with the default condim = 3.
+std::string MakeMjcf(const SceneSpec& spec, const vinci::sim::Scene& scene,
+                     const MujocoVariant& variant) {
+  const int floor = scene.FindBody(spec.floor_body);
+  const int box = scene.FindBody(spec.box_body);
+  if (floor < 0 || box < 0) throw std::runtime_error(spec.file + ": floor or box body missing");
+  const vinci::sim::Body& f = scene.bodies[floor];
+  const vinci::sim::Body& b = scene.bodies[box];
+  if (f.shapes.size() != 1 || f.shapes[0].type != vinci::sim::ShapeType::kHalfSpace ||
+      b.shapes.size() != 1 || b.shapes[0].type != vinci::sim::ShapeType::kBox)
+    throw std::runtime_error(spec.file + ": expected one halfspace and one box");
+  const Isometry3d X_WF = f.X_WB0 * f.shapes[0].X_BS;
+  const std::string friction = Num(spec.mu) + " 0.005 0.0001";
+
+  std::ostringstream s;
+  s << "<mujoco model=\"" << spec.label << "\">\n"
+    << "  <compiler angle=\"radian\"/>\n"
+    << "  <option timestep=\"" << Num(scene.options.dt) << "\" gravity=\"" << Vec(scene.gravity_W)
+    << "\" cone=\"" << variant.cone << "\" noslip_iterations=\"" << variant.noslip_iterations
+    << "\"/>\n"
+    << "  <worldbody>\n"
+    << "    <geom name=\"floor\" type=\"plane\" size=\"0 0 1\" pos=\"" << Vec(X_WF.translation())
+    << "\" quat=\"" << Quat(X_WF) << "\" friction=\"" << friction << "\"/>\n"
+    << "    <body name=\"box\" pos=\"" << Vec(b.X_WB0.translation()) << "\" quat=\""
+    << Quat(b.X_WB0) << "\">\n"
+    << "      <freejoint/>\n"
+    << "      <geom name=\"box\" type=\"box\" size=\"" << Vec(b.shapes[0].half_extents)
+    << "\" pos=\"" << Vec(b.shapes[0].X_BS.translation()) << "\" quat=\"" << Quat(b.shapes[0].X_BS)
+    << "\" mass=\"" << Num(b.mass) << "\" friction=\"" << friction << "\"/>\n"
+    << "    </body>\n"
+    << "  </worldbody>\n"
+    << "</mujoco>\n";
+  return s.str();
+}
+
+class MujocoRun {
+ public:
+  explicit MujocoRun(const std::string& mjcf) {
+    // Load from memory through a one-file virtual file system (mjVFS is ~2 MB: heap).
+    auto vfs = std::make_unique<mjVFS>();
+    mj_defaultVFS(vfs.get());
+    const char* kName = "model.xml";
+    if (mj_makeEmptyFileVFS(vfs.get(), kName, static_cast<int>(mjcf.size())) != 0)
+      throw std::runtime_error("mj_makeEmptyFileVFS failed");
+    const int i = mj_findFileVFS(vfs.get(), kName);
+    std::copy(mjcf.begin(), mjcf.end(), static_cast<char*>(vfs->filedata[i]));
+    char error[1000] = "";
+    m_ = mj_loadXML(kName, vfs.get(), error, sizeof(error));
+    mj_deleteVFS(vfs.get());
+    if (!m_) throw std::runtime_error(std::string("mj_loadXML: ") + error + "\n" + mjcf);
+    d_ = mj_makeData(m_);
+    if (!d_) throw std::runtime_error("mj_makeData failed");
+  }
+  ~MujocoRun() {
+    if (d_) mj_deleteData(d_);
+    if (m_) mj_deleteModel(m_);
+  }
+  MujocoRun(const MujocoRun&) = delete;
+  MujocoRun& operator=(const MujocoRun&) = delete;
+
+  void Reset() { mj_resetData(m_, d_); }
+
+  // Everything mj_step reads besides the model (no actuators, no mocap here).
+  struct Saved {
+    double time = 0.0;
+    std::vector<mjtNum> qpos, qvel, qacc_warmstart;
+  };
+  Saved Save() const {
+    Saved s;
+    s.time = d_->time;
+    s.qpos.assign(d_->qpos, d_->qpos + m_->nq);
+    s.qvel.assign(d_->qvel, d_->qvel + m_->nv);
+    s.qacc_warmstart.assign(d_->qacc_warmstart, d_->qacc_warmstart + m_->nv);
+    return s;
+  }
+  void Restore(const Saved& s) {
+    d_->time = s.time;
+    std::copy(s.qpos.begin(), s.qpos.end(), d_->qpos);
+    std::copy(s.qvel.begin(), s.qvel.end(), d_->qvel);
+    std::copy(s.qacc_warmstart.begin(), s.qacc_warmstart.end(), d_->qacc_warmstart);
+  }
+
+  void Step() {
+    mj_step(m_, d_);
+    contacts_ += d_->ncon;  // contacts of the step just taken (found at its start)
+    ++steps_;
+  }
+
+  // Free joint: qpos[0..2] is the body position in world.
+  Vector3d BoxPosition() const { return Vector3d(d_->qpos[0], d_->qpos[1], d_->qpos[2]); }
+  void ResetCounters() { contacts_ = 0, steps_ = 0; }
+  double ContactsPerStep() const { return steps_ ? contacts_ / steps_ : 0.0; }
+  // Deepest contact penetration (m) at the current state.
+  double Penetration() {
+    mj_forward(m_, d_);
+    double depth = 0.0;
+    for (int i = 0; i < d_->ncon; ++i) depth = std::max(depth, -d_->contact[i].dist);
+    return depth;
+  }
+  // Warnings MuJoCo raised (instability, overflows): name × count.
+  std::string Warnings() const {
+    std::string w;
+    for (int i = 0; i < mjNWARNING; ++i)
+      if (d_->warning[i].number > 0)
+        w += "warning " + std::to_string(i) + " ×" + std::to_string(d_->warning[i].number) + "; ";
+    return w;
+  }
+
+ private:
+  mjModel* m_ = nullptr;
+  mjData* d_ = nullptr;
+  double contacts_ = 0.0;
+  long steps_ = 0;
+};
+
+// ------------------------------------------------------------------------------------------------
+// Measurements, generic over the two runners.
+
+struct Rate {
+  double wall = kNaN;  // steps per second of wall time
+  double cpu = kNaN;   // steps per second of thread CPU time
+};
+
+// Steps/s: reset, warm up, then the best of `repeats` runs of timing_steps steps, each from the
+// same warmed-up state (best wall and best CPU time taken independently).
+template <typename Run>
+Rate StepsPerSecond(Run& run, const RunConfig& cfg) {
+  run.Reset();
+  for (int k = 0; k < cfg.warmup_steps; ++k) run.Step();
+  const auto saved = run.Save();
+  double best_wall = std::numeric_limits<double>::infinity(), best_cpu = best_wall;
+  for (int r = 0; r < cfg.repeats; ++r) {
+    run.Restore(saved);
+    const Clock t0;
+    for (int k = 0; k < cfg.timing_steps; ++k) run.Step();
+    best_wall = std::min(best_wall, t0.WallSince());
+    best_cpu = std::min(best_cpu, t0.CpuSince());
+  }
+  return Rate{cfg.timing_steps / best_wall, cfg.timing_steps / best_cpu};
+}
+
+struct CreepResult {
+  double settle = 0.0;  // displacement during the settling phase (m)
+  double creep = 0.0;   // displacement after it (m)
+  double contacts = 0.0;
+  double penetration = 0.0;
+};
+
+// From the scene's initial state (box at rest, in exact contact): settle, then measure.
+template <typename Run>
+CreepResult MeasureCreep(Run& run, const SceneSpec& spec, const RunConfig& cfg) {
+  CreepResult r;
+  run.Reset();
+  const Vector3d p0 = run.BoxPosition();
+  for (int k = 0; k < cfg.settle_steps; ++k) run.Step();
+  const Vector3d p1 = run.BoxPosition();
+  run.ResetCounters();
+  for (int k = 0; k < cfg.creep_steps; ++k) run.Step();
+  const Vector3d p2 = run.BoxPosition();
+  r.settle = Creep(spec, p0, p1);
+  r.creep = Creep(spec, p1, p2);
+  r.contacts = run.ContactsPerStep();
+  r.penetration = run.Penetration();
+  return r;
+}
+
+struct Row {
+  std::string scene, mujoco_cone;
+  Rate vinci_sps, mujoco_sps;
+  CreepResult vinci, mujoco;
+  std::string mujoco_warnings;
+};
+
+// ------------------------------------------------------------------------------------------------
+// Output
+
+std::string Fixed(double x, int digits) {
+  char buf[64];
+  std::snprintf(buf, sizeof(buf), "%.*f", digits, x);
+  return buf;
+}
+std::string Sci(double x) {
+  char buf[64];
+  std::snprintf(buf, sizeof(buf), "%+.3e", x);
+  return buf;
+}
+
+void PrintTable(const std::vector<Row>& rows, std::ostream& out) {
+  const std::vector<std::string> head = {
+      "scene",        "MuJoCo cone",        "vinci steps/s",   "MuJoCo steps/s",
+      "ratio v/M",    "ratio v/M (CPU)",    "vinci creep (m)", "MuJoCo creep (m)",
+      "contacts v/M", "penetration v/M (m)"};
+  std::vector<std::vector<std::string>> cells;
+  for (const Row& r : rows)
+    cells.push_back({r.scene, r.mujoco_cone, Fixed(r.vinci_sps.wall, 0),
+                     Fixed(r.mujoco_sps.wall, 0), Fixed(r.vinci_sps.wall / r.mujoco_sps.wall, 2),
+                     Fixed(r.vinci_sps.cpu / r.mujoco_sps.cpu, 2), Sci(r.vinci.creep),
+                     Sci(r.mujoco.creep),
+                     Fixed(r.vinci.contacts, 1) + " / " + Fixed(r.mujoco.contacts, 1),
+                     Sci(r.vinci.penetration) + " / " + Sci(r.mujoco.penetration)});
+  std::vector<size_t> width(head.size());
+  for (size_t c = 0; c < head.size(); ++c) {
+    width[c] = head[c].size();
+    for (const auto& row : cells) width[c] = std::max(width[c], row[c].size());
+  }
+  auto line = [&](const std::vector<std::string>& v) {
+    out << "|";
+    for (size_t c = 0; c < v.size(); ++c) {
+      out << " " << v[c] << std::string(width[c] - v[c].size(), ' ') << " |";
+    }
+    out << "\n";
+  };
+  line(head);
+  out << "|";
+  for (size_t c = 0; c < head.size(); ++c) out << std::string(width[c] + 2, '-') << "|";
+  out << "\n";
+  for (const auto& row : cells) line(row);
+}
+
+// Written to FILE.tmp and renamed, so a reader never sees a half-written file.
+void WriteCsv(const std::vector<Row>& rows, const std::string& path) {
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream f(tmp);
+    if (!f) throw std::runtime_error("cannot write '" + tmp + "'");
+    f << "scene,mujoco_cone,vinci_steps_per_s,mujoco_steps_per_s,ratio_vinci_over_mujoco,"
+         "vinci_creep_m,mujoco_creep_m,vinci_settle_m,mujoco_settle_m,vinci_contacts_per_step,"
+         "mujoco_contacts_per_step,vinci_penetration_m,mujoco_penetration_m,"
+         "vinci_cpu_steps_per_s,mujoco_cpu_steps_per_s,ratio_cpu\n";
+    f.precision(10);
+    for (const Row& r : rows)
+      f << r.scene << "," << r.mujoco_cone << "," << r.vinci_sps.wall << "," << r.mujoco_sps.wall
+        << "," << r.vinci_sps.wall / r.mujoco_sps.wall << "," << r.vinci.creep << ","
+        << r.mujoco.creep << "," << r.vinci.settle << "," << r.mujoco.settle << ","
+        << r.vinci.contacts << "," << r.mujoco.contacts << "," << r.vinci.penetration << ","
+        << r.mujoco.penetration << "," << r.vinci_sps.cpu << "," << r.mujoco_sps.cpu << ","
+        << r.vinci_sps.cpu / r.mujoco_sps.cpu << "\n";
+    if (!f.flush()) throw std::runtime_error("error writing '" + tmp + "'");
+  }
+  if (std::rename(tmp.c_str(), path.c_str()) != 0)
+    throw std::runtime_error("cannot rename '" + tmp + "' to '" + path + "'");
+}
+
+void Usage(std::ostream& out) {
+  out << "usage: vinci_vs_mujoco [--quick] [--steps N] [--csv FILE]\n"
+         "  --quick     200 steps per measurement, one repeat (smoke test; numbers meaningless)\n"
+         "  --steps N   timed steps per repeat (default 10000)\n"
+         "  --csv FILE  also write the table as CSV\n";
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  RunConfig cfg;
+  std::string csv_path;
+  bool quick = false;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--quick") {
+      quick = true;
+    } else if (a == "--csv" && i + 1 < argc) {
+      csv_path = argv[++i];
+    } else if (a == "--steps" && i + 1 < argc) {
+      char* end = nullptr;
+      const long n = std::strtol(argv[++i], &end, 10);
+      if (*end != '\0' || n <= 0 || n > 100000000) {
+        std::cerr << "--steps: expected a positive integer, got '" << argv[i] << "'\n";
+        return 2;
+      }
+      cfg.timing_steps = static_cast<int>(n);
+    } else if (a == "--help" || a == "-h") {
+      Usage(std::cout);
+      return 0;
+    } else {
+      std::cerr << "unknown or incomplete argument '" << a << "'\n";
+      Usage(std::cerr);
+      return 2;
+    }
+  }
+  if (quick) cfg = RunConfig{20, 200, 1, 50, 200};
+
+  const std::vector<SceneSpec> scenes = {
+      {"box_on_plane", "box_on_plane.yaml", "box", "floor", 0.5, false},
+      {"block_on_incline", "block_on_incline.yaml", "block", "incline", kInclineMu, true},
+  };
+  const std::vector<MujocoVariant> variants = {
+      {"pyramidal", "pyramidal", 0},
+      {"elliptic", "elliptic", 0},
+      {"elliptic+noslip", "elliptic", 10},
+  };
+
+  std::cout << "vinci vs MuJoCo " << mj_versionString() << (quick ? "  [--quick]" : "") << "\n"
+            << "timing: " << cfg.timing_steps << " steps after " << cfg.warmup_steps
+            << " warm-up steps, best of " << cfg.repeats << "; creep: " << cfg.creep_steps
+            << " steps after " << cfg.settle_steps
+            << " settling steps, both simulators started at rest in exact contact\n"
+            << "incline: theta = 0.3 rad, mu = 1.05 tan(theta) = " << Fixed(kInclineMu, 5)
+            << "; creep = downhill displacement of the box centre after settling; "
+               "box_on_plane: horizontal drift\n\n";
+
+  std::vector<Row> rows;
+  try {
+    for (const SceneSpec& spec : scenes) {
+      VinciRun vinci(spec);
+      const Rate vinci_sps = StepsPerSecond(vinci, cfg);
+      const CreepResult vinci_creep = MeasureCreep(vinci, spec, cfg);
+      for (const MujocoVariant& variant : variants) {
+        MujocoRun mujoco(MakeMjcf(spec, vinci.scene(), variant));
+        Row row;
+        row.scene = spec.label;
+        row.mujoco_cone = variant.name;
+        row.vinci_sps = vinci_sps;
+        row.vinci = vinci_creep;
+        row.mujoco_sps = StepsPerSecond(mujoco, cfg);
+        row.mujoco = MeasureCreep(mujoco, spec, cfg);
+        row.mujoco_warnings = mujoco.Warnings();
+        rows.push_back(row);
+      }
+    }
+  } catch (const std::exception& e) {
+    std::cerr << "error: " << e.what() << "\n";
+    return 1;
+  }
+
+  PrintTable(rows, std::cout);
+  for (const Row& r : rows)
+    if (!r.mujoco_warnings.empty())
+      std::cout << "MuJoCo " << r.scene << " / " << r.mujoco_cone << ": " << r.mujoco_warnings
+                << "\n";
+  std::cout << "\nvinci: rigid contact, Stewart-Trinkle LCP (Lemke), 8-direction polyhedral "
+               "friction cone; one vinci model per scene (repeated on each row).\n"
+               "MuJoCo: soft contact (default solref 0.02 1, solimp 0.9 0.95 0.001), Newton "
+               "solver, semi-implicit Euler; friction cone as in column 2 (noslip: "
+               "noslip_iterations=10).\n"
+               "steps/s and ratio v/M from wall time (vinci / MuJoCo); ratio v/M (CPU) from "
+               "thread CPU time. Single thread each.\n";
+  if (quick) std::cout << "(--quick: run lengths too short for meaningful numbers)\n";
+
+  if (!csv_path.empty()) {
+    try {
+      WriteCsv(rows, csv_path);
+    } catch (const std::exception& e) {
+      std::cerr << "error: " << e.what() << "\n";
+      return 1;
+    }
+    std::cout << "wrote " << csv_path << "\n";
+  }
+  return 0;
+}

@@ -1,0 +1,36 @@
+#include "command.h"
+
+#include <exception>
+#include <iostream>
+#include <stdexcept>
+
+namespace vinci::cli {
+
+void PrintError(const std::string& message) {
+  std::cout.flush();  // keep stdout and stderr in order on a shared terminal
+  std::cerr << "vinci: error: " << message << "\n";
+}
+
+ExitCode RunCommand(const Command& command) {
+  try {
+    return command.run();
+  } catch (const std::invalid_argument& e) {
+    PrintError(e.what());
+    return ExitCode::kBadInput;
+  } catch (const std::exception& e) {
+    std::cout.flush();
+    std::cerr << "vinci: internal error: " << e.what() << "\n";
+    return ExitCode::kInternal;
+  }
+}
+
+std::string ExitCodeHelp() {
+  return "Exit status:\n"
+         "  0  success\n"
+         "  1  bad input (unreadable or invalid file, invalid flag value)\n"
+         "  2  usage error (unknown flag, missing argument, no subcommand)\n"
+         "  3  a simulation step failed (partial results are still written)\n"
+         "  4  internal error";
+}
+
+}  // namespace vinci::cli

@@ -1,0 +1,40 @@
+// What every `vinci` subcommand shares: exit codes, the registration contract and error
+// reporting. A new subcommand is one file `<name>_command.cc` (+ header) that defines
+// `Command Register<Name>Command(CLI::App& app)` and one line in main.cc.
+#pragma once
+
+#include <functional>
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+namespace vinci::cli {
+
+/// Exit status of the `vinci` executable (documented in `vinci --help`).
+enum class ExitCode : int {
+  kOk = 0,          ///< the job completed
+  kBadInput = 1,    ///< unreadable or invalid scene/input file, invalid flag value
+  kUsage = 2,       ///< malformed command line (unknown flag, missing argument, no subcommand)
+  kStepFailed = 3,  ///< a simulation step failed; partial results were written
+  kInternal = 4,    ///< a bug: an unexpected exception (please report it)
+};
+
+/// A registered subcommand: its CLI11 parser (owned by the parent app) and the job to run once
+/// the command line has been parsed successfully. `run` returns the process exit code.
+struct Command {
+  CLI::App* app = nullptr;
+  std::function<ExitCode()> run;
+};
+
+/// Runs `command.run`, turning exceptions into a message on stderr and an exit code:
+/// std::invalid_argument → "vinci: error: <what>" and kBadInput; any other std::exception →
+/// "vinci: internal error: <what>" and kInternal.
+ExitCode RunCommand(const Command& command);
+
+/// Prints "vinci: error: <message>" on stderr.
+void PrintError(const std::string& message);
+
+/// The footer appended to `vinci --help` (exit codes).
+std::string ExitCodeHelp();
+
+}  // namespace vinci::cli

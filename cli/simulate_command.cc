@@ -1,0 +1,438 @@
+#include "simulate_command.h"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <charconv>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "vinci/sim/contact.h"
+#include "vinci/sim/formulation.h"
+#include "vinci/sim/lcp.h"
+#include "vinci/sim/scene.h"
+#include "vinci/sim/scene_file.h"
+#include "vinci/sim/simulator.h"
+#include "vinci/sim/state.h"
+
+namespace vinci::cli {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using sim::Dim;
+
+// Guards the double → integer conversion of the step count; far beyond any real run.
+constexpr double kMaxSteps = 1e12;
+// Unflushed CSV rows are at most this old (a crash loses no more than this much output).
+constexpr double kFlushIntervalS = 0.1;
+// Progress on a terminal is redrawn at most this often; on a pipe or file it is printed every
+// 10% once the run has lasted this long.
+constexpr double kTtyRedrawS = 0.1;
+constexpr double kQuietRunS = 2.0;
+constexpr double kTwoPi = 6.283185307179586476925286766559;
+
+double Seconds(Clock::duration d) { return std::chrono::duration<double>(d).count(); }
+
+// Shortest decimal text that reads back as exactly `v` (full precision, locale-independent).
+void AppendNumber(double v, std::string* s) {
+  char buf[32];
+  const auto res = std::to_chars(buf, buf + sizeof(buf), v);
+  s->append(buf, res.ptr);
+}
+
+std::string Number(double v) {
+  std::string s;
+  AppendNumber(v, &s);
+  return s;
+}
+
+// A CSV field, quoted (RFC 4180) only if it has to be.
+std::string CsvField(const std::string& s) {
+  if (s.find_first_of(",\"\r\n") == std::string::npos) return s;
+  std::string q = "\"";
+  for (char c : s) q += (c == '"') ? std::string("\"\"") : std::string(1, c);
+  return q + "\"";
+}
+
+void CheckPositiveFinite(const char* flag, double value) {
+  if (!std::isfinite(value) || value <= 0.0)
+    throw std::invalid_argument(std::string(flag) + ": expected a finite number > 0 (s), got " +
+                                Number(value));
+}
+
+// The per-body columns of a trajectory row: world pose and velocity of every body in scene
+// order. Planar (x, y, θ, vx, vy, ω); spatial (p, quaternion wxyz, v_W, ω_W). Dynamic bodies
+// report their generalized coordinates (θ unwrapped as integrated); the angle of a prescribed
+// planar body is unwrapped and the quaternion of a prescribed spatial body kept on the
+// hemisphere of the previous row, so that every column is continuous in time.
+class BodyColumns {
+ public:
+  explicit BodyColumns(const sim::Scene& scene) : scene_(scene) {
+    for (const sim::Body& b : scene.bodies) {
+      const sim::Matrix3d R = b.X_WB0.linear();
+      theta_.push_back(std::atan2(R(1, 0), R(0, 0)));
+      sim::Quaterniond q(R);
+      if (q.w() < 0) q.coeffs() *= -1.0;
+      quat_.push_back(q);
+    }
+  }
+
+  int per_body() const { return scene_.dim == Dim::kPlanar ? 6 : 13; }
+
+  std::string Header() const {
+    static const char* const kPlanar[] = {"x", "y", "theta", "vx", "vy", "omega"};
+    static const char* const kSpatial[] = {"x",  "y",  "z",  "qw", "qx", "qy", "qz",
+                                           "vx", "vy", "vz", "wx", "wy", "wz"};
+    std::string h;
+    for (const sim::Body& b : scene_.bodies) {
+      for (int i = 0; i < per_body(); ++i) {
+        h += ',';
+        h += CsvField(b.name + "." + (scene_.dim == Dim::kPlanar ? kPlanar[i] : kSpatial[i]));
+      }
+    }
+    return h;
+  }
+
+  // Values of all bodies at x, body after body (per_body() each).
+  const std::vector<double>& Evaluate(const sim::State& x) {
+    const std::vector<sim::BodyKinematics> kin = sim::ComputeBodyKinematics(scene_, x);
+    values_.clear();
+    for (std::size_t i = 0; i < kin.size(); ++i) {
+      const sim::Body& b = scene_.bodies[i];
+      const sim::BodyKinematics& k = kin[i];
+      const bool dynamic = b.kind == sim::BodyKind::kDynamic;
+      const double* q = dynamic ? x.q.data() + scene_.index(static_cast<int>(i)).q : nullptr;
+      const sim::Vector3d p = k.X_WB.translation();
+      if (scene_.dim == Dim::kPlanar) {
+        double theta;
+        if (dynamic) {
+          theta = q[2];
+        } else {
+          const sim::Matrix3d R = k.X_WB.linear();
+          theta = theta_[i] + std::remainder(std::atan2(R(1, 0), R(0, 0)) - theta_[i], kTwoPi);
+          theta_[i] = theta;
+        }
+        Push({p.x(), p.y(), theta, k.v_WB.x(), k.v_WB.y(), k.w_WB.z()});
+      } else {
+        sim::Quaterniond quat;
+        if (dynamic) {
+          quat = sim::Quaterniond(q[3], q[4], q[5], q[6]);
+        } else {
+          quat = sim::Quaterniond(k.X_WB.linear());
+          if (quat.coeffs().dot(quat_[i].coeffs()) < 0) quat.coeffs() *= -1.0;
+          quat_[i] = quat;
+        }
+        Push({p.x(), p.y(), p.z(), quat.w(), quat.x(), quat.y(), quat.z(), k.v_WB.x(),
+              k.v_WB.y(), k.v_WB.z(), k.w_WB.x(), k.w_WB.y(), k.w_WB.z()});
+      }
+    }
+    return values_;
+  }
+
+ private:
+  void Push(std::initializer_list<double> v) { values_.insert(values_.end(), v); }
+
+  const sim::Scene& scene_;
+  std::vector<double> theta_;           // last reported angle (planar, non-dynamic)
+  std::vector<sim::Quaterniond> quat_;  // last reported quaternion (spatial, non-dynamic)
+  std::vector<double> values_;
+};
+
+// Writes the trajectory as it is produced. Rows are flushed at least every kFlushIntervalS
+// and on Close(), so an interrupted run leaves every completed row but the last few on disk.
+class CsvWriter {
+ public:
+  CsvWriter(const std::string& path) : path_(path), out_(path, std::ios::out | std::ios::trunc) {
+    if (!out_) throw std::invalid_argument("--out: cannot open '" + path + "' for writing");
+  }
+
+  void Write(const std::string& line) {
+    out_.write(line.data(), static_cast<std::streamsize>(line.size()));
+    out_.put('\n');
+    ++rows_;
+    const Clock::time_point now = Clock::now();
+    if (Seconds(now - last_flush_) >= kFlushIntervalS) Flush(now);
+  }
+
+  void Flush(Clock::time_point now = Clock::now()) {
+    out_.flush();
+    last_flush_ = now;
+    if (!out_) throw std::invalid_argument("--out: writing '" + path_ + "' failed");
+  }
+
+  void Close() {
+    Flush();
+    out_.close();
+    if (!out_) throw std::invalid_argument("--out: writing '" + path_ + "' failed");
+  }
+
+  std::int64_t rows() const { return rows_; }  // data rows and header
+
+ private:
+  std::string path_;
+  std::ofstream out_;
+  std::int64_t rows_ = 0;
+  Clock::time_point last_flush_ = Clock::now();
+};
+
+// Progress on stderr: a line redrawn in place on a terminal; otherwise one line per 10% once
+// the run has taken longer than kQuietRunS (short runs in scripts stay silent).
+class Progress {
+ public:
+  Progress(bool enabled, std::int64_t total)
+      : enabled_(enabled && total > 0), tty_(isatty(STDERR_FILENO) == 1), total_(total) {}
+
+  void Update(std::int64_t done, double t) {
+    if (!enabled_ || done >= total_) return;
+    const Clock::time_point now = Clock::now();
+    const double elapsed = Seconds(now - start_);
+    const int percent = static_cast<int>(100 * done / total_);
+    if (tty_) {
+      if (Seconds(now - last_draw_) < kTtyRedrawS) return;
+      last_draw_ = now;
+      std::cerr << "\rvinci simulate: " << std::setw(3) << percent << "% (" << done << "/"
+                << total_ << " steps, t = " << t << " s, " << std::fixed << std::setprecision(1)
+                << elapsed << " s)" << std::defaultfloat << std::setprecision(6) << std::flush;
+      drawn_ = true;
+    } else if (elapsed >= kQuietRunS && percent / 10 > last_decile_) {
+      last_decile_ = percent / 10;
+      std::cerr << "vinci simulate: " << 10 * last_decile_ << "% (" << done << "/" << total_
+                << " steps, t = " << t << " s, " << std::fixed << std::setprecision(1)
+                << elapsed << " s)" << std::defaultfloat << std::setprecision(6) << std::endl;
+    }
+  }
+
+  // Clears the in-place line so the summary starts on a clean terminal line.
+  void Finish() {
+    if (drawn_) std::cerr << "\r\033[K" << std::flush;
+    drawn_ = false;
+  }
+
+ private:
+  bool enabled_, tty_;
+  std::int64_t total_;
+  Clock::time_point start_ = Clock::now();
+  Clock::time_point last_draw_ = start_ - std::chrono::seconds(1);
+  bool drawn_ = false;
+  int last_decile_ = 0;
+};
+
+// Aggregates of the successful steps.
+struct RunStats {
+  std::int64_t steps_done = 0;
+  int max_contacts = 0;
+  std::int64_t total_iterations = 0;
+  int max_iterations = 0;
+  double worst_residual = 0.0;
+
+  void Add(const sim::StepInfo& info) {
+    ++steps_done;
+    max_contacts = std::max(max_contacts, info.contacts);
+    total_iterations += info.solver.iterations;
+    max_iterations = std::max(max_iterations, info.solver.iterations);
+    if (!(info.solver.residual <= worst_residual)) worst_residual = info.solver.residual;  // NaN
+  }
+};
+
+// Columns after the bodies: the report of the step that produced the row.
+void AppendStepColumns(const sim::StepInfo* info, std::string* row) {
+  if (info == nullptr) {  // row 0, the initial state
+    row->append(",0,0,0,0,initial");
+    return;
+  }
+  *row += ',';
+  *row += std::to_string(info->contacts);
+  *row += ',';
+  *row += std::to_string(info->solver.iterations);
+  *row += ',';
+  AppendNumber(info->solver.residual, row);
+  *row += ',';
+  AppendNumber(info->min_gap, row);
+  *row += ',';
+  *row += sim::ToString(info->solver.status);
+}
+
+std::string FormatRow(std::int64_t step, const sim::State& x, const std::vector<double>& bodies,
+                      const sim::StepInfo* info) {
+  std::string row = std::to_string(step);
+  row += ',';
+  AppendNumber(x.t, &row);
+  for (double v : bodies) {
+    row += ',';
+    AppendNumber(v, &row);
+  }
+  AppendStepColumns(info, &row);
+  return row;
+}
+
+void PrintSummary(const sim::Simulator& simulator, const RunStats& stats,
+                  std::int64_t num_steps, double t_final, double wall_s,
+                  const std::vector<double>& final_values, int per_body, const std::string& out,
+                  std::int64_t csv_rows, bool failed) {
+  const sim::Scene& scene = simulator.scene();
+  int count[3] = {0, 0, 0};
+  for (const sim::Body& b : scene.bodies) ++count[static_cast<int>(b.kind)];
+  std::ostringstream s;
+  s << std::setprecision(6);
+  s << "scene       " << (scene.name.empty() ? "(unnamed)" : scene.name) << " ("
+    << (scene.dim == Dim::kPlanar ? "planar" : "spatial") << ", " << scene.bodies.size()
+    << " bodies: " << count[0] << " dynamic, " << count[1] << " static, " << count[2]
+    << " prescribed)\n";
+  s << "steps       " << stats.steps_done << " / " << num_steps << " (dt = " << scene.options.dt
+    << " s, solver " << scene.options.solver << ")" << (failed ? "  PARTIAL: a step failed" : "")
+    << "\n";
+  s << "simulated   " << t_final << " s\n";
+  s << "wall time   " << wall_s << " s";
+  if (wall_s > 0 && stats.steps_done > 0)
+    s << " (" << std::fixed << std::setprecision(0)
+      << static_cast<double>(stats.steps_done) / wall_s << std::defaultfloat
+      << std::setprecision(6) << " steps/s)";
+  s << "\n";
+  s << "contacts    max " << stats.max_contacts << " per step\n";
+  s << "solver      " << stats.total_iterations << " iterations in total, max "
+    << stats.max_iterations << " per step, worst residual " << stats.worst_residual << "\n";
+  bool first = true;
+  for (int bi : scene.dynamic_bodies()) {
+    const double* v = final_values.data() + static_cast<std::size_t>(bi) * per_body;
+    s << (first ? "final pose  " : "            ") << scene.bodies[bi].name << ": ";
+    if (scene.dim == Dim::kPlanar)
+      s << "x = " << v[0] << " m, y = " << v[1] << " m, theta = " << v[2] << " rad\n";
+    else
+      s << "p = (" << v[0] << ", " << v[1] << ", " << v[2] << ") m, q(wxyz) = (" << v[3] << ", "
+        << v[4] << ", " << v[5] << ", " << v[6] << ")\n";
+    first = false;
+  }
+  if (out.empty())
+    s << "trajectory  not written (use --out FILE)\n";
+  else
+    s << "trajectory  " << out << " (" << csv_rows - 1 << (csv_rows == 2 ? " state" : " states")
+      << (failed ? ", partial" : "") << ")\n";
+  std::cout << s.str() << std::flush;
+}
+
+}  // namespace
+
+ExitCode RunSimulate(const SimulateOptions& o) {
+  // Flags first (no I/O), then the scene, then the output file.
+  if (o.dt) CheckPositiveFinite("--dt", *o.dt);
+  if (o.duration) CheckPositiveFinite("--duration", *o.duration);
+
+  sim::Scene scene = sim::LoadSceneFile(o.scene_path);
+  if (o.dt) scene.options.dt = *o.dt;  // before the Simulator copies the scene
+  if (o.duration) scene.options.duration = *o.duration;
+  if (o.solver) {
+    scene.options.solver = *o.solver;
+    try {
+      sim::MakeFormulation(scene.options);
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument(std::string("--solver: ") + e.what());
+    }
+  }
+  const double dt = scene.options.dt, duration = scene.options.duration;
+  const double steps_real = std::round(duration / dt);
+  if (!(steps_real >= 1.0))
+    throw std::invalid_argument("duration " + Number(duration) + " s with dt " + Number(dt) +
+                                " s gives no step; expected duration >= dt / 2");
+  if (steps_real > kMaxSteps)
+    throw std::invalid_argument("duration " + Number(duration) + " s with dt " + Number(dt) +
+                                " s gives " + Number(steps_real) + " steps; expected at most " +
+                                Number(kMaxSteps));
+  const auto num_steps = static_cast<std::int64_t>(steps_real);
+
+  const sim::Simulator simulator(std::move(scene));
+  const sim::Params params = simulator.DefaultParams();
+  BodyColumns columns(simulator.scene());
+
+  std::unique_ptr<CsvWriter> csv;
+  if (!o.out.empty()) csv = std::make_unique<CsvWriter>(o.out);
+
+  const Clock::time_point start = Clock::now();
+  sim::Workspace ws;
+  const sim::StepInput no_input;
+  sim::State x = simulator.InitialState(), next;
+  if (csv) {
+    csv->Write("step,t" + columns.Header() +
+               ",contacts,solver_iterations,residual,min_gap,status");
+    csv->Write(FormatRow(0, x, columns.Evaluate(x), nullptr));
+    csv->Flush();  // the header and the initial state exist whatever happens next
+  }
+
+  RunStats stats;
+  Progress progress(!o.quiet, num_steps);
+  sim::StepInfo failed;
+  std::int64_t failed_step = -1;
+  for (std::int64_t k = 0; k < num_steps; ++k) {
+    sim::StepInfo info = simulator.Step(params, x, no_input, &ws, &next);
+    if (!info.ok) {
+      failed = std::move(info);
+      failed_step = k;
+      break;
+    }
+    std::swap(x, next);
+    stats.Add(info);
+    if (csv) csv->Write(FormatRow(k + 1, x, columns.Evaluate(x), &info));
+    progress.Update(k + 1, x.t);
+  }
+  progress.Finish();
+  if (csv) csv->Close();
+  const double wall_s = Seconds(Clock::now() - start);
+
+  const bool ok = failed_step < 0;
+  if (!o.quiet)
+    PrintSummary(simulator, stats, num_steps, x.t, wall_s, columns.Evaluate(x),
+                 columns.per_body(), o.out, csv ? csv->rows() : 0, !ok);
+  if (ok) return ExitCode::kOk;
+  std::ostringstream msg;
+  msg << std::setprecision(17) << "step " << failed_step << " (from t = " << x.t
+      << " s) failed: " << failed.failure;
+  if (csv)
+    msg << "\nthe trajectory in '" << o.out << "' is partial: states 0.." << stats.steps_done
+        << " of " << num_steps;
+  PrintError(msg.str());
+  return ExitCode::kStepFailed;
+}
+
+Command RegisterSimulateCommand(CLI::App& app) {
+  auto options = std::make_shared<SimulateOptions>();
+  CLI::App* sub = app.add_subcommand(
+      "simulate", "Simulate a scene and write its trajectory as CSV.");
+  sub->add_option("SCENE", options->scene_path, "Scene file (YAML, see docs/scene-format.md)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  sub->add_option_function<double>(
+         "--duration", [options](double v) { options->duration = v; },
+         "Simulated time in s (default: the scene's stepper.duration); runs "
+         "round(duration / dt) steps")
+      ->type_name("T");
+  sub->add_option_function<double>(
+         "--dt", [options](double v) { options->dt = v; },
+         "Time step in s (default: the scene's stepper.dt)")
+      ->type_name("H");
+  sub->add_option("--out,-o", options->out,
+                  "Write the trajectory to this CSV file: a header, then one row per state (row "
+                  "0 = initial state): step, t, each body's pose and velocity, and the report of "
+                  "the step that produced it")
+      ->type_name("FILE");
+  sub->add_option_function<std::string>(
+         "--solver", [options](const std::string& v) { options->solver = v; },
+         "LCP solver by name (default: the scene's stepper.solver)")
+      ->type_name("NAME");
+  sub->add_flag("--quiet,-q", options->quiet, "Print nothing but errors (no progress, no summary)");
+  sub->footer(
+      "CSV columns: step,t, then per body (all bodies, scene order) planar "
+      "<name>.x,.y,.theta,.vx,.vy,.omega or spatial <name>.x,.y,.z,.qw,.qx,.qy,.qz,.vx,.vy,.vz,"
+      ".wx,.wy,.wz (world frame), then contacts,solver_iterations,residual,min_gap,status.\n"
+      "If a step fails, the CSV keeps every state up to the last good one and vinci exits 3.");
+  return Command{sub, [options] { return RunSimulate(*options); }};
+}
+
+}  // namespace vinci::cli

@@ -1,0 +1,31 @@
+// `vinci simulate SCENE`: run a scene forward in time and write its trajectory as CSV.
+#pragma once
+
+#include <optional>
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+#include "command.h"
+
+namespace vinci::cli {
+
+/// Everything `vinci simulate` takes from the command line.
+struct SimulateOptions {
+  std::string scene_path;
+  std::optional<double> duration;    ///< s; overrides stepper.duration
+  std::optional<double> dt;          ///< s; overrides stepper.dt
+  std::optional<std::string> solver; ///< overrides stepper.solver
+  std::string out;                   ///< CSV path; empty: no CSV
+  bool quiet = false;                ///< no progress, no summary (errors are still printed)
+};
+
+/// Adds the `simulate` subcommand to `app`.
+Command RegisterSimulateCommand(CLI::App& app);
+
+/// Runs `vinci simulate`. Throws std::invalid_argument for bad input (scene file, flag values,
+/// an output file that cannot be opened). Returns kOk, or kStepFailed if a step failed (the CSV
+/// then holds the states up to and including the last good one).
+ExitCode RunSimulate(const SimulateOptions& options);
+
+}  // namespace vinci::cli

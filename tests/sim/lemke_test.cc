@@ -1,0 +1,629 @@
+// Tests of the Lemke LCP solver: closed-form LCPs, known hard cases (exponential, cycling,
+// degenerate, infeasible), Stewart–Trinkle contact LCPs, warm start, regularized retry,
+// invalid input and determinism. Every solution is checked independently of the solver.
+#include "vinci/sim/lemke.h"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <random>
+#include <stdexcept>
+#include <thread>
+#include <vector>
+
+#include "vinci/sim/lcp.h"
+
+namespace vinci::sim {
+namespace {
+
+// Default acceptance of the solver for |q| ≤ 1; used as the independent check as well.
+constexpr double kTol = 1e-9;
+constexpr double kGravity = 9.81;  // m/s²
+
+// Independent check of a solution: z ≥ 0, w = Mz + q ≥ −tol, |z_i w_i| ≤ tol·(1 + |z_i|),
+// and the residual recomputed by LcpResidual.
+void ExpectLcpSolution(const LcpProblem& p, const VectorXd& z, double tol) {
+  ASSERT_EQ(z.size(), p.size());
+  ASSERT_TRUE(z.allFinite());
+  const VectorXd w = p.M * z + p.q;
+  const double scale = std::max(1.0, p.q.lpNorm<Eigen::Infinity>());
+  for (int i = 0; i < p.size(); ++i) {
+    EXPECT_GE(z(i), 0.0) << "i = " << i;
+    EXPECT_GE(w(i), -tol * scale) << "i = " << i;
+    EXPECT_LE(std::abs(z(i) * w(i)), tol * scale * (1.0 + std::abs(z(i)))) << "i = " << i;
+  }
+  EXPECT_LE(LcpResidual(p, z), tol * scale);
+}
+
+LcpProblem Make(const MatrixXd& M, const VectorXd& q) { return LcpProblem{M, q}; }
+
+// Murty's matrix: 1 on the diagonal, 2 above it.
+LcpProblem Murty(int n) {
+  MatrixXd M = MatrixXd::Zero(n, n);
+  for (int i = 0; i < n; ++i) {
+    M(i, i) = 1.0;
+    for (int j = i + 1; j < n; ++j) M(i, j) = 2.0;
+  }
+  return Make(M, -VectorXd::Ones(n));
+}
+
+MatrixXd Uniform(int rows, int cols, std::mt19937* rng, double lo = -1.0, double hi = 1.0) {
+  std::uniform_real_distribution<double> u(lo, hi);
+  MatrixXd A(rows, cols);
+  for (int j = 0; j < cols; ++j) {
+    for (int i = 0; i < rows; ++i) A(i, j) = u(*rng);
+  }
+  return A;
+}
+
+// Monotone (PSD, non-symmetric, rank n/2 symmetric part) LCP with a planted complementary
+// solution, so it is solvable; many entries are degenerate (z_i = w_i = 0).
+LcpProblem RandomPsdLcp(int n, std::mt19937* rng) {
+  const MatrixXd A = Uniform(n, n / 2 + 1, rng);
+  const MatrixXd S = Uniform(n, n, rng);
+  const MatrixXd M = A * A.transpose() + S - S.transpose();
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  VectorXd z(n), w(n);
+  for (int i = 0; i < n; ++i) {
+    const double r = u(*rng);
+    z(i) = r < 0.4 ? u(*rng) + 0.1 : 0.0;
+    w(i) = r >= 0.5 ? u(*rng) + 0.1 : 0.0;  // 0.4 ≤ r < 0.5: degenerate pair
+  }
+  return Make(M, w - M * z);
+}
+
+// Positive definite non-symmetric matrix (a P-matrix): unique solution for every q.
+LcpProblem RandomPMatrixLcp(int n, std::mt19937* rng) {
+  const MatrixXd A = Uniform(n, n, rng);
+  const MatrixXd S = Uniform(n, n, rng);
+  const MatrixXd M = A * A.transpose() / n + 0.1 * MatrixXd::Identity(n, n) + S - S.transpose();
+  return Make(M, Uniform(n, 1, rng));
+}
+
+Vector3d Cross(const Vector3d& a, const Vector3d& b) { return a.cross(b); }
+
+// Stewart–Trinkle velocity-level LCP in (p_n, p_f, λ):
+//   w_n = Gnᵀ v⁺ ⟂ p_n,  w_f = Gfᵀ v⁺ + E λ ⟂ p_f,  w_λ = μ p_n − Eᵀ p_f ⟂ λ,
+//   v⁺ = v + M⁻¹(h f_ext + Gn p_n + Gf p_f),
+// for spatial bodies with generalized velocity (v_WB, ω_W) each.
+struct ContactLcp {
+  LcpProblem lcp;
+  MatrixXd m_inv, g_n, g_f;
+  VectorXd v_free;  // v + h M⁻¹ f_ext
+  int num_contacts = 0;
+  int num_directions = 0;
+  VectorXd VelocityAfter(const VectorXd& z) const {
+    const int nc = num_contacts, nf = num_contacts * num_directions;
+    return v_free + m_inv * (g_n * z.head(nc) + g_f * z.segment(nc, nf));
+  }
+};
+
+ContactLcp AssembleContactLcp(const MatrixXd& m_inv, const MatrixXd& g_n, const MatrixXd& g_f,
+                              const VectorXd& v_free, double mu, int nd) {
+  ContactLcp c;
+  const int nc = static_cast<int>(g_n.cols());
+  const int nf = nc * nd;
+  const int n = 2 * nc + nf;
+  c.m_inv = m_inv;
+  c.g_n = g_n;
+  c.g_f = g_f;
+  c.v_free = v_free;
+  c.num_contacts = nc;
+  c.num_directions = nd;
+  MatrixXd E = MatrixXd::Zero(nf, nc);
+  for (int i = 0; i < nc; ++i) E.block(i * nd, i, nd, 1).setOnes();
+  MatrixXd M = MatrixXd::Zero(n, n);
+  M.block(0, 0, nc, nc) = g_n.transpose() * m_inv * g_n;
+  M.block(0, nc, nc, nf) = g_n.transpose() * m_inv * g_f;
+  M.block(nc, 0, nf, nc) = g_f.transpose() * m_inv * g_n;
+  M.block(nc, nc, nf, nf) = g_f.transpose() * m_inv * g_f;
+  M.block(nc, nc + nf, nf, nc) = E;
+  M.block(nc + nf, 0, nc, nc) = mu * MatrixXd::Identity(nc, nc);
+  M.block(nc + nf, nc, nc, nf) = -E.transpose();
+  VectorXd q = VectorXd::Zero(n);
+  q.head(nc) = g_n.transpose() * v_free;
+  q.segment(nc, nf) = g_f.transpose() * v_free;
+  c.lcp = Make(M, q);
+  return c;
+}
+
+// Jacobian columns of one contact on body `b` (6 generalized velocities per body) at offset
+// r_W from its center of mass: [dir; r × dir].
+void AddContactColumns(int body, const Vector3d& r_W, const Vector3d& normal, int nd, int contact,
+                       MatrixXd* g_n, MatrixXd* g_f, double sign = 1.0) {
+  Vector3d t1 = normal.unitOrthogonal();
+  Vector3d t2 = normal.cross(t1);
+  g_n->block<3, 1>(6 * body, contact) += sign * normal;
+  g_n->block<3, 1>(6 * body + 3, contact) += sign * Cross(r_W, normal);
+  for (int j = 0; j < nd; ++j) {
+    const double a = 2.0 * M_PI * j / nd;
+    const Vector3d d = std::cos(a) * t1 + std::sin(a) * t2;
+    g_f->block<3, 1>(6 * body, contact * nd + j) += sign * d;
+    g_f->block<3, 1>(6 * body + 3, contact * nd + j) += sign * Cross(r_W, d);
+  }
+}
+
+// A box (half extents `half`, mass `mass`, yaw `yaw`) resting on the plane z = 0 with its 4
+// bottom corners in contact, generalized velocity v = (v_WB, ω_W), friction μ, step h.
+ContactLcp BoxOnPlane(double mass, const Vector3d& half, double yaw, const VectorXd& v, double mu,
+                      double h, int nd) {
+  const Matrix3d R = Eigen::AngleAxisd(yaw, Vector3d::UnitZ()).toRotationMatrix();
+  const Vector3d inertia_B(mass / 3.0 * (half.y() * half.y() + half.z() * half.z()),
+                           mass / 3.0 * (half.x() * half.x() + half.z() * half.z()),
+                           mass / 3.0 * (half.x() * half.x() + half.y() * half.y()));
+  MatrixXd m_inv = MatrixXd::Zero(6, 6);
+  m_inv.topLeftCorner(3, 3) = Matrix3d::Identity() / mass;
+  m_inv.bottomRightCorner(3, 3) = R * inertia_B.cwiseInverse().asDiagonal() * R.transpose();
+  const int nc = 4;
+  MatrixXd g_n = MatrixXd::Zero(6, nc), g_f = MatrixXd::Zero(6, nc * nd);
+  int k = 0;
+  for (double sx : {-1.0, 1.0}) {
+    for (double sy : {-1.0, 1.0}) {
+      const Vector3d r_W = R * Vector3d(sx * half.x(), sy * half.y(), -half.z());
+      AddContactColumns(0, r_W, Vector3d::UnitZ(), nd, k++, &g_n, &g_f);
+    }
+  }
+  VectorXd f_ext = VectorXd::Zero(6);
+  f_ext(2) = -mass * kGravity;
+  return AssembleContactLcp(m_inv, g_n, g_f, v + h * m_inv * f_ext, mu, nd);
+}
+
+// Random contact-like LCP: `num_bodies` spatial bodies with random SPD inertia, contacts
+// with the ground or between random pairs at random points and normals, random velocities.
+ContactLcp RandomContactLcp(int num_bodies, int num_contacts, int nd, std::mt19937* rng) {
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  std::uniform_int_distribution<int> pick(0, num_bodies - 1);
+  const int ndof = 6 * num_bodies;
+  MatrixXd m_inv = MatrixXd::Zero(ndof, ndof);
+  for (int b = 0; b < num_bodies; ++b) {
+    const double mass = 1.0 + 0.5 * (u(*rng) + 1.0);
+    const MatrixXd A = Uniform(3, 3, rng);
+    const Matrix3d inertia = 0.05 * (A * A.transpose() + 0.5 * Matrix3d::Identity());
+    m_inv.block(6 * b, 6 * b, 3, 3) = Matrix3d::Identity() / mass;
+    m_inv.block(6 * b + 3, 6 * b + 3, 3, 3) = inertia.inverse();
+  }
+  MatrixXd g_n = MatrixXd::Zero(ndof, num_contacts);
+  MatrixXd g_f = MatrixXd::Zero(ndof, num_contacts * nd);
+  for (int c = 0; c < num_contacts; ++c) {
+    const int a = pick(*rng);
+    const Vector3d normal = Vector3d(0.3 * u(*rng), 0.3 * u(*rng), 1.0).normalized();
+    const Vector3d r_a(0.2 * u(*rng), 0.2 * u(*rng), -0.1);
+    AddContactColumns(a, r_a, normal, nd, c, &g_n, &g_f);
+    if (u(*rng) > 0.0) {  // contact with another body (b above a), else with the ground
+      const int b = pick(*rng);
+      if (b != a) {
+        const Vector3d r_b(0.2 * u(*rng), 0.2 * u(*rng), 0.1);
+        AddContactColumns(b, r_b, normal, nd, c, &g_n, &g_f, -1.0);
+      }
+    }
+  }
+  VectorXd v = 0.5 * Uniform(ndof, 1, rng);
+  for (int b = 0; b < num_bodies; ++b) v(6 * b + 2) -= kGravity * 0.01;  // falling one step
+  return AssembleContactLcp(m_inv, g_n, g_f, v, 0.5, nd);
+}
+
+TEST(LcpTest, ToStringNamesEveryStatus) {
+  EXPECT_EQ(ToString(SolverStatus::kSolved), "solved");
+  EXPECT_EQ(ToString(SolverStatus::kSecondaryRay), "secondary ray");
+  EXPECT_EQ(ToString(SolverStatus::kMaxIterations), "max iterations");
+  EXPECT_EQ(ToString(SolverStatus::kNumericalFailure), "numerical failure");
+  EXPECT_EQ(ToString(SolverStatus::kInvalidInput), "invalid input");
+}
+
+TEST(LcpTest, ResidualIsZeroAtSolutionAndMeasuresViolation) {
+  const LcpProblem p = Make(MatrixXd::Identity(2, 2), Vector2d(-1.0, 2.0));
+  EXPECT_EQ(LcpResidual(p, Vector2d(1.0, 0.0)), 0.0);
+  EXPECT_DOUBLE_EQ(LcpResidual(p, Vector2d(0.0, 0.0)), 1.0);   // w_0 = −1
+  EXPECT_DOUBLE_EQ(LcpResidual(p, Vector2d(1.0, -0.5)), 0.5);  // z_1 < 0
+  EXPECT_DOUBLE_EQ(LcpResidual(p, Vector2d(3.0, 0.0)), 2.0);   // z_0 w_0 ≠ 0
+  EXPECT_TRUE(std::isnan(LcpResidual(p, Vector2d(std::nan(""), 0.0))));
+}
+
+TEST(LcpTest, ResidualThrowsOnSizeMismatch) {
+  const LcpProblem p = Make(MatrixXd::Identity(2, 2), Vector2d(-1.0, 2.0));
+  EXPECT_THROW(LcpResidual(p, VectorXd::Zero(3)), std::invalid_argument);
+  EXPECT_THROW(LcpResidual(Make(MatrixXd::Identity(3, 2), Vector2d(1, 1)), Vector2d(0, 0)),
+               std::invalid_argument);
+}
+
+TEST(LemkeTest, ScalarProblem) {
+  const LcpProblem p = Make(MatrixXd::Ones(1, 1), VectorXd::Constant(1, -9.8));
+  VectorXd z;
+  const SolverReport r = LemkeSolver().Solve(p, nullptr, &z);
+  ASSERT_TRUE(r.ok()) << r.message;
+  EXPECT_NEAR(z(0), 9.8, 1e-12);
+  EXPECT_FALSE(r.regularized);
+  EXPECT_GE(r.time_s, 0.0);
+  ExpectLcpSolution(p, z, kTol);
+}
+
+TEST(LemkeTest, NonnegativeQGivesZeroWithoutPivots) {
+  MatrixXd M(3, 3);
+  M << 1, -2, 3, 0, -1, 4, 5, 6, -7;
+  const LcpProblem p = Make(M, Eigen::Vector3d(0.0, 1.0, 2.0));
+  VectorXd z = VectorXd::Constant(3, 7.0);
+  const SolverReport r = LemkeSolver().Solve(p, nullptr, &z);
+  ASSERT_TRUE(r.ok()) << r.message;
+  EXPECT_EQ(r.iterations, 0);
+  EXPECT_EQ(z, VectorXd::Zero(3));
+  EXPECT_EQ(r.residual, 0.0);
+}
+
+TEST(LemkeTest, EmptyProblemIsSolved) {
+  VectorXd z;
+  const SolverReport r = LemkeSolver().Solve(LcpProblem{}, nullptr, &z);
+  EXPECT_TRUE(r.ok());
+  EXPECT_EQ(z.size(), 0);
+}
+
+class LemkeOptionsTest : public ::testing::TestWithParam<std::tuple<bool, bool>> {
+ protected:
+  LemkeOptions Options() const {
+    LemkeOptions o;
+    o.lexicographic = std::get<0>(GetParam());
+    o.scale = std::get<1>(GetParam());
+    return o;
+  }
+};
+
+// Murty's matrix with q = −e (a P-matrix, unique solution e_n).
+TEST_P(LemkeOptionsTest, MurtyExponentialExample) {
+  for (int n : {8, 16}) {
+    const LcpProblem p = Murty(n);
+    VectorXd z;
+    const SolverReport r = LemkeSolver(Options()).Solve(p, nullptr, &z);
+    ASSERT_TRUE(r.ok()) << "n = " << n << ": " << r.message;
+    ExpectLcpSolution(p, z, kTol);
+    VectorXd expected = VectorXd::Zero(n);
+    expected(n - 1) = 1.0;
+    EXPECT_LE((z - expected).lpNorm<Eigen::Infinity>(), 1e-12) << "n = " << n;
+  }
+}
+
+// The transpose (1 on the diagonal, 2 below, q = −e; solution e_1) is the exponential case
+// for Lemke with covering vector e: exactly 2^n pivots (Murty 1978).
+TEST_P(LemkeOptionsTest, MurtyLowerTriangularExponentialPath) {
+  for (int n : {8, 16}) {
+    LcpProblem p = Murty(n);
+    p.M.transposeInPlace();
+    LemkeOptions o = Options();
+    o.max_pivots = 1 << 17;
+    VectorXd z;
+    const SolverReport r = LemkeSolver(o).Solve(p, nullptr, &z);
+    ASSERT_TRUE(r.ok()) << "n = " << n << ": " << r.message;
+    // The count is that of the lexicographic (perturbed, nondegenerate) path; the plain rule
+    // breaks the degenerate ties of q = −e differently and happens to finish in 4 pivots.
+    if (o.lexicographic) {
+      EXPECT_EQ(r.iterations, 1 << n);
+    }
+    ExpectLcpSolution(p, z, kTol);
+    VectorXd expected = VectorXd::Zero(n);
+    expected(0) = 1.0;
+    EXPECT_LE((z - expected).lpNorm<Eigen::Infinity>(), 1e-12) << "n = " << n;
+  }
+}
+
+TEST(LemkeTest, ExponentialPathHitsTheDefaultPivotLimitCleanly) {
+  const int n = 16;  // 2^16 pivots needed, default limit 50n + 100 = 900
+  LcpProblem p = Murty(n);
+  p.M.transposeInPlace();
+  LemkeOptions o;
+  o.regularization = 0.0;
+  VectorXd z;
+  const SolverReport r = LemkeSolver(o).Solve(p, nullptr, &z);
+  EXPECT_EQ(r.status, SolverStatus::kMaxIterations);
+  EXPECT_EQ(r.iterations, 50 * n + 100);
+  EXPECT_NE(r.message.find("pivot limit"), std::string::npos) << r.message;
+  ASSERT_EQ(z.size(), n);
+  EXPECT_TRUE(z.allFinite());
+  EXPECT_EQ(r.residual, LcpResidual(p, z));
+}
+
+// The classic 3×3 cycling example (P-matrix, unique solution (1/3, 1/3, 1/3)).
+TEST_P(LemkeOptionsTest, CyclingExample) {
+  if (!std::get<0>(GetParam())) GTEST_SKIP() << "anti-cycling needs the lexicographic rule";
+  MatrixXd M(3, 3);
+  M << 1, 2, 0, 0, 1, 2, 2, 0, 1;
+  const LcpProblem p = Make(M, -Eigen::Vector3d::Ones());
+  VectorXd z;
+  const SolverReport r = LemkeSolver(Options()).Solve(p, nullptr, &z);
+  ASSERT_TRUE(r.ok()) << r.message;
+  ExpectLcpSolution(p, z, kTol);
+  EXPECT_LE((z - Eigen::Vector3d::Constant(1.0 / 3.0)).lpNorm<Eigen::Infinity>(), 1e-12);
+}
+
+// PSD singular with tied q: a continuum of solutions z_0 + z_1 = 1.
+TEST_P(LemkeOptionsTest, DegenerateTiedPsd) {
+  const LcpProblem p = Make(MatrixXd::Ones(2, 2), -Vector2d::Ones());
+  VectorXd z;
+  const SolverReport r = LemkeSolver(Options()).Solve(p, nullptr, &z);
+  ASSERT_TRUE(r.ok()) << r.message;
+  ExpectLcpSolution(p, z, kTol);
+  EXPECT_NEAR(z.sum(), 1.0, 1e-12);
+}
+
+TEST_P(LemkeOptionsTest, DegenerateWithZerosInQ) {
+  // q has exact zeros and ties: every ratio test in the first pivots is degenerate.
+  MatrixXd M(4, 4);
+  M << 1, 1, 0, 0, 1, 1, 0, 0, 0, 0, 2, -1, 0, 0, 1, 0;
+  const LcpProblem p = Make(M, Eigen::Vector4d(-1.0, -1.0, 0.0, 0.0));
+  VectorXd z;
+  const SolverReport r = LemkeSolver(Options()).Solve(p, nullptr, &z);
+  ASSERT_TRUE(r.ok()) << r.message;
+  ExpectLcpSolution(p, z, kTol);
+}
+
+TEST_P(LemkeOptionsTest, RandomPsdAndPMatrixProblems) {
+  std::mt19937 rng(20240611);
+  for (int n : {10, 50, 200}) {
+    for (int trial = 0; trial < 3; ++trial) {
+      for (const LcpProblem& p : {RandomPsdLcp(n, &rng), RandomPMatrixLcp(n, &rng)}) {
+        VectorXd z;
+        const SolverReport r = LemkeSolver(Options()).Solve(p, nullptr, &z);
+        ASSERT_TRUE(r.ok()) << "n = " << n << ", trial " << trial << ": " << r.message;
+        EXPECT_FALSE(r.regularized);
+        EXPECT_GT(r.iterations, 0);
+        ExpectLcpSolution(p, z, kTol);
+      }
+    }
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(LexAndScale, LemkeOptionsTest,
+                         ::testing::Combine(::testing::Bool(), ::testing::Bool()));
+
+TEST(LemkeTest, InfeasibleProblemsEndOnSecondaryRay) {
+  // w = 0·z − 1 < 0 for all z, and w = −z − 1 < 0 for all z ≥ 0: no solution exists.
+  const std::vector<LcpProblem> problems = {
+      Make(MatrixXd::Zero(1, 1), VectorXd::Constant(1, -1.0)),
+      Make(-MatrixXd::Identity(2, 2), -Vector2d::Ones()),
+      // Row 0 alone is solvable (z_0 = 1), but row 1 is w_1 = −z_0 − 1 < 0.
+      Make((MatrixXd(2, 2) << 1, 0, -1, 0).finished(), Vector2d(-1.0, -1.0))};
+  for (const LcpProblem& p : problems) {
+    VectorXd z;
+    const SolverReport r = LemkeSolver().Solve(p, nullptr, &z);
+    EXPECT_EQ(r.status, SolverStatus::kSecondaryRay) << r.message;
+    EXPECT_FALSE(r.ok());
+    EXPECT_FALSE(r.regularized);
+    EXPECT_NE(r.message.find("secondary ray"), std::string::npos) << r.message;
+    ASSERT_EQ(z.size(), p.size());
+    EXPECT_TRUE(z.allFinite());
+    EXPECT_GE(r.residual, 1.0 - 1e-12);  // no z can do better than |w_i| = 1
+  }
+}
+
+TEST(LemkeTest, MaxPivotsIsReported) {
+  MatrixXd M(3, 3);
+  M << 1, 2, 0, 0, 1, 2, 2, 0, 1;
+  const LcpProblem p = Make(M, -Eigen::Vector3d::Ones());
+  LemkeOptions o;
+  o.max_pivots = 1;
+  o.regularization = 0.0;
+  VectorXd z;
+  const SolverReport r = LemkeSolver(o).Solve(p, nullptr, &z);
+  EXPECT_EQ(r.status, SolverStatus::kMaxIterations);
+  EXPECT_EQ(r.iterations, 1);
+  EXPECT_GT(r.residual, kTol);
+}
+
+TEST(LemkeTest, BoxAtRestOnPlaneStaysAtRest) {
+  const double mass = 2.0, h = 0.01, mu = 0.5;
+  const ContactLcp c = BoxOnPlane(mass, Vector3d(0.3, 0.2, 0.1), 0.4, VectorXd::Zero(6), mu, h, 4);
+  VectorXd z;
+  const SolverReport r = LemkeSolver().Solve(c.lcp, nullptr, &z);
+  ASSERT_TRUE(r.ok()) << r.message;
+  ExpectLcpSolution(c.lcp, z, kTol);
+  EXPECT_LE(c.VelocityAfter(z).lpNorm<Eigen::Infinity>(), 1e-9);
+  EXPECT_NEAR(z.head(4).sum(), mass * kGravity * h, 1e-9);  // Σ p_n = m g h
+}
+
+TEST(LemkeTest, SlidingBoxDeceleratesByMuGH) {
+  // Low box sliding along +x: μ c < a so it cannot tip; all four corners slide.
+  const double mass = 1.5, h = 0.01, mu = 0.5, vx = 1.0;
+  VectorXd v = VectorXd::Zero(6);
+  v(0) = vx;
+  const ContactLcp c = BoxOnPlane(mass, Vector3d(0.2, 0.2, 0.05), 0.0, v, mu, h, 4);
+  VectorXd z;
+  const SolverReport r = LemkeSolver().Solve(c.lcp, nullptr, &z);
+  ASSERT_TRUE(r.ok()) << r.message;
+  ExpectLcpSolution(c.lcp, z, kTol);
+  VectorXd expected = VectorXd::Zero(6);
+  expected(0) = vx - mu * kGravity * h;
+  EXPECT_LE((c.VelocityAfter(z) - expected).lpNorm<Eigen::Infinity>(), 1e-9);
+}
+
+TEST(LemkeTest, RandomBoxOnPlaneContactLcps) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int trial = 0; trial < 30; ++trial) {
+    const Vector3d half(0.1 + 0.1 * (u(rng) + 1.0), 0.1 + 0.1 * (u(rng) + 1.0),
+                        0.05 + 0.05 * (u(rng) + 1.0));
+    VectorXd v = Uniform(6, 1, &rng);
+    v(2) = -std::abs(v(2));  // approaching or resting
+    const ContactLcp c = BoxOnPlane(1.0 + u(rng) * 0.5, half, M_PI * u(rng), v, 0.5, 0.01, 4);
+    ASSERT_EQ(c.lcp.size(), 24);
+    VectorXd z;
+    const SolverReport r = LemkeSolver().Solve(c.lcp, nullptr, &z);
+    ASSERT_TRUE(r.ok()) << "trial " << trial << ": " << r.message;
+    EXPECT_LE(LcpResidual(c.lcp, z), 1e-9);
+    ExpectLcpSolution(c.lcp, z, kTol);
+    // Physics: no contact point moves into the plane after the step.
+    EXPECT_GE((c.g_n.transpose() * c.VelocityAfter(z)).minCoeff(), -1e-9);
+  }
+}
+
+TEST(LemkeTest, RandomMultiBodyContactLcps) {
+  std::mt19937 rng(11);
+  for (int nc : {2, 8, 33}) {
+    for (int trial = 0; trial < 3; ++trial) {
+      const ContactLcp c = RandomContactLcp(std::max(1, nc / 4), nc, 4, &rng);
+      VectorXd z;
+      const SolverReport r = LemkeSolver().Solve(c.lcp, nullptr, &z);
+      ASSERT_TRUE(r.ok()) << "nc = " << nc << ", trial " << trial << ": " << r.message;
+      ExpectLcpSolution(c.lcp, z, kTol);
+    }
+  }
+}
+
+TEST(LemkeTest, ExactWarmStartNeedsNoPivots) {
+  std::mt19937 rng(3);
+  for (const ContactLcp& c :
+       {BoxOnPlane(1.0, Vector3d(0.2, 0.1, 0.05), 0.3,
+                   (VectorXd(6) << 0.5, -0.2, 0, 0, 0, 1).finished(), 0.5, 0.01, 4),
+        RandomContactLcp(4, 16, 4, &rng)}) {
+    VectorXd z_cold;
+    const SolverReport cold = LemkeSolver().Solve(c.lcp, nullptr, &z_cold);
+    ASSERT_TRUE(cold.ok()) << cold.message;
+    ASSERT_GT(cold.iterations, 0);
+    VectorXd z_warm;
+    const SolverReport warm = LemkeSolver().Solve(c.lcp, &z_cold, &z_warm);
+    ASSERT_TRUE(warm.ok()) << warm.message;
+    EXPECT_EQ(warm.iterations, 0);
+    EXPECT_LE((z_warm - z_cold).lpNorm<Eigen::Infinity>(), 1e-9);
+    ExpectLcpSolution(c.lcp, z_warm, kTol);
+  }
+}
+
+TEST(LemkeTest, InexactWarmStartStillSolves) {
+  std::mt19937 rng(5);
+  const LcpProblem p = RandomPMatrixLcp(30, &rng);
+  VectorXd z_cold;
+  ASSERT_TRUE(LemkeSolver().Solve(p, nullptr, &z_cold).ok());
+  // Wrong active set: drop the first positive entry, add a zero one.
+  VectorXd guess = z_cold;
+  int dropped = -1, added = -1;
+  for (int i = 0; i < guess.size(); ++i) {
+    if (guess(i) > 0.0 && dropped < 0) {
+      guess(i) = 0.0;
+      dropped = i;
+    } else if (guess(i) == 0.0 && added < 0) {
+      guess(i) = 1.0;
+      added = i;
+    }
+  }
+  ASSERT_GE(dropped, 0);
+  ASSERT_GE(added, 0);
+  VectorXd z;
+  const SolverReport r = LemkeSolver().Solve(p, &guess, &z);
+  ASSERT_TRUE(r.ok()) << r.message;
+  EXPECT_GT(r.iterations, 0);  // the wrong basis was rejected, a cold run solved it
+  ExpectLcpSolution(p, z, kTol);
+  // A P-matrix LCP has a unique solution.
+  EXPECT_LE((z - z_cold).lpNorm<Eigen::Infinity>(), 1e-9);
+
+  // A warm start of the wrong size is ignored.
+  const VectorXd wrong = VectorXd::Ones(3);
+  const SolverReport r2 = LemkeSolver().Solve(p, &wrong, &z);
+  ASSERT_TRUE(r2.ok()) << r2.message;
+  ExpectLcpSolution(p, z, kTol);
+}
+
+TEST(LemkeTest, RegularizedRetryIsReported) {
+  // A pivot of 1e-13 is below the pivot tolerance, so the plain (unscaled) run stops on a
+  // spurious secondary ray; on M + 1e-10·I it terminates and passes on the original problem.
+  const LcpProblem p = Make(MatrixXd::Constant(1, 1, 1e-13), VectorXd::Constant(1, -1e-13));
+  LemkeOptions plain;
+  plain.scale = false;
+  plain.regularization = 0.0;
+  VectorXd z;
+  const SolverReport r0 = LemkeSolver(plain).Solve(p, nullptr, &z);
+  EXPECT_EQ(r0.status, SolverStatus::kSecondaryRay);
+  EXPECT_FALSE(r0.regularized);
+
+  LemkeOptions retry = plain;
+  retry.regularization = 1e-10;
+  const SolverReport r = LemkeSolver(retry).Solve(p, nullptr, &z);
+  ASSERT_TRUE(r.ok()) << r.message;
+  EXPECT_TRUE(r.regularized);
+  EXPECT_EQ(r.regularization, 1e-10);
+  EXPECT_NE(r.message.find("regularized"), std::string::npos) << r.message;
+  EXPECT_GT(z(0), 0.0);
+  EXPECT_EQ(r.residual, LcpResidual(p, z));
+  ExpectLcpSolution(p, z, kTol);
+}
+
+TEST(LemkeTest, RegularizedRetryNeverAcceptsAWrongAnswer) {
+  // Infeasible: the retry on M + εI terminates (z = 1/ε) but fails on the original problem.
+  const LcpProblem p = Make(MatrixXd::Zero(1, 1), VectorXd::Constant(1, -1.0));
+  VectorXd z;
+  const SolverReport r = LemkeSolver().Solve(p, nullptr, &z);
+  EXPECT_EQ(r.status, SolverStatus::kSecondaryRay);
+  EXPECT_NE(r.message.find("regularized retries"), std::string::npos) << r.message;
+  EXPECT_EQ(r.residual, LcpResidual(p, z));
+  EXPECT_GE(r.residual, 1.0);
+}
+
+TEST(LemkeTest, ScalingHandlesBadlyScaledRows) {
+  // Rows/columns spanning 12 orders of magnitude; scaling makes the pivots admissible.
+  std::mt19937 rng(9);
+  LcpProblem p = RandomPMatrixLcp(20, &rng);
+  VectorXd d(20);
+  for (int i = 0; i < 20; ++i) d(i) = std::pow(10.0, -6.0 + 12.0 * i / 19.0);
+  p.M = d.asDiagonal() * p.M * d.asDiagonal();
+  p.q = d.asDiagonal() * p.q;
+  VectorXd z;
+  const SolverReport r = LemkeSolver().Solve(p, nullptr, &z);
+  ASSERT_TRUE(r.ok()) << r.message;
+  ExpectLcpSolution(p, z, kTol);
+}
+
+TEST(LemkeTest, InvalidInputIsReportedNotThrown) {
+  VectorXd z;
+  const LemkeSolver solver;
+  const LcpProblem nan_q = Make(MatrixXd::Identity(2, 2), Vector2d(std::nan(""), -1.0));
+  EXPECT_EQ(solver.Solve(nan_q, nullptr, &z).status, SolverStatus::kInvalidInput);
+  EXPECT_EQ(z, VectorXd::Zero(2));
+  MatrixXd inf_m = MatrixXd::Identity(2, 2);
+  inf_m(0, 1) = std::numeric_limits<double>::infinity();
+  EXPECT_EQ(solver.Solve(Make(inf_m, -Vector2d::Ones()), nullptr, &z).status,
+            SolverStatus::kInvalidInput);
+  const SolverReport r =
+      solver.Solve(Make(MatrixXd::Identity(3, 3), -Vector2d::Ones()), nullptr, &z);
+  EXPECT_EQ(r.status, SolverStatus::kInvalidInput);
+  EXPECT_NE(r.message.find("3x3"), std::string::npos) << r.message;
+  EXPECT_EQ(solver.Solve(Make(MatrixXd::Identity(2, 3), -Vector2d::Ones()), nullptr, &z).status,
+            SolverStatus::kInvalidInput);
+}
+
+TEST(LemkeTest, MisuseThrows) {
+  const LcpProblem p = Make(MatrixXd::Identity(1, 1), VectorXd::Constant(1, -1.0));
+  EXPECT_THROW(LemkeSolver().Solve(p, nullptr, nullptr), std::invalid_argument);
+  LemkeOptions o;
+  o.pivot_tolerance = -1.0;
+  VectorXd z;
+  try {
+    LemkeSolver(o).Solve(p, nullptr, &z);
+    FAIL() << "expected std::invalid_argument";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("pivot_tolerance"), std::string::npos) << e.what();
+  }
+  o = LemkeOptions{};
+  o.max_pivots = -3;
+  EXPECT_THROW(LemkeSolver(o).Solve(p, nullptr, &z), std::invalid_argument);
+}
+
+TEST(LemkeTest, DeterministicAcrossCallsAndThreads) {
+  std::mt19937 rng(13);
+  const ContactLcp c = RandomContactLcp(8, 33, 4, &rng);
+  const LemkeSolver solver;
+  VectorXd z1, z2, z3;
+  const SolverReport r1 = solver.Solve(c.lcp, nullptr, &z1);
+  const SolverReport r2 = solver.Solve(c.lcp, nullptr, &z2);
+  SolverReport r3;
+  std::thread t([&] { r3 = solver.Solve(c.lcp, nullptr, &z3); });
+  t.join();
+  ASSERT_TRUE(r1.ok()) << r1.message;
+  ASSERT_EQ(z1.size(), z2.size());
+  ASSERT_EQ(z1.size(), z3.size());
+  EXPECT_EQ(std::memcmp(z1.data(), z2.data(), sizeof(double) * z1.size()), 0);
+  EXPECT_EQ(std::memcmp(z1.data(), z3.data(), sizeof(double) * z1.size()), 0);
+  EXPECT_EQ(r1.iterations, r2.iterations);
+  EXPECT_EQ(r1.iterations, r3.iterations);
+  EXPECT_EQ(r1.residual, r3.residual);
+}
+
+}  // namespace
+}  // namespace vinci::sim

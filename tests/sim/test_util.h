@@ -1,0 +1,43 @@
+// Shared helpers for the sim tests: loading the bundled example scenes, energies, rollouts.
+#pragma once
+
+#include <string>
+
+#include "vinci/sim/scene_file.h"
+#include "vinci/sim/simulator.h"
+
+namespace vinci::sim::testing {
+
+/// Loads examples/scenes/<name>.
+inline Scene LoadExample(const std::string& name) {
+  return LoadSceneFile(std::string(VINCI_SOURCE_DIR) + "/examples/scenes/" + name);
+}
+
+/// Params with the named entries overwritten.
+inline Params WithParams(const Simulator& sim,
+                         const std::vector<std::pair<std::string, double>>& values) {
+  Params p = sim.DefaultParams();
+  for (const auto& [name, v] : values) p.values[sim.scene().param_table().Index(name)] = v;
+  return p;
+}
+
+/// Kinetic + gravitational potential energy of the dynamic bodies (J).
+inline double Energy(const Scene& s, const State& x) {
+  double e = 0.0;
+  for (int bi : s.dynamic_bodies()) {
+    const Body& b = s.bodies[bi];
+    const BodyIndex& idx = s.index(bi);
+    if (s.dim == Dim::kPlanar) {
+      const Eigen::Vector3d v = x.v.segment<3>(idx.v);
+      e += 0.5 * b.mass * v.head<2>().squaredNorm() + 0.5 * b.inertia(2, 2) * v[2] * v[2];
+      e -= b.mass * s.gravity_W.head<2>().dot(x.q.segment<2>(idx.q));
+    } else {
+      const Eigen::Matrix<double, 6, 1> v = x.v.segment<6>(idx.v);
+      e += 0.5 * b.mass * v.head<3>().squaredNorm() + 0.5 * v.tail<3>().dot(b.inertia * v.tail<3>());
+      e -= b.mass * s.gravity_W.dot(x.q.segment<3>(idx.q));
+    }
+  }
+  return e;
+}
+
+}  // namespace vinci::sim::testing
