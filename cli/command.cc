@@ -26,11 +26,12 @@ ExitCode RunCommand(const Command& command) {
 
 std::string ExitCodeHelp() {
   return "Exit status:\n"
-         "  0  success\n"
-         "  1  bad input (unreadable or invalid file, invalid flag value)\n"
-         "  2  usage error (unknown flag, missing argument, no subcommand)\n"
-         "  3  a simulation step failed (partial results are still written)\n"
-         "  4  internal error";
+         "    0  success\n"
+         "    1  bad input (unreadable or invalid file, invalid flag value)\n"
+         "    2  usage error (unknown flag, missing argument, no subcommand)\n"
+         "    3  a simulation step failed (partial results are still written)\n"
+         "    4  internal error\n"
+         "  130  interrupted (Ctrl-C, SIGTERM); partial results are still written";
 }
 
 }  // namespace vinci::cli

@@ -3,20 +3,20 @@
 // `Command Register<Name>Command(CLI::App& app)` and one line in main.cc.
 #pragma once
 
+#include <CLI/CLI.hpp>
 #include <functional>
 #include <string>
-
-#include <CLI/CLI.hpp>
 
 namespace vinci::cli {
 
 /// Exit status of the `vinci` executable (documented in `vinci --help`).
 enum class ExitCode : int {
-  kOk = 0,          ///< the job completed
-  kBadInput = 1,    ///< unreadable or invalid scene/input file, invalid flag value
-  kUsage = 2,       ///< malformed command line (unknown flag, missing argument, no subcommand)
-  kStepFailed = 3,  ///< a simulation step failed; partial results were written
-  kInternal = 4,    ///< a bug: an unexpected exception (please report it)
+  kOk = 0,             ///< the job completed
+  kBadInput = 1,       ///< unreadable or invalid scene/input file, invalid flag value
+  kUsage = 2,          ///< malformed command line (unknown flag, missing argument, no subcommand)
+  kStepFailed = 3,     ///< a simulation step failed; partial results were written
+  kInternal = 4,       ///< a bug: an unexpected exception (please report it)
+  kInterrupted = 130,  ///< stopped by SIGINT/SIGTERM; partial results were written
 };
 
 /// A registered subcommand: its CLI11 parser (owned by the parent app) and the job to run once

@@ -1,9 +1,8 @@
 // The `vinci` executable: one subcommand per job, each a thin layer over the libraries.
+#include <CLI/CLI.hpp>
 #include <iostream>
 #include <string>
 #include <vector>
-
-#include <CLI/CLI.hpp>
 
 #include "command.h"
 #include "simulate_command.h"
@@ -26,8 +25,8 @@ int HandleParseError(const CLI::App& app, const std::vector<Command>& commands,
   for (const Command& c : commands) {
     if (c.app->parsed()) usage = "vinci " + c.app->get_name() + " --help";
   }
-  const bool bad_value =
-      dynamic_cast<const CLI::ConversionError*>(&e) || dynamic_cast<const CLI::ValidationError*>(&e);
+  const bool bad_value = dynamic_cast<const CLI::ConversionError*>(&e) ||
+                         dynamic_cast<const CLI::ValidationError*>(&e);
   if (bad_value) {
     vinci::cli::PrintError(e.what());
     return static_cast<int>(ExitCode::kBadInput);

@@ -6,6 +6,7 @@
 #include <charconv>
 #include <chrono>
 #include <cmath>
+#include <csignal>
 #include <cstdint>
 #include <fstream>
 #include <iomanip>
@@ -39,6 +40,35 @@ constexpr double kFlushIntervalS = 0.1;
 constexpr double kTtyRedrawS = 0.1;
 constexpr double kQuietRunS = 2.0;
 constexpr double kTwoPi = 6.283185307179586476925286766559;
+
+// Set by SIGINT/SIGTERM during a run: the loop stops after the current step and the results so
+// far are written as for a failed step. A second signal takes the default action (terminates).
+volatile std::sig_atomic_t g_interrupted = 0;
+
+extern "C" void OnInterrupt(int signal) {
+  g_interrupted = signal;
+  std::signal(signal, SIG_DFL);
+}
+
+// Installs OnInterrupt for the lifetime of the object.
+class InterruptGuard {
+ public:
+  InterruptGuard() {
+    g_interrupted = 0;
+    old_int_ = std::signal(SIGINT, OnInterrupt);
+    old_term_ = std::signal(SIGTERM, OnInterrupt);
+  }
+  ~InterruptGuard() {
+    std::signal(SIGINT, old_int_);
+    std::signal(SIGTERM, old_term_);
+  }
+  InterruptGuard(const InterruptGuard&) = delete;
+  InterruptGuard& operator=(const InterruptGuard&) = delete;
+
+ private:
+  void (*old_int_)(int) = SIG_DFL;
+  void (*old_term_)(int) = SIG_DFL;
+};
 
 double Seconds(Clock::duration d) { return std::chrono::duration<double>(d).count(); }
 
@@ -131,8 +161,8 @@ class BodyColumns {
           if (quat.coeffs().dot(quat_[i].coeffs()) < 0) quat.coeffs() *= -1.0;
           quat_[i] = quat;
         }
-        Push({p.x(), p.y(), p.z(), quat.w(), quat.x(), quat.y(), quat.z(), k.v_WB.x(),
-              k.v_WB.y(), k.v_WB.z(), k.w_WB.x(), k.w_WB.y(), k.w_WB.z()});
+        Push({p.x(), p.y(), p.z(), quat.w(), quat.x(), quat.y(), quat.z(), k.v_WB.x(), k.v_WB.y(),
+              k.v_WB.z(), k.w_WB.x(), k.w_WB.y(), k.w_WB.z()});
       }
     }
     return values_;
@@ -199,15 +229,15 @@ class Progress {
     if (tty_) {
       if (Seconds(now - last_draw_) < kTtyRedrawS) return;
       last_draw_ = now;
-      std::cerr << "\rvinci simulate: " << std::setw(3) << percent << "% (" << done << "/"
+      std::cerr << "\r\033[Kvinci simulate: " << std::setw(3) << percent << "% (" << done << "/"
                 << total_ << " steps, t = " << t << " s, " << std::fixed << std::setprecision(1)
                 << elapsed << " s)" << std::defaultfloat << std::setprecision(6) << std::flush;
       drawn_ = true;
     } else if (elapsed >= kQuietRunS && percent / 10 > last_decile_) {
       last_decile_ = percent / 10;
       std::cerr << "vinci simulate: " << 10 * last_decile_ << "% (" << done << "/" << total_
-                << " steps, t = " << t << " s, " << std::fixed << std::setprecision(1)
-                << elapsed << " s)" << std::defaultfloat << std::setprecision(6) << std::endl;
+                << " steps, t = " << t << " s, " << std::fixed << std::setprecision(1) << elapsed
+                << " s)" << std::defaultfloat << std::setprecision(6) << std::endl;
     }
   }
 
@@ -221,7 +251,7 @@ class Progress {
   bool enabled_, tty_;
   std::int64_t total_;
   Clock::time_point start_ = Clock::now();
-  Clock::time_point last_draw_ = start_ - std::chrono::seconds(1);
+  Clock::time_point last_draw_ = start_;  // first drawn after kTtyRedrawS: short runs stay quiet
   bool drawn_ = false;
   int last_decile_ = 0;
 };
@@ -274,10 +304,9 @@ std::string FormatRow(std::int64_t step, const sim::State& x, const std::vector<
   return row;
 }
 
-void PrintSummary(const sim::Simulator& simulator, const RunStats& stats,
-                  std::int64_t num_steps, double t_final, double wall_s,
-                  const std::vector<double>& final_values, int per_body, const std::string& out,
-                  std::int64_t csv_rows, bool failed) {
+void PrintSummary(const sim::Simulator& simulator, const RunStats& stats, std::int64_t num_steps,
+                  double t_final, double wall_s, const std::vector<double>& final_values,
+                  int per_body, const std::string& out, std::int64_t csv_rows, bool partial) {
   const sim::Scene& scene = simulator.scene();
   int count[3] = {0, 0, 0};
   for (const sim::Body& b : scene.bodies) ++count[static_cast<int>(b.kind)];
@@ -288,14 +317,13 @@ void PrintSummary(const sim::Simulator& simulator, const RunStats& stats,
     << " bodies: " << count[0] << " dynamic, " << count[1] << " static, " << count[2]
     << " prescribed)\n";
   s << "steps       " << stats.steps_done << " / " << num_steps << " (dt = " << scene.options.dt
-    << " s, solver " << scene.options.solver << ")" << (failed ? "  PARTIAL: a step failed" : "")
-    << "\n";
+    << " s, solver " << scene.options.solver << ")" << (partial ? "  PARTIAL" : "") << "\n";
   s << "simulated   " << t_final << " s\n";
   s << "wall time   " << wall_s << " s";
   if (wall_s > 0 && stats.steps_done > 0)
     s << " (" << std::fixed << std::setprecision(0)
-      << static_cast<double>(stats.steps_done) / wall_s << std::defaultfloat
-      << std::setprecision(6) << " steps/s)";
+      << static_cast<double>(stats.steps_done) / wall_s << std::defaultfloat << std::setprecision(6)
+      << " steps/s)";
   s << "\n";
   s << "contacts    max " << stats.max_contacts << " per step\n";
   s << "solver      " << stats.total_iterations << " iterations in total, max "
@@ -315,7 +343,7 @@ void PrintSummary(const sim::Simulator& simulator, const RunStats& stats,
     s << "trajectory  not written (use --out FILE)\n";
   else
     s << "trajectory  " << out << " (" << csv_rows - 1 << (csv_rows == 2 ? " state" : " states")
-      << (failed ? ", partial" : "") << ")\n";
+      << (partial ? ", partial" : "") << ")\n";
   std::cout << s.str() << std::flush;
 }
 
@@ -360,8 +388,7 @@ ExitCode RunSimulate(const SimulateOptions& o) {
   const sim::StepInput no_input;
   sim::State x = simulator.InitialState(), next;
   if (csv) {
-    csv->Write("step,t" + columns.Header() +
-               ",contacts,solver_iterations,residual,min_gap,status");
+    csv->Write("step,t" + columns.Header() + ",contacts,solver_iterations,residual,min_gap,status");
     csv->Write(FormatRow(0, x, columns.Evaluate(x), nullptr));
     csv->Flush();  // the header and the initial state exist whatever happens next
   }
@@ -370,7 +397,9 @@ ExitCode RunSimulate(const SimulateOptions& o) {
   Progress progress(!o.quiet, num_steps);
   sim::StepInfo failed;
   std::int64_t failed_step = -1;
+  InterruptGuard interrupt_guard;
   for (std::int64_t k = 0; k < num_steps; ++k) {
+    if (g_interrupted) break;
     sim::StepInfo info = simulator.Step(params, x, no_input, &ws, &next);
     if (!info.ok) {
       failed = std::move(info);
@@ -386,11 +415,19 @@ ExitCode RunSimulate(const SimulateOptions& o) {
   if (csv) csv->Close();
   const double wall_s = Seconds(Clock::now() - start);
 
-  const bool ok = failed_step < 0;
+  const bool interrupted = failed_step < 0 && stats.steps_done < num_steps;
+  const bool ok = failed_step < 0 && !interrupted;
   if (!o.quiet)
-    PrintSummary(simulator, stats, num_steps, x.t, wall_s, columns.Evaluate(x),
-                 columns.per_body(), o.out, csv ? csv->rows() : 0, !ok);
+    PrintSummary(simulator, stats, num_steps, x.t, wall_s, columns.Evaluate(x), columns.per_body(),
+                 o.out, csv ? csv->rows() : 0, !ok);
   if (ok) return ExitCode::kOk;
+  if (interrupted) {
+    std::ostringstream msg;
+    msg << "interrupted after " << stats.steps_done << " of " << num_steps << " steps";
+    if (csv) msg << "; the trajectory in '" << o.out << "' is partial";
+    PrintError(msg.str());
+    return ExitCode::kInterrupted;
+  }
   std::ostringstream msg;
   msg << std::setprecision(17) << "step " << failed_step << " (from t = " << x.t
       << " s) failed: " << failed.failure;
@@ -403,8 +440,8 @@ ExitCode RunSimulate(const SimulateOptions& o) {
 
 Command RegisterSimulateCommand(CLI::App& app) {
   auto options = std::make_shared<SimulateOptions>();
-  CLI::App* sub = app.add_subcommand(
-      "simulate", "Simulate a scene and write its trajectory as CSV.");
+  CLI::App* sub =
+      app.add_subcommand("simulate", "Simulate a scene and write its trajectory as CSV.");
   sub->add_option("SCENE", options->scene_path, "Scene file (YAML, see docs/scene-format.md)")
       ->required()
       ->check(CLI::ExistingFile);

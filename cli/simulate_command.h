@@ -1,10 +1,9 @@
 // `vinci simulate SCENE`: run a scene forward in time and write its trajectory as CSV.
 #pragma once
 
+#include <CLI/CLI.hpp>
 #include <optional>
 #include <string>
-
-#include <CLI/CLI.hpp>
 
 #include "command.h"
 
@@ -13,11 +12,11 @@ namespace vinci::cli {
 /// Everything `vinci simulate` takes from the command line.
 struct SimulateOptions {
   std::string scene_path;
-  std::optional<double> duration;    ///< s; overrides stepper.duration
-  std::optional<double> dt;          ///< s; overrides stepper.dt
-  std::optional<std::string> solver; ///< overrides stepper.solver
-  std::string out;                   ///< CSV path; empty: no CSV
-  bool quiet = false;                ///< no progress, no summary (errors are still printed)
+  std::optional<double> duration;     ///< s; overrides stepper.duration
+  std::optional<double> dt;           ///< s; overrides stepper.dt
+  std::optional<std::string> solver;  ///< overrides stepper.solver
+  std::string out;                    ///< CSV path; empty: no CSV
+  bool quiet = false;                 ///< no progress, no summary (errors are still printed)
 };
 
 /// Adds the `simulate` subcommand to `app`.

@@ -531,7 +531,7 @@ TEST(CollisionTest, CapsuleBox) {
       for (const ContactPoint& c : cs) {
         EXPECT_NEAR(c.gap, 0.03, kTol);
         EXPECT_TRUE(Near(c.n_W, R * n_B, kTol));
-        const Vector3d p_B = X_WB.inverse() * c.p_B_W;
+        const Vector3d p_B = X_WB.inverse(Eigen::Isometry) * c.p_B_W;
         EXPECT_NEAR(p_B.x(), 0.5, kTol);
         EXPECT_NEAR(p_B.z(), 0.3, kTol);
       }
@@ -1053,7 +1053,7 @@ Projector ProjectOnto(const Shape& s, const Isometry3d& X) {
       };
     case ShapeType::kBox:
       return [=](const Vector3d& x) -> Vector3d {
-        const Vector3d local = X.inverse() * x;
+        const Vector3d local = X.inverse(Eigen::Isometry) * x;
         return X * local.cwiseMax(-s.half_extents).cwiseMin(s.half_extents);
       };
     default:  // capsule
@@ -1112,7 +1112,9 @@ TEST(CollisionTest, RandomizedGapsMatchBruteForceDistance) {
       const auto cs = Collide(*p.a, X_WA, *p.b, X_WB, envelope);
       if (d < 1e-4) continue;  // touching or penetrating: no distance to compare
       if (d > envelope) {
-        if (p.min_gap_is_distance) EXPECT_TRUE(cs.empty()) << "d = " << d << "\n" << Describe(cs);
+        if (p.min_gap_is_distance) {
+          EXPECT_TRUE(cs.empty()) << "d = " << d << "\n" << Describe(cs);
+        }
         continue;
       }
       ++compared;
@@ -1123,7 +1125,9 @@ TEST(CollisionTest, RandomizedGapsMatchBruteForceDistance) {
         closest = std::min(closest, std::abs(c.gap - d));
       }
       EXPECT_LE(closest, kBruteTol) << "k = " << k << " d = " << d << "\n" << Describe(cs);
-      if (p.min_gap_is_distance) EXPECT_NEAR(min_gap, d, kBruteTol) << "k = " << k;
+      if (p.min_gap_is_distance) {
+        EXPECT_NEAR(min_gap, d, kBruteTol) << "k = " << k;
+      }
     }
     EXPECT_GT(compared, 40);  // enough separated-within-envelope samples to mean something
   }

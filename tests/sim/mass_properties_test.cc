@@ -60,9 +60,9 @@ TEST(MassPropertiesTest, Box) {
   const UnitMassProperties m = ComputeUnitMassProperties(s);
   EXPECT_NEAR(m.volume, 0.08, kTol);
   const double a = 1.0, b = 0.4, c = 0.2;
-  EXPECT_TRUE(MatNear(m.inertia_per_mass_S,
-                      Vector3d(b * b + c * c, a * a + c * c, a * a + b * b).asDiagonal() / 12.0,
-                      kTol));
+  const Matrix3d expected =
+      Matrix3d(Vector3d(b * b + c * c, a * a + c * c, a * a + b * b).asDiagonal()) / 12.0;
+  EXPECT_TRUE(MatNear(m.inertia_per_mass_S, expected, kTol));
 }
 
 TEST(MassPropertiesTest, CapsuleMatchesSliceIntegrationAndSphereLimit) {
@@ -83,7 +83,7 @@ TEST(MassPropertiesTest, CapsuleMatchesSliceIntegrationAndSphereLimit) {
       [&](double z) { return kPi * rho2(z) * rho2(z) / 4 + kPi * rho2(z) * z * z; }, -hl - r, hl + r);
   EXPECT_NEAR(m.volume, V, kQuadratureTol);
   EXPECT_NEAR(m.volume, kPi * r * r * 2 * hl + 4.0 / 3.0 * kPi * r * r * r, kTol);
-  EXPECT_TRUE(MatNear(m.inertia_per_mass_S, Vector3d(Ixx, Ixx, Izz).asDiagonal() / V,
+  EXPECT_TRUE(MatNear(m.inertia_per_mass_S, Matrix3d(Vector3d(Ixx, Ixx, Izz).asDiagonal()) / V,
                       kQuadratureTol));
   // Zero length: a sphere.
   s.half_length = 0.0;
@@ -142,7 +142,7 @@ TEST(MassPropertiesTest, PolygonSquareAndTriangle) {
   const Eigen::Rotation2Dd rot(0.4);
   for (const bool clockwise : {false, true}) {
     Shape s = Make(ShapeType::kPolygon);
-    for (const Vector2d c : {Vector2d(-1, -1), Vector2d(1, -1), Vector2d(1, 1), Vector2d(-1, 1)}) {
+    for (const Vector2d& c : {Vector2d(-1, -1), Vector2d(1, -1), Vector2d(1, 1), Vector2d(-1, 1)}) {
       const Vector2d p = Vector2d(2, 3) + rot * (0.5 * a * c);
       s.vertices.emplace_back(p.x(), p.y(), 0.0);
     }
