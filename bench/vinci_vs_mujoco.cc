@@ -1,7 +1,7 @@
 // vinci vs MuJoCo on the same two scenes: a box resting on a plane and a box at rest on a
 // 0.3 rad incline with μ = 1.05 tan θ. Prints a table and optionally writes it as CSV.
 //
-//   vinci_vs_mujoco [--quick] [--steps N] [--csv FILE]
+//   vinci_vs_mujoco [--quick] [--steps N] [--mu-factor F] [--csv FILE]
 //
 // The MuJoCo models are generated as MJCF from the vinci scene files (dt, gravity, box size,
 // mass, poses, μ), so both simulators see the same numbers. What cannot be matched — MuJoCo's
@@ -34,8 +34,8 @@ using vinci::sim::Isometry3d;
 using vinci::sim::Quaterniond;
 using vinci::sim::Vector3d;
 
-constexpr double kTheta = 0.3;  // incline angle (rad), as in block_on_incline.yaml
-const double kInclineMu = 1.05 * std::tan(kTheta);
+constexpr double kTheta = 0.3;             // incline angle (rad), as in block_on_incline.yaml
+constexpr double kDefaultMuFactor = 1.05;  // incline μ = factor · tan θ
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 std::string ScenePath(const std::string& file) {
@@ -405,9 +405,10 @@ void WriteCsv(const std::vector<Row>& rows, const std::string& path) {
 }
 
 void Usage(std::ostream& out) {
-  out << "usage: vinci_vs_mujoco [--quick] [--steps N] [--csv FILE]\n"
+  out << "usage: vinci_vs_mujoco [--quick] [--steps N] [--mu-factor F] [--csv FILE]\n"
          "  --quick     200 steps per measurement, one repeat (smoke test; numbers meaningless)\n"
          "  --steps N   timed steps per repeat (default 10000)\n"
+         "  --mu-factor F  incline friction mu = F tan(theta) (default 1.05; F < 1 slides)\n"
          "  --csv FILE  also write the table as CSV\n";
 }
 
@@ -417,6 +418,7 @@ int main(int argc, char** argv) {
   RunConfig cfg;
   std::string csv_path;
   bool quick = false;
+  double mu_factor = kDefaultMuFactor;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--quick") {
@@ -431,6 +433,13 @@ int main(int argc, char** argv) {
         return 2;
       }
       cfg.timing_steps = static_cast<int>(n);
+    } else if (a == "--mu-factor" && i + 1 < argc) {
+      char* end = nullptr;
+      mu_factor = std::strtod(argv[++i], &end);
+      if (*end != '\0' || !(mu_factor >= 0.0 && mu_factor < 100.0)) {
+        std::cerr << "--mu-factor: expected a number in [0, 100), got '" << argv[i] << "'\n";
+        return 2;
+      }
     } else if (a == "--help" || a == "-h") {
       Usage(std::cout);
       return 0;
@@ -441,10 +450,11 @@ int main(int argc, char** argv) {
     }
   }
   if (quick) cfg = RunConfig{20, 200, 1, 50, 200};
+  const double incline_mu = mu_factor * std::tan(kTheta);
 
   const std::vector<SceneSpec> scenes = {
       {"box_on_plane", "box_on_plane.yaml", "box", "floor", 0.5, false},
-      {"block_on_incline", "block_on_incline.yaml", "block", "incline", kInclineMu, true},
+      {"block_on_incline", "block_on_incline.yaml", "block", "incline", incline_mu, true},
   };
   const std::vector<MujocoVariant> variants = {
       {"pyramidal", "pyramidal", 0},
@@ -457,7 +467,8 @@ int main(int argc, char** argv) {
             << " warm-up steps, best of " << cfg.repeats << "; creep: " << cfg.creep_steps
             << " steps after " << cfg.settle_steps
             << " settling steps, both simulators started at rest in exact contact\n"
-            << "incline: theta = 0.3 rad, mu = 1.05 tan(theta) = " << Fixed(kInclineMu, 5)
+            << "incline: theta = 0.3 rad, mu = " << mu_factor
+            << " tan(theta) = " << Fixed(incline_mu, 5)
             << "; creep = downhill displacement of the box centre after settling; "
                "box_on_plane: horizontal drift\n\n";
 

@@ -9,8 +9,10 @@
 #include <csignal>
 #include <cstdint>
 #include <fstream>
+#include <initializer_list>
 #include <iomanip>
 #include <iostream>
+#include <memory>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -55,8 +57,8 @@ class InterruptGuard {
  public:
   InterruptGuard() {
     g_interrupted = 0;
-    old_int_ = std::signal(SIGINT, OnInterrupt);
-    old_term_ = std::signal(SIGTERM, OnInterrupt);
+    old_int_ = Install(SIGINT);
+    old_term_ = Install(SIGTERM);
   }
   ~InterruptGuard() {
     std::signal(SIGINT, old_int_);
@@ -66,6 +68,13 @@ class InterruptGuard {
   InterruptGuard& operator=(const InterruptGuard&) = delete;
 
  private:
+  // A signal the parent told us to ignore (nohup, `cmd &` in a script) stays ignored.
+  static void (*Install(int signal))(int) {
+    void (*old)(int) = std::signal(signal, OnInterrupt);
+    if (old == SIG_IGN) std::signal(signal, SIG_IGN);
+    return old;
+  }
+
   void (*old_int_)(int) = SIG_DFL;
   void (*old_term_)(int) = SIG_DFL;
 };
@@ -181,7 +190,8 @@ class BodyColumns {
 // and on Close(), so an interrupted run leaves every completed row but the last few on disk.
 class CsvWriter {
  public:
-  CsvWriter(const std::string& path) : path_(path), out_(path, std::ios::out | std::ios::trunc) {
+  explicit CsvWriter(const std::string& path)
+      : path_(path), out_(path, std::ios::out | std::ios::trunc) {
     if (!out_) throw std::invalid_argument("--out: cannot open '" + path + "' for writing");
   }
 

@@ -59,7 +59,8 @@ void RemoveDuplicateContacts(std::vector<ContactPoint>* out, std::size_t begin, 
   for (std::size_t i = begin; i < v.size(); ++i) {
     bool duplicate = false;
     for (std::size_t j = begin; j < kept && !duplicate; ++j) {
-      duplicate = (v[i].p_A_W - v[j].p_A_W).norm() <= tol && (v[i].p_B_W - v[j].p_B_W).norm() <= tol;
+      duplicate =
+          (v[i].p_A_W - v[j].p_A_W).norm() <= tol && (v[i].p_B_W - v[j].p_B_W).norm() <= tol;
     }
     if (duplicate) continue;
     if (kept != i) v[kept] = v[i];
@@ -152,8 +153,8 @@ void PolytopeHalfSpace(const Polytope& A, const Isometry3d& X_WA, const Isometry
 void SphereSphere(const Shape& a, const Isometry3d& X_WA, const Shape& b, const Isometry3d& X_WB,
                   double envelope, Contacts* out) {
   const double tiny = kRelTol * (a.radius + b.radius);
-  AddSpherePair(X_WA.translation(), a.radius, X_WB.translation(), b.radius, Vector3d::UnitZ(),
-                tiny, envelope, out);
+  AddSpherePair(X_WA.translation(), a.radius, X_WB.translation(), b.radius, Vector3d::UnitZ(), tiny,
+                envelope, out);
 }
 
 void SphereBox(const Shape& a, const Isometry3d& X_WA, const Shape& b, const Isometry3d& X_WB,
@@ -193,8 +194,8 @@ void SphereBox(const Shape& a, const Isometry3d& X_WA, const Shape& b, const Iso
   out->push_back({c_W - a.radius * n_W, X_WB * p_B, n_W, gap});
 }
 
-void SphereCapsule(const Shape& a, const Isometry3d& X_WA, const Shape& b,
-                   const Isometry3d& X_WB, double envelope, Contacts* out) {
+void SphereCapsule(const Shape& a, const Isometry3d& X_WA, const Shape& b, const Isometry3d& X_WB,
+                   double envelope, Contacts* out) {
   const Vector3d c = X_WA.translation();
   const auto [b0, b1] = CapsuleEnds(b, X_WB);
   const double t = ClosestParamOnSegment(b0, b1, c);
@@ -283,8 +284,8 @@ void SpherePolytope(const Shape& a, const Isometry3d& X_WA, const Polytope& B,
 // ---------------------------------------------------------------------------------------------
 // Capsule A.
 
-void CapsuleCapsule(const Shape& a, const Isometry3d& X_WA, const Shape& b,
-                    const Isometry3d& X_WB, double envelope, Contacts* out) {
+void CapsuleCapsule(const Shape& a, const Isometry3d& X_WA, const Shape& b, const Isometry3d& X_WB,
+                    double envelope, Contacts* out) {
   const auto [a0, a1] = CapsuleEnds(a, X_WA);
   const auto [b0, b1] = CapsuleEnds(b, X_WB);
   const Vector3d da = a1 - a0;
@@ -515,14 +516,28 @@ void VertexFeatures(const Polytope& P, const Isometry3d& X_WP, const Polytope& Q
 
 // Edge–edge contacts: for non-parallel edges whose closest points are interior to both, the
 // direction n = ±(e_A × e_B) for which A's edge supports A in −n and B's edge supports B in +n
-// (within the envelope); gap n · (p_A − p_B).
-void EdgeEdge(const Polytope& A, const Isometry3d& X_WA, const Polytope& B,
-              const Isometry3d& X_WB, double envelope, double tie, Contacts* out) {
+// (within the envelope); gap n · (p_A − p_B). When separated (gap ≥ 0) that gap is the exact
+// distance. A penetrating one is kept only if n is (within the envelope) an axis of least
+// penetration, i.e. its gap is not below the separation along any face normal of A or B —
+// otherwise e.g. a box sunk 1 mm into another would also report its far edges, 2 m deep.
+void EdgeEdge(const Polytope& A, const Isometry3d& X_WA, const Polytope& B, const Isometry3d& X_WB,
+              double envelope, double tie, Contacts* out) {
   const Isometry3d X_BA = X_WB.inverse(Eigen::Isometry) * X_WA;
   const Matrix3d R_AB = X_BA.linear().transpose();
   const Vector3d& p_BA = X_BA.translation();
   const Matrix3d& R_WB = X_WB.linear();
   const double support_tol = envelope + tie;
+  // Largest separation along a face normal (SAT over the face axes), in B's frame.
+  double face_sep = -kInf;
+  for (int f = 0; f < B.num_faces(); ++f) {  // min over A of n_f · y, minus B's support d_f
+    const Vector3d n = B.face_normal(f);
+    face_sep = std::max(face_sep, -A.MaxDot(-(R_AB * n)) + n.dot(p_BA) - B.face_offset(f));
+  }
+  for (int f = 0; f < A.num_faces(); ++f) {  // the same with A's outward normals (frame A)
+    const Vector3d n_A = A.face_normal(f);
+    const Vector3d n_B = X_BA.linear() * n_A;
+    face_sep = std::max(face_sep, -B.MaxDot(-n_B) - n_B.dot(p_BA) - A.face_offset(f));
+  }
   A.ForEachEdge([&](const Vector3d& a0_A, const Vector3d& a1_A) {
     const Vector3d a0 = X_BA * a0_A;
     const Vector3d da = X_BA.linear() * (a1_A - a0_A);
@@ -542,7 +557,7 @@ void EdgeEdge(const Polytope& A, const Isometry3d& X_WA, const Polytope& B,
       for (const double sign : {sep >= 0.0 ? 1.0 : -1.0, sep >= 0.0 ? -1.0 : 1.0}) {
         const Vector3d n = sign * axis;
         const double gap = sign * sep;
-        if (gap > envelope) continue;
+        if (gap > envelope || (gap < 0.0 && gap < face_sep - support_tol)) continue;
         if (B.MaxDot(n) - n.dot(pb) > support_tol) continue;
         const double min_a = -A.MaxDot(-(R_AB * n)) + n.dot(p_BA);
         if (n.dot(pa) - min_a > support_tol) continue;

@@ -105,9 +105,7 @@ class Polytope {
   Polytope(const std::vector<Vector3d>& vertices, const std::vector<int>& hull_vertices,
            const std::vector<HullFace>& faces);
 
-  int num_vertices() const {
-    return is_box_ ? 8 : static_cast<int>(hull_vertices_->size());
-  }
+  int num_vertices() const { return is_box_ ? 8 : static_cast<int>(hull_vertices_->size()); }
   Vector3d vertex(int i) const {
     return is_box_ ? box_vertices_[i] : (*vertices_)[(*hull_vertices_)[i]];
   }
@@ -167,7 +165,7 @@ void FlipContacts(std::vector<ContactPoint>* out, std::size_t begin);
 void RemoveDuplicateContacts(std::vector<ContactPoint>* out, std::size_t begin, double tol);
 
 /// Narrow phase for two planar shapes (collision_planar.cc).
-void CollidePlanar(const Shape& a, const Isometry3d& X_WA, const Shape& b,
-                   const Isometry3d& X_WB, double envelope, std::vector<ContactPoint>* out);
+void CollidePlanar(const Shape& a, const Isometry3d& X_WA, const Shape& b, const Isometry3d& X_WB,
+                   double envelope, std::vector<ContactPoint>* out);
 
 }  // namespace vinci::sim::collision_internal

@@ -37,8 +37,7 @@ Vector3d To3(const Vector2d& v) { return Vector3d(v.x(), v.y(), 0.0); }
 // Counter-clockwise perpendicular.
 Vector2d Perp(const Vector2d& v) { return Vector2d(-v.y(), v.x()); }
 
-void Push(const Vector2d& p_A, const Vector2d& p_B, const Vector2d& n, double gap,
-          Contacts* out) {
+void Push(const Vector2d& p_A, const Vector2d& p_B, const Vector2d& n, double gap, Contacts* out) {
   out->push_back({To3(p_A), To3(p_B), To3(n), gap});
 }
 
@@ -70,8 +69,8 @@ class Polygon2 {
   explicit Polygon2(const Shape& s) : v_(&s.vertices) {
     const int n = size();
     if (n < 3) {
-      throw std::invalid_argument("polygon shape '" + s.name + "': needs at least 3 vertices, got " +
-                                  std::to_string(n));
+      throw std::invalid_argument("polygon shape '" + s.name +
+                                  "': needs at least 3 vertices, got " + std::to_string(n));
     }
     double twice_area = 0.0;
     for (int i = 0; i < n; ++i) {
@@ -213,8 +212,8 @@ bool Interior(double t) { return t > kParamEps && t < 1.0 - kParamEps; }
 // one axis by the smaller distance of an end of the other axis to it.
 // `x` is the crossing point, used with `fallback_n` if no end projects onto the other axis.
 void CrossingSegments(const Vector2d& a0, const Vector2d& a1, double ra, const Vector2d& b0,
-                      const Vector2d& b1, double rb, const Vector2d& x,
-                      const Vector2d& fallback_n, double envelope, Contacts* out) {
+                      const Vector2d& b1, double rb, const Vector2d& x, const Vector2d& fallback_n,
+                      double envelope, Contacts* out) {
   double best_depth = kInf;
   Vector2d n = fallback_n, ca = x, cb = x;
   auto try_end = [&](const Vector2d& e, const Vector2d& o0, const Vector2d& o1, bool end_of_a) {
@@ -353,9 +352,8 @@ void SegmentPolygon(const Shape& a, const Frame2& X_WA, const Shape& b, const Fr
 //    lies within the edge grown by the envelope at both ends;
 //  * vertex–vertex (separated only): a vertex w of Q, if Q is supported at w in direction
 //    n = (x − w)/|x − w| and P at x in direction −n (within the envelope); gap |x − w|.
-void VertexFeatures2(const Polygon2& P, const Frame2& X_WP, const Polygon2& Q,
-                     const Frame2& X_WQ, double envelope, double tie, bool p_is_a,
-                     Contacts* out) {
+void VertexFeatures2(const Polygon2& P, const Frame2& X_WP, const Polygon2& Q, const Frame2& X_WQ,
+                     double envelope, double tie, bool p_is_a, Contacts* out) {
   const Frame2 X_QP = Relative(X_WQ, X_WP);
   const Matrix2d R_PQ = X_QP.R.transpose();
   const int nq = Q.size();
@@ -473,8 +471,8 @@ void CollidePlanarOrdered(const Shape& a, const Frame2& X_WA, const Shape& b, co
 
 }  // namespace
 
-void CollidePlanar(const Shape& a, const Isometry3d& X_WA, const Shape& b,
-                   const Isometry3d& X_WB, double envelope, std::vector<ContactPoint>* out) {
+void CollidePlanar(const Shape& a, const Isometry3d& X_WA, const Shape& b, const Isometry3d& X_WB,
+                   double envelope, std::vector<ContactPoint>* out) {
   if (PlanarRank(a.type) <= PlanarRank(b.type)) {
     CollidePlanarOrdered(a, ToFrame2(X_WA), b, ToFrame2(X_WB), envelope, out);
     return;

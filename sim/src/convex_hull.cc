@@ -67,10 +67,20 @@ void ComputeConvexHull(const std::vector<Vector3d>& points, std::vector<HullFace
   for (const Vector3d& p : points) scale = std::max(scale, (p - centroid).norm());
   if (!(scale > 0.0)) throw std::invalid_argument("convex polyhedron: all vertices coincide");
   const double tol = kRelTol * scale;
+  // Repeated points: only the first copy takes part.
+  std::vector<char> repeat(n, 0);
+  for (int i = 0; i < n; ++i) {
+    for (int j = 0; j < i && !repeat[i]; ++j) {
+      repeat[i] = !repeat[j] && (points[i] - points[j]).norm() <= tol;
+    }
+  }
 
   for (int i = 0; i < n; ++i) {
+    if (repeat[i]) continue;
     for (int j = i + 1; j < n; ++j) {
+      if (repeat[j]) continue;
       for (int k = j + 1; k < n; ++k) {
+        if (repeat[k]) continue;
         const Vector3d& pi = points[i];
         const Vector3d& pj = points[j];
         const Vector3d& pk = points[k];
@@ -86,8 +96,8 @@ void ComputeConvexHull(const std::vector<Vector3d>& points, std::vector<HullFace
         }
         if (known) continue;
         Vector3d normal = (pj - pi).cross(pk - pi);
-        const double longest = std::max(
-            {(pj - pi).squaredNorm(), (pk - pi).squaredNorm(), (pk - pj).squaredNorm()});
+        const double longest =
+            std::max({(pj - pi).squaredNorm(), (pk - pi).squaredNorm(), (pk - pj).squaredNorm()});
         const double len = normal.norm();
         // Poorly conditioned (sliver or collinear) triples: a better triple spans the face.
         if (!(len > 1e-6 * longest)) continue;
@@ -105,7 +115,7 @@ void ComputeConvexHull(const std::vector<Vector3d>& points, std::vector<HullFace
         for (const Vector3d& p : points) offset = std::max(offset, normal.dot(p));
         std::vector<int> on_plane;
         for (int m = 0; m < n; ++m) {
-          if (offset - normal.dot(points[m]) <= tol) on_plane.push_back(m);
+          if (!repeat[m] && offset - normal.dot(points[m]) <= tol) on_plane.push_back(m);
         }
         const Vector3d u = (pj - pi).normalized();
         const Vector3d v = normal.cross(u);

@@ -21,7 +21,8 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 }
 
 void RequirePositive(const Shape& s, const char* field, double value) {
-  if (!(value > 0.0)) ThrowBad(s, std::string(field) + " = " + std::to_string(value) + ", expected > 0");
+  if (!(value > 0.0))
+    ThrowBad(s, std::string(field) + " = " + std::to_string(value) + ", expected > 0");
 }
 
 void RequireNonNegative(const Shape& s, const char* field, double value) {
@@ -71,9 +72,9 @@ UnitMassProperties Polyhedron(const Shape& s) {
       const Vector3d sum = q0 + q1 + q2;
       volume += v;
       first += v * sum / 4.0;
-      second += v / 20.0 *
-                (q0 * q0.transpose() + q1 * q1.transpose() + q2 * q2.transpose() +
-                 sum * sum.transpose());
+      second +=
+          v / 20.0 *
+          (q0 * q0.transpose() + q1 * q1.transpose() + q2 * q2.transpose() + sum * sum.transpose());
     }
   }
   if (!(volume > 0.0)) ThrowBad(s, "hull has no volume");
@@ -109,9 +110,9 @@ UnitMassProperties Polygon(const Shape& s) {
   UnitMassProperties m;
   m.volume = std::abs(area);
   m.centroid_S = Vector3d(o.x() + g.x(), o.y() + g.y(), 0.0);
-  m.inertia_per_mass_S = LaminaInertia(xx / (12.0 * area) - g.x() * g.x(),
-                                       yy / (12.0 * area) - g.y() * g.y(),
-                                       xy / (24.0 * area) - g.x() * g.y());
+  m.inertia_per_mass_S =
+      LaminaInertia(xx / (12.0 * area) - g.x() * g.x(), yy / (12.0 * area) - g.y() * g.y(),
+                    xy / (24.0 * area) - g.x() * g.y());
   return m;
 }
 
@@ -183,8 +184,8 @@ UnitMassProperties ComputeUnitMassProperties(const Shape& s) {
       // 4r/(3π) beyond it).
       const double a_rect = 4.0 * hl * r;
       m.volume = a_rect + kPi * r2;
-      const double xx = a_rect * hl2 / 3.0 + kPi * r2 * hl2 + 8.0 / 3.0 * hl * r2 * r +
-                        kPi * r2 * r2 / 4.0;
+      const double xx =
+          a_rect * hl2 / 3.0 + kPi * r2 * hl2 + 8.0 / 3.0 * hl * r2 * r + kPi * r2 * r2 / 4.0;
       const double yy = a_rect * r2 / 3.0 + kPi * r2 * r2 / 4.0;
       m.inertia_per_mass_S = LaminaInertia(xx / m.volume, yy / m.volume, 0.0);
       return m;

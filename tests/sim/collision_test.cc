@@ -101,6 +101,12 @@ std::vector<Vector3d> CornerTetrahedronVertices() {
 Matrix3d Rot(double angle, const Vector3d& axis) {
   return Eigen::AngleAxisd(angle, axis.normalized()).toRotationMatrix();
 }
+// Rotation taking unit-length direction u to v (u ≠ −v).
+Matrix3d RotFromTo(const Vector3d& u, const Vector3d& v) {
+  const Vector3d axis = u.cross(v);
+  if (axis.norm() < 1e-15) return Matrix3d::Identity();
+  return Rot(std::atan2(axis.norm(), u.dot(v)), axis);
+}
 Isometry3d Pose(const Vector3d& p, const Matrix3d& R = Matrix3d::Identity()) {
   Isometry3d X = Isometry3d::Identity();
   X.linear() = R;
@@ -122,7 +128,8 @@ std::string Describe(const std::vector<ContactPoint>& cs) {
   std::string s;
   for (const ContactPoint& c : cs) {
     char buf[256];
-    std::snprintf(buf, sizeof(buf), "  p_A (%.6g %.6g %.6g) p_B (%.6g %.6g %.6g) n (%.6g %.6g %.6g) gap %.6g\n",
+    std::snprintf(buf, sizeof(buf),
+                  "  p_A (%.6g %.6g %.6g) p_B (%.6g %.6g %.6g) n (%.6g %.6g %.6g) gap %.6g\n",
                   c.p_A_W.x(), c.p_A_W.y(), c.p_A_W.z(), c.p_B_W.x(), c.p_B_W.y(), c.p_B_W.z(),
                   c.n_W.x(), c.n_W.y(), c.n_W.z(), c.gap);
     s += buf;
@@ -163,7 +170,8 @@ bool SameContact(const ContactPoint& a, const ContactPoint& b, double tol) {
     ok = ok && found;
   }
   if (ok) return ::testing::AssertionSuccess();
-  return ::testing::AssertionFailure() << "contact sets differ:\n" << Describe(x) << "vs\n"
+  return ::testing::AssertionFailure() << "contact sets differ:\n"
+                                       << Describe(x) << "vs\n"
                                        << Describe(y);
 }
 
@@ -240,8 +248,8 @@ TEST(CollisionTest, TiltedBoxOnHalfSpaceReportsCornersWithinEnvelopeWithExactGap
   const Matrix3d R = Rot(0.4, Vector3d::UnitX()) * Rot(0.25, Vector3d::UnitY());
   std::vector<Vector3d> corners;  // relative to the centre, world orientation
   for (int i = 0; i < 8; ++i) {
-    corners.push_back(R * Xyz((i & 1) ? h.x() : -h.x(), (i & 2) ? h.y() : -h.y(),
-                              (i & 4) ? h.z() : -h.z()));
+    corners.push_back(
+        R * Xyz((i & 1) ? h.x() : -h.x(), (i & 2) ? h.y() : -h.y(), (i & 4) ? h.z() : -h.z()));
   }
   double lowest = kPi;
   for (const Vector3d& c : corners) lowest = std::min(lowest, c.z());
@@ -324,8 +332,7 @@ TEST(CollisionTest, PolyhedraOnHalfSpace) {
     cs = Collide(octa, Pose(Xyz(0, 0, 0.998)), HalfSpace(), Isometry3d::Identity(), 0.01);
     ASSERT_EQ(cs.size(), 1u);
     ExpectContact(cs[0], Xyz(0, 0, -0.002), Xyz(0, 0, 0), Vector3d::UnitZ(), -0.002);
-    const Matrix3d R =
-        Quaterniond::FromTwoVectors(Xyz(-1, -1, -1).normalized(), -Vector3d::UnitZ()).toRotationMatrix();
+    const Matrix3d R = RotFromTo(Xyz(-1, -1, -1).normalized(), -Vector3d::UnitZ());
     const Isometry3d X_WO = Pose(Xyz(2, 1, 1 / std::sqrt(3.0)), R);
     cs = Collide(octa, X_WO, HalfSpace(), Isometry3d::Identity(), 0.01);
     ASSERT_EQ(cs.size(), 3u) << Describe(cs);
@@ -345,13 +352,17 @@ TEST(CollisionTest, SphereSphere) {
   const Vector3d cA(0.3, -0.1, 0.2);
   for (const double dist : {1.2, 0.9}) {
     const Vector3d cB = cA + dist * u;
-    const auto cs = Collide(Sphere(0.5), Pose(cA), Sphere(0.6), Pose(cB, Rot(2, Xyz(1, 1, 0))), 0.2);
+    const auto cs =
+        Collide(Sphere(0.5), Pose(cA), Sphere(0.6), Pose(cB, Rot(2, Xyz(1, 1, 0))), 0.2);
     ASSERT_EQ(cs.size(), 1u);
     ExpectContact(cs[0], cA + 0.5 * u, cB - 0.6 * u, -u, dist - 1.1);
   }
-  // Concentric: some unit normal, gap −(rA + rB).
-  const auto cs = Collide(Sphere(0.5), Pose(cA), Sphere(0.6), Pose(cA), 0.0);
+  // Concentric: some unit normal, gap −(rA + rB). (No swap-symmetry check: with identical
+  // poses nothing distinguishes the order, so the fallback normal cannot flip with it.)
+  std::vector<ContactPoint> cs;
+  CollideShapes(Sphere(0.5), Pose(cA), Sphere(0.6), Pose(cA), 0.0, &cs);
   ASSERT_EQ(cs.size(), 1u);
+  ExpectInvariants(cs, 0.0, false);
   EXPECT_NEAR(cs[0].gap, -1.1, kTol);
   // Beyond the envelope.
   EXPECT_TRUE(Collide(Sphere(0.5), Pose(cA), Sphere(0.6), Pose(cA + 1.4 * u), 0.2).empty());
@@ -363,7 +374,7 @@ TEST(CollisionTest, SphereBoxFaceEdgeCornerAndInside) {
   const Matrix3d& R = X_WB.linear();
   struct Case {
     const char* region;
-    Vector3d centre_B;   // sphere centre in the box frame
+    Vector3d centre_B;  // sphere centre in the box frame
     double radius;
     Vector3d closest_B;  // closest box point
     Vector3d normal_B;   // from box to sphere
@@ -421,7 +432,8 @@ TEST(CollisionTest, SpherePolyhedronRegions) {
     const Case cases[] = {
         {Xyz(0.5, 0.5, 0.5), 0.1, Xyz(0.5, 0.5, 0.5) - face_dist * nf, nf, face_dist - 0.1},
         {Xyz(1.3, 0, 0), 0.1, Xyz(1, 0, 0), Xyz(1, 0, 0), 0.2},
-        {Xyz(0.6, 0.6, 0), 0.05, Xyz(0.5, 0.5, 0), Xyz(1, 1, 0).normalized(), std::sqrt(0.02) - 0.05},
+        {Xyz(0.6, 0.6, 0), 0.05, Xyz(0.5, 0.5, 0), Xyz(1, 1, 0).normalized(),
+         std::sqrt(0.02) - 0.05},
         {Xyz(0.1, 0.1, 0.1), 0.1, Xyz(0.1, 0.1, 0.1) - inside_dist * nf, nf, inside_dist - 0.1},
     };
     for (const Case& c : cases) {
@@ -449,8 +461,8 @@ TEST(CollisionTest, CapsuleCapsuleCrossing) {
   // Skew axes at 60°: gap from the skew-line distance formula.
   const Vector3d u = Xyz(1, 0, 0), v = Xyz(0.5, std::sqrt(0.75), 0);
   const Vector3d cA(0.05, -0.02, 0.4), cB(0, 0, 0);
-  const Matrix3d RA = Quaterniond::FromTwoVectors(Vector3d::UnitZ(), u).toRotationMatrix();
-  const Matrix3d RB = Quaterniond::FromTwoVectors(Vector3d::UnitZ(), v).toRotationMatrix();
+  const Matrix3d RA = RotFromTo(Vector3d::UnitZ(), u);
+  const Matrix3d RB = RotFromTo(Vector3d::UnitZ(), v);
   const auto cs2 = Collide(Capsule(0.1, 1.0), Pose(cA, RA), Capsule(0.15, 1.0), Pose(cB, RB), 0.5);
   ASSERT_EQ(cs2.size(), 1u);
   const Vector3d w = u.cross(v).normalized();
@@ -489,8 +501,8 @@ TEST(CollisionTest, CapsuleBox) {
   const double envelope = 0.05;
   {
     SCOPED_TRACE("lying on the top face: the two end spheres");
-    const auto cs = Collide(Capsule(0.05, 0.2), X_WB * Pose(Xyz(0.1, 0, 0.37), along_x), box, X_WB,
-                            envelope);
+    const auto cs =
+        Collide(Capsule(0.05, 0.2), X_WB * Pose(Xyz(0.1, 0, 0.37), along_x), box, X_WB, envelope);
     ASSERT_EQ(cs.size(), 2u) << Describe(cs);
     for (const double x : {-0.1, 0.3}) {
       const int i = FindByPA(cs, X_WB * Xyz(x, 0, 0.32), kTol);
@@ -500,8 +512,8 @@ TEST(CollisionTest, CapsuleBox) {
   }
   {
     SCOPED_TRACE("lying across, longer than the box: contacts at the two top edges");
-    const auto cs = Collide(Capsule(0.05, 1.0), X_WB * Pose(Xyz(0.1, 0, 0.37), along_y), box, X_WB,
-                            envelope);
+    const auto cs =
+        Collide(Capsule(0.05, 1.0), X_WB * Pose(Xyz(0.1, 0, 0.37), along_y), box, X_WB, envelope);
     ASSERT_EQ(cs.size(), 2u) << Describe(cs);
     for (const double y : {-0.4, 0.4}) {
       const int i = FindByPA(cs, X_WB * Xyz(0.1, y, 0.32), kTol);
@@ -511,8 +523,8 @@ TEST(CollisionTest, CapsuleBox) {
   }
   {
     SCOPED_TRACE("hanging over the +x top edge: one end on the face, one on the edge");
-    const auto cs = Collide(Capsule(0.02, 0.4), X_WB * Pose(Xyz(0.6, 0.1, 0.35), along_x), box, X_WB,
-                            envelope);
+    const auto cs =
+        Collide(Capsule(0.02, 0.4), X_WB * Pose(Xyz(0.6, 0.1, 0.35), along_x), box, X_WB, envelope);
     ASSERT_EQ(cs.size(), 2u) << Describe(cs);
     int i = FindByPA(cs, X_WB * Xyz(0.2, 0.1, 0.33), kTol);
     ASSERT_GE(i, 0) << Describe(cs);
@@ -525,8 +537,8 @@ TEST(CollisionTest, CapsuleBox) {
     SCOPED_TRACE("parallel to the +x top edge, diagonally off it: edge contacts, exact gap");
     const Vector3d n_B = Xyz(0.6, 0, 0.8);
     for (const double half_length : {0.2, 0.8}) {  // ends within / beyond the edge
-      const auto cs = Collide(Capsule(0.02, half_length),
-                              X_WB * Pose(Xyz(0.53, 0, 0.34), along_y), box, X_WB, envelope);
+      const auto cs = Collide(Capsule(0.02, half_length), X_WB * Pose(Xyz(0.53, 0, 0.34), along_y),
+                              box, X_WB, envelope);
       ASSERT_EQ(cs.size(), 2u) << Describe(cs);
       for (const ContactPoint& c : cs) {
         EXPECT_NEAR(c.gap, 0.03, kTol);
@@ -539,8 +551,8 @@ TEST(CollisionTest, CapsuleBox) {
   }
   {
     SCOPED_TRACE("axis through the box, both ends outside");
-    const auto cs = Collide(Capsule(0.05, 1.0), X_WB * Pose(Xyz(0, 0, 0.2), along_x), box, X_WB,
-                            envelope);
+    const auto cs =
+        Collide(Capsule(0.05, 1.0), X_WB * Pose(Xyz(0, 0, 0.2), along_x), box, X_WB, envelope);
     ASSERT_EQ(cs.size(), 1u) << Describe(cs);
     ExpectContact(cs[0], X_WB * Xyz(0, 0, 0.15), X_WB * Xyz(0, 0, 0.3), z, -0.15);
   }
@@ -643,15 +655,13 @@ TEST(CollisionTest, BoxPolyhedronPairs) {
     const Shape table = Box(1, 1, 0.5);  // top face at z = 0.5
     // Tetrahedron point-down 2 mm above the table.
     const Shape tetra = Polyhedron(CornerTetrahedronVertices(), prepare);
-    const Matrix3d R =
-        Quaterniond::FromTwoVectors(Xyz(1, 1, 1).normalized(), Vector3d::UnitZ()).toRotationMatrix();
+    const Matrix3d R = RotFromTo(Xyz(1, 1, 1).normalized(), Vector3d::UnitZ());
     auto cs = Collide(tetra, Pose(Xyz(0.1, 0.2, 0.502), R), table, Isometry3d::Identity(), 0.01);
     ASSERT_EQ(cs.size(), 1u) << Describe(cs);
     ExpectContact(cs[0], Xyz(0.1, 0.2, 0.502), Xyz(0.1, 0.2, 0.5), Vector3d::UnitZ(), 0.002);
     // Octahedron resting on a face: its three lowest corners.
     const Shape octa = Polyhedron(OctahedronVertices(), prepare);
-    const Matrix3d Ro =
-        Quaterniond::FromTwoVectors(Xyz(-1, -1, -1).normalized(), -Vector3d::UnitZ()).toRotationMatrix();
+    const Matrix3d Ro = RotFromTo(Xyz(-1, -1, -1).normalized(), -Vector3d::UnitZ());
     const Isometry3d X_WO = Pose(Xyz(-0.2, 0.1, 0.5 + 1 / std::sqrt(3.0)), Ro);
     cs = Collide(octa, X_WO, table, Isometry3d::Identity(), 0.01);
     ASSERT_EQ(cs.size(), 3u) << Describe(cs);
@@ -682,8 +692,8 @@ TEST(CollisionTest, CubePolyhedronMatchesBox) {
     int with_contacts = 0;
     for (const Shape& other : others) {
       for (int k = 0; k < 60; ++k) {
-        const Isometry3d X_WA = Pose(Xyz(U(rng), U(rng), U(rng)) * 0.7,
-                                     Rot(3 * U(rng), Xyz(U(rng), U(rng), U(rng))));
+        const Isometry3d X_WA =
+            Pose(Xyz(U(rng), U(rng), U(rng)) * 0.7, Rot(3 * U(rng), Xyz(U(rng), U(rng), U(rng))));
         const Isometry3d X_WB = Pose(Xyz(0, 0, 0), Rot(U(rng), Xyz(1, 2, 3)));
         const auto cs_poly = Collide(poly, X_WA, other, X_WB, 0.1);
         const auto cs_box = Collide(box, X_WA, other, X_WB, 0.1);
@@ -801,7 +811,7 @@ TEST(CollisionPlanarTest, DiscDiscAndDiscSegment) {
   ExpectContact(cs[0], Xyz(0.2, 0.2, 0), Xyz(0.2, 0.05, 0), Xyz(0, 1, 0), 0.15);
   cs = Collide(Disc(0.1), PlanarPose(0.8, 0.4, 0), Segment(0.5, 0.05), PlanarPose(0, 0, 0), 0.5);
   ASSERT_EQ(cs.size(), 1u);
-  ExpectContact(cs[0], Xyz(0.72, 0.32, 0), Xyz(0.53, 0.04, 0), Xyz(0.6, 0.8, 0), 0.35);
+  ExpectContact(cs[0], Xyz(0.74, 0.32, 0), Xyz(0.53, 0.04, 0), Xyz(0.6, 0.8, 0), 0.35);
 }
 
 TEST(CollisionPlanarTest, DiscPolygonRegions) {
@@ -813,13 +823,14 @@ TEST(CollisionPlanarTest, DiscPolygonRegions) {
     double radius, gap;
   };
   const Case cases[] = {
-      {Xyz(0.1, 0.8, 0), Xyz(0.1, 0.5, 0), Xyz(0, 1, 0), 0.2, 0.1},                // edge
-      {Xyz(0.8, -0.9, 0), Xyz(0.5, -0.5, 0), Xyz(0.6, -0.8, 0), 0.2, 0.3},         // vertex
-      {Xyz(-0.3, 0.1, 0), Xyz(-0.5, 0.1, 0), Xyz(-1, 0, 0), 0.1, -0.3},            // inside
+      {Xyz(0.1, 0.8, 0), Xyz(0.1, 0.5, 0), Xyz(0, 1, 0), 0.2, 0.1},         // edge
+      {Xyz(0.8, -0.9, 0), Xyz(0.5, -0.5, 0), Xyz(0.6, -0.8, 0), 0.2, 0.3},  // vertex
+      {Xyz(-0.3, 0.1, 0), Xyz(-0.5, 0.1, 0), Xyz(-1, 0, 0), 0.1, -0.3},     // inside
   };
   for (const Case& c : cases) {
     const Vector3d centre = X_WB * c.centre_B;
-    const auto cs = Collide(Disc(c.radius), PlanarPose(centre.x(), centre.y(), 0), square, X_WB, 0.5);
+    const auto cs =
+        Collide(Disc(c.radius), PlanarPose(centre.x(), centre.y(), 0), square, X_WB, 0.5);
     ASSERT_EQ(cs.size(), 1u);
     const Vector3d n = R * c.normal_B;
     ExpectContact(cs[0], centre - c.radius * n, X_WB * c.closest_B, n, c.gap);
@@ -854,8 +865,8 @@ TEST(CollisionPlanarTest, StackedPolygons) {
     }
   }
   // Square standing on a corner (turned 45°) on the square: one contact.
-  const auto cs = Collide(square, X_WB * PlanarPose(0.1, 0.5 + std::sqrt(0.5), kPi / 4), square, X_WB,
-                          0.01);
+  const auto cs =
+      Collide(square, X_WB * PlanarPose(0.1, 0.5 + std::sqrt(0.5), kPi / 4), square, X_WB, 0.01);
   ASSERT_EQ(cs.size(), 1u) << Describe(cs);
   EXPECT_NEAR(cs[0].gap, 0.0, kTol);
   EXPECT_TRUE(Near(cs[0].n_W, n, kTol));
@@ -887,13 +898,24 @@ TEST(CollisionPlanarTest, VertexNearTheEndOfAnEdge) {
       EXPECT_LT(i, 0) << Describe(cs);
     }
   }
-  // Corner to corner across a diagonal gap: one contact along the corner–corner line.
+  // Corner to corner across a diagonal gap of 5 mm: the exact corner–corner contact, plus each
+  // corner against the other square's nearer edge line (projection 3 mm beyond the edge's
+  // end, within the envelope), whose gap 4 mm is the distance to that edge line.
   const Vector3d d = Xyz(0.6, 0.8, 0);
   const auto cs = Collide(small, PlanarPose(0.7 + 0.005 * d.x(), 0.7 + 0.005 * d.y(), 0), big,
                           Isometry3d::Identity(), envelope);
-  const int i = FindByPA(cs, Xyz(0.5, 0.5, 0) + 0.005 * d, kTol);
-  ASSERT_GE(i, 0) << Describe(cs);
-  ExpectContact(cs[i], Xyz(0.5, 0.5, 0) + 0.005 * d, Xyz(0.5, 0.5, 0), d, 0.005);
+  ASSERT_EQ(cs.size(), 3u) << Describe(cs);
+  int corner_corner = 0;
+  for (const ContactPoint& c : cs) {
+    if (Near(c.n_W, d, kTol)) {
+      ++corner_corner;
+      ExpectContact(c, Xyz(0.5, 0.5, 0) + 0.005 * d, Xyz(0.5, 0.5, 0), d, 0.005);
+    } else {
+      EXPECT_TRUE(Near(c.n_W, Xyz(0, 1, 0), kTol));
+      EXPECT_NEAR(c.gap, 0.004, kTol);
+    }
+  }
+  EXPECT_EQ(corner_corner, 1);
 }
 
 TEST(CollisionPlanarTest, SegmentSegment) {
@@ -903,8 +925,8 @@ TEST(CollisionPlanarTest, SegmentSegment) {
   ASSERT_EQ(cs.size(), 1u);
   ExpectContact(cs[0], Xyz(0.3, 0.85, 0), Xyz(0.3, 0.6 + 0.1, 0), Xyz(0, 1, 0), 0.15);
   // Parallel (A turned half a turn), overlapping on x ∈ [0.2, 0.5]: two contacts.
-  cs = Collide(Segment(0.5, 0.05), PlanarPose(0.7, 0.2, kPi), Segment(0.5, 0.1), PlanarPose(0, 0, 0),
-               0.1);
+  cs = Collide(Segment(0.5, 0.05), PlanarPose(0.7, 0.2, kPi), Segment(0.5, 0.1),
+               PlanarPose(0, 0, 0), 0.1);
   ASSERT_EQ(cs.size(), 2u) << Describe(cs);
   for (const double x : {0.2, 0.5}) {
     const int i = FindByPA(cs, Xyz(x, 0.15, 0), kTol);
@@ -912,17 +934,21 @@ TEST(CollisionPlanarTest, SegmentSegment) {
     ExpectContact(cs[i], Xyz(x, 0.15, 0), Xyz(x, 0.1, 0), Xyz(0, 1, 0), 0.05);
   }
   // Axes crossing (deep): pushed apart along B's normal by the nearer end of A.
-  cs = Collide(Segment(0.5, 0.05), PlanarPose(0, 0.1, kPi / 2), Segment(1.0, 0.1), PlanarPose(0, 0, 0),
-               0.1);
+  cs = Collide(Segment(0.5, 0.05), PlanarPose(0, 0.1, kPi / 2), Segment(1.0, 0.1),
+               PlanarPose(0, 0, 0), 0.1);
   ASSERT_EQ(cs.size(), 1u) << Describe(cs);
+  // A spans y ∈ [−0.4, 0.6] across B (the x-axis): lifting A by 0.4 clears its lower end.
   EXPECT_NEAR(cs[0].gap, -(0.4 + 0.05 + 0.1), kTol);
-  EXPECT_TRUE(Near(cs[0].n_W, Xyz(0, -1, 0), kTol));
+  EXPECT_TRUE(Near(cs[0].n_W, Xyz(0, 1, 0), kTol));
+  EXPECT_TRUE(Near(cs[0].p_A_W, Xyz(0, -0.45, 0), kTol));
+  EXPECT_TRUE(Near(cs[0].p_B_W, Xyz(0, 0.1, 0), kTol));
 }
 
 TEST(CollisionPlanarTest, SegmentPolygon) {
   const Shape square = Square(0.5);
   // Lying on the top edge, shorter than it: the two ends.
-  auto cs = Collide(Segment(0.3, 0.05), PlanarPose(0.1, 0.56, 0), square, PlanarPose(0, 0, 0), 0.02);
+  auto cs =
+      Collide(Segment(0.3, 0.05), PlanarPose(0.1, 0.56, 0), square, PlanarPose(0, 0, 0), 0.02);
   ASSERT_EQ(cs.size(), 2u) << Describe(cs);
   for (const double x : {-0.2, 0.4}) {
     const int i = FindByPA(cs, Xyz(x, 0.51, 0), kTol);
@@ -941,9 +967,10 @@ TEST(CollisionPlanarTest, SegmentPolygon) {
   const Shape tri = Polygon({{-0.5, 0, 0}, {0.5, 0, 0}, {0, 0.6, 0}});
   const double tilt = 0.2;
   const Vector3d nrm = Xyz(-std::sin(tilt), std::cos(tilt), 0);
-  const Vector3d centre = Xyz(0, 0.6, 0) + 0.01 * nrm + 0.1 * Xyz(std::cos(tilt), std::sin(tilt), 0);
-  cs = Collide(Segment(0.8, 0.0), PlanarPose(centre.x(), centre.y(), tilt), tri, PlanarPose(0, 0, 0),
-               0.02);
+  const Vector3d centre =
+      Xyz(0, 0.6, 0) + 0.01 * nrm + 0.1 * Xyz(std::cos(tilt), std::sin(tilt), 0);
+  cs = Collide(Segment(0.8, 0.0), PlanarPose(centre.x(), centre.y(), tilt), tri,
+               PlanarPose(0, 0, 0), 0.02);
   ASSERT_EQ(cs.size(), 1u) << Describe(cs);
   ExpectContact(cs[0], Xyz(0, 0.6, 0) + 0.01 * nrm, Xyz(0, 0.6, 0), nrm, 0.01);
 }
@@ -962,13 +989,16 @@ TEST(CollisionTest, EnvelopeIncludesHalfEpsilonAndExcludesTwoEpsilon) {
   };
   const Case cases[] = {
       {"box/halfspace", cube, HalfSpace(), [](double g) { return Pose(Xyz(0, 0, 0.5 + g)); }, 4},
-      {"sphere/sphere", Sphere(0.3), Sphere(0.2), [](double g) { return Pose(Xyz(0.5 + g, 0, 0)); }, 1},
+      {"sphere/sphere", Sphere(0.3), Sphere(0.2), [](double g) { return Pose(Xyz(0.5 + g, 0, 0)); },
+       1},
       {"sphere/box", Sphere(0.3), cube, [](double g) { return Pose(Xyz(0.1, 0.2, 0.8 + g)); }, 1},
       {"capsule/capsule", Capsule(0.1, 0.5), Capsule(0.1, 0.5),
        [](double g) { return Pose(Xyz(0, 0.2 + g, 0), Rot(kPi / 2, Vector3d::UnitY())); }, 1},
       {"box/box", cube, Box(1, 1, 0.5), [](double g) { return Pose(Xyz(0, 0, 1 + g)); }, 4},
-      {"disc/halfplane", Disc(0.3), HalfPlane(), [](double g) { return PlanarPose(0, 0.3 + g, 0); }, 1},
-      {"polygon/polygon", Square(0.5), Square(1), [](double g) { return PlanarPose(0, 1.5 + g, 0); }, 2},
+      {"disc/halfplane", Disc(0.3), HalfPlane(), [](double g) { return PlanarPose(0, 0.3 + g, 0); },
+       1},
+      {"polygon/polygon", Square(0.5), Square(1),
+       [](double g) { return PlanarPose(0, 1.5 + g, 0); }, 2},
       {"segment/polygon", Segment(0.3, 0.0), Square(1),
        [](double g) { return PlanarPose(0, 1 + g, 0); }, 2},
   };
@@ -1007,13 +1037,16 @@ TEST(CollisionTest, InvalidPairsThrowNamingBothKinds) {
 TEST(CollisionTest, AllPairsSatisfyInvariantsAndSwapSymmetry) {
   std::mt19937 rng(3);
   std::uniform_real_distribution<double> U(-1.0, 1.0);
-  const std::vector<Shape> spatial = {HalfSpace(),      Sphere(0.3),
-                                      Box(0.3, 0.2, 0.25), Capsule(0.15, 0.3),
+  const std::vector<Shape> spatial = {HalfSpace(),
+                                      Sphere(0.3),
+                                      Box(0.3, 0.2, 0.25),
+                                      Capsule(0.15, 0.3),
                                       Polyhedron(OctahedronVertices(), true),
                                       Polyhedron(CornerTetrahedronVertices(), false)};
-  const std::vector<Shape> planar = {HalfPlane(), Disc(0.3), Square(0.3),
-                                     Polygon({{-0.3, -0.2, 0}, {0.4, -0.1, 0}, {0, 0.5, 0}}),
-                                     Segment(0.4, 0.1), Segment(0.3, 0.0)};
+  const std::vector<Shape> planar = {
+      HalfPlane(),       Disc(0.3),
+      Square(0.3),       Polygon({{-0.3, -0.2, 0}, {0.4, -0.1, 0}, {0, 0.5, 0}}),
+      Segment(0.4, 0.1), Segment(0.3, 0.0)};
   for (const auto* shapes : {&spatial, &planar}) {
     const bool is_planar = shapes == &planar;
     for (std::size_t i = 0; i < shapes->size(); ++i) {
@@ -1094,21 +1127,20 @@ TEST(CollisionTest, RandomizedGapsMatchBruteForceDistance) {
     const Shape* b;
     bool min_gap_is_distance;  // all contacts are true distances (else: some contact is)
   };
-  const Pair pairs[] = {{"sphere/sphere", &sphere, &sphere, true},
-                        {"sphere/box", &sphere, &box, true},
-                        {"sphere/capsule", &sphere, &capsule, true},
-                        {"capsule/capsule", &capsule, &capsule, true},
-                        {"capsule/box", &capsule, &box, true},
-                        {"box/box", &box, &box, false}};
+  const Pair pairs[] = {
+      {"sphere/sphere", &sphere, &sphere, true},   {"sphere/box", &sphere, &box, true},
+      {"sphere/capsule", &sphere, &capsule, true}, {"capsule/capsule", &capsule, &capsule, true},
+      {"capsule/box", &capsule, &box, true},       {"box/box", &box, &box, false}};
   const double envelope = 0.5;
   for (const Pair& p : pairs) {
     SCOPED_TRACE(p.name);
     int compared = 0;
     for (int k = 0; k < 300; ++k) {
-      const Isometry3d X_WA = Pose(1.2 * Xyz(U(rng), U(rng), U(rng)), RandomRotation(rng).toRotationMatrix());
+      const Isometry3d X_WA =
+          Pose(1.2 * Xyz(U(rng), U(rng), U(rng)), RandomRotation(rng).toRotationMatrix());
       const Isometry3d X_WB = Pose(Vector3d::Zero(), RandomRotation(rng).toRotationMatrix());
-      const double d = BruteForceDistance(ProjectOnto(*p.a, X_WA), ProjectOnto(*p.b, X_WB),
-                                          X_WA.translation());
+      const double d =
+          BruteForceDistance(ProjectOnto(*p.a, X_WA), ProjectOnto(*p.b, X_WB), X_WA.translation());
       const auto cs = Collide(*p.a, X_WA, *p.b, X_WB, envelope);
       if (d < 1e-4) continue;  // touching or penetrating: no distance to compare
       if (d > envelope) {
@@ -1130,6 +1162,92 @@ TEST(CollisionTest, RandomizedGapsMatchBruteForceDistance) {
       }
     }
     EXPECT_GT(compared, 40);  // enough separated-within-envelope samples to mean something
+  }
+}
+
+// The planar kinds, same method (projections in the xy-plane).
+Projector ProjectOntoPlanar(const Shape& s, const Isometry3d& X) {
+  switch (s.type) {
+    case ShapeType::kDisc:
+      return [=](const Vector3d& x) -> Vector3d {
+        const Vector3d d = x - X.translation();
+        return d.norm() <= s.radius ? x : Vector3d(X.translation() + s.radius * d.normalized());
+      };
+    case ShapeType::kSegment:
+      return [=](const Vector3d& x) -> Vector3d {
+        const Vector3d a = X * Xyz(-s.half_length, 0, 0), b = X * Xyz(s.half_length, 0, 0);
+        const double t = std::clamp((x - a).dot(b - a) / (b - a).squaredNorm(), 0.0, 1.0);
+        const Vector3d q = a + t * (b - a);
+        return (x - q).norm() <= s.radius ? x : Vector3d(q + s.radius * (x - q).normalized());
+      };
+    default:  // counter-clockwise polygon: inside, or the nearest point of its boundary
+      return [=](const Vector3d& x) -> Vector3d {
+        const int n = static_cast<int>(s.vertices.size());
+        bool inside = true;
+        Vector3d best = x;
+        double best_d = kPi * 1e9;
+        for (int i = 0; i < n; ++i) {
+          const Vector3d a = X * s.vertices[i], b = X * s.vertices[(i + 1) % n];
+          inside = inside && (b - a).cross(x - a).z() >= 0.0;
+          const double t = std::clamp((x - a).dot(b - a) / (b - a).squaredNorm(), 0.0, 1.0);
+          const Vector3d q = a + t * (b - a);
+          if ((x - q).norm() < best_d) {
+            best_d = (x - q).norm();
+            best = q;
+          }
+        }
+        return inside ? x : best;
+      };
+  }
+}
+
+TEST(CollisionPlanarTest, RandomizedGapsMatchBruteForceDistance) {
+  std::mt19937 rng(99);
+  std::uniform_real_distribution<double> U(-1.0, 1.0);
+  const Shape disc = Disc(0.25), stick = Segment(0.35, 0.08), rod = Segment(0.3, 0.0);
+  const Shape tri = Polygon({{-0.3, -0.2, 0}, {0.4, -0.1, 0}, {0, 0.45, 0}});
+  const Shape quad = Polygon({{-0.3, -0.2, 0}, {0.3, -0.25, 0}, {0.35, 0.2, 0}, {-0.2, 0.3, 0}});
+  struct Pair {
+    const char* name;
+    const Shape* a;
+    const Shape* b;
+    bool min_gap_is_distance;
+  };
+  const Pair pairs[] = {
+      {"disc/disc", &disc, &disc, true},        {"disc/segment", &disc, &stick, true},
+      {"disc/polygon", &disc, &tri, true},      {"segment/segment", &stick, &rod, true},
+      {"segment/polygon", &stick, &quad, true}, {"rod/polygon", &rod, &tri, true},
+      {"polygon/polygon", &quad, &tri, false}};
+  const double envelope = 0.4;
+  for (const Pair& p : pairs) {
+    SCOPED_TRACE(p.name);
+    int compared = 0;
+    for (int k = 0; k < 300; ++k) {
+      const Isometry3d X_WA = PlanarPose(1.1 * U(rng), 1.1 * U(rng), kPi * U(rng));
+      const Isometry3d X_WB = PlanarPose(0, 0, kPi * U(rng));
+      const double d = BruteForceDistance(ProjectOntoPlanar(*p.a, X_WA),
+                                          ProjectOntoPlanar(*p.b, X_WB), X_WA.translation());
+      const auto cs = Collide(*p.a, X_WA, *p.b, X_WB, envelope);
+      if (d < 1e-4) continue;
+      if (d > envelope) {
+        if (p.min_gap_is_distance) {
+          EXPECT_TRUE(cs.empty()) << "d = " << d << "\n" << Describe(cs);
+        }
+        continue;
+      }
+      ++compared;
+      ASSERT_FALSE(cs.empty()) << "d = " << d;
+      double min_gap = kPi, closest = kPi;
+      for (const ContactPoint& c : cs) {
+        min_gap = std::min(min_gap, c.gap);
+        closest = std::min(closest, std::abs(c.gap - d));
+      }
+      EXPECT_LE(closest, kBruteTol) << "k = " << k << " d = " << d << "\n" << Describe(cs);
+      if (p.min_gap_is_distance) {
+        EXPECT_NEAR(min_gap, d, kBruteTol) << "k = " << k;
+      }
+    }
+    EXPECT_GT(compared, 40);
   }
 }
 

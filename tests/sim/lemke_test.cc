@@ -468,6 +468,24 @@ TEST(LemkeTest, RandomMultiBodyContactLcps) {
   }
 }
 
+TEST(LemkeTest, FrequentRefactorizationGivesTheSameSolution) {
+  // Refactor B⁻¹ from an LU of the basis every 3 pivots instead of max(50, n).
+  std::mt19937 rng(17);
+  LemkeOptions refactor;
+  refactor.refactor_interval = 3;
+  for (int trial = 0; trial < 4; ++trial) {
+    const LcpProblem p = RandomPMatrixLcp(40, &rng);  // unique solution
+    VectorXd z_default, z_refactor;
+    const SolverReport r0 = LemkeSolver().Solve(p, nullptr, &z_default);
+    const SolverReport r1 = LemkeSolver(refactor).Solve(p, nullptr, &z_refactor);
+    ASSERT_TRUE(r0.ok()) << r0.message;
+    ASSERT_TRUE(r1.ok()) << r1.message;
+    ASSERT_GT(r1.iterations, 3);
+    ExpectLcpSolution(p, z_refactor, kTol);
+    EXPECT_LE((z_refactor - z_default).lpNorm<Eigen::Infinity>(), 1e-9);
+  }
+}
+
 TEST(LemkeTest, ExactWarmStartNeedsNoPivots) {
   std::mt19937 rng(3);
   for (const ContactLcp& c :

@@ -38,7 +38,8 @@ Matrix3d Rot(double angle, const Vector3d& axis) {
 }
 
 // Composite Simpson rule on [lo, hi].
-double Integrate(const std::function<double(double)>& f, double lo, double hi, int panels = 200000) {
+double Integrate(const std::function<double(double)>& f, double lo, double hi,
+                 int panels = 200000) {
   const double h = (hi - lo) / panels;
   double sum = f(lo) + f(hi);
   for (int i = 1; i < panels; ++i) sum += (i % 2 ? 4.0 : 2.0) * f(lo + i * h);
@@ -78,9 +79,11 @@ TEST(MassPropertiesTest, CapsuleMatchesSliceIntegrationAndSphereLimit) {
     return std::max(0.0, r * r - e * e);
   };
   const double V = Integrate([&](double z) { return kPi * rho2(z); }, -hl - r, hl + r);
-  const double Izz = Integrate([&](double z) { return kPi * rho2(z) * rho2(z) / 2; }, -hl - r, hl + r);
-  const double Ixx = Integrate(
-      [&](double z) { return kPi * rho2(z) * rho2(z) / 4 + kPi * rho2(z) * z * z; }, -hl - r, hl + r);
+  const double Izz =
+      Integrate([&](double z) { return kPi * rho2(z) * rho2(z) / 2; }, -hl - r, hl + r);
+  const double Ixx =
+      Integrate([&](double z) { return kPi * rho2(z) * rho2(z) / 4 + kPi * rho2(z) * z * z; },
+                -hl - r, hl + r);
   EXPECT_NEAR(m.volume, V, kQuadratureTol);
   EXPECT_NEAR(m.volume, kPi * r * r * 2 * hl + 4.0 / 3.0 * kPi * r * r * r, kTol);
   EXPECT_TRUE(MatNear(m.inertia_per_mass_S, Matrix3d(Vector3d(Ixx, Ixx, Izz).asDiagonal()) / V,
@@ -182,7 +185,8 @@ TEST(MassPropertiesTest, SegmentStadiumMatchesSliceIntegrationAndRodLimit) {
   };
   const double A = Integrate(height, -hl - r, hl + r);
   const double Ixx = Integrate([&](double x) { return x * x * height(x); }, -hl - r, hl + r);
-  const double Iyy = Integrate([&](double x) { return std::pow(height(x), 3) / 12; }, -hl - r, hl + r);
+  const double Iyy =
+      Integrate([&](double x) { return std::pow(height(x), 3) / 12; }, -hl - r, hl + r);
   EXPECT_NEAR(m.volume, A, kQuadratureTol);
   EXPECT_NEAR(m.volume, 4 * hl * r + kPi * r * r, kTol);
   EXPECT_NEAR(m.inertia_per_mass_S(1, 1), Ixx / A, kQuadratureTol);
@@ -260,7 +264,8 @@ TEST(AabbTest, ContainsSurfaceSamplesAndIsTight) {
       s.half_extents = Vector3d(0.4, 0.2, 0.1);
       std::vector<Vector3d> pts;
       for (int i = 0; i < 8; ++i) {
-        pts.push_back(X_WS * Vector3d((i & 1) ? 0.4 : -0.4, (i & 2) ? 0.2 : -0.2, (i & 4) ? 0.1 : -0.1));
+        pts.push_back(X_WS *
+                      Vector3d((i & 1) ? 0.4 : -0.4, (i & 2) ? 0.2 : -0.2, (i & 4) ? 0.1 : -0.1));
       }
       for (int i = 0; i < 200; ++i) {
         Vector3d p(0.4 * U(rng), 0.2 * U(rng), 0.1 * U(rng));
@@ -339,8 +344,8 @@ TEST(AabbTest, ContainsSurfaceSamplesAndIsTight) {
                       Vector3d(0.05 * std::cos(a), 0.05 * std::sin(a), 0));
       }
       for (const double e : {-0.4, 0.4}) {
-        for (const Vector3d& d : {Vector3d(0.05, 0, 0), Vector3d(-0.05, 0, 0),
-                                  Vector3d(0, 0.05, 0), Vector3d(0, -0.05, 0)}) {
+        for (const Vector3d& d : {Vector3d(0.05, 0, 0), Vector3d(-0.05, 0, 0), Vector3d(0, 0.05, 0),
+                                  Vector3d(0, -0.05, 0)}) {
           pts.push_back(X_planar * Vector3d(e, 0, 0) + d);
         }
       }

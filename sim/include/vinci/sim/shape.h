@@ -75,12 +75,49 @@ struct ContactPoint {
 /// A box face on a half-space gives its four corners; all contacts of a pair are
 /// reported, not only the deepest. Throws std::invalid_argument for a pair of kinds
 /// that cannot collide (planar with spatial) or two half-spaces/half-planes.
+/// Either argument order works; swapping a and b swaps the witnesses and negates n.
+/// Planar shapes use only x, y (poses rotate about +z); their outputs have z = 0.
+///
+/// Method per pair (exact = gap is the signed distance):
+/// - half-space/half-plane vs anything: each vertex, or each end sphere/disc, or the sphere/disc.
+/// - sphere/disc vs sphere, disc, box, capsule, segment, polyhedron, polygon: one contact, exact
+///   (inside a polytope: the nearest face).
+/// - capsule–capsule, segment–segment: closest points of the axes, exact; axes within ~0.06°
+///   of parallel whose projections overlap give two contacts at the overlap ends. Planar axes
+///   that cross are pushed apart along one axis' normal by the nearer end of the other.
+/// - capsule/segment vs box/polyhedron/polygon: the two end spheres (exact signed distance),
+///   each vertex and edge of the polytope whose closest axis point is interior and which
+///   supports the polytope towards that point, and, if the axis passes through the polytope
+///   with both ends outside, the middle of the part inside pushed out through its nearest face.
+///   Exact when separated.
+/// - box/polyhedron pairs, polygon pairs: vertex–face (vertex–edge in 2D) both ways — for each
+///   vertex no face plane separates by more than the envelope, the most separating face among
+///   those within the envelope of the largest separation for which the vertex is a lowest point
+///   of its shape along the face normal (else the plain most separating face); the vertex and
+///   its projection, kept if the projection lies within the face grown by the envelope. Plus,
+///   when separated, vertex–edge and vertex–vertex pairs that support both shapes, and (3D)
+///   edge–edge contacts between non-parallel edges with interior closest points whose cross
+///   product supports both shapes; a penetrating edge–edge contact is kept only if it is no
+///   deeper than the separation along every face normal (least-penetration axis). Contacts
+///   whose two witnesses coincide within 1e-9·size are reported once. Exact when separated
+///   (the closest pair is among the contacts; vertex–face contacts near a face boundary may
+///   underestimate the gap by up to the envelope). Deep interpenetration with no vertex inside
+///   the other shape (two thin bars crossed like a "+") yields no contact.
+/// Allocation-free apart from appending to `out`, except for a polyhedron not yet prepared by
+/// PrepareShape (its hull is then computed per call).
 void CollideShapes(const Shape& a, const Isometry3d& X_WA, const Shape& b, const Isometry3d& X_WB,
                    double envelope, std::vector<ContactPoint>* out);
 
 /// Mass properties of a shape of unit density: volume (area in 2D) and the inertia
 /// about the shape's centroid in the shape frame (planar: only (2,2) is used).
 /// Half-spaces/half-planes have infinite extent and throw std::invalid_argument.
+/// `volume` is m³ for sphere, box, capsule (cylinder + two hemispheres) and polyhedron (its
+/// convex hull); m² for disc, polygon and segment (a stadium: rectangle 2·half_length × 2·radius
+/// plus two half discs); for a radius-0 segment, a thin rod, it is the length 2·half_length
+/// (a line density). Planar shapes carry the inertia of a thin lamina (rod) in the xy-plane:
+/// (0,0) = ∫y², (1,1) = ∫x², (0,1) = (1,0) = −∫xy and (2,2) = ∫(x² + y²), per unit mass about
+/// the centroid. Non-positive sizes, degenerate polygons and flat polyhedra throw
+/// std::invalid_argument naming the shape and field.
 struct UnitMassProperties {
   double volume = 0.0;
   Vector3d centroid_S = Vector3d::Zero();
@@ -88,8 +125,10 @@ struct UnitMassProperties {
 };
 UnitMassProperties ComputeUnitMassProperties(const Shape& shape);
 
-/// Axis-aligned bounding box of the shape in world frame (for the broad phase).
-/// Half-spaces return an infinite box.
+/// Axis-aligned bounding box of the shape in world frame (for the broad phase), tight for
+/// every kind. Half-spaces/half-planes return an infinite box (±infinity), bounded on one side
+/// only along a coordinate axis their normal is exactly aligned with. Planar shapes have the
+/// z range [0, 0].
 struct Aabb {
   Vector3d lo, hi;
   bool Overlaps(const Aabb& o, double margin) const {
