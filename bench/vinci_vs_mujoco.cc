@@ -1,7 +1,7 @@
 // vinci vs MuJoCo on the same two scenes: a box resting on a plane and a box at rest on a
 // 0.3 rad incline with μ = 1.05 tan θ. Prints a table and optionally writes it as CSV.
 //
-//   vinci_vs_mujoco [--quick] [--steps N] [--mu-factor F] [--csv FILE]
+//   vinci_vs_mujoco [--quick] [--steps N] [--creep-steps N] [--mu-factor F] [--csv FILE]
 //
 // The MuJoCo models are generated as MJCF from the vinci scene files (dt, gravity, box size,
 // mass, poses, μ), so both simulators see the same numbers. What cannot be matched — MuJoCo's
@@ -405,9 +405,11 @@ void WriteCsv(const std::vector<Row>& rows, const std::string& path) {
 }
 
 void Usage(std::ostream& out) {
-  out << "usage: vinci_vs_mujoco [--quick] [--steps N] [--mu-factor F] [--csv FILE]\n"
+  out << "usage: vinci_vs_mujoco [--quick] [--steps N] [--creep-steps N] [--mu-factor F] [--csv "
+         "FILE]\n"
          "  --quick     200 steps per measurement, one repeat (smoke test; numbers meaningless)\n"
          "  --steps N   timed steps per repeat (default 10000)\n"
+         "  --creep-steps N  steps of the creep run after settling (default 10000)\n"
          "  --mu-factor F  incline friction mu = F tan(theta) (default 1.05; F < 1 slides)\n"
          "  --csv FILE  also write the table as CSV\n";
 }
@@ -419,20 +421,21 @@ int main(int argc, char** argv) {
   std::string csv_path;
   bool quick = false;
   double mu_factor = kDefaultMuFactor;
+  int timing_steps = 0, creep_steps = 0;  // 0: default of the mode
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--quick") {
       quick = true;
     } else if (a == "--csv" && i + 1 < argc) {
       csv_path = argv[++i];
-    } else if (a == "--steps" && i + 1 < argc) {
+    } else if ((a == "--steps" || a == "--creep-steps") && i + 1 < argc) {
       char* end = nullptr;
       const long n = std::strtol(argv[++i], &end, 10);
       if (*end != '\0' || n <= 0 || n > 100000000) {
-        std::cerr << "--steps: expected a positive integer, got '" << argv[i] << "'\n";
+        std::cerr << a << ": expected a positive integer, got '" << argv[i] << "'\n";
         return 2;
       }
-      cfg.timing_steps = static_cast<int>(n);
+      (a == "--steps" ? timing_steps : creep_steps) = static_cast<int>(n);
     } else if (a == "--mu-factor" && i + 1 < argc) {
       char* end = nullptr;
       mu_factor = std::strtod(argv[++i], &end);
@@ -450,6 +453,8 @@ int main(int argc, char** argv) {
     }
   }
   if (quick) cfg = RunConfig{20, 200, 1, 50, 200};
+  if (timing_steps > 0) cfg.timing_steps = timing_steps;
+  if (creep_steps > 0) cfg.creep_steps = creep_steps;
   const double incline_mu = mu_factor * std::tan(kTheta);
 
   const std::vector<SceneSpec> scenes = {

@@ -262,3 +262,39 @@ TEST(SimulatorTest, StepEquationJacobiansMatchFiniteDifferences) {
 
 }  // namespace
 }  // namespace vinci::sim
+
+namespace vinci::sim {
+namespace {
+
+// ∂(step equations)/∂x_ℓ: the dynamics rows depend on ν_ℓ through −M (planar: no gyroscopic
+// term), and the normal rows on the height through ψ_n/h: ∂/∂y = 1/h per corner contact.
+TEST(SimulatorTest, StateJacobiansHaveTheClosedFormEntries) {
+  Simulator sim(testing::LoadExample("block_sliding.yaml"));
+  const Params p = sim.DefaultParams();
+  const Trajectory tr = sim.Rollout(p, sim.InitialState(), 10);
+  ASSERT_TRUE(tr.ok);
+  Workspace ws;
+  const Scene& model = sim.Resolve(p, &ws);
+  const State& x0 = tr.states[5];
+  const StepLayout l = sim.formulation().Layout(model, x0);
+  ASSERT_EQ(l.nc, 2);
+  VectorXd z = VectorXd::Zero(l.size());
+  z.segment(l.v1(), l.nv) = tr.states[6].v;
+  const StateJacobians J = sim.formulation().EvaluateStateJacobians(model, p, x0, StepInput{}, z);
+  ASSERT_TRUE(J.contact_set_stable);
+  const double h = model.options.dt, m = 1.0;
+  // Columns: [x, y, θ, vx, vy, ω]. Dynamics rows 0..2 w.r.t. ν_ℓ: −M.
+  EXPECT_NEAR(J.d_equality(0, 3), -m, 1e-6);
+  EXPECT_NEAR(J.d_equality(1, 4), -m, 1e-6);
+  EXPECT_NEAR(J.d_equality(2, 5), -model.bodies[1].inertia(2, 2), 1e-6);
+  // Kinematics rows 3..5 w.r.t. q_ℓ: −I.
+  for (int i = 0; i < 3; ++i) EXPECT_NEAR(J.d_equality(3 + i, i), -1.0, 1e-6);
+  // Normal rows: ψ_n/h with ψ_n = y − 0.1 for both corners.
+  for (int c = 0; c < 2; ++c) {
+    EXPECT_NEAR(J.d_comp_b(c, 1), 1.0 / h, 1e-3);
+    EXPECT_NEAR(J.d_comp_b(c, 0), 0.0, 1e-6);  // sliding along the floor changes no gap
+  }
+}
+
+}  // namespace
+}  // namespace vinci::sim

@@ -43,6 +43,15 @@ struct StepResiduals {
   double Violation() const;
 };
 
+/// Derivatives of the step equations with respect to the start-of-step state x_ℓ = (q_ℓ, ν_ℓ)
+/// (columns: [q_ℓ (nq); ν_ℓ (nv)]), for estimators whose unknowns include the states.
+struct StateJacobians {
+  MatrixXd d_equality, d_comp_a, d_comp_b;
+  /// false if a perturbation of x_ℓ changed the contact set (a point on the envelope boundary):
+  /// the columns are then one-sided across a discontinuity and should not be trusted.
+  bool contact_set_stable = true;
+};
+
 /// Reusable per-thread scratch: one per thread, never shared. Holds the params-resolved scene.
 struct Workspace {
   Params resolved_for;
@@ -64,6 +73,13 @@ class Formulation {
                                  const StepInput& u, const VectorXd& z) const = 0;
   /// The layout Evaluate expects from x (contact set at x).
   virtual StepLayout Layout(const Scene& model, const State& x) const = 0;
+
+  /// ∂(step equations)/∂x_ℓ by central differences of Evaluate (step `eps` relative to
+  /// max(1, |x_i|)), with collision detection re-run at each perturbed x_ℓ — the exact derivative
+  /// of the discrete equations the simulator solves, as long as the contact set is stable.
+  StateJacobians EvaluateStateJacobians(const Scene& model, const Params& params, const State& x,
+                                        const StepInput& u, const VectorXd& z,
+                                        double eps = 1e-7) const;
 };
 
 /// The formulation selected by the scene's options (Stewart–Trinkle or Anitescu–Potra) and
