@@ -169,35 +169,61 @@ StewartTrinkle::Assembly StewartTrinkle::Assemble(const Scene& model, const Stat
   return a;
 }
 
-LcpProblem StewartTrinkle::BuildLcp(const Assembly& a, const VectorXd& v, MatrixXd* WGc,
-                                    VectorXd* v_star) const {
+LcpProblem StewartTrinkle::BuildLcp(const Scene& model, const Assembly& a, const VectorXd& v,
+                                    VectorXd* v_star, JointElimination* joints) const {
   const double h = options_.dt;
   const int nc = static_cast<int>(a.contacts.size());
   const int nd = a.nd;
   const int nf = nc * nd;
   const int nb = static_cast<int>(a.psi_b.size());
-  const int nv = static_cast<int>(v.size());
-
-  MatrixXd G_c(nv, nc + nf);
-  G_c << a.G_n, a.G_f;
-  *v_star = v + a.M_inv * a.p_ext;
-  *WGc = a.M_inv * G_c;
-  if (nb > 0) {
-    // Eliminate p_b: S p_b = −(G_bᵀ ν* + ψ_b/h + ∂ψ_b/∂t + G_bᵀ M⁻¹ G_c p_c).
-    const MatrixXd MinvGb = a.M_inv * a.G_b;
-    const MatrixXd S = a.G_b.transpose() * MinvGb;
-    const Eigen::LDLT<MatrixXd> S_ldlt(S);
-    VectorXd rhs = a.G_b.transpose() * *v_star + a.dpsi_b;
-    if (options_.joint_stabilization) rhs += a.psi_b / h;
-    *v_star -= MinvGb * S_ldlt.solve(rhs);
-    *WGc -= MinvGb * S_ldlt.solve(a.G_b.transpose() * *WGc);
-  }
-
   const int m = nc + nf + nc;
+  const int nvb = VelocitySize(model.dim);
+
+  *v_star = v + a.M_inv * a.p_ext;
   LcpProblem lcp;
   lcp.M = MatrixXd::Zero(m, m);
   lcp.q = VectorXd::Zero(m);
-  lcp.M.topLeftCorner(nc + nf, nc + nf) = G_c.transpose() * *WGc;
+
+  // G_cᵀ M⁻¹ G_c from per-body blocks: M⁻¹ is block diagonal and each contact column touches at
+  // most two bodies, so only columns sharing a body interact (O(Σ_b k_b²) instead of dense).
+  std::vector<std::vector<int>> columns(model.bodies.size());
+  for (int c = 0; c < nc; ++c) {
+    for (int body : {a.contacts[c].body_a, a.contacts[c].body_b}) {
+      if (model.bodies[body].kind != BodyKind::kDynamic) continue;
+      std::vector<int>& cols = columns[body];
+      cols.push_back(c);
+      for (int j = 0; j < nd; ++j) cols.push_back(nc + c * nd + j);
+    }
+  }
+  MatrixXd Gb_cols, MinvG;
+  for (int body : model.dynamic_bodies()) {
+    const std::vector<int>& cols = columns[body];
+    if (cols.empty()) continue;
+    const int o = model.index(body).v, k = static_cast<int>(cols.size());
+    Gb_cols.resize(nvb, k);
+    for (int i = 0; i < k; ++i)
+      Gb_cols.col(i) = cols[i] < nc ? a.G_n.block(o, cols[i], nvb, 1)
+                                    : a.G_f.block(o, cols[i] - nc, nvb, 1);
+    MinvG.noalias() = a.M_inv.block(o, o, nvb, nvb) * Gb_cols;
+    const MatrixXd block = Gb_cols.transpose() * MinvG;
+    for (int i = 0; i < k; ++i)
+      for (int j = 0; j < k; ++j) lcp.M(cols[i], cols[j]) += block(i, j);
+  }
+
+  if (nb > 0) {
+    // Eliminate p_b with S = G_bᵀ M⁻¹ G_b:
+    //   S p_b = −(G_bᵀ ν* + ψ_b/h + ∂ψ_b/∂t + G_bᵀ M⁻¹ G_c p_c),
+    // which subtracts (G_bᵀM⁻¹G_c)ᵀ S⁻¹ (G_bᵀM⁻¹G_c) from the contact block.
+    joints->MinvGb = a.M_inv * a.G_b;
+    joints->S.compute(a.G_b.transpose() * joints->MinvGb);
+    VectorXd rhs = a.G_b.transpose() * *v_star + a.dpsi_b;
+    if (options_.joint_stabilization) rhs += a.psi_b / h;
+    *v_star -= joints->MinvGb * joints->S.solve(rhs);
+    MatrixXd GbMinvGc(nb, nc + nf);
+    GbMinvGc << joints->MinvGb.transpose() * a.G_n, joints->MinvGb.transpose() * a.G_f;
+    lcp.M.topLeftCorner(nc + nf, nc + nf) -= GbMinvGc.transpose() * joints->S.solve(GbMinvGc);
+  }
+
   for (int c = 0; c < nc; ++c) {
     for (int j = 0; j < nd; ++j) {
       lcp.M(nc + c * nd + j, nc + nf + c) = 1.0;   // E
@@ -209,6 +235,16 @@ LcpProblem StewartTrinkle::BuildLcp(const Assembly& a, const VectorXd& v, Matrix
   if (!velocity_level_) lcp.q.head(nc) += a.psi_n / h;
   lcp.q.segment(nc, nf) = a.G_f.transpose() * *v_star + a.dpsi_f;
   return lcp;
+}
+
+VectorXd StewartTrinkle::VelocityAfter(const Assembly& a, const VectorXd& v_star,
+                                       const VectorXd& z, const JointElimination& joints) const {
+  const int nc = static_cast<int>(a.contacts.size());
+  const int nf = nc * a.nd;
+  VectorXd impulse = a.G_n * z.head(nc) + a.G_f * z.segment(nc, nf);
+  VectorXd dv = a.M_inv * impulse;
+  if (a.psi_b.size() > 0) dv -= joints.MinvGb * joints.S.solve(joints.MinvGb.transpose() * impulse);
+  return v_star + dv;
 }
 
 void StewartTrinkle::Step(const Scene& model, const State& x, const StepInput& u, Workspace* ws,
@@ -228,9 +264,9 @@ void StewartTrinkle::Step(const Scene& model, const State& x, const StepInput& u
     return;
   }
 
-  MatrixXd WGc;
   VectorXd v_star;
-  const LcpProblem lcp = BuildLcp(a, x.v, &WGc, &v_star);
+  JointElimination joints;
+  const LcpProblem lcp = BuildLcp(model, a, x.v, &v_star, &joints);
   VectorXd z = VectorXd::Zero(lcp.size());
   if (lcp.size() > 0) {
     const VectorXd* warm = x.warm_start.size() == lcp.size() ? &x.warm_start : nullptr;
@@ -245,8 +281,7 @@ void StewartTrinkle::Step(const Scene& model, const State& x, const StepInput& u
     info->solver.status = SolverStatus::kSolved;
   }
 
-  const int nf = nc * a.nd;
-  const VectorXd v1 = v_star + WGc * z.head(nc + nf);
+  const VectorXd v1 = VelocityAfter(a, v_star, z, joints);
   if (!v1.allFinite()) {
     info->failure = "non-finite velocity after the step";
     info->solver.status = SolverStatus::kNumericalFailure;
@@ -255,13 +290,10 @@ void StewartTrinkle::Step(const Scene& model, const State& x, const StepInput& u
   next->t = x.t + h;
   next->v = v1;
   next->q.resize(x.q.size());
-  const int nqb = PositionSize(model.dim), nvb = VelocitySize(model.dim);
   for (int bi : model.dynamic_bodies()) {
     const BodyIndex& idx = model.index(bi);
     IntegratePosition(model.dim, x.q.data() + idx.q, v1.data() + idx.v, h, next->q.data() + idx.q);
   }
-  (void)nqb;
-  (void)nvb;
   next->warm_start = z;
   if (ws) ws->contacts = std::move(a.contacts);
   info->ok = true;

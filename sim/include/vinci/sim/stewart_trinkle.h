@@ -23,6 +23,8 @@
 
 #include <memory>
 
+#include <Eigen/Cholesky>
+
 #include "vinci/sim/formulation.h"
 
 namespace vinci::sim {
@@ -50,8 +52,18 @@ class StewartTrinkle final : public Formulation {
     VectorXd p_ext;          ///< h (forces) + p_vp (nv)
   };
   Assembly Assemble(const Scene& model, const State& x, const StepInput& u) const;
-  /// The LCP of the step (after eliminating ν and p_b), and the pieces to recover ν.
-  LcpProblem BuildLcp(const Assembly& a, const VectorXd& v, MatrixXd* WGc, VectorXd* v_star) const;
+  /// The Schur-complement pieces of the joint elimination (empty without joints).
+  struct JointElimination {
+    MatrixXd MinvGb;                 ///< M⁻¹ G_b
+    Eigen::LDLT<MatrixXd> S;         ///< S = G_bᵀ M⁻¹ G_b
+  };
+  /// The LCP of the step in (p_n, p_f, σ) after eliminating ν and p_b; *v_star is ν_ℓ+1 for
+  /// zero contact impulses.
+  LcpProblem BuildLcp(const Scene& model, const Assembly& a, const VectorXd& v, VectorXd* v_star,
+                      JointElimination* joints) const;
+  /// ν_ℓ+1 = ν* + W G_c p_c for the LCP solution z.
+  VectorXd VelocityAfter(const Assembly& a, const VectorXd& v_star, const VectorXd& z,
+                         const JointElimination& joints) const;
 
   const StepperOptions& options() const { return options_; }
 
