@@ -79,6 +79,7 @@ void Scene::Finalize() {
     for (std::size_t s = 0; s < b.shapes.size(); ++s) {
       Shape& sh = b.shapes[s];
       if (sh.name.empty()) sh.name = "s" + std::to_string(s);
+      if (sh.type == ShapeType::kPolyhedron && sh.faces.empty()) PrepareShape(&sh);
       if (IsPlanar(sh.type) != planar)
         throw std::invalid_argument(BodyContext(b) + ": shape '" + sh.name + "' is " +
                                     (planar ? "spatial" : "planar") + " in a " +
@@ -201,8 +202,11 @@ Scene Scene::ApplyParams(const Params& params) const {
       case ParamKind::kShapeHalfExtent: s.bodies[p.a].shapes[p.b].half_extents[p.c] = x; break;
       case ParamKind::kShapeHalfLength: s.bodies[p.a].shapes[p.b].half_length = x; break;
       case ParamKind::kShapeScale:
-        if (x != 1.0)
-          for (Vector3d& v : s.bodies[p.a].shapes[p.b].vertices) v *= x;
+        if (x != 1.0) {
+          Shape& sh = s.bodies[p.a].shapes[p.b];
+          for (Vector3d& v : sh.vertices) v *= x;
+          for (HullFace& f : sh.faces) f.offset *= x;  // scaling about the origin keeps normals
+        }
         break;
       case ParamKind::kMotionVelocity: s.bodies[p.a].motion.dofs[p.b].velocity = x; break;
       case ParamKind::kMotionAmplitude:
