@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <limits>
+#include <sstream>
 #include <stdexcept>
 
 namespace vinci::sim {
@@ -21,6 +22,22 @@ Matrix3d InertiaFromShapes(const Body& body) {
     throw std::invalid_argument(BodyContext(body) +
                                 ": cannot compute an inertia from shapes of zero volume; give "
                                 "'inertia' explicitly");
+  // The body origin is its centre of mass (formulations.md); shapes must be placed accordingly.
+  Vector3d centroid = Vector3d::Zero();
+  double extent = 0.0;
+  for (const Shape& s : body.shapes) {
+    const UnitMassProperties mp = ComputeUnitMassProperties(s);
+    centroid += mp.volume / volume * (s.X_BS * mp.centroid_S);
+    const Aabb box = ComputeAabb(s, s.X_BS);
+    extent = std::max(extent, (box.hi - box.lo).norm());
+  }
+  if (centroid.norm() > 1e-6 * std::max(extent, 1e-3)) {
+    std::ostringstream msg;
+    msg << BodyContext(body) << ": the shapes' centroid is at (" << centroid.transpose()
+        << ") in the body frame, but the body origin must be the centre of mass; shift the "
+           "shape poses by the negative of that offset (and the body pose by it)";
+    throw std::invalid_argument(msg.str());
+  }
   Matrix3d I = Matrix3d::Zero();
   for (const Shape& s : body.shapes) {
     const UnitMassProperties mp = ComputeUnitMassProperties(s);

@@ -298,3 +298,83 @@ TEST(SimulatorTest, StateJacobiansHaveTheClosedFormEntries) {
 
 }  // namespace
 }  // namespace vinci::sim
+
+namespace vinci::sim {
+namespace {
+
+// A scene built in code: a convex polyhedron (a square pyramid) and a capsule dropped on a
+// floor come to rest — the pyramid on its base (four corner contacts at height 0), the capsule
+// lying down at height r — and the polyhedron's size parameter scales its geometry.
+TEST(SimulatorTest, PolyhedronAndCapsuleComeToRestOnTheFloor) {
+  Scene s;
+  s.dim = Dim::kSpatial;
+  s.options.dt = 1e-3;
+  s.options.envelope = 2e-3;
+  Body floor;
+  floor.name = "floor";
+  floor.kind = BodyKind::kStatic;
+  floor.shapes.push_back(Shape{ShapeType::kHalfSpace});
+  s.bodies.push_back(floor);
+  Body pyramid;
+  pyramid.name = "pyramid";
+  pyramid.mass = 1.0;
+  Shape p;
+  p.type = ShapeType::kPolyhedron;
+  // Base at z = −0.05, apex at z = 0.15 (the body origin is the centroid: 1/4 of the height).
+  p.vertices = {{-0.1, -0.1, -0.05}, {0.1, -0.1, -0.05}, {0.1, 0.1, -0.05}, {-0.1, 0.1, -0.05},
+                {0, 0, 0.15}};
+  pyramid.shapes.push_back(p);
+  pyramid.X_WB0.translation() = Vector3d(0, 0, 0.3);
+  s.bodies.push_back(pyramid);
+  Body capsule;
+  capsule.name = "capsule";
+  capsule.mass = 0.5;
+  Shape c;
+  c.type = ShapeType::kCapsule;
+  c.radius = 0.05;
+  c.half_length = 0.1;
+  capsule.shapes.push_back(c);
+  capsule.X_WB0.translation() = Vector3d(1.0, 0, 0.3);
+  capsule.X_WB0.linear() = Eigen::AngleAxisd(1.4, Vector3d::UnitY()).toRotationMatrix();
+  s.bodies.push_back(capsule);
+  Simulator sim(s);
+  for (double scale : {1.0, 2.0}) {
+    const Params prm = WithParams(sim, {{"size.pyramid.s0.scale", scale}});
+    const Trajectory tr = sim.Rollout(prm, sim.InitialState(), 2000);
+    ASSERT_TRUE(tr.ok) << tr.failure;
+    const State& x = tr.states.back();
+    EXPECT_NEAR(x.q[2], 0.05 * scale, 1e-6) << "scale " << scale;  // resting on its base
+    EXPECT_NEAR(x.v.head<6>().norm(), 0.0, 1e-6);
+    EXPECT_NEAR(x.q[7 + 2], 0.05, 1e-6);  // capsule lying at its radius
+    EXPECT_EQ(tr.steps.back().contacts, 4 + 2);
+  }
+}
+
+}  // namespace
+}  // namespace vinci::sim
+
+namespace vinci::sim {
+namespace {
+
+TEST(SimulatorTest, OffCentreShapesWithComputedInertiaAreRejected) {
+  Scene s;
+  s.dim = Dim::kSpatial;
+  Body b;
+  b.name = "lopsided";
+  Shape sphere;
+  sphere.type = ShapeType::kSphere;
+  sphere.radius = 0.1;
+  sphere.X_BS.translation() = Vector3d(0.2, 0, 0);
+  b.shapes.push_back(sphere);
+  s.bodies.push_back(b);
+  try {
+    Simulator sim(s);
+    FAIL() << "expected std::invalid_argument";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("'lopsided'"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("centre of mass"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace vinci::sim
