@@ -8,11 +8,6 @@
 
 namespace vinci::sim {
 
-std::shared_ptr<const LcpSolver> MakeLcpSolver(const std::string& name) {
-  if (name == "lemke") return std::make_shared<LemkeSolver>();
-  throw std::invalid_argument("unknown LCP solver '" + name + "'; expected one of: lemke");
-}
-
 std::unique_ptr<Formulation> MakeFormulation(const StepperOptions& options) {
   return std::make_unique<StewartTrinkle>(options, MakeLcpSolver(options.solver));
 }

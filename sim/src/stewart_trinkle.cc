@@ -231,6 +231,15 @@ LcpProblem StewartTrinkle::BuildLcp(const Scene& model, const Assembly& a, const
     }
     lcp.M(nc + nf + c, c) = a.mu[c];  // U
   }
+  // One friction-cone block per contact for block-iterative solvers: (p_n, p_f,1..n_d, σ).
+  lcp.blocks.resize(nc);
+  for (int c = 0; c < nc; ++c) {
+    std::vector<int>& b = lcp.blocks[c];
+    b.reserve(nd + 2);
+    b.push_back(c);
+    for (int j = 0; j < nd; ++j) b.push_back(nc + c * nd + j);
+    b.push_back(nc + nf + c);
+  }
   lcp.q.head(nc) = a.G_n.transpose() * *v_star + a.dpsi_n;
   if (!velocity_level_) lcp.q.head(nc) += a.psi_n / h;
   lcp.q.segment(nc, nf) = a.G_f.transpose() * *v_star + a.dpsi_f;

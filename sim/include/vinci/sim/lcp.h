@@ -4,8 +4,10 @@
 // A solver sees only these numbers, never a body.
 #pragma once
 
+#include <memory>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "vinci/sim/types.h"
 
@@ -37,6 +39,11 @@ struct SolverReport {
 struct LcpProblem {
   MatrixXd M;
   VectorXd q;
+  /// Optional block structure for block-iterative solvers (projected Gauss–Seidel): a partition
+  /// of {0..n−1} into groups solved together, e.g. one friction-cone block (p_n, p_f,1..n_d, σ)
+  /// per contact in the Stewart–Trinkle LCP. Empty: every variable is its own block. Direct
+  /// solvers (Lemke) ignore it.
+  std::vector<std::vector<int>> blocks;
   int size() const { return static_cast<int>(q.size()); }
 };
 
@@ -55,5 +62,11 @@ class LcpSolver {
   virtual SolverReport Solve(const LcpProblem& problem, const VectorXd* warm_start,
                              VectorXd* z) const = 0;
 };
+
+/// Solver selection by name for scenes and the CLI (see LcpSolverNames()).
+/// Throws std::invalid_argument naming the known solvers for anything else.
+std::shared_ptr<const LcpSolver> MakeLcpSolver(const std::string& name);
+/// The names MakeLcpSolver accepts.
+std::vector<std::string> LcpSolverNames();
 
 }  // namespace vinci::sim

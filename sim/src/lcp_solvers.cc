@@ -1,0 +1,18 @@
+// The LCP solver registry: solvers selected by name from scene files and the CLI.
+#include <stdexcept>
+
+#include "vinci/sim/lcp.h"
+#include "vinci/sim/lemke.h"
+
+namespace vinci::sim {
+
+std::vector<std::string> LcpSolverNames() { return {"lemke"}; }
+
+std::shared_ptr<const LcpSolver> MakeLcpSolver(const std::string& name) {
+  if (name == "lemke") return std::make_shared<LemkeSolver>();
+  std::string known;
+  for (const std::string& n : LcpSolverNames()) known += (known.empty() ? "" : ", ") + n;
+  throw std::invalid_argument("unknown LCP solver '" + name + "'; expected one of: " + known);
+}
+
+}  // namespace vinci::sim
