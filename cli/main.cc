@@ -6,6 +6,7 @@
 
 #include "command.h"
 #include "simulate_command.h"
+#include "solve_command.h"
 
 #ifndef VINCI_VERSION
 #error "VINCI_VERSION must be defined by the build (cli/CMakeLists.txt)"
@@ -46,6 +47,7 @@ int main(int argc, char** argv) {
   // One line per subcommand.
   const std::vector<Command> commands = {
       vinci::cli::RegisterSimulateCommand(app),
+      vinci::cli::RegisterSolveCommand(app),
   };
 
   try {

@@ -219,9 +219,11 @@ LcpProblem StewartTrinkle::BuildLcp(const Scene& model, const Assembly& a, const
     VectorXd rhs = a.G_b.transpose() * *v_star + a.dpsi_b;
     if (options_.joint_stabilization) rhs += a.psi_b / h;
     *v_star -= joints->MinvGb * joints->S.solve(rhs);
-    MatrixXd GbMinvGc(nb, nc + nf);
-    GbMinvGc << joints->MinvGb.transpose() * a.G_n, joints->MinvGb.transpose() * a.G_f;
-    lcp.M.topLeftCorner(nc + nf, nc + nf) -= GbMinvGc.transpose() * joints->S.solve(GbMinvGc);
+    if (nc > 0) {
+      MatrixXd GbMinvGc(nb, nc + nf);
+      GbMinvGc << joints->MinvGb.transpose() * a.G_n, joints->MinvGb.transpose() * a.G_f;
+      lcp.M.topLeftCorner(nc + nf, nc + nf) -= GbMinvGc.transpose() * joints->S.solve(GbMinvGc);
+    }
   }
 
   for (int c = 0; c < nc; ++c) {

@@ -8,17 +8,41 @@ namespace vinci::sim {
 struct FischerBurmeisterOptions {
   int max_iterations = 100;
   double tolerance = 1e-10;  ///< on LcpResidual, scaled by max(1, ‖q‖_∞)
-  double lambda = 0.95;      ///< penalized FB: λ φ_FB + (1 − λ) max(0,a)max(0,b) (1 = plain FB)
+  /// Penalized FB weight λ ∈ (0, 1]: φ_λ = λ φ_FB − (1 − λ) max(0,a) max(0,b) (1 = plain FB).
+  double lambda = 0.95;
 };
 
-/// φ(a, b) = √(a² + b²) − a − b applied to (z, Mz + q); Newton with a generalized Jacobian,
-/// Armijo / non-monotone line search on ½‖Φ‖², gradient fallback.
+/// Semismooth Newton on Φ(z) = 0 with, for a = z_i and b = (Mz + q)_i,
+///
+///   φ_λ(a, b) = λ (√(a² + b²) − a − b) − (1 − λ) max(0, a) max(0, b).
+///
+/// Sign convention: φ_FB(a, b) = √(a² + b²) − a − b, which is ≤ 0 on the orthant a, b ≥ 0, so
+/// the penalty enters with a minus sign. This is −1 times the penalized FB function of Chen,
+/// Chen & Kanzow (Math. Program. 88, 2000) written with φ_FB = a + b − √(a² + b²); the two
+/// terms must have the same sign on the orthant (mixing the conventions gives a spurious root
+/// at a = b = λ(2 − √2)/(1 − λ)). Ψ = ½‖Φ‖² is the same either way.
+///
+/// Details of the contract:
+/// - Generalized Jacobian H = D_a + D_b M; at a = b = 0 the unit vector (1, 1)/√2 is taken
+///   in the subdifferential of √(a² + b²).
+/// - Direction: H d = −Φ by partial-pivoting LU, by column-pivoting QR when LU's condition
+///   estimate says H is singular; −∇Ψ = −HᵀΦ when d is not a sufficient descent direction or
+///   its line search fails.
+/// - Non-monotone Armijo backtracking on Ψ against the largest Ψ of the last 5 iterates.
+/// - Stops when LcpResidual(max(z, 0)) ≤ tolerance · max(1, ‖q‖_∞); the returned z is the
+///   projection max(z, 0) of the iterate with the smallest residual. An exact warm start is
+///   returned with 0 iterations.
+/// - kMaxIterations at the iteration limit; kNumericalFailure when the line search finds no
+///   decrease or Ψ is stationary at a non-solution (e.g. an infeasible LCP); kInvalidInput for
+///   a malformed problem (z = 0). `iterations` counts accepted Newton or gradient steps.
+/// - Invalid options throw std::invalid_argument, as does a null `z`.
 class FischerBurmeisterSolver final : public LcpSolver {
  public:
   explicit FischerBurmeisterSolver(FischerBurmeisterOptions options = {}) : options_(options) {}
   std::string_view name() const override { return "fb-newton"; }
   SolverReport Solve(const LcpProblem& problem, const VectorXd* warm_start,
                      VectorXd* z) const override;
+  const FischerBurmeisterOptions& options() const { return options_; }
 
  private:
   FischerBurmeisterOptions options_;

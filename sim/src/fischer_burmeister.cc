@@ -1,0 +1,286 @@
+// Semismooth Newton on the penalized Fischer–Burmeister reformulation of the LCP (Chen, Chen &
+// Kanzow, "A penalized Fischer–Burmeister NCP-function", Math. Program. 88, 2000; the
+// generalized Jacobian and the descent safeguard follow De Luca, Facchinei & Kanzow, Math.
+// Program. 75, 1996). With a = z, b = w = Mz + q, componentwise
+//
+//   Φ_i(z) = λ (√(a_i² + b_i²) − a_i − b_i) − (1 − λ) max(0, a_i) max(0, b_i),
+//
+// Φ(z) = 0 ⇔ z solves the LCP. Each iteration solves H d = −Φ with H = D_a + D_b M an element
+// of the generalized Jacobian, and backtracks on Ψ = ½‖Φ‖² against the largest Ψ of the last
+// few iterates (non-monotone Armijo). The returned point is z₊ = max(z, 0).
+#include "vinci/sim/fischer_burmeister.h"
+
+#include <Eigen/LU>
+#include <Eigen/QR>
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+namespace vinci::sim {
+namespace {
+
+// Non-monotone reference: the largest Ψ among the last kHistory iterates (Grippo, Lampariello
+// & Lucidi 1986); lets Newton take full steps through the kinks of Φ.
+constexpr int kHistory = 5;
+// Armijo sufficient-decrease constant and backtracking factor.
+constexpr double kArmijo = 1e-4;
+constexpr double kBacktrack = 0.5;
+// Smallest step tried is 0.5^40 ≈ 1e-12 of the direction.
+constexpr int kMaxBacktracks = 40;
+// Newton direction d is used only if ∇Ψᵀd ≤ −ρ‖d‖^p (De Luca, Facchinei & Kanzow 1996);
+// otherwise the iteration takes the steepest-descent direction −∇Ψ.
+constexpr double kDescentRho = 1e-10;
+constexpr double kDescentP = 2.1;
+// LU is trusted when its reciprocal condition estimate exceeds this; otherwise the direction
+// comes from a rank-revealing QR (a least-squares solution for a singular H).
+constexpr double kMinRcond = std::numeric_limits<double>::epsilon();
+
+std::string FormatDouble(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof(buf), "%.3g", v);
+  return buf;
+}
+
+void ValidateOptions(const FischerBurmeisterOptions& o) {
+  auto fail = [](const std::string& field, double value, const char* expected) {
+    throw std::invalid_argument("FischerBurmeisterOptions." + field + " = " + FormatDouble(value) +
+                                "; expected " + expected);
+  };
+  if (o.max_iterations < 0) fail("max_iterations", o.max_iterations, ">= 0");
+  if (!(o.tolerance >= 0.0) || !std::isfinite(o.tolerance)) {
+    fail("tolerance", o.tolerance, "a finite value >= 0");
+  }
+  if (!(o.lambda > 0.0 && o.lambda <= 1.0)) fail("lambda", o.lambda, "a value in (0, 1]");
+}
+
+// Φ(z) for a = z, b = w; returns Ψ = ½‖Φ‖² (NaN propagates).
+double EvaluatePhi(const VectorXd& a, const VectorXd& b, double lambda, VectorXd* phi) {
+  for (Eigen::Index i = 0; i < a.size(); ++i) {
+    const double ai = a(i), bi = b(i);
+    (*phi)(i) = lambda * (std::hypot(ai, bi) - ai - bi) -
+                (1.0 - lambda) * std::max(ai, 0.0) * std::max(bi, 0.0);
+  }
+  return 0.5 * phi->squaredNorm();
+}
+
+// Diagonals of H = D_a + D_b M. Where a_i = b_i = 0 the norm √(a² + b²) is not differentiable;
+// the element of its subdifferential taken is the unit vector (1, 1)/√2. The penalty term uses
+// the one-sided derivative of max(0, ·) that is 0 at 0.
+void JacobianDiagonals(const VectorXd& a, const VectorXd& b, double lambda, VectorXd* da,
+                       VectorXd* db) {
+  const double kInvSqrt2 = 1.0 / std::sqrt(2.0);
+  for (Eigen::Index i = 0; i < a.size(); ++i) {
+    const double ai = a(i), bi = b(i);
+    const double r = std::hypot(ai, bi);
+    const double ua = r > 0.0 ? ai / r : kInvSqrt2;
+    const double ub = r > 0.0 ? bi / r : kInvSqrt2;
+    (*da)(i) = lambda * (ua - 1.0) - (1.0 - lambda) * (ai > 0.0 ? std::max(bi, 0.0) : 0.0);
+    (*db)(i) = lambda * (ub - 1.0) - (1.0 - lambda) * (bi > 0.0 ? std::max(ai, 0.0) : 0.0);
+  }
+}
+
+// ‖min(z, w)‖_∞, NaN if anything is NaN (as LcpResidual).
+double Residual(const VectorXd& z, const VectorXd& w) {
+  double r = 0.0;
+  for (Eigen::Index i = 0; i < z.size(); ++i) {
+    if (std::isnan(z(i)) || std::isnan(w(i))) return std::numeric_limits<double>::quiet_NaN();
+    r = std::max(r, std::abs(std::min(z(i), w(i))));
+  }
+  return r;
+}
+
+}  // namespace
+
+SolverReport FischerBurmeisterSolver::Solve(const LcpProblem& problem, const VectorXd* warm_start,
+                                            VectorXd* z) const {
+  if (z == nullptr) {
+    throw std::invalid_argument(
+        "FischerBurmeisterSolver::Solve: z is null; expected an output vector");
+  }
+  ValidateOptions(options_);
+  const auto start = std::chrono::steady_clock::now();
+  SolverReport report;
+  auto finish = [&]() {
+    report.time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return report;
+  };
+
+  const Eigen::Index n = problem.q.size();
+  if (problem.M.rows() != n || problem.M.cols() != n) {
+    z->setZero(n);
+    report.status = SolverStatus::kInvalidInput;
+    report.residual = std::numeric_limits<double>::quiet_NaN();
+    report.message = "M is " + std::to_string(problem.M.rows()) + "x" +
+                     std::to_string(problem.M.cols()) + " but q has size " + std::to_string(n) +
+                     "; expected a square M matching q";
+    return finish();
+  }
+  if (!problem.M.allFinite() || !problem.q.allFinite()) {
+    z->setZero(n);
+    report.status = SolverStatus::kInvalidInput;
+    report.residual = std::numeric_limits<double>::quiet_NaN();
+    report.message = "M or q contains NaN or Inf";
+    return finish();
+  }
+  if (n == 0) {
+    z->resize(0);
+    report.status = SolverStatus::kSolved;
+    return finish();
+  }
+  const double tolerance = options_.tolerance * std::max(1.0, problem.q.lpNorm<Eigen::Infinity>());
+  const double lambda = options_.lambda;
+  const MatrixXd& M = problem.M;
+
+  // Iterate x (may leave the orthant); the candidate answer is x₊ = max(x, 0).
+  VectorXd x = VectorXd::Zero(n);
+  if (warm_start != nullptr && warm_start->size() == n && warm_start->allFinite()) {
+    x = *warm_start;  // before *z is written: warm_start may alias z
+  }
+  VectorXd best = x.cwiseMax(0.0);
+  double best_residual = LcpResidual(problem, best);
+  if (best_residual <= tolerance) {
+    *z = std::move(best);
+    report.status = SolverStatus::kSolved;
+    report.residual = best_residual;
+    return finish();
+  }
+
+  // Per-solve scratch; nothing below allocates per iteration except Eigen's internal LU/QR
+  // temporaries.
+  VectorXd w = M * x + problem.q;
+  VectorXd phi(n), da(n), db(n), grad(n), d(n), md(n), x_trial(n), w_trial(n), phi_trial(n);
+  VectorXd candidate(n), w_candidate(n);
+  MatrixXd H(n, n);
+  Eigen::PartialPivLU<MatrixXd> lu(n);
+  Eigen::ColPivHouseholderQR<MatrixXd> qr(n, n);
+  double psi = EvaluatePhi(x, w, lambda, &phi);
+  std::array<double, kHistory> history;
+  history.fill(psi);
+  int qr_fallbacks = 0, gradient_steps = 0;
+  bool solved = false;
+  std::string failure;
+
+  // Backtracking along d from x with slope ∇Ψᵀd < 0 against `reference`; on success x_trial,
+  // w_trial and phi_trial hold the accepted point and the return value is its Ψ.
+  auto line_search = [&](double slope, double reference, double* psi_new) {
+    md.noalias() = M * d;
+    double t = 1.0;
+    for (int k = 0; k < kMaxBacktracks; ++k, t *= kBacktrack) {
+      x_trial = x + t * d;
+      w_trial = w + t * md;
+      const double psi_t = EvaluatePhi(x_trial, w_trial, lambda, &phi_trial);
+      if (psi_t <= reference + kArmijo * t * slope) {
+        *psi_new = psi_t;
+        return true;
+      }
+    }
+    return false;
+  };
+
+  int iteration = 0;
+  while (iteration < options_.max_iterations) {
+    JacobianDiagonals(x, w, lambda, &da, &db);
+    H.noalias() = db.asDiagonal() * M;
+    H.diagonal() += da;
+    grad.noalias() = H.transpose() * phi;
+
+    // Newton direction H d = −Φ: LU, or a QR least-squares solution if H is (near) singular.
+    lu.compute(H);
+    bool newton = false;
+    if (lu.rcond() > kMinRcond) {
+      d.noalias() = lu.solve(phi);
+      d = -d;
+      newton = d.allFinite();
+    }
+    if (!newton) {
+      ++qr_fallbacks;
+      qr.compute(H);
+      d.noalias() = qr.solve(phi);
+      d = -d;
+      newton = d.allFinite();
+    }
+    double slope = newton ? grad.dot(d) : 0.0;
+    if (!newton || !(slope <= -kDescentRho * std::pow(d.norm(), kDescentP))) {
+      newton = false;
+      d = -grad;
+      slope = -grad.squaredNorm();
+    }
+    if (!(slope < 0.0)) {
+      failure = "Psi = 0.5*|Phi|^2 = " + FormatDouble(psi) +
+                " is stationary at a point that does not solve the LCP (gradient " +
+                FormatDouble(grad.norm()) + ")";
+      break;
+    }
+    const double reference = *std::max_element(history.begin(), history.end());
+    double psi_new = 0.0;
+    bool accepted = line_search(slope, reference, &psi_new);
+    if (!accepted && newton) {
+      newton = false;
+      d = -grad;
+      slope = -grad.squaredNorm();
+      accepted = slope < 0.0 && line_search(slope, reference, &psi_new);
+    }
+    if (!accepted) {
+      failure = "the line search found no decrease of Psi = " + FormatDouble(psi) +
+                " along the Newton or the gradient direction at iteration " +
+                std::to_string(iteration + 1);
+      break;
+    }
+    if (!newton) ++gradient_steps;
+    ++iteration;
+    x.swap(x_trial);
+    // Recompute w exactly rather than accumulating t·Md.
+    w.noalias() = M * x;
+    w += problem.q;
+    psi = EvaluatePhi(x, w, lambda, &phi);
+    std::rotate(history.begin(), history.begin() + 1, history.end());
+    history.back() = psi;
+    if (!std::isfinite(psi)) {
+      failure = "non-finite iterate at iteration " + std::to_string(iteration);
+      break;
+    }
+
+    candidate = x.cwiseMax(0.0);
+    w_candidate.noalias() = M * candidate;
+    w_candidate += problem.q;
+    const double r = Residual(candidate, w_candidate);
+    if (r < best_residual) {
+      best_residual = r;
+      best = candidate;
+    }
+    if (r <= tolerance) {
+      solved = true;
+      break;
+    }
+  }
+
+  *z = std::move(best);
+  report.iterations = iteration;
+  report.residual = LcpResidual(problem, *z);
+  std::string stats;
+  if (qr_fallbacks > 0 || gradient_steps > 0) {
+    stats = " (" + std::to_string(qr_fallbacks) + " QR fallbacks, " +
+            std::to_string(gradient_steps) + " gradient steps)";
+  }
+  if (solved && report.residual <= tolerance) {
+    report.status = SolverStatus::kSolved;
+  } else if (failure.empty()) {
+    report.status = SolverStatus::kMaxIterations;
+    report.message = "FB Newton reached the iteration limit " +
+                     std::to_string(options_.max_iterations) + " with residual " +
+                     FormatDouble(report.residual) + " > tolerance " + FormatDouble(tolerance) +
+                     stats + "; returning the best iterate";
+  } else {
+    report.status = SolverStatus::kNumericalFailure;
+    report.message = "FB Newton: " + failure + stats + "; returning the best iterate (residual " +
+                     FormatDouble(report.residual) + ")";
+  }
+  return finish();
+}
+
+}  // namespace vinci::sim

@@ -1,0 +1,431 @@
+// Tests of the block projected Gauss–Seidel / SOR LCP solver: closed-form LCPs, random SPD
+// problems, the Stewart–Trinkle contact LCP with its friction-cone blocks (against Lemke),
+// scalar PGS failing cleanly on zero-diagonal rows, warm start, invalid input and
+// determinism. Every solution is checked independently of the solver.
+#include "vinci/sim/pgs.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <random>
+#include <stdexcept>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "test_util.h"
+#include "vinci/sim/lcp.h"
+#include "vinci/sim/lemke.h"
+#include "vinci/sim/stewart_trinkle.h"
+
+namespace vinci::sim {
+namespace {
+
+// The solver's default relative tolerance; used as the independent check as well.
+constexpr double kTol = 1e-9;
+
+LcpProblem Make(const MatrixXd& M, const VectorXd& q) { return LcpProblem{M, q}; }
+
+// Independent check of a solution: z ≥ 0, w = Mz + q ≥ −tol, |z_i w_i| ≤ tol·(1 + |z_i|),
+// and the residual recomputed by LcpResidual.
+void ExpectLcpSolution(const LcpProblem& p, const VectorXd& z, double tol) {
+  ASSERT_EQ(z.size(), p.size());
+  ASSERT_TRUE(z.allFinite());
+  const VectorXd w = p.M * z + p.q;
+  const double scale = std::max(1.0, p.q.lpNorm<Eigen::Infinity>());
+  for (int i = 0; i < p.size(); ++i) {
+    EXPECT_GE(z(i), 0.0) << "i = " << i;
+    EXPECT_GE(w(i), -tol * scale) << "i = " << i;
+    EXPECT_LE(std::abs(z(i) * w(i)), tol * scale * (1.0 + std::abs(z(i)))) << "i = " << i;
+  }
+  EXPECT_LE(LcpResidual(p, z), tol * scale);
+}
+
+// Symmetric positive definite M (eigenvalues ≥ 0.5) and q uniform in [−1, 1]: unique
+// solution, and (block) Gauss–Seidel converges for every ω ∈ (0, 2).
+LcpProblem RandomSpdLcp(int n, std::mt19937* rng) {
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  MatrixXd A(n, n);
+  VectorXd q(n);
+  for (int j = 0; j < n; ++j) {
+    for (int i = 0; i < n; ++i) A(i, j) = u(*rng);
+  }
+  for (int i = 0; i < n; ++i) q(i) = u(*rng);
+  return Make(A * A.transpose() / n + 0.5 * MatrixXd::Identity(n, n), q);
+}
+
+// The Stewart–Trinkle LCP of a bundled scene after `steps` Lemke steps from rest (so the
+// contacts and their forces are established), with what is needed to map z to ν_ℓ+1.
+struct StepLcp {
+  StepLcp(const std::string& scene, int steps) : sim(testing::LoadExample(scene)) {
+    x = sim.InitialState();
+    Workspace ws;
+    for (int k = 0; k < steps; ++k) {
+      State next;
+      const StepInfo info = sim.Step(sim.DefaultParams(), x, StepInput{}, &ws, &next);
+      if (!info.ok) throw std::runtime_error("setup step failed: " + info.failure);
+      x = next;
+    }
+    a = st().Assemble(sim.scene(), x, StepInput{});
+    lcp = st().BuildLcp(sim.scene(), a, x.v, &v_star, &joints);
+  }
+  const StewartTrinkle& st() const {
+    return dynamic_cast<const StewartTrinkle&>(sim.formulation());
+  }
+  VectorXd VelocityAfter(const VectorXd& z) const {
+    return st().VelocityAfter(a, v_star, z, joints);
+  }
+
+  Simulator sim;
+  State x;
+  StewartTrinkle::Assembly a;
+  VectorXd v_star;
+  StewartTrinkle::JointElimination joints;
+  LcpProblem lcp;
+};
+
+TEST(PgsTest, ScalarProblem) {
+  const LcpProblem p = Make(MatrixXd::Ones(1, 1), VectorXd::Constant(1, -9.8));
+  VectorXd z;
+  const SolverReport r = PgsSolver().Solve(p, nullptr, &z);
+  ASSERT_TRUE(r.ok()) << r.message;
+  EXPECT_NEAR(z(0), 9.8, 1e-12);
+  EXPECT_EQ(r.iterations, 1);  // the closed form is exact
+  EXPECT_GE(r.time_s, 0.0);
+  ExpectLcpSolution(p, z, kTol);
+}
+
+TEST(PgsTest, NonnegativeQGivesZeroWithoutSweeps) {
+  MatrixXd M(3, 3);
+  M << 1, -2, 3, 0, -1, 4, 5, 6, -7;
+  const LcpProblem p = Make(M, Eigen::Vector3d(0.0, 1.0, 2.0));
+  VectorXd z = VectorXd::Constant(3, 7.0);
+  const SolverReport r = PgsSolver().Solve(p, nullptr, &z);
+  ASSERT_TRUE(r.ok()) << r.message;
+  EXPECT_EQ(r.iterations, 0);
+  EXPECT_EQ(z, VectorXd::Zero(3));
+  EXPECT_EQ(r.residual, 0.0);
+}
+
+TEST(PgsTest, EmptyProblemIsSolved) {
+  VectorXd z = VectorXd::Ones(2);
+  const SolverReport r = PgsSolver().Solve(LcpProblem{}, nullptr, &z);
+  EXPECT_TRUE(r.ok());
+  EXPECT_EQ(z.size(), 0);
+}
+
+// The classic 3×3 cycling example (P-matrix, unique solution (1/3, 1/3, 1/3)). Scalar
+// Gauss–Seidel cannot solve it: near the solution its iteration matrix −(D + L)⁻¹U has
+// eigenvalues ±2√2 i, and M's own eigenvalues 3, ±√3 i make SOR diverge for every ω. It must
+// report that cleanly; one block holding all three variables is solved exactly by Lemke.
+TEST(PgsTest, CyclingExampleFailsScalarButOneBlockSolves) {
+  MatrixXd M(3, 3);
+  M << 1, 2, 0, 0, 1, 2, 2, 0, 1;
+  LcpProblem p = Make(M, -Eigen::Vector3d::Ones());
+  for (double omega : {1.0, 0.5}) {
+    PgsOptions o;
+    o.relaxation = omega;
+    VectorXd z;
+    const SolverReport r = PgsSolver(o).Solve(p, nullptr, &z);
+    EXPECT_EQ(r.status, SolverStatus::kMaxIterations) << "omega = " << omega;
+    EXPECT_EQ(r.iterations, o.max_sweeps);
+    EXPECT_NE(r.message.find("sweep limit"), std::string::npos) << r.message;
+    ASSERT_EQ(z.size(), 3);
+    EXPECT_TRUE(z.allFinite());
+    EXPECT_GE(z.minCoeff(), 0.0);
+    EXPECT_EQ(r.residual, LcpResidual(p, z));
+    EXPECT_LE(r.residual, 1.0);  // the best iterate is no worse than the start z = 0
+  }
+  p.blocks = {{0, 1, 2}};
+  VectorXd z;
+  const SolverReport r = PgsSolver().Solve(p, nullptr, &z);
+  ASSERT_TRUE(r.ok()) << r.message;
+  EXPECT_EQ(r.iterations, 1);
+  ExpectLcpSolution(p, z, kTol);
+  EXPECT_LE((z - Eigen::Vector3d::Constant(1.0 / 3.0)).lpNorm<Eigen::Infinity>(), 1e-12);
+}
+
+TEST(PgsTest, RandomSpdProblemsMatchLemke) {
+  std::mt19937 rng(20240612);
+  for (int n : {10, 50}) {
+    for (int trial = 0; trial < 3; ++trial) {
+      const LcpProblem p = RandomSpdLcp(n, &rng);
+      VectorXd z, z_lemke;
+      const SolverReport r = PgsSolver().Solve(p, nullptr, &z);
+      ASSERT_TRUE(r.ok()) << "n = " << n << ", trial " << trial << ": " << r.message;
+      EXPECT_GT(r.iterations, 1);
+      EXPECT_EQ(r.residual, LcpResidual(p, z));
+      ExpectLcpSolution(p, z, kTol);
+      ASSERT_TRUE(LemkeSolver().Solve(p, nullptr, &z_lemke).ok());
+      // Unique solution; PD with smallest eigenvalue ≥ 0.5 turns a residual of 1e-9 into an
+      // error of a few 1e-9.
+      EXPECT_LE((z - z_lemke).lpNorm<Eigen::Infinity>(), 1e-8) << "n = " << n;
+    }
+  }
+}
+
+TEST(PgsTest, RelaxationAndBlocksReachTheSameSolution) {
+  std::mt19937 rng(99);
+  LcpProblem p = RandomSpdLcp(30, &rng);
+  VectorXd z_ref;
+  ASSERT_TRUE(LemkeSolver().Solve(p, nullptr, &z_ref).ok());
+  for (double omega : {0.6, 1.0, 1.4}) {
+    for (bool blocked : {false, true}) {
+      LcpProblem pb = p;
+      if (blocked) {  // blocks of 4 (the last of 2), out of index order
+        for (int b = 0; b < 30; b += 4) {
+          pb.blocks.emplace_back();
+          for (int i = std::min(29, b + 3); i >= b; --i) pb.blocks.back().push_back(i);
+        }
+      }
+      PgsOptions o;
+      o.relaxation = omega;
+      VectorXd z;
+      const SolverReport r = PgsSolver(o).Solve(pb, nullptr, &z);
+      ASSERT_TRUE(r.ok()) << "omega = " << omega << ", blocked " << blocked << ": " << r.message;
+      ExpectLcpSolution(pb, z, kTol);
+      EXPECT_LE((z - z_ref).lpNorm<Eigen::Infinity>(), 1e-8);
+    }
+  }
+}
+
+TEST(PgsTest, ExactWarmStartNeedsNoSweeps) {
+  std::mt19937 rng(3);
+  const LcpProblem p = RandomSpdLcp(20, &rng);
+  VectorXd z_cold;
+  const SolverReport cold = PgsSolver().Solve(p, nullptr, &z_cold);
+  ASSERT_TRUE(cold.ok()) << cold.message;
+  ASSERT_GT(cold.iterations, 0);
+  VectorXd z_warm;
+  const SolverReport warm = PgsSolver().Solve(p, &z_cold, &z_warm);
+  ASSERT_TRUE(warm.ok()) << warm.message;
+  EXPECT_EQ(warm.iterations, 0);
+  EXPECT_EQ(z_warm, z_cold);
+  // The warm start may alias the output.
+  VectorXd z = z_cold;
+  const SolverReport aliased = PgsSolver().Solve(p, &z, &z);
+  ASSERT_TRUE(aliased.ok()) << aliased.message;
+  EXPECT_EQ(aliased.iterations, 0);
+  EXPECT_EQ(z, z_cold);
+  // A wrong-size warm start is ignored.
+  const VectorXd wrong = VectorXd::Ones(3);
+  const SolverReport r = PgsSolver().Solve(p, &wrong, &z);
+  ASSERT_TRUE(r.ok()) << r.message;
+  EXPECT_EQ(r.iterations, cold.iterations);
+}
+
+// The Stewart–Trinkle LCP (zero diagonal in the σ rows, non-symmetric U / −Eᵀ / E coupling)
+// of a box resting on a plane: the friction-cone blocks from BuildLcp are solved by Lemke each
+// sweep, and the step velocity matches Lemke's.
+TEST(PgsTest, StewartTrinkleBoxOnPlaneWithBlocksMatchesLemke) {
+  const StepLcp s("box_on_plane.yaml", 5);
+  ASSERT_EQ(s.lcp.blocks.size(), 4u);  // 4 corner contacts, n_d = 8
+  ASSERT_EQ(s.lcp.size(), 4 * (8 + 2));
+  PgsOptions o;
+  o.tolerance = 1e-8;
+  VectorXd z, z_lemke;
+  const SolverReport r = PgsSolver(o).Solve(s.lcp, nullptr, &z);
+  ASSERT_TRUE(r.ok()) << r.message;
+  EXPECT_GT(r.iterations, 0);
+  ExpectLcpSolution(s.lcp, z, 1e-8);
+  ASSERT_TRUE(LemkeSolver().Solve(s.lcp, nullptr, &z_lemke).ok());
+  // Contact velocities are within the residual (1e-8) of each other; the body velocities of a
+  // 1 kg, 0.2 m box differ by at most a small multiple of that.
+  EXPECT_LE((s.VelocityAfter(z) - s.VelocityAfter(z_lemke)).lpNorm<Eigen::Infinity>(), 1e-6);
+  // Physics: resting, so ν_ℓ+1 ≈ 0 and Σ p_n = m g h.
+  EXPECT_LE(s.VelocityAfter(z).lpNorm<Eigen::Infinity>(), 1e-6);
+  EXPECT_NEAR(z.head(4).sum(), 1.0 * 9.81 * s.sim.scene().options.dt, 1e-8);
+}
+
+// Same on the 10-box stack (n = 240), started from an iterate near the solution: cold, block
+// PGS needs ~3·10⁴ sweeps here (the stack's swaying modes make the contact matrix
+// ill-conditioned, eigenvalues from 1e-3 to 94), too slow for a unit test.
+TEST(PgsTest, StewartTrinkleBoxStackFromNearbyStartMatchesLemke) {
+  const StepLcp s("box_stack.yaml", 5);
+  ASSERT_EQ(s.lcp.size(), 240);
+  VectorXd z_lemke;
+  ASSERT_TRUE(LemkeSolver().Solve(s.lcp, nullptr, &z_lemke).ok());
+  // Perturb the normal impulses by 0.1 % and the friction impulses by 1e-7 N·s.
+  VectorXd start = z_lemke;
+  std::mt19937 rng(1);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  for (int i = 0; i < 40; ++i) start(i) *= 1.0 + 0.001 * u(rng);
+  for (int i = 40; i < 200; ++i) start(i) += 1e-7 * u(rng);
+  ASSERT_GT(LcpResidual(s.lcp, start), 1e-7);
+  PgsOptions o;
+  o.tolerance = 1e-8;
+  o.max_sweeps = 20000;
+  VectorXd z;
+  const SolverReport r = PgsSolver(o).Solve(s.lcp, &start, &z);
+  ASSERT_TRUE(r.ok()) << r.message;
+  EXPECT_GT(r.iterations, 0);
+  ExpectLcpSolution(s.lcp, z, 1e-8);
+  EXPECT_LE((s.VelocityAfter(z) - s.VelocityAfter(z_lemke)).lpNorm<Eigen::Infinity>(), 1e-6);
+}
+
+// The iteration limit is reported with the best iterate, never worse than the start.
+TEST(PgsTest, SweepLimitReturnsBestIterate) {
+  const StepLcp s("box_stack.yaml", 5);
+  PgsOptions o;
+  o.max_sweeps = 50;
+  VectorXd z;
+  const SolverReport r = PgsSolver(o).Solve(s.lcp, nullptr, &z);
+  EXPECT_EQ(r.status, SolverStatus::kMaxIterations);
+  EXPECT_EQ(r.iterations, 50);
+  EXPECT_NE(r.message.find("sweep limit 50"), std::string::npos) << r.message;
+  ASSERT_EQ(z.size(), s.lcp.size());
+  EXPECT_GE(z.minCoeff(), 0.0);
+  EXPECT_EQ(r.residual, LcpResidual(s.lcp, z));
+  EXPECT_LT(r.residual, LcpResidual(s.lcp, VectorXd::Zero(s.lcp.size())));
+}
+
+// A larger sweep limit never returns a worse iterate, since the best one seen is kept: on the
+// cycling example with ω = 0.5 the residual after each sweep goes 0.5, 0.25, 0.625, ...
+TEST(PgsTest, MoreSweepsNeverReturnAWorseIterate) {
+  MatrixXd M(3, 3);
+  M << 1, 2, 0, 0, 1, 2, 2, 0, 1;
+  const LcpProblem p = Make(M, -Eigen::Vector3d::Ones());
+  double previous = LcpResidual(p, VectorXd::Zero(3));
+  for (int sweeps = 1; sweeps <= 20; ++sweeps) {
+    PgsOptions o;
+    o.max_sweeps = sweeps;
+    o.relaxation = 0.5;
+    VectorXd z;
+    const SolverReport r = PgsSolver(o).Solve(p, nullptr, &z);
+    ASSERT_EQ(r.status, SolverStatus::kMaxIterations);
+    EXPECT_LE(r.residual, previous) << "sweeps = " << sweeps;
+    previous = std::min(previous, r.residual);
+  }
+}
+
+// SOR over-relaxation is projected back onto z ≥ 0: from z = 1, ω = 1.5 overshoots the
+// solution z = 0 of the 1×1 LCP to −0.5, which must be clamped to 0 in the same sweep.
+TEST(PgsTest, OverRelaxationIsProjectedOntoTheOrthant) {
+  const LcpProblem p = Make(MatrixXd::Ones(1, 1), VectorXd::Ones(1));
+  PgsOptions o;
+  o.relaxation = 1.5;
+  const VectorXd start = VectorXd::Ones(1);
+  VectorXd z;
+  const SolverReport r = PgsSolver(o).Solve(p, &start, &z);
+  ASSERT_TRUE(r.ok()) << r.message;
+  EXPECT_EQ(r.iterations, 1);
+  EXPECT_EQ(z(0), 0.0);
+}
+
+// Without blocks the σ rows (M_ii = 0) have no 1×1 solution once friction builds up; the solve
+// must stop with a clear report, not crash or report success.
+TEST(PgsTest, ScalarPgsOnStewartTrinkleReportsZeroDiagonalFailure) {
+  StepLcp s("box_on_plane.yaml", 5);
+  s.lcp.blocks.clear();
+  VectorXd z;
+  const SolverReport r = PgsSolver().Solve(s.lcp, nullptr, &z);
+  EXPECT_EQ(r.status, SolverStatus::kNumericalFailure);
+  EXPECT_FALSE(r.ok());
+  EXPECT_NE(r.message.find("M_ii = 0"), std::string::npos) << r.message;
+  EXPECT_NE(r.message.find("LcpProblem::blocks"), std::string::npos) << r.message;
+  ASSERT_EQ(z.size(), s.lcp.size());
+  EXPECT_TRUE(z.allFinite());
+  EXPECT_EQ(r.residual, LcpResidual(s.lcp, z));
+  EXPECT_GT(r.residual, 1e-8);
+}
+
+TEST(PgsTest, ZeroDiagonalRowWithNonnegativeRIsZero) {
+  // w_1 = z_0 − 0.5 with M_11 = 0: after z_0 = 1, r_1 = 0.5 ≥ 0 and z_1 = 0.
+  MatrixXd M(2, 2);
+  M << 1, 0, 1, 0;
+  const LcpProblem p = Make(M, Vector2d(-1.0, -0.5));
+  VectorXd z;
+  const SolverReport r = PgsSolver().Solve(p, nullptr, &z);
+  ASSERT_TRUE(r.ok()) << r.message;
+  EXPECT_EQ(z, Vector2d(1.0, 0.0));
+}
+
+TEST(PgsTest, InfeasibleProblemsFail) {
+  for (const LcpProblem& p : {Make(MatrixXd::Zero(1, 1), VectorXd::Constant(1, -1.0)),
+                              Make(-MatrixXd::Identity(2, 2), -Vector2d::Ones())}) {
+    VectorXd z;
+    const SolverReport r = PgsSolver().Solve(p, nullptr, &z);
+    EXPECT_EQ(r.status, SolverStatus::kNumericalFailure) << r.message;
+    EXPECT_GE(r.residual, 1.0 - 1e-12);
+  }
+}
+
+TEST(PgsTest, InvalidInputIsReportedNotThrown) {
+  const PgsSolver solver;
+  VectorXd z;
+  const LcpProblem nan_q = Make(MatrixXd::Identity(2, 2), Vector2d(std::nan(""), -1.0));
+  EXPECT_EQ(solver.Solve(nan_q, nullptr, &z).status, SolverStatus::kInvalidInput);
+  EXPECT_EQ(z, VectorXd::Zero(2));
+  MatrixXd inf_m = MatrixXd::Identity(2, 2);
+  inf_m(0, 1) = std::numeric_limits<double>::infinity();
+  EXPECT_EQ(solver.Solve(Make(inf_m, -Vector2d::Ones()), nullptr, &z).status,
+            SolverStatus::kInvalidInput);
+  const SolverReport r =
+      solver.Solve(Make(MatrixXd::Identity(3, 3), -Vector2d::Ones()), nullptr, &z);
+  EXPECT_EQ(r.status, SolverStatus::kInvalidInput);
+  EXPECT_NE(r.message.find("3x3"), std::string::npos) << r.message;
+  EXPECT_TRUE(std::isnan(r.residual));
+
+  // Blocks that do not partition the variables.
+  struct Case {
+    std::vector<std::vector<int>> blocks;
+    const char* expected;
+  };
+  for (const Case& c :
+       {Case{{{0, 1}, {1, 2}}, "index 1 is in blocks 0 and 1"},
+        Case{{{0, 1}}, "index 2 is in no block"}, Case{{{0, 1, 3}, {2}}, "outside [0, 3)"},
+        Case{{{0, 1, 2}, {}}, "block 1 is empty"}}) {
+    LcpProblem p = Make(MatrixXd::Identity(3, 3), -Eigen::Vector3d::Ones());
+    p.blocks = c.blocks;
+    const SolverReport rb = solver.Solve(p, nullptr, &z);
+    EXPECT_EQ(rb.status, SolverStatus::kInvalidInput) << c.expected;
+    EXPECT_NE(rb.message.find(c.expected), std::string::npos) << rb.message;
+    EXPECT_EQ(z, VectorXd::Zero(3));
+  }
+}
+
+TEST(PgsTest, MisuseThrows) {
+  const LcpProblem p = Make(MatrixXd::Identity(1, 1), VectorXd::Constant(1, -1.0));
+  EXPECT_THROW(PgsSolver().Solve(p, nullptr, nullptr), std::invalid_argument);
+  VectorXd z;
+  for (double omega : {0.0, 2.0, std::nan("")}) {
+    PgsOptions o;
+    o.relaxation = omega;
+    try {
+      PgsSolver(o).Solve(p, nullptr, &z);
+      FAIL() << "expected std::invalid_argument for omega = " << omega;
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find("relaxation"), std::string::npos) << e.what();
+    }
+  }
+  PgsOptions o;
+  o.max_sweeps = 0;
+  EXPECT_THROW(PgsSolver(o).Solve(p, nullptr, &z), std::invalid_argument);
+  o = PgsOptions{};
+  o.tolerance = -1.0;
+  EXPECT_THROW(PgsSolver(o).Solve(p, nullptr, &z), std::invalid_argument);
+}
+
+TEST(PgsTest, DeterministicAcrossCallsAndThreads) {
+  const StepLcp s("box_on_plane.yaml", 5);
+  const PgsSolver solver;
+  VectorXd z1, z2, z3;
+  const SolverReport r1 = solver.Solve(s.lcp, nullptr, &z1);
+  const SolverReport r2 = solver.Solve(s.lcp, nullptr, &z2);
+  SolverReport r3;
+  std::thread t([&] { r3 = solver.Solve(s.lcp, nullptr, &z3); });
+  t.join();
+  ASSERT_TRUE(r1.ok()) << r1.message;
+  ASSERT_EQ(z1.size(), z2.size());
+  ASSERT_EQ(z1.size(), z3.size());
+  EXPECT_EQ(std::memcmp(z1.data(), z2.data(), sizeof(double) * z1.size()), 0);
+  EXPECT_EQ(std::memcmp(z1.data(), z3.data(), sizeof(double) * z1.size()), 0);
+  EXPECT_EQ(r1.iterations, r2.iterations);
+  EXPECT_EQ(r1.iterations, r3.iterations);
+  EXPECT_EQ(r1.residual, r3.residual);
+}
+
+}  // namespace
+}  // namespace vinci::sim
