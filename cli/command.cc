@@ -29,7 +29,7 @@ std::string ExitCodeHelp() {
          "    0  success\n"
          "    1  bad input (unreadable or invalid file, invalid flag value)\n"
          "    2  usage error (unknown flag, missing argument, no subcommand)\n"
-         "    3  a simulation step failed (partial results are still written)\n"
+         "    3  a simulation step or a solve failed (partial results are still written)\n"
          "    4  internal error\n"
          "  130  interrupted (Ctrl-C, SIGTERM); partial results are still written";
 }

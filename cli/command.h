@@ -14,7 +14,7 @@ enum class ExitCode : int {
   kOk = 0,             ///< the job completed
   kBadInput = 1,       ///< unreadable or invalid scene/input file, invalid flag value
   kUsage = 2,          ///< malformed command line (unknown flag, missing argument, no subcommand)
-  kStepFailed = 3,     ///< a simulation step failed; partial results were written
+  kSolveFailed = 3,    ///< a simulation step or a solve failed; partial results were written
   kInternal = 4,       ///< a bug: an unexpected exception (please report it)
   kInterrupted = 130,  ///< stopped by SIGINT/SIGTERM; partial results were written
 };

@@ -445,7 +445,7 @@ ExitCode RunSimulate(const SimulateOptions& o) {
     msg << "\nthe trajectory in '" << o.out << "' is partial: states 0.." << stats.steps_done
         << " of " << num_steps;
   PrintError(msg.str());
-  return ExitCode::kStepFailed;
+  return ExitCode::kSolveFailed;
 }
 
 Command RegisterSimulateCommand(CLI::App& app) {

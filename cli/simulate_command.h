@@ -23,7 +23,7 @@ struct SimulateOptions {
 Command RegisterSimulateCommand(CLI::App& app);
 
 /// Runs `vinci simulate`. Throws std::invalid_argument for bad input (scene file, flag values,
-/// an output file that cannot be opened). Returns kOk, or kStepFailed if a step failed (the CSV
+/// an output file that cannot be opened). Returns kOk, or kSolveFailed if a step failed (the CSV
 /// then holds the states up to and including the last good one).
 ExitCode RunSimulate(const SimulateOptions& options);
 

@@ -188,7 +188,7 @@ ExitCode RunSolve(const SolveOptions& o) {
                     std::string(sim::ToString(r.report.status));
   if (!r.report.message.empty()) msg += " (" + r.report.message + ")";
   PrintError(msg);
-  return ExitCode::kStepFailed;
+  return ExitCode::kSolveFailed;
 }
 
 Command RegisterSolveCommand(CLI::App& app) {

@@ -22,7 +22,7 @@ Command RegisterSolveCommand(CLI::App& app);
 
 /// Runs `vinci solve`. Throws std::invalid_argument for bad input (unknown solver, unreadable
 /// or malformed problem or warm-start file). Prints the report on stdout and returns kOk if the
-/// solver solved the problem, otherwise kStepFailed (3) after the report and an error message
+/// solver solved the problem, otherwise kSolveFailed (3) after the report and an error message
 /// on stderr.
 ExitCode RunSolve(const SolveOptions& options);
 
