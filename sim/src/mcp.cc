@@ -129,8 +129,7 @@ bool EvalRow(RowKind kind, double z, double f, double l, double u, double lambda
 }
 
 // Natural residual from an evaluated F; NaN if anything is NaN.
-double NaturalResidual(const VectorXd& z, const VectorXd& F, const VectorXd& l,
-                       const VectorXd& u) {
+double NaturalResidual(const VectorXd& z, const VectorXd& F, const VectorXd& l, const VectorXd& u) {
   double r = 0.0;
   for (Eigen::Index i = 0; i < z.size(); ++i) {
     const double p = std::min(std::max(z(i) - F(i), l(i)), u(i));
@@ -281,8 +280,8 @@ SemismoothNewton::Eval SemismoothNewton::Evaluate(const VectorXd& x, VectorXd* F
     const Eigen::Index cols = sparse_ ? jfs_.cols() : jf_.cols();
     if (rows != n_ || cols != n_) {
       throw std::invalid_argument("McpSolver: the Jacobian is " + std::to_string(rows) + "x" +
-                                  std::to_string(cols) + "; expected " + std::to_string(n_) +
-                                  "x" + std::to_string(n_));
+                                  std::to_string(cols) + "; expected " + std::to_string(n_) + "x" +
+                                  std::to_string(n_));
     }
   }
   if (!F->allFinite()) return Eval::kNonFinite;
@@ -341,9 +340,8 @@ void SemismoothNewton::AssembleSparseH() {
     const int* houter = hs_.outerIndexPtr();
     const int* hinner = hs_.innerIndexPtr();
     const auto position = [&](int row, int col) {
-      return static_cast<int>(std::lower_bound(hinner + houter[col], hinner + houter[col + 1],
-                                               row) -
-                              hinner);
+      return static_cast<int>(
+          std::lower_bound(hinner + houter[col], hinner + houter[col + 1], row) - hinner);
     };
     entry_pos_.resize(nnz);
     diag_pos_.resize(n_);
@@ -418,7 +416,7 @@ void SemismoothNewton::RestartPoint(int attempt, const VectorXd& z0, const Vecto
     // Crash point: the projected start shifted toward the bounds F points at.
     *z = z0 - F0;
     ProjectInPlace(p_.lower, p_.upper, z);
-    if (false) return;
+    if (*z != z0) return;
   }
   // Perturb the best point, with an amplitude growing with the attempt.
   Perturbation rng(0x5EED0000u + static_cast<std::uint64_t>(attempt));
@@ -626,8 +624,7 @@ VectorXd McpFischerBurmeister(const McpProblem& problem, const VectorXd& z, doub
   const auto jf_times = [&](const VectorXd& dir, VectorXd* out) {
     if (J != nullptr) out->noalias() = jf * dir;
   };
-  FbRows(kinds, z, F, problem.lower, problem.upper, lambda, jf_times, &phi, &alpha, &beta, &d,
-         &jd);
+  FbRows(kinds, z, F, problem.lower, problem.upper, lambda, jf_times, &phi, &alpha, &beta, &d, &jd);
   if (J != nullptr) {
     *J = beta.asDiagonal() * jf;
     J->diagonal() += alpha;
@@ -639,8 +636,7 @@ SolverReport McpSolver::Solve(const McpProblem& problem, VectorXd* z) const {
   return Solve(problem, z, nullptr);
 }
 
-SolverReport McpSolver::Solve(const McpProblem& problem, VectorXd* z,
-                              McpSolveStats* stats) const {
+SolverReport McpSolver::Solve(const McpProblem& problem, VectorXd* z, McpSolveStats* stats) const {
   if (z == nullptr) throw std::invalid_argument("McpSolver::Solve: z is null");
   CheckProblem(problem, "McpSolver::Solve");
   const int n = problem.size();

@@ -211,13 +211,14 @@ McpProblem QpKkt() {
   MatrixXd M = MatrixXd::Zero(6, 6);
   M.topLeftCorner(3, 3) = 2.0 * Matrix3d::Identity();
   M.block(0, 3, 3, 1).setOnes();  // ν
-  M(2, 4) = 1.0;                   // μ1
-  M(0, 5) = -1.0;                  // μ2
-  M.block(3, 0, 1, 3).setOnes();   // x1 + x2 + x3 − 3
-  M(4, 2) = -1.0;                  // 1 − x3
-  M(5, 0) = 1.0;                   // x1
+  M(2, 4) = 1.0;                  // μ1
+  M(0, 5) = -1.0;                 // μ2
+  M.block(3, 0, 1, 3).setOnes();  // x1 + x2 + x3 − 3
+  M(4, 2) = -1.0;                 // 1 − x3
+  M(5, 0) = 1.0;                  // x1
   const VectorXd q = Vec({-2, -4, -6, -3, 1, 0});
-  return Affine(M, q, Vec({-kInf, -kInf, -kInf, -kInf, 0, 0}), Vec({kInf, kInf, kInf, kInf, kInf, kInf}));
+  return Affine(M, q, Vec({-kInf, -kInf, -kInf, -kInf, 0, 0}),
+                Vec({kInf, kInf, kInf, kInf, kInf, kInf}));
 }
 const VectorXd kQpSolution = Vec({0.5, 1.5, 1.0, 1.0, 3.0, 0.0});
 
@@ -333,10 +334,10 @@ TEST(McpJacobianTest, FischerBurmeisterValuesFollowTheDefinition) {
   EXPECT_NEAR(phi(1), PenalizedFbReference(z(1) - l(1), F(1), lambda), kValueTol);
   EXPECT_NEAR(phi(2), -PenalizedFbReference(u(2) - z(2), -F(2), lambda), kValueTol);
   for (int i : {3, 4}) {
-    EXPECT_NEAR(phi(i),
-                PenalizedFbReference(z(i) - l(i),
-                                     PenalizedFbReference(u(i) - z(i), -F(i), lambda), lambda),
-                kValueTol);
+    EXPECT_NEAR(
+        phi(i),
+        PenalizedFbReference(z(i) - l(i), PenalizedFbReference(u(i) - z(i), -F(i), lambda), lambda),
+        kValueTol);
   }
   EXPECT_EQ(phi(5), 0.0);  // fixed variable at its value
   // Φ vanishes exactly on solutions: the solved problem gives Φ ≈ 0.
@@ -436,9 +437,9 @@ TEST(McpSolverTest, KojimaShindoFindsBothSolutions) {
   ExpectMcpSolution(p, s1, 1e-14);
   ExpectMcpSolution(p, s2, 1e-14);
   int found1 = 0, found2 = 0;
-  for (const VectorXd& start : {Vec({1, 1, 1, 1}), Vec({0, 0, 0, 0}), Vec({1, 0, 1, 0}),
-                                Vec({10, 10, 10, 10}), Vec({0.5, 0.5, 3, 0.5}), Vec({0, 0, 5, 0}),
-                                Vec({3, 3, 3, 3}), Vec({1, 0, 0, 0})}) {
+  for (const VectorXd& start :
+       {Vec({1, 1, 1, 1}), Vec({0, 0, 0, 0}), Vec({1, 0, 1, 0}), Vec({10, 10, 10, 10}),
+        Vec({0.5, 0.5, 3, 0.5}), Vec({0, 0, 5, 0}), Vec({3, 3, 3, 3}), Vec({1, 0, 0, 0})}) {
     VectorXd z = start;
     const SolverReport r = McpSolver().Solve(p, &z);
     ExpectSolved(p, r, z);
@@ -454,8 +455,9 @@ TEST(McpSolverTest, KojimaShindoFindsBothSolutions) {
 
 TEST(McpSolverTest, OptionVariantsSolveTheNonlinearProblems) {
   // Pure Fischer–Burmeister (λ = 1), a monotone line search and a strongly penalized φ.
-  for (const McpOptions& o : {With(&McpOptions::lambda, 1.0), With(&McpOptions::nonmonotone_memory, 1),
-                              With(&McpOptions::lambda, 0.5)}) {
+  for (const McpOptions& o :
+       {With(&McpOptions::lambda, 1.0), With(&McpOptions::nonmonotone_memory, 1),
+        With(&McpOptions::lambda, 0.5)}) {
     for (const McpProblem& p : {Josephy(), KojimaShindo()}) {
       for (const VectorXd& start : {Vec({1, 1, 1, 1}), Vec({0, 0, 0, 0})}) {
         VectorXd z = start;
@@ -510,8 +512,8 @@ TEST(McpSolverTest, BoxConstrainedFourByFour) {
 
 TEST(McpSolverTest, QpKktWithEquationsAndInequalities) {
   const McpProblem p = QpKkt();
-  for (const VectorXd& start : {VectorXd::Zero(6).eval(), Vec({5, -5, 5, -5, 5, 5}),
-                                Vec({0.5, 1.5, 1, 1, 3, 0})}) {
+  for (const VectorXd& start :
+       {VectorXd::Zero(6).eval(), Vec({5, -5, 5, -5, 5, 5}), Vec({0.5, 1.5, 1, 1, 3, 0})}) {
     VectorXd z = start;
     const SolverReport r = McpSolver().Solve(p, &z);
     ExpectSolved(p, r, z);

@@ -6,10 +6,9 @@
 // l_i = −∞, u_i = +∞ makes row i an equation; l_i = 0, u_i = +∞ an NCP row.
 #pragma once
 
+#include <Eigen/SparseCore>
 #include <functional>
 #include <string_view>
-
-#include <Eigen/SparseCore>
 
 #include "vinci/sim/lcp.h"
 
@@ -50,11 +49,11 @@ VectorXd McpFischerBurmeister(const McpProblem& problem, const VectorXd& z, doub
 
 struct McpOptions {
   int max_iterations = 200;
-  double tolerance = 1e-10;       ///< natural residual
-  double lambda = 0.95;           ///< penalized Fischer–Burmeister weight
-  int nonmonotone_memory = 5;     ///< line search compares with the max of the last M merits
-  bool sparse = false;            ///< use McpProblem::sparse_jacobian
-  int max_restarts = 2;           ///< crash/restart attempts from perturbed starting points
+  double tolerance = 1e-10;    ///< natural residual
+  double lambda = 0.95;        ///< penalized Fischer–Burmeister weight
+  int nonmonotone_memory = 5;  ///< line search compares with the max of the last M merits
+  bool sparse = false;         ///< use McpProblem::sparse_jacobian
+  int max_restarts = 2;        ///< restarts of a stalled solve (crash point, then perturbed)
   /// An attempt counts as stalled (and restarts) when its best merit has not dropped by 10%
   /// within this many consecutive iterations.
   int stall_iterations = 30;
