@@ -7,7 +7,7 @@ packages=(
   build-essential cmake pkg-config
   libeigen3-dev libyaml-cpp-dev libcli11-dev
   libgtest-dev libgmock-dev libbenchmark-dev
-  libmujoco-dev
+  libmujoco-dev libsiconos-numerics-dev
   python3-numpy python3-matplotlib
 )
 

@@ -230,7 +230,8 @@ SolverReport PgsSolver::Solve(const LcpProblem& problem, const VectorXd* warm_st
         const int i = idx[0];
         const double d = problem.M(i, i);
         if (d > 0.0) {
-          update(i, std::max(0.0, (*z)(i)-w(i) / d));
+          const double z_i = (*z)(i);
+          update(i, std::max(0.0, z_i - w(i) / d));
         } else {
           // 1×1 LCP d x + r ⊥ x ≥ 0 with d ≤ 0: x = 0 if r ≥ 0; no solution if r < 0.
           const double r = w(i) - d * (*z)(i);

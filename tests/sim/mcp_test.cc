@@ -181,8 +181,9 @@ McpProblem Affine(const MatrixXd& M, const VectorXd& q, const VectorXd& l, const
   return p;
 }
 
-// The 4×4 example distributed with PATH's interfaces (e.g. Complementarity.jl / PATHSolver.jl
-// documentation): F(z) = Mz + q, 0 ≤ z ≤ 10, solution (2.8, 0, 0.8, 1.2).
+// The 4×4 example of PATH's Julia interface documentation (Complementarity.jl, MCP.md):
+// F(z) = Mz + q, z ≥ 0, solution (2.8, 0, 0.8, 1.2). Published with u = ∞; u = 10 here makes
+// it box-constrained without changing the solution (every component < 10).
 MatrixXd Box4M() {
   MatrixXd M(4, 4);
   M << 0, 0, -1, -1,  //
@@ -704,6 +705,25 @@ TEST(McpSolverTest, NeverEvaluatesOutsideTheBox) {
       EXPECT_TRUE(McpSolver().Solve(q, &z).ok());
     }
     EXPECT_EQ(outside, 0);
+  }
+}
+
+TEST(McpSolverTest, EmptyProblemIsSolved) {
+  McpProblem p;
+  p.lower.resize(0);
+  p.upper.resize(0);
+  p.evaluate = [](const VectorXd&, VectorXd* F, MatrixXd* J) {
+    F->resize(0);
+    if (J != nullptr) J->resize(0, 0);
+  };
+  for (bool sparse : {false, true}) {
+    McpProblem q = p;
+    q.sparse_jacobian = [](const VectorXd&, Eigen::SparseMatrix<double>* J) { J->resize(0, 0); };
+    VectorXd z(0);
+    const SolverReport r = McpSolver(With(&McpOptions::sparse, sparse)).Solve(q, &z);
+    EXPECT_EQ(r.status, SolverStatus::kSolved);
+    EXPECT_EQ(r.iterations, 0);
+    EXPECT_EQ(r.residual, 0.0);
   }
 }
 

@@ -25,8 +25,10 @@ struct FischerBurmeisterOptions {
 /// Details of the contract:
 /// - Generalized Jacobian H = D_a + D_b M; at a = b = 0 the unit vector (1, 1)/√2 is taken
 ///   in the subdifferential of √(a² + b²).
-/// - Direction: H d = −Φ by partial-pivoting LU, by column-pivoting QR when LU's condition
-///   estimate says H is singular; −∇Ψ = −HᵀΦ when d is not a sufficient descent direction or
+/// - Direction: H d = −Φ by partial-pivoting LU; when LU's condition estimate says H is
+///   singular, the minimum-norm least-squares solution (complete orthogonal decomposition:
+///   column-pivoting QR + RZ), which suits the non-isolated solutions of degenerate contact
+///   LCPs; −∇Ψ = −HᵀΦ when d is not a sufficient descent direction (∇Ψᵀd > −10⁻¹⁰‖d‖^2.1) or
 ///   its line search fails.
 /// - Non-monotone Armijo backtracking on Ψ against the largest Ψ of the last 5 iterates.
 /// - Stops when LcpResidual(max(z, 0)) ≤ tolerance · max(1, ‖q‖_∞); the returned z is the
@@ -34,7 +36,8 @@ struct FischerBurmeisterOptions {
 ///   returned with 0 iterations.
 /// - kMaxIterations at the iteration limit; kNumericalFailure when the line search finds no
 ///   decrease or Ψ is stationary at a non-solution (e.g. an infeasible LCP); kInvalidInput for
-///   a malformed problem (z = 0). `iterations` counts accepted Newton or gradient steps.
+///   a malformed problem (z = 0). `iterations` counts accepted Newton or gradient steps; the
+///   message counts the least-squares directions and gradient steps when there were any.
 /// - Invalid options throw std::invalid_argument, as does a null `z`.
 class FischerBurmeisterSolver final : public LcpSolver {
  public:
