@@ -17,7 +17,8 @@ int main(int argc, char** argv) {
   using namespace vinci::sim;
   try {
     const double theta = 0.3, g = 9.81;  // the scene's incline angle (rad) and gravity
-    Simulator sim(LoadSceneFile(std::string(VINCI_SOURCE_DIR) + "/examples/scenes/block_on_incline.yaml"));
+    Simulator sim(
+        LoadSceneFile(std::string(VINCI_SOURCE_DIR) + "/examples/scenes/block_on_incline.yaml"));
     const int mu_index = sim.scene().param_table().Index("mu.default");
     const int body = sim.scene().FindBody("block");
     const int o = sim.scene().index(body).q;
@@ -36,7 +37,8 @@ int main(int argc, char** argv) {
         std::cerr << "rollout failed: " << tr.failure << "\n";
         return 3;
       }
-      const double a_exact = mu >= std::tan(theta) ? 0.0 : g * (std::sin(theta) - mu * std::cos(theta));
+      const double a_exact =
+          mu >= std::tan(theta) ? 0.0 : g * (std::sin(theta) - mu * std::cos(theta));
       const auto& x1 = tr.states[1];
       const auto& xn = tr.states.back();
       const double a_sim = (xn.v.head<3>().norm() - x1.v.head<3>().norm()) / ((steps - 1) * h);
@@ -49,7 +51,8 @@ int main(int argc, char** argv) {
                 << a_exact << std::setw(11) << a_sim << std::scientific << std::setprecision(3)
                 << std::setw(14) << disp << "      " << regime << '\n';
     }
-    std::cout << (mismatches == 0 ? "all regimes match tan(theta) = " : "REGIME MISMATCHES vs tan(theta) = ")
+    std::cout << (mismatches == 0 ? "all regimes match tan(theta) = "
+                                  : "REGIME MISMATCHES vs tan(theta) = ")
               << std::tan(theta) << '\n';
     return mismatches == 0 ? 0 : 1;
   } catch (const std::exception& e) {

@@ -14,7 +14,9 @@ std::vector<BodyKinematics> ComputeBodyKinematics(const Scene& scene, const Stat
         out[i] = KinematicsFromQV(scene.dim, x.q.data() + idx.q, x.v.data() + idx.v);
         break;
       }
-      case BodyKind::kStatic: out[i].X_WB = b.X_WB0; break;
+      case BodyKind::kStatic:
+        out[i].X_WB = b.X_WB0;
+        break;
       case BodyKind::kPrescribed:
         out[i] = EvaluateMotion(b.motion, b.X_WB0, scene.dim == Dim::kPlanar, x.t);
         break;

@@ -27,9 +27,30 @@ namespace {
 // Degenerate basic values carry roundoff of order ε‖B⁻¹‖‖q‖ ≈ 1e-14, which pivots of order
 // 1e-3 turn into ratios of 1e-11; 1e-12 missed such ties on a random contact LCP (n = 108)
 // and ended on a spurious secondary ray, 1e-10 solved 14 400 random stress problems.
+//
+// The same constant, times max(1, ‖q‖∞), is also an absolute tolerance on the basic values
+// (Harris' two-pass ratio test): row i is a tie if stepping to its ratio leaves no other row
+// below −kRatioTieTolerance·max(1, ‖q‖∞). A purely ratio-relative tolerance is not enough:
+// on a 10-box stack (tests/data/lcp/box_stack_cold_step425.lcp) ~200 rows, z0 among them,
+// blocked at the same ratio 9.81e-3 up to a relative noise of 5e-8 (basic values carry errors
+// of ~5e-11, and dividing by pivots of ~0.04 spreads the ratios by 1e-9 > 1e-10); z0 was not
+// recognized as blocking, was left at 1e-11 instead of leaving the basis, and the next pivot
+// ended on a spurious secondary ray.
 constexpr double kRatioTieTolerance = 1e-10;
+// Among tied rows, pivots smaller than this fraction of the largest tied pivot are not used
+// (unless all are that small). In degenerate steps (ratio 0) the lexicographic rule otherwise
+// happily picks a pivot that is pure noise: on a sliding-box LCP
+// (tests/data/lcp/incline_sliding_step9744.lcp) it pivoted on d = 1.5e-12 (the M entries that
+// are physically zero are ~1e-12 from the contact geometry) next to a tied pivot of 1, which
+// scaled B⁻¹ by 1e12 and ended with a residual of 0.54. Skipping a tied row keeps the iterate
+// feasible (its value stays within the tie tolerance of 0).
+constexpr double kTiePivotFraction = 1e-7;
 // Relative tolerance of the lexicographic comparisons of B⁻¹ rows among tied ratios.
 constexpr double kLexTieTolerance = 1e-12;
+// A secondary-ray iterate is accepted as a solution only if z0 fell below this fraction of its
+// initial value (it was driven to 0 by the pivoting, not merely small because q is tiny) and
+// the residual passes.
+constexpr double kSecondaryRayZ0Fraction = 1e-6;
 // Symmetric equilibration sweeps; the loop stops earlier once no scale factor changes.
 constexpr int kScalingSweeps = 10;
 // Iterative-refinement steps at termination (each O(n²) with the kept inverse).
@@ -95,6 +116,8 @@ struct CoreOutcome {
   SolverStatus status = SolverStatus::kNumericalFailure;
   int pivots = 0;
   std::string message;
+  double z0 = 0.0;  // value of the artificial variable z0 in the final iterate (0 if nonbasic)
+  double z0_initial = 0.0;  // its value after the initial pivot, −min q
 };
 
 // ‖min(z, Mz + q)‖_∞ on the problem being pivoted (possibly scaled), NaN-safe.
@@ -141,6 +164,9 @@ CoreOutcome RunLemke(const MatrixXd& M, const VectorXd& q, const LemkeOptions& o
   };
   auto fail = [&](SolverStatus status, std::string message) {
     extract_z();
+    for (int k = 0; k < n; ++k) {
+      if (basis[k] == kZ0) out.z0 = std::max(x(k), 0.0);
+    }
     out.status = status;
     out.message = std::move(message);
     return out;
@@ -189,6 +215,9 @@ CoreOutcome RunLemke(const MatrixXd& M, const VectorXd& q, const LemkeOptions& o
     return binv.allFinite() && x.allFinite();
   };
 
+  // Absolute tolerance on basic values for the ratio ties (see kRatioTieTolerance).
+  const double tau_x = kRatioTieTolerance * std::max(1.0, q.lpNorm<Eigen::Infinity>());
+
   // Initial pivot: z0 enters (d = −e) in the row of the most negative q_i. Among ties the
   // lexicographic rule for d = −e picks the largest index.
   {
@@ -199,6 +228,7 @@ CoreOutcome RunLemke(const MatrixXd& M, const VectorXd& q, const LemkeOptions& o
       if (q(i) <= q_min + tau) r = i;
     }
     d.setConstant(-1.0);
+    out.z0_initial = -q_min;
     int leaving = pivot(r, kZ0);
     out.pivots = 1;
     int entering = complement(leaving);
@@ -214,9 +244,16 @@ CoreOutcome RunLemke(const MatrixXd& M, const VectorXd& q, const LemkeOptions& o
                     "non-finite pivot column at pivot " + std::to_string(out.pivots));
       }
       const double pivot_tol = options.pivot_tolerance * std::max(1.0, d.cwiseAbs().maxCoeff());
+      // Harris' two-pass ratio test: theta is the minimum ratio, theta_max the largest step
+      // that keeps every basic value ≥ −tau_x; rows whose ratio is ≤ theta_max are ties.
       double theta = kInf;
+      double theta_max = kInf;
       for (int i = 0; i < n; ++i) {
-        if (d(i) > pivot_tol) theta = std::min(theta, std::max(x(i), 0.0) / d(i));
+        if (d(i) > pivot_tol) {
+          const double xi = std::max(x(i), 0.0);
+          theta = std::min(theta, xi / d(i));
+          theta_max = std::min(theta_max, (xi + tau_x) / d(i));
+        }
       }
       if (theta == kInf) {
         return fail(SolverStatus::kSecondaryRay,
@@ -226,14 +263,25 @@ CoreOutcome RunLemke(const MatrixXd& M, const VectorXd& q, const LemkeOptions& o
                                       : "z_" + std::to_string(entering - n)) +
                         "); the LCP may be infeasible");
       }
-      const double tau_theta = kRatioTieTolerance * std::max(1.0, theta);
+      const double tie_bound =
+          std::max(theta_max, theta + kRatioTieTolerance * std::max(1.0, theta));
       ties.clear();
       r = -1;
+      double d_tied_max = 0.0;
       for (int i = 0; i < n; ++i) {
-        if (d(i) > pivot_tol && std::max(x(i), 0.0) / d(i) <= theta + tau_theta) {
+        if (d(i) > pivot_tol && std::max(x(i), 0.0) / d(i) <= tie_bound) {
           ties.push_back(i);
+          d_tied_max = std::max(d_tied_max, d(i));
           if (basis[i] == kZ0) r = i;  // z0 blocks: leave now and terminate
         }
+      }
+      if (r < 0 && ties.size() > 1) {
+        // Stability: drop tied pivots that are negligible next to the largest tied one.
+        kept.clear();
+        for (int i : ties) {
+          if (d(i) >= kTiePivotFraction * d_tied_max) kept.push_back(i);
+        }
+        ties.swap(kept);
       }
       if (r < 0) {
         if (options.lexicographic) {
@@ -334,6 +382,20 @@ Attempt RunAttempt(const LcpProblem& problem, double epsilon, const LemkeOptions
   a.residual = OrInf(LcpResidual(problem, a.z));
   a.status = core.status;
   a.message = core.message;
+  // A secondary ray reached with z0 ≈ 0 (degenerate problems approach z0 → 0 through ties)
+  // leaves an almost-complementary iterate that already solves the LCP: accept it if z0 and
+  // the residual on the original problem pass. On the original problem z0 shifts row i of
+  // w by z0 / scale_i.
+  if (core.status == SolverStatus::kSecondaryRay) {
+    const double z0 = options.scale ? core.z0 / scale.minCoeff() : core.z0;
+    if (core.z0 <= kSecondaryRayZ0Fraction * core.z0_initial && z0 <= tolerance &&
+        a.residual <= tolerance) {
+      a.terminated = true;
+      a.status = SolverStatus::kSolved;
+      a.message = "accepted the secondary-ray iterate with z0 = " + FormatDouble(z0) +
+                  " as a solution (" + core.message + ")";
+    }
+  }
   if (a.terminated && !(a.residual <= tolerance)) {
     a.status = SolverStatus::kNumericalFailure;
     a.message = "Lemke terminated but the residual " + FormatDouble(a.residual) +
@@ -430,6 +492,23 @@ SolverReport LemkeSolver::Solve(const LcpProblem& problem, const VectorXd* warm_
   // 3. Cold Lemke, then 4. regularized retries if that fails.
   Attempt first = RunAttempt(problem, 0.0, options_, tolerance);
   int total_pivots = first.pivots;
+  // 3b. Last line of defence before regularizing: one run without scaling (reported).
+  std::string unscaled_note;
+  bool solved_unscaled = false;
+  if (!Passes(first, tolerance) && options_.scale) {
+    LemkeOptions plain = options_;
+    plain.scale = false;
+    Attempt u = RunAttempt(problem, 0.0, plain, tolerance);
+    total_pivots += u.pivots;
+    if (Passes(u, tolerance)) {
+      unscaled_note =
+          "solved without scaling after the scaled solve failed (" + first.message + ")";
+      solved_unscaled = true;
+      first = std::move(u);
+    } else {
+      unscaled_note = "; the retry without scaling failed too (" + u.message + ")";
+    }
+  }
   Attempt best;
   bool have_retry = false;
   std::string retry_log;
@@ -469,14 +548,14 @@ SolverReport LemkeSolver::Solve(const LcpProblem& problem, const VectorXd* warm_
     throw std::logic_error("LemkeSolver: failed solve reported as kSolved");
   }
   if (passes && !use_retry) {
-    report.message.clear();
+    report.message = solved_unscaled ? unscaled_note : std::string();
   } else if (passes) {
     report.message =
         "solved on the regularized problem M + eps*I with eps = " + FormatDouble(chosen.epsilon) +
-        " after the plain solve failed (" + first.message + "); residual on the original problem " +
-        FormatDouble(report.residual);
+        " after the plain solve failed (" + first.message + unscaled_note +
+        "); residual on the original problem " + FormatDouble(report.residual);
   } else {
-    report.message = first.message;
+    report.message = first.message + unscaled_note;
     if (!retry_log.empty()) {
       report.message +=
           "; regularized retries (" + retry_log + ") did not solve the original " + "problem";

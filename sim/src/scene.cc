@@ -92,7 +92,8 @@ void Scene::Finalize() {
   for (std::size_t i = 0; i < bodies.size(); ++i) {
     Body& b = bodies[i];
     for (std::size_t j = i + 1; j < bodies.size(); ++j)
-      if (bodies[j].name == b.name) throw std::invalid_argument("duplicate body name '" + b.name + "'");
+      if (bodies[j].name == b.name)
+        throw std::invalid_argument("duplicate body name '" + b.name + "'");
     for (std::size_t s = 0; s < b.shapes.size(); ++s) {
       Shape& sh = b.shapes[s];
       if (sh.name.empty()) sh.name = "s" + std::to_string(s);
@@ -113,7 +114,8 @@ void Scene::Finalize() {
           throw std::invalid_argument(BodyContext(b) +
                                       ": a dynamic body cannot carry an unbounded half-space");
       if (b.inertia_from_shapes) b.inertia = InertiaFromShapes(b);
-      if (!b.inertia.allFinite() || (planar ? b.inertia(2, 2) <= 0.0 : b.inertia.determinant() <= 0.0))
+      if (!b.inertia.allFinite() ||
+          (planar ? b.inertia(2, 2) <= 0.0 : b.inertia.determinant() <= 0.0))
         throw std::invalid_argument(BodyContext(b) + ": inertia must be positive definite");
       index_[i] = {nq_, nv_};
       nq_ += PositionSize(dim);
@@ -149,13 +151,14 @@ void Scene::Finalize() {
       switch (sh.type) {
         case ShapeType::kSphere:
         case ShapeType::kDisc:
-          params_.Add({pre + "radius", ParamKind::kShapeRadius, bi, si, -1, sh.radius, 1e-12, kInf});
+          params_.Add(
+              {pre + "radius", ParamKind::kShapeRadius, bi, si, -1, sh.radius, 1e-12, kInf});
           break;
         case ShapeType::kCapsule:
         case ShapeType::kSegment:
           params_.Add({pre + "radius", ParamKind::kShapeRadius, bi, si, -1, sh.radius, 0.0, kInf});
-          params_.Add({pre + "half_length", ParamKind::kShapeHalfLength, bi, si, -1,
-                       sh.half_length, 0.0, kInf});
+          params_.Add({pre + "half_length", ParamKind::kShapeHalfLength, bi, si, -1, sh.half_length,
+                       0.0, kInf});
           break;
         case ShapeType::kBox:
           for (int c = 0; c < 3; ++c)
@@ -178,7 +181,8 @@ void Scene::Finalize() {
         const std::string pre =
             "motion." + b.name + "." + (planar ? kPlanarDofNames[d] : kSpatialDofNames[d]) + ".";
         if (!m.keyframes.empty()) continue;
-        params_.Add({pre + "velocity", ParamKind::kMotionVelocity, bi, di, -1, m.velocity, -kInf, kInf});
+        params_.Add(
+            {pre + "velocity", ParamKind::kMotionVelocity, bi, di, -1, m.velocity, -kInf, kInf});
         for (std::size_t k = 0; k < m.harmonics.size(); ++k) {
           const int ki = static_cast<int>(k);
           const Harmonic& h = m.harmonics[k];
@@ -207,17 +211,27 @@ Scene Scene::ApplyParams(const Params& params) const {
                                   " is outside [" + std::to_string(p.lower) + ", " +
                                   std::to_string(p.upper) + "]");
     switch (p.kind) {
-      case ParamKind::kDefaultFriction: s.default_mu = x; break;
-      case ParamKind::kFriction: s.mu[{p.a, p.b}] = x; break;
+      case ParamKind::kDefaultFriction:
+        s.default_mu = x;
+        break;
+      case ParamKind::kFriction:
+        s.mu[{p.a, p.b}] = x;
+        break;
       case ParamKind::kMass: {
         Body& b = s.bodies[p.a];
         b.inertia *= x / b.mass;  // same shape, new density
         b.mass = x;
         break;
       }
-      case ParamKind::kShapeRadius: s.bodies[p.a].shapes[p.b].radius = x; break;
-      case ParamKind::kShapeHalfExtent: s.bodies[p.a].shapes[p.b].half_extents[p.c] = x; break;
-      case ParamKind::kShapeHalfLength: s.bodies[p.a].shapes[p.b].half_length = x; break;
+      case ParamKind::kShapeRadius:
+        s.bodies[p.a].shapes[p.b].radius = x;
+        break;
+      case ParamKind::kShapeHalfExtent:
+        s.bodies[p.a].shapes[p.b].half_extents[p.c] = x;
+        break;
+      case ParamKind::kShapeHalfLength:
+        s.bodies[p.a].shapes[p.b].half_length = x;
+        break;
       case ParamKind::kShapeScale:
         if (x != 1.0) {
           Shape& sh = s.bodies[p.a].shapes[p.b];
@@ -225,14 +239,18 @@ Scene Scene::ApplyParams(const Params& params) const {
           for (HullFace& f : sh.faces) f.offset *= x;  // scaling about the origin keeps normals
         }
         break;
-      case ParamKind::kMotionVelocity: s.bodies[p.a].motion.dofs[p.b].velocity = x; break;
+      case ParamKind::kMotionVelocity:
+        s.bodies[p.a].motion.dofs[p.b].velocity = x;
+        break;
       case ParamKind::kMotionAmplitude:
         s.bodies[p.a].motion.dofs[p.b].harmonics[p.c].amplitude = x;
         break;
       case ParamKind::kMotionFrequency:
         s.bodies[p.a].motion.dofs[p.b].harmonics[p.c].frequency = x;
         break;
-      case ParamKind::kMotionPhase: s.bodies[p.a].motion.dofs[p.b].harmonics[p.c].phase = x; break;
+      case ParamKind::kMotionPhase:
+        s.bodies[p.a].motion.dofs[p.b].harmonics[p.c].phase = x;
+        break;
     }
   }
   return s;

@@ -44,11 +44,10 @@ StepInfo Simulator::Step(const Params& params, const State& x, const StepInput& 
                          State* next) const {
   if (!ws || !next) throw std::invalid_argument("Simulator::Step: null workspace or output");
   if (x.q.size() != scene_->num_positions() || x.v.size() != scene_->num_velocities())
-    throw std::invalid_argument("Simulator::Step: state has " + std::to_string(x.q.size()) +
-                                " positions / " + std::to_string(x.v.size()) +
-                                " velocities; the scene needs " +
-                                std::to_string(scene_->num_positions()) + " / " +
-                                std::to_string(scene_->num_velocities()));
+    throw std::invalid_argument(
+        "Simulator::Step: state has " + std::to_string(x.q.size()) + " positions / " +
+        std::to_string(x.v.size()) + " velocities; the scene needs " +
+        std::to_string(scene_->num_positions()) + " / " + std::to_string(scene_->num_velocities()));
   if (u.generalized_force.size() != 0 && u.generalized_force.size() != scene_->num_velocities())
     throw std::invalid_argument("Simulator::Step: input force has the wrong size");
   StepInfo info;

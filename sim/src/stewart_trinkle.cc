@@ -95,7 +95,8 @@ StewartTrinkle::Assembly StewartTrinkle::Assemble(const Scene& model, const Stat
   for (int bi : model.dynamic_bodies()) {
     const Body& b = model.bodies[bi];
     const int o = model.index(bi).v;
-    const Vector3d f = b.applied_force_W + (b.gravity ? Vector3d(b.mass * model.gravity_W) : Vector3d::Zero());
+    const Vector3d f =
+        b.applied_force_W + (b.gravity ? Vector3d(b.mass * model.gravity_W) : Vector3d::Zero());
     if (dim == Dim::kPlanar) {
       a.M(o, o) = a.M(o + 1, o + 1) = b.mass;
       a.M(o + 2, o + 2) = b.inertia(2, 2);
@@ -202,8 +203,8 @@ LcpProblem StewartTrinkle::BuildLcp(const Scene& model, const Assembly& a, const
     const int o = model.index(body).v, k = static_cast<int>(cols.size());
     Gb_cols.resize(nvb, k);
     for (int i = 0; i < k; ++i)
-      Gb_cols.col(i) = cols[i] < nc ? a.G_n.block(o, cols[i], nvb, 1)
-                                    : a.G_f.block(o, cols[i] - nc, nvb, 1);
+      Gb_cols.col(i) =
+          cols[i] < nc ? a.G_n.block(o, cols[i], nvb, 1) : a.G_f.block(o, cols[i] - nc, nvb, 1);
     MinvG.noalias() = a.M_inv.block(o, o, nvb, nvb) * Gb_cols;
     const MatrixXd block = Gb_cols.transpose() * MinvG;
     for (int i = 0; i < k; ++i)
@@ -248,8 +249,8 @@ LcpProblem StewartTrinkle::BuildLcp(const Scene& model, const Assembly& a, const
   return lcp;
 }
 
-VectorXd StewartTrinkle::VelocityAfter(const Assembly& a, const VectorXd& v_star,
-                                       const VectorXd& z, const JointElimination& joints) const {
+VectorXd StewartTrinkle::VelocityAfter(const Assembly& a, const VectorXd& v_star, const VectorXd& z,
+                                       const JointElimination& joints) const {
   const int nc = static_cast<int>(a.contacts.size());
   const int nf = nc * a.nd;
   VectorXd impulse = a.G_n * z.head(nc) + a.G_f * z.segment(nc, nf);
@@ -269,8 +270,8 @@ void StewartTrinkle::Step(const Scene& model, const State& x, const StepInput& u
   info->joint_rows = static_cast<int>(a.psi_b.size());
   info->min_gap = nc > 0 ? a.psi_n.minCoeff() : 0.0;
   if (nc > 0 && info->min_gap < -options_.max_penetration) {
-    info->failure = "penetration " + std::to_string(-info->min_gap) + " m exceeds max_penetration " +
-                    std::to_string(options_.max_penetration) + " m";
+    info->failure = "penetration " + std::to_string(-info->min_gap) +
+                    " m exceeds max_penetration " + std::to_string(options_.max_penetration) + " m";
     info->solver.status = SolverStatus::kNumericalFailure;
     return;
   }
@@ -283,8 +284,8 @@ void StewartTrinkle::Step(const Scene& model, const State& x, const StepInput& u
     const VectorXd* warm = x.warm_start.size() == lcp.size() ? &x.warm_start : nullptr;
     info->solver = solver_->Solve(lcp, warm, &z);
     if (!info->solver.ok()) {
-      info->failure = "LCP solver '" + std::string(solver_->name()) + "' failed: " +
-                      std::string(ToString(info->solver.status)) +
+      info->failure = "LCP solver '" + std::string(solver_->name()) +
+                      "' failed: " + std::string(ToString(info->solver.status)) +
                       (info->solver.message.empty() ? "" : " (" + info->solver.message + ")");
       return;
     }
@@ -451,8 +452,7 @@ StepResiduals StewartTrinkle::Evaluate(const Scene& model, const Params& params,
 
 double StepResiduals::Violation() const {
   double v = equality.size() ? equality.cwiseAbs().maxCoeff() : 0.0;
-  for (int i = 0; i < comp_a.size(); ++i)
-    v = std::max(v, std::abs(std::min(comp_a[i], comp_b[i])));
+  for (int i = 0; i < comp_a.size(); ++i) v = std::max(v, std::abs(std::min(comp_a[i], comp_b[i])));
   return v;
 }
 

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "vinci/sim/lcp.h"
+#include "vinci/sim/lcp_file.h"
 
 namespace vinci::sim {
 namespace {
@@ -374,6 +375,55 @@ TEST_P(LemkeOptionsTest, RandomPsdAndPMatrixProblems) {
 
 INSTANTIATE_TEST_SUITE_P(LexAndScale, LemkeOptionsTest,
                          ::testing::Combine(::testing::Bool(), ::testing::Bool()));
+
+// Stewart–Trinkle LCPs recorded from simulations that the default options used to fail:
+// a box sliding down an incline (n = 40; the lexicographic rule pivoted on a noise entry of
+// 1.5e-12 in a degenerate step, residual 0.54) and a 10-box stack at rest (n = 240, highly
+// degenerate; ~200 rows, z0 among them, tied at one ratio up to roundoff, z0 was not seen as
+// blocking and the run ended on a spurious secondary ray).
+const char* const kRecordedLcps[] = {
+    VINCI_SOURCE_DIR "/tests/data/lcp/incline_sliding_step9744.lcp",
+    VINCI_SOURCE_DIR "/tests/data/lcp/box_stack_cold_step425.lcp",
+};
+
+TEST(LemkeTest, RecordedContactLcpsSolveWithDefaultOptions) {
+  for (const char* path : kRecordedLcps) {
+    SCOPED_TRACE(path);
+    const LcpProblem p = ReadLcpFile(path);
+    VectorXd z;
+    const SolverReport r = LemkeSolver().Solve(p, nullptr, &z);
+    ASSERT_TRUE(r.ok()) << r.message;
+    // Solved by the plain run itself: no regularized retry and no retry without scaling.
+    EXPECT_FALSE(r.regularized) << r.message;
+    EXPECT_TRUE(r.message.empty()) << r.message;
+    EXPECT_EQ(r.residual, LcpResidual(p, z));
+    ExpectLcpSolution(p, z, kTol);
+  }
+}
+
+TEST_P(LemkeOptionsTest, RecordedContactLcps) {
+  LemkeOptions o = Options();
+  o.regularization = 0.0;  // the plain run must do it
+  for (const char* path : kRecordedLcps) {
+    SCOPED_TRACE(path);
+    const LcpProblem p = ReadLcpFile(path);
+    VectorXd z;
+    const SolverReport r = LemkeSolver(o).Solve(p, nullptr, &z);
+    // Clean termination in every case: a real status, a finite z ≥ 0, a truthful residual.
+    EXPECT_NE(r.status, SolverStatus::kInvalidInput);
+    ASSERT_EQ(z.size(), p.size());
+    ASSERT_TRUE(z.allFinite());
+    EXPECT_GE(z.minCoeff(), 0.0);
+    EXPECT_EQ(r.residual, LcpResidual(p, z));
+    // Every combination solves both problems (non-lexicographic included, which has no
+    // anti-cycling guarantee but does solve these two).
+    ASSERT_TRUE(r.ok()) << r.message;
+    if (o.scale) {
+      EXPECT_EQ(r.message.find("without scaling"), std::string::npos) << r.message;
+    }
+    ExpectLcpSolution(p, z, kTol);
+  }
+}
 
 TEST(LemkeTest, InfeasibleProblemsEndOnSecondaryRay) {
   // w = 0·z − 1 < 0 for all z, and w = −z − 1 < 0 for all z ≥ 0: no solution exists.

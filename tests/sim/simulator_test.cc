@@ -89,7 +89,8 @@ TEST(SimulatorTest, MovingFloorCarriesOrSlipsBlock) {
   // Peak acceleration A w² = 0.5 μ g: sticks.
   {
     const double A = 0.5 * mu * kG / (w * w);
-    const Params p = WithParams(sim, {{"motion.floor.x.amplitude0", A}, {"motion.floor.x.phase0", kHalfPi}});
+    const Params p =
+        WithParams(sim, {{"motion.floor.x.amplitude0", A}, {"motion.floor.x.phase0", kHalfPi}});
     const Trajectory tr = sim.Rollout(p, sim.InitialState(), 2000);
     ASSERT_TRUE(tr.ok) << tr.failure;
     for (std::size_t k = 1; k < tr.states.size(); ++k) {
@@ -102,7 +103,8 @@ TEST(SimulatorTest, MovingFloorCarriesOrSlipsBlock) {
   // block's acceleration is ±μ g exactly.
   {
     const double A = 3 * mu * kG / (w * w);
-    const Params p = WithParams(sim, {{"motion.floor.x.amplitude0", A}, {"motion.floor.x.phase0", kHalfPi}});
+    const Params p =
+        WithParams(sim, {{"motion.floor.x.amplitude0", A}, {"motion.floor.x.phase0", kHalfPi}});
     const Trajectory tr = sim.Rollout(p, sim.InitialState(), 2000);
     ASSERT_TRUE(tr.ok) << tr.failure;
     int slipping_steps = 0;
@@ -154,8 +156,10 @@ TEST(SimulatorTest, RolloutIsBitForBitDeterministic) {
 // Params change the physics without rebuilding the scene; bad params are rejected.
 TEST(SimulatorTest, ParamsAreAppliedAndValidated) {
   Simulator sim(LoadExample("block_sliding.yaml"));
-  const Trajectory slow = sim.Rollout(WithParams(sim, {{"mu.default", 0.8}}), sim.InitialState(), 100);
-  const Trajectory fast = sim.Rollout(WithParams(sim, {{"mu.default", 0.1}}), sim.InitialState(), 100);
+  const Trajectory slow =
+      sim.Rollout(WithParams(sim, {{"mu.default", 0.8}}), sim.InitialState(), 100);
+  const Trajectory fast =
+      sim.Rollout(WithParams(sim, {{"mu.default", 0.1}}), sim.InitialState(), 100);
   ASSERT_TRUE(slow.ok && fast.ok);
   EXPECT_NEAR(Vx(sim, fast.states.back(), "block") - Vx(sim, slow.states.back(), "block"),
               0.7 * kG * 100 * sim.scene().options.dt, 1e-9);
@@ -169,7 +173,8 @@ TEST(SimulatorTest, ParamsAreAppliedAndValidated) {
 
 // The formulation's residual face: a simulated trajectory satisfies its own step equations to
 // solver tolerance, and the analytic Jacobians match finite differences.
-StepResiduals EvaluateStep(const Simulator& sim, const Params& p, const State& x0, const State& x1) {
+StepResiduals EvaluateStep(const Simulator& sim, const Params& p, const State& x0,
+                           const State& x1) {
   Workspace ws;
   const Scene& model = sim.Resolve(p, &ws);
   const StepLayout l = sim.formulation().Layout(model, x0);
@@ -253,7 +258,8 @@ TEST(SimulatorTest, StepEquationJacobiansMatchFiniteDifferences) {
       const VectorXd fd_eq = (rp.equality - rm.equality) / (2 * eps);
       const VectorXd fd_b = (rp.comp_b - rm.comp_b) / (2 * eps);
       const VectorXd fd_a = (rp.comp_a - rm.comp_a) / (2 * eps);
-      EXPECT_LT((fd_eq - r.d_equality.col(j)).lpNorm<Eigen::Infinity>(), 1e-6) << file << " col " << j;
+      EXPECT_LT((fd_eq - r.d_equality.col(j)).lpNorm<Eigen::Infinity>(), 1e-6)
+          << file << " col " << j;
       EXPECT_LT((fd_b - r.d_comp_b.col(j)).lpNorm<Eigen::Infinity>(), 1e-6) << file << " col " << j;
       EXPECT_LT((fd_a - r.d_comp_a.col(j)).lpNorm<Eigen::Infinity>(), 1e-6) << file << " col " << j;
     }
@@ -321,8 +327,8 @@ TEST(SimulatorTest, PolyhedronAndCapsuleComeToRestOnTheFloor) {
   Shape p;
   p.type = ShapeType::kPolyhedron;
   // Base at z = −0.05, apex at z = 0.15 (the body origin is the centroid: 1/4 of the height).
-  p.vertices = {{-0.1, -0.1, -0.05}, {0.1, -0.1, -0.05}, {0.1, 0.1, -0.05}, {-0.1, 0.1, -0.05},
-                {0, 0, 0.15}};
+  p.vertices = {
+      {-0.1, -0.1, -0.05}, {0.1, -0.1, -0.05}, {0.1, 0.1, -0.05}, {-0.1, 0.1, -0.05}, {0, 0, 0.15}};
   pyramid.shapes.push_back(p);
   pyramid.X_WB0.translation() = Vector3d(0, 0, 0.3);
   s.bodies.push_back(pyramid);

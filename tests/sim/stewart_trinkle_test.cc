@@ -96,9 +96,10 @@ TEST(StewartTrinkleTest, SphereRollsDownInclineAtFiveSevenths) {
   struct Case {
     double mu, a;
   };
-  for (const Case c : {Case{1.2 * mu_roll, 5.0 / 7.0 * kG * std::sin(kTheta)},
-                       Case{0.3, 5.0 / 7.0 * kG * std::sin(kTheta)},
-                       Case{0.5 * mu_roll, kG * (std::sin(kTheta) - 0.5 * mu_roll * std::cos(kTheta))}}) {
+  for (const Case c :
+       {Case{1.2 * mu_roll, 5.0 / 7.0 * kG * std::sin(kTheta)},
+        Case{0.3, 5.0 / 7.0 * kG * std::sin(kTheta)},
+        Case{0.5 * mu_roll, kG * (std::sin(kTheta) - 0.5 * mu_roll * std::cos(kTheta))}}) {
     const Params p = WithParams(sim, {{"mu.default", c.mu}});
     const int n = 500;
     const Trajectory tr = sim.Rollout(p, sim.InitialState(), n);
@@ -193,7 +194,8 @@ TEST(StewartTrinkleTest, RodPendulumSmallAnglePeriod) {
   for (std::size_t k = 1; k < tr.states.size(); ++k) {
     const double d0 = tr.states[k - 1].q[2] + kPi / 2, d1 = tr.states[k].q[2] + kPi / 2;
     if (d0 < 0 && d1 >= 0)
-      crossings.push_back(tr.states[k - 1].t + (tr.states[k].t - tr.states[k - 1].t) * (-d0) / (d1 - d0));
+      crossings.push_back(tr.states[k - 1].t +
+                          (tr.states[k].t - tr.states[k - 1].t) * (-d0) / (d1 - d0));
   }
   ASSERT_GE(crossings.size(), 2u);
   const double period = (crossings.back() - crossings.front()) / (crossings.size() - 1);
@@ -227,7 +229,7 @@ TEST(StewartTrinkleTest, AnitescuPotraStopsAtVelocityLevel) {
   const double gap_ap = b.states.back().q[2] - r;
   EXPECT_GE(gap_ap, -v_impact * h);
   EXPECT_LE(gap_ap, eps);
-  EXPECT_GT(std::abs(gap_ap), 1e-6);  // genuinely different from Stewart–Trinkle
+  EXPECT_GT(std::abs(gap_ap), 1e-6);                   // genuinely different from Stewart–Trinkle
   EXPECT_NEAR(b.states[500].q[2] - r, gap_ap, 1e-12);  // held, not corrected
   EXPECT_NEAR(b.states.back().v.norm(), 0.0, 1e-9);
 }

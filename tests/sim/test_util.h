@@ -33,7 +33,8 @@ inline double Energy(const Scene& s, const State& x) {
       e -= b.mass * s.gravity_W.head<2>().dot(x.q.segment<2>(idx.q));
     } else {
       const Eigen::Matrix<double, 6, 1> v = x.v.segment<6>(idx.v);
-      e += 0.5 * b.mass * v.head<3>().squaredNorm() + 0.5 * v.tail<3>().dot(b.inertia * v.tail<3>());
+      e +=
+          0.5 * b.mass * v.head<3>().squaredNorm() + 0.5 * v.tail<3>().dot(b.inertia * v.tail<3>());
       e -= b.mass * s.gravity_W.dot(x.q.segment<3>(idx.q));
     }
   }

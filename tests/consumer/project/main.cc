@@ -12,9 +12,9 @@
 namespace vs = vinci::sim;
 
 int main() {
-  constexpr double kRadius = 0.1;     // m
-  constexpr int kSteps = 1000;        // 1 s at the default dt = 1e-3 s
-  constexpr double kTolerance = 2e-3; // m; resting height within the contact envelope (1e-3)
+  constexpr double kRadius = 0.1;      // m
+  constexpr int kSteps = 1000;         // 1 s at the default dt = 1e-3 s
+  constexpr double kTolerance = 2e-3;  // m; resting height within the contact envelope (1e-3)
   try {
     vs::Scene scene;
     scene.dim = vs::Dim::kSpatial;

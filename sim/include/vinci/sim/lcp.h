@@ -15,23 +15,23 @@ namespace vinci::sim {
 
 /// Outcome of a complementarity solve.
 enum class SolverStatus {
-  kSolved,           ///< residual ≤ tolerance
-  kSecondaryRay,     ///< Lemke terminated on a secondary ray (problem may be infeasible)
-  kMaxIterations,    ///< iteration limit reached
-  kNumericalFailure, ///< singular pivot / NaN
-  kInvalidInput,     ///< malformed problem (size mismatch, NaN in data)
+  kSolved,            ///< residual ≤ tolerance
+  kSecondaryRay,      ///< Lemke terminated on a secondary ray (problem may be infeasible)
+  kMaxIterations,     ///< iteration limit reached
+  kNumericalFailure,  ///< singular pivot / NaN
+  kInvalidInput,      ///< malformed problem (size mismatch, NaN in data)
 };
 std::string_view ToString(SolverStatus s);
 
 /// What every solve reports.
 struct SolverReport {
   SolverStatus status = SolverStatus::kNumericalFailure;
-  int iterations = 0;      ///< pivots (Lemke) or sweeps/Newton steps (iterative)
-  double residual = 0.0;   ///< complementarity residual ‖min(z, Mz+q)‖_∞ of the returned z
-  double time_s = 0.0;     ///< wall time of the solve (s)
+  int iterations = 0;        ///< pivots (Lemke) or sweeps/Newton steps (iterative)
+  double residual = 0.0;     ///< complementarity residual ‖min(z, Mz+q)‖_∞ of the returned z
+  double time_s = 0.0;       ///< wall time of the solve (s)
   bool regularized = false;  ///< true if the solution came from a regularized retry M + εI
   double regularization = 0.0;  ///< the ε used, if regularized
-  std::string message;     ///< human-readable detail on failure
+  std::string message;          ///< human-readable detail on failure
   bool ok() const { return status == SolverStatus::kSolved; }
 };
 

@@ -35,13 +35,13 @@ struct Body {
   Matrix3d inertia = Matrix3d::Identity();
   bool inertia_from_shapes = true;  ///< Finalize() computes `inertia` from the shapes
   std::vector<Shape> shapes;
-  Isometry3d X_WB0 = Isometry3d::Identity();  ///< initial pose (planar: rotation about z)
-  Vector3d v0_W = Vector3d::Zero();  ///< initial velocity of the origin, world (m/s)
-  Vector3d w0_W = Vector3d::Zero();  ///< initial angular velocity, world (rad/s)
-  PrescribedMotion motion;           ///< kPrescribed only
+  Isometry3d X_WB0 = Isometry3d::Identity();     ///< initial pose (planar: rotation about z)
+  Vector3d v0_W = Vector3d::Zero();              ///< initial velocity of the origin, world (m/s)
+  Vector3d w0_W = Vector3d::Zero();              ///< initial angular velocity, world (rad/s)
+  PrescribedMotion motion;                       ///< kPrescribed only
   Vector3d applied_force_W = Vector3d::Zero();   ///< constant applied force at the COM (N)
   Vector3d applied_torque_W = Vector3d::Zero();  ///< constant applied torque (N·m)
-  bool gravity = true;  ///< false: gravity does not act on this body
+  bool gravity = true;                           ///< false: gravity does not act on this body
 };
 
 /// Joint kinds. Planar: revolute (2 eqs), prismatic (2), weld (3).
@@ -70,13 +70,13 @@ enum class FormulationType {
 /// Stepper options stored with the scene.
 struct StepperOptions {
   FormulationType formulation = FormulationType::kStewartTrinkle;
-  double dt = 1e-3;                ///< step h (s)
-  double duration = 1.0;           ///< default simulated time for `vinci simulate` (s)
-  int friction_directions = 4;     ///< n_d (spatial); planar always uses ±t
-  double envelope = 1e-3;          ///< ε: contacts with ψ_n ≤ ε enter the step (m)
-  bool joint_stabilization = true; ///< include ψ_b/h in the joint rows
-  std::string solver = "lemke";    ///< LCP solver by name
-  double max_penetration = 0.05;   ///< a step with ψ_n below −this fails (m)
+  double dt = 1e-3;                 ///< step h (s)
+  double duration = 1.0;            ///< default simulated time for `vinci simulate` (s)
+  int friction_directions = 4;      ///< n_d (spatial); planar always uses ±t
+  double envelope = 1e-3;           ///< ε: contacts with ψ_n ≤ ε enter the step (m)
+  bool joint_stabilization = true;  ///< include ψ_b/h in the joint rows
+  std::string solver = "lemke";     ///< LCP solver by name
+  double max_penetration = 0.05;    ///< a step with ψ_n below −this fails (m)
 };
 
 /// Layout of one body in the generalized coordinate and velocity vectors.

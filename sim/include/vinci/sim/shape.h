@@ -39,13 +39,13 @@ struct HullFace {
 /// Convex collision shape, expressed in its own frame S, attached to a body B at X_BS.
 struct Shape {
   ShapeType type = ShapeType::kSphere;
-  std::string name;                   ///< unique within the body ("s0", "s1", ... by default)
+  std::string name;  ///< unique within the body ("s0", "s1", ... by default)
   Isometry3d X_BS = Isometry3d::Identity();  ///< pose of S in the body frame (planar: about z)
-  double radius = 0.0;                ///< m; sphere, capsule, disc, segment
+  double radius = 0.0;                       ///< m; sphere, capsule, disc, segment
   Vector3d half_extents = Vector3d::Zero();  ///< m; box
-  double half_length = 0.0;           ///< m; capsule, segment
-  std::vector<Vector3d> vertices;     ///< m; polyhedron, polygon (z ignored for polygons)
-  int material = 0;                   ///< index into Scene::materials
+  double half_length = 0.0;                  ///< m; capsule, segment
+  std::vector<Vector3d> vertices;            ///< m; polyhedron, polygon (z ignored for polygons)
+  int material = 0;                          ///< index into Scene::materials
   /// Polyhedron only, filled by PrepareShape(): the hull's faces, and the indices of the points
   /// of `vertices` that are hull corners (points inside the hull or inside a hull face or edge
   /// are left out). While empty, CollideShapes/ComputeUnitMassProperties compute the hull on
@@ -132,7 +132,8 @@ UnitMassProperties ComputeUnitMassProperties(const Shape& shape);
 struct Aabb {
   Vector3d lo, hi;
   bool Overlaps(const Aabb& o, double margin) const {
-    return (lo.array() - margin <= o.hi.array()).all() && (o.lo.array() - margin <= hi.array()).all();
+    return (lo.array() - margin <= o.hi.array()).all() &&
+           (o.lo.array() - margin <= hi.array()).all();
   }
 };
 Aabb ComputeAabb(const Shape& shape, const Isometry3d& X_WS);

@@ -12,9 +12,9 @@ namespace vinci::sim {
 /// Everything a step depends on besides the scene and params — including the solver warm
 /// start, so that Step and Rollout are pure functions of their arguments.
 struct State {
-  double t = 0.0;  ///< s
-  VectorXd q;      ///< positions of the dynamic bodies (Scene::index(b).q)
-  VectorXd v;      ///< velocities of the dynamic bodies (Scene::index(b).v)
+  double t = 0.0;       ///< s
+  VectorXd q;           ///< positions of the dynamic bodies (Scene::index(b).q)
+  VectorXd v;           ///< velocities of the dynamic bodies (Scene::index(b).v)
   VectorXd warm_start;  ///< last step's complementarity solution (may be empty)
 };
 
@@ -27,11 +27,11 @@ struct StepInput {
 /// What one step did.
 struct StepInfo {
   bool ok = false;
-  int contacts = 0;          ///< contacts in the step's LCP
-  int joint_rows = 0;        ///< bilateral constraint rows
-  double min_gap = 0.0;      ///< smallest ψ_n at the start of the step (m); 0 if no contact
-  SolverReport solver;       ///< the complementarity solve
-  std::string failure;       ///< reason when !ok
+  int contacts = 0;      ///< contacts in the step's LCP
+  int joint_rows = 0;    ///< bilateral constraint rows
+  double min_gap = 0.0;  ///< smallest ψ_n at the start of the step (m); 0 if no contact
+  SolverReport solver;   ///< the complementarity solve
+  std::string failure;   ///< reason when !ok
 };
 
 /// A rollout: states[0] is x0, states[k+1] follows from states[k] by step k.

@@ -21,9 +21,8 @@
 // so that the linearized end-of-step gap moves exactly with a translating floor or pusher.
 #pragma once
 
-#include <memory>
-
 #include <Eigen/Cholesky>
+#include <memory>
 
 #include "vinci/sim/formulation.h"
 
@@ -43,7 +42,7 @@ class StewartTrinkle final : public Formulation {
   struct Assembly {
     std::vector<Contact> contacts;
     int nd = 0;
-    MatrixXd M, M_inv;    ///< nv × nv
+    MatrixXd M, M_inv;       ///< nv × nv
     MatrixXd G_n, G_f, G_b;  ///< nv × nc, nv × nc·nd, nv × nb
     VectorXd psi_n, dpsi_n;  ///< ψ_n, ∂ψ_n/∂t (nc)
     VectorXd dpsi_f;         ///< ∂ψ_f/∂t (nc·nd)
@@ -54,8 +53,8 @@ class StewartTrinkle final : public Formulation {
   Assembly Assemble(const Scene& model, const State& x, const StepInput& u) const;
   /// The Schur-complement pieces of the joint elimination (empty without joints).
   struct JointElimination {
-    MatrixXd MinvGb;                 ///< M⁻¹ G_b
-    Eigen::LDLT<MatrixXd> S;         ///< S = G_bᵀ M⁻¹ G_b
+    MatrixXd MinvGb;          ///< M⁻¹ G_b
+    Eigen::LDLT<MatrixXd> S;  ///< S = G_bᵀ M⁻¹ G_b
   };
   /// The LCP of the step in (p_n, p_f, σ) after eliminating ν and p_b; *v_star is ν_ℓ+1 for
   /// zero contact impulses.
