@@ -56,7 +56,7 @@ struct StateJacobians {
 struct Workspace {
   Params resolved_for;
   std::shared_ptr<const Scene> model;  ///< scene with `resolved_for` applied
-  std::vector<Contact> contacts;
+  std::vector<Contact> contacts;  ///< the contacts of the last successful step (for inspection)
 };
 
 class Formulation {
