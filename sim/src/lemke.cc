@@ -495,7 +495,9 @@ SolverReport LemkeSolver::Solve(const LcpProblem& problem, const VectorXd* warm_
   // 3b. Last line of defence before regularizing: one run without scaling (reported).
   std::string unscaled_note;
   bool solved_unscaled = false;
-  if (!Passes(first, tolerance) && options_.scale) {
+  // Only for a secondary ray or a terminated run with a bad residual (not for the pivot limit).
+  if (!Passes(first, tolerance) && options_.scale &&
+      (first.terminated || first.status == SolverStatus::kSecondaryRay)) {
     LemkeOptions plain = options_;
     plain.scale = false;
     Attempt u = RunAttempt(problem, 0.0, plain, tolerance);
