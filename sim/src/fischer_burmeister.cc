@@ -115,20 +115,11 @@ SolverReport FischerBurmeisterSolver::Solve(const LcpProblem& problem, const Vec
   };
 
   const Eigen::Index n = problem.q.size();
-  if (problem.M.rows() != n || problem.M.cols() != n) {
+  if (std::string invalid = CheckLcpData(problem); !invalid.empty()) {
     z->setZero(n);
     report.status = SolverStatus::kInvalidInput;
     report.residual = std::numeric_limits<double>::quiet_NaN();
-    report.message = "M is " + std::to_string(problem.M.rows()) + "x" +
-                     std::to_string(problem.M.cols()) + " but q has size " + std::to_string(n) +
-                     "; expected a square M matching q";
-    return finish();
-  }
-  if (!problem.M.allFinite() || !problem.q.allFinite()) {
-    z->setZero(n);
-    report.status = SolverStatus::kInvalidInput;
-    report.residual = std::numeric_limits<double>::quiet_NaN();
-    report.message = "M or q contains NaN or Inf";
+    report.message = std::move(invalid);
     return finish();
   }
   if (n == 0) {

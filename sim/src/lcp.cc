@@ -48,4 +48,13 @@ double LcpResidual(const LcpProblem& problem, const VectorXd& z) {
   return residual;
 }
 
+std::string CheckLcpData(const LcpProblem& problem) {
+  const Eigen::Index n = problem.q.size();
+  if (problem.M.rows() != n || problem.M.cols() != n)
+    return "M is " + std::to_string(problem.M.rows()) + "x" + std::to_string(problem.M.cols()) +
+           " but q has size " + std::to_string(n) + "; expected a square M matching q";
+  if (!problem.M.allFinite() || !problem.q.allFinite()) return "M or q contains NaN or Inf";
+  return {};
+}
+
 }  // namespace vinci::sim

@@ -126,14 +126,7 @@ SolverReport PgsSolver::Solve(const LcpProblem& problem, const VectorXd* warm_st
   };
 
   const int n = static_cast<int>(problem.q.size());
-  if (problem.M.rows() != n || problem.M.cols() != n) {
-    return invalid("M is " + std::to_string(problem.M.rows()) + "x" +
-                   std::to_string(problem.M.cols()) + " but q has size " + std::to_string(n) +
-                   "; expected a square M matching q");
-  }
-  if (!problem.M.allFinite() || !problem.q.allFinite()) {
-    return invalid("M or q contains NaN or Inf");
-  }
+  if (std::string bad = CheckLcpData(problem); !bad.empty()) return invalid(std::move(bad));
   if (const std::string bad = CheckBlocks(problem.blocks, n); !bad.empty()) {
     return invalid("LcpProblem::blocks is not a partition of the " + std::to_string(n) +
                    " variables: " + bad);

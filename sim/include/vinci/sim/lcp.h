@@ -50,6 +50,10 @@ struct LcpProblem {
 /// ‖min(z, Mz + q)‖_∞: zero exactly at a solution. Independent of any solver.
 double LcpResidual(const LcpProblem& problem, const VectorXd& z);
 
+/// Empty if M is square, matches q and all data are finite; otherwise the reason, for
+/// SolverStatus::kInvalidInput reports.
+std::string CheckLcpData(const LcpProblem& problem);
+
 /// Interface of an LCP solver. Implementations are stateless and thread-safe.
 class LcpSolver {
  public:
