@@ -21,6 +21,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "solver_util.h"
+
 namespace vinci::sim {
 namespace {
 
@@ -44,11 +46,7 @@ constexpr double kDescentP = 2.1;
 // 138 iterations where the minimum-norm step needs 8.
 constexpr double kMinRcond = std::numeric_limits<double>::epsilon();
 
-std::string FormatDouble(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof(buf), "%.3g", v);
-  return buf;
-}
+using internal::FormatDouble;
 
 void ValidateOptions(const FischerBurmeisterOptions& o) {
   auto fail = [](const std::string& field, double value, const char* expected) {

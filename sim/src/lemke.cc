@@ -20,6 +20,8 @@
 #include <string>
 #include <vector>
 
+#include "solver_util.h"
+
 namespace vinci::sim {
 namespace {
 
@@ -60,11 +62,7 @@ constexpr double kRegularizationFactors[] = {1.0, 1e3, 1e6};
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-std::string FormatDouble(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof(buf), "%.3g", v);
-  return buf;
-}
+using internal::FormatDouble;
 
 // NaN sorts last: a NaN residual is worse than any number.
 double OrInf(double v) { return std::isnan(v) ? kInf : v; }

@@ -21,6 +21,7 @@
 #include <string>
 #include <vector>
 
+#include "solver_util.h"
 #include "vinci/sim/lemke.h"
 
 namespace vinci::sim {
@@ -36,11 +37,7 @@ constexpr double kSkipFraction = 1e-3;
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-std::string FormatDouble(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof(buf), "%.3g", v);
-  return buf;
-}
+using internal::FormatDouble;
 
 void ValidateOptions(const PgsOptions& o) {
   auto fail = [](const std::string& field, double value, const char* expected) {
