@@ -94,6 +94,12 @@ void Scene::Finalize() {
     for (std::size_t j = i + 1; j < bodies.size(); ++j)
       if (bodies[j].name == b.name)
         throw std::invalid_argument("duplicate body name '" + b.name + "'");
+    CheckCompliance(b.compliance, BodyContext(b));
+    for (std::size_t j = 0; j < i; ++j) {
+      const std::string why = CheckCompliancePair(bodies[j].compliance, b.compliance);
+      if (!why.empty())
+        throw std::invalid_argument(BodyContext(b) + " and body '" + bodies[j].name + "': " + why);
+    }
     for (std::size_t s = 0; s < b.shapes.size(); ++s) {
       Shape& sh = b.shapes[s];
       if (sh.name.empty()) sh.name = "s" + std::to_string(s);

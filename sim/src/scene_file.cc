@@ -45,7 +45,9 @@ const std::vector<std::string> kStepperKeys = {"formulation",
 const std::vector<std::string> kFrictionKeys = {"default", "pairs"};
 const std::vector<std::string> kBodyKeys = {"name",   "kind",    "pose",    "velocity",
                                             "mass",   "inertia", "gravity", "force",
-                                            "torque", "shapes",  "motion"};
+                                            "torque", "shapes",  "motion",  "compliance"};
+const std::vector<std::string> kComplianceKeys = {"law", "stiffness", "damping", "alpha",
+                                                  "min_overlap"};
 const std::vector<std::string> kPlanarPoseKeys = {"position", "angle"};
 const std::vector<std::string> kSpatialPoseKeys = {"position", "rotation", "quaternion", "rpy"};
 const std::vector<std::string> kAxisAngleKeys = {"axis", "angle"};
@@ -312,6 +314,7 @@ class Parser {
   PrescribedMotion Motion(const Field& f) const;
   DofMotion ParseDofMotion(const Field& f) const;
   Body ParseBody(const Field& f) const;
+  ContactCompliance ParseCompliance(const Field& f) const;
   Joint ParseJoint(const Field& f, const Scene& scene) const;
   void ParseStepper(const Field& f, StepperOptions* options) const;
   void ParseFriction(const Field& f, Scene* scene) const;
@@ -630,7 +633,40 @@ Body Parser::ParseBody(const Field& f) const {
          "an inertia (the body has no shapes to compute it from)", "nothing (missing key)");
   }
   if (auto m = Get(f, "motion")) b.motion = Motion(*m);
+  if (auto c = Get(f, "compliance")) b.compliance = ParseCompliance(*c);
   return b;
+}
+
+ContactCompliance Parser::ParseCompliance(const Field& f) const {
+  CheckMap(f, kComplianceKeys, "a compliance: a map");
+  ContactCompliance c;
+  c.law = Choice<ComplianceLaw>(Require(f, "law", "a compliance law"),
+                                {{"rigid", ComplianceLaw::kRigid},
+                                 {"kelvin-voigt", ComplianceLaw::kKelvinVoigt},
+                                 {"hertz", ComplianceLaw::kHertz},
+                                 {"hunt-crossley", ComplianceLaw::kHuntCrossley}},
+                                "a compliance law");
+  const auto only = [&](const char* key, bool allowed, const std::string& why) {
+    std::optional<Field> v = Get(f, key);
+    if (v && !allowed) Fail(*v, "no '" + std::string(key) + "' " + why);
+    return v;
+  };
+  const bool rigid = c.law == ComplianceLaw::kRigid;
+  const bool hc = c.law == ComplianceLaw::kHuntCrossley;
+  if (rigid) {
+    c.stiffness = 0.0;
+  } else {
+    c.stiffness = Number(Require(f, "stiffness", "a finite number > 0"), Bound::kPositive);
+  }
+  only("stiffness", !rigid, "for a rigid law");
+  if (auto v = only("damping", !rigid && !hc,
+                    rigid ? "for a rigid law" : "for hunt-crossley (it damps through alpha)"))
+    c.damping = Number(*v, Bound::kNonNegative);
+  if (auto v = only("alpha", hc, "(only hunt-crossley uses alpha; use damping)"))
+    c.alpha = Number(*v, Bound::kNonNegative);
+  if (auto v = only("min_overlap", !rigid, "for a rigid law"))
+    c.min_overlap = Number(*v, Bound::kPositive);
+  return c;
 }
 
 Joint Parser::ParseJoint(const Field& f, const Scene& scene) const {

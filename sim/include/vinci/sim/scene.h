@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "vinci/sim/compliance.h"
 #include "vinci/sim/motion.h"
 #include "vinci/sim/params.h"
 #include "vinci/sim/shape.h"
@@ -42,6 +43,8 @@ struct Body {
   Vector3d applied_force_W = Vector3d::Zero();   ///< constant applied force at the COM (N)
   Vector3d applied_torque_W = Vector3d::Zero();  ///< constant applied torque (N·m)
   bool gravity = true;                           ///< false: gravity does not act on this body
+  /// Normal compliance of the body's surface layer (compliance.h); default rigid.
+  ContactCompliance compliance;
 };
 
 /// Joint kinds. Planar: revolute (2 eqs), prismatic (2), weld (3).
@@ -65,6 +68,7 @@ struct Joint {
 enum class FormulationType {
   kStewartTrinkle,  ///< formulations.md §1: position-level normal constraint with ψ_n/h
   kAnitescuPotra,   ///< velocity-level normal constraint (no ψ_n/h)
+  kNcp,             ///< formulations.md §2: quadratic friction cone, an MCP (ncp.h)
 };
 
 /// Stepper options stored with the scene.
