@@ -124,12 +124,16 @@ StewartTrinkle::Assembly StewartTrinkle::Assemble(const Scene& model, const Stat
   a.dpsi_n = VectorXd::Zero(nc);
   a.dpsi_f = VectorXd::Zero(nc * nd);
   a.mu.resize(nc);
+  a.compliance.resize(nc);
   std::vector<Vector3d> dirs;
   for (int c = 0; c < nc; ++c) {
     const Contact& ct = a.contacts[c];
     const ContactPoint& p = ct.point;
     a.psi_n[c] = p.gap;
     a.mu[c] = ct.mu;
+    a.compliance[c] = LinearizeNormalLaw(
+        CombineCompliance(model.bodies[ct.body_a].compliance, model.bodies[ct.body_b].compliance),
+        p.gap, h);
     Scatter(model, ct.body_a, kin[ct.body_a], p.p_A_W, p.n_W, 1.0, &a.G_n, c, &a.dpsi_n[c]);
     Scatter(model, ct.body_b, kin[ct.body_b], p.p_B_W, p.n_W, -1.0, &a.G_n, c, &a.dpsi_n[c]);
     FrictionDirections(dim, p.n_W, nd, &dirs);
@@ -245,6 +249,13 @@ LcpProblem StewartTrinkle::BuildLcp(const Scene& model, const Assembly& a, const
   }
   lcp.q.head(nc) = a.G_n.transpose() * *v_star + a.dpsi_n;
   if (!velocity_level_) lcp.q.head(nc) += a.psi_n / h;
+  for (int c = 0; c < nc; ++c) {
+    const CompliantNormalRow& law = a.compliance[c];
+    if (!law.compliant) continue;
+    lcp.q[c] =
+        a.G_n.col(c).dot(*v_star) + a.dpsi_n[c] + law.vel_psi * a.psi_n[c] + law.vel_constant;
+    lcp.M(c, c) += law.vel_diagonal;
+  }
   lcp.q.segment(nc, nf) = a.G_f.transpose() * *v_star + a.dpsi_f;
   return lcp;
 }
@@ -432,6 +443,13 @@ StepResiduals StewartTrinkle::Evaluate(const Scene& model, const Params& params,
   r.comp_b.head(nc) = a.G_n.transpose() * v1 + a.dpsi_n;
   if (!velocity_level_) r.comp_b.head(nc) += a.psi_n / h;
   r.d_comp_b.block(0, l.v1(), nc, nv) = a.G_n.transpose();
+  for (int c = 0; c < nc; ++c) {
+    const CompliantNormalRow& law = a.compliance[c];
+    if (!law.compliant) continue;
+    r.comp_b[c] = a.G_n.col(c).dot(v1) + a.dpsi_n[c] + law.vel_psi * a.psi_n[c] +
+                  law.vel_diagonal * pn[c] + law.vel_constant;
+    r.d_comp_b(c, l.pn() + c) = law.vel_diagonal;
+  }
 
   r.comp_b.segment(nc, nf) = a.G_f.transpose() * v1 + a.dpsi_f;
   r.d_comp_b.block(nc, l.v1(), nf, nv) = a.G_f.transpose();

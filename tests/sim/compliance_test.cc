@@ -110,5 +110,159 @@ TEST(ComplianceLaw, ChecksRejectBadFields) {
   EXPECT_NO_THROW(CheckCompliance(Kv(1e3, 1.0), "body 'b'"));
 }
 
+// A 1 kg sphere (r = 0.1 m) thrown at 1 m/s onto a compliant static floor, without gravity, so
+// the contact is a free linear (or Hertz) oscillator half-cycle.
+std::string BallScene(const std::string& formulation, const std::string& compliance, double h,
+                      double v0, bool gravity, double z0) {
+  return "dimension: 3\n"
+         "stepper: {formulation: " +
+         formulation + ", dt: " + std::to_string(h) +
+         ", envelope: 0.002, friction_directions: 4}\n"
+         "bodies:\n"
+         "  - {name: floor, kind: static, shapes: [{type: halfspace}], compliance: " +
+         compliance +
+         "}\n"
+         "  - name: ball\n"
+         "    mass: 1.0\n"
+         "    gravity: " +
+         (gravity ? "true" : "false") + "\n    pose: {position: [0, 0, " + std::to_string(z0) +
+         "]}\n"
+         "    velocity: {linear: [0, 0, " +
+         std::to_string(v0) +
+         "]}\n"
+         "    shapes: [{type: sphere, radius: 0.1}]\n";
+}
+
+struct Impact {
+  double duration = 0.0;  // s, between the linearly interpolated crossings of z = r
+  double rebound = 0.0;   // m/s, vertical speed after the contact
+  double max_overlap = 0.0;
+  bool ok = false;
+};
+
+Impact SimulateImpact(const Scene& scene, double t_end) {
+  Simulator sim(scene);
+  const double h = scene.options.dt, r = 0.1;
+  const Trajectory traj =
+      sim.Rollout(sim.DefaultParams(), sim.InitialState(), static_cast<int>(t_end / h));
+  Impact out;
+  if (!traj.ok) return out;
+  double t_in = -1.0, t_out = -1.0;
+  for (std::size_t k = 1; k < traj.states.size(); ++k) {
+    const double z0 = traj.states[k - 1].q[2] - r, z1 = traj.states[k].q[2] - r;
+    out.max_overlap = std::max(out.max_overlap, -z1);
+    const double t0 = traj.states[k - 1].t;
+    if (t_in < 0 && z0 >= 0 && z1 < 0) t_in = t0 + h * z0 / (z0 - z1);
+    if (t_in >= 0 && t_out < 0 && z0 < 0 && z1 >= 0) {
+      t_out = t0 + h * z0 / (z0 - z1);
+      out.rebound = traj.states[k].v[2];
+    }
+  }
+  out.duration = t_out - t_in;
+  out.ok = t_in >= 0 && t_out >= 0;
+  return out;
+}
+
+// Backward-Euler in the overlap loses ≈ (π/2) h ω of the rebound speed: 0.8% at h ω = 0.005;
+// the issue asks for 2%.
+constexpr double kImpactTol = 0.02;
+
+TEST(CompliantImpact, KelvinVoigtLastsHalfAPeriodAndRebounds) {
+  const double k = 1e4, m = 1.0, v0 = 1.0, h = 5e-5;
+  for (const char* formulation : {"stewart-trinkle", "anitescu-potra"}) {
+    SCOPED_TRACE(formulation);
+    const Scene scene = ParseScene(
+        BallScene(formulation, "{law: kelvin-voigt, stiffness: 1.0e4}", h, -v0, false, 0.1005));
+    const Impact imp = SimulateImpact(scene, 0.045);
+    ASSERT_TRUE(imp.ok);
+    const double t_closed = kPi * std::sqrt(m / k);
+    EXPECT_NEAR(imp.duration, t_closed, kImpactTol * t_closed);
+    EXPECT_NEAR(imp.rebound, v0, kImpactTol * v0);
+    EXPECT_LT(imp.rebound, v0);  // the implicit spring never gains energy
+    EXPECT_NEAR(imp.max_overlap, v0 * std::sqrt(m / k), kImpactTol * v0 * std::sqrt(m / k));
+  }
+}
+
+TEST(CompliantImpact, DampingLowersTheRestitutionMonotonically) {
+  const double v0 = 1.0, h = 5e-5;
+  double previous = 2.0;
+  for (double c : {0.0, 5.0, 20.0, 50.0}) {
+    SCOPED_TRACE(c);
+    const Scene scene = ParseScene(
+        BallScene("stewart-trinkle",
+                  "{law: kelvin-voigt, stiffness: 1.0e4, damping: " + std::to_string(c) + "}", h,
+                  -v0, false, 0.1005));
+    const Impact imp = SimulateImpact(scene, 0.06);
+    ASSERT_TRUE(imp.ok);
+    const double e = imp.rebound / v0;
+    EXPECT_LT(e, 1.0);
+    EXPECT_LT(e, previous);
+    if (c > 0) {
+      // A clear drop per damping level (not roundoff): ζ = c/(2√(km)) ≥ 0.025 removes > 5%.
+      EXPECT_LT(e, previous - 0.05);
+    }
+    previous = e;
+  }
+}
+
+// Overlap of a resting ball after settling, from a touching start (damped to settle fast).
+double RestingOverlap(const std::string& compliance, const std::string& formulation) {
+  Simulator sim(ParseScene(BallScene(formulation, compliance, 1e-3, 0.0, true, 0.1)));
+  const Trajectory traj = sim.Rollout(sim.DefaultParams(), sim.InitialState(), 1500);
+  EXPECT_TRUE(traj.ok) << traj.failure;
+  return 0.1 - traj.states.back().q[2];
+}
+
+// The linearized laws are exact at rest, so only the settling transient remains (< 1e-4).
+constexpr double kStaticTol = 0.01;
+
+TEST(CompliantStatics, KelvinVoigtOverlapIsMgOverK) {
+  const double expected = 9.81 / 1e4;
+  for (const char* f : {"stewart-trinkle", "anitescu-potra"}) {
+    SCOPED_TRACE(f);
+    const double d = RestingOverlap("{law: kelvin-voigt, stiffness: 1.0e4, damping: 100}", f);
+    EXPECT_NEAR(d, expected, kStaticTol * expected);
+  }
+}
+
+TEST(CompliantStatics, HertzOverlapIsMgOverKToTwoThirds) {
+  const double expected = std::pow(9.81 / 1e6, 2.0 / 3.0);
+  const double d = RestingOverlap("{law: hertz, stiffness: 1.0e6, damping: 50}", "stewart-trinkle");
+  EXPECT_NEAR(d, expected, kStaticTol * expected);
+  const double d_hc =
+      RestingOverlap("{law: hunt-crossley, stiffness: 1.0e6, alpha: 5}", "stewart-trinkle");
+  EXPECT_NEAR(d_hc, expected, kStaticTol * expected);
+}
+
+TEST(CompliantStatics, RigidScenesAreUnchanged) {
+  // A rigid ball rests at overlap 0 (to the solver tolerance): the compliance path is off.
+  const double d = RestingOverlap("{law: rigid}", "stewart-trinkle");
+  EXPECT_NEAR(d, 0.0, 1e-9);
+}
+
+TEST(ComplianceSceneFile, ParsesAndRejects) {
+  const Scene s = ParseScene(BallScene(
+      "stewart-trinkle", "{law: hertz, stiffness: 2.0e6, damping: 3}", 1e-3, 0.0, true, 0.1));
+  const Body& floor = s.bodies[s.FindBody("floor")];
+  EXPECT_EQ(floor.compliance.law, ComplianceLaw::kHertz);
+  EXPECT_EQ(floor.compliance.stiffness, 2e6);
+  EXPECT_EQ(floor.compliance.damping, 3.0);
+  EXPECT_TRUE(s.bodies[s.FindBody("ball")].compliance.rigid());
+  const auto expect_error = [](const std::string& compliance, const std::string& needle) {
+    try {
+      ParseScene(BallScene("stewart-trinkle", compliance, 1e-3, 0.0, true, 0.1), "scene.yaml");
+      ADD_FAILURE() << "no error for " << compliance;
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
+    }
+  };
+  expect_error("{law: kelvin-voigt}", "bodies[0].compliance.stiffness");
+  expect_error("{law: kelvin-voigt, stiffness: -1}", "a finite number > 0");
+  expect_error("{law: hunt-crossley, stiffness: 1, damping: 1}", "hunt-crossley");
+  expect_error("{law: hertz, stiffness: 1, alpha: 1}", "alpha");
+  expect_error("{law: soft, stiffness: 1}", "a compliance law");
+  expect_error("{law: rigid, stiffness: 1}", "rigid");
+}
+
 }  // namespace
 }  // namespace vinci::sim

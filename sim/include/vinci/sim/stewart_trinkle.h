@@ -19,6 +19,10 @@
 // Planar friction uses n_d = 2 (d = ±t, exact); spatial uses n_d equally spaced directions.
 // ∂ψ/∂t of a prescribed body uses its secant velocity over the step, (pose(t+h) − pose(t))/h,
 // so that the linearized end-of-step gap moves exactly with a translating floor or pusher.
+// Quasi-rigid contact (formulations.md §4): a pair with a compliant body replaces its normal row
+// by the compliance law's velocity form (compliance.h),
+//   0 ≤ p_n ⊥ G_nᵀ ν_ℓ+1 + ∂ψ_n/∂t + β ψ_n + γ p_n + ε ≥ 0   (Kelvin–Voigt, c = 0: β = 1/h,
+//   γ = 1/(h² k), ε = 0, i.e. ψ_n(q_ℓ+1) + p_n/(h k) ≥ 0 linearized), in both variants.
 #pragma once
 
 #include <Eigen/Cholesky>
@@ -49,6 +53,10 @@ class StewartTrinkle final : public Formulation {
     VectorXd psi_b, dpsi_b;  ///< ψ_b, ∂ψ_b/∂t (nb)
     VectorXd mu;             ///< μ per contact
     VectorXd p_ext;          ///< h (forces) + p_vp (nv)
+    /// Per contact: the pair's linearized quasi-rigid law (compliance.h); compliant == false for
+    /// rigid pairs, whose rows are unchanged. A compliant normal row is
+    /// G_nᵀν + ∂ψ_n/∂t + vel_psi ψ_n + vel_diagonal p_n + vel_constant (both formulations).
+    std::vector<CompliantNormalRow> compliance;
   };
   Assembly Assemble(const Scene& model, const State& x, const StepInput& u) const;
   /// The Schur-complement pieces of the joint elimination (empty without joints).
