@@ -4,11 +4,13 @@
 
 #include "vinci/sim/kinematics.h"
 #include "vinci/sim/lemke.h"
+#include "vinci/sim/ncp.h"
 #include "vinci/sim/stewart_trinkle.h"
 
 namespace vinci::sim {
 
 std::unique_ptr<Formulation> MakeFormulation(const StepperOptions& options) {
+  if (options.formulation == FormulationType::kNcp) return std::make_unique<NcpStepper>(options);
   return std::make_unique<StewartTrinkle>(options, MakeLcpSolver(options.solver));
 }
 
