@@ -107,9 +107,12 @@ NcpStepper::StepProblem NcpStepper::Build(const Scene& model, const State& x,
     for (int j = 0; j < 3 * nc; ++j)
       if (sel[j] >= 0) d->A(i, j) = sp.lcp.M(sel[i], sel[j]);
   }
+  // ε_n on rigid normal rows only (a compliant row already has its diagonal γ > 0).
   double diag = 0.0;
-  for (int c = 0; c < nc; ++c) diag = std::max(diag, d->A(c, c));
-  for (int c = 0; c < nc; ++c) d->A(c, c) += ncp_.normal_regularization * diag;
+  for (int c = 0; c < nc; ++c)
+    diag = std::max(diag, d->A(c, c) - a.compliance[c].vel_diagonal);
+  for (int c = 0; c < nc; ++c)
+    if (!a.compliance[c].compliant) d->A(c, c) += ncp_.normal_regularization * diag;
   d->eps_t = ncp_.tangent_regularization;
   const double p_ref =
       std::max(a.p_ext.size() ? a.p_ext.cwiseAbs().maxCoeff() : 0.0, kMinImpulseScale);

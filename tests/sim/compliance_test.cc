@@ -169,7 +169,7 @@ constexpr double kImpactTol = 0.02;
 
 TEST(CompliantImpact, KelvinVoigtLastsHalfAPeriodAndRebounds) {
   const double k = 1e4, m = 1.0, v0 = 1.0, h = 5e-5;
-  for (const char* formulation : {"stewart-trinkle", "anitescu-potra"}) {
+  for (const char* formulation : {"stewart-trinkle", "anitescu-potra", "ncp"}) {
     SCOPED_TRACE(formulation);
     const Scene scene = ParseScene(
         BallScene(formulation, "{law: kelvin-voigt, stiffness: 1.0e4}", h, -v0, false, 0.1005));
@@ -218,7 +218,7 @@ constexpr double kStaticTol = 0.01;
 
 TEST(CompliantStatics, KelvinVoigtOverlapIsMgOverK) {
   const double expected = 9.81 / 1e4;
-  for (const char* f : {"stewart-trinkle", "anitescu-potra"}) {
+  for (const char* f : {"stewart-trinkle", "anitescu-potra", "ncp"}) {
     SCOPED_TRACE(f);
     const double d = RestingOverlap("{law: kelvin-voigt, stiffness: 1.0e4, damping: 100}", f);
     EXPECT_NEAR(d, expected, kStaticTol * expected);
@@ -229,6 +229,8 @@ TEST(CompliantStatics, HertzOverlapIsMgOverKToTwoThirds) {
   const double expected = std::pow(9.81 / 1e6, 2.0 / 3.0);
   const double d = RestingOverlap("{law: hertz, stiffness: 1.0e6, damping: 50}", "stewart-trinkle");
   EXPECT_NEAR(d, expected, kStaticTol * expected);
+  EXPECT_NEAR(RestingOverlap("{law: hertz, stiffness: 1.0e6, damping: 50}", "ncp"), expected,
+              kStaticTol * expected);
   const double d_hc =
       RestingOverlap("{law: hunt-crossley, stiffness: 1.0e6, alpha: 5}", "stewart-trinkle");
   EXPECT_NEAR(d_hc, expected, kStaticTol * expected);
@@ -262,6 +264,32 @@ TEST(ComplianceSceneFile, ParsesAndRejects) {
   expect_error("{law: hertz, stiffness: 1, alpha: 1}", "alpha");
   expect_error("{law: soft, stiffness: 1}", "a compliance law");
   expect_error("{law: rigid, stiffness: 1}", "rigid");
+}
+
+// A compliant impact trajectory satisfies its formulation's step equations (Evaluate carries the
+// same compliance term as the solved LCP/MCP).
+TEST(CompliantImpact, TrajectorySatisfiesItsStepEquations) {
+  for (const char* formulation : {"stewart-trinkle", "ncp"}) {
+    SCOPED_TRACE(formulation);
+    Simulator sim(ParseScene(BallScene(
+        formulation, "{law: kelvin-voigt, stiffness: 1.0e4, damping: 10}", 1e-4, -1.0, true, 0.1)));
+    const Params p = sim.DefaultParams();
+    const Trajectory t = sim.Rollout(p, sim.InitialState(), 200);
+    ASSERT_TRUE(t.ok) << t.failure;
+    int compliant_steps = 0;
+    for (std::size_t k = 0; k + 1 < t.states.size(); ++k) {
+      const State& x = t.states[k];
+      const StepLayout l = sim.formulation().Layout(sim.scene(), x);
+      if (l.nc == 0) continue;
+      VectorXd z(l.size());
+      z << t.states[k + 1].q, t.states[k + 1].v, t.states[k + 1].warm_start;
+      const StepResiduals r = sim.formulation().Evaluate(sim.scene(), p, x, StepInput{}, z);
+      // Lemke/MCP solve to ~1e-10 on impulses ~1e-3 N·s.
+      EXPECT_LT(r.Violation(), 1e-9) << "step " << k;
+      compliant_steps += z[l.pn()] > 0 ? 1 : 0;
+    }
+    EXPECT_GT(compliant_steps, 100);  // the contact is active for most of the run
+  }
 }
 
 }  // namespace

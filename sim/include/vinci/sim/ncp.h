@@ -48,7 +48,8 @@ struct NcpOptions {
   double e_t = 1.0;  ///< elliptic-cone ratio along t (1: isotropic); > 0
   double e_o = 1.0;  ///< elliptic-cone ratio along o; > 0
   McpOptions mcp;    ///< the semismooth Newton solver's options
-  /// ε_n relative to the largest diagonal entry of the Delassus matrix G_nᵀ W G_n.
+  /// ε_n relative to the largest diagonal entry of the Delassus matrix G_nᵀ W G_n (rigid
+  /// normal rows only; compliant rows are regular).
   double normal_regularization = 1e-10;
   double tangent_regularization = 1e-10;  ///< ε_t = ε_o (m/s)
   /// ε_σ = this · p_ref² (N²·s³/m), p_ref = max(‖p_ext‖_∞, 1e-6 N·s).
