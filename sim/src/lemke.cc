@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "solver_util.h"
+#include "vinci/sim/fischer_burmeister.h"
 
 namespace vinci::sim {
 namespace {
@@ -57,6 +58,11 @@ constexpr double kSecondaryRayZ0Fraction = 1e-6;
 constexpr int kScalingSweeps = 10;
 // Iterative-refinement steps at termination (each O(n²) with the kept inverse).
 constexpr int kRefinementSteps = 2;
+// Cap of the ‖M‖∞‖z‖∞ term of the acceptance scale, relative to max(1, ‖q‖∞). Without a cap
+// a huge z would make any residual pass: a regularized retry of an infeasible LCP
+// (M = −I, q = −1, ε = 1e-10) returns ‖z‖ ≈ 1e10 with residual 2. The 10-box stack needs
+// ‖M‖∞‖z‖∞ ≈ 6–12 next to max(1, ‖q‖∞) = 1.
+constexpr double kMaxAcceptanceGrowth = 1e3;
 // Retry factors applied to options.regularization.
 constexpr double kRegularizationFactors[] = {1.0, 1e3, 1e6};
 
@@ -348,19 +354,37 @@ CoreOutcome RunLemke(const MatrixXd& M, const VectorXd& q, const LemkeOptions& o
   return out;
 }
 
+// The scale-aware acceptance test of lemke.h:
+//   residual ≤ rtol·max(b, min(‖M‖∞‖z‖∞, kMaxAcceptanceGrowth·b)),   b = max(1, ‖q‖∞).
+struct Acceptance {
+  double rtol = 0.0;
+  double q_norm = 0.0;  // ‖q‖∞
+  double m_norm = 0.0;  // ‖M‖∞ = max_i Σ_j |M_ij|
+  Acceptance(const LcpProblem& problem, double residual_tolerance)
+      : rtol(residual_tolerance),
+        q_norm(problem.q.lpNorm<Eigen::Infinity>()),
+        m_norm(problem.M.rows() > 0 ? problem.M.cwiseAbs().rowwise().sum().maxCoeff() : 0.0) {}
+  double For(const VectorXd& z) const {
+    const double z_norm = z.size() > 0 ? z.lpNorm<Eigen::Infinity>() : 0.0;
+    const double base = std::max(1.0, q_norm);
+    return rtol * std::max(base, std::min(m_norm * z_norm, kMaxAcceptanceGrowth * base));
+  }
+};
+
 struct Attempt {
   SolverStatus status = SolverStatus::kNumericalFailure;
   bool terminated = false;  // z0 left the basis
   int pivots = 0;
   double epsilon = 0.0;    // regularization of this attempt
   double residual = kInf;  // on the original problem
+  double tolerance = 0.0;  // acceptance tolerance for this z (Acceptance::For)
   std::string message;
   VectorXd z;
 };
 
 // One Lemke run on M + εI (scaled if asked), z and residual reported on the original problem.
 Attempt RunAttempt(const LcpProblem& problem, double epsilon, const LemkeOptions& options,
-                   double tolerance) {
+                   const Acceptance& acceptance) {
   MatrixXd m = problem.M;
   if (epsilon > 0.0) m.diagonal().array() += epsilon;
   VectorXd q = problem.q;
@@ -378,6 +402,8 @@ Attempt RunAttempt(const LcpProblem& problem, double epsilon, const LemkeOptions
   a.pivots = core.pivots;
   a.terminated = core.status == SolverStatus::kSolved;
   a.residual = OrInf(LcpResidual(problem, a.z));
+  a.tolerance = acceptance.For(a.z);
+  const double tolerance = a.tolerance;
   a.status = core.status;
   a.message = core.message;
   // A secondary ray reached with z0 ≈ 0 (degenerate problems approach z0 → 0 through ties)
@@ -402,35 +428,63 @@ Attempt RunAttempt(const LcpProblem& problem, double epsilon, const LemkeOptions
   return a;
 }
 
-bool Passes(const Attempt& a, double tolerance) { return a.terminated && a.residual <= tolerance; }
+bool Passes(const Attempt& a) { return a.terminated && a.residual <= a.tolerance; }
 
-// Warm start: basis B = {i : warm_i > 0}; solve M_BB z_B = −q_B and accept if z_B ≥ −tol,
-// w_N ≥ −tol and the residual passes. The solve is anchored at the guess, z_B = warm_B + δ
-// with M_BB δ = −(M_BB warm_B + q_B) by column-pivoted QR: for a nonsingular M_BB this is
-// the same z_B, and for a singular one (degenerate contact LCPs: a sliding-speed λ_i whose
-// contact carries no force is not determined by the B rows) the undetermined components keep
-// the guessed values instead of being set to zero.
-bool TryWarmStart(const LcpProblem& problem, const VectorXd& warm, double tolerance, VectorXd* z) {
+// Solve on a guessed basis: with B = {i : in_basis_i}, z_B solves M_BB z_B = −q_B, accepted
+// if z_B ≥ −tol, w_N ≥ −tol and the residual passes. The solve is anchored at the guess,
+// z_B = guess_B + δ with M_BB δ = −(M_BB guess_B + q_B) by column-pivoted QR: for a
+// nonsingular M_BB this is the same z_B, and for a singular one (degenerate contact LCPs: a
+// sliding-speed λ_i whose contact carries no force is not determined by the B rows) the
+// undetermined components keep the guessed values instead of being set to zero.
+bool TryBasis(const LcpProblem& problem, const std::vector<bool>& in_basis, const VectorXd& guess,
+              const Acceptance& acceptance, VectorXd* z) {
   const Eigen::Index n = problem.q.size();
   std::vector<Eigen::Index> active;
   for (Eigen::Index i = 0; i < n; ++i) {
-    if (warm(i) > 0.0) active.push_back(i);
+    if (in_basis[i]) active.push_back(i);
   }
   if (active.empty()) return false;  // z = 0 was already ruled out (q has a negative entry)
   const MatrixXd m_bb = problem.M(active, active);
-  const VectorXd warm_b = warm(active);
-  const VectorXd rhs = -(m_bb * warm_b + problem.q(active));
+  const VectorXd guess_b = guess(active);
+  const VectorXd rhs = -(m_bb * guess_b + problem.q(active));
   const Eigen::ColPivHouseholderQR<MatrixXd> qr(m_bb);
-  const VectorXd z_b = warm_b + qr.solve(rhs);
-  if (!z_b.allFinite() || z_b.minCoeff() < -tolerance) return false;
+  const VectorXd z_b = guess_b + qr.solve(rhs);
+  if (!z_b.allFinite()) return false;
+  const double tolerance = acceptance.For(z_b);
+  if (z_b.minCoeff() < -tolerance) return false;
   VectorXd candidate = VectorXd::Zero(n);
   candidate(active) = z_b;
   const VectorXd w = problem.M * candidate + problem.q;
   for (Eigen::Index i = 0; i < n; ++i) {
-    if (!(warm(i) > 0.0) && w(i) < -tolerance) return false;
+    if (!in_basis[i] && w(i) < -tolerance) return false;
   }
   candidate = candidate.cwiseMax(0.0);
-  if (!(LcpResidual(problem, candidate) <= tolerance)) return false;
+  if (!(LcpResidual(problem, candidate) <= acceptance.For(candidate))) return false;
+  *z = std::move(candidate);
+  return true;
+}
+
+// Warm start: the guessed basis is B = {i : warm_i > 0}.
+bool TryWarmStart(const LcpProblem& problem, const VectorXd& warm, const Acceptance& acceptance,
+                  VectorXd* z) {
+  std::vector<bool> in_basis(warm.size());
+  for (Eigen::Index i = 0; i < warm.size(); ++i) in_basis[i] = warm(i) > 0.0;
+  return TryBasis(problem, in_basis, warm, acceptance, z);
+}
+
+// Polish of a terminated Lemke iterate that misses the tolerance by roundoff (a basic w_i left
+// slightly negative in a degenerate basis): Fischer–Burmeister Newton started at it. An
+// active-set re-solve on B = {i : z_i > 0 or w_i < 0} does not do: on the 10-box stack
+// (tests/data/lcp/box_stack_cold_step7724.lcp) M_BB has rank 78 of 168 and every solution
+// of the B equations near the iterate has negative components.
+bool PolishTerminalIterate(const LcpProblem& problem, const VectorXd& z_lemke,
+                           const Acceptance& acceptance, VectorXd* z, int* iterations) {
+  VectorXd candidate;
+  const SolverReport r = FischerBurmeisterSolver().Solve(problem, &z_lemke, &candidate);
+  *iterations = r.iterations;
+  if (!candidate.allFinite() || candidate.size() != problem.q.size()) return false;
+  candidate = candidate.cwiseMax(0.0);
+  if (!(LcpResidual(problem, candidate) <= acceptance.For(candidate))) return false;
   *z = std::move(candidate);
   return true;
 }
@@ -464,34 +518,51 @@ SolverReport LemkeSolver::Solve(const LcpProblem& problem, const VectorXd* warm_
     z->setZero(n);
     report.status = SolverStatus::kSolved;
     report.residual = LcpResidual(problem, *z);
+    report.tolerance = options_.residual_tolerance;
     return finish();
   }
-  const double tolerance =
-      options_.residual_tolerance * std::max(1.0, problem.q.lpNorm<Eigen::Infinity>());
+  const Acceptance acceptance(problem, options_.residual_tolerance);
 
   // 2. Warm start from a guessed basis.
   if (warm_start != nullptr && warm_start->size() == n &&
-      TryWarmStart(problem, *warm_start, tolerance, z)) {
+      TryWarmStart(problem, *warm_start, acceptance, z)) {
     report.status = SolverStatus::kSolved;
     report.residual = LcpResidual(problem, *z);
+    report.tolerance = acceptance.For(*z);
     report.message = "accepted the warm-start basis";
     return finish();
   }
 
   // 3. Cold Lemke, then 4. regularized retries if that fails.
-  Attempt first = RunAttempt(problem, 0.0, options_, tolerance);
+  Attempt first = RunAttempt(problem, 0.0, options_, acceptance);
   int total_pivots = first.pivots;
+  // 3a. A terminated run that misses the tolerance by roundoff: polish its basis (reported).
+  std::string polish_note;
+  if (first.terminated && !Passes(first) && first.z.allFinite()) {
+    VectorXd polished;
+    int newton_steps = 0;
+    if (PolishTerminalIterate(problem, first.z, acceptance, &polished, &newton_steps)) {
+      polish_note = "polished the terminated Lemke iterate (residual " +
+                    FormatDouble(first.residual) + ") by " + std::to_string(newton_steps) +
+                    " Fischer-Burmeister Newton steps";
+      first.z = std::move(polished);
+      first.residual = LcpResidual(problem, first.z);
+      first.tolerance = acceptance.For(first.z);
+      first.status = SolverStatus::kSolved;
+      first.message.clear();
+    }
+  }
   // 3b. Last line of defence before regularizing: one run without scaling (reported).
   std::string unscaled_note;
   bool solved_unscaled = false;
   // Only for a secondary ray or a terminated run with a bad residual (not for the pivot limit).
-  if (!Passes(first, tolerance) && options_.scale &&
+  if (!Passes(first) && options_.scale &&
       (first.terminated || first.status == SolverStatus::kSecondaryRay)) {
     LemkeOptions plain = options_;
     plain.scale = false;
-    Attempt u = RunAttempt(problem, 0.0, plain, tolerance);
+    Attempt u = RunAttempt(problem, 0.0, plain, acceptance);
     total_pivots += u.pivots;
-    if (Passes(u, tolerance)) {
+    if (Passes(u)) {
       unscaled_note =
           "solved without scaling after the scaled solve failed (" + first.message + ")";
       solved_unscaled = true;
@@ -503,17 +574,17 @@ SolverReport LemkeSolver::Solve(const LcpProblem& problem, const VectorXd* warm_
   Attempt best;
   bool have_retry = false;
   std::string retry_log;
-  if (!Passes(first, tolerance) && options_.regularization > 0.0) {
+  if (!Passes(first) && options_.regularization > 0.0) {
     for (double factor : kRegularizationFactors) {
-      Attempt a = RunAttempt(problem, factor * options_.regularization, options_, tolerance);
+      Attempt a = RunAttempt(problem, factor * options_.regularization, options_, acceptance);
       total_pivots += a.pivots;
       retry_log += (retry_log.empty() ? "" : ", ") + std::string("eps=") + FormatDouble(a.epsilon) +
                    ": " +
                    (a.terminated ? "terminated, residual " + FormatDouble(a.residual)
                                  : std::string(ToString(a.status)));
       const bool terminated = a.terminated;
-      const bool better = !have_retry || (Passes(a, tolerance) && !Passes(best, tolerance)) ||
-                          (!Passes(best, tolerance) && a.residual < best.residual);
+      const bool better = !have_retry || (Passes(a) && !Passes(best)) ||
+                          (!Passes(best) && a.residual < best.residual);
       if (better) {
         best = std::move(a);
         have_retry = true;
@@ -525,21 +596,22 @@ SolverReport LemkeSolver::Solve(const LcpProblem& problem, const VectorXd* warm_
   }
 
   // Keep the retry only if it is better than the plain attempt on the original problem.
-  const bool use_retry = have_retry && (Passes(best, tolerance) || best.residual < first.residual);
+  const bool use_retry = have_retry && (Passes(best) || best.residual < first.residual);
   const Attempt& chosen = use_retry ? best : first;
   *z = chosen.z;
   report.iterations = total_pivots;
   report.residual = LcpResidual(problem, *z);
   report.regularized = use_retry;
   report.regularization = use_retry ? chosen.epsilon : 0.0;
-  const bool passes = chosen.terminated && report.residual <= tolerance;
+  report.tolerance = chosen.tolerance;
+  const bool passes = chosen.terminated && report.residual <= chosen.tolerance;
   report.status = passes ? SolverStatus::kSolved : first.status;
   if (report.status == SolverStatus::kSolved && !passes) {
     // RunAttempt turns a terminated-but-inaccurate run into kNumericalFailure.
     throw std::logic_error("LemkeSolver: failed solve reported as kSolved");
   }
   if (passes && !use_retry) {
-    report.message = solved_unscaled ? unscaled_note : std::string();
+    report.message = solved_unscaled ? unscaled_note : polish_note;
   } else if (passes) {
     report.message =
         "solved on the regularized problem M + eps*I with eps = " + FormatDouble(chosen.epsilon) +

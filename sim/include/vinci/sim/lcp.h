@@ -26,10 +26,14 @@ std::string_view ToString(SolverStatus s);
 /// What every solve reports.
 struct SolverReport {
   SolverStatus status = SolverStatus::kNumericalFailure;
-  int iterations = 0;        ///< pivots (Lemke) or sweeps/Newton steps (iterative)
-  double residual = 0.0;     ///< complementarity residual ‖min(z, Mz+q)‖_∞ of the returned z
-  double time_s = 0.0;       ///< wall time of the solve (s)
-  bool regularized = false;  ///< true if the solution came from a regularized retry M + εI
+  int iterations = 0;     ///< pivots (Lemke) or sweeps/Newton steps (iterative)
+  double residual = 0.0;  ///< complementarity residual ‖min(z, Mz+q)‖_∞ of the returned z
+  /// The acceptance threshold `residual` was compared with (kSolved iff residual ≤ tolerance).
+  /// Each solver documents its own: Lemke scales residual_tolerance by max(1, ‖q‖∞, ‖M‖∞‖z‖∞)
+  /// capped at 1000·max(1, ‖q‖∞) (lemke.h); 0 where a solver does not set it.
+  double tolerance = 0.0;
+  double time_s = 0.0;          ///< wall time of the solve (s)
+  bool regularized = false;     ///< true if the solution came from a regularized retry M + εI
   double regularization = 0.0;  ///< the ε used, if regularized
   std::string message;          ///< human-readable detail on failure
   bool ok() const { return status == SolverStatus::kSolved; }
