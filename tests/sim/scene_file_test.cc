@@ -505,7 +505,10 @@ TEST(SceneFileTest, BadDimension) {
 TEST(SceneFileTest, UnknownFormulation) {
   EXPECT_SCENE_ERROR(
       Yaml({"dimension: 3", "stepper: {formulation: moreau}", "bodies: [{name: a, kind: static}]"}),
-      2, "stepper.formulation", "stewart-trinkle, anitescu-potra), got 'moreau'");
+      2, "stepper.formulation", "expected a formulation (stewart-trinkle, anitescu-potra");
+  EXPECT_SCENE_ERROR(
+      Yaml({"dimension: 3", "stepper: {formulation: moreau}", "bodies: [{name: a, kind: static}]"}),
+      2, "stepper.formulation", "got 'moreau'");
 }
 
 TEST(SceneFileTest, UnknownSolver) {
