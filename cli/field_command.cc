@@ -12,6 +12,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "vinci/sim/plate_theory.h"
 #include "vinci/sim/scene_file.h"
 #include "vinci/sim/simulator.h"
 #include "vinci/sim/velocity_field.h"
@@ -151,6 +152,25 @@ ExitCode RunField(const FieldOptions& o) {
   if (std::rename(tmp.c_str(), o.out.c_str()) != 0)
     throw std::invalid_argument("--out: cannot rename '" + tmp + "' to '" + o.out + "'");
 
+  if (!o.theory.empty()) {
+    // The cycle-averaged theory of a point part at each grid point (plate_theory.h).
+    const sim::PlateTheoryInput in =
+        sim::PlateTheoryFromScene(simulator.scene(), spec.plate, spec.part, spec.frequency);
+    const std::string ttmp = o.theory + ".partial";
+    std::ofstream t(ttmp);
+    if (!t) throw std::invalid_argument("--theory: cannot open '" + ttmp + "' for writing");
+    t << "x,y,vx,vy,contact_fraction,ok\n";
+    char buf[200];
+    for (const sim::FieldPoint& p : field.points) {
+      const sim::PointTheoryResult r = sim::SolvePointVelocity(in, sim::Vector2d(p.x, p.y));
+      std::snprintf(buf, sizeof buf, "%.17g,%.17g,%.17g,%.17g,%.17g,%d\n", p.x, p.y, r.v.x(),
+                    r.v.y(), r.contact_fraction, r.ok ? 1 : 0);
+      t << buf;
+    }
+    t.close();
+    if (!t || std::rename(ttmp.c_str(), o.theory.c_str()) != 0)
+      throw std::invalid_argument("--theory: cannot write '" + o.theory + "'");
+  }
   if (!o.quiet) {
     double vmax = 0.0;
     for (const sim::FieldPoint& p : field.points)
@@ -163,6 +183,7 @@ ExitCode RunField(const FieldOptions& o) {
     s << "wall time   " << wall << " s ("
       << static_cast<double>(field.points.size()) * per_cycle * spec.cycles / wall << " steps/s)\n";
     s << "field       " << o.out << "\n";
+    if (!o.theory.empty()) s << "theory      " << o.theory << "\n";
     std::cout << s.str() << std::flush;
   }
   if (field.failed > 0) {
@@ -208,6 +229,10 @@ Command RegisterFieldCommand(CLI::App& app) {
   sub->add_option("--out,-o", options->out,
                   "Write the field to this CSV file (atomically: FILE.partial, then renamed)")
       ->required()
+      ->type_name("FILE");
+  sub->add_option("--theory", options->theory,
+                  "Also write the cycle-averaged point-part theory at the grid points to this CSV "
+                  "(x,y,vx,vy,contact_fraction,ok)")
       ->type_name("FILE");
   sub->add_flag("--quiet,-q", options->quiet, "Print nothing but errors (no progress, no summary)");
   sub->footer(

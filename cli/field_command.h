@@ -19,6 +19,7 @@ struct FieldOptions {
   std::optional<double> dt;           ///< s; overrides stepper.dt
   int threads = 1;                    ///< worker threads
   std::string out;                    ///< CSV path (required)
+  std::string theory;                 ///< CSV path for the point-part theory; empty: none
   bool quiet = false;                 ///< no progress, no summary
 };
 
