@@ -365,6 +365,33 @@ TEST(PlateTheoryTest, TiltingFamilyMakesLinesOfAttractionOrRepulsion) {
   }
 }
 
+TEST(PlateTheoryTest, SpatialTiltMakesALineOfAttractionAlongTheAxis) {
+  // Tilt about x at depth d with a y vibration: the line y = 0 attracts, whatever x.
+  const std::string path = std::string(VINCI_SOURCE_DIR) + "/examples/scenes/plate_tilt.yaml";
+  Simulator sim(LoadSceneFile(path));
+  FieldSpec spec = LoadFieldSpec(path, sim.scene());
+  spec.x_min = spec.x_max = 0.03;
+  spec.nx = 1;
+  spec.y_min = -0.04;
+  spec.y_max = 0.04;
+  spec.ny = 3;
+  spec.cycles = 6;
+  spec.average_cycles = 2;
+  const VelocityField field = ComputeVelocityField(sim, sim.DefaultParams(), spec, {2, {}});
+  const PlateTheoryInput in = PlateTheoryFromScene(sim.scene(), 0, 1, spec.frequency);
+  for (const FieldPoint& p : field.points) {
+    EXPECT_LT(std::abs(p.vx), 1e-9);  // nothing drives the part along the axis
+    const PointTheoryResult th = SolvePointVelocity(in, Vector2d(p.x, p.y));
+    ASSERT_TRUE(th.ok);
+    if (p.y == 0.0) {
+      EXPECT_LT(std::abs(th.v.y()), 1e-9);  // on the line: no field (symmetry y → −y)
+      continue;
+    }
+    EXPECT_LT(p.vy * p.y, 0.0) << p.y;  // toward the line
+    EXPECT_LT(th.v.y() * p.y, 0.0) << p.y;
+  }
+}
+
 TEST(PlateTheoryTest, SlidingAwayAndBadInputAreReported) {
   PlateTheoryInput in;
   in.period = 0.05;
