@@ -58,18 +58,21 @@ TEST(PlateSlowTest, ConveyorTheoryAgreementOverFourFrequencies) {
   }
 }
 
-// The averaged velocity converges as h shrinks: against a T/800 reference, the T/400 error is
-// below the T/50 error. (Known: for T/h >= 1200 the averaged velocity shifts by 0.6% to another
-// value, with Lemke and PGS alike; not yet explained, see docs/field.md.)
+// The averaged velocity converges at first order, erratically: one stick step per cycle pins
+// the periodic motion (where the part's velocity crosses the plate's), and where that crossing
+// falls in the step grid moves the steady velocity by up to the plate's velocity change in one
+// step, h·a_max (a_max = 30 m/s²). So |v(h) − v(h → 0)| ≤ h·a_max, checked against T/6400 (whose
+// own error, ≤ 1.6e-4 m/s by the same bound, is included).
 TEST(PlateSlowTest, AveragedVelocityConvergesInH) {
   const auto v = [](int n) {
     Simulator sim(ParseScene(ConveyorYaml(30.0, 30.0, 5.0, 0.5 * kPi, n)));
     return Simulate(sim, 30.0, 40, 20).vx;
   };
-  const double ref = v(800);
-  const double e50 = std::abs(v(50) - ref), e400 = std::abs(v(400) - ref);
-  EXPECT_LT(e400, e50);
-  EXPECT_LT(e400, 2e-3 * std::abs(ref));  // 0.2%: the noise floor of stick–slip switching
+  const double a_max = 30.0, f = 30.0;
+  const double ref = v(6400), ref_err = a_max / (f * 6400);
+  for (int n : {50, 100, 283, 800, 1100}) {
+    EXPECT_LT(std::abs(v(n) - ref), a_max / (f * n) + ref_err) << "T/h = " << n;
+  }
 }
 
 // A 5 × 5 whirlpool with a fine friction cone (n_d = 32): every off-centre point circulates
