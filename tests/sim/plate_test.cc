@@ -191,6 +191,22 @@ TEST(PlateMotionTest, SceneFileRejectsBadPlateMotions) {
       "a prescribed-velocity rule (secant, exact)");
 }
 
+TEST(PlateMotionTest, SceneRejectsABadTiltBuiltInCode) {
+  Scene s = ParseScene(ConveyorYaml(30.0, 30.0, 5.0, 0.0, 50));
+  s.bodies[0].motion.tilt.amplitude = 0.01;
+  s.bodies[0].motion.tilt.frequency = 30.0;
+  s.bodies[0].motion.tilt.axis_B = Vector3d(0, 0, 1);  // the normal, not in the plate plane
+  try {
+    s.Finalize();
+    FAIL() << "no error";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("tilt axis"), std::string::npos) << e.what();
+  }
+  s.bodies[0].motion.tilt.axis_B = Vector3d(0, 1, 0);
+  s.bodies[0].motion.tilt.frequency = 0.0;
+  EXPECT_THROW(s.Finalize(), std::invalid_argument);
+}
+
 // ----- the exact plate velocity in ∂ψ/∂t ---------------------------------------------------------
 
 TEST(PlateVelocityTest, ExactRuleUsesThePrescribedVelocityAtTheStepEnd) {
