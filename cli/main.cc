@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "command.h"
+#include "field_command.h"
 #include "simulate_command.h"
 #include "solve_command.h"
 
@@ -48,6 +49,7 @@ int main(int argc, char** argv) {
   const std::vector<Command> commands = {
       vinci::cli::RegisterSimulateCommand(app),
       vinci::cli::RegisterSolveCommand(app),
+      vinci::cli::RegisterFieldCommand(app),
   };
 
   try {

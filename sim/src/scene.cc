@@ -132,6 +132,16 @@ void Scene::Finalize() {
         b.motion.dofs.size() != static_cast<std::size_t>(planar ? 3 : 6))
       throw std::invalid_argument(BodyContext(b) + ": motion needs " + (planar ? "3" : "6") +
                                   " dofs");
+    if (b.kind == BodyKind::kPrescribed && !b.motion.tilt.IsZero()) {
+      const TiltMotion& t = b.motion.tilt;
+      if (!std::isfinite(t.amplitude) || !(t.frequency > 0.0) || !std::isfinite(t.frequency) ||
+          !std::isfinite(t.phase) || !std::isfinite(t.depth))
+        throw std::invalid_argument(
+            BodyContext(b) + ": tilt needs finite amplitude, phase, depth and frequency > 0");
+      if (!planar && (std::abs(t.axis_B.norm() - 1.0) > 1e-9 || std::abs(t.axis_B.z()) > 1e-9))
+        throw std::invalid_argument(BodyContext(b) +
+                                    ": tilt axis must be a unit vector in the body's x-y plane");
+    }
   }
   for (const Joint& j : joints) {
     const int n = static_cast<int>(bodies.size());

@@ -32,8 +32,9 @@ constexpr double kRelativeDegeneracy = 1e-12;
 // Relative tolerance on the symmetry of a full 3x3 inertia.
 constexpr double kInertiaSymmetryTol = 1e-9;
 
-const std::vector<std::string> kTopKeys = {"name",      "dimension", "gravity", "stepper",
-                                           "materials", "friction",  "bodies",  "joints"};
+const std::vector<std::string> kTopKeys = {"name",    "dimension", "gravity",
+                                           "stepper", "materials", "friction",
+                                           "bodies",  "joints",    "field"};
 const std::vector<std::string> kStepperKeys = {"formulation",
                                                "dt",
                                                "duration",
@@ -41,7 +42,8 @@ const std::vector<std::string> kStepperKeys = {"formulation",
                                                "envelope",
                                                "solver",
                                                "joint_stabilization",
-                                               "max_penetration"};
+                                               "max_penetration",
+                                               "prescribed_velocity"};
 const std::vector<std::string> kFrictionKeys = {"default", "pairs"};
 const std::vector<std::string> kBodyKeys = {"name",   "kind",    "pose",    "velocity",
                                             "mass",   "inertia", "gravity", "force",
@@ -53,7 +55,10 @@ const std::vector<std::string> kSpatialPoseKeys = {"position", "rotation", "quat
 const std::vector<std::string> kAxisAngleKeys = {"axis", "angle"};
 const std::vector<std::string> kVelocityKeys = {"linear", "angular"};
 const std::vector<std::string> kDofMotionKeys = {"velocity", "harmonics", "keyframes"};
-const std::vector<std::string> kHarmonicKeys = {"amplitude", "frequency", "phase"};
+const std::vector<std::string> kHarmonicKeys = {"amplitude", "frequency", "phase", "order"};
+// Motion-level keys besides the dof names.
+const std::vector<std::string> kMotionExtraKeys = {"frequency", "tilt", "pose"};
+const std::vector<std::string> kTiltKeys = {"amplitude", "frequency", "phase", "depth", "axis"};
 const std::vector<std::string> kJointKeys = {"name",   "type",    "body_a",
                                              "body_b", "frame_a", "frame_b"};
 const std::vector<std::string> kPlanarDofs = {"x", "y", "theta"};
@@ -312,7 +317,7 @@ class Parser {
                     const std::vector<Vector3d>& v) const;
   void CheckPolyhedron(const Field& vertices_field, const std::vector<Vector3d>& v) const;
   PrescribedMotion Motion(const Field& f) const;
-  DofMotion ParseDofMotion(const Field& f) const;
+  DofMotion ParseDofMotion(const Field& f, std::optional<double> base_frequency) const;
   Body ParseBody(const Field& f) const;
   ContactCompliance ParseCompliance(const Field& f) const;
   Joint ParseJoint(const Field& f, const Scene& scene) const;
@@ -532,7 +537,7 @@ Shape Parser::ParseShape(const Field& f, BodyKind kind) const {
   return s;
 }
 
-DofMotion Parser::ParseDofMotion(const Field& f) const {
+DofMotion Parser::ParseDofMotion(const Field& f, std::optional<double> base_frequency) const {
   CheckMap(f, kDofMotionKeys, "a dof motion: a map");
   DofMotion m;
   if (auto k = Get(f, "keyframes")) {
@@ -559,6 +564,16 @@ DofMotion Parser::ParseDofMotion(const Field& f) const {
       Harmonic harmonic;
       if (auto a = Get(item, "amplitude")) harmonic.amplitude = Number(*a);
       if (auto fr = Get(item, "frequency")) harmonic.frequency = Number(*fr, Bound::kNonNegative);
+      if (auto ord = Get(item, "order")) {
+        // The k-th harmonic of the motion's base frequency.
+        const std::string what = "an integer >= 1 (harmonic of the motion's base 'frequency')";
+        if (Get(item, "frequency")) Fail(*ord, "'order' or 'frequency', not both", "both");
+        if (!base_frequency)
+          Fail(*ord, "'order' only with a base 'frequency' on the motion", "no base frequency");
+        const long long k = Integer(*ord, what);
+        if (k < 1 || k > 1000000) Fail(*ord, what);
+        harmonic.frequency = static_cast<double>(k) * *base_frequency;
+      }
       if (auto p = Get(item, "phase")) harmonic.phase = Number(*p);
       m.harmonics.push_back(harmonic);
     }
@@ -568,11 +583,40 @@ DofMotion Parser::ParseDofMotion(const Field& f) const {
 
 PrescribedMotion Parser::Motion(const Field& f) const {
   const std::vector<std::string>& dofs = planar() ? kPlanarDofs : kSpatialDofs;
-  CheckMap(f, dofs, "a motion: a map keyed by dof name");
+  std::vector<std::string> keys = dofs;
+  keys.insert(keys.end(), kMotionExtraKeys.begin(), kMotionExtraKeys.end());
+  CheckMap(f, keys, "a motion: a map keyed by dof name, frequency, tilt or pose");
   PrescribedMotion motion;
+  std::optional<double> base;
+  if (auto fr = Get(f, "frequency")) base = motion.base_frequency = Number(*fr, Bound::kPositive);
   motion.dofs.resize(dofs.size());
   for (std::size_t d = 0; d < dofs.size(); ++d)
-    if (auto m = Get(f, dofs[d])) motion.dofs[d] = ParseDofMotion(*m);
+    if (auto m = Get(f, dofs[d])) motion.dofs[d] = ParseDofMotion(*m, base);
+  if (auto t = Get(f, "tilt")) {
+    CheckMap(*t, kTiltKeys, "a tilt: a map {amplitude, frequency, phase, depth, axis}");
+    TiltMotion& tilt = motion.tilt;
+    tilt.amplitude = Number(Require(*t, "amplitude", "a finite number (rad)"));
+    if (auto fr = Get(*t, "frequency")) {
+      tilt.frequency = Number(*fr, Bound::kPositive);
+    } else if (base) {
+      tilt.frequency = *base;
+    } else {
+      Fail(Field{t->node, Child(t->path, "frequency"), t->line},
+           "a frequency > 0 (Hz) on the tilt or on the motion", "nothing (missing key)");
+    }
+    if (auto p = Get(*t, "phase")) tilt.phase = Number(*p);
+    if (auto d = Get(*t, "depth")) tilt.depth = Number(*d);
+    if (auto ax = Get(*t, "axis")) {
+      if (planar()) Fail(*ax, "no axis in a planar scene (the tilt turns about z)");
+      const Vector3d a = Vector(*ax);
+      if (!(a.norm() > kMinNorm) || std::abs(a.normalized().z()) > 1e-9)
+        Fail(*ax, "a non-zero axis in the plate plane (z component 0, body frame)");
+      tilt.axis_B = a.normalized();
+    }
+  }
+  if (auto p = Get(f, "pose"))
+    motion.pose = Choice<PoseRule>(
+        *p, {{"exact", PoseRule::kExact}, {"integrated", PoseRule::kIntegrated}}, "a pose rule");
   return motion;
 }
 
@@ -743,6 +787,10 @@ void Parser::ParseStepper(const Field& f, StepperOptions* o) const {
   }
   if (auto v = Get(f, "joint_stabilization")) o->joint_stabilization = Bool(*v);
   if (auto v = Get(f, "max_penetration")) o->max_penetration = Number(*v, Bound::kPositive);
+  if (auto v = Get(f, "prescribed_velocity"))
+    o->prescribed_velocity = Choice<PrescribedVelocity>(
+        *v, {{"secant", PrescribedVelocity::kSecant}, {"exact", PrescribedVelocity::kExact}},
+        "a prescribed-velocity rule");
 }
 
 void Parser::ParseFriction(const Field& f, Scene* scene) const {

@@ -43,16 +43,30 @@ void Scatter(const Scene& model, int body, const BodyKinematics& k, const Vector
   }
 }
 
-// Kinematics of a non-dynamic body for ∂ψ/∂t: the pose at t and the *secant* velocity over the
-// step, v = (o(t+h) − o(t))/h, ω = log(R(t+h) R(t)ᵀ)/h. With it the linearized end-of-step gap
-// ψ + h(Gᵀν + ∂ψ/∂t) moves exactly with a translating prescribed body (a moving floor is
-// followed without lag); the instantaneous velocity would lag by O(h²) per step.
-BodyKinematics SecantKinematics(const Scene& model, int body, const BodyKinematics& at_t, double t,
-                                double h) {
+// Pose of a prescribed body at t under its PoseRule (exact, or integrated with the step h).
+BodyKinematics PrescribedKinematics(const Scene& model, int body, double t, double h) {
+  const Body& b = model.bodies[body];
+  return EvaluateMotion(b.motion, b.X_WB0, model.dim == Dim::kPlanar, t, h);
+}
+
+// Kinematics of a non-dynamic body for ∂ψ/∂t: the pose at t and
+//  - kSecant: the *secant* velocity over the step, v = (o(t+h) − o(t))/h,
+//    ω = log(R(t+h) R(t)ᵀ)/h. With it the linearized end-of-step gap ψ + h(Gᵀν + ∂ψ/∂t) moves
+//    exactly with a translating prescribed body (a moving floor is followed without lag); the
+//    instantaneous velocity would lag by O(h²) per step.
+//  - kExact: the prescription's exact velocity at t + h (the vibrating-plate studies: the
+//    plate's velocity is known exactly; with an integrated plate pose the two rules coincide).
+BodyKinematics StepKinematics(const Scene& model, int body, const BodyKinematics& at_t, double t,
+                              double h, PrescribedVelocity rule) {
   const Body& b = model.bodies[body];
   if (b.kind != BodyKind::kPrescribed) return at_t;
-  const BodyKinematics next = EvaluateMotion(b.motion, b.X_WB0, model.dim == Dim::kPlanar, t + h);
+  const BodyKinematics next = PrescribedKinematics(model, body, t + h, h);
   BodyKinematics k = at_t;
+  if (rule == PrescribedVelocity::kExact) {
+    k.v_WB = next.v_WB;
+    k.w_WB = next.w_WB;
+    return k;
+  }
   k.v_WB = (next.X_WB.translation() - at_t.X_WB.translation()) / h;
   const Eigen::AngleAxisd dR(next.X_WB.linear() * at_t.X_WB.linear().transpose());
   k.w_WB = dR.axis() * (dR.angle() / h);
@@ -80,10 +94,15 @@ StewartTrinkle::Assembly StewartTrinkle::Assemble(const Scene& model, const Stat
   const int nv = model.num_velocities();
   const int nvb = VelocitySize(dim);
   std::vector<BodyKinematics> kin = ComputeBodyKinematics(model, x);
+  for (std::size_t i = 0; i < kin.size(); ++i)  // integrated prescribed poses
+    if (model.bodies[i].kind == BodyKind::kPrescribed &&
+        model.bodies[i].motion.pose == PoseRule::kIntegrated)
+      kin[i] = PrescribedKinematics(model, static_cast<int>(i), x.t, h);
   FindContacts(model, kin, options_.envelope, &a.contacts);
-  // From here on, non-dynamic bodies carry their secant velocity over the step.
+  // From here on, non-dynamic bodies carry their velocity over the step (StepKinematics).
   for (std::size_t i = 0; i < kin.size(); ++i)
-    kin[i] = SecantKinematics(model, static_cast<int>(i), kin[i], x.t, h);
+    kin[i] =
+        StepKinematics(model, static_cast<int>(i), kin[i], x.t, h, options_.prescribed_velocity);
   const int nc = static_cast<int>(a.contacts.size());
   a.nd = dim == Dim::kPlanar ? 2 : options_.friction_directions;
   const int nd = a.nd;
@@ -323,7 +342,11 @@ void StewartTrinkle::Step(const Scene& model, const State& x, const StepInput& u
 }
 
 StepLayout StewartTrinkle::Layout(const Scene& model, const State& x) const {
-  const std::vector<BodyKinematics> kin = ComputeBodyKinematics(model, x);
+  std::vector<BodyKinematics> kin = ComputeBodyKinematics(model, x);
+  for (std::size_t i = 0; i < kin.size(); ++i)  // as in Assemble
+    if (model.bodies[i].kind == BodyKind::kPrescribed &&
+        model.bodies[i].motion.pose == PoseRule::kIntegrated)
+      kin[i] = PrescribedKinematics(model, static_cast<int>(i), x.t, options_.dt);
   std::vector<Contact> contacts;
   FindContacts(model, kin, options_.envelope, &contacts);
   StepLayout l;

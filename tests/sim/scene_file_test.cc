@@ -678,7 +678,8 @@ TEST(SceneFileTest, DynamicOnlyKeyOnAStaticBody) {
 TEST(SceneFileTest, UnknownDofName) {
   EXPECT_SCENE_ERROR(Yaml({"dimension: 3", "bodies:", "  - name: a", "    kind: prescribed",
                            "    motion:", "      theta: {velocity: 1}"}),
-                     6, "bodies[0].motion.theta", "{x, y, z, roll, pitch, yaw}");
+                     6, "bodies[0].motion.theta",
+                     "{x, y, z, roll, pitch, yaw, frequency, tilt, pose}");
 }
 
 TEST(SceneFileTest, KeyframesNotStrictlyIncreasing) {

@@ -71,6 +71,12 @@ enum class FormulationType {
   kNcp,             ///< formulations.md §2: quadratic friction cone, an MCP (ncp.h)
 };
 
+/// Which velocity of a prescribed body enters ∂ψ/∂t over a step [t, t + h].
+enum class PrescribedVelocity {
+  kSecant,  ///< (pose(t + h) − pose(t))/h: follows a translating body's displacement exactly
+  kExact,   ///< the prescription's exact velocity at t + h (the end of the step, like ν_ℓ+1)
+};
+
 /// Stepper options stored with the scene.
 struct StepperOptions {
   FormulationType formulation = FormulationType::kStewartTrinkle;
@@ -81,6 +87,7 @@ struct StepperOptions {
   bool joint_stabilization = true;  ///< include ψ_b/h in the joint rows
   std::string solver = "lemke";     ///< LCP solver by name
   double max_penetration = 0.05;    ///< a step with ψ_n below −this fails (m)
+  PrescribedVelocity prescribed_velocity = PrescribedVelocity::kSecant;  ///< in ∂ψ/∂t
 };
 
 /// Layout of one body in the generalized coordinate and velocity vectors.

@@ -18,7 +18,8 @@
 // W = M⁻¹ − M⁻¹G_b S⁻¹ G_bᵀ M⁻¹ (= M⁻¹ without joints).
 // Planar friction uses n_d = 2 (d = ±t, exact); spatial uses n_d equally spaced directions.
 // ∂ψ/∂t of a prescribed body uses its secant velocity over the step, (pose(t+h) − pose(t))/h,
-// so that the linearized end-of-step gap moves exactly with a translating floor or pusher.
+// so that the linearized end-of-step gap moves exactly with a translating floor or pusher, or,
+// with StepperOptions::prescribed_velocity = kExact, its exact velocity at t + h.
 // Quasi-rigid contact (formulations.md §4): a pair with a compliant body replaces its normal row
 // by the compliance law's velocity form (compliance.h),
 //   0 ≤ p_n ⊥ G_nᵀ ν_ℓ+1 + ∂ψ_n/∂t + β ψ_n + γ p_n + ε ≥ 0   (Kelvin–Voigt, c = 0: β = 1/h,
