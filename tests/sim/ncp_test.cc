@@ -228,31 +228,45 @@ TEST(NcpTest, WarmStartKeepsRestingStepsCheap) {
 
 // The analytic MCP Jacobian matches central differences of F at a generic point.
 TEST(NcpTest, McpJacobianMatchesFiniteDifferences) {
-  const std::string scene_text = PushedBox("ncp", 0.3, 1.0, 10.0);
-  Simulator sim(ParseScene(scene_text));
-  const NcpStepper stepper(sim.scene().options);
-  const State x = sim.InitialState();
-  const NcpStepper::StepProblem sp = stepper.Build(sim.scene(), x, StepInput{});
-  const int n = sp.mcp.size();
-  ASSERT_EQ(n, 16);  // four corners × (p_n, p_t, p_o, σ)
-  VectorXd z(n);
-  for (int i = 0; i < n; ++i) z[i] = 0.01 * std::sin(1.0 + 3.7 * i) + (i < 4 ? 0.02 : 0.0);
-  z.tail(4) = VectorXd::Constant(4, 0.3);
-  VectorXd F;
-  MatrixXd J;
-  sp.mcp.evaluate(z, &F, &J);
-  const double eps = 1e-6;
-  MatrixXd J_fd(n, n);
-  for (int j = 0; j < n; ++j) {
-    VectorXd zp = z, zm = z, Fp, Fm;
-    zp[j] += eps;
-    zm[j] -= eps;
-    sp.mcp.evaluate(zp, &Fp, nullptr);
-    sp.mcp.evaluate(zm, &Fm, nullptr);
-    J_fd.col(j) = (Fp - Fm) / (2 * eps);
+  Scene planar = LoadExample("block_sliding.yaml");
+  planar.options.formulation = FormulationType::kNcp;
+  planar.Finalize();
+  const Scene spatial = ParseScene(PushedBox("ncp", 0.3, 1.0, 10.0));
+  for (const Scene* scene : std::vector<const Scene*>{&spatial, &planar}) {
+    for (bool scaled : {false, true}) {
+      for (double e_o : {1.0, 0.6}) {
+        SCOPED_TRACE(std::string(scene == &planar ? "planar" : "spatial") +
+                     (scaled ? " scaled" : "") + " e_o " + std::to_string(e_o));
+        NcpOptions o;
+        o.scale_rows = scaled;
+        o.e_t = 1.3;
+        o.e_o = e_o;
+        const NcpStepper stepper(scene->options, o);
+        const NcpStepper::StepProblem sp =
+            stepper.Build(*scene, Simulator(*scene).InitialState(), StepInput{});
+        const int n = sp.mcp.size(), nc = n / 4;
+        ASSERT_GT(nc, 0);
+        VectorXd z(n);
+        for (int i = 0; i < n; ++i) z[i] = 0.01 * std::sin(1.0 + 3.7 * i) + (i < nc ? 0.02 : 0.0);
+        z.tail(nc).setConstant(0.3);
+        VectorXd F;
+        MatrixXd J;
+        sp.mcp.evaluate(z, &F, &J);
+        const double eps = 1e-6;
+        MatrixXd J_fd(n, n);
+        for (int j = 0; j < n; ++j) {
+          VectorXd zp = z, zm = z, Fp, Fm;
+          zp[j] += eps;
+          zm[j] -= eps;
+          sp.mcp.evaluate(zp, &Fp, nullptr);
+          sp.mcp.evaluate(zm, &Fm, nullptr);
+          J_fd.col(j) = (Fp - Fm) / (2 * eps);
+        }
+        // F is quadratic in z: central differences are exact up to roundoff (1e-16/1e-6 · |F|).
+        EXPECT_LT((J - J_fd).cwiseAbs().maxCoeff(), 1e-8 * std::max(1.0, J.cwiseAbs().maxCoeff()));
+      }
+    }
   }
-  // F is quadratic in z: central differences are exact up to roundoff (1e-16/1e-6 · |F|).
-  EXPECT_LT((J - J_fd).cwiseAbs().maxCoeff(), 1e-8 * std::max(1.0, J.cwiseAbs().maxCoeff()));
 }
 
 TEST(NcpTest, JointsAreSupported) {
