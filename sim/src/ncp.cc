@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <limits>
 #include <stdexcept>
+#include <vector>
 
 #include "vinci/sim/kinematics.h"
 
@@ -32,9 +33,41 @@ struct NcpData {
   VectorXd b;   // 3 n_c
   VectorXd mu;  // n_c
   double et2 = 1.0, eo2 = 1.0;
-  double eps_t = 0.0, eps_s = 0.0;  // ε_t (m/s) and ε_σ (N²·s³/m)
-  double inv_p_ref = 1.0;           // 1/p_ref if NcpOptions::scale_rows
+  double eps_t = 0.0, eps_s = 0.0;                        // ε_t (m/s) and ε_σ (N²·s³/m)
+  double inv_p_ref = 1.0;                                 // 1/p_ref if NcpOptions::scale_rows
+  Eigen::SparseMatrix<double, Eigen::RowMajor> A_sparse;  // A without its zeros (sparse path)
 };
+
+// The same Jacobian as EvaluateNcp, as a sparse matrix with a z-independent pattern.
+void SparseJacobianNcp(const NcpData& d, const VectorXd& z, Eigen::SparseMatrix<double>* J) {
+  using RowIt = Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator;
+  const int nc = d.nc, m = 3 * nc;
+  const VectorXd u = d.b + d.A_sparse * z.head(m);
+  std::vector<Eigen::Triplet<double>> t;
+  t.reserve(d.A_sparse.nonZeros() + 12 * nc);
+  for (int c = 0; c < nc; ++c) {
+    const int in = c, it = nc + 2 * c, io = it + 1, is = m + c;
+    const double pn = z[in], pt = z[it], po = z[io], s = z[is], mu = d.mu[c];
+    const double w = d.inv_p_ref;
+    for (RowIt e(d.A_sparse, in); e; ++e) t.emplace_back(in, static_cast<int>(e.col()), e.value());
+    for (RowIt e(d.A_sparse, it); e; ++e)
+      t.emplace_back(it, static_cast<int>(e.col()), w * d.et2 * mu * pn * e.value());
+    for (RowIt e(d.A_sparse, io); e; ++e)
+      t.emplace_back(io, static_cast<int>(e.col()), w * d.eo2 * mu * pn * e.value());
+    t.emplace_back(it, in, w * d.et2 * mu * u[it]);
+    t.emplace_back(io, in, w * d.eo2 * mu * u[io]);
+    t.emplace_back(it, it, w * (s + d.eps_t));
+    t.emplace_back(io, io, w * (s + d.eps_t));
+    t.emplace_back(it, is, w * pt);
+    t.emplace_back(io, is, w * po);
+    t.emplace_back(is, in, w * 2.0 * mu * mu * pn);
+    t.emplace_back(is, it, -w * 2.0 * pt / d.et2);
+    t.emplace_back(is, io, -w * 2.0 * po / d.eo2);
+    t.emplace_back(is, is, w * d.eps_s);
+  }
+  J->resize(4 * nc, 4 * nc);
+  J->setFromTriplets(t.begin(), t.end());  // duplicates (diagonal of A and the σ term) add
+}
 
 void EvaluateNcp(const NcpData& d, const VectorXd& z, VectorXd* F, MatrixXd* J) {
   const int nc = d.nc, m = 3 * nc;
@@ -86,7 +119,12 @@ NcpStepper::NcpStepper(StepperOptions options, NcpOptions ncp)
       ncp_(ncp),
       st_(AssemblyOptions(options), MakeLcpSolver(options.solver)),
       lcp_solver_(MakeLcpSolver(options.solver)),
-      mcp_(ncp.mcp) {
+      mcp_(ncp.mcp),
+      mcp_sparse_([&] {
+        McpOptions o = ncp.mcp;
+        o.sparse = true;
+        return o;
+      }()) {
   if (!(ncp_.e_t > 0.0) || !(ncp_.e_o > 0.0) || !std::isfinite(ncp_.e_t) ||
       !std::isfinite(ncp_.e_o))
     throw std::invalid_argument("NcpStepper: ellipticities e_t, e_o must be finite and > 0");
@@ -137,6 +175,10 @@ NcpStepper::StepProblem NcpStepper::Build(const Scene& model, const State& x,
   if (d->planar)
     for (int c = 0; c < nc; ++c) sp.mcp.lower[nc + 2 * c + 1] = sp.mcp.upper[nc + 2 * c + 1] = 0;
   sp.mcp.evaluate = [d](const VectorXd& z, VectorXd* F, MatrixXd* J) { EvaluateNcp(*d, z, F, J); };
+  d->A_sparse = d->A.sparseView();
+  sp.mcp.sparse_jacobian = [d](const VectorXd& z, Eigen::SparseMatrix<double>* J) {
+    SparseJacobianNcp(*d, z, J);
+  };
   return sp;
 }
 
@@ -193,6 +235,7 @@ void NcpStepper::Step(const Scene& model, const State& x, const StepInput& u, Wo
     // Starts, in order: the previous step's solution, zero, the Stewart–Trinkle LCP solution
     // of this step. The first converged attempt is accepted; each failure is reported.
     const bool warm = x.warm_start.size() == 4 * nc && x.warm_start.allFinite();
+    const McpSolver& mcp = nc >= ncp_.sparse_min_contacts ? mcp_sparse_ : mcp_;
     const double p_ref =
         std::max(a.p_ext.size() ? a.p_ext.cwiseAbs().maxCoeff() : 0.0, kMinImpulseScale);
     std::string history;
@@ -216,7 +259,7 @@ void NcpStepper::Step(const Scene& model, const State& x, const StepInput& u, Wo
         }
         z = FromLcpSolution(sp, z_lcp);
       }
-      info->solver = mcp_.Solve(sp.mcp, &z);
+      info->solver = mcp.Solve(sp.mcp, &z);
       iterations += info->solver.iterations;
       time_s += info->solver.time_s;
       solved = info->solver.ok();
@@ -235,7 +278,7 @@ void NcpStepper::Step(const Scene& model, const State& x, const StepInput& u, Wo
         ++fixed;
       }
       if (fixed == 0) continue;
-      const SolverReport polish = mcp_.Solve(reduced, &zr);
+      const SolverReport polish = mcp.Solve(reduced, &zr);
       iterations += polish.iterations;
       time_s += polish.time_s;
       if (polish.ok()) {

@@ -63,6 +63,9 @@ struct NcpOptions {
   /// ε_σ = this · p_ref² (N²·s³/m), p_ref = max(‖p_ext‖_∞, 1e-6 N·s).
   double cone_regularization = 1e-10;
   bool scale_rows = false;  ///< divide the friction and cone rows by p_ref (see the file comment)
+  /// Steps with at least this many contacts use the sparse Jacobian (McpProblem::sparse_jacobian,
+  /// SparseLU); smaller ones the dense one.
+  int sparse_min_contacts = 16;
 };
 
 class NcpStepper final : public Formulation {
@@ -87,7 +90,7 @@ class NcpStepper final : public Formulation {
     LcpProblem lcp;                     ///< the Stewart–Trinkle LCP of the same step
     VectorXd v_star;
     StewartTrinkle::JointElimination joints;
-    McpProblem mcp;  ///< size 4 n_c, analytic dense Jacobian
+    McpProblem mcp;  ///< size 4 n_c, analytic dense and sparse Jacobians
   };
   /// Builds the step's problem at x (exposed for tests and benchmarks).
   StepProblem Build(const Scene& model, const State& x, const StepInput& u) const;
@@ -103,7 +106,7 @@ class NcpStepper final : public Formulation {
   NcpOptions ncp_;
   StewartTrinkle st_;  // assembly and the fallback LCP (n_d = 4)
   std::shared_ptr<const LcpSolver> lcp_solver_;
-  McpSolver mcp_;
+  McpSolver mcp_, mcp_sparse_;  // dense / sparse Newton systems
 };
 
 }  // namespace vinci::sim
