@@ -2,8 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <stdexcept>
+#include <vector>
 
 #include "vinci/sim/kinematics.h"
 
@@ -13,6 +15,8 @@ namespace {
 constexpr double kInf = std::numeric_limits<double>::infinity();
 // p_ref floor for ε_σ when no external impulse acts (N·s).
 constexpr double kMinImpulseScale = 1e-6;
+// A contact with p_n ≤ this · p_ref is unloaded for the polish step.
+constexpr double kUnloaded = 1e-6;
 
 StepperOptions AssemblyOptions(StepperOptions o) {
   o.formulation = FormulationType::kStewartTrinkle;  // position-level normal rows
@@ -29,8 +33,41 @@ struct NcpData {
   VectorXd b;   // 3 n_c
   VectorXd mu;  // n_c
   double et2 = 1.0, eo2 = 1.0;
-  double eps_t = 0.0, eps_s = 0.0;
+  double eps_t = 0.0, eps_s = 0.0;                        // ε_t (m/s) and ε_σ (N²·s³/m)
+  double inv_p_ref = 1.0;                                 // 1/p_ref if NcpOptions::scale_rows
+  Eigen::SparseMatrix<double, Eigen::RowMajor> A_sparse;  // A without its zeros (sparse path)
 };
+
+// The same Jacobian as EvaluateNcp, as a sparse matrix with a z-independent pattern.
+void SparseJacobianNcp(const NcpData& d, const VectorXd& z, Eigen::SparseMatrix<double>* J) {
+  using RowIt = Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator;
+  const int nc = d.nc, m = 3 * nc;
+  const VectorXd u = d.b + d.A_sparse * z.head(m);
+  std::vector<Eigen::Triplet<double>> t;
+  t.reserve(d.A_sparse.nonZeros() + 12 * nc);
+  for (int c = 0; c < nc; ++c) {
+    const int in = c, it = nc + 2 * c, io = it + 1, is = m + c;
+    const double pn = z[in], pt = z[it], po = z[io], s = z[is], mu = d.mu[c];
+    const double w = d.inv_p_ref;
+    for (RowIt e(d.A_sparse, in); e; ++e) t.emplace_back(in, static_cast<int>(e.col()), e.value());
+    for (RowIt e(d.A_sparse, it); e; ++e)
+      t.emplace_back(it, static_cast<int>(e.col()), w * d.et2 * mu * pn * e.value());
+    for (RowIt e(d.A_sparse, io); e; ++e)
+      t.emplace_back(io, static_cast<int>(e.col()), w * d.eo2 * mu * pn * e.value());
+    t.emplace_back(it, in, w * d.et2 * mu * u[it]);
+    t.emplace_back(io, in, w * d.eo2 * mu * u[io]);
+    t.emplace_back(it, it, w * (s + d.eps_t));
+    t.emplace_back(io, io, w * (s + d.eps_t));
+    t.emplace_back(it, is, w * pt);
+    t.emplace_back(io, is, w * po);
+    t.emplace_back(is, in, w * 2.0 * mu * mu * pn);
+    t.emplace_back(is, it, -w * 2.0 * pt / d.et2);
+    t.emplace_back(is, io, -w * 2.0 * po / d.eo2);
+    t.emplace_back(is, is, w * d.eps_s);
+  }
+  J->resize(4 * nc, 4 * nc);
+  J->setFromTriplets(t.begin(), t.end());  // duplicates (diagonal of A and the σ term) add
+}
 
 void EvaluateNcp(const NcpData& d, const VectorXd& z, VectorXd* F, MatrixXd* J) {
   const int nc = d.nc, m = 3 * nc;
@@ -41,28 +78,36 @@ void EvaluateNcp(const NcpData& d, const VectorXd& z, VectorXd* F, MatrixXd* J) 
     const int in = c, it = nc + 2 * c, io = it + 1, is = m + c;
     const double pn = z[in], pt = z[it], po = z[io], s = z[is], mu = d.mu[c];
     (*F)[in] = u[in];
-    (*F)[it] = d.et2 * mu * pn * u[it] + (s + d.eps_t) * pt;
-    (*F)[io] = d.eo2 * mu * pn * u[io] + (s + d.eps_t) * po;
-    (*F)[is] = mu * mu * pn * pn - pt * pt / d.et2 - po * po / d.eo2 + d.eps_s * s;
+    const double w = d.inv_p_ref;
+    const double et = d.eps_t, es = d.eps_s;
+    (*F)[it] = w * (d.et2 * mu * pn * u[it] + (s + et) * pt);
+    (*F)[io] = w * (d.eo2 * mu * pn * u[io] + (s + et) * po);
+    (*F)[is] = w * (mu * mu * pn * pn - pt * pt / d.et2 - po * po / d.eo2 + es * s);
     if (!J) continue;
     J->block(in, 0, 1, m) = d.A.row(in);
-    J->block(it, 0, 1, m) = d.et2 * mu * pn * d.A.row(it);
-    J->block(io, 0, 1, m) = d.eo2 * mu * pn * d.A.row(io);
-    (*J)(it, in) += d.et2 * mu * u[it];
-    (*J)(io, in) += d.eo2 * mu * u[io];
-    (*J)(it, it) += s + d.eps_t;
-    (*J)(io, io) += s + d.eps_t;
-    (*J)(it, is) = pt;
-    (*J)(io, is) = po;
-    (*J)(is, in) = 2.0 * mu * mu * pn;
-    (*J)(is, it) = -2.0 * pt / d.et2;
-    (*J)(is, io) = -2.0 * po / d.eo2;
-    (*J)(is, is) = d.eps_s;
+    J->block(it, 0, 1, m) = w * d.et2 * mu * pn * d.A.row(it);
+    J->block(io, 0, 1, m) = w * d.eo2 * mu * pn * d.A.row(io);
+    (*J)(it, in) += w * d.et2 * mu * u[it];
+    (*J)(io, in) += w * d.eo2 * mu * u[io];
+    (*J)(it, it) += w * (s + et);
+    (*J)(io, io) += w * (s + et);
+    (*J)(it, is) = w * pt;
+    (*J)(io, is) = w * po;
+    (*J)(is, in) = w * 2.0 * mu * mu * pn;
+    (*J)(is, it) = -w * 2.0 * pt / d.et2;
+    (*J)(is, io) = -w * 2.0 * po / d.eo2;
+    (*J)(is, is) = w * es;
   }
 }
 
+std::string Sci(double x) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.3g", x);
+  return buf;
+}
+
 std::string Describe(const SolverReport& r) {
-  return std::string(ToString(r.status)) + ", residual " + std::to_string(r.residual) + " after " +
+  return std::string(ToString(r.status)) + ", residual " + Sci(r.residual) + " after " +
          std::to_string(r.iterations) + " iterations" +
          (r.message.empty() ? "" : " (" + r.message + ")");
 }
@@ -73,7 +118,13 @@ NcpStepper::NcpStepper(StepperOptions options, NcpOptions ncp)
     : options_(options),
       ncp_(ncp),
       st_(AssemblyOptions(options), MakeLcpSolver(options.solver)),
-      mcp_(ncp.mcp) {
+      lcp_solver_(MakeLcpSolver(options.solver)),
+      mcp_(ncp.mcp),
+      mcp_sparse_([&] {
+        McpOptions o = ncp.mcp;
+        o.sparse = true;
+        return o;
+      }()) {
   if (!(ncp_.e_t > 0.0) || !(ncp_.e_o > 0.0) || !std::isfinite(ncp_.e_t) ||
       !std::isfinite(ncp_.e_o))
     throw std::invalid_argument("NcpStepper: ellipticities e_t, e_o must be finite and > 0");
@@ -109,14 +160,14 @@ NcpStepper::StepProblem NcpStepper::Build(const Scene& model, const State& x,
   }
   // ε_n on rigid normal rows only (a compliant row already has its diagonal γ > 0).
   double diag = 0.0;
-  for (int c = 0; c < nc; ++c)
-    diag = std::max(diag, d->A(c, c) - a.compliance[c].vel_diagonal);
+  for (int c = 0; c < nc; ++c) diag = std::max(diag, d->A(c, c) - a.compliance[c].vel_diagonal);
   for (int c = 0; c < nc; ++c)
     if (!a.compliance[c].compliant) d->A(c, c) += ncp_.normal_regularization * diag;
   d->eps_t = ncp_.tangent_regularization;
   const double p_ref =
       std::max(a.p_ext.size() ? a.p_ext.cwiseAbs().maxCoeff() : 0.0, kMinImpulseScale);
   d->eps_s = ncp_.cone_regularization * p_ref * p_ref;
+  d->inv_p_ref = ncp_.scale_rows ? 1.0 / p_ref : 1.0;
 
   sp.mcp.lower = VectorXd::Zero(4 * nc);
   sp.mcp.upper = VectorXd::Constant(4 * nc, kInf);
@@ -124,6 +175,10 @@ NcpStepper::StepProblem NcpStepper::Build(const Scene& model, const State& x,
   if (d->planar)
     for (int c = 0; c < nc; ++c) sp.mcp.lower[nc + 2 * c + 1] = sp.mcp.upper[nc + 2 * c + 1] = 0;
   sp.mcp.evaluate = [d](const VectorXd& z, VectorXd* F, MatrixXd* J) { EvaluateNcp(*d, z, F, J); };
+  d->A_sparse = d->A.sparseView();
+  sp.mcp.sparse_jacobian = [d](const VectorXd& z, Eigen::SparseMatrix<double>* J) {
+    SparseJacobianNcp(*d, z, J);
+  };
   return sp;
 }
 
@@ -177,34 +232,102 @@ void NcpStepper::Step(const Scene& model, const State& x, const StepInput& u, Wo
 
   VectorXd z = VectorXd::Zero(4 * nc);
   if (nc > 0) {
-    if (x.warm_start.size() == 4 * nc && x.warm_start.allFinite()) z = x.warm_start;
-    const VectorXd z0 = z;
-    info->solver = mcp_.Solve(sp.mcp, &z);
-    if (!info->solver.ok()) {
-      // Retry from the Stewart–Trinkle LCP solution of the same step.
-      const SolverReport first = info->solver;
-      VectorXd z_lcp;
-      const SolverReport lcp_report =
-          MakeLcpSolver(options_.solver)->Solve(sp.lcp, nullptr, &z_lcp);
-      if (!lcp_report.ok()) {
-        info->failure =
-            "MCP failed from the " + std::string(z0.isZero() ? "zero start" : "warm start") + ": " +
-            Describe(first) +
-            "; the Stewart-Trinkle LCP for a restart failed too: " + Describe(lcp_report);
-        return;
+    // Starts, in order: the previous step's solution, zero, the Stewart–Trinkle LCP solution
+    // of this step. The first converged attempt is accepted; each failure is reported.
+    const bool warm = x.warm_start.size() == 4 * nc && x.warm_start.allFinite();
+    const McpSolver& mcp = nc >= ncp_.sparse_min_contacts ? mcp_sparse_ : mcp_;
+    const double p_ref =
+        std::max(a.p_ext.size() ? a.p_ext.cwiseAbs().maxCoeff() : 0.0, kMinImpulseScale);
+    std::string history;
+    int iterations = 0;
+    double time_s = 0.0;
+    bool solved = false;
+    for (int attempt = warm ? 0 : 1; attempt < 3 && !solved; ++attempt) {
+      const char* start = attempt == 0 ? "warm start" : attempt == 1 ? "zero start" : "LCP start";
+      if (attempt == 0) {
+        z = x.warm_start;
+      } else if (attempt == 1) {
+        z.setZero();
+      } else {
+        VectorXd z_lcp;
+        const SolverReport lcp = lcp_solver_->Solve(sp.lcp, nullptr, &z_lcp);
+        time_s += lcp.time_s;
+        if (!lcp.ok()) {
+          history += std::string(history.empty() ? "" : "; ") +
+                     "Stewart-Trinkle LCP for the start failed: " + Describe(lcp);
+          continue;
+        }
+        z = FromLcpSolution(sp, z_lcp);
       }
-      z = FromLcpSolution(sp, z_lcp);
-      info->solver = mcp_.Solve(sp.mcp, &z);
-      info->solver.iterations += first.iterations;
-      info->solver.time_s += first.time_s + lcp_report.time_s;
-      const std::string note =
-          "retried from the Stewart-Trinkle LCP solution after: " + Describe(first);
+      info->solver = mcp.Solve(sp.mcp, &z);
+      iterations += info->solver.iterations;
+      time_s += info->solver.time_s;
+      solved = info->solver.ok();
+      if (solved) break;
+      history += std::string(history.empty() ? "" : "; ") + start + ": " + Describe(info->solver);
+      // Polish: fix the friction of unloaded contacts at 0 and re-solve from the best point.
+      McpProblem reduced = sp.mcp;
+      VectorXd zr = z;
+      int fixed = 0;
+      for (int c = 0; c < nc; ++c) {
+        if (!(z[c] <= kUnloaded * p_ref)) continue;
+        for (int i : {nc + 2 * c, nc + 2 * c + 1, 3 * nc + c}) {
+          reduced.lower[i] = reduced.upper[i] = 0.0;
+          zr[i] = 0.0;
+        }
+        ++fixed;
+      }
+      if (fixed == 0) continue;
+      const SolverReport polish = mcp.Solve(reduced, &zr);
+      iterations += polish.iterations;
+      time_s += polish.time_s;
+      if (polish.ok()) {
+        // Give each fixed contact its exact sliding friction for the (tiny) p_n it carries:
+        // p_(t,o) = −μ p_n (e_t² u_t, e_o² u_o)/σ, σ = ‖(e_t u_t, e_o u_o)‖ (0 if not slipping).
+        const VectorXd v1 = VelocityAfter(sp, zr);
+        const double et = ncp_.e_t, eo = ncp_.e_o;
+        for (int c = 0; c < nc; ++c) {
+          if (reduced.lower[3 * nc + c] != reduced.upper[3 * nc + c]) continue;
+          const int nd = a.nd;
+          const double ut = a.G_f.col(c * nd).dot(v1) + a.dpsi_f[c * nd];
+          const double uo = model.dim == Dim::kPlanar
+                                ? 0.0
+                                : a.G_f.col(c * nd + 1).dot(v1) + a.dpsi_f[c * nd + 1];
+          const double slip = std::hypot(et * ut, eo * uo);
+          if (!(slip > 0.0)) continue;
+          zr[nc + 2 * c] = -a.mu[c] * zr[c] * et * et * ut / slip;
+          zr[nc + 2 * c + 1] = -a.mu[c] * zr[c] * eo * eo * uo / slip;
+          zr[3 * nc + c] = slip;
+        }
+      }
+      const double full = polish.ok() ? McpResidual(sp.mcp, zr) : polish.residual;
+      double pn_fixed = 0.0;
+      for (int c = 0; c < nc; ++c)
+        if (reduced.lower[3 * nc + c] == reduced.upper[3 * nc + c])
+          pn_fixed = std::max(pn_fixed, zr[c]);
+      if (polish.ok() && full <= mcp_.options().tolerance) {
+        z = zr;
+        info->solver = polish;
+        info->solver.residual = full;
+        info->solver.message =
+            "polished with " + std::to_string(fixed) + " unloaded contact(s) frictionless";
+        solved = true;
+      } else {
+        history += "; polish of " + std::to_string(fixed) + " unloaded contact(s): " +
+                   (polish.ok() ? "full residual " + Sci(full) + ", p_n max " + Sci(pn_fixed)
+                                : Describe(polish));
+      }
+    }
+    info->solver.iterations = iterations;
+    info->solver.time_s = time_s;
+    if (!history.empty()) {
+      const std::string note = (solved ? "retried after: " : "") + history;
       info->solver.message =
-          info->solver.message.empty() ? note : info->solver.message + "; " + note;
-      if (!info->solver.ok()) {
-        info->failure = "MCP failed: " + Describe(info->solver);
-        return;
-      }
+          info->solver.message.empty() || !solved ? note : info->solver.message + "; " + note;
+    }
+    if (!solved) {
+      info->failure = "MCP failed from every start: " + history;
+      return;
     }
   } else {
     info->solver.status = SolverStatus::kSolved;

@@ -213,8 +213,9 @@ double RestingOverlap(const std::string& compliance, const std::string& formulat
   return 0.1 - traj.states.back().q[2];
 }
 
-// The linearized laws are exact at rest, so only the settling transient remains (< 1e-4).
-constexpr double kStaticTol = 0.01;
+// The linearized laws are exact at rest, so only the settling transient remains
+// (measured ≤ 1e-9 relative after 1.5 s; the issue asks for 1%).
+constexpr double kStaticTol = 1e-6;
 
 TEST(CompliantStatics, KelvinVoigtOverlapIsMgOverK) {
   const double expected = 9.81 / 1e4;

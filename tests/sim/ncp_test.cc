@@ -184,36 +184,93 @@ TEST(NcpTest, EvaluateJacobianMatchesFiniteDifferences) {
         << "column " << j;
     EXPECT_LT(((rp.comp_b - rm.comp_b) / (2 * eps) - r.d_comp_b.col(j)).cwiseAbs().maxCoeff(), 1e-6)
         << "column " << j;
+    EXPECT_LT(((rp.comp_a - rm.comp_a) / (2 * eps) - r.d_comp_a.col(j)).cwiseAbs().maxCoeff(), 1e-6)
+        << "column " << j;
   }
+  // Parameter columns (μ, masses): difference through the params-resolved scene.
+  ASSERT_FALSE(r.param_columns.empty());
+  for (std::size_t k = 0; k < r.param_columns.size(); ++k) {
+    const int i = r.param_columns[k], col = z.size() + static_cast<int>(k);
+    Params pp = p, pm = p;
+    const double step = 1e-7 * std::max(1.0, std::abs(p.values[i]));
+    pp.values[i] += step;
+    pm.values[i] -= step;
+    const Scene mp = sim.scene().ApplyParams(pp), mm = sim.scene().ApplyParams(pm);
+    const StepResiduals rp = sim.formulation().Evaluate(mp, pp, x, StepInput{}, z);
+    const StepResiduals rm = sim.formulation().Evaluate(mm, pm, x, StepInput{}, z);
+    EXPECT_LT(
+        ((rp.equality - rm.equality) / (2 * step) - r.d_equality.col(col)).cwiseAbs().maxCoeff(),
+        1e-6)
+        << sim.scene().param_table().info(i).name;
+    EXPECT_LT(((rp.comp_b - rm.comp_b) / (2 * step) - r.d_comp_b.col(col)).cwiseAbs().maxCoeff(),
+              1e-6)
+        << sim.scene().param_table().info(i).name;
+  }
+}
+
+// Resting on the floor, the warm start makes the MCP nearly free: ≤ 2 Newton steps per step and
+// never another start.
+TEST(NcpTest, WarmStartKeepsRestingStepsCheap) {
+  Simulator sim(ParseScene(PushedBox("ncp", 0.3, 0.0, 0.0)));
+  State x = sim.InitialState(), next;
+  Workspace ws;
+  for (int k = 0; k < 200; ++k) {
+    const StepInfo info = sim.Step(sim.DefaultParams(), x, StepInput{}, &ws, &next);
+    ASSERT_TRUE(info.ok) << info.failure;
+    if (k >= 10) {
+      EXPECT_LE(info.solver.iterations, 2) << "step " << k;
+      EXPECT_EQ(info.solver.message.find("retried"), std::string::npos) << info.solver.message;
+    }
+    x = next;
+  }
+  EXPECT_LT(x.v.norm(), 1e-9);  // no drift at rest
 }
 
 // The analytic MCP Jacobian matches central differences of F at a generic point.
 TEST(NcpTest, McpJacobianMatchesFiniteDifferences) {
-  const std::string scene_text = PushedBox("ncp", 0.3, 1.0, 10.0);
-  Simulator sim(ParseScene(scene_text));
-  const NcpStepper stepper(sim.scene().options);
-  const State x = sim.InitialState();
-  const NcpStepper::StepProblem sp = stepper.Build(sim.scene(), x, StepInput{});
-  const int n = sp.mcp.size();
-  ASSERT_EQ(n, 16);  // four corners × (p_n, p_t, p_o, σ)
-  VectorXd z(n);
-  for (int i = 0; i < n; ++i) z[i] = 0.01 * std::sin(1.0 + 3.7 * i) + (i < 4 ? 0.02 : 0.0);
-  z.tail(4) = VectorXd::Constant(4, 0.3);
-  VectorXd F;
-  MatrixXd J;
-  sp.mcp.evaluate(z, &F, &J);
-  const double eps = 1e-6;
-  MatrixXd J_fd(n, n);
-  for (int j = 0; j < n; ++j) {
-    VectorXd zp = z, zm = z, Fp, Fm;
-    zp[j] += eps;
-    zm[j] -= eps;
-    sp.mcp.evaluate(zp, &Fp, nullptr);
-    sp.mcp.evaluate(zm, &Fm, nullptr);
-    J_fd.col(j) = (Fp - Fm) / (2 * eps);
+  Scene planar = LoadExample("block_sliding.yaml");
+  planar.options.formulation = FormulationType::kNcp;
+  planar.Finalize();
+  const Scene spatial = ParseScene(PushedBox("ncp", 0.3, 1.0, 10.0));
+  for (const Scene* scene : std::vector<const Scene*>{&spatial, &planar}) {
+    for (bool scaled : {false, true}) {
+      for (double e_o : {1.0, 0.6}) {
+        SCOPED_TRACE(std::string(scene == &planar ? "planar" : "spatial") +
+                     (scaled ? " scaled" : "") + " e_o " + std::to_string(e_o));
+        NcpOptions o;
+        o.scale_rows = scaled;
+        o.e_t = 1.3;
+        o.e_o = e_o;
+        const NcpStepper stepper(scene->options, o);
+        const NcpStepper::StepProblem sp =
+            stepper.Build(*scene, Simulator(*scene).InitialState(), StepInput{});
+        const int n = sp.mcp.size(), nc = n / 4;
+        ASSERT_GT(nc, 0);
+        VectorXd z(n);
+        for (int i = 0; i < n; ++i) z[i] = 0.01 * std::sin(1.0 + 3.7 * i) + (i < nc ? 0.02 : 0.0);
+        z.tail(nc).setConstant(0.3);
+        VectorXd F;
+        MatrixXd J;
+        sp.mcp.evaluate(z, &F, &J);
+        const double eps = 1e-6;
+        MatrixXd J_fd(n, n);
+        for (int j = 0; j < n; ++j) {
+          VectorXd zp = z, zm = z, Fp, Fm;
+          zp[j] += eps;
+          zm[j] -= eps;
+          sp.mcp.evaluate(zp, &Fp, nullptr);
+          sp.mcp.evaluate(zm, &Fm, nullptr);
+          J_fd.col(j) = (Fp - Fm) / (2 * eps);
+        }
+        // F is quadratic in z: central differences are exact up to roundoff (1e-16/1e-6 · |F|).
+        EXPECT_LT((J - J_fd).cwiseAbs().maxCoeff(), 1e-8 * std::max(1.0, J.cwiseAbs().maxCoeff()));
+        // The sparse Jacobian is the same matrix (same operations up to summation order).
+        Eigen::SparseMatrix<double> Js;
+        sp.mcp.sparse_jacobian(z, &Js);
+        EXPECT_LT((MatrixXd(Js) - J).cwiseAbs().maxCoeff(), 1e-14 * J.cwiseAbs().maxCoeff());
+      }
+    }
   }
-  // F is quadratic in z: central differences are exact up to roundoff (1e-16/1e-6 · |F|).
-  EXPECT_LT((J - J_fd).cwiseAbs().maxCoeff(), 1e-8 * std::max(1.0, J.cwiseAbs().maxCoeff()));
 }
 
 TEST(NcpTest, JointsAreSupported) {
@@ -246,9 +303,10 @@ TEST(NcpTest, AFailedSolveIsReportedNotAccepted) {
   Workspace ws;
   stepper.Step(s, sim.InitialState(), StepInput{}, &ws, &next, &info);
   EXPECT_FALSE(info.ok);
-  EXPECT_NE(info.failure.find("MCP failed"), std::string::npos) << info.failure;
-  EXPECT_NE(info.solver.message.find("retried from the Stewart-Trinkle LCP"), std::string::npos)
-      << info.solver.message;
+  EXPECT_NE(info.failure.find("MCP failed from every start"), std::string::npos) << info.failure;
+  EXPECT_NE(info.failure.find("LCP start"), std::string::npos) << info.failure;
+  EXPECT_NE(info.failure.find("zero start"), std::string::npos) << info.failure;
+  EXPECT_EQ(info.solver.status, SolverStatus::kMaxIterations);
   EXPECT_EQ(next.t, 0.0);  // *next == x
 }
 
@@ -256,6 +314,82 @@ TEST(NcpTest, SceneFileSelectsNcp) {
   const Scene s = ParseScene(PushedBox("ncp", 0.0, 0.0, 0.0));
   EXPECT_EQ(s.options.formulation, FormulationType::kNcp);
   EXPECT_EQ(MakeFormulation(s.options)->name(), "ncp");
+}
+
+// Elliptic cone (e_t ≠ e_o): the step equations hold along the trajectory, the friction sits on
+// the ellipse while sliding, and a push between the cone's axes no longer moves the box along
+// the push (it does for e_t = e_o).
+TEST(NcpTest, EllipticConeSlidesOnTheEllipse) {
+  Scene s = ParseScene(PushedBox("ncp", 0.0, 1.0, 10.0));
+  s.Finalize();
+  const Params p = s.DefaultParams();
+  for (double e_o : {1.0, 0.5}) {
+    SCOPED_TRACE(e_o);
+    NcpOptions o;
+    o.e_t = 1.0;
+    o.e_o = e_o;
+    o.scale_rows = true;  // also exercises the scaled rows
+    const NcpStepper stepper(s.options, o);
+    State x = Simulator(s).InitialState(), next;
+    const State x0 = x;
+    for (int k = 0; k < 100; ++k) {
+      StepInfo info;
+      stepper.Step(s, x, StepInput{}, nullptr, &next, &info);
+      ASSERT_TRUE(info.ok) << info.failure;
+      VectorXd z(stepper.Layout(s, x).size());
+      z << next.q, next.v, next.warm_start;
+      const StepResiduals r = stepper.Evaluate(s, p, x, StepInput{}, z);
+      EXPECT_LT(r.Violation(), 1e-9) << "step " << k;  // as for the isotropic cone
+      if (k == 99) {
+        // Sliding: each contact's friction on the ellipse (p_t/e_t)² + (p_o/e_o)² = (μ p_n)².
+        const int nc = stepper.Layout(s, x).nc;
+        for (int c = 0; c < nc; ++c) {
+          const double pn = next.warm_start[c], pt = next.warm_start[nc + 2 * c],
+                       po = next.warm_start[nc + 2 * c + 1];
+          EXPECT_NEAR(std::hypot(pt, po / e_o), 0.5 * pn, 1e-8 * pn);
+        }
+      }
+      x = next;
+    }
+    const Eigen::Vector2d d = x.q.head<2>() - x0.q.head<2>();
+    const double err = std::abs(std::atan2(d.y(), d.x()) - 1.0);
+    if (e_o == 1.0) {
+      EXPECT_LT(err, 1e-6);
+    } else {
+      EXPECT_GT(err, 0.01);  // the anisotropic cone steers the slip (≈ 0.1 rad here)
+    }
+  }
+}
+
+TEST(NcpTest, RejectsBadEllipticity) {
+  NcpOptions o;
+  o.e_t = 0.0;
+  EXPECT_THROW(NcpStepper(StepperOptions{}, o), std::invalid_argument);
+}
+
+// The sparse Newton path (used from NcpOptions::sparse_min_contacts contacts) reproduces the
+// dense one on the 40-contact box stack.
+TEST(NcpTest, SparseAndDenseNewtonAgreeOnTheBoxStack) {
+  Scene s = LoadExample("box_stack.yaml");
+  s.options.formulation = FormulationType::kNcp;
+  s.Finalize();
+  NcpOptions dense_options, sparse_options;
+  dense_options.sparse_min_contacts = 1000000;
+  sparse_options.sparse_min_contacts = 1;
+  const NcpStepper dense(s.options, dense_options), sparse(s.options, sparse_options);
+  State xd = Simulator(s).InitialState(), xs = xd, next;
+  for (int k = 0; k < 100; ++k) {
+    StepInfo info;
+    dense.Step(s, xd, StepInput{}, nullptr, &next, &info);
+    ASSERT_TRUE(info.ok) << info.failure;
+    xd = next;
+    sparse.Step(s, xs, StepInput{}, nullptr, &next, &info);
+    ASSERT_TRUE(info.ok) << info.failure;
+    xs = next;
+  }
+  // Both solve each step to 1e-10; the stack is at rest, so the states agree to ~1e-9.
+  EXPECT_LT((xd.q - xs.q).cwiseAbs().maxCoeff(), 1e-9);
+  EXPECT_LT((xd.v - xs.v).cwiseAbs().maxCoeff(), 1e-7);
 }
 
 }  // namespace

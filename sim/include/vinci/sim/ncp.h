@@ -29,11 +29,19 @@
 // velocity), a sticking creep ≤ ε_t (m/s) and a relative friction-magnitude error ε_σ σ/(μ p_n)²;
 // the slip direction is exact. Evaluate() checks the exact equations above.
 //
+// With NcpOptions::scale_rows the friction and cone rows are divided by p_ref (below) so that the
+// solver's absolute tolerance means ~1e-10 m/s on slip velocities (off by default: measured, it
+// makes the zero start stall more often on boxes whose redundant corner contacts unload).
+//
 // Robustness: the MCP starts from the previous step's (p_n, p_t, p_o, σ) (State::warm_start,
-// when its size matches the contact set), otherwise from 0. If it fails, the Stewart–Trinkle
-// LCP of the same step (n_d = 4, LCP solver named by the scene) is solved, mapped to (p_t, p_o),
-// and the MCP retried from it. A step whose retry also fails returns StepInfo ok = false with the
-// reason.
+// when its size matches the contact set); if that fails (or there is none) from zero; then from
+// the Stewart–Trinkle LCP solution of the same step (n_d = 4, LCP solver named by the scene)
+// mapped to (p_t, p_o). After a failed attempt the solve is "polished": contacts whose p_n
+// is below 1e-6 p_ref (unloaded: the squared cone's apex is degenerate, resolving p_t only to
+// √(tol p_ref)) get p_t = p_o = σ = 0 fixed, the reduced MCP is solved from the attempt's best
+// point, and the result is accepted only if it solves the FULL MCP to tolerance. The first
+// converged attempt is accepted (SolverReport::message lists the failed ones); if all fail the
+// step returns StepInfo ok = false with every reason.
 #pragma once
 
 #include <memory>
@@ -54,6 +62,10 @@ struct NcpOptions {
   double tangent_regularization = 1e-10;  ///< ε_t = ε_o (m/s)
   /// ε_σ = this · p_ref² (N²·s³/m), p_ref = max(‖p_ext‖_∞, 1e-6 N·s).
   double cone_regularization = 1e-10;
+  bool scale_rows = false;  ///< divide the friction and cone rows by p_ref (see the file comment)
+  /// Steps with at least this many contacts use the sparse Jacobian (McpProblem::sparse_jacobian,
+  /// SparseLU); smaller ones the dense one.
+  int sparse_min_contacts = 16;
 };
 
 class NcpStepper final : public Formulation {
@@ -78,7 +90,7 @@ class NcpStepper final : public Formulation {
     LcpProblem lcp;                     ///< the Stewart–Trinkle LCP of the same step
     VectorXd v_star;
     StewartTrinkle::JointElimination joints;
-    McpProblem mcp;  ///< size 4 n_c, analytic dense Jacobian
+    McpProblem mcp;  ///< size 4 n_c, analytic dense and sparse Jacobians
   };
   /// Builds the step's problem at x (exposed for tests and benchmarks).
   StepProblem Build(const Scene& model, const State& x, const StepInput& u) const;
@@ -93,7 +105,8 @@ class NcpStepper final : public Formulation {
   StepperOptions options_;
   NcpOptions ncp_;
   StewartTrinkle st_;  // assembly and the fallback LCP (n_d = 4)
-  McpSolver mcp_;
+  std::shared_ptr<const LcpSolver> lcp_solver_;
+  McpSolver mcp_, mcp_sparse_;  // dense / sparse Newton systems
 };
 
 }  // namespace vinci::sim
