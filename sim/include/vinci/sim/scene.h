@@ -42,6 +42,11 @@ struct Body {
   Vector3d applied_force_W = Vector3d::Zero();   ///< constant applied force at the COM (N)
   Vector3d applied_torque_W = Vector3d::Zero();  ///< constant applied torque (N·m)
   bool gravity = true;                           ///< false: gravity does not act on this body
+  /// First-order model only (FormulationType::kFirstOrder): the damping matrix C of the body,
+  /// symmetric positive definite, size of the body's ν (planar 3×3 on (vx, vy, ω): N·s/m on the
+  /// translational, N·m·s/rad on the rotational entries; spatial 6×6 on (v_W, ω_B)). Empty
+  /// otherwise.
+  MatrixXd damping;
 };
 
 /// Joint kinds. Planar: revolute (2 eqs), prismatic (2), weld (3).
@@ -65,6 +70,7 @@ struct Joint {
 enum class FormulationType {
   kStewartTrinkle,  ///< formulations.md §1: position-level normal constraint with ψ_n/h
   kAnitescuPotra,   ///< velocity-level normal constraint (no ψ_n/h)
+  kFirstOrder,      ///< formulations.md §8: damping-dominated, C ν = (G_n p_n + G_f p_f)/h + F
 };
 
 /// Stepper options stored with the scene.
@@ -77,6 +83,10 @@ struct StepperOptions {
   bool joint_stabilization = true;  ///< include ψ_b/h in the joint rows
   std::string solver = "lemke";     ///< LCP solver by name
   double max_penetration = 0.05;    ///< a step with ψ_n below −this fails (m)
+  /// formulations.md §7: a vertex at a convex corner of a concave polygon is one corner contact
+  /// (free iff max(ψ_1, ψ_2) ≥ 0). false: two per-edge contacts (ψ_1 ≥ 0 and ψ_2 ≥ 0), which
+  /// snag on the extended edge lines; kept to demonstrate the difference.
+  bool nonconvex_corners = true;
 };
 
 /// Layout of one body in the generalized coordinate and velocity vectors.
