@@ -214,6 +214,28 @@ void VerticesVsSegment(const WorldPolygon& P, const Vector2d& s0, const Vector2d
   }
 }
 
+// Removes contacts of out[begin, end) equal to an earlier one: same witnesses (within tol) and
+// same normals. A vertex exactly on a vertex keeps both corner contacts (each polygon's corner
+// against the other's vertex): their normals differ and each may carry the support.
+void RemoveDuplicates(Contacts* out, std::size_t begin, double tol) {
+  const auto same = [tol](const ContactPoint& a, const ContactPoint& b) {
+    const auto near = [tol](const Vector3d& x, const Vector3d& y) { return (x - y).norm() <= tol; };
+    if (!near(a.p_A_W, b.p_A_W) || !near(a.p_B_W, b.p_B_W) || a.corner != b.corner) return false;
+    if (!a.corner) return (a.n_W - b.n_W).norm() <= 1e-9;
+    return ((a.n_W - b.n_W).norm() <= 1e-9 && (a.n2_W - b.n2_W).norm() <= 1e-9) ||
+           ((a.n_W - b.n2_W).norm() <= 1e-9 && (a.n2_W - b.n_W).norm() <= 1e-9);
+  };
+  std::size_t kept = begin;
+  for (std::size_t i = begin; i < out->size(); ++i) {
+    bool duplicate = false;
+    for (std::size_t j = begin; j < kept && !duplicate; ++j) duplicate = same((*out)[i], (*out)[j]);
+    if (duplicate) continue;
+    if (kept != i) (*out)[kept] = (*out)[i];
+    ++kept;
+  }
+  out->resize(kept);
+}
+
 }  // namespace
 
 void CheckSimplePolygon(const Shape& s) {
@@ -311,7 +333,7 @@ void CollideConcave(const Shape& a, const Isometry3d& X_WA, const Shape& b, cons
       throw std::invalid_argument(std::string("CollideShapes: cannot collide ") +
                                   ShapeTypeName(a.type) + " with " + ShapeTypeName(b.type));
   }
-  RemoveDuplicateContacts(out, begin, tie);
+  RemoveDuplicates(out, begin, tie);
 }
 
 }  // namespace vinci::sim::collision_internal

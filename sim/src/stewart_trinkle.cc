@@ -10,6 +10,8 @@ namespace vinci::sim {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
+// Relative tolerance under which the two predicted gaps of a corner contact tie.
+constexpr double kCornerTieTol = 1e-9;
 
 // Tangent directions d_j, j = 0..nd−1, equally spaced in the plane ⟂ n (planar: ±t).
 void FrictionDirections(Dim dim, const Vector3d& n, int nd, std::vector<Vector3d>* d) {
@@ -133,9 +135,11 @@ StewartTrinkle::Assembly StewartTrinkle::Assemble(const Scene& model, const Stat
     }
   }
 
-  // Corner contacts: edge 2 (the contact's `point`) is the edge with the larger predicted gap.
+  // Corner contacts: edge 2 (the contact's `point`) is the edge with the larger predicted gap
+  // ψ_i + h (G_iᵀ ν_ℓ + ∂ψ_i/∂t) (first order: ψ_i + h ∂ψ_i/∂t); near-ties (a vertex arriving
+  // exactly at the corner) go to the edge with the smaller |ψ_i|, the edge it slides along.
   {
-    const VectorXd v_star = (first_order_ ? VectorXd::Zero(nv) : x.v) + a.M_inv * a.p_ext;
+    const VectorXd v_pred = first_order_ ? VectorXd::Zero(nv) : x.v;
     MatrixXd g = MatrixXd::Zero(nv, 2);
     for (int c = 0; c < nc; ++c) {
       ContactPoint& p = a.contacts[c].point;
@@ -147,9 +151,13 @@ StewartTrinkle::Assembly StewartTrinkle::Assemble(const Scene& model, const Stat
       Scatter(model, ct.body_b, kin[ct.body_b], p.p_B_W, p.n_W, -1.0, &g, 0, &dpsi[0]);
       Scatter(model, ct.body_a, kin[ct.body_a], p.p2_A_W, p.n2_W, 1.0, &g, 1, &dpsi[1]);
       Scatter(model, ct.body_b, kin[ct.body_b], p.p2_B_W, p.n2_W, -1.0, &g, 1, &dpsi[1]);
-      const double pred1 = p.gap + h * (g.col(0).dot(v_star) + dpsi[0]);
-      const double pred2 = p.gap2 + h * (g.col(1).dot(v_star) + dpsi[1]);
-      if (pred2 > pred1) {
+      const double pred1 = p.gap + h * (g.col(0).dot(v_pred) + dpsi[0]);
+      const double pred2 = p.gap2 + h * (g.col(1).dot(v_pred) + dpsi[1]);
+      const double tie = kCornerTieTol * (std::abs(p.gap) + std::abs(p.gap2) +
+                                          h * (std::abs(pred1 - p.gap) + std::abs(pred2 - p.gap2)));
+      const bool second =
+          std::abs(pred2 - pred1) <= tie ? std::abs(p.gap2) < std::abs(p.gap) : pred2 > pred1;
+      if (second) {
         std::swap(p.p_A_W, p.p2_A_W);
         std::swap(p.p_B_W, p.p2_B_W);
         std::swap(p.n_W, p.n2_W);

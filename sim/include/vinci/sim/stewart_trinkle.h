@@ -29,12 +29,14 @@
 // (Anitescu–Potra: the p_n row without ψ_2/h, i.e. max(ψ_1⁺, ψ_2⁺) ≥ ψ_2; the c row keeps its
 // gaps). The impulse p_n and the friction impulses act along edge 2's normal and tangent, so
 // edge 2 must be the edge the vertex will be against: Assemble() takes as edge 2 the edge with
-// the larger predicted gap ψ_i + h (G_iᵀ ν* + ∂ψ_i/∂t), ν* = ν_ℓ + M⁻¹ p_ext the contact-free
-// velocity (ties: the narrow phase's first edge), and stores it as the contact's `point` (its
-// column of G_n, G_f, ψ_n); edge 1 is G_1, ψ_1. c enters only its own row and its contact's
-// normal row; it carries no force. In the LCP, c follows σ: z = [p_n; p_f; σ; c], the c rows
-// being −(G_1 − G_2)ᵀ W G_c (p_n, p_f columns), 1 on the diagonal, and c_k is added to the
-// friction-cone block of its contact. With StepperOptions::nonconvex_corners = false the
+// the larger predicted gap ψ_i + h (G_iᵀ ν_ℓ + ∂ψ_i/∂t) (first order: ν_ℓ → 0) — when the two
+// agree to a relative 1e-9 (the vertex reaches the corner point exactly at the end of the
+// step), the edge with the smaller |ψ_i|, the one the vertex slides along now — and stores it
+// as the contact's `point` (its column of G_n, G_f, ψ_n); edge 1 is G_1, ψ_1. c enters only its
+// own row and its contact's normal row; it carries no force. In the LCP, c follows σ:
+// z = [p_n; p_f; σ; c], the c rows being −(G_1 − G_2)ᵀ W G_c (p_n, p_f columns), 1 on the
+// diagonal, and c_k is added to the friction-cone block of its contact. With
+// StepperOptions::nonconvex_corners = false the
 // narrow phase's corners arrive as two ordinary contacts instead (per-edge constraints).
 //
 // With options.formulation = kFirstOrder the same class steps the first-order model (see
