@@ -330,6 +330,8 @@ LcpProblem StewartTrinkle::BuildLcp(const Scene& model, const Assembly& a, const
       lcp.M(o + k, o + k) = 1.0;
       lcp.M(a.corner_contact[k], o + k) = 1.0;
       lcp.blocks[a.corner_contact[k]].push_back(o + k);
+      // Anitescu–Potra: corner rows stay position-level (header comment).
+      if (velocity_level_) lcp.q[a.corner_contact[k]] += a.psi_n[a.corner_contact[k]] / h;
     }
     lcp.q.segment(o, nk) = -(D.transpose() * *v_star + e);
   }
@@ -556,6 +558,7 @@ StepResiduals StewartTrinkle::Evaluate(const Scene& model, const Params& params,
     r.d_comp_b(row, l.corner() + k) = 1.0;
     r.d_comp_b.block(row, l.v1(), 1, nv) = -D.transpose();
     r.comp_b[c] += cc[k];
+    if (velocity_level_) r.comp_b[c] += a.psi_n[c] / h;  // corners stay position-level
     r.d_comp_b(c, l.corner() + k) = 1.0;
   }
   return r;

@@ -162,6 +162,24 @@ TEST(NonconvexCornerTest, VertexSlidesPastCornerWithoutSnag) {
   }
 }
 
+// Anitescu–Potra (velocity-level p_n rows; the corner's c row keeps its gaps): no snag either.
+TEST(NonconvexCornerTest, AnitescuPotraVertexSlidesPastCornerWithoutSnag) {
+  constexpr double kVelocityTol = 1e-6;  // frictionless: vx is conserved up to round-off
+  Scene scene = LoadExample("concave_trench.yaml");
+  scene.options.formulation = FormulationType::kAnitescuPotra;
+  Simulator sim(scene);
+  const Trajectory tr = sim.Rollout(sim.DefaultParams(), sim.InitialState(), 3000);
+  ASSERT_TRUE(tr.ok) << tr.failure;
+  double worst_vx = 0.0, worst_vy = 0.0;
+  for (const State& x : tr.states) {
+    worst_vx = std::max(worst_vx, std::abs(x.v[0] + 1.0));
+    worst_vy = std::max(worst_vy, std::abs(x.v[1]));
+  }
+  EXPECT_LT(worst_vx, kVelocityTol);
+  EXPECT_LT(worst_vy, kVelocityTol);
+  EXPECT_NEAR(tr.states.back().q[0], 0.0003, 1e-6);
+}
+
 // With friction μ = 0.1 and v0 = −2 m/s the block decelerates at μ g exactly (each step removes
 // μ g h), across both trench corners, and stops at t = 2/(μ g) ≈ 2.04 s after 2.04 m.
 TEST(NonconvexCornerTest, SlidingWithFrictionAcrossCornersDeceleratesAtMuG) {
@@ -231,39 +249,92 @@ bodies:
   EXPECT_GE(tr.steps.back().contacts, 3);  // floor (2 corners), wall
 }
 
+// Each planar kind dropped into the reflex corner of a static L (floor y = 0 for x > −1, wall
+// x = −1), pressed in by tilted gravity, comes to rest flush in the corner: disc (exact
+// distance to each edge), rounded segment (end discs), box (vertex features) and a dynamic L
+// (concave against concave, inertia from its outline).
+TEST(NonconvexCornerTest, EachPlanarKindSettlesInAReflexCorner) {
+  constexpr double kRestTol = 1e-6;  // settled after 1.5 s: round-off and the last bounce
+  struct Case {
+    std::string shape;
+    Vector2d rest;  // body origin at rest
+  };
+  const std::vector<Case> cases = {
+      {"{type: disc, radius: 0.1}", {-0.9, 0.1}},
+      {"{type: segment, half_length: 0.2, radius: 0.05}", {-0.75, 0.05}},
+      {"{type: polygon, vertices: [[-0.2, -0.1], [0.2, -0.1], [0.2, 0.1], [-0.2, 0.1]]}",
+       {-0.8, 0.1}},
+      // The L [0,0.2]x[0,0.1] ∪ [0,0.1]x[0.1,0.3] about its centroid (0.075, 0.125).
+      {"{type: concave_polygon, vertices: [[-0.075, -0.125], [0.125, -0.125], [0.125, -0.025], "
+       "[0.025, -0.025], [0.025, 0.175], [-0.075, 0.175]]}",
+       {-0.925, 0.125}},
+  };
+  for (const Case& c : cases) {
+    const std::string yaml = R"(
+dimension: 2
+gravity: [-3.0, -9.81]
+stepper: {dt: 0.001, envelope: 0.002}
+friction: {default: 0.3}
+bodies:
+  - name: floor_and_wall
+    kind: static
+    shapes:
+      - type: concave_polygon
+        vertices: [[-2, -1], [2, -1], [2, 0], [-1, 0], [-1, 1], [-2, 1]]
+  - name: body
+    mass: 1.0
+    pose: {position: [)" + std::to_string(c.rest.x() + 0.001) +
+                             ", " + std::to_string(c.rest.y() + 0.001) + R"(]}
+    shapes: [)" + c.shape + "]\n";
+    Simulator sim(ParseScene(yaml, "settle.yaml"));
+    const Trajectory tr = sim.Rollout(sim.DefaultParams(), sim.InitialState(), 1500);
+    ASSERT_TRUE(tr.ok) << c.shape << ": " << tr.failure;
+    const State& end = tr.states.back();
+    EXPECT_NEAR(end.q[0], c.rest.x(), kRestTol) << c.shape;
+    EXPECT_NEAR(end.q[1], c.rest.y(), kRestTol) << c.shape;
+    EXPECT_LT(end.v.cwiseAbs().maxCoeff(), kRestTol) << c.shape;
+    EXPECT_GT(MinGap(sim, end), -kRestTol) << c.shape;
+  }
+}
+
 // The residual face: corner unknowns c at the end of z; a simulated step satisfies it.
 TEST(NonconvexCornerTest, TrajectorySatisfiesStepEquationsWithCornerRows) {
   constexpr double kResidualTol = 1e-8;  // Lemke solution, residual scaled by 1/h
-  Simulator sim(LoadExample("concave_trench.yaml"));
-  const Params p = sim.DefaultParams();
-  const Trajectory tr = sim.Rollout(p, sim.InitialState(), 2100);
-  ASSERT_TRUE(tr.ok) << tr.failure;
-  int steps_with_corners = 0;
-  for (std::size_t k = 900; k + 1 < tr.states.size(); k += 50) {
-    const State& x0 = tr.states[k];
-    const State& x1 = tr.states[k + 1];
-    Workspace ws;
-    const Scene& model = sim.Resolve(p, &ws);
-    const StepLayout l = sim.formulation().Layout(model, x0);
-    VectorXd z = VectorXd::Zero(l.size());
-    z.segment(l.q1(), l.nq) = x1.q;
-    z.segment(l.v1(), l.nv) = x1.v;
-    const int ncomp = l.nc + l.nc * l.nd + l.nc;
-    ASSERT_EQ(x1.warm_start.size(), ncomp + l.nk);
-    z.segment(l.pn(), ncomp) = x1.warm_start.head(ncomp);
-    z.segment(l.corner(), l.nk) = x1.warm_start.tail(l.nk);
-    const StepResiduals r = sim.formulation().Evaluate(model, p, x0, StepInput{}, z);
-    EXPECT_LT(r.Violation(), kResidualTol) << "step " << k;
-    ASSERT_EQ(r.comp_a.size(), ncomp + l.nk);
-    steps_with_corners += l.nk > 0 ? 1 : 0;
-    // Jacobian columns of c: identity in comp_a, and in comp_b one 1 on its own row and one on
-    // its contact's normal row.
-    for (int k2 = 0; k2 < l.nk; ++k2) {
-      EXPECT_EQ(r.d_comp_a(ncomp + k2, l.corner() + k2), 1.0);
-      EXPECT_EQ(r.d_comp_b.col(l.corner() + k2).sum(), 2.0);
+  for (const FormulationType f :
+       {FormulationType::kStewartTrinkle, FormulationType::kAnitescuPotra}) {
+    Scene scene = LoadExample("concave_trench.yaml");
+    scene.options.formulation = f;
+    Simulator sim(scene);
+    const Params p = sim.DefaultParams();
+    const Trajectory tr = sim.Rollout(p, sim.InitialState(), 2100);
+    ASSERT_TRUE(tr.ok) << tr.failure;
+    int steps_with_corners = 0;
+    for (std::size_t k = 900; k + 1 < tr.states.size(); k += 50) {
+      const State& x0 = tr.states[k];
+      const State& x1 = tr.states[k + 1];
+      Workspace ws;
+      const Scene& model = sim.Resolve(p, &ws);
+      const StepLayout l = sim.formulation().Layout(model, x0);
+      VectorXd z = VectorXd::Zero(l.size());
+      z.segment(l.q1(), l.nq) = x1.q;
+      z.segment(l.v1(), l.nv) = x1.v;
+      const int ncomp = l.nc + l.nc * l.nd + l.nc;
+      ASSERT_EQ(x1.warm_start.size(), ncomp + l.nk);
+      z.segment(l.pn(), ncomp) = x1.warm_start.head(ncomp);
+      z.segment(l.corner(), l.nk) = x1.warm_start.tail(l.nk);
+      const StepResiduals r = sim.formulation().Evaluate(model, p, x0, StepInput{}, z);
+      EXPECT_LT(r.Violation(), kResidualTol) << sim.formulation().name() << " step " << k;
+      ASSERT_EQ(r.comp_a.size(), ncomp + l.nk);
+      steps_with_corners += l.nk > 0 ? 1 : 0;
+      // Jacobian columns of c: identity in comp_a, and in comp_b one 1 on its own row and one on
+      // its contact's normal row.
+      for (int k2 = 0; k2 < l.nk; ++k2) {
+        EXPECT_EQ(r.d_comp_a(ncomp + k2, l.corner() + k2), 1.0);
+        EXPECT_EQ(r.d_comp_b.col(l.corner() + k2).sum(), 2.0);
+      }
     }
+    EXPECT_GT(steps_with_corners, 0);
   }
-  EXPECT_GT(steps_with_corners, 0);
 }
 
 }  // namespace

@@ -26,8 +26,9 @@
 // over h, each corner k adds one unknown c_k (m/s) and the rows
 //   0 ≤ c_k ⊥ c_k − (ψ_1⁺ − ψ_2⁺)/h ≥ 0          so c_k = max(ψ_1⁺ − ψ_2⁺, 0)/h,
 //   0 ≤ p_n ⊥ ψ_2⁺/h + c_k ≥ 0                    (= max(ψ_1⁺, ψ_2⁺)/h)
-// (Anitescu–Potra: the p_n row without ψ_2/h, i.e. max(ψ_1⁺, ψ_2⁺) ≥ ψ_2; the c row keeps its
-// gaps). The impulse p_n and the friction impulses act along edge 2's normal and tangent, so
+// (Anitescu–Potra too: a velocity-level corner row, max(ψ_1⁺, ψ_2⁺) ≥ ψ_2, would stop a vertex
+// whose larger gap shrinks to the smaller one's as it passes the corner — the snag again). The
+// impulse p_n and the friction impulses act along edge 2's normal and tangent, so
 // edge 2 must be the edge the vertex will be against: Assemble() takes as edge 2 the edge with
 // the larger predicted gap ψ_i + h (G_iᵀ ν_ℓ + ∂ψ_i/∂t) (first order: ν_ℓ → 0) — when the two
 // agree to a relative 1e-9 (the vertex reaches the corner point exactly at the end of the
