@@ -60,6 +60,35 @@ TEST(FirstOrderTest, FreeBodyMovesAtCInverseF) {
   EXPECT_LT((tr.states.back().q - x0.q - 0.5 * expected).cwiseAbs().maxCoeff(), 1e-12);
 }
 
+// Spatial: a box on a half-space with weight, pushed sideways beyond friction, C 6x6 diagonal.
+// Slides at (F_t − μ m g)/C_x with no vertical motion; ν = C⁻¹F while in the air first.
+TEST(FirstOrderTest, SpatialBoxFallsThenSlidesAtClosedFormSpeed) {
+  const std::string yaml = R"(
+dimension: 3
+gravity: [0, 0, -9.81]
+stepper: {formulation: first-order, dt: 0.01, envelope: 0.005}
+friction: {default: 0.2}
+bodies:
+  - {name: table, kind: static, shapes: [{type: halfspace}]}
+  - name: box
+    mass: 1.0
+    damping: [4.0, 4.0, 9.81, 1.0, 1.0, 1.0]
+    force: [3.0, 0.0, 0.0]
+    pose: {position: [0, 0, 0.15]}
+    shapes: [{type: box, half_extents: [0.2, 0.2, 0.1]}]
+)";
+  Simulator sim(ParseScene(yaml, "box.yaml"));
+  const Trajectory tr = sim.Rollout(sim.DefaultParams(), sim.InitialState(), 60);
+  ASSERT_TRUE(tr.ok) << tr.failure;
+  // In the air: ν = C⁻¹(3, 0, −9.81) = (0.75, 0, −1) m/s: falls 0.05 m in 5 steps.
+  EXPECT_NEAR(tr.states[1].v[0], 0.75, kExactTol);
+  EXPECT_NEAR(tr.states[1].v[2], -1.0, kExactTol);
+  const State& end = tr.states.back();
+  EXPECT_NEAR(end.v[0], (3.0 - 0.2 * 9.81) / 4.0, kLcpTol);  // sliding on the table
+  EXPECT_NEAR(end.v[2], 0.0, kLcpTol);
+  EXPECT_NEAR(end.q[2], 0.1, kLcpTol);
+}
+
 TEST(FirstOrderTest, PushedIntoWallStopsWithoutPenetration) {
   // Force −1 N along x toward the wall at x = 0; block face starts 0.3 m away: free speed
   // 1/C_x = 0.5 m/s, arrival after 0.6 s, then at rest against the wall.
