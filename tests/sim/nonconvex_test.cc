@@ -162,6 +162,24 @@ TEST(NonconvexCornerTest, VertexSlidesPastCornerWithoutSnag) {
   }
 }
 
+// The iterative solvers (PGS with c in the contact's block, Fischer–Burmeister Newton) solve
+// the corner LCP too: no snag.
+TEST(NonconvexCornerTest, IterativeSolversAlsoSlidePastCorner) {
+  constexpr double kVelocityTol = 1e-6;  // iterative solvers' tolerance, accumulated
+  for (const char* solver : {"pgs", "fb-newton"}) {
+    Scene scene = LoadExample("concave_trench.yaml");
+    scene.options.solver = solver;
+    Simulator sim(scene);
+    const Trajectory tr = sim.Rollout(sim.DefaultParams(), sim.InitialState(), 3000);
+    ASSERT_TRUE(tr.ok) << solver << ": " << tr.failure;
+    double worst = 0.0;
+    for (const State& x : tr.states)
+      worst = std::max({worst, std::abs(x.v[0] + 1.0), std::abs(x.v[1]), std::abs(x.v[2])});
+    EXPECT_LT(worst, kVelocityTol) << solver;
+    EXPECT_NEAR(tr.states.back().q[0], 0.0003, 1e-6) << solver;
+  }
+}
+
 // Anitescu–Potra (velocity-level p_n rows; the corner's c row keeps its gaps): no snag either.
 TEST(NonconvexCornerTest, AnitescuPotraVertexSlidesPastCornerWithoutSnag) {
   constexpr double kVelocityTol = 1e-6;  // frictionless: vx is conserved up to round-off
