@@ -309,11 +309,11 @@ LcpProblem StewartTrinkle::BuildLcp(const Scene& model, const Assembly& a, const
   if (!velocity_level_) lcp.q.head(nc) += a.psi_n / h;
   lcp.q.segment(nc, nf) = a.G_f.transpose() * *v_star + a.dpsi_f;
 
-  // Corner contacts (header comment): c_k after σ. With D = G_1 − G_2 and
+  // Corner contacts (header comment): c_k are the last unknowns. With D = G_1 − G_2 and
   // e = (ψ_1 − ψ_2)/h + ∂ψ_1/∂t − ∂ψ_2/∂t, row k is c_k − Dᵀ(ν* + W G_c p_c) − e, and c_k adds to
   // its contact's normal row.
   if (nk > 0) {
-    const int o = nc + nf + nc;
+    const int o = m - nk;  // the corner unknowns are the last nk
     MatrixXd D(a.G_1.rows(), nk);
     VectorXd e(nk);
     for (int k = 0; k < nk; ++k) {
@@ -529,7 +529,7 @@ StepResiduals StewartTrinkle::Evaluate(const Scene& model, const Params& params,
   r.d_comp_b = MatrixXd::Zero(ncomp, ncol);
   r.comp_a << pn, pf, sigma, cc;
   r.d_comp_a.block(0, l.pn(), nc + nf + nc, nc + nf + nc).setIdentity();  // contiguous
-  r.d_comp_a.block(nc + nf + nc, l.corner(), nk, nk).setIdentity();
+  r.d_comp_a.block(ncomp - nk, l.corner(), nk, nk).setIdentity();
 
   r.comp_b.head(nc) = a.G_n.transpose() * v1 + a.dpsi_n;
   if (!velocity_level_) r.comp_b.head(nc) += a.psi_n / h;
@@ -552,7 +552,7 @@ StepResiduals StewartTrinkle::Evaluate(const Scene& model, const Params& params,
   // Corner rows: c_k − ((ψ_1 − ψ_2)/h + (G_1 − G_2)ᵀ ν + ∂ψ_1/∂t − ∂ψ_2/∂t), and + c_k in the
   // normal row of its contact.
   for (int k = 0; k < nk; ++k) {
-    const int c = a.corner_contact[k], row = nc + nf + nc + k;
+    const int c = a.corner_contact[k], row = ncomp - nk + k;  // corner pairs last
     const VectorXd D = a.G_1.col(k) - a.G_n.col(c);
     r.comp_b[row] = cc[k] - ((a.psi_1[k] - a.psi_n[c]) / h + D.dot(v1) + a.dpsi_1[k] - a.dpsi_n[c]);
     r.d_comp_b(row, l.corner() + k) = 1.0;

@@ -34,11 +34,11 @@
 // agree to a relative 1e-9 (the vertex reaches the corner point exactly at the end of the
 // step), the edge with the smaller |ψ_i|, the one the vertex slides along now — and stores it
 // as the contact's `point` (its column of G_n, G_f, ψ_n); edge 1 is G_1, ψ_1. c enters only its
-// own row and its contact's normal row; it carries no force. In the LCP, c follows σ:
-// z = [p_n; p_f; σ; c], the c rows being −(G_1 − G_2)ᵀ W G_c (p_n, p_f columns), 1 on the
-// diagonal, and c_k is added to the friction-cone block of its contact. With
-// StepperOptions::nonconvex_corners = false the
-// narrow phase's corners arrive as two ordinary contacts instead (per-edge constraints).
+// own row and its contact's normal row; it carries no force. In the LCP the c_k are the last
+// unknowns, z = [p_n; p_f; σ; c]; the c rows are −(G_1 − G_2)ᵀ W G_c in the (p_n, p_f)
+// columns and 1 on the diagonal, and c_k joins the friction-cone block of its contact. With
+// StepperOptions::nonconvex_corners = false the narrow phase's corners arrive as two ordinary
+// contacts instead (per-edge constraints).
 //
 // With options.formulation = kFirstOrder the same class steps the first-order model (see
 // first_order.h): M is replaced by h C (C the bodies' damping matrices), ν_ℓ by 0 and p_vp by 0;
