@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
+#include <iterator>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -218,8 +220,14 @@ TEST(NonconvexCornerTest, SlidingWithFrictionAcrossCornersDeceleratesAtMuG) {
 }
 
 TEST(NonconvexCornerTest, PerEdgeConstraintsSnag) {
-  Scene scene = LoadExample("concave_trench.yaml");
-  scene.options.nonconvex_corners = false;
+  // The scene file's switch: stepper.nonconvex_corners: false.
+  std::ifstream in(std::string(VINCI_SOURCE_DIR) + "/examples/scenes/concave_trench.yaml");
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string on = "nonconvex_corners: true";
+  ASSERT_NE(text.find(on), std::string::npos);
+  text.replace(text.rfind(on), on.size(), "nonconvex_corners: false");  // the stepper line
+  const Scene scene = ParseScene(text, "per_edge.yaml");
+  ASSERT_FALSE(scene.options.nonconvex_corners);
   Simulator sim(scene);
   const Trajectory tr = sim.Rollout(sim.DefaultParams(), sim.InitialState(), 3000);
   // At the first trench corner (t ≈ 1 s) the per-edge row of the block's left side against
