@@ -33,6 +33,8 @@ const char* ShapeTypeName(ShapeType t) {
       return "kPolygon";
     case ShapeType::kSegment:
       return "kSegment";
+    case ShapeType::kConcavePolygon:
+      return "kConcavePolygon";
   }
   return "unknown ShapeType";
 }
@@ -50,6 +52,10 @@ void FlipContacts(std::vector<ContactPoint>* out, std::size_t begin) {
     ContactPoint& c = (*out)[i];
     std::swap(c.p_A_W, c.p_B_W);
     c.n_W = -c.n_W;
+    if (c.corner) {
+      std::swap(c.p2_A_W, c.p2_B_W);
+      c.n2_W = -c.n2_W;
+    }
   }
 }
 

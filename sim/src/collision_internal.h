@@ -164,6 +164,15 @@ void FlipContacts(std::vector<ContactPoint>* out, std::size_t begin);
 /// with those of an earlier contact of that range. Keeps the order of the others.
 void RemoveDuplicateContacts(std::vector<ContactPoint>* out, std::size_t begin, double tol);
 
+/// Throws std::invalid_argument unless the shape's vertices form a simple polygon,
+/// counter-clockwise, with at least 3 distinct vertices (collision_concave.cc).
+void CheckSimplePolygon(const Shape& s);
+
+/// Narrow phase for a pair with at least one kConcavePolygon (collision_concave.cc), either
+/// order; a vertex near a convex corner of a polygon gives a corner contact.
+void CollideConcave(const Shape& a, const Isometry3d& X_WA, const Shape& b, const Isometry3d& X_WB,
+                    double envelope, std::vector<ContactPoint>* out);
+
 /// Narrow phase for two planar shapes (collision_planar.cc).
 void CollidePlanar(const Shape& a, const Isometry3d& X_WA, const Shape& b, const Isometry3d& X_WB,
                    double envelope, std::vector<ContactPoint>* out);

@@ -473,6 +473,11 @@ void CollidePlanarOrdered(const Shape& a, const Frame2& X_WA, const Shape& b, co
 
 void CollidePlanar(const Shape& a, const Isometry3d& X_WA, const Shape& b, const Isometry3d& X_WB,
                    double envelope, std::vector<ContactPoint>* out) {
+  if (a.type == ShapeType::kConcavePolygon || b.type == ShapeType::kConcavePolygon) {
+    if (a.type == ShapeType::kHalfPlane && b.type == ShapeType::kHalfPlane) ThrowPair(a, b, "");
+    CollideConcave(a, X_WA, b, X_WB, envelope, out);
+    return;
+  }
   if (PlanarRank(a.type) <= PlanarRank(b.type)) {
     CollidePlanarOrdered(a, ToFrame2(X_WA), b, ToFrame2(X_WB), envelope, out);
     return;

@@ -73,6 +73,19 @@ void FindContacts(const Scene& scene, const std::vector<BodyKinematics>& bodies,
           CollideShapes(BA.shapes[sa], poses[a][sa], BB.shapes[sb], poses[b][sb], envelope,
                         &points);
           const int ma = BA.shapes[sa].material, mb = BB.shapes[sb].material;
+          if (!scene.options.nonconvex_corners) {  // per-edge constraints: split every corner
+            const std::size_t n_points = points.size();
+            for (std::size_t k = 0; k < n_points; ++k) {
+              if (!points[k].corner) continue;
+              points[k].corner = false;
+              ContactPoint second;
+              second.p_A_W = points[k].p2_A_W;
+              second.p_B_W = points[k].p2_B_W;
+              second.n_W = points[k].n2_W;
+              second.gap = points[k].gap2;
+              points.push_back(second);
+            }
+          }
           for (const ContactPoint& p : points) {
             Contact c;
             c.body_a = a;

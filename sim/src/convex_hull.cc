@@ -184,6 +184,10 @@ Polytope MakePolytope(const Shape& shape, HullScratch* scratch) {
 }  // namespace collision_internal
 
 void PrepareShape(Shape* shape) {
+  if (shape->type == ShapeType::kConcavePolygon) {
+    collision_internal::CheckSimplePolygon(*shape);
+    return;
+  }
   if (shape->type != ShapeType::kPolyhedron) return;
   try {
     collision_internal::ComputeConvexHull(shape->vertices, &shape->faces, &shape->hull_vertices);

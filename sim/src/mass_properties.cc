@@ -170,6 +170,9 @@ UnitMassProperties ComputeUnitMassProperties(const Shape& s) {
     }
     case ShapeType::kPolygon:
       return Polygon(s);
+    case ShapeType::kConcavePolygon:  // the shoelace sums are exact for any simple polygon
+      collision_internal::CheckSimplePolygon(s);
+      return Polygon(s);
     case ShapeType::kSegment: {
       RequireNonNegative(s, "radius", s.radius);
       RequireNonNegative(s, "half_length", s.half_length);
@@ -245,7 +248,8 @@ Aabb ComputeAabb(const Shape& s, const Isometry3d& X_WS) {
       break;
     }
     case ShapeType::kPolyhedron:
-    case ShapeType::kPolygon: {
+    case ShapeType::kPolygon:
+    case ShapeType::kConcavePolygon: {
       box.lo = Vector3d::Constant(kInf);
       box.hi = Vector3d::Constant(-kInf);
       for (Vector3d v : s.vertices) {

@@ -1,5 +1,6 @@
 #include "vinci/sim/scene.h"
 
+#include <Eigen/Cholesky>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -104,6 +105,7 @@ void Scene::Finalize() {
       Shape& sh = b.shapes[s];
       if (sh.name.empty()) sh.name = "s" + std::to_string(s);
       if (sh.type == ShapeType::kPolyhedron && sh.faces.empty()) PrepareShape(&sh);
+      if (sh.type == ShapeType::kConcavePolygon) PrepareShape(&sh);  // validates
       if (IsPlanar(sh.type) != planar)
         throw std::invalid_argument(BodyContext(b) + ": shape '" + sh.name + "' is " +
                                     (planar ? "spatial" : "planar") + " in a " +
@@ -123,6 +125,17 @@ void Scene::Finalize() {
       if (!b.inertia.allFinite() ||
           (planar ? b.inertia(2, 2) <= 0.0 : b.inertia.determinant() <= 0.0))
         throw std::invalid_argument(BodyContext(b) + ": inertia must be positive definite");
+      if (options.formulation == FormulationType::kFirstOrder) {
+        const int n = VelocitySize(dim);
+        if (b.damping.rows() != n || b.damping.cols() != n || !b.damping.allFinite() ||
+            Eigen::LLT<MatrixXd>(b.damping).info() != Eigen::Success) {
+          throw std::invalid_argument(
+              BodyContext(b) +
+              ": the first-order formulation needs a symmetric positive definite " +
+              std::to_string(n) + "x" + std::to_string(n) + " damping matrix, got " +
+              std::to_string(b.damping.rows()) + "x" + std::to_string(b.damping.cols()));
+        }
+      }
       index_[i] = {nq_, nv_};
       nq_ += PositionSize(dim);
       nv_ += VelocitySize(dim);
@@ -182,6 +195,7 @@ void Scene::Finalize() {
                          sh.half_extents[c], 1e-12, kInf});
           break;
         case ShapeType::kPolygon:
+        case ShapeType::kConcavePolygon:
         case ShapeType::kPolyhedron:
           params_.Add({pre + "scale", ParamKind::kShapeScale, bi, si, -1, 1.0, 1e-12, kInf});
           break;

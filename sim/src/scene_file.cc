@@ -43,11 +43,12 @@ const std::vector<std::string> kStepperKeys = {"formulation",
                                                "solver",
                                                "joint_stabilization",
                                                "max_penetration",
-                                               "prescribed_velocity"};
+                                               "prescribed_velocity",
+                                               "nonconvex_corners"};
 const std::vector<std::string> kFrictionKeys = {"default", "pairs"};
-const std::vector<std::string> kBodyKeys = {"name",   "kind",    "pose",    "velocity",
-                                            "mass",   "inertia", "gravity", "force",
-                                            "torque", "shapes",  "motion",  "compliance"};
+const std::vector<std::string> kBodyKeys = {"name",    "kind",       "pose",   "velocity", "mass",
+                                            "inertia", "gravity",    "force",  "torque",   "shapes",
+                                            "motion",  "compliance", "damping"};
 const std::vector<std::string> kComplianceKeys = {"law", "stiffness", "damping", "alpha",
                                                   "min_overlap"};
 const std::vector<std::string> kPlanarPoseKeys = {"position", "angle"};
@@ -64,8 +65,8 @@ const std::vector<std::string> kJointKeys = {"name",   "type",    "body_a",
 const std::vector<std::string> kPlanarDofs = {"x", "y", "theta"};
 const std::vector<std::string> kSpatialDofs = {"x", "y", "z", "roll", "pitch", "yaw"};
 // Keys that only make sense on a dynamic body.
-const std::vector<std::string> kDynamicOnlyKeys = {"mass",    "inertia", "velocity",
-                                                   "gravity", "force",   "torque"};
+const std::vector<std::string> kDynamicOnlyKeys = {"mass",  "inertia", "velocity", "gravity",
+                                                   "force", "torque",  "damping"};
 
 std::string Join(const std::vector<std::string>& items) {
   std::string s;
@@ -133,6 +134,7 @@ const std::vector<ShapeSpec>& ShapeSpecs() {
       {"disc", ShapeType::kDisc, Dim::kPlanar, {"radius"}},
       {"polygon", ShapeType::kPolygon, Dim::kPlanar, {"vertices"}},
       {"segment", ShapeType::kSegment, Dim::kPlanar, {"radius", "half_length"}},
+      {"concave_polygon", ShapeType::kConcavePolygon, Dim::kPlanar, {"vertices"}},
   };
   return specs;
 }
@@ -312,6 +314,7 @@ class Parser {
   // ----- composite values ---------------------------------------------------------------------
   Isometry3d Pose(const Field& f) const;
   Matrix3d Inertia(const Field& f) const;
+  MatrixXd Damping(const Field& f) const;
   Shape ParseShape(const Field& f, BodyKind kind) const;
   void CheckPolygon(const Field& vertices_field, const std::vector<Field>& items,
                     const std::vector<Vector3d>& v) const;
@@ -510,6 +513,22 @@ Shape Parser::ParseShape(const Field& f, BodyKind kind) const {
       s.half_extents =
           Numbers(Require(f, "half_extents", "a list of 3 numbers"), 3, Bound::kPositive);
       break;
+    case ShapeType::kConcavePolygon: {
+      const std::string what = "a list of at least 3 points of 2 numbers";
+      const Field vf = Require(f, "vertices", what);
+      const std::vector<Field> items = Items(vf, what);
+      if (items.size() < 3) Fail(vf, what);
+      for (const Field& item : items) {
+        const VectorXd p = Numbers(item, 2);
+        s.vertices.push_back(Vector3d(p[0], p[1], 0.0));
+      }
+      try {
+        PrepareShape(&s);  // checks: simple, counter-clockwise
+      } catch (const std::invalid_argument& e) {
+        Fail(vf, "a simple polygon with counter-clockwise vertices", e.what());
+      }
+      break;
+    }
     case ShapeType::kPolyhedron:
     case ShapeType::kPolygon: {
       const int n_coords = planar() ? 2 : 3;
@@ -678,6 +697,7 @@ Body Parser::ParseBody(const Field& f) const {
   }
   if (auto m = Get(f, "motion")) b.motion = Motion(*m);
   if (auto c = Get(f, "compliance")) b.compliance = ParseCompliance(*c);
+  if (auto d = Get(f, "damping")) b.damping = Damping(*d);
   return b;
 }
 
@@ -711,6 +731,24 @@ ContactCompliance Parser::ParseCompliance(const Field& f) const {
   if (auto v = only("min_overlap", !rigid, "for a rigid law"))
     c.min_overlap = Number(*v, Bound::kPositive);
   return c;
+}
+
+// First-order damping matrix C: a list of n positive numbers (diagonal) or n lists of n numbers
+// (symmetric positive definite), n = 3 planar (vx, vy, ω), 6 spatial (v, ω).
+MatrixXd Parser::Damping(const Field& f) const {
+  const int n = planar() ? 3 : 6;
+  const std::string what = "a list of " + std::to_string(n) + " numbers > 0 (diagonal) or " +
+                           std::to_string(n) + " lists of " + std::to_string(n) + " numbers";
+  const std::vector<Field> rows = Items(f, what);
+  if (static_cast<int>(rows.size()) != n) Fail(f, what);
+  if (!rows[0].node.IsSequence()) return Numbers(f, n, Bound::kPositive).asDiagonal();
+  MatrixXd C(n, n);
+  for (int r = 0; r < n; ++r) C.row(r) = Numbers(rows[r], n).transpose();
+  if (!((C - C.transpose()).cwiseAbs().maxCoeff() <= kInertiaSymmetryTol * C.cwiseAbs().maxCoeff()))
+    Fail(f, "a symmetric damping matrix", "an asymmetric matrix");
+  if (Eigen::LLT<MatrixXd>(C).info() != Eigen::Success)
+    Fail(f, "a positive definite damping matrix", "a matrix that is not positive definite");
+  return C;
 }
 
 Joint Parser::ParseJoint(const Field& f, const Scene& scene) const {
@@ -765,7 +803,8 @@ void Parser::ParseStepper(const Field& f, StepperOptions* o) const {
     o->formulation = Choice<FormulationType>(*v,
                                              {{"stewart-trinkle", FormulationType::kStewartTrinkle},
                                               {"anitescu-potra", FormulationType::kAnitescuPotra},
-                                              {"ncp", FormulationType::kNcp}},
+                                              {"ncp", FormulationType::kNcp},
+                                              {"first-order", FormulationType::kFirstOrder}},
                                              "a formulation");
   if (auto v = Get(f, "dt")) o->dt = Number(*v, Bound::kPositive);
   if (auto v = Get(f, "duration")) o->duration = Number(*v, Bound::kPositive);
@@ -791,6 +830,7 @@ void Parser::ParseStepper(const Field& f, StepperOptions* o) const {
     o->prescribed_velocity = Choice<PrescribedVelocity>(
         *v, {{"secant", PrescribedVelocity::kSecant}, {"exact", PrescribedVelocity::kExact}},
         "a prescribed-velocity rule");
+  if (auto v = Get(f, "nonconvex_corners")) o->nonconvex_corners = Bool(*v);
 }
 
 void Parser::ParseFriction(const Field& f, Scene* scene) const {

@@ -2,6 +2,7 @@
 
 #include <stdexcept>
 
+#include "vinci/sim/first_order.h"
 #include "vinci/sim/kinematics.h"
 #include "vinci/sim/lemke.h"
 #include "vinci/sim/ncp.h"
@@ -11,6 +12,7 @@ namespace vinci::sim {
 
 std::unique_ptr<Formulation> MakeFormulation(const StepperOptions& options) {
   if (options.formulation == FormulationType::kNcp) return std::make_unique<NcpStepper>(options);
+  if (options.formulation == FormulationType::kFirstOrder) return MakeFirstOrder(options);
   return std::make_unique<StewartTrinkle>(options, MakeLcpSolver(options.solver));
 }
 

@@ -10,6 +10,8 @@ namespace vinci::sim {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
+// Relative tolerance under which the two predicted gaps of a corner contact tie.
+constexpr double kCornerTieTol = 1e-9;
 
 // Tangent directions d_j, j = 0..nd−1, equally spaced in the plane ⟂ n (planar: ±t).
 void FrictionDirections(Dim dim, const Vector3d& n, int nd, std::vector<Vector3d>* d) {
@@ -78,11 +80,13 @@ BodyKinematics StepKinematics(const Scene& model, int body, const BodyKinematics
 StewartTrinkle::StewartTrinkle(StepperOptions options, std::shared_ptr<const LcpSolver> solver)
     : options_(std::move(options)),
       solver_(std::move(solver)),
-      velocity_level_(options_.formulation == FormulationType::kAnitescuPotra) {
+      velocity_level_(options_.formulation == FormulationType::kAnitescuPotra),
+      first_order_(options_.formulation == FormulationType::kFirstOrder) {
   if (!solver_) throw std::invalid_argument("StewartTrinkle: null solver");
 }
 
 std::string_view StewartTrinkle::name() const {
+  if (first_order_) return "first-order";
   return velocity_level_ ? "anitescu-potra" : "stewart-trinkle";
 }
 
@@ -135,6 +139,63 @@ StewartTrinkle::Assembly StewartTrinkle::Assemble(const Scene& model, const Stat
     }
   }
   if (u.generalized_force.size() == nv) a.p_ext += h * u.generalized_force;
+  if (first_order_) {
+    // First-order model (first_order.h): h C ν_ℓ+1 = G_n p_n + G_f p_f + G_b p_b + h F_ext, i.e.
+    // M → h C, no ν_ℓ term (Step and Evaluate pass ν_ℓ = 0) and no gyroscopic impulse.
+    for (int bi : model.dynamic_bodies()) {
+      const Body& b = model.bodies[bi];
+      const int o = model.index(bi).v;
+      a.M.block(o, o, nvb, nvb) = h * b.damping;
+      a.M_inv.block(o, o, nvb, nvb) = (h * b.damping).inverse();
+      if (dim == Dim::kSpatial) {
+        const Vector3d w_B = x.v.segment<3>(o + 3);
+        a.p_ext.segment<3>(o + 3) += h * w_B.cross(b.inertia * w_B);
+      }
+    }
+  }
+
+  // Corner contacts: edge 2 (the contact's `point`) is the edge with the larger predicted gap
+  // ψ_i + h (G_iᵀ ν_ℓ + ∂ψ_i/∂t) (first order: ψ_i + h ∂ψ_i/∂t); near-ties (a vertex arriving
+  // exactly at the corner) go to the edge with the smaller |ψ_i|, the edge it slides along.
+  {
+    const VectorXd v_pred = first_order_ ? VectorXd::Zero(nv) : x.v;
+    MatrixXd g = MatrixXd::Zero(nv, 2);
+    for (int c = 0; c < nc; ++c) {
+      ContactPoint& p = a.contacts[c].point;
+      if (!p.corner) continue;
+      const Contact& ct = a.contacts[c];
+      g.setZero();
+      double dpsi[2] = {0.0, 0.0};
+      Scatter(model, ct.body_a, kin[ct.body_a], p.p_A_W, p.n_W, 1.0, &g, 0, &dpsi[0]);
+      Scatter(model, ct.body_b, kin[ct.body_b], p.p_B_W, p.n_W, -1.0, &g, 0, &dpsi[0]);
+      Scatter(model, ct.body_a, kin[ct.body_a], p.p2_A_W, p.n2_W, 1.0, &g, 1, &dpsi[1]);
+      Scatter(model, ct.body_b, kin[ct.body_b], p.p2_B_W, p.n2_W, -1.0, &g, 1, &dpsi[1]);
+      const double pred1 = p.gap + h * (g.col(0).dot(v_pred) + dpsi[0]);
+      const double pred2 = p.gap2 + h * (g.col(1).dot(v_pred) + dpsi[1]);
+      const double tie = kCornerTieTol * (std::abs(p.gap) + std::abs(p.gap2) +
+                                          h * (std::abs(pred1 - p.gap) + std::abs(pred2 - p.gap2)));
+      const bool second =
+          std::abs(pred2 - pred1) <= tie ? std::abs(p.gap2) < std::abs(p.gap) : pred2 > pred1;
+      if (second) {
+        std::swap(p.p_A_W, p.p2_A_W);
+        std::swap(p.p_B_W, p.p2_B_W);
+        std::swap(p.n_W, p.n2_W);
+        std::swap(p.gap, p.gap2);
+      }
+      a.corner_contact.push_back(c);
+    }
+    const int nk = static_cast<int>(a.corner_contact.size());
+    a.G_1 = MatrixXd::Zero(nv, nk);
+    a.psi_1.resize(nk);
+    a.dpsi_1 = VectorXd::Zero(nk);
+    for (int k = 0; k < nk; ++k) {
+      const Contact& ct = a.contacts[a.corner_contact[k]];
+      const ContactPoint& p = ct.point;
+      a.psi_1[k] = p.gap2;
+      Scatter(model, ct.body_a, kin[ct.body_a], p.p2_A_W, p.n2_W, 1.0, &a.G_1, k, &a.dpsi_1[k]);
+      Scatter(model, ct.body_b, kin[ct.body_b], p.p2_B_W, p.n2_W, -1.0, &a.G_1, k, &a.dpsi_1[k]);
+    }
+  }
 
   // Contacts.
   a.G_n = MatrixXd::Zero(nv, nc);
@@ -200,7 +261,8 @@ LcpProblem StewartTrinkle::BuildLcp(const Scene& model, const Assembly& a, const
   const int nd = a.nd;
   const int nf = nc * nd;
   const int nb = static_cast<int>(a.psi_b.size());
-  const int m = nc + nf + nc;
+  const int nk = static_cast<int>(a.corner_contact.size());
+  const int m = nc + nf + nc + nk;
   const int nvb = VelocitySize(model.dim);
 
   *v_star = v + a.M_inv * a.p_ext;
@@ -276,6 +338,33 @@ LcpProblem StewartTrinkle::BuildLcp(const Scene& model, const Assembly& a, const
     lcp.M(c, c) += law.vel_diagonal;
   }
   lcp.q.segment(nc, nf) = a.G_f.transpose() * *v_star + a.dpsi_f;
+
+  // Corner contacts (header comment): c_k are the last unknowns. With D = G_1 − G_2 and
+  // e = (ψ_1 − ψ_2)/h + ∂ψ_1/∂t − ∂ψ_2/∂t, row k is c_k − Dᵀ(ν* + W G_c p_c) − e, and c_k adds to
+  // its contact's normal row.
+  if (nk > 0) {
+    const int o = m - nk;  // the corner unknowns are the last nk
+    MatrixXd D(a.G_1.rows(), nk);
+    VectorXd e(nk);
+    for (int k = 0; k < nk; ++k) {
+      const int c = a.corner_contact[k];
+      D.col(k) = a.G_1.col(k) - a.G_n.col(c);
+      e[k] = (a.psi_1[k] - a.psi_n[c]) / h + a.dpsi_1[k] - a.dpsi_n[c];
+    }
+    MatrixXd Gc(a.G_n.rows(), nc + nf);
+    Gc << a.G_n, a.G_f;
+    MatrixXd WGc = a.M_inv * Gc;
+    if (nb > 0) WGc -= joints->MinvGb * joints->S.solve(joints->MinvGb.transpose() * Gc);
+    lcp.M.block(o, 0, nk, nc + nf) = -D.transpose() * WGc;
+    for (int k = 0; k < nk; ++k) {
+      lcp.M(o + k, o + k) = 1.0;
+      lcp.M(a.corner_contact[k], o + k) = 1.0;
+      lcp.blocks[a.corner_contact[k]].push_back(o + k);
+      // Anitescu–Potra: corner rows stay position-level (header comment).
+      if (velocity_level_) lcp.q[a.corner_contact[k]] += a.psi_n[a.corner_contact[k]] / h;
+    }
+    lcp.q.segment(o, nk) = -(D.transpose() * *v_star + e);
+  }
   return lcp;
 }
 
@@ -298,7 +387,11 @@ void StewartTrinkle::Step(const Scene& model, const State& x, const StepInput& u
   const int nc = static_cast<int>(a.contacts.size());
   info->contacts = nc;
   info->joint_rows = static_cast<int>(a.psi_b.size());
-  info->min_gap = nc > 0 ? a.psi_n.minCoeff() : 0.0;
+  // A corner contact's gap is max(ψ_1, ψ_2).
+  VectorXd gaps = a.psi_n;
+  for (std::size_t k = 0; k < a.corner_contact.size(); ++k)
+    gaps[a.corner_contact[k]] = std::max(gaps[a.corner_contact[k]], a.psi_1[k]);
+  info->min_gap = nc > 0 ? gaps.minCoeff() : 0.0;
   if (nc > 0 && info->min_gap < -options_.max_penetration) {
     info->failure = "penetration " + std::to_string(-info->min_gap) +
                     " m exceeds max_penetration " + std::to_string(options_.max_penetration) + " m";
@@ -308,7 +401,8 @@ void StewartTrinkle::Step(const Scene& model, const State& x, const StepInput& u
 
   VectorXd v_star;
   JointElimination joints;
-  const LcpProblem lcp = BuildLcp(model, a, x.v, &v_star, &joints);
+  const VectorXd v_l = first_order_ ? VectorXd::Zero(x.v.size()) : x.v;  // first order: no ν_ℓ
+  const LcpProblem lcp = BuildLcp(model, a, v_l, &v_star, &joints);
   VectorXd z = VectorXd::Zero(lcp.size());
   if (lcp.size() > 0) {
     const VectorXd* warm = x.warm_start.size() == lcp.size() ? &x.warm_start : nullptr;
@@ -355,6 +449,7 @@ StepLayout StewartTrinkle::Layout(const Scene& model, const State& x) const {
   l.nc = static_cast<int>(contacts.size());
   l.nd = model.dim == Dim::kPlanar ? 2 : options_.friction_directions;
   for (const Joint& j : model.joints) l.nb += JointRowCount(j.type, model.dim);
+  for (const Contact& c : contacts) l.nk += c.point.corner ? 1 : 0;
   return l;
 }
 
@@ -369,6 +464,7 @@ StepResiduals StewartTrinkle::Evaluate(const Scene& model, const Params& params,
   l.nc = static_cast<int>(a.contacts.size());
   l.nd = a.nd;
   l.nb = static_cast<int>(a.psi_b.size());
+  l.nk = static_cast<int>(a.corner_contact.size());
   if (z.size() != l.size())
     throw std::invalid_argument("StewartTrinkle::Evaluate: z has " + std::to_string(z.size()) +
                                 " entries, the step layout needs " + std::to_string(l.size()));
@@ -397,7 +493,8 @@ StepResiduals StewartTrinkle::Evaluate(const Scene& model, const Params& params,
   // Equalities: [dynamics (nv); kinematics (nq); joints (nb)].
   r.equality.resize(nv + nq + nb);
   r.d_equality = MatrixXd::Zero(nv + nq + nb, ncol);
-  r.equality.head(nv) = a.M * (v1 - x.v) - a.G_n * pn - a.G_f * pf - a.G_b * pb - a.p_ext;
+  const VectorXd v_l = first_order_ ? VectorXd::Zero(nv) : x.v;  // first order: no ν_ℓ
+  r.equality.head(nv) = a.M * (v1 - v_l) - a.G_n * pn - a.G_f * pf - a.G_b * pb - a.p_ext;
   r.d_equality.block(0, l.v1(), nv, nv) = a.M;
   r.d_equality.block(0, l.pn(), nv, nc) = -a.G_n;
   r.d_equality.block(0, l.pf(), nv, nf) = -a.G_f;
@@ -409,12 +506,14 @@ StepResiduals StewartTrinkle::Evaluate(const Scene& model, const Params& params,
     const Body& b = model.bodies[info.a];
     const int o = model.index(info.a).v, nvb = VelocitySize(model.dim);
     const VectorXd dv = v1.segment(o, nvb) - x.v.segment(o, nvb);
-    VectorXd d = a.M.block(o, o, nvb, nvb) * dv / b.mass;
+    // First order: h C does not scale with the mass, only the weight does.
+    VectorXd d = first_order_ ? VectorXd(VectorXd::Zero(nvb))
+                              : VectorXd(a.M.block(o, o, nvb, nvb) * dv / b.mass);
     if (b.gravity) {
       d.head(model.dim == Dim::kPlanar ? 2 : 3) -=
           h * model.gravity_W.head(model.dim == Dim::kPlanar ? 2 : 3);
     }
-    if (model.dim == Dim::kSpatial) {
+    if (model.dim == Dim::kSpatial && !first_order_) {
       const Vector3d w_B = x.v.segment<3>(o + 3);
       d.tail<3>() += h * w_B.cross(b.inertia * w_B) / b.mass;
     }
@@ -454,14 +553,17 @@ StepResiduals StewartTrinkle::Evaluate(const Scene& model, const Params& params,
     r.d_equality.block(nv + nq, l.v1(), nb, nv) = a.G_b.transpose();
   }
 
-  // Complementarity pairs: (p_n, normal), (p_f, friction), (σ, cone).
-  const int ncomp = nc + nf + nc;
+  // Complementarity pairs: (p_n, normal), (p_f, friction), (σ, cone), then (c, corner).
+  const int nk = l.nk;
+  const int ncomp = nc + nf + nc + nk;
+  const auto cc = z.segment(l.corner(), nk);
   r.comp_a.resize(ncomp);
   r.comp_b.resize(ncomp);
   r.d_comp_a = MatrixXd::Zero(ncomp, ncol);
   r.d_comp_b = MatrixXd::Zero(ncomp, ncol);
-  r.comp_a << pn, pf, sigma;
-  r.d_comp_a.block(0, l.pn(), ncomp, ncomp).setIdentity();  // p_n, p_f, σ are contiguous
+  r.comp_a << pn, pf, sigma, cc;
+  r.d_comp_a.block(0, l.pn(), nc + nf + nc, nc + nf + nc).setIdentity();  // contiguous
+  r.d_comp_a.block(ncomp - nk, l.corner(), nk, nk).setIdentity();
 
   r.comp_b.head(nc) = a.G_n.transpose() * v1 + a.dpsi_n;
   if (!velocity_level_) r.comp_b.head(nc) += a.psi_n / h;
@@ -487,6 +589,18 @@ StepResiduals StewartTrinkle::Evaluate(const Scene& model, const Params& params,
     r.comp_b[nc + nf + c] = a.mu[c] * pn[c] - sum_pf;
     r.d_comp_b(nc + nf + c, l.pn() + c) = a.mu[c];
     r.d_comp_b(nc + nf + c, column_of[a.contacts[c].mu_param]) = pn[c];
+  }
+  // Corner rows: c_k − ((ψ_1 − ψ_2)/h + (G_1 − G_2)ᵀ ν + ∂ψ_1/∂t − ∂ψ_2/∂t), and + c_k in the
+  // normal row of its contact.
+  for (int k = 0; k < nk; ++k) {
+    const int c = a.corner_contact[k], row = ncomp - nk + k;  // corner pairs last
+    const VectorXd D = a.G_1.col(k) - a.G_n.col(c);
+    r.comp_b[row] = cc[k] - ((a.psi_1[k] - a.psi_n[c]) / h + D.dot(v1) + a.dpsi_1[k] - a.dpsi_n[c]);
+    r.d_comp_b(row, l.corner() + k) = 1.0;
+    r.d_comp_b.block(row, l.v1(), 1, nv) = -D.transpose();
+    r.comp_b[c] += cc[k];
+    if (velocity_level_) r.comp_b[c] += a.psi_n[c] / h;  // corners stay position-level
+    r.d_comp_b(c, l.corner() + k) = 1.0;
   }
   return r;
 }

@@ -25,7 +25,9 @@ std::vector<BodyKinematics> ComputeBodyKinematics(const Scene& scene, const Stat
 
 /// All contacts with ψ_n ≤ envelope between shapes of different bodies, at least one of them
 /// dynamic, excluding pairs of bodies connected by a joint. Deterministic order (by body, shape
-/// pair, then the narrow phase's order).
+/// pair, then the narrow phase's order). Corner contacts (ContactPoint::corner) are kept as one
+/// contact, or, if scene.options.nonconvex_corners is false, split into two ordinary contacts
+/// (the second edge's appended after the pair's other contacts).
 void FindContacts(const Scene& scene, const std::vector<BodyKinematics>& bodies, double envelope,
                   std::vector<Contact>* out);
 

@@ -15,16 +15,20 @@
 namespace vinci::sim {
 
 /// The unknowns of one step for a fixed contact set (found at x_ℓ), stacked in this order:
-///   z = [q_ℓ+1 (nq); ν_ℓ+1 (nv); p_n (nc); p_f (nc·nd); σ (nc); p_b (nb)].
+///   z = [q_ℓ+1 (nq); ν_ℓ+1 (nv); p_n (nc); p_f (nc·nd); σ (nc); p_b (nb); c (nk)],
+/// c being the corner unknowns of the nk corner contacts (formulations.md §7, in contact
+/// order; see stewart_trinkle.h). nk = 0 for scenes without concave polygons.
 struct StepLayout {
   int nq = 0, nv = 0, nc = 0, nd = 0, nb = 0;
+  int nk = 0;  ///< corner contacts
   int q1() const { return 0; }
   int v1() const { return nq; }
   int pn() const { return nq + nv; }
   int pf() const { return pn() + nc; }
   int sigma() const { return pf() + nc * nd; }
   int pb() const { return sigma() + nc; }
-  int size() const { return pb() + nb; }
+  int corner() const { return pb() + nb; }
+  int size() const { return corner() + nk; }
 };
 
 /// Step equations at a point: equality = 0 and 0 ≤ comp_a ⊥ comp_b ≥ 0 (componentwise).
@@ -82,7 +86,8 @@ class Formulation {
                                         double eps = 1e-7) const;
 };
 
-/// The formulation selected by the scene's options (Stewart–Trinkle or Anitescu–Potra) and
+/// The formulation selected by the scene's options (Stewart–Trinkle, Anitescu–Potra or first
+/// order, first_order.h) and
 /// solver (by name). Throws std::invalid_argument for an unknown solver name.
 std::unique_ptr<Formulation> MakeFormulation(const StepperOptions& options);
 

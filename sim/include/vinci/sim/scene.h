@@ -45,6 +45,11 @@ struct Body {
   bool gravity = true;                           ///< false: gravity does not act on this body
   /// Normal compliance of the body's surface layer (compliance.h); default rigid.
   ContactCompliance compliance;
+  /// First-order model only (FormulationType::kFirstOrder): the damping matrix C of the body,
+  /// symmetric positive definite, size of the body's ν (planar 3×3 on (vx, vy, ω): N·s/m on the
+  /// translational, N·m·s/rad on the rotational entries; spatial 6×6 on (v_W, ω_B)). Empty
+  /// otherwise.
+  MatrixXd damping;
 };
 
 /// Joint kinds. Planar: revolute (2 eqs), prismatic (2), weld (3).
@@ -69,6 +74,7 @@ enum class FormulationType {
   kStewartTrinkle,  ///< formulations.md §1: position-level normal constraint with ψ_n/h
   kAnitescuPotra,   ///< velocity-level normal constraint (no ψ_n/h)
   kNcp,             ///< formulations.md §2: quadratic friction cone, an MCP (ncp.h)
+  kFirstOrder,      ///< formulations.md §8: damping-dominated, C ν = (G_n p_n + G_f p_f)/h + F
 };
 
 /// Which velocity of a prescribed body enters ∂ψ/∂t over a step [t, t + h].
@@ -88,6 +94,10 @@ struct StepperOptions {
   std::string solver = "lemke";     ///< LCP solver by name
   double max_penetration = 0.05;    ///< a step with ψ_n below −this fails (m)
   PrescribedVelocity prescribed_velocity = PrescribedVelocity::kSecant;  ///< in ∂ψ/∂t
+  /// formulations.md §7: a vertex at a convex corner of a concave polygon is one corner contact
+  /// (free iff max(ψ_1, ψ_2) ≥ 0). false: two per-edge contacts (ψ_1 ≥ 0 and ψ_2 ≥ 0), which
+  /// snag on the extended edge lines; kept to demonstrate the difference.
+  bool nonconvex_corners = true;
 };
 
 /// Layout of one body in the generalized coordinate and velocity vectors.

@@ -8,8 +8,9 @@
 
 namespace vinci::sim {
 
-/// Shape kinds. Spatial scenes use the first five, planar scenes the last four.
-/// All shapes are convex; a non-convex part is a body with several shapes.
+/// Shape kinds. Spatial scenes use the first five, planar scenes kHalfPlane..kSegment and
+/// kConcavePolygon. All shapes but kConcavePolygon are convex; a non-convex spatial part is a
+/// body with several shapes.
 enum class ShapeType {
   kHalfSpace,   ///< {z ≤ 0} in the shape frame; outward normal +z. Usually on a static body.
   kSphere,      ///< radius
@@ -21,12 +22,15 @@ enum class ShapeType {
   kPolygon,     ///< convex polygon, `vertices` counter-clockwise (only x, y used)
   kSegment,     ///< segment from −half_length to +half_length along shape x, swept by radius
                 ///< (radius 0 gives a bare segment)
+  /// Simple (possibly non-convex) polygon, `vertices` counter-clockwise (only x, y used); its
+  /// convex corners give corner contacts (formulations.md §7).
+  kConcavePolygon,
 };
 
 /// True for the planar shape kinds.
 constexpr bool IsPlanar(ShapeType t) {
   return t == ShapeType::kHalfPlane || t == ShapeType::kDisc || t == ShapeType::kPolygon ||
-         t == ShapeType::kSegment;
+         t == ShapeType::kSegment || t == ShapeType::kConcavePolygon;
 }
 
 /// One face of a convex polyhedron's hull (see PrepareShape).
@@ -57,7 +61,8 @@ struct Shape {
 
 /// Precomputes derived collision data once per shape (the scene builder calls it): for a
 /// polyhedron, its convex hull (`faces`, `hull_vertices`); other kinds are left unchanged.
-/// Throws std::invalid_argument if a polyhedron has fewer than four non-coplanar vertices.
+/// Throws std::invalid_argument if a polyhedron has fewer than four non-coplanar vertices, or
+/// if a concave polygon is not simple and counter-clockwise.
 void PrepareShape(Shape* shape);
 
 /// One contact between two shapes, found within the envelope.
@@ -68,6 +73,15 @@ struct ContactPoint {
   Vector3d p_B_W = Vector3d::Zero();  ///< witness point on B, world frame (m)
   Vector3d n_W = Vector3d::UnitZ();   ///< unit normal from B to A, world frame
   double gap = 0.0;                   ///< signed distance (m)
+  /// Corner contact (formulations.md §7; only from a kConcavePolygon pair): a vertex near a
+  /// convex corner of a polygon, where the vertex is free iff max(gap, gap2) ≥ 0. The fields
+  /// above are the first edge's vertex–edge contact, the fields below the second edge's (same
+  /// vertex witness). false: an ordinary contact and the fields below are unused.
+  bool corner = false;
+  Vector3d p2_A_W = Vector3d::Zero();  ///< second edge: witness on A (m)
+  Vector3d p2_B_W = Vector3d::Zero();  ///< second edge: witness on B (m)
+  Vector3d n2_W = Vector3d::UnitZ();   ///< second edge: unit normal from B to A
+  double gap2 = 0.0;                   ///< second edge: signed distance to its line (m)
 };
 
 /// Appends to `out` every contact between shape a (at X_WA) and shape b (at X_WB)
@@ -103,6 +117,12 @@ struct ContactPoint {
 ///   (the closest pair is among the contacts; vertex–face contacts near a face boundary may
 ///   underestimate the gap by up to the envelope). Deep interpenetration with no vertex inside
 ///   the other shape (two thin bars crossed like a "+") yields no contact.
+/// - concave polygon vs any planar kind (collision_concave.cc): the other shape's vertices
+///   (convex ones) against the polygon's edges, the polygon's convex vertices against the other
+///   shape, discs by exact distance to each edge segment. A vertex within ε of both edges of a
+///   convex corner gives ONE corner contact (`corner`: free iff max(gap, gap2) ≥ 0,
+///   formulations.md §7) instead of two vertex–edge contacts. Edges closer than ε to a vertex
+///   from behind (walls thinner than ε) can give spurious contacts.
 /// Allocation-free apart from appending to `out`, except for a polyhedron not yet prepared by
 /// PrepareShape (its hull is then computed per call).
 void CollideShapes(const Shape& a, const Isometry3d& X_WA, const Shape& b, const Isometry3d& X_WB,

@@ -24,6 +24,30 @@
 // by the compliance law's velocity form (compliance.h),
 //   0 ≤ p_n ⊥ G_nᵀ ν_ℓ+1 + ∂ψ_n/∂t + β ψ_n + γ p_n + ε ≥ 0   (Kelvin–Voigt, c = 0: β = 1/h,
 //   γ = 1/(h² k), ε = 0, i.e. ψ_n(q_ℓ+1) + p_n/(h k) ≥ 0 linearized), in both variants.
+//
+// Corner contacts (formulations.md §7; ContactPoint::corner, from concave polygons): a vertex
+// at a convex corner of edges 1 and 2 is free iff max(ψ_1, ψ_2) ≥ 0. Linearized over the step
+// like the other normal rows, with ψ_i⁺/h = ψ_i/h + G_iᵀ ν_ℓ+1 + ∂ψ_i/∂t the end-of-step gap
+// over h, each corner k adds one unknown c_k (m/s) and the rows
+//   0 ≤ c_k ⊥ c_k − (ψ_1⁺ − ψ_2⁺)/h ≥ 0          so c_k = max(ψ_1⁺ − ψ_2⁺, 0)/h,
+//   0 ≤ p_n ⊥ ψ_2⁺/h + c_k ≥ 0                    (= max(ψ_1⁺, ψ_2⁺)/h)
+// (Anitescu–Potra too: a velocity-level corner row, max(ψ_1⁺, ψ_2⁺) ≥ ψ_2, would stop a vertex
+// whose larger gap shrinks to the smaller one's as it passes the corner — the snag again). The
+// impulse p_n and the friction impulses act along edge 2's normal and tangent, so
+// edge 2 must be the edge the vertex will be against: Assemble() takes as edge 2 the edge with
+// the larger predicted gap ψ_i + h (G_iᵀ ν_ℓ + ∂ψ_i/∂t) (first order: ν_ℓ → 0) — when the two
+// agree to a relative 1e-9 (the vertex reaches the corner point exactly at the end of the
+// step), the edge with the smaller |ψ_i|, the one the vertex slides along now — and stores it
+// as the contact's `point` (its column of G_n, G_f, ψ_n); edge 1 is G_1, ψ_1. c enters only its
+// own row and its contact's normal row; it carries no force. In the LCP the c_k are the last
+// unknowns, z = [p_n; p_f; σ; c]; the c rows are −(G_1 − G_2)ᵀ W G_c in the (p_n, p_f)
+// columns and 1 on the diagonal, and c_k joins the friction-cone block of its contact. With
+// StepperOptions::nonconvex_corners = false the narrow phase's corners arrive as two ordinary
+// contacts instead (per-edge constraints).
+//
+// With options.formulation = kFirstOrder the same class steps the first-order model (see
+// first_order.h): M is replaced by h C (C the bodies' damping matrices), ν_ℓ by 0 and p_vp by 0;
+// everything else, including the corner rows, is unchanged.
 #pragma once
 
 #include <Eigen/Cholesky>
@@ -58,6 +82,11 @@ class StewartTrinkle final : public Formulation {
     /// rigid pairs, whose rows are unchanged. A compliant normal row is
     /// G_nᵀν + ∂ψ_n/∂t + vel_psi ψ_n + vel_diagonal p_n + vel_constant (both formulations).
     std::vector<CompliantNormalRow> compliance;
+    /// Corner contacts: contacts[corner_contact[k]] is corner k; its G_n, G_f columns and ψ_n
+    /// are edge 2 (the force edge), G_1 and ψ_1 edge 1.
+    std::vector<int> corner_contact;  ///< nk
+    MatrixXd G_1;                     ///< nv × nk
+    VectorXd psi_1, dpsi_1;           ///< ψ_1, ∂ψ_1/∂t (nk)
   };
   Assembly Assemble(const Scene& model, const State& x, const StepInput& u) const;
   /// The Schur-complement pieces of the joint elimination (empty without joints).
@@ -65,7 +94,7 @@ class StewartTrinkle final : public Formulation {
     MatrixXd MinvGb;          ///< M⁻¹ G_b
     Eigen::LDLT<MatrixXd> S;  ///< S = G_bᵀ M⁻¹ G_b
   };
-  /// The LCP of the step in (p_n, p_f, σ) after eliminating ν and p_b; *v_star is ν_ℓ+1 for
+  /// The LCP of the step in (p_n, p_f, σ, c) after eliminating ν and p_b; *v_star is ν_ℓ+1 for
   /// zero contact impulses.
   LcpProblem BuildLcp(const Scene& model, const Assembly& a, const VectorXd& v, VectorXd* v_star,
                       JointElimination* joints) const;
@@ -79,6 +108,7 @@ class StewartTrinkle final : public Formulation {
   StepperOptions options_;
   std::shared_ptr<const LcpSolver> solver_;
   bool velocity_level_;  // Anitescu–Potra
+  bool first_order_;     // FormulationType::kFirstOrder (first_order.h): M → h C, no ν_ℓ
 };
 
 }  // namespace vinci::sim
