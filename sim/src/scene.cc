@@ -5,6 +5,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "vinci/sim/support.h"
+
 namespace vinci::sim {
 namespace {
 
@@ -132,6 +134,7 @@ void Scene::Finalize() {
     if (j.body_a < 0 || j.body_a >= n || j.body_b < -1 || j.body_b >= n || j.body_a == j.body_b)
       throw std::invalid_argument("joint '" + j.name + "' refers to invalid bodies");
   }
+  FinalizeSupports(this);  // 2.5D support friction (support.h)
 
   // The parameter table.
   params_ = ParamTable();

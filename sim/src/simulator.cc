@@ -4,11 +4,15 @@
 
 #include "vinci/sim/kinematics.h"
 #include "vinci/sim/lemke.h"
+#include "vinci/sim/quasistatic.h"
 #include "vinci/sim/stewart_trinkle.h"
 
 namespace vinci::sim {
 
 std::unique_ptr<Formulation> MakeFormulation(const StepperOptions& options) {
+  if (options.formulation == FormulationType::kQuasistaticDlc ||
+      options.formulation == FormulationType::kQuasistaticDqc)
+    return std::make_unique<Quasistatic>(options);  // §5 (quasistatic.h)
   return std::make_unique<StewartTrinkle>(options, MakeLcpSolver(options.solver));
 }
 

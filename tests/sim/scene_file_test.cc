@@ -505,7 +505,8 @@ TEST(SceneFileTest, BadDimension) {
 TEST(SceneFileTest, UnknownFormulation) {
   EXPECT_SCENE_ERROR(
       Yaml({"dimension: 3", "stepper: {formulation: moreau}", "bodies: [{name: a, kind: static}]"}),
-      2, "stepper.formulation", "stewart-trinkle, anitescu-potra), got 'moreau'");
+      2, "stepper.formulation",
+      "(stewart-trinkle, anitescu-potra, quasistatic-dlc, quasistatic-dqc");
 }
 
 TEST(SceneFileTest, UnknownSolver) {

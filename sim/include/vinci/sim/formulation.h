@@ -15,16 +15,22 @@
 namespace vinci::sim {
 
 /// The unknowns of one step for a fixed contact set (found at x_ℓ), stacked in this order:
-///   z = [q_ℓ+1 (nq); ν_ℓ+1 (nv); p_n (nc); p_f (nc·nd); σ (nc); p_b (nb)].
+///   z = [q_ℓ+1 (nq); ν_ℓ+1 (nv); p_n (nc); p_f (nc·nd); σ (nc); p_b (nb);
+///        p_s (nps); σ_s (ns)],
+/// the last two blocks being the 2.5D support friction (support.h: ns support points with nps
+/// friction columns in all; both 0 in scenes without supports).
 struct StepLayout {
   int nq = 0, nv = 0, nc = 0, nd = 0, nb = 0;
+  int ns = 0, nps = 0;  ///< support points, support friction columns
   int q1() const { return 0; }
   int v1() const { return nq; }
   int pn() const { return nq + nv; }
   int pf() const { return pn() + nc; }
   int sigma() const { return pf() + nc * nd; }
   int pb() const { return sigma() + nc; }
-  int size() const { return pb() + nb; }
+  int ps() const { return pb() + nb; }
+  int sigma_s() const { return ps() + nps; }
+  int size() const { return sigma_s() + ns; }
 };
 
 /// Step equations at a point: equality = 0 and 0 ≤ comp_a ⊥ comp_b ≥ 0 (componentwise).

@@ -19,12 +19,18 @@
 // Planar friction uses n_d = 2 (d = ±t, exact); spatial uses n_d equally spaced directions.
 // ∂ψ/∂t of a prescribed body uses its secant velocity over the step, (pose(t+h) − pose(t))/h,
 // so that the linearized end-of-step gap moves exactly with a translating floor or pusher.
+//
+// 2.5D support friction (formulations.md §6, support.h): planar bodies with support points add
+// −G_s p_s to the dynamics and the rows 0 ≤ p_s ⊥ G_sᵀ ν_ℓ+1 + E_s σ_s ≥ 0,
+// 0 ≤ σ_s ⊥ h μ_s N − E_sᵀ p_s ≥ 0; the LCP unknowns become (p_n, p_f, σ, p_s, σ_s). Scenes
+// without supports build exactly the LCP above.
 #pragma once
 
 #include <Eigen/Cholesky>
 #include <memory>
 
 #include "vinci/sim/formulation.h"
+#include "vinci/sim/support.h"
 
 namespace vinci::sim {
 
@@ -49,6 +55,7 @@ class StewartTrinkle final : public Formulation {
     VectorXd psi_b, dpsi_b;  ///< ψ_b, ∂ψ_b/∂t (nb)
     VectorXd mu;             ///< μ per contact
     VectorXd p_ext;          ///< h (forces) + p_vp (nv)
+    SupportRows support;     ///< 2.5D support friction, linearized (empty without supports)
   };
   Assembly Assemble(const Scene& model, const State& x, const StepInput& u) const;
   /// The Schur-complement pieces of the joint elimination (empty without joints).
@@ -56,8 +63,8 @@ class StewartTrinkle final : public Formulation {
     MatrixXd MinvGb;          ///< M⁻¹ G_b
     Eigen::LDLT<MatrixXd> S;  ///< S = G_bᵀ M⁻¹ G_b
   };
-  /// The LCP of the step in (p_n, p_f, σ) after eliminating ν and p_b; *v_star is ν_ℓ+1 for
-  /// zero contact impulses.
+  /// The LCP of the step in (p_n, p_f, σ[, p_s, σ_s]) after eliminating ν and p_b; *v_star is ν_ℓ+1
+  /// for zero contact impulses.
   LcpProblem BuildLcp(const Scene& model, const Assembly& a, const VectorXd& v, VectorXd* v_star,
                       JointElimination* joints) const;
   /// ν_ℓ+1 = ν* + W G_c p_c for the LCP solution z.
