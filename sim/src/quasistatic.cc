@@ -31,7 +31,8 @@ Offsets OffsetsOf(const StepLayout& l) { return {l.nv, l.nc, l.nc * l.nd, l.nb, 
 struct StepData {
   StewartTrinkle::Assembly a;
   StepLayout layout;
-  MatrixXd eps_M;  // ε_M M
+  MatrixXd eps_M;  // ε_M M (quasistatic) or M (dynamic-dqc)
+  VectorXd v0;     // 0 (quasistatic) or ν_ℓ (dynamic-dqc)
   double h = 0.0;
   bool quadratic = false;
   bool joint_stabilization = true;
@@ -45,7 +46,7 @@ void StepFunction(const StepData& d, const VectorXd& y, VectorXd* F, MatrixXd* J
   const int nd = d.layout.nd;
   const auto nu = y.segment(o.v(), o.nv);
   F->resize(o.size());
-  F->segment(o.v(), o.nv) = d.eps_M * nu - a.G_n * y.segment(o.pn(), o.nc) -
+  F->segment(o.v(), o.nv) = d.eps_M * (nu - d.v0) - a.G_n * y.segment(o.pn(), o.nc) -
                             a.G_f * y.segment(o.pf(), o.nf) - a.G_b * y.segment(o.pb(), o.nb) -
                             sup.G_s * y.segment(o.ps(), o.nps) - a.p_ext;
   F->segment(o.pn(), o.nc) = a.G_n.transpose() * nu + a.psi_n / d.h + a.dpsi_n;
@@ -130,14 +131,17 @@ Quasistatic::Quasistatic(StepperOptions options, McpOptions mcp)
       solver_(mcp),
       lcp_solver_(MakeLcpSolver(options_.solver)),
       assembler_(options_, lcp_solver_),
-      quadratic_(options_.formulation == FormulationType::kQuasistaticDqc) {
+      quadratic_(options_.formulation != FormulationType::kQuasistaticDlc),
+      dynamic_(options_.formulation == FormulationType::kDynamicDqc) {
   if (options_.formulation != FormulationType::kQuasistaticDlc &&
-      options_.formulation != FormulationType::kQuasistaticDqc)
-    throw std::invalid_argument("Quasistatic: the formulation must be quasistatic-dlc or -dqc");
+      options_.formulation != FormulationType::kQuasistaticDqc &&
+      options_.formulation != FormulationType::kDynamicDqc)
+    throw std::invalid_argument(
+        "Quasistatic: the formulation must be quasistatic-dlc, quasistatic-dqc or dynamic-dqc");
 }
 
 std::string_view Quasistatic::name() const {
-  return quadratic_ ? "quasistatic-dqc" : "quasistatic-dlc";
+  return dynamic_ ? "dynamic-dqc" : quadratic_ ? "quasistatic-dqc" : "quasistatic-dlc";
 }
 
 StewartTrinkle::Assembly Quasistatic::Assemble(const Scene& model, const State& x,
@@ -172,7 +176,8 @@ McpProblem Quasistatic::MakeMcp(const Scene& model, const State& x, const StepIn
   l.nb = static_cast<int>(d->a.psi_b.size());
   l.ns = d->a.support.points();
   l.nps = d->a.support.columns();
-  d->eps_M = kQuasistaticRegularization * d->a.M;
+  d->eps_M = dynamic_ ? d->a.M : MatrixXd(kQuasistaticRegularization * d->a.M);
+  d->v0 = dynamic_ ? x.v : VectorXd::Zero(l.nv);
   d->h = options_.dt;
   d->quadratic = quadratic;
   d->joint_stabilization = options_.joint_stabilization;
@@ -378,7 +383,10 @@ StepResiduals Quasistatic::Evaluate(const Scene& model, const Params& params, co
     if (info.kind != ParamKind::kMass) continue;
     const Body& b = model.bodies[info.a];
     const int ov = model.index(info.a).v;
-    VectorXd dm = kQuasistaticRegularization * a.M.block(ov, ov, 3, 3) * y.segment(ov, 3) / b.mass;
+    const double scale = dynamic_ ? 1.0 : kQuasistaticRegularization;
+    const VectorXd dv =
+        y.segment(ov, 3) - (dynamic_ ? VectorXd(x.v.segment(ov, 3)) : VectorXd::Zero(3));
+    VectorXd dm = scale * a.M.block(ov, ov, 3, 3) * dv / b.mass;
     if (b.gravity) dm.head(2) -= h * model.gravity_W.head(2);
     r.d_equality.block(ov, column_of[i], 3, 1) = dm;
     if (!b.support.static_distribution) continue;

@@ -729,7 +729,8 @@ void Parser::ParseStepper(const Field& f, StepperOptions* o) const {
                                 {{"stewart-trinkle", FormulationType::kStewartTrinkle},
                                  {"anitescu-potra", FormulationType::kAnitescuPotra},
                                  {"quasistatic-dlc", FormulationType::kQuasistaticDlc},
-                                 {"quasistatic-dqc", FormulationType::kQuasistaticDqc}},
+                                 {"quasistatic-dqc", FormulationType::kQuasistaticDqc},
+                                 {"dynamic-dqc", FormulationType::kDynamicDqc}},
                                 "a formulation");
   if (auto v = Get(f, "dt")) o->dt = Number(*v, Bound::kPositive);
   if (auto v = Get(f, "duration")) o->duration = Number(*v, Bound::kPositive);

@@ -11,8 +11,9 @@ namespace vinci::sim {
 
 std::unique_ptr<Formulation> MakeFormulation(const StepperOptions& options) {
   if (options.formulation == FormulationType::kQuasistaticDlc ||
-      options.formulation == FormulationType::kQuasistaticDqc)
-    return std::make_unique<Quasistatic>(options);  // §5 (quasistatic.h)
+      options.formulation == FormulationType::kQuasistaticDqc ||
+      options.formulation == FormulationType::kDynamicDqc)
+    return std::make_unique<Quasistatic>(options);  // §5, §6 (quasistatic.h)
   return std::make_unique<StewartTrinkle>(options, MakeLcpSolver(options.solver));
 }
 

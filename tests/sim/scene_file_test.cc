@@ -506,7 +506,7 @@ TEST(SceneFileTest, UnknownFormulation) {
   EXPECT_SCENE_ERROR(
       Yaml({"dimension: 3", "stepper: {formulation: moreau}", "bodies: [{name: a, kind: static}]"}),
       2, "stepper.formulation",
-      "(stewart-trinkle, anitescu-potra, quasistatic-dlc, quasistatic-dqc");
+      "(stewart-trinkle, anitescu-potra, quasistatic-dlc, quasistatic-dqc, dynamic-dqc");
 }
 
 TEST(SceneFileTest, UnknownSolver) {

@@ -155,6 +155,44 @@ TEST(SupportTiltedPlane, SlidingAccelerationIsGTimesSinMinusMuCos) {
   }
 }
 
+TEST(SupportTiltedPlane, ExactDiskStepperMatchesTheClosedForm) {
+  const double g = 9.81, tilt = 0.6;
+  for (double mu_s : {0.1, 0.25, 0.7}) {  // sliding, sliding, sticking (tan 0.6 = 0.684)
+    Simulator sim(ParseScene(SliderScene(tilt, mu_s, "dynamic-dqc")));
+    const int steps = 50;
+    const Trajectory tr = sim.Rollout(sim.DefaultParams(), sim.InitialState(), steps);
+    ASSERT_TRUE(tr.ok) << tr.failure;
+    const double expected = std::max(0.0, g * (std::sin(tilt) - mu_s * std::cos(tilt)));
+    const double a = -tr.states.back().v.y() / (steps * 0.01);
+    EXPECT_NEAR(a, expected, kAccelRelTol * std::max(expected, 1.0)) << "mu " << mu_s;
+  }
+}
+
+// A slider launched on a level table in a direction between the linearized disk's directions:
+// the exact disk decelerates it at μ_s g along a straight line; the n_d = 8 polygon bends it.
+TEST(SupportLevelTable, ExactDiskKeepsTheSlidingDirection) {
+  const double g = 9.81, mu_s = 0.3, phi = 0.3, speed = 1.0;  // φ not a multiple of 2π/8
+  for (const std::string formulation : {"dynamic-dqc", "stewart-trinkle"}) {
+    Scene scene = ParseScene(SliderScene(0.0, mu_s, formulation));
+    scene.bodies[0].v0_W = Vector3d(speed * std::cos(phi), speed * std::sin(phi), 0.0);
+    Simulator sim(scene);
+    const int steps = 20;  // 0.2 s < stopping time 1/(μ g) = 0.34 s
+    const Trajectory tr = sim.Rollout(sim.DefaultParams(), sim.InitialState(), steps);
+    ASSERT_TRUE(tr.ok) << tr.failure;
+    const VectorXd& v = tr.states.back().v;
+    const double direction_error = std::abs(std::atan2(v.y(), v.x()) - phi);
+    if (formulation == "dynamic-dqc") {
+      // Exact disk: the MCP tolerance (1e-10) only.
+      EXPECT_LT(direction_error, 1e-9);
+      EXPECT_NEAR(v.head<2>().norm(), speed - mu_s * g * steps * 0.01, 1e-8);
+      EXPECT_NEAR(v.z(), 0.0, 1e-9);
+    } else {
+      // Linearized: friction along a polygon vertex, not against the velocity.
+      EXPECT_GT(direction_error, 1e-2);
+    }
+  }
+}
+
 // Step equations hold at the simulated step (the estimator's constraints).
 constexpr double kResidualTol = 1e-9;
 

@@ -30,6 +30,11 @@
 // impulses summed into x, y components), which is close for a fine linearization.
 // Quasistatic models need planar scenes. State::v after a step is ν_ℓ+1 (the mean velocity
 // over the step); State::warm_start holds y.
+//
+// The same class provides "dynamic-dqc" (FormulationType::kDynamicDqc): the Stewart–Trinkle
+// dynamics with the EXACT support-friction disks of support.h, an NCP solved by McpSolver —
+// the first line above becomes 0 = M (ν_ℓ+1 − ν_ℓ) − (G_n p_n + G_f p_f + G_b p_b + G_s p_s +
+// p_ext) and everything else is unchanged (planar contact friction ±t is exact).
 #pragma once
 
 #include "vinci/sim/mcp.h"
@@ -42,7 +47,7 @@ inline constexpr double kQuasistaticRegularization = 1e-10;
 
 class Quasistatic final : public Formulation {
  public:
-  /// options.formulation must be kQuasistaticDlc or kQuasistaticDqc.
+  /// options.formulation must be kQuasistaticDlc, kQuasistaticDqc or kDynamicDqc.
   explicit Quasistatic(StepperOptions options, McpOptions mcp = {});
   std::string_view name() const override;
   void Step(const Scene& model, const State& x, const StepInput& u, Workspace* ws, State* next,
@@ -74,6 +79,7 @@ class Quasistatic final : public Formulation {
   std::shared_ptr<const LcpSolver> lcp_solver_;
   StewartTrinkle assembler_;  // builds the contact, joint and force blocks
   bool quadratic_;
+  bool dynamic_;  // dynamic-dqc
 };
 
 }  // namespace vinci::sim

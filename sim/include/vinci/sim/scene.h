@@ -93,6 +93,7 @@ enum class FormulationType {
   kAnitescuPotra,   ///< velocity-level normal constraint (no ψ_n/h)
   kQuasistaticDlc,  ///< §5 Model-DLC: quasistatic, linearized cones (quasistatic.h)
   kQuasistaticDqc,  ///< §5 Model-DQC: quasistatic, quadratic support-friction disks (an NCP)
+  kDynamicDqc,  ///< §1 dynamics with exact (quadratic) §6 support disks, an NCP (quasistatic.h)
 };
 
 /// Stepper options stored with the scene.
