@@ -4,8 +4,8 @@
 // (2.5D support friction, n_d = 16 for the linearized disks). One benchmark iteration = one
 // Simulator::Step, restarting from the initial state every 50 steps so every step is a push
 // (pusher in contact from the first step). Formulations: quasistatic-dqc (MCP), quasistatic-dlc
-// (split LCP, Lemke) and stewart-trinkle (dynamic LCP, Lemke), each warm-started from the
-// previous step as in a rollout.
+// (split LCP, Lemke), stewart-trinkle (dynamic LCP, Lemke) and dynamic-dqc (dynamics with the
+// exact disks, MCP), each warm-started from the previous step as in a rollout.
 #include <benchmark/benchmark.h>
 
 #include <string>
@@ -55,7 +55,9 @@ void BM_PushingDynamicStewartTrinkle(benchmark::State& s) {
 }
 BENCHMARK(BM_PushingQuasistaticDqc);
 BENCHMARK(BM_PushingQuasistaticDlc);
+void BM_PushingDynamicDqc(benchmark::State& s) { PushingStep(s, FormulationType::kDynamicDqc); }
 BENCHMARK(BM_PushingDynamicStewartTrinkle);
+BENCHMARK(BM_PushingDynamicDqc);
 
 }  // namespace
 }  // namespace vinci::sim

@@ -193,7 +193,7 @@ McpProblem Quasistatic::MakeMcp(const Scene& model, const State& x, const StepIn
   return mcp;
 }
 
-SolverReport Quasistatic::SolveDlc(const McpProblem& mcp, VectorXd* y) const {
+SolverReport Quasistatic::SolveDlc(const McpProblem& mcp, const VectorXd* warm, VectorXd* y) const {
   // F(y) = J y + F(0) is affine for DLC. Free unknowns (ν, p_b) are split y = y⁺ − y⁻.
   const int n = mcp.size();
   VectorXd F0;
@@ -216,8 +216,12 @@ SolverReport Quasistatic::SolveDlc(const McpProblem& mcp, VectorXd* y) const {
     lcp.q[r] = rs * F0[ri];
     for (int c = 0; c < m; ++c) lcp.M(r, c) = rs * cols[c].second * J(ri, cols[c].first);
   }
-  VectorXd z = VectorXd::Zero(m);
-  const SolverReport report = lcp_solver_->Solve(lcp, nullptr, &z);
+  // A warm start y_w (the previous step's solution) maps to z = [max(y_w, 0); max(−y_w, 0); y_w].
+  VectorXd z = VectorXd::Zero(m), z_warm(m);
+  if (warm && warm->size() == n && warm->allFinite())
+    for (int c = 0; c < m; ++c) z_warm[c] = std::max(0.0, cols[c].second * (*warm)[cols[c].first]);
+  const SolverReport report =
+      lcp_solver_->Solve(lcp, warm && warm->size() == n ? &z_warm : nullptr, &z);
   y->setZero(n);
   for (int c = 0; c < m; ++c) (*y)[cols[c].first] += cols[c].second * z[c];
   return report;
@@ -249,7 +253,7 @@ void Quasistatic::Step(const Scene& model, const State& x, const StepInput& u, W
   std::string solver_name;
   if (!quadratic_) {
     solver_name = "LCP solver '" + std::string(lcp_solver_->name()) + "'";
-    info->solver = SolveDlc(mcp, &y);
+    info->solver = SolveDlc(mcp, &x.warm_start, &y);
   } else {
     solver_name = "MCP solver '" + std::string(solver_.name()) + "'";
     y = x.warm_start.size() == mcp.size() ? x.warm_start : VectorXd::Zero(mcp.size());
@@ -260,7 +264,7 @@ void Quasistatic::Step(const Scene& model, const State& x, const StepInput& u, W
       StepLayout ll;
       const McpProblem lin = MakeMcp(model, x, u, /*quadratic=*/false, &ll);
       VectorXd yl;
-      if (SolveDlc(lin, &yl).ok()) {
+      if (SolveDlc(lin, nullptr, &yl).ok()) {
         const Offsets o = OffsetsOf(l), ol = OffsetsOf(ll);
         const SupportRows sl = AssembleSupport(model, x, h, /*quadratic=*/false);
         y = VectorXd::Zero(mcp.size());
