@@ -80,6 +80,13 @@ std::vector<double> ComputeSupportFractions(const std::vector<Vector3d>& points_
 }
 
 void FinalizeSupports(Scene* scene) {
+  const FormulationType type = scene->options.formulation;
+  if (scene->dim != Dim::kPlanar &&
+      (type == FormulationType::kQuasistaticDlc || type == FormulationType::kQuasistaticDqc ||
+       type == FormulationType::kDynamicDqc))
+    throw std::invalid_argument(
+        "stepper formulation quasistatic-dlc, quasistatic-dqc and dynamic-dqc need a planar "
+        "scene (dimension 2)");
   bool any = false;
   for (const Body& b : scene->bodies) any = any || !b.support.empty();
   if (!any) return;

@@ -224,6 +224,21 @@ TEST(SupportEvaluate, SimulatedStepSatisfiesTheStepEquations) {
       EXPECT_LT(((rp.comp_b - rm.comp_b) / 2e-6 - r.d_comp_b.col(j)).norm(), 1e-6);
       EXPECT_LT(((rp.equality - rm.equality) / 2e-6 - r.d_equality.col(j)).norm(), 1e-6);
     }
+    // Parameter columns (friction coefficients, masses) against central differences.
+    for (std::size_t c = 0; c < r.param_columns.size(); ++c) {
+      const int i = r.param_columns[c];
+      Params pp = sim.DefaultParams(), pm = pp;
+      const double d = 1e-6 * std::max(1.0, std::abs(pp.values[i]));
+      pp.values[i] += d;
+      pm.values[i] -= d;
+      const StepResiduals rp = f.Evaluate(sim.scene().ApplyParams(pp), pp, x, {}, z);
+      const StepResiduals rm = f.Evaluate(sim.scene().ApplyParams(pm), pm, x, {}, z);
+      const int col = l.size() + static_cast<int>(c);
+      EXPECT_LT(((rp.comp_b - rm.comp_b) / (2 * d) - r.d_comp_b.col(col)).norm(), 1e-6)
+          << sim.scene().param_table().info(i).name;
+      EXPECT_LT(((rp.equality - rm.equality) / (2 * d) - r.d_equality.col(col)).norm(), 1e-6)
+          << sim.scene().param_table().info(i).name;
+    }
   }
 }
 

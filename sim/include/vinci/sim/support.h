@@ -38,7 +38,8 @@ std::vector<double> ComputeSupportFractions(const std::vector<Vector3d>& points_
 /// Checks every body's Support and fills the static load fractions. Called by Scene::Finalize.
 /// Throws std::invalid_argument naming the body for: supports in a spatial scene or on a
 /// non-dynamic body, μ_s < 0, n_d < 3, normal forces of the wrong count, negative or non-finite,
-/// an impossible static distribution, or a plane tilt outside [0, π/2] or g ≤ 0.
+/// an impossible static distribution, or a plane tilt outside [0, π/2] or g ≤ 0; also a
+/// quasistatic or dynamic-dqc formulation in a spatial scene.
 void FinalizeSupports(Scene* scene);
 
 /// N_k of a body's support points (N): the given forces, or f_k m g cos(tilt).
