@@ -4,6 +4,11 @@
 // pose of each with the quasistatic DQC model, and reports position and angle errors against
 // the reference prediction with the statically determinate distribution.
 //
+// A sampled distribution f moves the centre of pressure Σ f_k s_k anywhere inside the support
+// triangle (the reference puts it at the centre of mass), so the spread of the predictions is
+// the effect of not knowing where the slider's weight is carried — the uncertainty that makes
+// needle pushing hard to predict.
+//
 // Usage: needle_pushing [out.csv] [--quick] [--samples N]
 // Writes one row per sample (fractions, final pose, errors); prints the error statistics.
 #include <algorithm>
