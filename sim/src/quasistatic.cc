@@ -331,7 +331,7 @@ StepResiduals Quasistatic::Evaluate(const Scene& model, const Params& params, co
   for (int i = 0; i < model.param_table().size(); ++i) {
     const ParamKind kind = model.param_table().info(i).kind;
     if (kind == ParamKind::kDefaultFriction || kind == ParamKind::kFriction ||
-        kind == ParamKind::kMass) {
+        kind == ParamKind::kMass || kind == ParamKind::kSupportFriction) {
       column_of[i] = l.size() + static_cast<int>(r.param_columns.size());
       r.param_columns.push_back(i);
     }
@@ -381,6 +381,28 @@ StepResiduals Quasistatic::Evaluate(const Scene& model, const Params& params, co
   const StewartTrinkle::Assembly a = Assemble(model, x, u, quadratic_);
   for (int c = 0; c < o.nc; ++c)
     r.d_comp_b(o.nc + o.nf + c, column_of[a.contacts[c].mu_param]) = y[o.pn() + c];
+  // Support rows through the disk radius L_k = h μ_s N_k: column `col` with ∂L_k = dL.
+  const SupportRows& sup = a.support;
+  const auto add_radius_derivative = [&](int k, int col, double dL) {
+    const int sk = ncomp - o.ns + k;  // σ_s pair of point k
+    if (!quadratic_) {
+      r.d_comp_b(sk, col) = dL;
+    } else if (sup.limit[k] > 0.0) {
+      const double Lk = sup.limit[k];
+      const auto p = y.segment(o.ps() + sup.first[k], 2);
+      const double s = y[o.ss() + k];
+      r.d_comp_b(sk, col) = (1.0 + p.squaredNorm() / (Lk * Lk)) * dL;
+      // DQC support equations follow the joints in the equality block.
+      const int e0 = nv + nq + nb + 2 * k;
+      for (int j = 0; j < 2; ++j) r.d_equality(e0 + j, col) = -s * p[j] / (Lk * Lk) * dL;
+    }
+  };
+  for (int i = 0; i < model.param_table().size(); ++i) {
+    const ParamInfo& info = model.param_table().info(i);
+    if (info.kind != ParamKind::kSupportFriction) continue;
+    for (int k = 0; k < o.ns; ++k)
+      if (sup.body[k] == info.a) add_radius_derivative(k, column_of[i], sup.hN[k]);
+  }
   // Mass: ε_M M ν − p_ext scale with m (inertia ∝ m); a static support load scales with m.
   for (int i = 0; i < model.param_table().size(); ++i) {
     const ParamInfo& info = model.param_table().info(i);
@@ -394,23 +416,8 @@ StepResiduals Quasistatic::Evaluate(const Scene& model, const Params& params, co
     if (b.gravity) dm.head(2) -= h * model.gravity_W.head(2);
     r.d_equality.block(ov, column_of[i], 3, 1) = dm;
     if (!b.support.static_distribution) continue;
-    const SupportRows& sup = a.support;
-    for (int k = 0; k < o.ns; ++k) {
-      if (sup.body[k] != info.a) continue;
-      const double dL = sup.limit[k] / b.mass;  // ∂(h μ_s N_k)/∂m
-      const int sk = ncomp - o.ns + k;          // σ_s pair of point k
-      if (!quadratic_) {
-        r.d_comp_b(sk, column_of[i]) = dL;
-      } else if (sup.limit[k] > 0.0) {
-        const double Lk = sup.limit[k];
-        const auto p = y.segment(o.ps() + sup.first[k], 2);
-        const double s = y[o.ss() + k];
-        r.d_comp_b(sk, column_of[i]) = (1.0 + p.squaredNorm() / (Lk * Lk)) * dL;
-        // DQC support equations follow the joints in the equality block.
-        const int e0 = nv + nq + nb + 2 * k;
-        for (int j = 0; j < 2; ++j) r.d_equality(e0 + j, column_of[i]) = -s * p[j] / (Lk * Lk) * dL;
-      }
-    }
+    for (int k = 0; k < o.ns; ++k)
+      if (sup.body[k] == info.a) add_radius_derivative(k, column_of[i], sup.limit[k] / b.mass);
   }
   return r;
 }

@@ -147,6 +147,9 @@ void Scene::Finalize() {
     const int bi = static_cast<int>(i);
     if (b.kind == BodyKind::kDynamic)
       params_.Add({"mass." + b.name, ParamKind::kMass, bi, -1, -1, b.mass, 1e-12, kInf});
+    if (b.kind == BodyKind::kDynamic && !b.support.empty())
+      params_.Add({"support_mu." + b.name, ParamKind::kSupportFriction, bi, -1, -1, b.support.mu,
+                   0.0, kInf});
     for (std::size_t s = 0; s < b.shapes.size(); ++s) {
       const Shape& sh = b.shapes[s];
       const int si = static_cast<int>(s);
@@ -219,6 +222,9 @@ Scene Scene::ApplyParams(const Params& params) const {
         break;
       case ParamKind::kFriction:
         s.mu[{p.a, p.b}] = x;
+        break;
+      case ParamKind::kSupportFriction:
+        s.bodies[p.a].support.mu = x;
         break;
       case ParamKind::kMass: {
         Body& b = s.bodies[p.a];

@@ -417,7 +417,7 @@ StepResiduals StewartTrinkle::Evaluate(const Scene& model, const Params& params,
   for (int i = 0; i < model.param_table().size(); ++i) {
     const ParamKind kind = model.param_table().info(i).kind;
     if (kind == ParamKind::kDefaultFriction || kind == ParamKind::kFriction ||
-        kind == ParamKind::kMass) {
+        kind == ParamKind::kMass || kind == ParamKind::kSupportFriction) {
       column_of[i] = l.size() + static_cast<int>(r.param_columns.size());
       r.param_columns.push_back(i);
     }
@@ -528,6 +528,11 @@ StepResiduals StewartTrinkle::Evaluate(const Scene& model, const Params& params,
     // A static distribution scales with the mass: ∂(h μ_s N_k)/∂m = h μ_s N_k / m.
     for (int i = 0; i < model.param_table().size(); ++i) {
       const ParamInfo& info = model.param_table().info(i);
+      if (info.kind == ParamKind::kSupportFriction) {  // ∂(h μ_s N_k)/∂μ_s = h N_k
+        for (int k = 0; k < l.ns; ++k)
+          if (a.support.body[k] == info.a)
+            r.d_comp_b(ncomp + l.nps + k, column_of[i]) = a.support.hN[k];
+      }
       if (info.kind != ParamKind::kMass || !model.bodies[info.a].support.static_distribution)
         continue;
       for (int k = 0; k < l.ns; ++k)

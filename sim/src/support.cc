@@ -151,6 +151,7 @@ SupportRows AssembleSupport(const Scene& model, const State& x, double h, bool q
   }
   r.G_s = MatrixXd::Zero(model.num_velocities(), ncol);
   r.limit.resize(ns);
+  r.hN.resize(ns);
   int k = 0, col = 0;
   for (int bi : model.dynamic_bodies()) {
     const Body& b = model.bodies[bi];
@@ -163,6 +164,7 @@ SupportRows AssembleSupport(const Scene& model, const State& x, double h, bool q
     for (std::size_t p = 0; p < s.points_B.size(); ++p, ++k) {
       const Vector3d p_W = X_WB * Vector3d(s.points_B[p].x(), s.points_B[p].y(), 0.0);
       r.limit[k] = h * s.mu * N[p];
+      r.hN[k] = h * N[p];
       r.body.push_back(bi);
       r.first.push_back(col);
       r.count.push_back(nd);

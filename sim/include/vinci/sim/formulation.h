@@ -36,9 +36,9 @@ struct StepLayout {
 /// Step equations at a point: equality = 0 and 0 ≤ comp_a ⊥ comp_b ≥ 0 (componentwise).
 /// Jacobians are with respect to [z; θ_d]: the layout.size() step unknowns followed by the
 /// differentiable scene parameters θ_d listed in `param_columns` (indices into the scene's
-/// ParamTable: every friction coefficient and every mass). Geometry-size and motion parameters
-/// have no column (the contact set and ∂ψ/∂t depend on them non-smoothly); difference them
-/// through the simulator if needed.
+/// ParamTable: every friction coefficient, support friction μ_s and mass). Geometry-size and motion
+/// parameters have no column (the contact set and ∂ψ/∂t depend on them non-smoothly); difference
+/// them through the simulator if needed.
 struct StepResiduals {
   StepLayout layout;
   std::vector<int> param_columns;

@@ -52,6 +52,7 @@ bool HasSupports(const Scene& scene);
 struct SupportRows {
   MatrixXd G_s;    ///< nv × (Σ columns): column [d; (p − c) × d] per direction (or x, y axis)
   VectorXd limit;  ///< h μ_s N_k per point (impulse radius of its disk)
+  VectorXd hN;     ///< h N_k per point (= ∂limit/∂μ_s)
   std::vector<int> body;   ///< body index per point
   std::vector<int> first;  ///< first column of each point in G_s
   std::vector<int> count;  ///< columns per point: n_d (linearized) or 2 (quadratic: x, y)
