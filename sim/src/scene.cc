@@ -6,6 +6,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "vinci/sim/support.h"
+
 namespace vinci::sim {
 namespace {
 
@@ -161,6 +163,7 @@ void Scene::Finalize() {
     if (j.body_a < 0 || j.body_a >= n || j.body_b < -1 || j.body_b >= n || j.body_a == j.body_b)
       throw std::invalid_argument("joint '" + j.name + "' refers to invalid bodies");
   }
+  FinalizeSupports(this);  // 2.5D support friction (support.h)
 
   // The parameter table.
   params_ = ParamTable();
@@ -173,6 +176,9 @@ void Scene::Finalize() {
     const int bi = static_cast<int>(i);
     if (b.kind == BodyKind::kDynamic)
       params_.Add({"mass." + b.name, ParamKind::kMass, bi, -1, -1, b.mass, 1e-12, kInf});
+    if (b.kind == BodyKind::kDynamic && !b.support.empty())
+      params_.Add({"support_mu." + b.name, ParamKind::kSupportFriction, bi, -1, -1, b.support.mu,
+                   0.0, kInf});
     for (std::size_t s = 0; s < b.shapes.size(); ++s) {
       const Shape& sh = b.shapes[s];
       const int si = static_cast<int>(s);
@@ -246,6 +252,9 @@ Scene Scene::ApplyParams(const Params& params) const {
         break;
       case ParamKind::kFriction:
         s.mu[{p.a, p.b}] = x;
+        break;
+      case ParamKind::kSupportFriction:
+        s.bodies[p.a].support.mu = x;
         break;
       case ParamKind::kMass: {
         Body& b = s.bodies[p.a];

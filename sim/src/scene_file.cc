@@ -32,9 +32,12 @@ constexpr double kRelativeDegeneracy = 1e-12;
 // Relative tolerance on the symmetry of a full 3x3 inertia.
 constexpr double kInertiaSymmetryTol = 1e-9;
 
-const std::vector<std::string> kTopKeys = {"name",    "dimension", "gravity",
-                                           "stepper", "materials", "friction",
-                                           "bodies",  "joints",    "field"};
+const std::vector<std::string> kTopKeys = {"name",      "dimension", "gravity", "stepper",
+                                           "materials", "friction",  "bodies",  "joints",
+                                           "field",     "plane"};
+// 2.5D model (support.h): the table under a planar scene and a body's support points.
+const std::vector<std::string> kPlaneKeys = {"tilt", "g"};
+const std::vector<std::string> kSupportKeys = {"points", "normal_forces", "mu", "directions"};
 const std::vector<std::string> kStepperKeys = {"formulation",
                                                "dt",
                                                "duration",
@@ -46,9 +49,9 @@ const std::vector<std::string> kStepperKeys = {"formulation",
                                                "prescribed_velocity",
                                                "nonconvex_corners"};
 const std::vector<std::string> kFrictionKeys = {"default", "pairs"};
-const std::vector<std::string> kBodyKeys = {"name",    "kind",       "pose",   "velocity", "mass",
-                                            "inertia", "gravity",    "force",  "torque",   "shapes",
-                                            "motion",  "compliance", "damping"};
+const std::vector<std::string> kBodyKeys = {
+    "name",  "kind",   "pose",   "velocity", "mass",       "inertia", "gravity",
+    "force", "torque", "shapes", "motion",   "compliance", "damping", "support"};
 const std::vector<std::string> kComplianceKeys = {"law", "stiffness", "damping", "alpha",
                                                   "min_overlap"};
 const std::vector<std::string> kPlanarPoseKeys = {"position", "angle"};
@@ -66,7 +69,7 @@ const std::vector<std::string> kPlanarDofs = {"x", "y", "theta"};
 const std::vector<std::string> kSpatialDofs = {"x", "y", "z", "roll", "pitch", "yaw"};
 // Keys that only make sense on a dynamic body.
 const std::vector<std::string> kDynamicOnlyKeys = {"mass",  "inertia", "velocity", "gravity",
-                                                   "force", "torque",  "damping"};
+                                                   "force", "torque",  "damping",  "support"};
 
 std::string Join(const std::vector<std::string>& items) {
   std::string s;
@@ -323,6 +326,7 @@ class Parser {
   DofMotion ParseDofMotion(const Field& f, std::optional<double> base_frequency) const;
   Body ParseBody(const Field& f) const;
   ContactCompliance ParseCompliance(const Field& f) const;
+  Support ParseSupport(const Field& f) const;
   Joint ParseJoint(const Field& f, const Scene& scene) const;
   void ParseStepper(const Field& f, StepperOptions* options) const;
   void ParseFriction(const Field& f, Scene* scene) const;
@@ -698,6 +702,10 @@ Body Parser::ParseBody(const Field& f) const {
   if (auto m = Get(f, "motion")) b.motion = Motion(*m);
   if (auto c = Get(f, "compliance")) b.compliance = ParseCompliance(*c);
   if (auto d = Get(f, "damping")) b.damping = Damping(*d);
+  if (auto s = Get(f, "support")) {
+    if (!planar()) Fail(*s, "no support in a spatial scene (the 2.5D model is planar)");
+    b.support = ParseSupport(*s);
+  }
   return b;
 }
 
@@ -749,6 +757,39 @@ MatrixXd Parser::Damping(const Field& f) const {
   if (Eigen::LLT<MatrixXd>(C).info() != Eigen::Success)
     Fail(f, "a positive definite damping matrix", "a matrix that is not positive definite");
   return C;
+}
+
+Support Parser::ParseSupport(const Field& f) const {
+  CheckMap(f, kSupportKeys, "a support: a map");
+  Support s;
+  const std::string what = "a non-empty list of points [x, y]";
+  const Field pf = Require(f, "points", what);
+  const std::vector<Field> items = Items(pf, what);
+  if (items.empty()) Fail(pf, what);
+  for (const Field& item : items) {
+    const VectorXd p = Numbers(item, 2);
+    s.points_B.push_back(Vector3d(p[0], p[1], 0.0));
+  }
+  s.static_distribution = true;
+  if (auto n = Get(f, "normal_forces")) {
+    const std::string nwhat =
+        "'static' or a list of " + std::to_string(items.size()) + " numbers >= 0 (one per point)";
+    if (n->node.IsScalar()) {
+      if (n->node.Scalar() != "static") Fail(*n, nwhat);
+    } else {
+      const VectorXd N = Numbers(*n, static_cast<int>(items.size()), Bound::kNonNegative);
+      s.static_distribution = false;
+      s.normal_forces.assign(N.data(), N.data() + N.size());
+    }
+  }
+  if (auto m = Get(f, "mu")) s.mu = Number(*m, Bound::kNonNegative);
+  if (auto d = Get(f, "directions")) {
+    const std::string dwhat = "an integer >= 3";
+    const long long n = Integer(*d, dwhat);
+    if (n < 3 || n > 100000) Fail(*d, dwhat);
+    s.directions = static_cast<int>(n);
+  }
+  return s;
 }
 
 Joint Parser::ParseJoint(const Field& f, const Scene& scene) const {
@@ -804,7 +845,10 @@ void Parser::ParseStepper(const Field& f, StepperOptions* o) const {
                                              {{"stewart-trinkle", FormulationType::kStewartTrinkle},
                                               {"anitescu-potra", FormulationType::kAnitescuPotra},
                                               {"ncp", FormulationType::kNcp},
-                                              {"first-order", FormulationType::kFirstOrder}},
+                                              {"first-order", FormulationType::kFirstOrder},
+                                              {"quasistatic-dlc", FormulationType::kQuasistaticDlc},
+                                              {"quasistatic-dqc", FormulationType::kQuasistaticDqc},
+                                              {"dynamic-dqc", FormulationType::kDynamicDqc}},
                                              "a formulation");
   if (auto v = Get(f, "dt")) o->dt = Number(*v, Bound::kPositive);
   if (auto v = Get(f, "duration")) o->duration = Number(*v, Bound::kPositive);
@@ -869,6 +913,18 @@ Scene Parser::Parse(const YAML::Node& root) {
   scene.dim = dim_;
   scene.gravity_W = planar() ? Vector3d(0, -9.81, 0) : Vector3d(0, 0, -9.81);
   if (auto g = Get(top, "gravity")) scene.gravity_W = Vector(*g);
+  if (auto p = Get(top, "plane")) {
+    if (!planar()) Fail(*p, "no plane in a spatial scene (the 2.5D model is planar)");
+    if (auto g = Get(top, "gravity"))
+      Fail(*g, "no gravity together with 'plane' (the plane sets the in-plane gravity)");
+    CheckMap(*p, kPlaneKeys, "a plane: a map");
+    if (auto t = Get(*p, "tilt")) {
+      scene.plane.tilt = Number(*t, Bound::kNonNegative);
+      if (scene.plane.tilt > 1.5707963267948966) Fail(*t, "a tilt in [0, pi/2] rad");
+    }
+    if (auto g = Get(*p, "g")) scene.plane.g = Number(*g, Bound::kPositive);
+    scene.gravity_W = Vector3d(0.0, -scene.plane.g * std::sin(scene.plane.tilt), 0.0);
+  }
 
   if (auto s = Get(top, "stepper")) ParseStepper(*s, &scene.options);
 
@@ -903,6 +959,10 @@ Scene Parser::Parse(const YAML::Node& root) {
     if (!inserted)
       Fail(*Get(item, "name"), "unique body names",
            "'" + b.name + "' again (first on line " + std::to_string(prev->second) + ")");
+    if (!b.support.empty() && !Get(top, "plane"))
+      Fail(*Get(item, "support"),
+           "a support only in a scene with a top-level 'plane' (the table it rests on)",
+           "a support without 'plane'");
     scene.bodies.push_back(std::move(b));
   }
 

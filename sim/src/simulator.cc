@@ -6,6 +6,7 @@
 #include "vinci/sim/kinematics.h"
 #include "vinci/sim/lemke.h"
 #include "vinci/sim/ncp.h"
+#include "vinci/sim/quasistatic.h"
 #include "vinci/sim/stewart_trinkle.h"
 
 namespace vinci::sim {
@@ -13,6 +14,10 @@ namespace vinci::sim {
 std::unique_ptr<Formulation> MakeFormulation(const StepperOptions& options) {
   if (options.formulation == FormulationType::kNcp) return std::make_unique<NcpStepper>(options);
   if (options.formulation == FormulationType::kFirstOrder) return MakeFirstOrder(options);
+  if (options.formulation == FormulationType::kQuasistaticDlc ||
+      options.formulation == FormulationType::kQuasistaticDqc ||
+      options.formulation == FormulationType::kDynamicDqc)
+    return std::make_unique<Quasistatic>(options);  // §5, §6 (quasistatic.h)
   return std::make_unique<StewartTrinkle>(options, MakeLcpSolver(options.solver));
 }
 

@@ -75,6 +75,35 @@ BodyKinematics StepKinematics(const Scene& model, int body, const BodyKinematics
   return k;
 }
 
+// Appends the support-friction pairs (p_s, G_sᵀν + E_s σ_s) and (σ_s, h μ_s N − E_sᵀ p_s) to
+// the complementarity block of r (after every other pair).
+void AppendSupportPairs(const SupportRows& sup, const StepLayout& l, const VectorXd& z,
+                        StepResiduals* r) {
+  const int old = static_cast<int>(r->comp_a.size()), ncol = static_cast<int>(r->d_comp_a.cols());
+  const int add = l.nps + l.ns;
+  r->comp_a.conservativeResize(old + add);
+  r->comp_b.conservativeResize(old + add);
+  r->d_comp_a.conservativeResize(old + add, ncol);
+  r->d_comp_b.conservativeResize(old + add, ncol);
+  r->d_comp_a.bottomRows(add).setZero();
+  r->d_comp_b.bottomRows(add).setZero();
+  r->comp_a.tail(add) = z.segment(l.ps(), add);  // p_s, σ_s are contiguous
+  r->d_comp_a.block(old, l.ps(), add, add).setIdentity();
+  r->comp_b.segment(old, l.nps) = sup.G_s.transpose() * z.segment(l.v1(), l.nv);
+  r->d_comp_b.block(old, l.v1(), l.nps, l.nv) = sup.G_s.transpose();
+  for (int k = 0; k < l.ns; ++k) {
+    const int row = old + l.nps + k;
+    r->comp_b[row] = sup.limit[k];
+    for (int j = 0; j < sup.count[k]; ++j) {
+      const int col = sup.first[k] + j;
+      r->comp_b[old + col] += z[l.sigma_s() + k];
+      r->d_comp_b(old + col, l.sigma_s() + k) = 1.0;
+      r->comp_b[row] -= z[l.ps() + col];
+      r->d_comp_b(row, l.ps() + col) = -1.0;
+    }
+  }
+}
+
 }  // namespace
 
 StewartTrinkle::StewartTrinkle(StepperOptions options, std::shared_ptr<const LcpSolver> solver)
@@ -251,6 +280,9 @@ StewartTrinkle::Assembly StewartTrinkle::Assemble(const Scene& model, const Stat
     add(j.body_b, kb, rows.J_b);
     r += m;
   }
+
+  // 2.5D support friction (support.h): empty without support points.
+  a.support = AssembleSupport(model, x, h, /*quadratic=*/false);
   return a;
 }
 
@@ -262,8 +294,12 @@ LcpProblem StewartTrinkle::BuildLcp(const Scene& model, const Assembly& a, const
   const int nf = nc * nd;
   const int nb = static_cast<int>(a.psi_b.size());
   const int nk = static_cast<int>(a.corner_contact.size());
-  const int m = nc + nf + nc + nk;
   const int nvb = VelocitySize(model.dim);
+  // Support friction: p_s (nps columns) and σ_s (ns points) follow (p_n, p_f, σ).
+  const SupportRows& sup = a.support;
+  const int ns = sup.points(), nps = sup.columns(), s0 = nc + nf + nc;
+  // Corner unknowns c (nk) come last: z = [p_n; p_f; σ; p_s; σ_s; c].
+  const int m = nc + nf + nc + nps + ns + nk;
 
   *v_star = v + a.M_inv * a.p_ext;
   LcpProblem lcp;
@@ -281,6 +317,8 @@ LcpProblem StewartTrinkle::BuildLcp(const Scene& model, const Assembly& a, const
       for (int j = 0; j < nd; ++j) cols.push_back(nc + c * nd + j);
     }
   }
+  for (int k = 0; k < ns; ++k)
+    for (int j = 0; j < sup.count[k]; ++j) columns[sup.body[k]].push_back(s0 + sup.first[k] + j);
   MatrixXd Gb_cols, MinvG;
   for (int body : model.dynamic_bodies()) {
     const std::vector<int>& cols = columns[body];
@@ -288,8 +326,9 @@ LcpProblem StewartTrinkle::BuildLcp(const Scene& model, const Assembly& a, const
     const int o = model.index(body).v, k = static_cast<int>(cols.size());
     Gb_cols.resize(nvb, k);
     for (int i = 0; i < k; ++i)
-      Gb_cols.col(i) =
-          cols[i] < nc ? a.G_n.block(o, cols[i], nvb, 1) : a.G_f.block(o, cols[i] - nc, nvb, 1);
+      Gb_cols.col(i) = cols[i] < nc        ? a.G_n.block(o, cols[i], nvb, 1)
+                       : cols[i] < nc + nf ? a.G_f.block(o, cols[i] - nc, nvb, 1)
+                                           : sup.G_s.block(o, cols[i] - s0, nvb, 1);
     MinvG.noalias() = a.M_inv.block(o, o, nvb, nvb) * Gb_cols;
     const MatrixXd block = Gb_cols.transpose() * MinvG;
     for (int i = 0; i < k; ++i)
@@ -305,10 +344,19 @@ LcpProblem StewartTrinkle::BuildLcp(const Scene& model, const Assembly& a, const
     VectorXd rhs = a.G_b.transpose() * *v_star + a.dpsi_b;
     if (options_.joint_stabilization) rhs += a.psi_b / h;
     *v_star -= joints->MinvGb * joints->S.solve(rhs);
-    if (nc > 0) {
+    if (nc > 0 && nps == 0) {
       MatrixXd GbMinvGc(nb, nc + nf);
       GbMinvGc << joints->MinvGb.transpose() * a.G_n, joints->MinvGb.transpose() * a.G_f;
       lcp.M.topLeftCorner(nc + nf, nc + nf) -= GbMinvGc.transpose() * joints->S.solve(GbMinvGc);
+    } else if (nps > 0) {
+      // Same correction over the impulse columns (p_n, p_f, p_s), skipping the σ rows/columns.
+      MatrixXd GbMinvGc(nb, nc + nf + nps);
+      GbMinvGc << joints->MinvGb.transpose() * a.G_n, joints->MinvGb.transpose() * a.G_f,
+          joints->MinvGb.transpose() * sup.G_s;
+      const MatrixXd C = GbMinvGc.transpose() * joints->S.solve(GbMinvGc);
+      const auto at = [&](int i) { return i < nc + nf ? i : i + nc; };
+      for (int i = 0; i < nc + nf + nps; ++i)
+        for (int j = 0; j < nc + nf + nps; ++j) lcp.M(at(i), at(j)) -= C(i, j);
     }
   }
 
@@ -356,6 +404,11 @@ LcpProblem StewartTrinkle::BuildLcp(const Scene& model, const Assembly& a, const
     MatrixXd WGc = a.M_inv * Gc;
     if (nb > 0) WGc -= joints->MinvGb * joints->S.solve(joints->MinvGb.transpose() * Gc);
     lcp.M.block(o, 0, nk, nc + nf) = -D.transpose() * WGc;
+    if (nps > 0) {  // ν also depends on the support impulses p_s
+      MatrixXd WGs = a.M_inv * sup.G_s;
+      if (nb > 0) WGs -= joints->MinvGb * joints->S.solve(joints->MinvGb.transpose() * sup.G_s);
+      lcp.M.block(o, s0, nk, nps) = -D.transpose() * WGs;
+    }
     for (int k = 0; k < nk; ++k) {
       lcp.M(o + k, o + k) = 1.0;
       lcp.M(a.corner_contact[k], o + k) = 1.0;
@@ -365,6 +418,22 @@ LcpProblem StewartTrinkle::BuildLcp(const Scene& model, const Assembly& a, const
     }
     lcp.q.segment(o, nk) = -(D.transpose() * *v_star + e);
   }
+  // Support friction rows: 0 ≤ p_s ⊥ G_sᵀν + E_s σ_s, 0 ≤ σ_s ⊥ h μ_s N − E_sᵀ p_s.
+  for (int k = 0; k < ns; ++k) {
+    std::vector<int> block;
+    for (int j = 0; j < sup.count[k]; ++j) {
+      const int row = s0 + sup.first[k] + j;
+      lcp.M(row, s0 + nps + k) = 1.0;   // E_s
+      lcp.M(s0 + nps + k, row) = -1.0;  // −E_sᵀ
+      block.push_back(row);
+    }
+    block.push_back(s0 + nps + k);
+    lcp.blocks.push_back(std::move(block));
+  }
+  if (nps > 0) {
+    lcp.q.segment(s0, nps) = sup.G_s.transpose() * *v_star;
+    lcp.q.segment(s0 + nps, ns) = sup.limit;
+  }
   return lcp;
 }
 
@@ -373,6 +442,8 @@ VectorXd StewartTrinkle::VelocityAfter(const Assembly& a, const VectorXd& v_star
   const int nc = static_cast<int>(a.contacts.size());
   const int nf = nc * a.nd;
   VectorXd impulse = a.G_n * z.head(nc) + a.G_f * z.segment(nc, nf);
+  if (a.support.columns() > 0)
+    impulse += a.support.G_s * z.segment(nc + nf + nc, a.support.columns());
   VectorXd dv = a.M_inv * impulse;
   if (a.psi_b.size() > 0) dv -= joints.MinvGb * joints.S.solve(joints.MinvGb.transpose() * impulse);
   return v_star + dv;
@@ -450,6 +521,11 @@ StepLayout StewartTrinkle::Layout(const Scene& model, const State& x) const {
   l.nd = model.dim == Dim::kPlanar ? 2 : options_.friction_directions;
   for (const Joint& j : model.joints) l.nb += JointRowCount(j.type, model.dim);
   for (const Contact& c : contacts) l.nk += c.point.corner ? 1 : 0;
+  for (int bi : model.dynamic_bodies()) {
+    const Support& s = model.bodies[bi].support;
+    l.ns += static_cast<int>(s.points_B.size());
+    l.nps += static_cast<int>(s.points_B.size()) * s.directions;
+  }
   return l;
 }
 
@@ -465,6 +541,8 @@ StepResiduals StewartTrinkle::Evaluate(const Scene& model, const Params& params,
   l.nd = a.nd;
   l.nb = static_cast<int>(a.psi_b.size());
   l.nk = static_cast<int>(a.corner_contact.size());
+  l.ns = a.support.points();
+  l.nps = a.support.columns();
   if (z.size() != l.size())
     throw std::invalid_argument("StewartTrinkle::Evaluate: z has " + std::to_string(z.size()) +
                                 " entries, the step layout needs " + std::to_string(l.size()));
@@ -475,7 +553,7 @@ StepResiduals StewartTrinkle::Evaluate(const Scene& model, const Params& params,
   for (int i = 0; i < model.param_table().size(); ++i) {
     const ParamKind kind = model.param_table().info(i).kind;
     if (kind == ParamKind::kDefaultFriction || kind == ParamKind::kFriction ||
-        kind == ParamKind::kMass) {
+        kind == ParamKind::kMass || kind == ParamKind::kSupportFriction) {
       column_of[i] = l.size() + static_cast<int>(r.param_columns.size());
       r.param_columns.push_back(i);
     }
@@ -499,6 +577,10 @@ StepResiduals StewartTrinkle::Evaluate(const Scene& model, const Params& params,
   r.d_equality.block(0, l.pn(), nv, nc) = -a.G_n;
   r.d_equality.block(0, l.pf(), nv, nf) = -a.G_f;
   r.d_equality.block(0, l.pb(), nv, nb) = -a.G_b;
+  if (l.nps > 0) {
+    r.equality.head(nv) -= a.support.G_s * z.segment(l.ps(), l.nps);
+    r.d_equality.block(0, l.ps(), nv, l.nps) = -a.support.G_s;
+  }
   // ∂/∂m of body b's rows: M_b and p_ext scale with the mass (inertia ∝ mass, same shape).
   for (int i = 0; i < model.param_table().size(); ++i) {
     const ParamInfo& info = model.param_table().info(i);
@@ -601,6 +683,24 @@ StepResiduals StewartTrinkle::Evaluate(const Scene& model, const Params& params,
     r.comp_b[c] += cc[k];
     if (velocity_level_) r.comp_b[c] += a.psi_n[c] / h;  // corners stay position-level
     r.d_comp_b(c, l.corner() + k) = 1.0;
+  }
+  if (l.ns > 0) {
+    AppendSupportPairs(a.support, l, z, &r);
+    // A static distribution scales with the mass: ∂(h μ_s N_k)/∂m = h μ_s N_k / m.
+    for (int i = 0; i < model.param_table().size(); ++i) {
+      const ParamInfo& info = model.param_table().info(i);
+      if (info.kind == ParamKind::kSupportFriction) {  // ∂(h μ_s N_k)/∂μ_s = h N_k
+        for (int k = 0; k < l.ns; ++k)
+          if (a.support.body[k] == info.a)
+            r.d_comp_b(ncomp + l.nps + k, column_of[i]) = a.support.hN[k];
+      }
+      if (info.kind != ParamKind::kMass || !model.bodies[info.a].support.static_distribution)
+        continue;
+      for (int k = 0; k < l.ns; ++k)
+        if (a.support.body[k] == info.a)
+          r.d_comp_b(ncomp + l.nps + k, column_of[i]) =
+              a.support.limit[k] / model.bodies[info.a].mass;
+    }
   }
   return r;
 }

@@ -15,28 +15,34 @@
 namespace vinci::sim {
 
 /// The unknowns of one step for a fixed contact set (found at x_ℓ), stacked in this order:
-///   z = [q_ℓ+1 (nq); ν_ℓ+1 (nv); p_n (nc); p_f (nc·nd); σ (nc); p_b (nb); c (nk)],
-/// c being the corner unknowns of the nk corner contacts (formulations.md §7, in contact
-/// order; see stewart_trinkle.h). nk = 0 for scenes without concave polygons.
+///   z = [q_ℓ+1 (nq); ν_ℓ+1 (nv); p_n (nc); p_f (nc·nd); σ (nc); p_b (nb);
+///        p_s (nps); σ_s (ns); c (nk)],
+/// p_s, σ_s being the 2.5D support friction (support.h: ns support points with nps friction
+/// columns in all; both 0 in scenes without supports) and c the corner unknowns of the nk corner
+/// contacts (formulations.md §7, in contact order; see stewart_trinkle.h; nk = 0 for scenes
+/// without concave polygons).
 struct StepLayout {
   int nq = 0, nv = 0, nc = 0, nd = 0, nb = 0;
-  int nk = 0;  ///< corner contacts
+  int ns = 0, nps = 0;  ///< support points, support friction columns
+  int nk = 0;           ///< corner contacts
   int q1() const { return 0; }
   int v1() const { return nq; }
   int pn() const { return nq + nv; }
   int pf() const { return pn() + nc; }
   int sigma() const { return pf() + nc * nd; }
   int pb() const { return sigma() + nc; }
-  int corner() const { return pb() + nb; }
+  int ps() const { return pb() + nb; }
+  int sigma_s() const { return ps() + nps; }
+  int corner() const { return sigma_s() + ns; }
   int size() const { return corner() + nk; }
 };
 
 /// Step equations at a point: equality = 0 and 0 ≤ comp_a ⊥ comp_b ≥ 0 (componentwise).
 /// Jacobians are with respect to [z; θ_d]: the layout.size() step unknowns followed by the
 /// differentiable scene parameters θ_d listed in `param_columns` (indices into the scene's
-/// ParamTable: every friction coefficient and every mass). Geometry-size and motion parameters
-/// have no column (the contact set and ∂ψ/∂t depend on them non-smoothly); difference them
-/// through the simulator if needed.
+/// ParamTable: every friction coefficient, support friction μ_s and mass). Geometry-size and motion
+/// parameters have no column (the contact set and ∂ψ/∂t depend on them non-smoothly); difference
+/// them through the simulator if needed.
 struct StepResiduals {
   StepLayout layout;
   std::vector<int> param_columns;

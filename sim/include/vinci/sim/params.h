@@ -22,6 +22,7 @@ enum class ParamKind {
   kMotionAmplitude,  ///< bodies[a].motion.dofs[b].harmonics[c].amplitude
   kMotionFrequency,  ///< bodies[a].motion.dofs[b].harmonics[c].frequency
   kMotionPhase,      ///< bodies[a].motion.dofs[b].harmonics[c].phase
+  kSupportFriction,  ///< bodies[a].support.mu (μ_s of its support points, support.h)
 };
 
 struct ParamInfo {

@@ -25,6 +25,31 @@ struct Material {
   std::string name;
 };
 
+/// Friction between a planar body and the plane of motion (the 2.5D model, formulations.md §6;
+/// sim/include/vinci/sim/support.h). Support point k at s_k (body frame) carries the normal force
+/// N_k ≥ 0 and a friction disk of radius μ_s N_k. An empty `points_B` means no support friction.
+struct Support {
+  std::vector<Vector3d> points_B;  ///< s_k in the body frame (m; z is ignored)
+  /// N_k (N), one per point, when `static_distribution` is false.
+  std::vector<double> normal_forces;
+  /// true: N_k = f_k m g cos(tilt) with the static load fractions f_k computed by Finalize()
+  /// (ComputeSupportFractions in support.h), so a mass parameter scales them.
+  bool static_distribution = false;
+  std::vector<double> load_fractions;  ///< f_k (Σ f_k = 1), filled by Finalize() when static
+  double mu = 0.0;                     ///< μ_s ≥ 0
+  int directions = 8;                  ///< n_d ≥ 3 of the linearized disk (LCP steppers)
+  bool empty() const { return points_B.empty(); }
+};
+
+/// The plane of motion of a planar scene seen as a (possibly tilted) table, for the 2.5D model.
+/// The plane is tilted by `tilt` about the world x axis with downhill along −y: a body's support
+/// load is m g cos(tilt) and its in-plane gravity g sin(tilt) along −y (the scene file sets
+/// Scene::gravity_W = (0, −g sin(tilt)) from these; a SceneBuilder user sets it likewise).
+struct SupportPlane {
+  double g = 9.81;    ///< magnitude of gravity (m/s²)
+  double tilt = 0.0;  ///< angle between the plane of motion and the horizontal (rad), [0, π/2]
+};
+
 /// A rigid body. Planar bodies use (x, y, θ); spatial bodies position + unit quaternion with
 /// angular velocity expressed in the BODY frame (so the inertia is constant).
 struct Body {
@@ -50,6 +75,7 @@ struct Body {
   /// translational, N·m·s/rad on the rotational entries; spatial 6×6 on (v_W, ω_B)). Empty
   /// otherwise.
   MatrixXd damping;
+  Support support;  ///< friction against the plane of motion (planar dynamic bodies only)
 };
 
 /// Joint kinds. Planar: revolute (2 eqs), prismatic (2), weld (3).
@@ -75,6 +101,9 @@ enum class FormulationType {
   kAnitescuPotra,   ///< velocity-level normal constraint (no ψ_n/h)
   kNcp,             ///< formulations.md §2: quadratic friction cone, an MCP (ncp.h)
   kFirstOrder,      ///< formulations.md §8: damping-dominated, C ν = (G_n p_n + G_f p_f)/h + F
+  kQuasistaticDlc,  ///< §5 Model-DLC: quasistatic, linearized cones (quasistatic.h)
+  kQuasistaticDqc,  ///< §5 Model-DQC: quasistatic, quadratic support-friction disks (an NCP)
+  kDynamicDqc,  ///< §1 dynamics with exact (quadratic) §6 support disks, an NCP (quasistatic.h)
 };
 
 /// Which velocity of a prescribed body enters ∂ψ/∂t over a step [t, t + h].
@@ -121,6 +150,7 @@ class Scene {
   std::vector<Body> bodies;
   std::vector<Joint> joints;
   StepperOptions options;
+  SupportPlane plane;  ///< the table under a planar scene (2.5D support friction)
 
   /// Computes indices, inertias from shapes where requested, and the parameter table.
   /// Throws std::invalid_argument on an inconsistent scene.

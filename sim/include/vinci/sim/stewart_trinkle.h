@@ -40,7 +40,7 @@
 // step), the edge with the smaller |ψ_i|, the one the vertex slides along now — and stores it
 // as the contact's `point` (its column of G_n, G_f, ψ_n); edge 1 is G_1, ψ_1. c enters only its
 // own row and its contact's normal row; it carries no force. In the LCP the c_k are the last
-// unknowns, z = [p_n; p_f; σ; c]; the c rows are −(G_1 − G_2)ᵀ W G_c in the (p_n, p_f)
+// unknowns, z = [p_n; p_f; σ; p_s; σ_s; c]; the c rows are −(G_1 − G_2)ᵀ W G_c in the (p_n, p_f, p_s)
 // columns and 1 on the diagonal, and c_k joins the friction-cone block of its contact. With
 // StepperOptions::nonconvex_corners = false the narrow phase's corners arrive as two ordinary
 // contacts instead (per-edge constraints).
@@ -48,12 +48,18 @@
 // With options.formulation = kFirstOrder the same class steps the first-order model (see
 // first_order.h): M is replaced by h C (C the bodies' damping matrices), ν_ℓ by 0 and p_vp by 0;
 // everything else, including the corner rows, is unchanged.
+//
+// 2.5D support friction (formulations.md §6, support.h): planar bodies with support points add
+// −G_s p_s to the dynamics and the rows 0 ≤ p_s ⊥ G_sᵀ ν_ℓ+1 + E_s σ_s ≥ 0,
+// 0 ≤ σ_s ⊥ h μ_s N − E_sᵀ p_s ≥ 0; the LCP unknowns become (p_n, p_f, σ, p_s, σ_s). Scenes
+// without supports build exactly the LCP above.
 #pragma once
 
 #include <Eigen/Cholesky>
 #include <memory>
 
 #include "vinci/sim/formulation.h"
+#include "vinci/sim/support.h"
 
 namespace vinci::sim {
 
@@ -87,6 +93,7 @@ class StewartTrinkle final : public Formulation {
     std::vector<int> corner_contact;  ///< nk
     MatrixXd G_1;                     ///< nv × nk
     VectorXd psi_1, dpsi_1;           ///< ψ_1, ∂ψ_1/∂t (nk)
+    SupportRows support;     ///< 2.5D support friction, linearized (empty without supports)
   };
   Assembly Assemble(const Scene& model, const State& x, const StepInput& u) const;
   /// The Schur-complement pieces of the joint elimination (empty without joints).
@@ -94,8 +101,8 @@ class StewartTrinkle final : public Formulation {
     MatrixXd MinvGb;          ///< M⁻¹ G_b
     Eigen::LDLT<MatrixXd> S;  ///< S = G_bᵀ M⁻¹ G_b
   };
-  /// The LCP of the step in (p_n, p_f, σ, c) after eliminating ν and p_b; *v_star is ν_ℓ+1 for
-  /// zero contact impulses.
+  /// The LCP of the step in (p_n, p_f, σ[, p_s, σ_s][, c]) after eliminating ν and p_b; *v_star is ν_ℓ+1
+  /// for zero contact impulses.
   LcpProblem BuildLcp(const Scene& model, const Assembly& a, const VectorXd& v, VectorXd* v_star,
                       JointElimination* joints) const;
   /// ν_ℓ+1 = ν* + W G_c p_c for the LCP solution z.
