@@ -479,8 +479,10 @@ bool TryWarmStart(const LcpProblem& problem, const VectorXd& warm, const Accepta
 // of the B equations near the iterate has negative components.
 bool PolishTerminalIterate(const LcpProblem& problem, const VectorXd& z_lemke,
                            const Acceptance& acceptance, VectorXd* z, int* iterations) {
+  FischerBurmeisterOptions options;
+  options.lemke_fallback = false;  // no recursion back into Lemke
   VectorXd candidate;
-  const SolverReport r = FischerBurmeisterSolver().Solve(problem, &z_lemke, &candidate);
+  const SolverReport r = FischerBurmeisterSolver(options).Solve(problem, &z_lemke, &candidate);
   *iterations = r.iterations;
   if (!candidate.allFinite() || candidate.size() != problem.q.size()) return false;
   candidate = candidate.cwiseMax(0.0);

@@ -35,7 +35,10 @@ struct SolverReport {
   double time_s = 0.0;          ///< wall time of the solve (s)
   bool regularized = false;     ///< true if the solution came from a regularized retry M + εI
   double regularization = 0.0;  ///< the ε used, if regularized
-  std::string message;          ///< human-readable detail on failure
+  /// Extra attempts after the first one failed: McpSolver restarts, FB Newton's Lemke
+  /// fallback (0: the first attempt decided the outcome).
+  int restarts = 0;
+  std::string message;  ///< human-readable detail on failure
   bool ok() const { return status == SolverStatus::kSolved; }
 };
 
