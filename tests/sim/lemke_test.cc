@@ -108,6 +108,7 @@ TEST(LcpTest, ToStringNamesEveryStatus) {
   EXPECT_EQ(ToString(SolverStatus::kMaxIterations), "max iterations");
   EXPECT_EQ(ToString(SolverStatus::kNumericalFailure), "numerical failure");
   EXPECT_EQ(ToString(SolverStatus::kInvalidInput), "invalid input");
+  EXPECT_EQ(ToString(SolverStatus::kStalled), "stalled");
 }
 
 TEST(LcpTest, ResidualIsZeroAtSolutionAndMeasuresViolation) {

@@ -20,6 +20,7 @@ enum class SolverStatus {
   kMaxIterations,     ///< iteration limit reached
   kNumericalFailure,  ///< singular pivot / NaN
   kInvalidInput,      ///< malformed problem (size mismatch, NaN in data)
+  kStalled,           ///< no progress at a non-solution in every attempt (McpSolver restarts)
 };
 std::string_view ToString(SolverStatus s);
 
