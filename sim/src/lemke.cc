@@ -477,12 +477,13 @@ bool TryWarmStart(const LcpProblem& problem, const VectorXd& warm, const Accepta
 // active-set re-solve on B = {i : z_i > 0 or w_i < 0} does not do: on the 10-box stack
 // (tests/data/lcp/box_stack_cold_step7724.lcp) M_BB has rank 78 of 168 and every solution
 // of the B equations near the iterate has negative components.
-bool PolishTerminalIterate(const LcpProblem& problem, const VectorXd& z_lemke,
+// With z_lemke null: Newton from z = 0 (the final fallback).
+bool PolishTerminalIterate(const LcpProblem& problem, const VectorXd* z_lemke,
                            const Acceptance& acceptance, VectorXd* z, int* iterations) {
   FischerBurmeisterOptions options;
   options.lemke_fallback = false;  // no recursion back into Lemke
   VectorXd candidate;
-  const SolverReport r = FischerBurmeisterSolver(options).Solve(problem, &z_lemke, &candidate);
+  const SolverReport r = FischerBurmeisterSolver(options).Solve(problem, z_lemke, &candidate);
   *iterations = r.iterations;
   if (!candidate.allFinite() || candidate.size() != problem.q.size()) return false;
   candidate = candidate.cwiseMax(0.0);
@@ -543,7 +544,7 @@ SolverReport LemkeSolver::Solve(const LcpProblem& problem, const VectorXd* warm_
   if (first.terminated && !Passes(first) && first.z.allFinite()) {
     VectorXd polished;
     int newton_steps = 0;
-    if (PolishTerminalIterate(problem, first.z, acceptance, &polished, &newton_steps)) {
+    if (PolishTerminalIterate(problem, &first.z, acceptance, &polished, &newton_steps)) {
       polish_note = "polished the terminated Lemke iterate (residual " +
                     FormatDouble(first.residual) + ") by " + std::to_string(newton_steps) +
                     " Fischer-Burmeister Newton steps";
@@ -629,6 +630,22 @@ SolverReport LemkeSolver::Solve(const LcpProblem& problem, const VectorXd* warm_
             "; returning the retry iterate with eps = " + FormatDouble(chosen.epsilon) +
             " (smallest residual)";
       }
+    }
+    // Final fallback: Fischer–Burmeister Newton from z = 0 (reported).
+    VectorXd z_newton;
+    int newton_steps = 0;
+    if (options_.newton_fallback && report.status != SolverStatus::kMaxIterations &&
+        PolishTerminalIterate(problem, nullptr, acceptance, &z_newton, &newton_steps)) {
+      *z = std::move(z_newton);
+      report.status = SolverStatus::kSolved;
+      report.residual = LcpResidual(problem, *z);
+      report.tolerance = acceptance.For(*z);
+      report.regularized = false;
+      report.regularization = 0.0;
+      report.restarts = 1;
+      report.message = "solved by the Fischer-Burmeister Newton fallback (" +
+                       std::to_string(newton_steps) +
+                       " Newton steps) after Lemke failed: " + report.message;
     }
   }
   return finish();

@@ -325,6 +325,29 @@ TEST(LemkeTest, ColdStackLcpsPassTheScaledTest) {
   }
 }
 
+// A pile with a tilted box landing on an edge (box_pile.yaml with rpy (0.3, 0.2, 0.5) on the
+// dropped box), step 216, n = 246: every Lemke attempt ends on a spurious secondary ray; the
+// Fischer–Burmeister Newton fallback solves it and says so.
+TEST(LemkeTest, PileLcpSolvedByTheReportedNewtonFallback) {
+  const LcpProblem p = ReadLcpFile(VINCI_SOURCE_DIR "/tests/data/lcp/box_pile_tilted_step216.lcp");
+  ASSERT_EQ(p.size(), 246);
+  VectorXd z;
+  const SolverReport r = LemkeSolver().Solve(p, nullptr, &z);
+  ASSERT_TRUE(r.ok()) << r.message;
+  EXPECT_EQ(r.restarts, 1);
+  EXPECT_NE(r.message.find("Newton fallback"), std::string::npos) << r.message;
+  EXPECT_FALSE(r.regularized);
+  ExpectLcpSolution(p, z, kTol);
+  // Without the fallback the failure is reported, not hidden.
+  LemkeOptions o;
+  o.newton_fallback = false;
+  VectorXd z_plain;
+  const SolverReport plain = LemkeSolver(o).Solve(p, nullptr, &z_plain);
+  EXPECT_FALSE(plain.ok());
+  EXPECT_EQ(plain.restarts, 0);
+  EXPECT_EQ(plain.residual, LcpResidual(p, z_plain));
+}
+
 // Stepping the 10-box stack with no warm start: every step a cold Lemke solve of a
 // degenerate n = 240 LCP (the absolute residual test failed at step 1410).
 TEST(LemkeTest, ColdStartedStackSimulates2000Steps) {
@@ -547,6 +570,7 @@ TEST(LemkeTest, RegularizedRetryIsReported) {
   LemkeOptions plain;
   plain.scale = false;
   plain.regularization = 0.0;
+  plain.newton_fallback = false;  // Lemke alone
   VectorXd z;
   const SolverReport r0 = LemkeSolver(plain).Solve(p, nullptr, &z);
   EXPECT_EQ(r0.status, SolverStatus::kSecondaryRay);
