@@ -4,7 +4,10 @@
 // tests/data/lcp/*.lcp, and the MCPs Josephy, Kojima–Shindo and the 4×4 box MCP. Prints success
 // counts and median time ratios per solver pair and size bucket.
 //
-//   vinci_vs_siconos [--quick] [--reps N] [--csv FILE]
+//   vinci_vs_siconos [--quick] [--reps N] [--max-n N] [--csv FILE]
+//
+// --max-n N keeps only the LCPs with at most N unknowns (default 500), for repeated runs of the
+// small-size buckets.
 //
 // Every solve is cold (no warm start). Success is judged independently of both libraries:
 // vinci::sim::LcpResidual(original problem, z) ≤ 1e-8 · max(1, ‖q‖_∞) (McpResidual ≤ 1e-8 for
@@ -468,7 +471,7 @@ int Bucket(int n) {
 const char* kBucketNames[] = {"n<=50", "51-100", "101-200", "201-500"};
 
 int Usage() {
-  std::cerr << "usage: vinci_vs_siconos [--quick] [--reps N] [--csv FILE]\n";
+  std::cerr << "usage: vinci_vs_siconos [--quick] [--reps N] [--max-n N] [--csv FILE]\n";
   return 2;
 }
 
@@ -478,6 +481,7 @@ int main(int argc, char** argv) {
   bool quick = false;
   int reps = 7;
   std::string csv_path;
+  int max_n = 500;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--quick") {
@@ -485,6 +489,9 @@ int main(int argc, char** argv) {
     } else if (a == "--reps" && i + 1 < argc) {
       reps = std::atoi(argv[++i]);
       if (reps < 1) return Usage();
+    } else if (a == "--max-n" && i + 1 < argc) {
+      max_n = std::atoi(argv[++i]);
+      if (max_n < 1) return Usage();
     } else if (a == "--csv" && i + 1 < argc) {
       csv_path = argv[++i];
     } else {
@@ -510,7 +517,7 @@ int main(int argc, char** argv) {
       FileProblems(&problems);
       // Keep to the sizes the comparison is about (10..500 unknowns).
       problems.erase(std::remove_if(problems.begin(), problems.end(),
-                                    [](const Problem& p) { return p.lcp.size() > 500; }),
+                                    [max_n](const Problem& p) { return p.lcp.size() > max_n; }),
                      problems.end());
     }
 
