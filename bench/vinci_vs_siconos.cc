@@ -1,9 +1,13 @@
 // vinci's LCP solvers vs Siconos numerics (Debian libsiconos-numerics-dev 4.4) on the same
-// problems: contact LCPs of the Stewart–Trinkle step taken from box stacks (1..20 boxes) and box
-// pyramids, the recorded files tests/data/lcp/*.lcp, and the small nonlinear MCPs Josephy and
-// Kojima–Shindo. Prints success counts and median time ratios per solver pair and size bucket.
+// problems: contact LCPs of the Stewart–Trinkle step taken from box stacks (1..20 boxes), box
+// pyramids and the box pile (examples/scenes/box_pile.yaml), the recorded files
+// tests/data/lcp/*.lcp, and the MCPs Josephy, Kojima–Shindo and the 4×4 box MCP. Prints success
+// counts and median time ratios per solver pair and size bucket.
 //
-//   vinci_vs_siconos [--quick] [--reps N] [--csv FILE]
+//   vinci_vs_siconos [--quick] [--reps N] [--max-n N] [--csv FILE]
+//
+// --max-n N keeps only the LCPs with at most N unknowns (default 500), for repeated runs of the
+// small-size buckets.
 //
 // Every solve is cold (no warm start). Success is judged independently of both libraries:
 // vinci::sim::LcpResidual(original problem, z) ≤ 1e-8 · max(1, ‖q‖_∞) (McpResidual ≤ 1e-8 for
@@ -30,6 +34,7 @@
 #include <exception>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iostream>
 #include <limits>
 #include <map>
@@ -172,6 +177,14 @@ void PyramidProblems(const std::vector<int>& rows, const std::vector<int>& at,
   }
 }
 
+// examples/scenes/box_pile.yaml: a box pyramid onto which a box and spheres are dropped; the
+// step LCP grows from n = 192 to 246 as they land.
+void PileProblems(const std::vector<int>& at, std::vector<Problem>* out) {
+  const vinci::sim::Simulator sim(
+      vinci::sim::LoadSceneFile(SourcePath("examples/scenes/box_pile.yaml")));
+  CollectStepLcps(sim, "pile", "pile", at, out);
+}
+
 void FileProblems(std::vector<Problem>* out) {
   const std::filesystem::path dir = SourcePath("tests/data/lcp");
   if (!std::filesystem::is_directory(dir)) return;
@@ -278,12 +291,25 @@ Outcome SolveSiconos(int solver_id, const LcpProblem& lcp, int reps) {
         *w1 = WallSeconds();
         *it = opt->iparam[SICONOS_IPARAM_ITER_DONE];
         *code = info;
-        solver_options_delete(opt);  // also frees opt
+        // solver_options_delete clears the members but (Siconos 4.4) not the struct itself:
+        // without free(opt) LeakSanitizer reports 120 bytes per solve.
+        solver_options_delete(opt);
+        std::free(opt);
       });
 }
 
 // ------------------------------------------------------------------------------------------------
 // MCPs: Josephy and Kojima–Shindo (as in tests/sim/mcp_test.cc), NCPs of size 4.
+
+// An NCP/box MCP of size 4 with F and its row-major Jacobian. Siconos' MCP has no bounds
+// other than z ≥ 0 on its n2 block, so `upper` (finite only for the box MCP, never active at
+// its solution) is given to vinci alone.
+struct McpDef {
+  std::string name;
+  std::function<void(const double*, double*)> F;
+  std::function<void(const double*, double*)> J;  // row-major 4×4
+  VectorXd upper = VectorXd::Constant(4, std::numeric_limits<double>::infinity());
+};
 
 struct KojimaCoeffs {
   double a, b, c;
@@ -303,16 +329,42 @@ void KojimaJ(const KojimaCoeffs& k, const double* x, double* J) {
   std::copy(rows, rows + 16, J);
 }
 
-vinci::sim::McpProblem VinciKojima(const KojimaCoeffs& k) {
+McpDef Kojima(const std::string& name, const KojimaCoeffs& k) {
+  McpDef d;
+  d.name = name;
+  d.F = [k](const double* x, double* F) { KojimaF(k, x, F); };
+  d.J = [k](const double* x, double* J) { KojimaJ(k, x, J); };
+  return d;
+}
+
+// The 4×4 affine example of tests/sim/mcp_test.cc (Box4): F = Mz + q, 0 ≤ z ≤ 10, solution
+// (2.8, 0, 0.8, 1.2).
+McpDef Box4() {
+  static const double kM[16] = {0, 0, -1, -1, 0, 0, 1, -2, 1, -1, 2, -2, 1, 2, -2, 4};
+  static const double kQ[4] = {2, 2, -2, -6};
+  McpDef d;
+  d.name = "box4";
+  d.F = [](const double* x, double* F) {
+    for (int i = 0; i < 4; ++i) {
+      F[i] = kQ[i];
+      for (int j = 0; j < 4; ++j) F[i] += kM[4 * i + j] * x[j];
+    }
+  };
+  d.J = [](const double*, double* J) { std::copy(kM, kM + 16, J); };
+  d.upper = VectorXd::Constant(4, 10.0);
+  return d;
+}
+
+vinci::sim::McpProblem VinciMcp(const McpDef& def) {
   vinci::sim::McpProblem p;
   p.lower = VectorXd::Zero(4);
-  p.upper = VectorXd::Constant(4, std::numeric_limits<double>::infinity());
-  p.evaluate = [k](const VectorXd& x, VectorXd* F, MatrixXd* J) {
+  p.upper = def.upper;
+  p.evaluate = [def](const VectorXd& x, VectorXd* F, MatrixXd* J) {
     F->resize(4);
-    KojimaF(k, x.data(), F->data());
+    def.F(x.data(), F->data());
     if (J != nullptr) {
       double rows[16];
-      KojimaJ(k, x.data(), rows);
+      def.J(x.data(), rows);
       J->resize(4, 4);
       for (int i = 0; i < 4; ++i)
         for (int j = 0; j < 4; ++j) (*J)(i, j) = rows[4 * i + j];
@@ -321,12 +373,12 @@ vinci::sim::McpProblem VinciKojima(const KojimaCoeffs& k) {
   return p;
 }
 
-extern "C" void SiconosKojimaF(void* env, int /*n*/, double* z, double* F) {
-  KojimaF(*static_cast<const KojimaCoeffs*>(env), z, F);
+extern "C" void SiconosMcpF(void* env, int /*n*/, double* z, double* F) {
+  static_cast<const McpDef*>(env)->F(z, F);
 }
-extern "C" void SiconosKojimaJ(void* env, int /*n*/, double* z, NumericsMatrix* J) {
+extern "C" void SiconosMcpJ(void* env, int /*n*/, double* z, NumericsMatrix* J) {
   double rows[16];
-  KojimaJ(*static_cast<const KojimaCoeffs*>(env), z, rows);
+  static_cast<const McpDef*>(env)->J(z, rows);
   for (int i = 0; i < 4; ++i)
     for (int j = 0; j < 4; ++j) J->matrix0[i + 4 * j] = rows[4 * i + j];  // column-major
 }
@@ -338,11 +390,10 @@ struct McpRow {
   VectorXd z;
 };
 
-McpRow RunVinciMcp(const std::string& name, const KojimaCoeffs& k, const VectorXd& start,
-                   int reps) {
-  const vinci::sim::McpProblem p = VinciKojima(k);
+McpRow RunVinciMcp(const McpDef& def, const VectorXd& start, int reps) {
+  const vinci::sim::McpProblem p = VinciMcp(def);
   const vinci::sim::McpSolver solver;
-  McpRow row{name, "vinci semismooth-newton", {}, start};
+  McpRow row{def.name, "vinci semismooth-newton", {}, start};
   std::vector<double> walls, cpus;
   for (int rep = 0; rep < reps; ++rep) {
     VectorXd z = start;
@@ -364,19 +415,19 @@ McpRow RunVinciMcp(const std::string& name, const KojimaCoeffs& k, const VectorX
   return row;
 }
 
-McpRow RunSiconosMcp(const std::string& name, KojimaCoeffs k, const VectorXd& start, int solver_id,
+McpRow RunSiconosMcp(const McpDef& def, const VectorXd& start, int solver_id,
                      const std::string& label, int reps) {
-  const vinci::sim::McpProblem vp = VinciKojima(k);
-  McpRow row{name, label, {}, start};
+  const vinci::sim::McpProblem vp = VinciMcp(def);
+  McpRow row{def.name, label, {}, start};
   std::vector<double> walls, cpus;
   for (int rep = 0; rep < reps; ++rep) {
     MixedComplementarityProblem* p = mixedComplementarityProblem_new();
     p->n1 = 0;
     p->n2 = 4;
-    p->compute_Fmcp = &SiconosKojimaF;
-    p->compute_nabla_Fmcp = &SiconosKojimaJ;
+    p->compute_Fmcp = &SiconosMcpF;
+    p->compute_nabla_Fmcp = &SiconosMcpJ;
     p->nabla_Fmcp = NM_create(NM_DENSE, 4, 4);
-    p->env = &k;
+    p->env = const_cast<McpDef*>(&def);
     SolverOptions* opt = solver_options_create(solver_id);
     VectorXd z = start, w = VectorXd::Zero(4);
     const double w0 = WallSeconds(), c0 = ThreadCpuSeconds();
@@ -387,12 +438,14 @@ McpRow RunSiconosMcp(const std::string& name, KojimaCoeffs k, const VectorXd& st
     if (rep == 0) {
       row.out.iterations = opt->iparam[SICONOS_IPARAM_ITER_DONE];
       row.out.code = info;
+      // Checked on vinci's problem (for box4 also z ≤ 10, which Siconos does not enforce).
       row.out.residual =
           z.allFinite() ? vinci::sim::McpResidual(vp, z) : std::numeric_limits<double>::infinity();
       row.out.ok = row.out.residual <= kSuccessTol;
       row.z = z;
     }
     solver_options_delete(opt);
+    std::free(opt);  // see SolveSiconos
     mixedComplementarityProblem_free(p);
   }
   row.out.wall = Median(walls);
@@ -418,7 +471,7 @@ int Bucket(int n) {
 const char* kBucketNames[] = {"n<=50", "51-100", "101-200", "201-500"};
 
 int Usage() {
-  std::cerr << "usage: vinci_vs_siconos [--quick] [--reps N] [--csv FILE]\n";
+  std::cerr << "usage: vinci_vs_siconos [--quick] [--reps N] [--max-n N] [--csv FILE]\n";
   return 2;
 }
 
@@ -428,6 +481,7 @@ int main(int argc, char** argv) {
   bool quick = false;
   int reps = 7;
   std::string csv_path;
+  int max_n = 500;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--quick") {
@@ -435,6 +489,9 @@ int main(int argc, char** argv) {
     } else if (a == "--reps" && i + 1 < argc) {
       reps = std::atoi(argv[++i]);
       if (reps < 1) return Usage();
+    } else if (a == "--max-n" && i + 1 < argc) {
+      max_n = std::atoi(argv[++i]);
+      if (max_n < 1) return Usage();
     } else if (a == "--csv" && i + 1 < argc) {
       csv_path = argv[++i];
     } else {
@@ -450,15 +507,17 @@ int main(int argc, char** argv) {
     if (quick) {
       StackProblems({1, 3}, {1}, &problems);
       PyramidProblems({2}, {1}, &problems);
+      PileProblems({1}, &problems);
     } else {
       std::vector<int> heights;
       for (int k = 1; k <= 20; ++k) heights.push_back(k);
       StackProblems(heights, {1, 50, 300}, &problems);
       PyramidProblems({2, 3}, {1, 50, 300}, &problems);
+      PileProblems({1, 160, 210, 310, 400}, &problems);
       FileProblems(&problems);
       // Keep to the sizes the comparison is about (10..500 unknowns).
       problems.erase(std::remove_if(problems.begin(), problems.end(),
-                                    [](const Problem& p) { return p.lcp.size() > 500; }),
+                                    [max_n](const Problem& p) { return p.lcp.size() > max_n; }),
                      problems.end());
     }
 
@@ -554,17 +613,18 @@ int main(int argc, char** argv) {
     std::printf("\nMCPs (NCP, n = 4; success: McpResidual <= 1e-8)\n");
     std::printf("%-14s %-12s %-28s %4s %9s %4s %5s %10s  %s\n", "problem", "start", "solver", "ok",
                 "resid", "it", "code", "cpu[us]", "z");
-    const std::vector<std::pair<std::string, KojimaCoeffs>> mcps = {
-        {"josephy", {3.0, 3.0, 1.0}}, {"kojima-shindo", {10.0, 9.0, 9.0}}};
+    const std::vector<McpDef> mcps = {Kojima("josephy", {3.0, 3.0, 1.0}),
+                                      Kojima("kojima-shindo", {10.0, 9.0, 9.0}), Box4()};
     const std::vector<std::pair<std::string, VectorXd>> starts = {{"ones", VectorXd::Ones(4)},
                                                                   {"zeros", VectorXd::Zero(4)}};
     const int mcp_reps = quick ? 1 : 51;
-    for (const auto& [name, k] : mcps) {
+    for (const McpDef& def : mcps) {
+      const std::string& name = def.name;
       for (const auto& [start_name, start] : starts) {
-        const McpRow rows[] = {RunVinciMcp(name, k, start, mcp_reps),
-                               RunSiconosMcp(name, k, start, SICONOS_MCP_NEWTON_FB_FBLSA,
+        const McpRow rows[] = {RunVinciMcp(def, start, mcp_reps),
+                               RunSiconosMcp(def, start, SICONOS_MCP_NEWTON_FB_FBLSA,
                                              "siconos newton-FB-FBLSA", mcp_reps),
-                               RunSiconosMcp(name, k, start, SICONOS_MCP_NEWTON_MIN_FBLSA,
+                               RunSiconosMcp(def, start, SICONOS_MCP_NEWTON_MIN_FBLSA,
                                              "siconos newton-min-FBLSA", mcp_reps)};
         for (const McpRow& r : rows) {
           std::ostringstream z;

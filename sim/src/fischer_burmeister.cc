@@ -22,6 +22,7 @@
 #include <string>
 
 #include "solver_util.h"
+#include "vinci/sim/lemke.h"
 
 namespace vinci::sim {
 namespace {
@@ -140,6 +141,7 @@ SolverReport FischerBurmeisterSolver::Solve(const LcpProblem& problem, const Vec
     *z = std::move(best);
     report.status = SolverStatus::kSolved;
     report.residual = best_residual;
+    report.tolerance = tolerance;
     return finish();
   }
 
@@ -272,6 +274,37 @@ SolverReport FischerBurmeisterSolver::Solve(const LcpProblem& problem, const Vec
     report.message = "FB Newton: " + failure + stats + "; returning the best iterate (residual " +
                      FormatDouble(report.residual) + ")";
   }
+  if (!report.ok() && options_.lemke_fallback) {
+    // Fallback: Lemke warm-started at the best iterate, then Newton from Lemke's answer to
+    // reach this solver's (tighter) tolerance. Both nested solves run without fallbacks.
+    VectorXd z_lemke;
+    const SolverReport lemke = LemkeSolver().Solve(problem, z, &z_lemke);
+    report.restarts = 1;
+    report.iterations += lemke.iterations;
+    if (lemke.ok()) {
+      FischerBurmeisterOptions polish_options = options_;
+      polish_options.lemke_fallback = false;
+      VectorXd z_polished;
+      const SolverReport polish =
+          FischerBurmeisterSolver(polish_options).Solve(problem, &z_lemke, &z_polished);
+      report.iterations += polish.iterations;
+      VectorXd& chosen = polish.ok() ? z_polished : z_lemke;
+      const double r = LcpResidual(problem, chosen);
+      if (r <= tolerance) {
+        report.status = SolverStatus::kSolved;
+        report.residual = r;
+        report.message = "solved by the Lemke fallback (" + std::to_string(lemke.iterations) +
+                         " pivots, then " + std::to_string(polish.iterations) +
+                         " Newton steps) after " + report.message;
+        *z = std::move(chosen);
+      } else {
+        report.message += "; the Lemke fallback reached residual " + FormatDouble(r);
+      }
+    } else {
+      report.message += "; the Lemke fallback failed too (" + lemke.message + ")";
+    }
+  }
+  report.tolerance = tolerance;
   return finish();
 }
 

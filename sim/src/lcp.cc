@@ -21,6 +21,8 @@ std::string_view ToString(SolverStatus s) {
       return "numerical failure";
     case SolverStatus::kInvalidInput:
       return "invalid input";
+    case SolverStatus::kStalled:
+      return "stalled";
   }
   return "unknown";
 }

@@ -56,8 +56,10 @@ constexpr double kLexTieTolerance = 1e-12;
 constexpr double kSecondaryRayZ0Fraction = 1e-6;
 // Symmetric equilibration sweeps; the loop stops earlier once no scale factor changes.
 constexpr int kScalingSweeps = 10;
-// Iterative-refinement steps at termination (each O(n²) with the kept inverse).
+// Iterative-refinement steps at termination (each O(n²) with the kept inverse), skipped once
+// the residual is below kRefineBelow·max(1, ‖q‖∞) (roundoff level of the data).
 constexpr int kRefinementSteps = 2;
+constexpr double kRefineBelow = 1e-15;
 // Cap of the ‖M‖∞‖z‖∞ term of the acceptance scale, relative to max(1, ‖q‖∞). Without a cap
 // a huge z would make any residual pass: a regularized retry of an infeasible LCP
 // (M = −I, q = −1, ε = 1e-10) returns ‖z‖ ≈ 1e10 with residual 2. The 10-box stack needs
@@ -99,10 +101,22 @@ VectorXd SymmetricScaling(const MatrixXd& M) {
   VectorXd d = VectorXd::Ones(n);
   MatrixXd a = M.cwiseAbs();
   VectorXd s(n);
+  VectorXd row_max(n), col_max(n);
   for (int sweep = 0; sweep < kScalingSweeps; ++sweep) {
     bool changed = false;
+    // Row and column maxima in one column-major pass.
+    row_max.setZero();
+    for (Eigen::Index j = 0; j < n; ++j) {
+      double c = 0.0;
+      for (Eigen::Index i = 0; i < n; ++i) {
+        const double v = a(i, j);
+        c = std::max(c, v);
+        row_max(i) = std::max(row_max(i), v);
+      }
+      col_max(j) = c;
+    }
     for (Eigen::Index i = 0; i < n; ++i) {
-      const double m = std::max(a.row(i).maxCoeff(), a.col(i).maxCoeff());
+      const double m = std::max(row_max(i), col_max(i));
       int k = 0;
       if (m > 0.0 && std::isfinite(m)) k = -static_cast<int>(std::trunc(0.5 * std::log2(m)));
       s(i) = std::ldexp(1.0, k);
@@ -327,7 +341,9 @@ CoreOutcome RunLemke(const MatrixXd& M, const VectorXd& q, const LemkeOptions& o
   extract_z();
   VectorXd w(n), z_raw(n), w_raw(n), eq_residual(n), z_try(n);
   double best = ScaledResidual(M, q, *z, &w);
-  for (int step = 0; step < kRefinementSteps && best > 0.0; ++step) {
+  // Nothing to gain below roundoff level.
+  const double refine_below = kRefineBelow * std::max(1.0, q.lpNorm<Eigen::Infinity>());
+  for (int step = 0; step < kRefinementSteps && best > refine_below; ++step) {
     // Residual of the basis equations B x = q, i.e. q − (w_B − M z_B).
     z_raw.setZero();
     w_raw.setZero();
@@ -389,16 +405,24 @@ Attempt RunAttempt(const LcpProblem& problem, double epsilon, const LemkeOptions
   if (epsilon > 0.0) m.diagonal().array() += epsilon;
   VectorXd q = problem.q;
   VectorXd scale;
+  // Scaled only if some factor differs from 1 (a well-scaled M skips 2n² multiplications).
+  bool scaled = false;
   if (options.scale) {
     scale = SymmetricScaling(m);
-    m.array().colwise() *= scale.array();
-    m.array().rowwise() *= scale.transpose().array();
+    scaled = (scale.array() != 1.0).any();
+  }
+  if (scaled) {
+    const Eigen::Index n = m.rows();
+    for (Eigen::Index j = 0; j < n; ++j) {
+      const double s_j = scale(j);
+      for (Eigen::Index i = 0; i < n; ++i) m(i, j) *= scale(i) * s_j;
+    }
     q.array() *= scale.array();
   }
   Attempt a;
   a.epsilon = epsilon;
   const CoreOutcome core = RunLemke(m, q, options, &a.z);
-  if (options.scale) a.z.array() *= scale.array();
+  if (scaled) a.z.array() *= scale.array();
   a.pivots = core.pivots;
   a.terminated = core.status == SolverStatus::kSolved;
   a.residual = OrInf(LcpResidual(problem, a.z));
@@ -411,7 +435,7 @@ Attempt RunAttempt(const LcpProblem& problem, double epsilon, const LemkeOptions
   // the residual on the original problem pass. On the original problem z0 shifts row i of
   // w by z0 / scale_i.
   if (core.status == SolverStatus::kSecondaryRay) {
-    const double z0 = options.scale ? core.z0 / scale.minCoeff() : core.z0;
+    const double z0 = scaled ? core.z0 / scale.minCoeff() : core.z0;
     if (core.z0 <= kSecondaryRayZ0Fraction * core.z0_initial && z0 <= tolerance &&
         a.residual <= tolerance) {
       a.terminated = true;
@@ -477,10 +501,13 @@ bool TryWarmStart(const LcpProblem& problem, const VectorXd& warm, const Accepta
 // active-set re-solve on B = {i : z_i > 0 or w_i < 0} does not do: on the 10-box stack
 // (tests/data/lcp/box_stack_cold_step7724.lcp) M_BB has rank 78 of 168 and every solution
 // of the B equations near the iterate has negative components.
-bool PolishTerminalIterate(const LcpProblem& problem, const VectorXd& z_lemke,
+// With z_lemke null: Newton from z = 0 (the final fallback).
+bool PolishTerminalIterate(const LcpProblem& problem, const VectorXd* z_lemke,
                            const Acceptance& acceptance, VectorXd* z, int* iterations) {
+  FischerBurmeisterOptions options;
+  options.lemke_fallback = false;  // no recursion back into Lemke
   VectorXd candidate;
-  const SolverReport r = FischerBurmeisterSolver().Solve(problem, &z_lemke, &candidate);
+  const SolverReport r = FischerBurmeisterSolver(options).Solve(problem, z_lemke, &candidate);
   *iterations = r.iterations;
   if (!candidate.allFinite() || candidate.size() != problem.q.size()) return false;
   candidate = candidate.cwiseMax(0.0);
@@ -541,7 +568,7 @@ SolverReport LemkeSolver::Solve(const LcpProblem& problem, const VectorXd* warm_
   if (first.terminated && !Passes(first) && first.z.allFinite()) {
     VectorXd polished;
     int newton_steps = 0;
-    if (PolishTerminalIterate(problem, first.z, acceptance, &polished, &newton_steps)) {
+    if (PolishTerminalIterate(problem, &first.z, acceptance, &polished, &newton_steps)) {
       polish_note = "polished the terminated Lemke iterate (residual " +
                     FormatDouble(first.residual) + ") by " + std::to_string(newton_steps) +
                     " Fischer-Burmeister Newton steps";
@@ -600,7 +627,8 @@ SolverReport LemkeSolver::Solve(const LcpProblem& problem, const VectorXd* warm_
   const Attempt& chosen = use_retry ? best : first;
   *z = chosen.z;
   report.iterations = total_pivots;
-  report.residual = LcpResidual(problem, *z);
+  // chosen.residual is LcpResidual of this very z (RunAttempt / polish), NaN mapped to ∞.
+  report.residual = std::isfinite(chosen.residual) ? chosen.residual : LcpResidual(problem, *z);
   report.regularized = use_retry;
   report.regularization = use_retry ? chosen.epsilon : 0.0;
   report.tolerance = chosen.tolerance;
@@ -627,6 +655,22 @@ SolverReport LemkeSolver::Solve(const LcpProblem& problem, const VectorXd* warm_
             "; returning the retry iterate with eps = " + FormatDouble(chosen.epsilon) +
             " (smallest residual)";
       }
+    }
+    // Final fallback: Fischer–Burmeister Newton from z = 0 (reported).
+    VectorXd z_newton;
+    int newton_steps = 0;
+    if (options_.newton_fallback && report.status != SolverStatus::kMaxIterations &&
+        PolishTerminalIterate(problem, nullptr, acceptance, &z_newton, &newton_steps)) {
+      *z = std::move(z_newton);
+      report.status = SolverStatus::kSolved;
+      report.residual = LcpResidual(problem, *z);
+      report.tolerance = acceptance.For(*z);
+      report.regularized = false;
+      report.regularization = 0.0;
+      report.restarts = 1;
+      report.message = "solved by the Fischer-Burmeister Newton fallback (" +
+                       std::to_string(newton_steps) +
+                       " Newton steps) after Lemke failed: " + report.message;
     }
   }
   return finish();

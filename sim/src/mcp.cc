@@ -566,6 +566,10 @@ SolverReport SemismoothNewton::Run(VectorXd* z, McpSolveStats* stats_out) {
     message_ = "iteration limit " + std::to_string(o_.max_iterations) +
                " reached; best natural residual " + std::to_string(best_residual) + " after " +
                std::to_string(stats_.restarts) + " restart(s)";
+  } else if (end == End::kStalled) {
+    report.status = SolverStatus::kStalled;
+    message_ = "stalled at a non-solution (best natural residual " + std::to_string(best_residual) +
+               ") after " + std::to_string(stats_.restarts) + " restart(s)";
   } else {
     report.status = SolverStatus::kNumericalFailure;
     if (end != End::kFailure) {
@@ -575,6 +579,7 @@ SolverReport SemismoothNewton::Run(VectorXd* z, McpSolveStats* stats_out) {
     }
   }
   report.message = message_;
+  report.restarts = stats_.restarts;
   stats_.merit = std::isfinite(best_merit) ? best_merit : kNaN;
   if (stats_out != nullptr) *stats_out = stats_;
   report.time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -134,6 +134,7 @@ SolverReport PgsSolver::Solve(const LcpProblem& problem, const VectorXd* warm_st
     return finish();
   }
   const double tolerance = options_.tolerance * std::max(1.0, problem.q.lpNorm<Eigen::Infinity>());
+  report.tolerance = tolerance;
 
   // Initial iterate: the warm start projected onto z ≥ 0 (it may alias *z), else zero.
   if (warm_start != nullptr && warm_start->size() == n && warm_start->allFinite()) {

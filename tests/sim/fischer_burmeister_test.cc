@@ -14,6 +14,7 @@
 #include <string>
 #include <thread>
 
+#include "contact_lcp_test_util.h"
 #include "test_util.h"
 #include "vinci/sim/lcp.h"
 #include "vinci/sim/lemke.h"
@@ -257,6 +258,7 @@ TEST(FischerBurmeisterTest, MoreIterationsNeverReturnAWorsePoint) {
   for (int iterations = 1; iterations <= 30; ++iterations) {
     FischerBurmeisterOptions o;
     o.max_iterations = iterations;
+    o.lemke_fallback = false;  // Newton's own iterates
     VectorXd z;
     const SolverReport r = FischerBurmeisterSolver(o).Solve(p, nullptr, &z);
     if (r.status == SolverStatus::kMaxIterations) ++limit_hit;
@@ -270,6 +272,7 @@ TEST(FischerBurmeisterTest, IterationLimitIsReported) {
   const LcpProblem p = Murty(16);
   FischerBurmeisterOptions o;
   o.max_iterations = 2;
+  o.lemke_fallback = false;  // Newton's own limit
   VectorXd z;
   const SolverReport r = FischerBurmeisterSolver(o).Solve(p, nullptr, &z);
   EXPECT_EQ(r.status, SolverStatus::kMaxIterations);
@@ -368,6 +371,46 @@ TEST(FischerBurmeisterTest, DeterministicAcrossCallsAndThreads) {
   EXPECT_EQ(r1.iterations, r2.iterations);
   EXPECT_EQ(r1.iterations, r3.iterations);
   EXPECT_EQ(r1.residual, r3.residual);
+}
+
+// 300 random contact LCPs (1–8 spatial bodies, 1–5 contacts per body, 4 friction directions;
+// fixed seed), the Stewart–Trinkle structure with its zero σ diagonal and degenerate friction
+// rows. Newton alone stalls on problem 64 (n = 240, residual 9e-4 at the iteration limit);
+// the Lemke fallback solves it and is reported.
+TEST(FischerBurmeisterTest, RandomContactLcpsAllSolve) {
+  constexpr int kProblems = 300;
+  // Newton itself must do almost all of them: the fallback is a safety net.
+  constexpr int kMaxFallbacks = 3;
+  std::mt19937 rng(1);
+  std::uniform_int_distribution<int> bodies(1, 8);
+  int solved = 0, fallbacks = 0, newton_failures = 0;
+  FischerBurmeisterOptions newton_only;
+  newton_only.lemke_fallback = false;
+  for (int k = 0; k < kProblems; ++k) {
+    const int nb = bodies(rng);
+    const int nc = std::uniform_int_distribution<int>(1, 5 * nb)(rng);
+    const sim::testing::ContactLcp c = sim::testing::RandomContactLcp(nb, nc, 4, &rng);
+    VectorXd z;
+    const SolverReport r = FischerBurmeisterSolver().Solve(c.lcp, nullptr, &z);
+    EXPECT_TRUE(r.ok()) << "problem " << k << " (n = " << c.lcp.size() << "): " << r.message;
+    const bool fell_back = r.message.find("Lemke fallback") != std::string::npos;
+    EXPECT_EQ(r.restarts, fell_back ? 1 : 0) << r.message;
+    if (fell_back) {
+      ++fallbacks;
+      VectorXd z_newton;
+      EXPECT_FALSE(FischerBurmeisterSolver(newton_only).Solve(c.lcp, nullptr, &z_newton).ok());
+    }
+    if (r.ok()) {
+      ++solved;
+      ExpectLcpSolution(c.lcp, z, kTol);
+    } else {
+      ++newton_failures;
+    }
+  }
+  EXPECT_EQ(solved, kProblems);
+  EXPECT_EQ(newton_failures, 0);
+  EXPECT_GE(fallbacks, 1);  // problem 64: the fallback path is exercised
+  EXPECT_LE(fallbacks, kMaxFallbacks);
 }
 
 }  // namespace

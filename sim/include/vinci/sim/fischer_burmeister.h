@@ -10,6 +10,9 @@ struct FischerBurmeisterOptions {
   double tolerance = 1e-10;  ///< on LcpResidual, scaled by max(1, ‖q‖_∞)
   /// Penalized FB weight λ ∈ (0, 1]: φ_λ = λ φ_FB − (1 − λ) max(0,a) max(0,b) (1 = plain FB).
   double lambda = 0.95;
+  /// When Newton fails (iteration limit, line-search failure, stationary point), run Lemke
+  /// warm-started at the best iterate and polish its answer with Newton (reported).
+  bool lemke_fallback = true;
 };
 
 /// Semismooth Newton on Φ(z) = 0 with, for a = z_i and b = (Mz + q)_i,
@@ -38,6 +41,13 @@ struct FischerBurmeisterOptions {
 ///   decrease or Ψ is stationary at a non-solution (e.g. an infeasible LCP); kInvalidInput for
 ///   a malformed problem (z = 0). `iterations` counts accepted Newton or gradient steps; the
 ///   message counts the least-squares directions and gradient steps when there were any.
+/// - Lemke fallback (lemke_fallback, on by default): if Newton fails, LemkeSolver is run
+///   warm-started at the best iterate, and Newton (without fallback) from Lemke's answer; the
+///   result is kSolved if it passes the tolerance above. The report then has restarts = 1, the
+///   message names the fallback, and `iterations` includes Lemke's pivots and the polishing
+///   Newton steps. Without it Newton failed on ~1% of random contact LCPs with 20–240
+///   unknowns (iteration limit at residuals 1e-4…2e-2, Newton stalling on degenerate
+///   friction rows).
 /// - Invalid options throw std::invalid_argument, as does a null `z`.
 class FischerBurmeisterSolver final : public LcpSolver {
  public:

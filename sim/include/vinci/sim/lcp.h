@@ -20,6 +20,7 @@ enum class SolverStatus {
   kMaxIterations,     ///< iteration limit reached
   kNumericalFailure,  ///< singular pivot / NaN
   kInvalidInput,      ///< malformed problem (size mismatch, NaN in data)
+  kStalled,           ///< no progress at a non-solution in every attempt (McpSolver restarts)
 };
 std::string_view ToString(SolverStatus s);
 
@@ -35,7 +36,10 @@ struct SolverReport {
   double time_s = 0.0;          ///< wall time of the solve (s)
   bool regularized = false;     ///< true if the solution came from a regularized retry M + εI
   double regularization = 0.0;  ///< the ε used, if regularized
-  std::string message;          ///< human-readable detail on failure
+  /// Extra attempts after the first one failed: McpSolver restarts, FB Newton's Lemke
+  /// fallback (0: the first attempt decided the outcome).
+  int restarts = 0;
+  std::string message;  ///< human-readable detail on failure
   bool ok() const { return status == SolverStatus::kSolved; }
 };
 

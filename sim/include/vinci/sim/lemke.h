@@ -19,6 +19,9 @@ struct LemkeOptions {
   /// Recompute the explicit basis inverse from scratch every this many pivots to bound the
   /// drift of the rank-1 updates (0: max(50, n)).
   int refactor_interval = 0;
+  /// When every Lemke attempt fails (secondary ray or numerical failure, not the pivot
+  /// limit), solve by Fischer–Burmeister Newton from z = 0 and accept it if it passes τ.
+  bool newton_fallback = true;
 };
 
 /// Lemke with covering vector e, lexicographic anti-cycling, optional scaling, warm start
@@ -39,6 +42,12 @@ struct LemkeOptions {
 ///   degenerate basis, is handed to FischerBurmeisterSolver as a warm start; its result is
 ///   kept if it passes τ, and the report's message says so (its Newton steps are not counted
 ///   in `iterations`). Only then the retries below run.
+/// - Newton fallback (newton_fallback): if the plain, unscaled and regularized attempts all
+///   fail with a secondary ray or a numerical failure, FischerBurmeisterSolver (without its
+///   own Lemke fallback) is run from z = 0; a result passing τ is returned as kSolved with
+///   restarts = 1 and a message naming the fallback. Needed on a box pile
+///   (tests/data/lcp/box_pile_tilted_step216.lcp, n = 246), where every Lemke attempt ends on a
+///   spurious secondary ray although the LCP is solvable. An infeasible LCP still fails.
 /// - Scaling is symmetric, D M D with z = D z̃ and D a power-of-two diagonal (so the scaling
 ///   is exact), because a symmetric scaling keeps M copositive-plus / PSD and hence keeps
 ///   Lemke's termination guarantee.

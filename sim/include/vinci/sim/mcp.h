@@ -92,8 +92,10 @@ class McpSolver {
   ///   from deterministic perturbations of the best point so far.
   /// - *z receives the iterate with the smallest natural residual; `residual` is its
   ///   McpResidual. kSolved iff residual ≤ tolerance; kMaxIterations if the budget ran out;
-  ///   kNumericalFailure if every attempt stalled, evaluate threw (message contains what()) or
-  ///   returned a non-finite F/J at an accepted point (a non-finite trial point is backtracked).
+  ///   kStalled if every attempt (the first and max_restarts restarts) stalled;
+  ///   kNumericalFailure if evaluate threw (message contains what()) or returned a non-finite
+  ///   F/J at an accepted point (a non-finite trial point is backtracked).
+  /// - SolverReport::restarts = McpSolveStats::restarts: the restarts used, on success too.
   /// - Throws std::invalid_argument for a null z, mismatched sizes (including F/J returned by
   ///   evaluate), NaN bounds, l > u, a non-finite starting point, a missing evaluate or invalid
   ///   options.

@@ -16,6 +16,14 @@ struct PgsOptions {
 /// diagonal, like the σ rows of the Stewart–Trinkle LCP, are handled. Approximate: reports
 /// kMaxIterations when the tolerance is not reached.
 ///
+/// Accuracy on stacks: PGS is approximate on ill-conditioned contact LCPs. On the 10-box
+/// stack (n = 240, contact-matrix eigenvalues 1e-3…94) with one block per contact, 1000
+/// sweeps started cold reach a residual of ~1e-5 only (ω = 0.7…1.9 and the sweep order do not
+/// change that materially), against the 1e-9 tolerance. Blocks that hold a whole contact patch
+/// (every contact between the same two bodies, solved together by Lemke) converge on the same
+/// LCP in 585 sweeps (ω = 1) or 319 (ω = 1.3): where the caller can group contacts that way,
+/// it should (tests/sim/pgs_test.cc, BoxStackCold*).
+///
 /// Details of the contract:
 /// - Block B is solved for x given the rest, M_BB x + r_B ⊥ x ≥ 0 with r_B = q_B + M_B,rest
 ///   z_rest, then relaxed: z_B ← max(0, (1 − ω) z_B + ω x). A scalar block with M_ii > 0 uses
