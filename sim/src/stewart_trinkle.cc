@@ -59,6 +59,18 @@ BodyKinematics SecantKinematics(const Scene& model, int body, const BodyKinemati
   return k;
 }
 
+// Throws for a scene with a shape this stepper cannot collide (the smooth GI-only kinds), so
+// the error does not depend on whether such a shape happens to be near another one.
+void CheckShapesSupported(const Scene& model) {
+  for (const Body& b : model.bodies)
+    for (const Shape& s : b.shapes)
+      if (RequiresImplicitContact(s.type))
+        throw std::invalid_argument("body '" + b.name + "' shape '" + s.name + "': shape type " +
+                                    ShapeKeyword(s.type) +
+                                    " requires formulation: gi (the Stewart-Trinkle and "
+                                    "Anitescu-Potra steppers have no contact for it)");
+}
+
 }  // namespace
 
 StewartTrinkle::StewartTrinkle(StepperOptions options, std::shared_ptr<const LcpSolver> solver)
@@ -79,6 +91,7 @@ StewartTrinkle::Assembly StewartTrinkle::Assemble(const Scene& model, const Stat
   const double h = options_.dt;
   const int nv = model.num_velocities();
   const int nvb = VelocitySize(dim);
+  CheckShapesSupported(model);
   std::vector<BodyKinematics> kin = ComputeBodyKinematics(model, x);
   FindContacts(model, kin, options_.envelope, &a.contacts);
   // From here on, non-dynamic bodies carry their secant velocity over the step.
@@ -314,6 +327,7 @@ void StewartTrinkle::Step(const Scene& model, const State& x, const StepInput& u
 StepLayout StewartTrinkle::Layout(const Scene& model, const State& x) const {
   const std::vector<BodyKinematics> kin = ComputeBodyKinematics(model, x);
   std::vector<Contact> contacts;
+  CheckShapesSupported(model);
   FindContacts(model, kin, options_.envelope, &contacts);
   StepLayout l;
   l.nq = model.num_positions();

@@ -73,6 +73,9 @@ struct ImplicitSet {
   Dim dim = Dim::kSpatial;
   std::vector<ImplicitFunction> functions;
   double bounding_radius = 0.0;  ///< m; about the shape origin; +infinity if unbounded
+  /// m; a point inside the set (shape frame; the centroid for the scene shapes, the origin for
+  /// a half-space), used to start closest-point searches.
+  Vector3d center_S = Vector3d::Zero();
 
   /// max_k f_k(p_S) (≤ 0 inside the set) and the index of the maximizing function.
   double Value(const Vector3d& p_S, int* active = nullptr) const;
