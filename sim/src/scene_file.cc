@@ -717,7 +717,8 @@ void Parser::ParseStepper(const Field& f, StepperOptions* o) const {
   if (auto v = Get(f, "formulation"))
     o->formulation = Choice<FormulationType>(*v,
                                              {{"stewart-trinkle", FormulationType::kStewartTrinkle},
-                                              {"anitescu-potra", FormulationType::kAnitescuPotra}},
+                                              {"anitescu-potra", FormulationType::kAnitescuPotra},
+                                              {"gi", FormulationType::kGeometricallyImplicit}},
                                              "a formulation");
   if (auto v = Get(f, "dt")) o->dt = Number(*v, Bound::kPositive);
   if (auto v = Get(f, "duration")) o->duration = Number(*v, Bound::kPositive);

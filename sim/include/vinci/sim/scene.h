@@ -65,6 +65,8 @@ struct Joint {
 enum class FormulationType {
   kStewartTrinkle,  ///< formulations.md §1: position-level normal constraint with ψ_n/h
   kAnitescuPotra,   ///< velocity-level normal constraint (no ψ_n/h)
+  kGeometricallyImplicit,  ///< formulations.md §3: contact points at ℓ+1 are unknowns of one
+                           ///< mixed NCP (geometrically_implicit.h); implicit-surface shapes
 };
 
 /// Stepper options stored with the scene.
