@@ -209,6 +209,9 @@ ImplicitSet MakeImplicitSet(const Shape& s) {
                                            FrameWithAxis(n, s.half_extents[c] * n, 2),
                                            Vector3d::Ones()));
         }
+      for (int k = 0; k < 8; ++k)
+        set.vertices_S.push_back(s.half_extents.cwiseProduct(
+            Vector3d(k & 1 ? 1.0 : -1.0, k & 2 ? 1.0 : -1.0, k & 4 ? 1.0 : -1.0)));
       set.bounding_radius = s.half_extents.norm();
       return set;
     }
@@ -222,6 +225,7 @@ ImplicitSet MakeImplicitSet(const Shape& s) {
         r = std::max(r, prepared.vertices[i].norm());
       }
       set.center_S = c / static_cast<double>(prepared.hull_vertices.size());
+      for (int i : prepared.hull_vertices) set.vertices_S.push_back(prepared.vertices[i]);
       for (const HullFace& f : prepared.faces)
         set.functions.push_back(Function(ImplicitType::kHalfspace,
                                          FrameWithAxis(f.normal_S, f.offset * f.normal_S, 2),
@@ -251,6 +255,7 @@ ImplicitSet MakeImplicitSet(const Shape& s) {
                      Vector3d::Ones()));
       }
       set.center_S = c / n;
+      for (const Vector3d& v : s.vertices) set.vertices_S.emplace_back(v.x(), v.y(), 0.0);
       set.bounding_radius = r;
       return set;
     }
@@ -471,6 +476,148 @@ Vector3d StartPoint(const ImplicitSet& s, const Isometry3d& X_WS, const Vector3d
   return X_WS * p;
 }
 
+// The support point of a bounded set in world direction d_W (argmax of d·x over the set), if
+// it has a closed form: a single sphere/ellipsoid/superquadric/disc/ellipse/superellipse, or a
+// polytope with listed vertices.
+bool SupportPoint(const ImplicitSet& s, const Isometry3d& X_WS, const Vector3d& d_W,
+                  Vector3d* p_W) {
+  const Vector3d d_S = X_WS.linear().transpose() * d_W;
+  if (!s.vertices_S.empty()) {
+    // A face or edge that supports the set (within round-off) gives its vertex average (the
+    // face centre of a box), not an arbitrary corner: a stable witness for a resting face.
+    double best = -kInf;
+    for (const Vector3d& v : s.vertices_S) best = std::max(best, d_S.dot(v));
+    const double tol = 1e-9 * s.bounding_radius * d_S.norm();
+    Vector3d sum = Vector3d::Zero();
+    int count = 0;
+    for (const Vector3d& v : s.vertices_S)
+      if (d_S.dot(v) >= best - tol) sum += v, ++count;
+    *p_W = X_WS * (sum / count);
+    return true;
+  }
+  if (s.functions.size() != 1) return false;
+  const ImplicitFunction& f = s.functions[0];
+  Vector3d w = f.X_SF.linear().transpose() * d_S;  // direction in the function frame
+  const bool planar = IsPlanar(f.type);
+  if (planar) w.z() = 0.0;
+  const int n = planar ? 2 : 3;
+  Vector3d x_F = Vector3d::Zero();
+  switch (f.type) {
+    case ImplicitType::kSphere:
+    case ImplicitType::kDisc:
+      if (!(w.norm() > 0.0)) return false;
+      x_F = f.radii.x() * w.normalized();
+      break;
+    case ImplicitType::kEllipsoid:
+    case ImplicitType::kEllipse: {
+      Vector3d a = f.radii;
+      if (planar) a.z() = 0.0;
+      const Vector3d aw = a.cwiseProduct(w);
+      if (!(aw.norm() > 0.0)) return false;
+      x_F = a.cwiseProduct(aw) / aw.norm();
+      break;
+    }
+    case ImplicitType::kSuperquadric:
+    case ImplicitType::kSuperellipse: {
+      // Maximize Σ v_i y_i over ‖y‖_e ≤ 1 (v = a∘w, x = a∘y): y_i = sign v_i |v_i|^{q−1} /
+      // ‖v‖_q^{q−1}, 1/e + 1/q = 1.
+      const double q = f.exponent / (f.exponent - 1.0);
+      double big = 0.0;
+      for (int i = 0; i < n; ++i) big = std::max(big, std::abs(f.radii[i] * w[i]));
+      if (!(big > 0.0)) return false;
+      double norm_q = 0.0;
+      for (int i = 0; i < n; ++i) norm_q += std::pow(std::abs(f.radii[i] * w[i]) / big, q);
+      norm_q = std::pow(norm_q, 1.0 / q);  // ‖v/big‖_q
+      for (int i = 0; i < n; ++i) {
+        const double v = f.radii[i] * w[i] / big;
+        x_F[i] = f.radii[i] * std::copysign(std::pow(std::abs(v), q - 1.0), v) /
+                 std::pow(norm_q, q - 1.0);
+      }
+      break;
+    }
+    default:
+      return false;
+  }
+  *p_W = X_WS * (f.X_SF * x_F);
+  return true;
+}
+
+// Active function at a (shape-frame point on the boundary) for a contact whose outward normal
+// from the set is o_S: among the functions vanishing there, the one whose normal is most
+// aligned with o_S.
+int ActiveAt(const ImplicitSet& s, const Vector3d& p_S, const Vector3d& o_S, double tol) {
+  int best = 0;
+  double best_c = -kInf;
+  for (std::size_t k = 0; k < s.functions.size(); ++k) {
+    double f;
+    Vector3d g;
+    s.functions[k].Evaluate(p_S, &f, &g, nullptr);
+    if (std::abs(f) > tol || !(g.norm() > 0.0)) continue;
+    const double c = o_S.dot(g) / g.norm();
+    if (c > best_c) best_c = c, best = static_cast<int>(k);
+  }
+  return best;
+}
+
+// Closed-form closest points when they exist (see the header); false otherwise.
+bool ClosedFormProximity(const ImplicitSet& a, const Isometry3d& X_WA, const ImplicitSet& b,
+                         const Isometry3d& X_WB, ImplicitProximity* out) {
+  auto single = [](const ImplicitSet& s, ImplicitType t1, ImplicitType t2) {
+    return s.functions.size() == 1 && (s.functions[0].type == t1 || s.functions[0].type == t2);
+  };
+  const bool planar = a.dim == Dim::kPlanar;
+  auto flat = [&](Vector3d v) {
+    if (planar) v.z() = 0.0;
+    return v;
+  };
+  // Two spheres/discs.
+  if (single(a, ImplicitType::kSphere, ImplicitType::kDisc) &&
+      single(b, ImplicitType::kSphere, ImplicitType::kDisc)) {
+    const Vector3d ca = flat(X_WA * a.functions[0].X_SF.translation());
+    const Vector3d cb = flat(X_WB * b.functions[0].X_SF.translation());
+    const double ra = a.functions[0].radii.x(), rb = b.functions[0].radii.x();
+    const Vector3d d = ca - cb;
+    if (!(d.norm() > 1e-12 * (ra + rb))) return false;  // concentric: no unique normal
+    out->n_W = d / d.norm();
+    out->distance = d.norm() - ra - rb;
+    out->a1_W = ca - ra * out->n_W;
+    out->a2_W = cb + rb * out->n_W;
+    out->active_a = out->active_b = 0;
+    out->ok = true;
+    return true;
+  }
+  // A half-space/half-plane against a set with a closed-form support point.
+  for (int side = 0; side < 2; ++side) {
+    const ImplicitSet& h = side == 0 ? b : a;  // the half-space
+    const ImplicitSet& o = side == 0 ? a : b;  // the other set
+    const Isometry3d& X_WH = side == 0 ? X_WB : X_WA;
+    const Isometry3d& X_WO = side == 0 ? X_WA : X_WB;
+    if (!single(h, ImplicitType::kHalfspace, ImplicitType::kHalfPlane)) continue;
+    if (!std::isfinite(o.bounding_radius)) continue;
+    const ImplicitFunction& f = h.functions[0];
+    const Isometry3d X_WF = X_WH * f.X_SF;
+    const Vector3d nh = flat(X_WF.linear().col(f.type == ImplicitType::kHalfspace ? 2 : 1));
+    Vector3d p_o;
+    if (!SupportPoint(o, X_WO, -nh, &p_o)) return false;
+    p_o = flat(p_o);
+    const double dist = nh.dot(p_o - flat(X_WF.translation()));
+    const Vector3d p_h = p_o - dist * nh;
+    const double tol = 1e-9 * o.bounding_radius;
+    const int act = ActiveAt(o, X_WO.inverse() * p_o, -(X_WO.linear().transpose() * nh), tol);
+    out->distance = dist;
+    if (side == 0) {  // A is the other set, B the half-space: n from B to A is +nh
+      out->a1_W = p_o, out->a2_W = p_h, out->n_W = nh;
+      out->active_a = act, out->active_b = 0;
+    } else {
+      out->a1_W = p_h, out->a2_W = p_o, out->n_W = -nh;
+      out->active_a = 0, out->active_b = act;
+    }
+    out->ok = true;
+    return true;
+  }
+  return false;
+}
+
 }  // namespace
 
 ImplicitProximity ClosestPoints(const ImplicitSet& a, const Isometry3d& X_WA, const ImplicitSet& b,
@@ -481,6 +628,10 @@ ImplicitProximity ClosestPoints(const ImplicitSet& a, const Isometry3d& X_WA, co
   const bool fa = std::isfinite(a.bounding_radius), fb = std::isfinite(b.bounding_radius);
   if (!fa && !fb) throw std::invalid_argument("ClosestPoints: two unbounded sets");
   const int d = a.dim == Dim::kPlanar ? 2 : 3;
+  {
+    ImplicitProximity closed;
+    if (ClosedFormProximity(a, X_WA, b, X_WB, &closed)) return closed;
+  }
 
   // Scale: the larger finite bounding radius; origin between the start points.
   const double L = std::max(fa ? a.bounding_radius : 0.0, fb ? b.bounding_radius : 0.0);
@@ -497,7 +648,7 @@ ImplicitProximity ClosestPoints(const ImplicitSet& a, const Isometry3d& X_WA, co
   opt.tolerance = 1e-13;
   opt.max_iterations = 100;
   const McpSolver solver(opt);
-  constexpr double kProx = 1e-3;   // proximal weight (dimensionless), re-centred every pass
+  constexpr double kProx = 1e-6;   // proximal weight (dimensionless), re-centred every pass
   constexpr double kStep = 1e-13;  // converged when a pass moves the witnesses less (scaled)
   constexpr int kMaxPasses = 60;
 

@@ -422,6 +422,65 @@ TEST(ImplicitSurface, ClosestPointsPlanarPairs) {
   ExpectConsistent(e, PlanarPose(1.2, 0.4, 0.3), d, Isometry3d::Identity(), r);
 }
 
+// The same closed forms through the general Newton path: the closed-form shortcuts are
+// bypassed by adding a far, inactive half-space to the set (and dropping polytope vertices).
+ImplicitSet WithoutShortcut(ImplicitSet s) {
+  ImplicitFunction far;
+  far.type = s.dim == Dim::kPlanar ? ImplicitType::kHalfPlane : ImplicitType::kHalfspace;
+  far.X_SF.translation() =
+      Vector3d(0.0, s.dim == Dim::kPlanar ? 50.0 : 0.0, s.dim == Dim::kPlanar ? 0.0 : 50.0);
+  s.functions.push_back(far);
+  s.vertices_S.clear();
+  return s;
+}
+
+TEST(ImplicitSurface, NewtonPathMatchesClosedForms) {
+  Shape sp = MakeShape(ShapeType::kSphere), e = MakeShape(ShapeType::kEllipsoid),
+        box = MakeShape(ShapeType::kBox), h = MakeShape(ShapeType::kHalfSpace),
+        disc = MakeShape(ShapeType::kDisc), hp = MakeShape(ShapeType::kHalfPlane),
+        q = MakeShape(ShapeType::kSuperquadric);
+  sp.radius = disc.radius = 0.25;
+  e.half_extents = Vector3d(0.3, 0.6, 0.15);
+  q.half_extents = Vector3d(0.3, 0.2, 0.25);
+  q.exponent = 4.0;
+  box.half_extents = Vector3d(0.4, 0.2, 0.1);
+  const ImplicitSet hs = MakeImplicitSet(h), hps = MakeImplicitSet(hp);
+  std::mt19937 rng(17);
+  int n_checked = 0;
+  for (const Shape* sh : {&sp, &e, &box, &q}) {
+    const ImplicitSet exact = MakeImplicitSet(*sh), general = WithoutShortcut(exact);
+    for (int trial = 0; trial < 6; ++trial) {
+      Isometry3d X = RandomPose(&rng, false);
+      X.translation().z() = 0.5 + 0.1 * (trial - 3);  // separated, touching-ish, overlapping
+      const ImplicitProximity r0 = ClosestPoints(exact, X, hs, Isometry3d::Identity());
+      const ImplicitProximity r1 = ClosestPoints(general, X, hs, Isometry3d::Identity());
+      ASSERT_TRUE(r0.ok && r1.ok) << ShapeKeyword(sh->type) << " " << trial;
+      EXPECT_EQ(r0.iterations, 0);
+      EXPECT_GT(r1.iterations, 0);
+      EXPECT_NEAR(r1.distance, r0.distance, kDistTol) << ShapeKeyword(sh->type) << " " << trial;
+      EXPECT_LT((r1.n_W - r0.n_W).norm(), kDistTol);
+      ++n_checked;
+    }
+  }
+  EXPECT_EQ(n_checked, 24);
+  // Disc over a half-plane, and two spheres.
+  const ImplicitSet dg = WithoutShortcut(MakeImplicitSet(disc));
+  for (double y : {0.6, 0.25, 0.2}) {
+    const ImplicitProximity r =
+        ClosestPoints(dg, PlanarPose(0.3, y, 0.4), hps, Isometry3d::Identity());
+    ASSERT_TRUE(r.ok);
+    EXPECT_NEAR(r.distance, y - 0.25, kDistTol);
+  }
+  const ImplicitSet sg = WithoutShortcut(MakeImplicitSet(sp));
+  for (double dist : {0.9, 0.5, 0.4}) {
+    const Vector3d c = dist * Vector3d(1, 2, 2) / 3.0;
+    const ImplicitProximity r =
+        ClosestPoints(sg, Pose(c), MakeImplicitSet(sp), Isometry3d::Identity());
+    ASSERT_TRUE(r.ok);
+    EXPECT_NEAR(r.distance, dist - 0.5, kDistTol);
+  }
+}
+
 TEST(ImplicitSurface, ClosestPointsRejectsBadInput) {
   Shape h = MakeShape(ShapeType::kHalfSpace), disc = MakeShape(ShapeType::kDisc),
         s = MakeShape(ShapeType::kSphere);

@@ -76,6 +76,9 @@ struct ImplicitSet {
   /// m; a point inside the set (shape frame; the centroid for the scene shapes, the origin for
   /// a half-space), used to start closest-point searches.
   Vector3d center_S = Vector3d::Zero();
+  /// m; the corners (shape frame) when every function is a half-space/half-plane (box,
+  /// polygon, polyhedron), else empty. ClosestPoints uses them for exact support points.
+  std::vector<Vector3d> vertices_S;
 
   /// max_k f_k(p_S) (≤ 0 inside the set) and the index of the maximizing function.
   double Value(const Vector3d& p_S, int* active = nullptr) const;
@@ -98,6 +101,12 @@ ImplicitSet MakeImplicitSet(const Shape& shape);
 /// multiplier). ok = false if the solver did not converge (outputs are then the last iterate).
 /// Planar sets give z = 0 outputs. Throws std::invalid_argument for two unbounded sets or sets
 /// of different dimensions.
+/// Method: closed forms (iterations = 0) for sphere/disc pairs and for a half-space/half-plane
+/// against a set with a closed-form support point (sphere, ellipsoid, superquadric, disc,
+/// ellipse, superellipse, or a polytope with vertices_S); otherwise two Newton (MCP) phases
+/// with proximal re-centring: the convex distance problem from the centres, then the
+/// common-normal system −u ∈ ∂A-normal cone at a1, u at a2, a1 − a2 = s u, ‖u‖ = 1, which stays
+/// well posed when touching or overlapping (s < 0).
 struct ImplicitProximity {
   bool ok = false;
   Vector3d a1_W = Vector3d::Zero();
