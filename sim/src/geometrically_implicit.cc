@@ -28,6 +28,12 @@ constexpr int kDA = 0, kDB = 6, kVA = 12, kVB = 18, kPn = 24, kPt = 25, kSig = 2
 // the split with the least friction, strictly inside the cone.
 constexpr double kStickCompliance = 1e-5;
 constexpr double kNormalCompliance = 1e-8;
+// Weight of the solver form's contact-point tie-breaker (dimensionless): the separation row
+// becomes a_1 − a_2 + l_1 n_A + κ_a (a_1 − a_1,start). It selects the closest points nearest the
+// step's starting guess where they are not unique (a flat face parallel to another and not
+// loaded: with p_n > 0 the torque balance fixes a_1); it shifts a_2 by at most κ_a ‖a_1 −
+// a_1,start‖ (≤ 1e-9 m for a 0.1 m move).
+constexpr double kPointTieBreak = 1e-8;
 
 // Warm-start record: ids (4), m_A, m_B, p_n, p_t (2), σ, a_1 (3), a_2 (3), l_1, l_2, λ, μ.
 constexpr int kRecordFixed = 20;
@@ -88,6 +94,7 @@ struct Context {
   std::vector<Isometry3d> X_start;     // per body at ℓ
   std::vector<BodyKinematics> moving;  // non-dynamic bodies: pose at t+h, secant velocity
   std::vector<double> scale;           // r per pair (kg)
+  std::vector<Vector3d> a1_start;      // a_1 of the starting point per pair (solver form)
   MatrixXd M;
   VectorXd p_ext;
 };
@@ -431,12 +438,16 @@ void SolverResidual(const Context& c, const VectorXd& z, VectorXd* F, MatrixXd* 
     // rows: a pose change h Δν then changes them by O(Δν), which keeps the Jacobian well scaled
     // when contact forces trade against tiny velocity changes.
     const double g = 1.0 / c.h;
-    F->segment(o, c.d) = g * e.sep.head(c.d);
+    // Tie-breaker: + κ_a (a_1 − a_1,start), so that a_1 is unique where the closest points are
+    // not (parallel flat faces carrying no load); see kPointTieBreak.
+    const PairUnknowns& pu = u;
+    F->segment(o, c.d) = g * (e.sep.head(c.d) + kPointTieBreak * (pu.a1 - c.a1_start[k]).head(c.d));
     F->segment(o + c.d, c.d) = g * e.par.head(c.d);
     (*F)[o + 2 * c.d] = g * e.side_a;
     (*F)[o + 2 * c.d + 1] = g * e.side_b;
     if (J) {
       Scatter(c, k, bodies, g * e.d_sep.topRows(c.d), o, J);
+      for (int i = 0; i < c.d; ++i) (*J)(o + i, o + i) += g * kPointTieBreak;
       Scatter(c, k, bodies, g * e.d_par.topRows(c.d), o + c.d, J);
       Scatter(c, k, bodies, g * e.d_side_a, o + 2 * c.d, J);
       Scatter(c, k, bodies, g * e.d_side_b, o + 2 * c.d + 1, J);
@@ -779,10 +790,34 @@ VectorXd InitialGuess(const Context& c) {
                        .X_WB;
     };
     const int ia = std::max(pr.active_a, 0), ib = std::max(pr.active_b, 0);
-    const FnAt fa =
-        EvalFn(c.sets[p.body_a][p.shape_a].functions[ia], pose(p.body_a) * sa.X_BS, pr.a1_W);
-    const FnAt fb =
-        EvalFn(c.sets[p.body_b][p.shape_b].functions[ib], pose(p.body_b) * sb.X_BS, pr.a2_W);
+    const ImplicitSet& set_a = c.sets[p.body_a][p.shape_a];
+    const ImplicitSet& set_b = c.sets[p.body_b][p.shape_b];
+    const Isometry3d X_WA = pose(p.body_a) * sa.X_BS, X_WB = pose(p.body_b) * sb.X_BS;
+    // Face on face (both active functions flat): any point of the common face is a closest
+    // point; start from the one below A's centre (where a resting load puts it) if it lies on
+    // both faces.
+    const auto flat = [](ImplicitType t) {
+      return t == ImplicitType::kHalfspace || t == ImplicitType::kHalfPlane;
+    };
+    if (flat(set_a.functions[ia].type) && flat(set_b.functions[ib].type)) {
+      const Vector3d n = pr.n_W;
+      const Vector3d shift =
+          (Matrix3d::Identity() - n * n.transpose()) * (X_WA * set_a.center_S - pr.a1_W);
+      const Vector3d a1 = pr.a1_W + shift, a2 = pr.a2_W + shift;
+      const double tol_a =
+          1e-9 * (1.0 + (std::isfinite(set_a.bounding_radius) ? set_a.bounding_radius : 0.0));
+      const double tol_b =
+          1e-9 * (1.0 + (std::isfinite(set_b.bounding_radius) ? set_b.bounding_radius : 0.0));
+      if (set_a.Contains(X_WA.inverse() * a1, tol_a) &&
+          set_b.Contains(X_WB.inverse() * a2, tol_b)) {
+        z.segment(g, c.d) = a1.head(c.d);
+        z.segment(g + c.d, c.d) = a2.head(c.d);
+      }
+    }
+    const Vector3d a1_start = Vector3d(z[g], z[g + 1], c.d == 3 ? z[g + 2] : 0.0);
+    const Vector3d a2_start = Vector3d(z[g + c.d], z[g + c.d + 1], c.d == 3 ? z[g + c.d + 2] : 0.0);
+    const FnAt fa = EvalFn(set_a.functions[ia], X_WA, a1_start);
+    const FnAt fb = EvalFn(set_b.functions[ib], X_WB, a2_start);
     const double na = std::max(fa.g.norm(), 1e-12), nb = std::max(fb.g.norm(), 1e-12);
     z[g + 2 * c.d] = pr.distance / na;
     z[g + 2 * c.d + 1] = na / nb;
@@ -848,11 +883,19 @@ McpProblem MakeProblem(std::shared_ptr<const Context> c) {
 
 }  // namespace
 
+// Fills the solver form's tie-breaker reference from the starting point.
+static void SetStart(Context* c, const VectorXd& z0) {
+  c->a1_start.assign(c->pairs.size(), Vector3d::Zero());
+  for (int k = 0; k < c->layout.nc; ++k) c->a1_start[k].head(c->d) = z0.segment(c->geo[k], c->d);
+}
+
 McpProblem GeometricallyImplicit::StepProblem(const Scene& model, const State& x,
                                               const StepInput& u, VectorXd* z0) const {
   std::string failure;
   auto c = std::make_shared<Context>(MakeContext(*this, model, x, u, &failure));
-  if (z0) *z0 = InitialGuess(*c);
+  const VectorXd guess = InitialGuess(*c);
+  SetStart(c.get(), guess);
+  if (z0) *z0 = guess;
   return MakeProblem(c);
 }
 
@@ -885,6 +928,7 @@ void GeometricallyImplicit::Step(const Scene& model, const State& x, const StepI
     return;
   }
   VectorXd z = InitialGuess(*c);
+  SetStart(c.get(), z);
   const McpProblem prob = MakeProblem(c);
   info->solver = McpSolver(mcp_).Solve(prob, &z);
   if (!info->solver.ok()) {

@@ -302,5 +302,140 @@ TEST(GiTest, TrajectorySatisfiesStepEquations) {
   std::printf("worst violation %.3g\n", worst);
 }
 
+// §B.1 in 3D (the quadratic cone): a sphere launched with v0 > r ω0 slides until
+// t* = 2 (v0 − r ω0)/(7 μ g) and then rolls at (5 v0 + 2 r ω0)/7.
+TEST(GiTest, SphereRollingTransitionAndSpeed) {
+  const double v0 = 2.0, w0 = 5.0, r = 0.1, mu = 0.3, h = 1e-3;
+  const std::string text =
+      "name: gi-sphere\ndimension: 3\ngravity: [0, 0, -9.81]\n"
+      "stepper: {formulation: gi, dt: 0.001, envelope: 0.001}\nfriction: {default: 0.3}\n"
+      "bodies:\n"
+      "  - {name: floor, kind: static, shapes: [{type: halfspace}]}\n"
+      "  - {name: ball, mass: 1.0, pose: {position: [0, 0, 0.1]}, velocity: {linear: [2, 0, 0], "
+      "angular: [0, 5, 0]}, shapes: [{type: sphere, radius: 0.1}]}\n";
+  Simulator sim(Parse(text));
+  const Trajectory tr = sim.Rollout(sim.DefaultParams(), sim.InitialState(), 300);
+  ASSERT_TRUE(tr.ok) << tr.failure;
+  const auto slip = [&](const State& x) {
+    const Isometry3d X = PoseFromQ(Dim::kSpatial, x.q.data());
+    const Vector3d w_W = X.linear() * x.v.segment<3>(3);
+    return Vector3d(x.v[0] - r * w_W.y(), x.v[1] + r * w_W.x(), 0.0).norm();
+  };
+  double t_roll = -1.0;
+  for (const State& x : tr.states)
+    if (t_roll < 0 && slip(x) < 1e-6) t_roll = x.t;
+  const double t_star = 2 * (v0 - r * w0) / (7 * mu * kG);
+  EXPECT_NEAR(t_roll, t_star, 2 * h);  // the transition lands on a step boundary: O(h)
+  EXPECT_NEAR(tr.states.back().v[0], (5 * v0 + 2 * r * w0) / 7, 2 * mu * kG * h);
+  EXPECT_NEAR(tr.states.back().v[1], 0.0, 1e-9);  // friction stays in the plane of the slip
+  for (const State& x : tr.states) EXPECT_NEAR(x.q[2], r, 1e-9) << "t = " << x.t;
+}
+
+// Prescribed bodies enter through their pose at t + h and their velocity over the step (∂ψ/∂t):
+// a box on a floor that moves along (0.5, 0.1) m/s is lifted and dragged until it moves with it.
+TEST(GiTest, BoxIsCarriedByMovingFloor) {
+  const std::string text =
+      "name: gi-moving-floor\ndimension: 2\ngravity: [0, -9.81]\n"
+      "stepper: {formulation: gi, dt: 0.001, envelope: 0.001}\nfriction: {default: 0.5}\n"
+      "bodies:\n"
+      "  - {name: floor, kind: prescribed, shapes: [{type: halfplane}], motion: {x: {velocity: "
+      "0.5}, y: {velocity: 0.1}}}\n"
+      "  - {name: box, mass: 1.0, pose: {position: [0, 0.1]}, shapes: [{type: polygon, vertices: "
+      "[[-0.2, -0.1], [0.2, -0.1], [0.2, 0.1], [-0.2, 0.1]]}]}\n";
+  Simulator sim(Parse(text));
+  const Trajectory tr = sim.Rollout(sim.DefaultParams(), sim.InitialState(), 400);
+  ASSERT_TRUE(tr.ok) << tr.failure;
+  for (const State& x : tr.states) ASSERT_GT(x.q[1] - 0.1 * x.t, 0.1 - 1e-9) << "t = " << x.t;
+  const State& end = tr.states.back();
+  EXPECT_NEAR(end.v[0], 0.5, 1e-6);  // sticks after t = 0.5/(μ g) ≈ 0.1 s (creep ≤ 3e-8 m/s)
+  EXPECT_NEAR(end.v[1], 0.1, 1e-9);
+  EXPECT_NEAR(end.q[1] - 0.1 * end.t, 0.1, 1e-9);  // resting on the floor
+  EXPECT_NEAR(end.q[2], 0.0, 1e-9);
+}
+
+// A solve that cannot converge is reported, not accepted; unsupported scenes throw.
+TEST(GiTest, FailuresAreReported) {
+  Simulator sim(Parse(DiscScene(2.0, 5.0, 0.3, 1e-3, "{type: disc, radius: 0.1}")));
+  McpOptions tight;
+  tight.max_iterations = 1;
+  tight.max_restarts = 0;
+  const GeometricallyImplicit gi(sim.scene().options, tight);
+  State x = sim.InitialState(), next;
+  x.v[1] = -3.0;  // an impact: more than one Newton step
+  StepInfo info;
+  gi.Step(sim.scene(), x, StepInput{}, nullptr, &next, &info);
+  EXPECT_FALSE(info.ok);
+  EXPECT_NE(info.failure.find("MCP solver failed"), std::string::npos) << info.failure;
+  EXPECT_EQ(next.q, x.q);  // *next == x on failure
+
+  Scene capsule = Parse(
+      "name: c\ndimension: 3\nstepper: {formulation: gi}\nbodies:\n"
+      "  - {name: floor, kind: static, shapes: [{type: halfspace}]}\n"
+      "  - {name: pill, mass: 1.0, pose: {position: [0, 0, 1]}, shapes: [{type: capsule, radius: "
+      "0.1, "
+      "half_length: 0.2}]}\n");
+  Simulator with_capsule(capsule);
+  EXPECT_THROW(
+      {
+        try {
+          with_capsule.Rollout(with_capsule.DefaultParams(), with_capsule.InitialState(), 1);
+        } catch (const std::invalid_argument& e) {
+          EXPECT_NE(std::string(e.what()).find("pill"), std::string::npos) << e.what();
+          throw;
+        }
+      },
+      std::invalid_argument);
+  EXPECT_THROW(Parse("name: s\ndimension: 2\nstepper: {formulation: gi, solver: pgs}\n"
+                     "bodies:\n  - {name: d, shapes: [{type: disc, radius: 0.1}]}\n"),
+               std::invalid_argument);
+}
+
+// The residual face's Jacobians (unknowns and the μ, mass parameter columns) match finite
+// differences.
+TEST(GiTest, EvaluateJacobiansMatchFiniteDifferences) {
+  Simulator sim(Parse(DiscScene(2.0, 5.0, 0.3, 1e-3,
+                                "{type: polygon, vertices: [[-0.1, -0.1], [0.1, -0.1], [0.1, "
+                                "0.1], [-0.1, 0.1]]}",
+                                0.5)));
+  const GeometricallyImplicit gi(sim.scene().options);
+  State x = sim.InitialState();
+  x.q[1] = 0.12;
+  x.q[2] = 0.3;
+  VectorXd z0;
+  gi.StepProblem(sim.scene(), x, StepInput{}, &z0);
+  const VectorXd z = GenericPoint(gi, sim.scene(), x, z0);
+  const Params params = sim.DefaultParams();
+  const StepResiduals r = gi.Evaluate(sim.scene(), params, x, StepInput{}, z);
+  ASSERT_EQ(r.layout.size(), z.size());
+  ASSERT_EQ(r.d_equality.cols(), z.size() + static_cast<int>(r.param_columns.size()));
+  double worst = 0.0;
+  const auto compare = [&](const StepResiduals& p, const StepResiduals& m, double step, int col) {
+    const VectorXd de = (p.equality - m.equality) / (2 * step);
+    const VectorXd db = (p.comp_b - m.comp_b) / (2 * step);
+    const VectorXd da = (p.comp_a - m.comp_a) / (2 * step);
+    worst = std::max(worst, (de - r.d_equality.col(col)).cwiseAbs().maxCoeff());
+    worst = std::max(worst, (db - r.d_comp_b.col(col)).cwiseAbs().maxCoeff());
+    worst = std::max(worst, (da - r.d_comp_a.col(col)).cwiseAbs().maxCoeff());
+  };
+  for (int j = 0; j < z.size(); ++j) {
+    const double eps = 1e-6;
+    VectorXd zp = z, zm = z;
+    zp[j] += eps;
+    zm[j] -= eps;
+    compare(gi.Evaluate(sim.scene(), params, x, StepInput{}, zp),
+            gi.Evaluate(sim.scene(), params, x, StepInput{}, zm), eps, j);
+  }
+  for (std::size_t k = 0; k < r.param_columns.size(); ++k) {
+    const double eps = 1e-6;
+    Params pp = params, pm = params;
+    pp.values[r.param_columns[k]] += eps;
+    pm.values[r.param_columns[k]] -= eps;
+    compare(gi.Evaluate(sim.scene().ApplyParams(pp), pp, x, StepInput{}, z),
+            gi.Evaluate(sim.scene().ApplyParams(pm), pm, x, StepInput{}, z), eps,
+            z.size() + static_cast<int>(k));
+  }
+  EXPECT_LT(worst, kFdTol);
+}
+
 }  // namespace
 }  // namespace vinci::sim

@@ -51,10 +51,17 @@
 //   0 = p_t − Π_{μ p_n}(p_t − r v_t),   0 = r σ − (‖p_t − r v_t‖ − μ p_n)₊
 // with Π_ρ the projection onto the disc ‖·‖ ≤ ρ and r > 0 a scale (kg; the smaller dynamic
 // mass of the pair). For p_n > 0 its solutions are exactly those of §2 (σ is the slip speed);
-// for p_n = 0 it picks p_t = 0 and σ = ‖v_t‖ among §2's solutions. In the solver form v_t is
-// replaced by v_t + ε p_t with ε = 10⁻⁸/r (1/kg): a tangential creep below 10⁻¹⁰ m/s that makes
-// statically indeterminate sticking (a sphere held by two spheres: more sticking constraints than
-// degrees of freedom) non-singular for Newton; §2's rows then hold to ~μ p_n ε p_t ≈ 10⁻¹³.
+// for p_n = 0 it picks p_t = 0 and σ = ‖v_t‖ among §2's solutions.
+//
+// Solver-form details (Evaluate() reports the exact rows above instead):
+// - Row scaling: the kinematics, geometry (separation, normals, sides, −f_i, −g_j) and ψ rows
+//   are divided by h, i.e. expressed as velocities. A pose change is h Δν, so without this a
+//   force split that trades against a tiny velocity change looks singular to Newton.
+// - Tiny compliances: v_t is replaced by v_t + (κ_t/r) p_t and ψ by ψ + (h κ_n/r) p_n with
+//   κ_t = 1e-5, κ_n = 1e-8: a tangential creep below ~3e-8 m/s while sticking (p_t ≤ μ m g h,
+//   h = 1e-3) and an overlap of 1e-11 m per N·s of normal impulse. They make statically
+//   indeterminate contacts (a sphere resting on two spheres has a one-parameter family of
+//   normal/friction splits) non-singular; κ_t ≫ κ_n selects the split with the least friction.
 //
 // The whole step is one mixed NCP solved by McpSolver with an analytic Jacobian. Count check
 // (planar, one dynamic disc on a fixed half-plane): ν 3 + q 3 + a_1 2 + a_2 2 + l 2 +
