@@ -180,6 +180,8 @@ bool ImplicitSet::Contains(const Vector3d& p_S, double tol) const {
 
 ImplicitSet MakeImplicitSet(const Shape& s) {
   ImplicitSet set;
+  set.from_shape = true;
+  set.shape_type = s.type;
   set.dim = IsPlanar(s.type) ? Dim::kPlanar : Dim::kSpatial;
   const Isometry3d I = Isometry3d::Identity();
   switch (s.type) {
@@ -495,6 +497,33 @@ bool SupportPoint(const ImplicitSet& s, const Isometry3d& X_WS, const Vector3d& 
     *p_W = X_WS * (sum / count);
     return true;
   }
+  if (s.from_shape && s.shape_type == ShapeType::kCylinder && s.functions.size() == 3) {
+    // Axial extreme ±L (mid-height when the direction is radial), radial extreme r along the
+    // radial part (the cap centre when the direction is axial): the centre of a supporting
+    // line or cap, like a polytope's face centre.
+    const double r = s.functions[0].radii.x(), L = s.functions[1].X_SF.translation().norm();
+    const double tol = 1e-12 * d_S.norm();
+    Vector3d x = Vector3d::Zero();
+    if (d_S.head<2>().norm() > tol) x.head<2>() = r * d_S.head<2>().normalized();
+    if (std::abs(d_S.z()) > tol) x.z() = std::copysign(L, d_S.z());
+    *p_W = X_WS * x;
+    return true;
+  }
+  if (s.from_shape && s.shape_type == ShapeType::kLens && s.functions.size() == 2) {
+    // Caps: the sphere centred at ∓c e_z for a direction with ±z component; rim: the circle of
+    // radius ρ at z = 0.
+    const double R = s.functions[0].radii.x(), c = s.functions[0].X_SF.translation().norm();
+    const double rho = std::sqrt(std::max(0.0, R * R - c * c));
+    if (!(d_S.norm() > 0.0)) return false;
+    const Vector3d u = d_S.normalized();
+    if (R * u.head<2>().norm() <= rho && u.z() != 0.0) {
+      *p_W = X_WS * (Vector3d(0.0, 0.0, -std::copysign(c, u.z())) + R * u);
+    } else {
+      *p_W =
+          X_WS * Vector3d(rho * u.x() / u.head<2>().norm(), rho * u.y() / u.head<2>().norm(), 0.0);
+    }
+    return true;
+  }
   if (s.functions.size() != 1) return false;
   const ImplicitFunction& f = s.functions[0];
   Vector3d w = f.X_SF.linear().transpose() * d_S;  // direction in the function frame
@@ -646,11 +675,11 @@ ImplicitProximity ClosestPoints(const ImplicitSet& a, const Isometry3d& X_WA, co
 
   McpOptions opt;
   opt.tolerance = 1e-13;
-  opt.max_iterations = 100;
+  opt.max_iterations = 50;
   const McpSolver solver(opt);
   constexpr double kProx = 1e-6;   // proximal weight (dimensionless), re-centred every pass
   constexpr double kStep = 1e-13;  // converged when a pass moves the witnesses less (scaled)
-  constexpr int kMaxPasses = 60;
+  constexpr int kMaxPasses = 25;
 
   ImplicitProximity out;
   // Phase 1: distance (convex; reliable from the centres).

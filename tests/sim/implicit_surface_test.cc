@@ -185,6 +185,19 @@ TEST(ImplicitSurface, BoxCylinderLensPolygonMembership) {
   // Half-plane functions are signed distances.
   EXPECT_NEAR(t.Value(Vector3d(0.5, -0.3, 0)), 0.3, 1e-15);
 
+  // A polyhedron (tetrahedron) maps to its hull's face half-spaces.
+  Shape tet = MakeShape(ShapeType::kPolyhedron);
+  tet.vertices = {Vector3d(0, 0, 0), Vector3d(1, 0, 0), Vector3d(0, 1, 0), Vector3d(0, 0, 1),
+                  Vector3d(0.1, 0.1, 0.1)};  // the last point is interior: not a hull corner
+  const ImplicitSet th = MakeImplicitSet(tet);
+  EXPECT_EQ(th.functions.size(), 4u);
+  EXPECT_EQ(th.vertices_S.size(), 4u);
+  EXPECT_TRUE(th.Contains(Vector3d(0.2, 0.2, 0.2)));
+  EXPECT_TRUE(th.Contains(th.center_S));
+  EXPECT_FALSE(th.Contains(Vector3d(0.4, 0.4, 0.4)));  // beyond x + y + z = 1
+  EXPECT_FALSE(th.Contains(Vector3d(0.2, -0.01, 0.2)));
+  EXPECT_NEAR(th.Value(Vector3d(0.5, 0.5, 0.5)), 0.5 / std::sqrt(3.0), 1e-15);
+
   Shape seg = MakeShape(ShapeType::kCapsule);
   seg.radius = 0.1;
   EXPECT_THROW(
@@ -444,10 +457,15 @@ TEST(ImplicitSurface, NewtonPathMatchesClosedForms) {
   q.half_extents = Vector3d(0.3, 0.2, 0.25);
   q.exponent = 4.0;
   box.half_extents = Vector3d(0.4, 0.2, 0.1);
+  Shape cyl = MakeShape(ShapeType::kCylinder), lens = MakeShape(ShapeType::kLens);
+  cyl.radius = 0.15;
+  cyl.half_length = 0.3;
+  lens.radius = 0.5;
+  lens.half_length = 0.1;
   const ImplicitSet hs = MakeImplicitSet(h), hps = MakeImplicitSet(hp);
   std::mt19937 rng(17);
   int n_checked = 0;
-  for (const Shape* sh : {&sp, &e, &box, &q}) {
+  for (const Shape* sh : {&sp, &e, &box, &q, &cyl, &lens}) {
     const ImplicitSet exact = MakeImplicitSet(*sh), general = WithoutShortcut(exact);
     for (int trial = 0; trial < 6; ++trial) {
       Isometry3d X = RandomPose(&rng, false);
@@ -462,7 +480,7 @@ TEST(ImplicitSurface, NewtonPathMatchesClosedForms) {
       ++n_checked;
     }
   }
-  EXPECT_EQ(n_checked, 24);
+  EXPECT_EQ(n_checked, 36);
   // Disc over a half-plane, and two spheres.
   const ImplicitSet dg = WithoutShortcut(MakeImplicitSet(disc));
   for (double y : {0.6, 0.25, 0.2}) {

@@ -79,6 +79,10 @@ struct ImplicitSet {
   /// m; the corners (shape frame) when every function is a half-space/half-plane (box,
   /// polygon, polyhedron), else empty. ClosestPoints uses them for exact support points.
   std::vector<Vector3d> vertices_S;
+  /// The scene shape kind MakeImplicitSet built the set from (closed-form support points for
+  /// cylinder and lens); sets assembled by hand leave `from_shape` false.
+  bool from_shape = false;
+  ShapeType shape_type = ShapeType::kSphere;
 
   /// max_k f_k(p_S) (≤ 0 inside the set) and the index of the maximizing function.
   double Value(const Vector3d& p_S, int* active = nullptr) const;
@@ -103,8 +107,8 @@ ImplicitSet MakeImplicitSet(const Shape& shape);
 /// of different dimensions.
 /// Method: closed forms (iterations = 0) for sphere/disc pairs and for a half-space/half-plane
 /// against a set with a closed-form support point (sphere, ellipsoid, superquadric, disc,
-/// ellipse, superellipse, or a polytope with vertices_S); otherwise two Newton (MCP) phases
-/// with proximal re-centring: the convex distance problem from the centres, then the
+/// ellipse, superellipse, cylinder, lens, or a polytope with vertices_S); otherwise two Newton
+/// (MCP) phases with proximal re-centring: the convex distance problem from the centres, then the
 /// common-normal system −u ∈ ∂A-normal cone at a1, u at a2, a1 − a2 = s u, ‖u‖ = 1, which stays
 /// well posed when touching or overlapping (s < 0).
 struct ImplicitProximity {
