@@ -95,6 +95,10 @@ struct Context {
   std::vector<BodyKinematics> moving;  // non-dynamic bodies: pose at t+h, secant velocity
   std::vector<double> scale;           // r per pair (kg)
   std::vector<Vector3d> a1_start;      // a_1 of the starting point per pair (solver form)
+  // Normal law per pair: 0 ≤ p_n ⊥ ψ + law_diagonal p_n + law_constant ≥ 0. Rigid: 0, 0.
+  // Quasi-rigid contact (formulations.md §4) fills them from the pair's linearized law
+  // (compliance.h, LinearizeNormalLaw: pos_diagonal and pos_psi0 ψ_ℓ + pos_constant).
+  std::vector<double> law_diagonal, law_constant;
   MatrixXd M;
   VectorXd p_ext;
 };
@@ -466,10 +470,11 @@ void SolverResidual(const Context& c, const VectorXd& z, VectorXd* F, MatrixXd* 
     const double eps_n = c.h * kNormalCompliance / c.scale[k];
     // The row is divided by h (a velocity, like the other rows' scale; complementarity is
     // unchanged by a positive factor).
-    (*F)[l.pn() + k] = (e.psi + eps_n * u.pn) / c.h;
+    const double diag = c.law_diagonal[k] + eps_n;
+    (*F)[l.pn() + k] = (e.psi + diag * u.pn + c.law_constant[k]) / c.h;
     if (J) {
       Scatter(c, k, bodies, e.d_psi / c.h, l.pn() + k, J);
-      (*J)(l.pn() + k, l.pn() + k) += eps_n / c.h;
+      (*J)(l.pn() + k, l.pn() + k) += diag / c.h;
     }
     // Friction (semismooth projection form), rows paired with p_t and σ.
     const int nd = c.nd;
@@ -680,6 +685,8 @@ Context MakeContext(const GeometricallyImplicit& gi, const Scene& model, const S
   for (const GiPair& p : c.pairs) {
     c.geo.push_back(o);
     o += p.GeometrySize(model.dim);
+    c.law_diagonal.push_back(0.0);
+    c.law_constant.push_back(0.0);
     double r = std::numeric_limits<double>::infinity();
     for (int b : {p.body_a, p.body_b})
       if (model.bodies[b].kind == BodyKind::kDynamic) r = std::min(r, model.bodies[b].mass);
@@ -1092,8 +1099,9 @@ StepResiduals GeometricallyImplicit::Evaluate(const Scene& model, const Params& 
     // Complementarity: (p_n, ψ), (σ, μ² p_n² − ‖p_t‖²), (λ_i, −f_i), (μ_j, −g_j).
     r.comp_a[crow] = pu.pn;
     r.d_comp_a(crow, l.pn() + k) = 1.0;
-    r.comp_b[crow] = e.psi;
+    r.comp_b[crow] = e.psi + c.law_diagonal[k] * pu.pn + c.law_constant[k];
     Scatter(c, k, bodies, e.d_psi, crow, &Jb);
+    Jb(crow, l.pn() + k) += c.law_diagonal[k];
     ++crow;
     r.comp_a[crow] = pu.sigma;
     r.d_comp_a(crow, l.sigma() + k) = 1.0;

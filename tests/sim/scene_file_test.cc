@@ -505,7 +505,7 @@ TEST(SceneFileTest, BadDimension) {
 TEST(SceneFileTest, UnknownFormulation) {
   EXPECT_SCENE_ERROR(
       Yaml({"dimension: 3", "stepper: {formulation: moreau}", "bodies: [{name: a, kind: static}]"}),
-      2, "stepper.formulation", "stewart-trinkle, anitescu-potra), got 'moreau'");
+      2, "stepper.formulation", "stewart-trinkle, anitescu-potra, gi), got 'moreau'");
 }
 
 TEST(SceneFileTest, UnknownSolver) {
