@@ -110,7 +110,10 @@ ImplicitSet MakeImplicitSet(const Shape& shape);
 /// ellipse, superellipse, cylinder, lens, or a polytope with vertices_S); otherwise two Newton
 /// (MCP) phases with proximal re-centring: the convex distance problem from the centres, then the
 /// common-normal system −u ∈ ∂A-normal cone at a1, u at a2, a1 − a2 = s u, ‖u‖ = 1, which stays
-/// well posed when touching or overlapping (s < 0).
+/// well posed when touching or overlapping (s < 0). Known limit of the Newton path: a nearly
+/// (not exactly) flat contact whose support point sits on an edge with a tiny multiplier (a
+/// cylinder lying almost flat) is solved to a natural residual of 1e-8 (scaled by the larger
+/// bounding radius) only, and in deep overlap may fail (ok = false).
 struct ImplicitProximity {
   bool ok = false;
   Vector3d a1_W = Vector3d::Zero();
