@@ -34,6 +34,9 @@ constexpr double kNormalCompliance = 1e-8;
 // loaded: with p_n > 0 the torque balance fixes a_1); it shifts a_2 by at most κ_a ‖a_1 −
 // a_1,start‖ (≤ 1e-9 m for a 0.1 m move).
 constexpr double kPointTieBreak = 1e-8;
+// A step whose end pose penetrates a candidate pair deeper than this (m, by ClosestPoints) is
+// rejected: the solver converged to a spurious branch of the contact equations.
+constexpr double kEndPenetrationCheck = 1e-6;
 
 // Warm-start record: ids (4), m_A, m_B, p_n, p_t (2), σ, a_1 (3), a_2 (3), l_1, l_2, λ, μ.
 constexpr int kRecordFixed = 20;
@@ -94,6 +97,7 @@ struct Context {
   std::vector<Isometry3d> X_start;     // per body at ℓ
   std::vector<BodyKinematics> moving;  // non-dynamic bodies: pose at t+h, secant velocity
   std::vector<double> scale;           // r per pair (kg)
+  std::vector<int> scale_body;         // the body whose mass is r
   std::vector<Vector3d> a1_start;      // a_1 of the starting point per pair (solver form)
   // Normal law per pair: 0 ≤ p_n ⊥ ψ + law_diagonal p_n + law_constant ≥ 0. Rigid: 0, 0.
   // Quasi-rigid contact (formulations.md §4) fills them from the pair's linearized law
@@ -685,12 +689,22 @@ Context MakeContext(const GeometricallyImplicit& gi, const Scene& model, const S
   for (const GiPair& p : c.pairs) {
     c.geo.push_back(o);
     o += p.GeometrySize(model.dim);
+    // Rigid contact. Quasi-rigid contact (compliance.h, branch ncp) would set, with
+    //   row = LinearizeNormalLaw(CombineCompliance(A.compliance, B.compliance), ψ_ℓ, h),
+    //   ψ_ℓ = p.start.distance: law_diagonal = row.pos_diagonal and
+    //   law_constant = row.pos_psi0 ψ_ℓ + row.pos_constant (zero when !row.compliant).
     c.law_diagonal.push_back(0.0);
     c.law_constant.push_back(0.0);
     double r = std::numeric_limits<double>::infinity();
-    for (int b : {p.body_a, p.body_b})
-      if (model.bodies[b].kind == BodyKind::kDynamic) r = std::min(r, model.bodies[b].mass);
+    int rb = -1;
+    for (int b : {p.body_a, p.body_b}) {
+      if (model.bodies[b].kind == BodyKind::kDynamic && model.bodies[b].mass < r) {
+        r = model.bodies[b].mass;
+        rb = b;
+      }
+    }
     c.scale.push_back(r);
+    c.scale_body.push_back(rb);
   }
 
   // Mass matrix and external impulses (as in the Stewart–Trinkle stepper).
@@ -877,6 +891,9 @@ McpProblem MakeProblem(std::shared_ptr<const Context> c) {
   prob.lower.segment(l.pn(), l.nc).setZero();
   for (int k = 0; k < l.nc; ++k) {
     const GiPair& p = c->pairs[k];
+    // l_2 ≥ 0: anti-parallel normals. l_2 < 0 (parallel normals) is a spurious branch, e.g. a
+    // box below a floor touching it with its top face; l_2 = 0 is never a solution (n_A ≠ 0).
+    prob.lower[c->geo[k] + 2 * c->d + 1] = 0.0;
     int o = c->geo[k] + 2 * c->d + 2;
     if (p.m_a > 1) {
       prob.lower.segment(o, p.m_a).setZero();
@@ -938,6 +955,19 @@ void GeometricallyImplicit::Step(const Scene& model, const State& x, const StepI
   SetStart(c.get(), z);
   const McpProblem prob = MakeProblem(c);
   info->solver = McpSolver(mcp_).Solve(prob, &z);
+  if (!info->solver.ok() && x.warm_start.size() > 0) {
+    // Retry from a cold start (closest points at ℓ for every pair, ν_ℓ): a warm start from the
+    // previous step can sit in the wrong basin when a contact jumps (a rocking box landing flat).
+    // The tie-breaker keeps the first start's reference, so the equations solved are the same.
+    Context cold = *c;
+    cold.x.warm_start.resize(0);
+    VectorXd z_cold = InitialGuess(cold);
+    const SolverReport first = info->solver;
+    info->solver = McpSolver(mcp_).Solve(prob, &z_cold);
+    info->solver.iterations += first.iterations;
+    info->solver.time_s += first.time_s;
+    if (info->solver.ok()) z = z_cold;
+  }
   if (!info->solver.ok()) {
     info->failure = "geometrically implicit step: MCP solver failed: " +
                     std::string(ToString(info->solver.status)) + " after " +
@@ -970,6 +1000,32 @@ void GeometricallyImplicit::Step(const Scene& model, const State& x, const StepI
     info->failure = "non-finite state after the step";
     info->solver.status = SolverStatus::kNumericalFailure;
     return;
+  }
+  // Safety net: a converged solve on a spurious branch of the contact equations (closest points
+  // that are not the closest pair) would let bodies pass through each other; check the pairs'
+  // distance at ℓ+1 independently.
+  for (int k = 0; k < l.nc; ++k) {
+    const GiPair& p = c->pairs[k];
+    const auto pose = [&](int b) {
+      return model.bodies[b].kind == BodyKind::kDynamic
+                 ? PoseFromQ(model.dim, next->q.data() + model.index(b).q)
+                 : c->moving[b].X_WB;
+    };
+    const ImplicitProximity end =
+        ClosestPoints(c->sets[p.body_a][p.shape_a],
+                      pose(p.body_a) * model.bodies[p.body_a].shapes[p.shape_a].X_BS,
+                      c->sets[p.body_b][p.shape_b],
+                      pose(p.body_b) * model.bodies[p.body_b].shapes[p.shape_b].X_BS);
+    if (end.ok && end.distance < -kEndPenetrationCheck) {
+      info->failure = "geometrically implicit step: the solution penetrates by " +
+                      std::to_string(-end.distance) +
+                      " m at the end of the step (pair of bodies '" + model.bodies[p.body_a].name +
+                      "' and '" + model.bodies[p.body_b].name +
+                      "'): a spurious branch of the contact equations";
+      info->solver.status = SolverStatus::kNumericalFailure;
+      *next = x;
+      return;
+    }
   }
   next->warm_start = WarmStartOf(*c, z);
   if (ws) {
@@ -1033,7 +1089,8 @@ StepResiduals GeometricallyImplicit::Evaluate(const Scene& model, const Params& 
                                               const State& x, const StepInput& u,
                                               const VectorXd& z) const {
   std::string failure;
-  const Context c = MakeContext(*this, model, x, u, &failure);
+  Context c = MakeContext(*this, model, x, u, &failure);
+  SetStart(&c, InitialGuess(c));  // the tie-breaker's reference, as in Step (from x.warm_start)
   StepResiduals r;
   r.layout = c.layout;
   const StepLayout& l = c.layout;
@@ -1076,32 +1133,48 @@ StepResiduals GeometricallyImplicit::Evaluate(const Scene& model, const Params& 
     const PairUnknowns pu = ReadPair(c, k, z);
     EvalPair(c, k, bodies, pu, &e);
     AddWrenches(c, k, bodies, e, 0, &r.equality, &Jeq);
-    r.equality.segment(row, d) = e.sep.head(d);
+    r.equality.segment(row, d) = e.sep.head(d) + kPointTieBreak * (pu.a1 - c.a1_start[k]).head(d);
     Scatter(c, k, bodies, e.d_sep.topRows(d), row, &Jeq);
+    for (int i = 0; i < d; ++i) Jeq(row + i, c.geo[k] + i) += kPointTieBreak;
     r.equality.segment(row + d, d) = e.par.head(d);
     Scatter(c, k, bodies, e.d_par.topRows(d), row + d, &Jeq);
     r.equality[row + 2 * d] = e.side_a;
     Scatter(c, k, bodies, e.d_side_a, row + 2 * d, &Jeq);
     r.equality[row + 2 * d + 1] = e.side_b;
     Scatter(c, k, bodies, e.d_side_b, row + 2 * d + 1, &Jeq);
-    // §2 friction: μ p_n v_t + σ p_t = 0.
+    // §2 friction: μ p_n v_t' + σ p_t = 0 with the solver's v_t' = v_t + (κ_t/r) p_t.
     const int fr = row + 2 * d + 2;
+    const double rk = c.scale[k], eps_t = kStickCompliance / rk;
     for (int j = 0; j < nd; ++j) {
-      r.equality[fr + j] = p.mu * pu.pn * e.vt[j] + pu.sigma * pu.pt[j];
+      const double vt = e.vt[j] + eps_t * pu.pt[j];
+      r.equality[fr + j] = p.mu * pu.pn * vt + pu.sigma * pu.pt[j];
       MatrixXd dl = p.mu * pu.pn * e.d_vt.row(j);
-      dl(0, kPn) += p.mu * e.vt[j];
+      dl(0, kPn) += p.mu * vt;
       dl(0, kSig) += pu.pt[j];
-      dl(0, kPt + j) += pu.sigma;
+      dl(0, kPt + j) += pu.sigma + p.mu * pu.pn * eps_t;
       Scatter(c, k, bodies, dl, fr + j, &Jeq);
-      r.d_equality(fr + j, column_of[p.mu_param]) = pu.pn * e.vt[j];
+      r.d_equality(fr + j, column_of[p.mu_param]) = pu.pn * vt;
+      // r is the mass of scale_body: ∂/∂m of (κ_t/r) p_t.
+      for (int i = 0; i < model.param_table().size(); ++i) {
+        const ParamInfo& info = model.param_table().info(i);
+        if (info.kind == ParamKind::kMass && info.a == c.scale_body[k])
+          r.d_equality(fr + j, column_of[i]) += -p.mu * pu.pn * eps_t / rk * pu.pt[j];
+      }
     }
     row += 2 * d + 2 + nd;
     // Complementarity: (p_n, ψ), (σ, μ² p_n² − ‖p_t‖²), (λ_i, −f_i), (μ_j, −g_j).
     r.comp_a[crow] = pu.pn;
     r.d_comp_a(crow, l.pn() + k) = 1.0;
-    r.comp_b[crow] = e.psi + c.law_diagonal[k] * pu.pn + c.law_constant[k];
+    // ψ + (h κ_n / r + law) p_n + law constant, as the solver's normal row.
+    const double eps_n = c.h * kNormalCompliance / rk;
+    r.comp_b[crow] = e.psi + (c.law_diagonal[k] + eps_n) * pu.pn + c.law_constant[k];
     Scatter(c, k, bodies, e.d_psi, crow, &Jb);
-    Jb(crow, l.pn() + k) += c.law_diagonal[k];
+    Jb(crow, l.pn() + k) += c.law_diagonal[k] + eps_n;
+    for (int i = 0; i < model.param_table().size(); ++i) {
+      const ParamInfo& info = model.param_table().info(i);
+      if (info.kind == ParamKind::kMass && info.a == c.scale_body[k])
+        r.d_comp_b(crow, column_of[i]) += -eps_n / rk * pu.pn;
+    }
     ++crow;
     r.comp_a[crow] = pu.sigma;
     r.d_comp_a(crow, l.sigma() + k) = 1.0;

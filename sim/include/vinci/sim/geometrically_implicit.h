@@ -53,7 +53,9 @@
 // mass of the pair). For p_n > 0 its solutions are exactly those of §2 (σ is the slip speed);
 // for p_n = 0 it picks p_t = 0 and σ = ‖v_t‖ among §2's solutions.
 //
-// Solver-form details (Evaluate() reports the exact rows above instead):
+// Solver-form details. Evaluate() reports the rows above (§2's friction, not the projection
+// form) with the same three small terms as the solver (compliances and tie-breaker; they vanish
+// with κ), so a simulated trajectory satisfies them to solver tolerance:
 // - Row scaling: the kinematics, geometry (separation, normals, sides, −f_i, −g_j) and ψ rows
 //   are divided by h, i.e. expressed as velocities. A pose change is h Δν, so without this a
 //   force split that trades against a tiny velocity change looks singular to Newton.
@@ -62,6 +64,21 @@
 //   h = 1e-3) and an overlap of 1e-11 m per N·s of normal impulse. They make statically
 //   indeterminate contacts (a sphere resting on two spheres has a one-parameter family of
 //   normal/friction splits) non-singular; κ_t ≫ κ_n selects the split with the least friction.
+// - Contact-point tie-breaker: the separation row is a_1 − a_2 + l_1 n_A + κ_a (a_1 − a_1,start)
+//   with κ_a = 1e-8 and a_1,start the step's starting guess. Where the closest points are not
+//   unique (a flat face parallel to another, unloaded) it picks the one nearest the guess; with
+//   p_n > 0 the torque balance fixes a_1 (the centre of pressure of a resting face) and the
+//   term moves a_2 by at most κ_a ‖a_1 − a_1,start‖. New face-on-face pairs start below A's
+//   centre instead of at ClosestPoints' vertex.
+// - Normal law hook (quasi-rigid contact, formulations.md §4): the ψ row is
+//   ψ + a p_n + (b ψ_ℓ + e) with per-pair terms that are zero for rigid contact; the position
+//   form of compliance.h's LinearizeNormalLaw supplies them (not wired yet; see the .cc).
+//
+// Spurious branches: the contact equations also hold for parallel normals (l_2 < 0: a box
+// below a floor touching it with its top face), so the solver bounds l_2 ≥ 0 (l_2 = 0 is never a
+// solution). After a converged solve each pair's distance at ℓ+1 is re-checked with
+// ClosestPoints; deeper than 1e-6 m fails the step. A solve that fails from the warm start is
+// retried once from a cold start (closest points at ℓ), e.g. for a rocking box landing flat.
 //
 // The whole step is one mixed NCP solved by McpSolver with an analytic Jacobian. Count check
 // (planar, one dynamic disc on a fixed half-plane): ν 3 + q 3 + a_1 2 + a_2 2 + l 2 +
@@ -76,7 +93,10 @@
 // m_A, m_B, p_n, p_t (2), σ, a_1 (3), a_2 (3), l_1, l_2, λ (m_A), μ (m_B)]; pairs found again
 // start from their record, new pairs from ClosestPoints at q_ℓ; ν starts at ν_ℓ.
 //
-// Joints are not supported (the step fails with a reason).
+// Limitations: joints are not supported and shapes without an implicit form (capsule,
+// segment, polyhedron) are rejected (std::invalid_argument from Step/Layout/Evaluate); one
+// contact point per convex pair means no torsional friction (a box spinning flat on a floor
+// keeps spinning; formulations.md §2's optional p_r is not implemented).
 #pragma once
 
 #include <memory>
