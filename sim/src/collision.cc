@@ -35,6 +35,18 @@ const char* ShapeTypeName(ShapeType t) {
       return "kSegment";
     case ShapeType::kConcavePolygon:
       return "kConcavePolygon";
+    case ShapeType::kEllipsoid:
+      return "kEllipsoid";
+    case ShapeType::kSuperquadric:
+      return "kSuperquadric";
+    case ShapeType::kCylinder:
+      return "kCylinder";
+    case ShapeType::kLens:
+      return "kLens";
+    case ShapeType::kEllipse:
+      return "kEllipse";
+    case ShapeType::kSuperellipse:
+      return "kSuperellipse";
   }
   return "unknown ShapeType";
 }
@@ -76,6 +88,44 @@ void RemoveDuplicateContacts(std::vector<ContactPoint>* out, std::size_t begin, 
 }
 
 }  // namespace collision_internal
+
+const char* ShapeKeyword(ShapeType t) {
+  switch (t) {
+    case ShapeType::kHalfSpace:
+      return "halfspace";
+    case ShapeType::kSphere:
+      return "sphere";
+    case ShapeType::kBox:
+      return "box";
+    case ShapeType::kCapsule:
+      return "capsule";
+    case ShapeType::kPolyhedron:
+      return "polyhedron";
+    case ShapeType::kHalfPlane:
+      return "halfplane";
+    case ShapeType::kDisc:
+      return "disc";
+    case ShapeType::kPolygon:
+      return "polygon";
+    case ShapeType::kSegment:
+      return "segment";
+    case ShapeType::kEllipsoid:
+      return "ellipsoid";
+    case ShapeType::kSuperquadric:
+      return "superquadric";
+    case ShapeType::kCylinder:
+      return "cylinder";
+    case ShapeType::kLens:
+      return "lens";
+    case ShapeType::kEllipse:
+      return "ellipse";
+    case ShapeType::kSuperellipse:
+      return "superellipse";
+    case ShapeType::kConcavePolygon:
+      return "concave_polygon";
+  }
+  return "unknown";
+}
 
 namespace {
 
@@ -647,6 +697,11 @@ void CollideSpatialOrdered(const Shape& a, const Isometry3d& X_WA, const Shape& 
 void CollideShapes(const Shape& a, const Isometry3d& X_WA, const Shape& b, const Isometry3d& X_WB,
                    double envelope, std::vector<ContactPoint>* out) {
   if (out == nullptr) throw std::invalid_argument("CollideShapes: out is null");
+  for (const Shape* s : {&a, &b})
+    if (RequiresImplicitContact(s->type))
+      throw std::invalid_argument(std::string("CollideShapes: shape '") + s->name +
+                                  "': shape type " + ShapeKeyword(s->type) +
+                                  " requires formulation: gi (no polygonal contact)");
   if (IsPlanar(a.type) != IsPlanar(b.type)) ThrowPair(a, b, "planar with spatial");
   if (IsPlanar(a.type)) {
     collision_internal::CollidePlanar(a, X_WA, b, X_WB, envelope, out);

@@ -116,6 +116,62 @@ UnitMassProperties Polygon(const Shape& s) {
   return m;
 }
 
+// Per-mass second moment ∫u₁² / ∫1 of the unit superball Σ|u_i|^e ≤ 1 in n = 2 or 3
+// dimensions (Dirichlet's integral): Γ(3/e) Γ(1 + n/e) / (Γ(1/e) Γ(1 + (n + 2)/e)).
+double SuperballSecondMoment(double e, int n) {
+  return std::tgamma(3.0 / e) * std::tgamma(1.0 + n / e) /
+         (std::tgamma(1.0 / e) * std::tgamma(1.0 + (n + 2) / e));
+}
+
+// Volume of the unit superball in n dimensions: (2 Γ(1 + 1/e))ⁿ / Γ(1 + n/e).
+double SuperballVolume(double e, int n) {
+  return std::pow(2.0 * std::tgamma(1.0 + 1.0 / e), n) / std::tgamma(1.0 + n / e);
+}
+
+void RequireExponent(const Shape& s) {
+  if (!(s.exponent >= 2.0) || !std::isfinite(s.exponent))
+    ThrowBad(s, "exponent = " + std::to_string(s.exponent) + ", expected a finite number >= 2");
+}
+
+void RequireSemiAxes(const Shape& s, int n) {
+  for (int c = 0; c < n; ++c)
+    RequirePositive(s,
+                    c == 0   ? "half_extents.x"
+                    : c == 1 ? "half_extents.y"
+                             : "half_extents.z",
+                    s.half_extents[c]);
+}
+
+// Lens: the intersection of two spheres of radius R centred at z = ±c, c = R − t (t = half
+// thickness). Its upper half z ∈ [0, t] has cross-section radius² ρ²(z) = R² − (z + c)², a
+// quadratic, so the integrands below (degree ≤ 6) are integrated exactly by 4-point
+// Gauss–Legendre.
+UnitMassProperties Lens(const Shape& s) {
+  RequirePositive(s, "radius", s.radius);
+  RequirePositive(s, "half_length", s.half_length);
+  if (s.half_length > s.radius)
+    ThrowBad(s, "half_length = " + std::to_string(s.half_length) +
+                    ", expected <= radius = " + std::to_string(s.radius));
+  const double R = s.radius, t = s.half_length, c = R - t;
+  constexpr double kNodes[4] = {-0.8611363115940526, -0.3399810435848563, 0.3399810435848563,
+                                0.8611363115940526};
+  constexpr double kWeights[4] = {0.3478548451374538, 0.6521451548625461, 0.6521451548625461,
+                                  0.3478548451374538};
+  double vol = 0.0, zz = 0.0, rr = 0.0;  // ∫1, ∫z², ∫(x² + y²) over the upper half
+  for (int k = 0; k < 4; ++k) {
+    const double z = 0.5 * t * (kNodes[k] + 1.0), w = 0.5 * t * kWeights[k];
+    const double rho2 = R * R - (z + c) * (z + c);
+    vol += w * kPi * rho2;
+    zz += w * kPi * rho2 * z * z;
+    rr += w * kPi * rho2 * rho2 / 2.0;
+  }
+  UnitMassProperties m;
+  m.volume = 2.0 * vol;
+  const double i_axial = rr / vol, i_trans = 0.5 * rr / vol + zz / vol;
+  m.inertia_per_mass_S = Vector3d(i_trans, i_trans, i_axial).asDiagonal();
+  return m;
+}
+
 }  // namespace
 
 UnitMassProperties ComputeUnitMassProperties(const Shape& s) {
@@ -193,6 +249,41 @@ UnitMassProperties ComputeUnitMassProperties(const Shape& s) {
       m.inertia_per_mass_S = LaminaInertia(xx / m.volume, yy / m.volume, 0.0);
       return m;
     }
+    case ShapeType::kEllipsoid:
+    case ShapeType::kSuperquadric: {
+      RequireSemiAxes(s, 3);
+      const double e = s.type == ShapeType::kEllipsoid ? 2.0 : s.exponent;
+      if (s.type == ShapeType::kSuperquadric) RequireExponent(s);
+      const Vector3d& a = s.half_extents;
+      m.volume = a.prod() * SuperballVolume(e, 3);
+      const Vector3d second = SuperballSecondMoment(e, 3) * a.cwiseProduct(a);  // ∫x_i²/V
+      m.inertia_per_mass_S =
+          Vector3d(second.y() + second.z(), second.x() + second.z(), second.x() + second.y())
+              .asDiagonal();
+      return m;
+    }
+    case ShapeType::kCylinder: {
+      RequirePositive(s, "radius", s.radius);
+      RequirePositive(s, "half_length", s.half_length);
+      const double r2 = s.radius * s.radius, len = 2.0 * s.half_length;
+      m.volume = kPi * r2 * len;
+      const double i_trans = (3.0 * r2 + len * len) / 12.0;
+      m.inertia_per_mass_S = Vector3d(i_trans, i_trans, r2 / 2.0).asDiagonal();
+      return m;
+    }
+    case ShapeType::kLens:
+      return Lens(s);
+    case ShapeType::kEllipse:
+    case ShapeType::kSuperellipse: {
+      RequireSemiAxes(s, 2);
+      const double e = s.type == ShapeType::kEllipse ? 2.0 : s.exponent;
+      if (s.type == ShapeType::kSuperellipse) RequireExponent(s);
+      const double a = s.half_extents.x(), b = s.half_extents.y();
+      m.volume = a * b * SuperballVolume(e, 2);
+      const double k = SuperballSecondMoment(e, 2);
+      m.inertia_per_mass_S = LaminaInertia(k * a * a, k * b * b, 0.0);
+      return m;
+    }
   }
   throw std::logic_error("ComputeUnitMassProperties: unknown ShapeType");
 }
@@ -210,6 +301,44 @@ void HalfSpaceBounds(const Vector3d& n, const Vector3d& p, int dims, Aabb* box) 
     if (!aligned) continue;
     if (n[k] > 0.0) box->hi[k] = p[k];
     if (n[k] < 0.0) box->lo[k] = p[k];
+  }
+}
+
+// Support function h(d) = max_{x ∈ S} d·x of the origin-symmetric smooth kinds, d in the
+// shape frame (planar kinds: d.z ignored).
+double SmoothSupport(const Shape& s, const Vector3d& d) {
+  switch (s.type) {
+    case ShapeType::kEllipsoid:
+      return d.cwiseProduct(s.half_extents).norm();
+    case ShapeType::kEllipse:
+      return d.head<2>().cwiseProduct(s.half_extents.head<2>()).norm();
+    case ShapeType::kSuperquadric:
+    case ShapeType::kSuperellipse: {
+      // The dual norm: h(d) = ‖(a_i d_i)‖_q with 1/e + 1/q = 1.
+      const int n = s.type == ShapeType::kSuperquadric ? 3 : 2;
+      const double q = s.exponent / (s.exponent - 1.0);
+      double sum = 0.0, big = 0.0;
+      for (int i = 0; i < n; ++i) big = std::max(big, std::abs(s.half_extents[i] * d[i]));
+      if (big == 0.0) return 0.0;
+      for (int i = 0; i < n; ++i) sum += std::pow(std::abs(s.half_extents[i] * d[i]) / big, q);
+      return big * std::pow(sum, 1.0 / q);
+    }
+    case ShapeType::kCylinder: {
+      const double dz = std::abs(d.z());
+      return s.radius * d.head<2>().norm() + s.half_length * dz;
+    }
+    case ShapeType::kLens: {
+      // Caps: spheres centred at ∓c e_z (c = R − t); rim: the circle of radius ρ at z = 0.
+      const double R = s.radius, c = R - s.half_length;
+      const double rho = std::sqrt(std::max(0.0, R * R - c * c));
+      const double dn = d.norm(), dz = std::abs(d.z()), dxy = d.head<2>().norm();
+      if (dn == 0.0) return 0.0;
+      // The cap point −c e_z + R d/|d| is on the lens iff its radial distance ≤ ρ.
+      if (R * dxy <= rho * dn) return R * dn - c * dz;
+      return rho * dxy;
+    }
+    default:
+      throw std::logic_error("SmoothSupport: not a smooth kind");
   }
 }
 
@@ -257,6 +386,20 @@ Aabb ComputeAabb(const Shape& s, const Isometry3d& X_WS) {
         const Vector3d w = X_WS * v;
         box.lo = box.lo.cwiseMin(w);
         box.hi = box.hi.cwiseMax(w);
+      }
+      break;
+    }
+    case ShapeType::kEllipsoid:
+    case ShapeType::kSuperquadric:
+    case ShapeType::kCylinder:
+    case ShapeType::kLens:
+    case ShapeType::kEllipse:
+    case ShapeType::kSuperellipse: {
+      // Symmetric about the shape origin: extent along world axis i is h(R_WSᵀ e_i).
+      for (int i = 0; i < 3; ++i) {
+        const double e = SmoothSupport(s, R.row(i).transpose());
+        box.lo[i] = p[i] - e;
+        box.hi[i] = p[i] + e;
       }
       break;
     }

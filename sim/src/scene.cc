@@ -189,6 +189,21 @@ void Scene::Finalize() {
           params_.Add(
               {pre + "radius", ParamKind::kShapeRadius, bi, si, -1, sh.radius, 1e-12, kInf});
           break;
+        case ShapeType::kCylinder:
+        case ShapeType::kLens:
+          params_.Add(
+              {pre + "radius", ParamKind::kShapeRadius, bi, si, -1, sh.radius, 1e-12, kInf});
+          params_.Add({pre + "half_length", ParamKind::kShapeHalfLength, bi, si, -1, sh.half_length,
+                       1e-12, kInf});
+          break;
+        case ShapeType::kEllipsoid:
+        case ShapeType::kSuperquadric:
+        case ShapeType::kEllipse:
+        case ShapeType::kSuperellipse:
+          for (int c = 0; c < (IsPlanar(sh.type) ? 2 : 3); ++c)
+            params_.Add({pre + "half_extents." + "xyz"[c], ParamKind::kShapeHalfExtent, bi, si, c,
+                         sh.half_extents[c], 1e-12, kInf});
+          break;
         case ShapeType::kCapsule:
         case ShapeType::kSegment:
           params_.Add({pre + "radius", ParamKind::kShapeRadius, bi, si, -1, sh.radius, 0.0, kInf});

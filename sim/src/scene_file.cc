@@ -138,6 +138,12 @@ const std::vector<ShapeSpec>& ShapeSpecs() {
       {"polygon", ShapeType::kPolygon, Dim::kPlanar, {"vertices"}},
       {"segment", ShapeType::kSegment, Dim::kPlanar, {"radius", "half_length"}},
       {"concave_polygon", ShapeType::kConcavePolygon, Dim::kPlanar, {"vertices"}},
+      {"ellipsoid", ShapeType::kEllipsoid, Dim::kSpatial, {"semi_axes"}},
+      {"superquadric", ShapeType::kSuperquadric, Dim::kSpatial, {"semi_axes", "exponent"}},
+      {"cylinder", ShapeType::kCylinder, Dim::kSpatial, {"radius", "half_length"}},
+      {"lens", ShapeType::kLens, Dim::kSpatial, {"radius", "half_length"}},
+      {"ellipse", ShapeType::kEllipse, Dim::kPlanar, {"semi_axes"}},
+      {"superellipse", ShapeType::kSuperellipse, Dim::kPlanar, {"semi_axes", "exponent"}},
   };
   return specs;
 }
@@ -553,6 +559,33 @@ Shape Parser::ParseShape(const Field& f, BodyKind kind) const {
       }
       break;
     }
+    case ShapeType::kEllipsoid:
+    case ShapeType::kSuperquadric:
+    case ShapeType::kEllipse:
+    case ShapeType::kSuperellipse: {
+      const int n = planar() ? 2 : 3;
+      const VectorXd a =
+          Numbers(Require(f, "semi_axes", "a list of " + std::to_string(n) + " numbers"), n,
+                  Bound::kPositive);
+      s.half_extents.head(n) = a;
+      if (s.type == ShapeType::kSuperquadric || s.type == ShapeType::kSuperellipse) {
+        const Field ef = Require(f, "exponent", "a finite number >= 2");
+        s.exponent = Number(ef, Bound::kPositive);
+        if (s.exponent < 2.0) Fail(ef, "a finite number >= 2");
+      }
+      break;
+    }
+    case ShapeType::kCylinder:
+      s.radius = Number(Require(f, "radius", "a finite number > 0"), Bound::kPositive);
+      s.half_length = Number(Require(f, "half_length", "a finite number > 0"), Bound::kPositive);
+      break;
+    case ShapeType::kLens: {
+      s.radius = Number(Require(f, "radius", "a finite number > 0"), Bound::kPositive);
+      const Field hl = Require(f, "half_length", "a finite number > 0 and <= radius");
+      s.half_length = Number(hl, Bound::kPositive);
+      if (s.half_length > s.radius) Fail(hl, "a finite number > 0 and <= radius");
+      break;
+    }
     case ShapeType::kHalfSpace:
     case ShapeType::kHalfPlane:
       break;
@@ -848,7 +881,8 @@ void Parser::ParseStepper(const Field& f, StepperOptions* o) const {
                                               {"first-order", FormulationType::kFirstOrder},
                                               {"quasistatic-dlc", FormulationType::kQuasistaticDlc},
                                               {"quasistatic-dqc", FormulationType::kQuasistaticDqc},
-                                              {"dynamic-dqc", FormulationType::kDynamicDqc}},
+                                              {"dynamic-dqc", FormulationType::kDynamicDqc},
+                                              {"gi", FormulationType::kGeometricallyImplicit}},
                                              "a formulation");
   if (auto v = Get(f, "dt")) o->dt = Number(*v, Bound::kPositive);
   if (auto v = Get(f, "duration")) o->duration = Number(*v, Bound::kPositive);

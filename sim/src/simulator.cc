@@ -3,6 +3,7 @@
 #include <stdexcept>
 
 #include "vinci/sim/first_order.h"
+#include "vinci/sim/geometrically_implicit.h"
 #include "vinci/sim/kinematics.h"
 #include "vinci/sim/lemke.h"
 #include "vinci/sim/ncp.h"
@@ -18,6 +19,14 @@ std::unique_ptr<Formulation> MakeFormulation(const StepperOptions& options) {
       options.formulation == FormulationType::kQuasistaticDqc ||
       options.formulation == FormulationType::kDynamicDqc)
     return std::make_unique<Quasistatic>(options);  // §5, §6 (quasistatic.h)
+  if (options.formulation == FormulationType::kGeometricallyImplicit) {
+    // GI solves one mixed NCP with the semismooth Newton MCP solver; `solver` keeps its LCP
+    // default ("lemke"), which is accepted and unused here.
+    if (options.solver != "lemke" && options.solver != "semismooth-newton")
+      throw std::invalid_argument("formulation gi uses the MCP solver 'semismooth-newton', not '" +
+                                  options.solver + "'");
+    return std::make_unique<GeometricallyImplicit>(options);
+  }
   return std::make_unique<StewartTrinkle>(options, MakeLcpSolver(options.solver));
 }
 

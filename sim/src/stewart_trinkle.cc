@@ -104,6 +104,18 @@ void AppendSupportPairs(const SupportRows& sup, const StepLayout& l, const Vecto
   }
 }
 
+// Throws for a scene with a shape this stepper cannot collide (the smooth GI-only kinds), so
+// the error does not depend on whether such a shape happens to be near another one.
+void CheckShapesSupported(const Scene& model) {
+  for (const Body& b : model.bodies)
+    for (const Shape& s : b.shapes)
+      if (RequiresImplicitContact(s.type))
+        throw std::invalid_argument("body '" + b.name + "' shape '" + s.name + "': shape type " +
+                                    ShapeKeyword(s.type) +
+                                    " requires formulation: gi (the Stewart-Trinkle and "
+                                    "Anitescu-Potra steppers have no contact for it)");
+}
+
 }  // namespace
 
 StewartTrinkle::StewartTrinkle(StepperOptions options, std::shared_ptr<const LcpSolver> solver)
@@ -126,6 +138,7 @@ StewartTrinkle::Assembly StewartTrinkle::Assemble(const Scene& model, const Stat
   const double h = options_.dt;
   const int nv = model.num_velocities();
   const int nvb = VelocitySize(dim);
+  CheckShapesSupported(model);
   std::vector<BodyKinematics> kin = ComputeBodyKinematics(model, x);
   for (std::size_t i = 0; i < kin.size(); ++i)  // integrated prescribed poses
     if (model.bodies[i].kind == BodyKind::kPrescribed &&
@@ -513,6 +526,7 @@ StepLayout StewartTrinkle::Layout(const Scene& model, const State& x) const {
         model.bodies[i].motion.pose == PoseRule::kIntegrated)
       kin[i] = PrescribedKinematics(model, static_cast<int>(i), x.t, options_.dt);
   std::vector<Contact> contacts;
+  CheckShapesSupported(model);
   FindContacts(model, kin, options_.envelope, &contacts);
   StepLayout l;
   l.nq = model.num_positions();

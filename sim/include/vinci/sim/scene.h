@@ -104,6 +104,8 @@ enum class FormulationType {
   kQuasistaticDlc,  ///< §5 Model-DLC: quasistatic, linearized cones (quasistatic.h)
   kQuasistaticDqc,  ///< §5 Model-DQC: quasistatic, quadratic support-friction disks (an NCP)
   kDynamicDqc,  ///< §1 dynamics with exact (quadratic) §6 support disks, an NCP (quasistatic.h)
+  kGeometricallyImplicit,  ///< formulations.md §3: contact points at ℓ+1 are unknowns of one
+                           ///< mixed NCP (geometrically_implicit.h); implicit-surface shapes
 };
 
 /// Which velocity of a prescribed body enters ∂ψ/∂t over a step [t, t + h].

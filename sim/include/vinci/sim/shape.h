@@ -8,9 +8,12 @@
 
 namespace vinci::sim {
 
-/// Shape kinds. Spatial scenes use the first five, planar scenes kHalfPlane..kSegment and
-/// kConcavePolygon. All shapes but kConcavePolygon are convex; a non-convex spatial part is a
-/// body with several shapes.
+/// Shape kinds. Spatial scenes use kHalfSpace…kPolyhedron and kEllipsoid…kLens, planar scenes
+/// kHalfPlane…kSegment, kEllipse, kSuperellipse and kConcavePolygon. All shapes but
+/// kConcavePolygon are convex; a non-convex spatial part is a body with several shapes. The smooth
+/// kinds from kEllipsoid on have no polygonal/analytic contact in CollideShapes: they need the
+/// geometrically implicit stepper (formulation: gi), which uses their implicit form
+/// (implicit_surface.h).
 enum class ShapeType {
   kHalfSpace,   ///< {z ≤ 0} in the shape frame; outward normal +z. Usually on a static body.
   kSphere,      ///< radius
@@ -22,6 +25,20 @@ enum class ShapeType {
   kPolygon,     ///< convex polygon, `vertices` counter-clockwise (only x, y used)
   kSegment,     ///< segment from −half_length to +half_length along shape x, swept by radius
                 ///< (radius 0 gives a bare segment)
+  /// Semi-axes `half_extents` (x, y, z).
+  kEllipsoid,
+  /// |x/a|^e + |y/b|^e + |z/c|^e ≤ 1 with (a, b, c) = half_extents, e = exponent ≥ 2.
+  kSuperquadric,
+  /// radius; axis along shape z from −half_length to +half_length.
+  kCylinder,
+  /// Intersection of two spheres of `radius` R, symmetric about the shape xy plane, thickness
+  /// 2·half_length (0 < half_length ≤ R; = R is a sphere): sphere centres at z = ±(R −
+  /// half_length).
+  kLens,
+  /// Planar; semi-axes half_extents.x, half_extents.y.
+  kEllipse,
+  /// Planar; |x/a|^e + |y/b|^e ≤ 1 with (a, b) = half_extents.xy, e = exponent ≥ 2.
+  kSuperellipse,
   /// Simple (possibly non-convex) polygon, `vertices` counter-clockwise (only x, y used); its
   /// convex corners give corner contacts (formulations.md §7).
   kConcavePolygon,
@@ -30,8 +47,19 @@ enum class ShapeType {
 /// True for the planar shape kinds.
 constexpr bool IsPlanar(ShapeType t) {
   return t == ShapeType::kHalfPlane || t == ShapeType::kDisc || t == ShapeType::kPolygon ||
-         t == ShapeType::kSegment || t == ShapeType::kConcavePolygon;
+         t == ShapeType::kSegment || t == ShapeType::kEllipse || t == ShapeType::kSuperellipse ||
+         t == ShapeType::kConcavePolygon;
 }
+
+/// True for the smooth kinds that only the geometrically implicit stepper can collide
+/// (CollideShapes throws std::invalid_argument for them).
+constexpr bool RequiresImplicitContact(ShapeType t) {
+  return t == ShapeType::kEllipsoid || t == ShapeType::kSuperquadric || t == ShapeType::kCylinder ||
+         t == ShapeType::kLens || t == ShapeType::kEllipse || t == ShapeType::kSuperellipse;
+}
+
+/// The scene-file keyword of a shape kind ("sphere", "ellipsoid", "halfplane", ...).
+const char* ShapeKeyword(ShapeType t);
 
 /// One face of a convex polyhedron's hull (see PrepareShape).
 struct HullFace {
@@ -50,6 +78,10 @@ struct Shape {
   double half_length = 0.0;                  ///< m; capsule, segment
   std::vector<Vector3d> vertices;            ///< m; polyhedron, polygon (z ignored for polygons)
   int material = 0;                          ///< index into Scene::materials
+  // The smooth kinds reuse the fields above: `radius` and `half_length` for cylinder and lens,
+  // `half_extents` as the semi-axes of ellipsoid, superquadric, ellipse and superellipse (z
+  // unused in 2D).
+  double exponent = 2.0;  ///< superquadric/superellipse exponent e ≥ 2
   /// Polyhedron only, filled by PrepareShape(): the hull's faces, and the indices of the points
   /// of `vertices` that are hull corners (points inside the hull or inside a hull face or edge
   /// are left out). While empty, CollideShapes/ComputeUnitMassProperties compute the hull on
@@ -125,6 +157,8 @@ struct ContactPoint {
 ///   from behind (walls thinner than ε) can give spurious contacts.
 /// Allocation-free apart from appending to `out`, except for a polyhedron not yet prepared by
 /// PrepareShape (its hull is then computed per call).
+/// The smooth GI-only kinds (RequiresImplicitContact) throw std::invalid_argument
+/// ("shape type ellipsoid requires formulation: gi").
 void CollideShapes(const Shape& a, const Isometry3d& X_WA, const Shape& b, const Isometry3d& X_WB,
                    double envelope, std::vector<ContactPoint>* out);
 
