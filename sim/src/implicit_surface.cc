@@ -313,6 +313,8 @@ ImplicitSet MakeImplicitSet(const Shape& s) {
     case ShapeType::kCapsule:
     case ShapeType::kSegment:
       ThrowShape(s, "has no implicit form (not an intersection of convex implicit functions)");
+    case ShapeType::kConcavePolygon:
+      ThrowShape(s, "has no implicit form (it is not convex)");
   }
   throw std::logic_error("MakeImplicitSet: unknown ShapeType");
 }
