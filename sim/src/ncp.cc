@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "step_util.h"
 #include "vinci/sim/kinematics.h"
 
 namespace vinci::sim {
@@ -334,19 +335,7 @@ void NcpStepper::Step(const Scene& model, const State& x, const StepInput& u, Wo
   }
 
   const VectorXd v1 = VelocityAfter(sp, z);
-  if (!v1.allFinite()) {
-    info->failure = "non-finite velocity after the step";
-    info->solver.status = SolverStatus::kNumericalFailure;
-    return;
-  }
-  next->t = x.t + h;
-  next->v = v1;
-  next->q.resize(x.q.size());
-  for (int bi : model.dynamic_bodies()) {
-    const BodyIndex& idx = model.index(bi);
-    IntegratePosition(model.dim, x.q.data() + idx.q, v1.data() + idx.v, h, next->q.data() + idx.q);
-  }
-  next->warm_start = z;
+  if (!internal::CompleteStep(model, x, v1, h, z, next, info)) return;
   if (ws) ws->contacts = std::move(sp.assembly.contacts);
   info->ok = true;
 }

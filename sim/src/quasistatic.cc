@@ -5,6 +5,7 @@
 #include <memory>
 #include <stdexcept>
 
+#include "step_util.h"
 #include "vinci/sim/kinematics.h"
 
 namespace vinci::sim {
@@ -290,19 +291,7 @@ void Quasistatic::Step(const Scene& model, const State& x, const StepInput& u, W
     return;
   }
   const VectorXd v1 = y.head(l.nv);
-  if (!v1.allFinite()) {
-    info->failure = "non-finite velocity after the step";
-    info->solver.status = SolverStatus::kNumericalFailure;
-    return;
-  }
-  next->t = x.t + h;
-  next->v = v1;
-  next->q.resize(x.q.size());
-  for (int bi : model.dynamic_bodies()) {
-    const BodyIndex& idx = model.index(bi);
-    IntegratePosition(model.dim, x.q.data() + idx.q, v1.data() + idx.v, h, next->q.data() + idx.q);
-  }
-  next->warm_start = y;
+  if (!internal::CompleteStep(model, x, v1, h, y, next, info)) return;
   if (ws) ws->contacts = std::move(contacts);
   info->ok = true;
 }

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "step_util.h"
 #include "vinci/sim/joint.h"
 #include "vinci/sim/kinematics.h"
 
@@ -502,19 +503,7 @@ void StewartTrinkle::Step(const Scene& model, const State& x, const StepInput& u
   }
 
   const VectorXd v1 = VelocityAfter(a, v_star, z, joints);
-  if (!v1.allFinite()) {
-    info->failure = "non-finite velocity after the step";
-    info->solver.status = SolverStatus::kNumericalFailure;
-    return;
-  }
-  next->t = x.t + h;
-  next->v = v1;
-  next->q.resize(x.q.size());
-  for (int bi : model.dynamic_bodies()) {
-    const BodyIndex& idx = model.index(bi);
-    IntegratePosition(model.dim, x.q.data() + idx.q, v1.data() + idx.v, h, next->q.data() + idx.q);
-  }
-  next->warm_start = z;
+  if (!internal::CompleteStep(model, x, v1, h, z, next, info)) return;
   if (ws) ws->contacts = std::move(a.contacts);
   info->ok = true;
 }
