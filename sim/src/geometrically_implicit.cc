@@ -5,6 +5,7 @@
 #include <limits>
 #include <stdexcept>
 
+#include "vinci/sim/compliance.h"
 #include "vinci/sim/contact.h"
 #include "vinci/sim/kinematics.h"
 
@@ -103,6 +104,7 @@ struct Context {
   // Quasi-rigid contact (formulations.md §4) fills them from the pair's linearized law
   // (compliance.h, LinearizeNormalLaw: pos_diagonal and pos_psi0 ψ_ℓ + pos_constant).
   std::vector<double> law_diagonal, law_constant;
+  std::vector<bool> compliant;  // per pair: the law is not rigid
   MatrixXd M;
   VectorXd p_ext;
 };
@@ -689,12 +691,16 @@ Context MakeContext(const GeometricallyImplicit& gi, const Scene& model, const S
   for (const GiPair& p : c.pairs) {
     c.geo.push_back(o);
     o += p.GeometrySize(model.dim);
-    // Rigid contact. Quasi-rigid contact (compliance.h, branch ncp) would set, with
-    //   row = LinearizeNormalLaw(CombineCompliance(A.compliance, B.compliance), ψ_ℓ, h),
-    //   ψ_ℓ = p.start.distance: law_diagonal = row.pos_diagonal and
-    //   law_constant = row.pos_psi0 ψ_ℓ + row.pos_constant (zero when !row.compliant).
-    c.law_diagonal.push_back(0.0);
-    c.law_constant.push_back(0.0);
+    // Normal law (compliance.h, position form): 0 ≤ p_n ⊥ ψ + a p_n + b ψ_ℓ + e ≥ 0 with
+    // a = pos_diagonal, b = pos_psi0, e = pos_constant of the pair's law linearized about
+    // ψ_ℓ = the signed distance at q_ℓ (ClosestPoints). Rigid pairs: a = b = e = 0.
+    const CompliantNormalRow law = LinearizeNormalLaw(
+        CombineCompliance(model.bodies[p.body_a].compliance, model.bodies[p.body_b].compliance),
+        p.start.distance, c.h);
+    c.compliant.push_back(law.compliant);
+    c.law_diagonal.push_back(law.compliant ? law.pos_diagonal : 0.0);
+    c.law_constant.push_back(law.compliant ? law.pos_psi0 * p.start.distance + law.pos_constant
+                                           : 0.0);
     double r = std::numeric_limits<double>::infinity();
     int rb = -1;
     for (int b : {p.body_a, p.body_b}) {
@@ -1016,7 +1022,12 @@ void GeometricallyImplicit::Step(const Scene& model, const State& x, const StepI
                       pose(p.body_a) * model.bodies[p.body_a].shapes[p.shape_a].X_BS,
                       c->sets[p.body_b][p.shape_b],
                       pose(p.body_b) * model.bodies[p.body_b].shapes[p.shape_b].X_BS);
-    if (end.ok && end.distance < -kEndPenetrationCheck) {
+    // A compliant pair may overlap by its law's overlap a p_n + b ψ_ℓ + e at the solution.
+    const double law_overlap =
+        c->compliant[k]
+            ? std::max(0.0, c->law_diagonal[k] * ReadPair(*c, k, z).pn + c->law_constant[k])
+            : 0.0;
+    if (end.ok && end.distance < -(law_overlap + kEndPenetrationCheck)) {
       info->failure = "geometrically implicit step: the solution penetrates by " +
                       std::to_string(-end.distance) +
                       " m at the end of the step (pair of bodies '" + model.bodies[p.body_a].name +

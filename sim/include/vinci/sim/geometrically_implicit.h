@@ -70,15 +70,23 @@
 //   p_n > 0 the torque balance fixes a_1 (the centre of pressure of a resting face) and the
 //   term moves a_2 by at most κ_a ‖a_1 − a_1,start‖. New face-on-face pairs start below A's
 //   centre instead of at ClosestPoints' vertex.
-// - Normal law hook (quasi-rigid contact, formulations.md §4): the ψ row is
-//   ψ + a p_n + (b ψ_ℓ + e) with per-pair terms that are zero for rigid contact; the position
-//   form of compliance.h's LinearizeNormalLaw supplies them (not wired yet; see the .cc).
+//
+// Quasi-rigid contact (formulations.md §4): a pair with a compliant body (Body::compliance)
+// imposes compliance.h's position form, exact in ψ = ψ_n(q_ℓ+1):
+//   0 ≤ p_n ⊥ ψ + a p_n + b ψ_ℓ + e ≥ 0
+// with a = pos_diagonal, b = pos_psi0, e = pos_constant of
+// LinearizeNormalLaw(CombineCompliance(A, B), ψ_ℓ, h), ψ_ℓ the pair's signed distance at q_ℓ
+// (ClosestPoints); rigid pairs have a = b = e = 0. The solver row (÷ h, with the tiny κ_n term)
+// and Evaluate()'s (p_n, ψ) complementarity pair both carry these terms. The end-of-step
+// penetration check allows a compliant pair the law's overlap a p_n + b ψ_ℓ + e (plus 1e-6 m);
+// max_penetration (start of step) applies to every pair, as in the other steppers.
 //
 // Spurious branches: the contact equations also hold for parallel normals (l_2 < 0: a box
 // below a floor touching it with its top face), so the solver bounds l_2 ≥ 0 (l_2 = 0 is never a
 // solution). After a converged solve each pair's distance at ℓ+1 is re-checked with
-// ClosestPoints; deeper than 1e-6 m fails the step. A solve that fails from the warm start is
-// retried once from a cold start (closest points at ℓ), e.g. for a rocking box landing flat.
+// ClosestPoints; deeper than 1e-6 m (beyond a compliant law's overlap) fails the step. A solve that
+// fails from the warm start is retried once from a cold start (closest points at ℓ), e.g. for a
+// rocking box landing flat.
 //
 // The whole step is one mixed NCP solved by McpSolver with an analytic Jacobian. Count check
 // (planar, one dynamic disc on a fixed half-plane): ν 3 + q 3 + a_1 2 + a_2 2 + l 2 +
