@@ -9,6 +9,8 @@
 //                       direction (Stewart–Trinkle), against the quadratic-cone NCP stepper
 //                       (FormulationType::kNcp) on the same scene, step and duration:
 //                       direction error (deg) and speed error per n_d, and finest n_d vs NCP.
+//                       If the NCP run fails (it does on this box: see docs/field.md) the
+//                       finest n_d is the reference, and the output says so with the reason.
 //  3. solve_time.csv    mean LCP solve time per step and Lemke pivots vs n_d and h (and the
 //                       NCP reference's MCP time and Newton iterations, sweep "ncp").
 //  4. pose_rule.csv     the plate's pose set exactly vs integrated from its velocity, and the
@@ -218,8 +220,9 @@ int FrictionConeStudy(const std::string& dir, bool smoke, std::ofstream* timing)
         "   NCP REFERENCE FAILED (%s): FALLING BACK to the finest linearization n_d = %d as "
         "the reference\n",
         st.failure.c_str(), finest);
+    // Not an error of the study (its sweep still runs against the fallback reference, named in
+    // the CSV's reference column), so the exit code stays 0; the failure goes to stderr too.
     std::cerr << "NCP reference failed: " << st.failure << "\n";
-    rc = 3;
     ref = velocity(finest, &st);
     ref_name = "nd" + std::to_string(finest);
     if (!st.ok) {
