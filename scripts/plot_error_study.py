@@ -37,10 +37,19 @@ def main(argv):
     ax.legend(fontsize=8)
     ax = axes[0, 1]
     cone = load(os.path.join(d, "friction_cone.csv"))
-    ax.loglog(cone["friction_directions"], cone["error_m_per_s"], "o-")
+    st = cone[cone["formulation"] == "stewart-trinkle"]
+    ref = cone["reference"][0]
+    ax.semilogx(st["friction_directions"], np.abs(st["direction_error_deg"]), "o-",
+                label="|direction error| (deg)")
     ax.set_xlabel("friction-cone directions n_d")
-    ax.set_ylabel("averaged-velocity error (m/s)")
-    ax.set_title(f"error vs n_d (reference: {cone['reference'][0]})")
+    ax.set_ylabel("|direction error| (deg)")
+    ax3 = ax.twinx()
+    ax3.semilogx(st["friction_directions"], 100 * st["speed_error_rel"], "s--", color="C1",
+                 label="speed error (%)")
+    ax3.set_ylabel("speed error (%)")
+    ax.legend(loc="upper left", fontsize=8)
+    ax3.legend(loc="upper right", fontsize=8)
+    ax.set_title(f"Stewart-Trinkle n_d vs reference: {ref}")
     ax = axes[1, 0]
     t = load(os.path.join(d, "solve_time.csv"))
     nd = t[t["sweep"] == "friction_directions"]
