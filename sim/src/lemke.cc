@@ -14,7 +14,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
+#include <cstring>
 #include <limits>
 #include <memory>
 #include <stdexcept>
@@ -190,25 +192,64 @@ bool ScanMatrix(const MatrixXd& M, Workspace* ws, double* m_norm) {
   const Eigen::Index n = M.rows();
   ws->row_max.setZero(n);
   ws->col_max.resize(n);
-  for (Eigen::Index j = 0; j < n; ++j) {
-    ws->col_max(j) = n > 0 ? M.col(j).cwiseAbs().maxCoeff() : 0.0;
-    ws->row_max = ws->row_max.cwiseMax(M.col(j).cwiseAbs());
-  }
   // Row sums of |M| in the order of Eigen 3.4's vectorized M.cwiseAbs().rowwise().sum() (the
   // previous ‖M‖∞): column 0, then groups of four columns summed pairwise, then one by one.
   VectorXd& sum = ws->tmp;
   sum.setZero(n);
-  if (n > 0) sum = M.col(0).cwiseAbs();
+  auto maxima = [&](Eigen::Index j) {
+    ws->col_max(j) = M.col(j).cwiseAbs().maxCoeff();
+    ws->row_max = ws->row_max.cwiseMax(M.col(j).cwiseAbs());
+  };
+  if (n > 0) {
+    sum = M.col(0).cwiseAbs();
+    maxima(0);
+  }
   const Eigen::Index size4 = (n - 1) & ~Eigen::Index{3};
   Eigen::Index j = 1;
   for (; j < size4; j += 4) {
     sum += (M.col(j).cwiseAbs() + M.col(j + 1).cwiseAbs()) +
            (M.col(j + 2).cwiseAbs() + M.col(j + 3).cwiseAbs());
+    for (Eigen::Index k = j; k < j + 4; ++k) maxima(k);
   }
-  for (; j < n; ++j) sum += M.col(j).cwiseAbs();
+  for (; j < n; ++j) {
+    sum += M.col(j).cwiseAbs();
+    maxima(j);
+  }
   *m_norm = n > 0 ? sum.maxCoeff() : 0.0;
   // A NaN or ±inf entry makes its row sum NaN or +inf (the terms are ≥ 0).
   return sum.allFinite();
+}
+
+// −trunc(½·log2 m) for a finite m > 0, without a call to log2 where the result cannot depend
+// on its rounding: with m = f·2^e, f ∈ [1, 2), and f at least 2^-22 away from 1 and 2,
+// ½·log2 m lies strictly between e/2 and (e+1)/2 (its rounding error is below 1e-12), so its
+// truncation is floor(e/2) for e ≥ 0 and floor(e/2) + 1 for e < 0; for f = 1 it is trunc(e/2).
+// Otherwise (f near 1 or 2, subnormal m) std::log2 decides as before. Checked against the log2
+// formula on 2·10⁷ values (log-uniform over the range of double, and next to every power of two).
+int MinusTruncHalfLog2(double m) {
+  std::uint64_t bits = 0;
+  std::memcpy(&bits, &m, sizeof bits);
+  const int biased = static_cast<int>((bits >> 52) & 0x7ff);
+  const std::uint64_t frac = bits & ((std::uint64_t{1} << 52) - 1);
+  constexpr std::uint64_t kMargin = std::uint64_t{1} << 30;  // f − 1, 2 − f ≥ 2^-22
+  const int e = biased - 1023;
+  // A power of two (entries ±1 are common): log2 is exact (checked for every normal one).
+  if (biased != 0 && biased != 0x7ff && frac == 0) return -(e / 2);
+  if (biased != 0 && biased != 0x7ff && frac > kMargin &&
+      frac < (std::uint64_t{1} << 52) - kMargin) {
+    const int floor_half = e >= 0 ? e / 2 : -((1 - e) / 2);
+    return -(e >= 0 ? floor_half : floor_half + 1);
+  }
+  return -static_cast<int>(std::trunc(0.5 * std::log2(m)));
+}
+
+// 2^k, exactly std::ldexp(1, k); built from its bits for normal results.
+double PowerOfTwo(int k) {
+  if (k < -1022 || k > 1023) return std::ldexp(1.0, k);
+  const std::uint64_t bits = static_cast<std::uint64_t>(k + 1023) << 52;
+  double v = 0.0;
+  std::memcpy(&v, &bits, sizeof v);
+  return v;
 }
 
 // Power-of-two diagonal D (in ws->scale) such that D A D, A = M + εI, has each row and column
@@ -230,19 +271,25 @@ void SymmetricScaling(const MatrixXd& M, double epsilon, bool have_maxima, Works
       // Row and column maxima in one column-major pass.
       ws->row_max.setZero();
       for (Eigen::Index j = 0; j < n; ++j) {
-        ws->tmp = M.col(j).cwiseAbs();
-        if (epsilon > 0.0) ws->tmp(j) = std::abs(M(j, j) + epsilon);
-        ws->tmp.array() *= d.array() * d(j);
-        ws->col_max(j) = ws->tmp.maxCoeff();
-        ws->row_max = ws->row_max.cwiseMax(ws->tmp);
+        if (epsilon > 0.0) {
+          ws->tmp = M.col(j).cwiseAbs();
+          ws->tmp(j) = std::abs(M(j, j) + epsilon);
+          ws->tmp.array() *= d.array() * d(j);
+          ws->col_max(j) = ws->tmp.maxCoeff();
+          ws->row_max = ws->row_max.cwiseMax(ws->tmp);
+        } else {
+          const auto a_j = M.col(j).array().abs() * (d.array() * d(j));  // not materialized
+          ws->col_max(j) = a_j.maxCoeff();
+          ws->row_max = ws->row_max.array().max(a_j).matrix();
+        }
       }
     }
     bool changed = false;
     for (Eigen::Index i = 0; i < n; ++i) {
       const double m = std::max(ws->row_max(i), ws->col_max(i));
       int k = 0;
-      if (m > 0.0 && std::isfinite(m)) k = -static_cast<int>(std::trunc(0.5 * std::log2(m)));
-      s(i) = std::ldexp(1.0, k);
+      if (m > 0.0 && std::isfinite(m)) k = MinusTruncHalfLog2(m);
+      s(i) = PowerOfTwo(k);
       changed = changed || k != 0;
     }
     if (!changed) break;
