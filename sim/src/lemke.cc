@@ -3,8 +3,9 @@
 //
 //   w − M z − e z0 = q,   w, z, z0 ≥ 0,   wᵀz = 0,
 //
-// is pivoted on an explicit basis inverse B⁻¹ kept up to date by rank-1 updates (O(n²) per
-// pivot) and recomputed from an LU factorization every `refactor_interval` pivots. The
+// is pivoted on an explicit basis inverse B⁻¹ kept up to date by rank-1 updates (O(n·t) per
+// pivot, t ≤ n the columns of B⁻¹ that differ from the identity, see RunLemke) and recomputed
+// from an LU factorization every `refactor_interval` pivots. The
 // lexicographic ratio test on the rows of [B⁻¹q, B⁻¹] is the perturbation q + (ε, ε², …)
 // and makes the pivot choice unique, so the method cannot cycle.
 #include "vinci/sim/lemke.h"
@@ -101,7 +102,8 @@ void ValidateOptions(const LemkeOptions& o) {
 // took a noticeable share. Solve is const and runs concurrently on several threads (field
 // computations), hence one workspace per thread (WorkspaceLease); a nested solve on a thread
 // whose workspace is in use gets a fresh one. The per-thread workspace keeps the memory of the
-// largest LCP solved on its thread (8n² bytes for the basis inverse, 2 MB at n = 500).
+// largest LCP solved on its thread (8n² bytes for the basis inverse, 2 MB at n = 500; 24n²
+// once a refactorization ran).
 struct Workspace {
   // Basis inverse B⁻¹ (n×n). Only the columns flagged in `touched` are stored: an untouched
   // column c is the unit vector e_c of the initial basis B = I (see RunLemke).
