@@ -3,8 +3,9 @@
 //
 //   w − M z − e z0 = q,   w, z, z0 ≥ 0,   wᵀz = 0,
 //
-// is pivoted on an explicit basis inverse B⁻¹ kept up to date by rank-1 updates (O(n²) per
-// pivot) and recomputed from an LU factorization every `refactor_interval` pivots. The
+// is pivoted on an explicit basis inverse B⁻¹ kept up to date by rank-1 updates (O(n·t) per
+// pivot, t ≤ n the columns of B⁻¹ that differ from the identity, see RunLemke) and recomputed
+// from an LU factorization every `refactor_interval` pivots. The
 // lexicographic ratio test on the rows of [B⁻¹q, B⁻¹] is the perturbation q + (ε, ε², …)
 // and makes the pivot choice unique, so the method cannot cycle.
 #include "vinci/sim/lemke.h"
@@ -14,8 +15,11 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
+#include <cstring>
 #include <limits>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -93,41 +97,206 @@ void ValidateOptions(const LemkeOptions& o) {
   if (o.refactor_interval < 0) fail("refactor_interval", o.refactor_interval, ">= 0");
 }
 
-// Power-of-two diagonal D such that D M D has each row and column max-abs within a factor of
-// about 4 of 1 (where M has a nonzero there). Symmetric, so copositivity / PSD of M and with
-// it Lemke's termination guarantee are preserved; powers of two make the scaling exact.
-VectorXd SymmetricScaling(const MatrixXd& M) {
-  const Eigen::Index n = M.rows();
-  VectorXd d = VectorXd::Ones(n);
-  MatrixXd a = M.cwiseAbs();
-  VectorXd s(n);
-  VectorXd row_max(n), col_max(n);
-  for (int sweep = 0; sweep < kScalingSweeps; ++sweep) {
-    bool changed = false;
-    // Row and column maxima in one column-major pass.
-    row_max.setZero();
-    for (Eigen::Index j = 0; j < n; ++j) {
-      double c = 0.0;
-      for (Eigen::Index i = 0; i < n; ++i) {
-        const double v = a(i, j);
-        c = std::max(c, v);
-        row_max(i) = std::max(row_max(i), v);
-      }
-      col_max(j) = c;
+// Scratch memory of one solve, reused across solves on the same thread: a cold solve of a
+// one-box contact LCP (n = 24, 4 pivots) takes a few µs, of which ~20 small heap allocations
+// took a noticeable share. Solve is const and runs concurrently on several threads (field
+// computations), hence one workspace per thread (WorkspaceLease); a nested solve on a thread
+// whose workspace is in use gets a fresh one. The per-thread workspace keeps the memory of the
+// largest LCP solved on its thread (8n² bytes for the basis inverse, 2 MB at n = 500; 24n²
+// once a refactorization ran).
+struct Workspace {
+  // Basis inverse B⁻¹ (n×n). Only the columns flagged in `touched` are stored: an untouched
+  // column c is the unit vector e_c of the initial basis B = I (see RunLemke).
+  MatrixXd binv;
+  std::vector<char> touched;
+  std::vector<int> touched_cols;
+  MatrixXd bmat;  // basis matrix, for the refactorization
+  Eigen::PartialPivLU<MatrixXd> lu;
+  VectorXd x, d, col, acc, w, z_raw, w_raw, eq_residual, z_try;
+  VectorXd q;                                   // q of the pivoted (scaled) problem
+  VectorXd scale, step, row_max, col_max, tmp;  // equilibration
+  std::vector<int> basis, ties, kept;
+  bool busy = false;
+};
+
+class WorkspaceLease {
+ public:
+  WorkspaceLease() {
+    thread_local Workspace per_thread;
+    if (per_thread.busy) {
+      own_ = std::make_unique<Workspace>();
+      ws_ = own_.get();
+    } else {
+      ws_ = &per_thread;
     }
+    ws_->busy = true;
+  }
+  ~WorkspaceLease() { ws_->busy = false; }
+  WorkspaceLease(const WorkspaceLease&) = delete;
+  WorkspaceLease& operator=(const WorkspaceLease&) = delete;
+  Workspace& get() { return *ws_; }
+
+ private:
+  Workspace* ws_ = nullptr;
+  std::unique_ptr<Workspace> own_;
+};
+
+// Column blocks of Eigen 3.4's dense matrix–vector product y += B v (n×n B, column major): it
+// sums the columns of each block in increasing order, starting from 0, and adds the block's
+// sum to y. The sparse products below (skipping zero terms, which are exact) sum in the same
+// order, so that they give the same bits as the dense products they replace (up to the sign
+// of zero): the pivot sequence does not depend on which of the two computed a column.
+Eigen::Index GemvBlock(Eigen::Index n) {
+  return n < 128 ? n : (n * static_cast<Eigen::Index>(sizeof(double)) < 32000 ? 16 : 4);
+}
+
+// The matrix pivoted on, A = D (M + εI) D with D = diag(scale) (scale null: D = I), evaluated
+// column by column instead of being copied. Each entry is the product an explicit copy would
+// hold, (M_ij + ε δ_ij) · (s_i s_j), exact for power-of-two s.
+struct PivotMatrix {
+  const MatrixXd* M = nullptr;
+  double epsilon = 0.0;
+  const VectorXd* scale = nullptr;
+
+  // out = column j of A.
+  void Column(Eigen::Index j, VectorXd* out) const {
+    *out = M->col(j);
+    if (epsilon > 0.0) (*out)(j) += epsilon;
+    if (scale != nullptr) {
+      const double s_j = (*scale)(j);
+      out->array() *= scale->array() * s_j;
+    }
+  }
+  // out = A z, reading only the columns j with z_j ≠ 0 (z is mostly zero: nonbasic z).
+  void Multiply(const VectorXd& z, VectorXd* out, VectorXd* col, VectorXd* acc) const {
+    const Eigen::Index n = z.size();
+    const Eigen::Index block = GemvBlock(n);
+    out->setZero(n);
+    for (Eigen::Index j0 = 0; j0 < n; j0 += block) {
+      acc->setZero(n);
+      bool any = false;
+      for (Eigen::Index j = j0; j < std::min(n, j0 + block); ++j) {
+        if (z(j) != 0.0) {
+          Column(j, col);
+          *acc += z(j) * *col;
+          any = true;
+        }
+      }
+      if (any) *out += *acc;
+    }
+  }
+};
+
+// One pass over M: false if M has a NaN or ±inf (or a row sum overflows); ‖M‖∞ = max_i Σ_j |M_ij|
+// in *m_norm and the row and column maxima of |M| in ws->row_max, ws->col_max (the first sweep of
+// SymmetricScaling for ε = 0).
+bool ScanMatrix(const MatrixXd& M, Workspace* ws, double* m_norm) {
+  const Eigen::Index n = M.rows();
+  ws->row_max.setZero(n);
+  ws->col_max.resize(n);
+  // Row sums of |M| in the order of Eigen 3.4's vectorized M.cwiseAbs().rowwise().sum() (the
+  // previous ‖M‖∞): column 0, then groups of four columns summed pairwise, then one by one.
+  VectorXd& sum = ws->tmp;
+  sum.setZero(n);
+  auto maxima = [&](Eigen::Index j) {
+    ws->col_max(j) = M.col(j).cwiseAbs().maxCoeff();
+    ws->row_max = ws->row_max.cwiseMax(M.col(j).cwiseAbs());
+  };
+  if (n > 0) {
+    sum = M.col(0).cwiseAbs();
+    maxima(0);
+  }
+  const Eigen::Index size4 = (n - 1) & ~Eigen::Index{3};
+  Eigen::Index j = 1;
+  for (; j < size4; j += 4) {
+    sum += (M.col(j).cwiseAbs() + M.col(j + 1).cwiseAbs()) +
+           (M.col(j + 2).cwiseAbs() + M.col(j + 3).cwiseAbs());
+    for (Eigen::Index k = j; k < j + 4; ++k) maxima(k);
+  }
+  for (; j < n; ++j) {
+    sum += M.col(j).cwiseAbs();
+    maxima(j);
+  }
+  *m_norm = n > 0 ? sum.maxCoeff() : 0.0;
+  // A NaN or ±inf entry makes its row sum NaN or +inf (the terms are ≥ 0).
+  return sum.allFinite();
+}
+
+// −trunc(½·log2 m) for a finite m > 0, without a call to log2 where the result cannot depend
+// on its rounding: with m = f·2^e, f ∈ [1, 2), and f at least 2^-22 away from 1 and 2,
+// ½·log2 m lies strictly between e/2 and (e+1)/2 (its rounding error is below 1e-12), so its
+// truncation is floor(e/2) for e ≥ 0 and floor(e/2) + 1 for e < 0; for f = 1 it is trunc(e/2).
+// Otherwise (f near 1 or 2, subnormal m) std::log2 decides as before. Checked against the log2
+// formula on 2·10⁷ values (log-uniform over the range of double, and next to every power of two).
+int MinusTruncHalfLog2(double m) {
+  std::uint64_t bits = 0;
+  std::memcpy(&bits, &m, sizeof bits);
+  const int biased = static_cast<int>((bits >> 52) & 0x7ff);
+  const std::uint64_t frac = bits & ((std::uint64_t{1} << 52) - 1);
+  constexpr std::uint64_t kMargin = std::uint64_t{1} << 30;  // f − 1, 2 − f ≥ 2^-22
+  const int e = biased - 1023;
+  // A power of two (entries ±1 are common): log2 is exact (checked for every normal one).
+  if (biased != 0 && biased != 0x7ff && frac == 0) return -(e / 2);
+  if (biased != 0 && biased != 0x7ff && frac > kMargin &&
+      frac < (std::uint64_t{1} << 52) - kMargin) {
+    const int floor_half = e >= 0 ? e / 2 : -((1 - e) / 2);
+    return -(e >= 0 ? floor_half : floor_half + 1);
+  }
+  return -static_cast<int>(std::trunc(0.5 * std::log2(m)));
+}
+
+// 2^k, exactly std::ldexp(1, k); built from its bits for normal results.
+double PowerOfTwo(int k) {
+  if (k < -1022 || k > 1023) return std::ldexp(1.0, k);
+  const std::uint64_t bits = static_cast<std::uint64_t>(k + 1023) << 52;
+  double v = 0.0;
+  std::memcpy(&v, &bits, sizeof v);
+  return v;
+}
+
+// Power-of-two diagonal D (in ws->scale) such that D A D, A = M + εI, has each row and column
+// max-abs within a factor of about 4 of 1 (where A has a nonzero there). Symmetric, so
+// copositivity / PSD of A and with it Lemke's termination guarantee are preserved; powers of
+// two make the scaling exact. With have_maxima, ws->row_max / ws->col_max already hold the
+// row and column maxima of |A| (ScanMatrix, ε = 0). Each sweep reads A once: the maxima of
+// |A_ij| d_i d_j, exact in floating point since d is a power of two.
+void SymmetricScaling(const MatrixXd& M, double epsilon, bool have_maxima, Workspace* ws) {
+  const Eigen::Index n = M.rows();
+  VectorXd& d = ws->scale;
+  VectorXd& s = ws->step;
+  d.setOnes(n);
+  s.resize(n);
+  ws->row_max.resize(n);
+  ws->col_max.resize(n);
+  for (int sweep = 0; sweep < kScalingSweeps; ++sweep) {
+    if (sweep > 0 || !have_maxima) {
+      // Row and column maxima in one column-major pass.
+      ws->row_max.setZero();
+      for (Eigen::Index j = 0; j < n; ++j) {
+        if (epsilon > 0.0) {
+          ws->tmp = M.col(j).cwiseAbs();
+          ws->tmp(j) = std::abs(M(j, j) + epsilon);
+          ws->tmp.array() *= d.array() * d(j);
+          ws->col_max(j) = ws->tmp.maxCoeff();
+          ws->row_max = ws->row_max.cwiseMax(ws->tmp);
+        } else {
+          const auto a_j = M.col(j).array().abs() * (d.array() * d(j));  // not materialized
+          ws->col_max(j) = a_j.maxCoeff();
+          ws->row_max = ws->row_max.array().max(a_j).matrix();
+        }
+      }
+    }
+    bool changed = false;
     for (Eigen::Index i = 0; i < n; ++i) {
-      const double m = std::max(row_max(i), col_max(i));
+      const double m = std::max(ws->row_max(i), ws->col_max(i));
       int k = 0;
-      if (m > 0.0 && std::isfinite(m)) k = -static_cast<int>(std::trunc(0.5 * std::log2(m)));
-      s(i) = std::ldexp(1.0, k);
+      if (m > 0.0 && std::isfinite(m)) k = MinusTruncHalfLog2(m);
+      s(i) = PowerOfTwo(k);
       changed = changed || k != 0;
     }
     if (!changed) break;
-    a.array().colwise() *= s.array();
-    a.array().rowwise() *= s.transpose().array();
     d.array() *= s.array();
   }
-  return d;
 }
 
 struct CoreOutcome {
@@ -138,9 +307,10 @@ struct CoreOutcome {
   double z0_initial = 0.0;  // its value after the initial pivot, −min q
 };
 
-// ‖min(z, Mz + q)‖_∞ on the problem being pivoted (possibly scaled), NaN-safe.
-double ScaledResidual(const MatrixXd& M, const VectorXd& q, const VectorXd& z, VectorXd* w) {
-  w->noalias() = M * z;
+// ‖min(z, Az + q)‖_∞ on the problem being pivoted (possibly scaled), NaN-safe.
+double ScaledResidual(const PivotMatrix& A, const VectorXd& q, const VectorXd& z, VectorXd* w,
+                      VectorXd* col, VectorXd* acc) {
+  A.Multiply(z, w, col, acc);
   *w += q;
   double r = 0.0;
   for (Eigen::Index i = 0; i < z.size(); ++i) {
@@ -150,10 +320,17 @@ double ScaledResidual(const MatrixXd& M, const VectorXd& q, const VectorXd& z, V
   return r;
 }
 
-// Lemke's method on LCP(M, q), q not ≥ 0. Writes the z part of the final iterate (clamped to
+// Lemke's method on LCP(A, q), q not ≥ 0. Writes the z part of the final iterate (clamped to
 // ≥ 0) into *z. kSolved here means only that z0 left the basis.
-CoreOutcome RunLemke(const MatrixXd& M, const VectorXd& q, const LemkeOptions& options,
-                     VectorXd* z) {
+//
+// The basis inverse starts as B⁻¹ = I, and a pivot on row r changes only the columns c of B⁻¹
+// with B⁻¹_rc ≠ 0 (the update is B⁻¹ −= d (B⁻¹_r· / d_r), then row r = B⁻¹_r· / d_r). So the
+// columns never touched by a pivot are still e_c: they are neither stored nor updated, and the
+// products with B⁻¹ run over the touched columns only. A solve with p pivots costs O(n·p²)
+// instead of O(n²·p) (a one-box LCP: n = 24, p = 4), with the same arithmetic on the touched
+// columns; a refactorization makes every column touched.
+CoreOutcome RunLemke(const PivotMatrix& A, const VectorXd& q, const LemkeOptions& options,
+                     Workspace* ws, VectorXd* z) {
   const int n = static_cast<int>(q.size());
   const int max_pivots = options.max_pivots > 0 ? options.max_pivots : 50 * n + 100;
   const int refactor_interval =
@@ -162,16 +339,54 @@ CoreOutcome RunLemke(const MatrixXd& M, const VectorXd& q, const LemkeOptions& o
   const int kZ0 = 2 * n;
   auto complement = [n](int var) { return var < n ? var + n : var - n; };
 
-  std::vector<int> basis(n);  // variable basic in each row
+  std::vector<int>& basis = ws->basis;  // variable basic in each row
+  basis.resize(n);
   for (int i = 0; i < n; ++i) basis[i] = i;
-  std::vector<int> ties, kept;
+  std::vector<int>& ties = ws->ties;
+  std::vector<int>& kept = ws->kept;
+  ties.clear();
+  kept.clear();
   ties.reserve(n);
   kept.reserve(n);
-  MatrixXd binv = MatrixXd::Identity(n, n);
-  VectorXd x = q;  // values of the basic variables
-  VectorXd d(n), pivot_row(n);
-  MatrixXd bmat;  // allocated on the first refactorization
-  Eigen::PartialPivLU<MatrixXd> lu;
+  MatrixXd& binv = ws->binv;
+  if (binv.rows() != n || binv.cols() != n) binv.resize(n, n);
+  std::vector<char>& touched = ws->touched;
+  std::vector<int>& touched_cols = ws->touched_cols;
+  touched.assign(n, 0);
+  touched_cols.clear();
+  touched_cols.reserve(n);
+  VectorXd& x = ws->x;  // values of the basic variables
+  x = q;
+  VectorXd& d = ws->d;
+  VectorXd& col = ws->col;
+  VectorXd& acc = ws->acc;
+  d.resize(n);
+  col.resize(n);
+
+  // Entry (i, k) of B⁻¹.
+  auto binv_at = [&](int i, int k) { return touched[k] ? binv(i, k) : (i == k ? 1.0 : 0.0); };
+  auto touch = [&](int c) {
+    if (touched[c]) return;
+    touched[c] = 1;
+    touched_cols.push_back(c);
+    binv.col(c).setZero();
+    binv(c, c) = 1.0;
+  };
+  // out += B⁻¹ v, in the order of the dense product (GemvBlock).
+  const int block = static_cast<int>(GemvBlock(n));
+  auto binv_times_add = [&](const VectorXd& v, VectorXd* out) {
+    for (int c0 = 0; c0 < n; c0 += block) {
+      acc.setZero(n);
+      for (int c = c0; c < std::min(n, c0 + block); ++c) {
+        if (touched[c]) {
+          acc += v(c) * binv.col(c);
+        } else {
+          acc(c) += v(c);
+        }
+      }
+      *out += acc;
+    }
+  };
 
   CoreOutcome out;
   auto extract_z = [&]() {
@@ -189,24 +404,38 @@ CoreOutcome RunLemke(const MatrixXd& M, const VectorXd& q, const LemkeOptions& o
     out.message = std::move(message);
     return out;
   };
-  // Column of the entering variable in B⁻¹ coordinates: d = B⁻¹ a, a ∈ {e_i, −M_i, −e}.
+  // Column of the entering variable in B⁻¹ coordinates: d = B⁻¹ a, a ∈ {e_i, −A_i, −e}.
   auto entering_column = [&](int var) {
     if (var < n) {
-      d = binv.col(var);
+      if (touched[var]) {
+        d = binv.col(var);
+      } else {
+        d.setZero();
+        d(var) = 1.0;
+      }
     } else if (var < kZ0) {
-      d.noalias() = binv * M.col(var - n);
+      A.Column(var - n, &col);
+      d.setZero();
+      binv_times_add(col, &d);
       d = -d;
     } else {
-      d = -binv.rowwise().sum();
+      col.setOnes(n);
+      d.setZero();
+      binv_times_add(col, &d);
+      d = -d;
     }
   };
-  // Pivot on row r: `entering` replaces basis[r]; returns the leaving variable.
+  // Pivot on row r: `entering` replaces basis[r]; returns the leaving variable. Only the
+  // touched columns change (B⁻¹_rc = 0 in an untouched column c ≠ r).
   auto pivot = [&](int r, int entering) {
     const double p = d(r);
-    pivot_row = binv.row(r).transpose() / p;
+    touch(r);
+    for (const int c : touched_cols) {
+      const double pr = binv(r, c) / p;
+      binv.col(c) -= pr * d;
+      binv(r, c) = pr;
+    }
     const double xr = x(r) / p;
-    binv.noalias() -= d * pivot_row.transpose();
-    binv.row(r) = pivot_row.transpose();
     x -= xr * d;
     x(r) = xr;
     const int leaving = basis[r];
@@ -214,21 +443,29 @@ CoreOutcome RunLemke(const MatrixXd& M, const VectorXd& q, const LemkeOptions& o
     return leaving;
   };
   auto refactor = [&]() {
-    if (bmat.rows() != n) bmat.resize(n, n);
+    MatrixXd& bmat = ws->bmat;
+    if (bmat.rows() != n || bmat.cols() != n) bmat.resize(n, n);
     for (int k = 0; k < n; ++k) {
       const int var = basis[k];
       if (var < n) {
         bmat.col(k).setZero();
         bmat(var, k) = 1.0;
       } else if (var < kZ0) {
-        bmat.col(k) = -M.col(var - n);
+        A.Column(var - n, &col);
+        bmat.col(k) = -col;
       } else {
         bmat.col(k).setConstant(-1.0);
       }
     }
-    lu.compute(bmat);
-    if (!(lu.rcond() > std::numeric_limits<double>::epsilon())) return false;
-    binv = lu.inverse();
+    ws->lu.compute(bmat);
+    if (!(ws->lu.rcond() > std::numeric_limits<double>::epsilon())) return false;
+    binv = ws->lu.inverse();
+    for (int c = 0; c < n; ++c) {
+      if (!touched[c]) {
+        touched[c] = 1;
+        touched_cols.push_back(c);
+      }
+    }
     x.noalias() = binv * q;
     return binv.allFinite() && x.allFinite();
   };
@@ -305,11 +542,11 @@ CoreOutcome RunLemke(const MatrixXd& M, const VectorXd& q, const LemkeOptions& o
         if (options.lexicographic) {
           for (int k = 0; k < n && ties.size() > 1; ++k) {
             double m = kInf;
-            for (int i : ties) m = std::min(m, binv(i, k) / d(i));
+            for (int i : ties) m = std::min(m, binv_at(i, k) / d(i));
             const double tau_k = kLexTieTolerance * std::max(1.0, std::abs(m));
             kept.clear();
             for (int i : ties) {
-              if (binv(i, k) / d(i) <= m + tau_k) kept.push_back(i);
+              if (binv_at(i, k) / d(i) <= m + tau_k) kept.push_back(i);
             }
             ties.swap(kept);
           }
@@ -339,14 +576,18 @@ CoreOutcome RunLemke(const MatrixXd& M, const VectorXd& q, const LemkeOptions& o
   // z0 left: complementary basis. Polish x by iterative refinement of B x = q with the kept
   // inverse, keeping a step only if the complementarity residual improves.
   extract_z();
-  VectorXd w(n), z_raw(n), w_raw(n), eq_residual(n), z_try(n);
-  double best = ScaledResidual(M, q, *z, &w);
+  VectorXd& w = ws->w;
+  VectorXd& z_raw = ws->z_raw;
+  VectorXd& w_raw = ws->w_raw;
+  VectorXd& eq_residual = ws->eq_residual;
+  VectorXd& z_try = ws->z_try;
+  double best = ScaledResidual(A, q, *z, &w, &col, &acc);
   // Nothing to gain below roundoff level.
   const double refine_below = kRefineBelow * std::max(1.0, q.lpNorm<Eigen::Infinity>());
   for (int step = 0; step < kRefinementSteps && best > refine_below; ++step) {
-    // Residual of the basis equations B x = q, i.e. q − (w_B − M z_B).
-    z_raw.setZero();
-    w_raw.setZero();
+    // Residual of the basis equations B x = q, i.e. q − (w_B − A z_B).
+    z_raw.setZero(n);
+    w_raw.setZero(n);
     for (int k = 0; k < n; ++k) {
       if (basis[k] < n) {
         w_raw(basis[k]) = x(k);
@@ -354,14 +595,14 @@ CoreOutcome RunLemke(const MatrixXd& M, const VectorXd& q, const LemkeOptions& o
         z_raw(basis[k] - n) = x(k);
       }
     }
-    eq_residual.noalias() = M * z_raw;
+    A.Multiply(z_raw, &eq_residual, &col, &acc);
     eq_residual += q - w_raw;
-    x.noalias() += binv * eq_residual;
-    z_try.setZero();
+    binv_times_add(eq_residual, &x);
+    z_try.setZero(n);
     for (int k = 0; k < n; ++k) {
       if (basis[k] >= n && basis[k] < kZ0) z_try(basis[k] - n) = std::max(x(k), 0.0);
     }
-    const double r = ScaledResidual(M, q, z_try, &w);
+    const double r = ScaledResidual(A, q, z_try, &w, &col, &acc);
     if (!(r < best)) break;
     best = r;
     z->swap(z_try);
@@ -375,11 +616,7 @@ CoreOutcome RunLemke(const MatrixXd& M, const VectorXd& q, const LemkeOptions& o
 struct Acceptance {
   double rtol = 0.0;
   double q_norm = 0.0;  // ‖q‖∞
-  double m_norm = 0.0;  // ‖M‖∞ = max_i Σ_j |M_ij|
-  Acceptance(const LcpProblem& problem, double residual_tolerance)
-      : rtol(residual_tolerance),
-        q_norm(problem.q.lpNorm<Eigen::Infinity>()),
-        m_norm(problem.M.rows() > 0 ? problem.M.cwiseAbs().rowwise().sum().maxCoeff() : 0.0) {}
+  double m_norm = 0.0;  // ‖M‖∞ = max_i Σ_j |M_ij| (ScanMatrix)
   double For(const VectorXd& z) const {
     const double z_norm = z.size() > 0 ? z.lpNorm<Eigen::Infinity>() : 0.0;
     const double base = std::max(1.0, q_norm);
@@ -399,29 +636,27 @@ struct Attempt {
 };
 
 // One Lemke run on M + εI (scaled if asked), z and residual reported on the original problem.
+// `have_maxima`: ws holds the row and column maxima of |M| (ScanMatrix), used for ε = 0.
 Attempt RunAttempt(const LcpProblem& problem, double epsilon, const LemkeOptions& options,
-                   const Acceptance& acceptance) {
-  MatrixXd m = problem.M;
-  if (epsilon > 0.0) m.diagonal().array() += epsilon;
-  VectorXd q = problem.q;
-  VectorXd scale;
-  // Scaled only if some factor differs from 1 (a well-scaled M skips 2n² multiplications).
+                   const Acceptance& acceptance, bool have_maxima, Workspace* ws) {
+  PivotMatrix m;
+  m.M = &problem.M;
+  m.epsilon = epsilon;
+  // Scaled only if some factor differs from 1 (a well-scaled M skips the multiplications).
   bool scaled = false;
   if (options.scale) {
-    scale = SymmetricScaling(m);
-    scaled = (scale.array() != 1.0).any();
+    SymmetricScaling(problem.M, epsilon, have_maxima && epsilon == 0.0, ws);
+    scaled = (ws->scale.array() != 1.0).any();
   }
+  const VectorXd& scale = ws->scale;
+  ws->q = problem.q;
   if (scaled) {
-    const Eigen::Index n = m.rows();
-    for (Eigen::Index j = 0; j < n; ++j) {
-      const double s_j = scale(j);
-      for (Eigen::Index i = 0; i < n; ++i) m(i, j) *= scale(i) * s_j;
-    }
-    q.array() *= scale.array();
+    m.scale = &scale;
+    ws->q.array() *= scale.array();
   }
   Attempt a;
   a.epsilon = epsilon;
-  const CoreOutcome core = RunLemke(m, q, options, &a.z);
+  const CoreOutcome core = RunLemke(m, ws->q, options, ws, &a.z);
   if (scaled) a.z.array() *= scale.array();
   a.pivots = core.pivots;
   a.terminated = core.status == SolverStatus::kSolved;
@@ -532,7 +767,14 @@ SolverReport LemkeSolver::Solve(const LcpProblem& problem, const VectorXd* warm_
   };
 
   const Eigen::Index n = problem.q.size();
-  if (std::string invalid = CheckLcpData(problem); !invalid.empty()) {
+  WorkspaceLease lease;
+  Workspace& ws = lease.get();
+  // One pass over M for its finiteness, ‖M‖∞ and the first equilibration sweep.
+  double m_norm = 0.0;
+  const bool square = problem.M.rows() == n && problem.M.cols() == n;
+  const bool finite = square && ScanMatrix(problem.M, &ws, &m_norm) && problem.q.allFinite();
+  // (Finite entries whose row sum overflows pass CheckLcpData, with ‖M‖∞ = inf.)
+  if (std::string invalid = finite ? std::string() : CheckLcpData(problem); !invalid.empty()) {
     z->setZero(n);
     report.status = SolverStatus::kInvalidInput;
     report.residual = std::numeric_limits<double>::quiet_NaN();
@@ -548,7 +790,10 @@ SolverReport LemkeSolver::Solve(const LcpProblem& problem, const VectorXd* warm_
     report.tolerance = options_.residual_tolerance;
     return finish();
   }
-  const Acceptance acceptance(problem, options_.residual_tolerance);
+  Acceptance acceptance;
+  acceptance.rtol = options_.residual_tolerance;
+  acceptance.q_norm = problem.q.lpNorm<Eigen::Infinity>();
+  acceptance.m_norm = m_norm;
 
   // 2. Warm start from a guessed basis.
   if (warm_start != nullptr && warm_start->size() == n &&
@@ -561,7 +806,7 @@ SolverReport LemkeSolver::Solve(const LcpProblem& problem, const VectorXd* warm_
   }
 
   // 3. Cold Lemke, then 4. regularized retries if that fails.
-  Attempt first = RunAttempt(problem, 0.0, options_, acceptance);
+  Attempt first = RunAttempt(problem, 0.0, options_, acceptance, true, &ws);
   int total_pivots = first.pivots;
   // 3a. A terminated run that misses the tolerance by roundoff: polish its basis (reported).
   std::string polish_note;
@@ -587,7 +832,7 @@ SolverReport LemkeSolver::Solve(const LcpProblem& problem, const VectorXd* warm_
       (first.terminated || first.status == SolverStatus::kSecondaryRay)) {
     LemkeOptions plain = options_;
     plain.scale = false;
-    Attempt u = RunAttempt(problem, 0.0, plain, acceptance);
+    Attempt u = RunAttempt(problem, 0.0, plain, acceptance, false, &ws);
     total_pivots += u.pivots;
     if (Passes(u)) {
       unscaled_note =
@@ -603,7 +848,8 @@ SolverReport LemkeSolver::Solve(const LcpProblem& problem, const VectorXd* warm_
   std::string retry_log;
   if (!Passes(first) && options_.regularization > 0.0) {
     for (double factor : kRegularizationFactors) {
-      Attempt a = RunAttempt(problem, factor * options_.regularization, options_, acceptance);
+      Attempt a =
+          RunAttempt(problem, factor * options_.regularization, options_, acceptance, false, &ws);
       total_pivots += a.pivots;
       retry_log += (retry_log.empty() ? "" : ", ") + std::string("eps=") + FormatDouble(a.epsilon) +
                    ": " +
@@ -624,8 +870,8 @@ SolverReport LemkeSolver::Solve(const LcpProblem& problem, const VectorXd* warm_
 
   // Keep the retry only if it is better than the plain attempt on the original problem.
   const bool use_retry = have_retry && (Passes(best) || best.residual < first.residual);
-  const Attempt& chosen = use_retry ? best : first;
-  *z = chosen.z;
+  Attempt& chosen = use_retry ? best : first;
+  z->swap(chosen.z);
   report.iterations = total_pivots;
   // chosen.residual is LcpResidual of this very z (RunAttempt / polish), NaN mapped to ∞.
   report.residual = std::isfinite(chosen.residual) ? chosen.residual : LcpResidual(problem, *z);

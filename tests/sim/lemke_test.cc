@@ -668,5 +668,61 @@ TEST(LemkeTest, DeterministicAcrossCallsAndThreads) {
   EXPECT_EQ(r1.residual, r3.residual);
 }
 
+// The solver keeps one scratch workspace per thread (lemke.cc): solves of LCPs of different
+// sizes, interleaved on four threads at once, give bit for bit the reports and z of serial
+// solves (each thread's workspace is resized between problems; no state leaks across solves
+// or threads).
+TEST(LemkeTest, ConcurrentSolvesOfMixedSizesMatchSerial) {
+  constexpr int kThreads = 4;
+  constexpr int kRounds = 3;
+  std::mt19937 rng(29);
+  std::vector<LcpProblem> problems;
+  for (const auto& [bodies, contacts] : {std::pair{2, 6}, {6, 25}, {1, 3}, {10, 45}}) {
+    problems.push_back(RandomContactLcp(bodies, contacts, 4, &rng).lcp);
+  }
+  problems.push_back(ReadLcpFile(VINCI_SOURCE_DIR "/tests/data/lcp/incline_sliding_step9744.lcp"));
+  problems.push_back(ReadLcpFile(VINCI_SOURCE_DIR "/tests/data/lcp/box_stack_cold_step425.lcp"));
+  const LemkeSolver solver;
+  const int count = static_cast<int>(problems.size());
+  std::vector<SolverReport> serial(count);
+  std::vector<VectorXd> serial_z(count);
+  for (int k = 0; k < count; ++k) {
+    serial[k] = solver.Solve(problems[k], nullptr, &serial_z[k]);
+    ASSERT_TRUE(serial[k].ok()) << "problem " << k << ": " << serial[k].message;
+    ASSERT_GT(serial[k].iterations, 0) << "problem " << k;  // really pivoted (q has q_i < 0)
+  }
+  // Thread t solves problem (t + i) mod count at its i-th solve: different sizes run at once.
+  std::vector<std::vector<SolverReport>> reports(kThreads);
+  std::vector<std::vector<VectorXd>> zs(kThreads);
+  std::vector<std::thread> threads;
+  for (int t = 0; t < kThreads; ++t) {
+    threads.emplace_back([&, t] {
+      for (int i = 0; i < kRounds * count; ++i) {
+        const int k = (t + i) % count;
+        VectorXd z;
+        reports[t].push_back(solver.Solve(problems[k], nullptr, &z));
+        zs[t].push_back(std::move(z));
+      }
+    });
+  }
+  for (std::thread& th : threads) th.join();
+  for (int t = 0; t < kThreads; ++t) {
+    ASSERT_EQ(static_cast<int>(reports[t].size()), kRounds * count);
+    for (int i = 0; i < kRounds * count; ++i) {
+      const int k = (t + i) % count;
+      const SolverReport& r = reports[t][i];
+      const VectorXd& z = zs[t][i];
+      ASSERT_EQ(z.size(), serial_z[k].size()) << "thread " << t << ", problem " << k;
+      EXPECT_EQ(std::memcmp(z.data(), serial_z[k].data(), sizeof(double) * z.size()), 0)
+          << "thread " << t << ", problem " << k;
+      EXPECT_EQ(r.status, serial[k].status);
+      EXPECT_EQ(r.iterations, serial[k].iterations);
+      EXPECT_EQ(r.residual, serial[k].residual);
+      EXPECT_EQ(r.tolerance, serial[k].tolerance);
+      EXPECT_EQ(r.message, serial[k].message);
+    }
+  }
+}
+
 }  // namespace
 }  // namespace vinci::sim

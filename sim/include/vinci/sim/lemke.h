@@ -64,6 +64,10 @@ struct LemkeOptions {
 ///   almost-complementary iterate (clamped to z ≥ 0), or zeros for invalid input.
 /// - Invalid options (negative tolerances or limits) throw std::invalid_argument, as does a
 ///   null `z`.
+/// - Threads: Solve may run concurrently on several threads. Each thread reuses a scratch
+///   workspace across solves (basis inverse and pivoting vectors, not allocated per solve),
+///   which keeps 8n² bytes for the largest n solved on that thread (2 MB at n = 500), 24n² once
+///   a refactorization of the basis ran (basis matrix and its LU factors).
 class LemkeSolver final : public LcpSolver {
  public:
   explicit LemkeSolver(LemkeOptions options = {}) : options_(options) {}
