@@ -59,7 +59,7 @@ constexpr double kProximalMaxWeight = 1e-1;
 constexpr double kProximalWeightStep = 10.0;
 constexpr double kProximalProgress = 0.5;
 constexpr int kProximalOuterSteps = 30;
-constexpr int kProximalNewtonBudget = 2;
+constexpr int kProximalNewtonBudget = 1;
 // Newton steps per subproblem: warm-started subproblems that Newton can solve take 1–17 steps on
 // the pile LCPs; a larger limit only spends the budget on subproblems that stall (on a cold
 // pile step, box_pile_tilted_cold_step232.lcp, 100 steps per subproblem took 12 s where 20 take
