@@ -737,13 +737,24 @@ bool TryWarmStart(const LcpProblem& problem, const VectorXd& warm, const Accepta
 // (tests/data/lcp/box_stack_cold_step7724.lcp) M_BB has rank 78 of 168 and every solution
 // of the B equations near the iterate has negative components.
 // With z_lemke null: Newton from z = 0 (the final fallback).
+// `note` receives the Newton report's message (e.g. that its proximal-point fallback ran).
 bool PolishTerminalIterate(const LcpProblem& problem, const VectorXd* z_lemke,
-                           const Acceptance& acceptance, VectorXd* z, int* iterations) {
+                           const Acceptance& acceptance, VectorXd* z, int* iterations,
+                           std::string* note) {
   FischerBurmeisterOptions options;
   options.lemke_fallback = false;  // no recursion back into Lemke
+  // Stop Newton (and its proximal-point fallback) at Lemke's own acceptance test rather than
+  // FB's tighter default: half of τ at the start point (τ(z) changes with ‖z‖; the result is
+  // checked against τ of the candidate below). Without this the polish of a pile step spent
+  // 400 Newton steps (2.7 s) driving a residual already below τ towards 1e-10.
+  const double q_base = std::max(1.0, problem.q.lpNorm<Eigen::Infinity>());
+  const double tau_start =
+      z_lemke != nullptr ? acceptance.For(*z_lemke) : acceptance.For(VectorXd::Zero(0));
+  options.tolerance = std::max(options.tolerance, 0.5 * tau_start / q_base);
   VectorXd candidate;
   const SolverReport r = FischerBurmeisterSolver(options).Solve(problem, z_lemke, &candidate);
   *iterations = r.iterations;
+  *note = r.message;
   if (!candidate.allFinite() || candidate.size() != problem.q.size()) return false;
   candidate = candidate.cwiseMax(0.0);
   if (!(LcpResidual(problem, candidate) <= acceptance.For(candidate))) return false;
@@ -813,10 +824,13 @@ SolverReport LemkeSolver::Solve(const LcpProblem& problem, const VectorXd* warm_
   if (first.terminated && !Passes(first) && first.z.allFinite()) {
     VectorXd polished;
     int newton_steps = 0;
-    if (PolishTerminalIterate(problem, &first.z, acceptance, &polished, &newton_steps)) {
+    std::string newton_note;
+    if (PolishTerminalIterate(problem, &first.z, acceptance, &polished, &newton_steps,
+                              &newton_note)) {
       polish_note = "polished the terminated Lemke iterate (residual " +
                     FormatDouble(first.residual) + ") by " + std::to_string(newton_steps) +
-                    " Fischer-Burmeister Newton steps";
+                    " Fischer-Burmeister Newton steps" +
+                    (newton_note.empty() ? "" : " (" + newton_note + ")");
       first.z = std::move(polished);
       first.residual = LcpResidual(problem, first.z);
       first.tolerance = acceptance.For(first.z);
@@ -905,8 +919,10 @@ SolverReport LemkeSolver::Solve(const LcpProblem& problem, const VectorXd* warm_
     // Final fallback: Fischer–Burmeister Newton from z = 0 (reported).
     VectorXd z_newton;
     int newton_steps = 0;
+    std::string newton_note;
     if (options_.newton_fallback && report.status != SolverStatus::kMaxIterations &&
-        PolishTerminalIterate(problem, nullptr, acceptance, &z_newton, &newton_steps)) {
+        PolishTerminalIterate(problem, nullptr, acceptance, &z_newton, &newton_steps,
+                              &newton_note)) {
       *z = std::move(z_newton);
       report.status = SolverStatus::kSolved;
       report.residual = LcpResidual(problem, *z);
@@ -915,8 +931,9 @@ SolverReport LemkeSolver::Solve(const LcpProblem& problem, const VectorXd* warm_
       report.regularization = 0.0;
       report.restarts = 1;
       report.message = "solved by the Fischer-Burmeister Newton fallback (" +
-                       std::to_string(newton_steps) +
-                       " Newton steps) after Lemke failed: " + report.message;
+                       std::to_string(newton_steps) + " Newton steps" +
+                       (newton_note.empty() ? "" : "; " + newton_note) +
+                       ") after Lemke failed: " + report.message;
     }
   }
   return finish();

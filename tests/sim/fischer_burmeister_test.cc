@@ -17,6 +17,7 @@
 #include "contact_lcp_test_util.h"
 #include "test_util.h"
 #include "vinci/sim/lcp.h"
+#include "vinci/sim/lcp_file.h"
 #include "vinci/sim/lemke.h"
 #include "vinci/sim/stewart_trinkle.h"
 
@@ -259,6 +260,7 @@ TEST(FischerBurmeisterTest, MoreIterationsNeverReturnAWorsePoint) {
     FischerBurmeisterOptions o;
     o.max_iterations = iterations;
     o.lemke_fallback = false;  // Newton's own iterates
+    o.proximal_fallback = false;
     VectorXd z;
     const SolverReport r = FischerBurmeisterSolver(o).Solve(p, nullptr, &z);
     if (r.status == SolverStatus::kMaxIterations) ++limit_hit;
@@ -273,6 +275,7 @@ TEST(FischerBurmeisterTest, IterationLimitIsReported) {
   FischerBurmeisterOptions o;
   o.max_iterations = 2;
   o.lemke_fallback = false;  // Newton's own limit
+  o.proximal_fallback = false;
   VectorXd z;
   const SolverReport r = FischerBurmeisterSolver(o).Solve(p, nullptr, &z);
   EXPECT_EQ(r.status, SolverStatus::kMaxIterations);
@@ -281,6 +284,47 @@ TEST(FischerBurmeisterTest, IterationLimitIsReported) {
   EXPECT_EQ(r.residual, LcpResidual(p, z));
   EXPECT_GT(r.residual, kTol);
   EXPECT_LT(r.residual, 1.0);  // the best iterate beats the start z = 0 (residual 1)
+}
+
+// A tilted box pile step (tests/data/lcp/box_pile_tilted_step233.lcp, n = 234, see
+// LemkeTest.TiltedPileLcpsSolvedThroughTheReportedProximalFallback): Newton from z = 0 stalls
+// at residual 1.5e-6; the proximal-point fallback reaches the tolerance, without Lemke.
+TEST(FischerBurmeisterTest, ProximalFallbackSolvesTheTiltedPileStep) {
+  const LcpProblem p = ReadLcpFile(VINCI_SOURCE_DIR "/tests/data/lcp/box_pile_tilted_step233.lcp");
+  FischerBurmeisterOptions o;
+  o.lemke_fallback = false;  // the proximal loop alone
+  VectorXd z;
+  const SolverReport r = FischerBurmeisterSolver(o).Solve(p, nullptr, &z);
+  ASSERT_TRUE(r.ok()) << r.message;
+  EXPECT_EQ(r.restarts, 1);
+  EXPECT_NE(r.message.find("proximal-point fallback"), std::string::npos) << r.message;
+  EXPECT_EQ(r.residual, LcpResidual(p, z));
+  EXPECT_LE(r.residual, kTol);  // ‖q‖∞ < 1, so the scaled tolerance is kTol itself
+  EXPECT_GE(z.minCoeff(), 0.0);
+  // Without the fallback Newton stalls: the failure is reported, the proximal loop is needed.
+  o.proximal_fallback = false;
+  VectorXd z_plain;
+  const SolverReport plain = FischerBurmeisterSolver(o).Solve(p, nullptr, &z_plain);
+  EXPECT_FALSE(plain.ok());
+  EXPECT_EQ(plain.restarts, 0);
+  EXPECT_GT(plain.residual, 100 * kTol);
+}
+
+// A cold-started step of the same pile (box_pile_tilted_cold_step232.lcp): Newton stalls at
+// 5e-7, the proximal loop at 2e-8 (its subproblems stall too); the Lemke fallback then solves
+// it. Both fallbacks are reported and counted.
+TEST(FischerBurmeisterTest, LemkeFallbackAfterTheProximalFallbackIsReported) {
+  const LcpProblem p =
+      ReadLcpFile(VINCI_SOURCE_DIR "/tests/data/lcp/box_pile_tilted_cold_step232.lcp");
+  VectorXd z;
+  const SolverReport r = FischerBurmeisterSolver().Solve(p, nullptr, &z);
+  ASSERT_TRUE(r.ok()) << r.message;
+  EXPECT_EQ(r.restarts, 2);
+  EXPECT_NE(r.message.find("proximal-point fallback"), std::string::npos) << r.message;
+  EXPECT_NE(r.message.find("Lemke fallback"), std::string::npos) << r.message;
+  EXPECT_EQ(r.residual, LcpResidual(p, z));
+  EXPECT_LE(r.residual, kTol);  // ‖q‖∞ < 1
+  EXPECT_GE(z.minCoeff(), 0.0);
 }
 
 TEST(FischerBurmeisterTest, ExactWarmStartNeedsNoIterations) {
@@ -376,7 +420,8 @@ TEST(FischerBurmeisterTest, DeterministicAcrossCallsAndThreads) {
 // 300 random contact LCPs (1–8 spatial bodies, 1–5 contacts per body, 4 friction directions;
 // fixed seed), the Stewart–Trinkle structure with its zero σ diagonal and degenerate friction
 // rows. Newton alone stalls on problem 64 (n = 240, residual 9e-4 at the iteration limit);
-// the Lemke fallback solves it and is reported.
+// the proximal-point fallback solves it (5 outer steps, 35 Newton steps; before it existed,
+// the Lemke fallback did) and is reported.
 TEST(FischerBurmeisterTest, RandomContactLcpsAllSolve) {
   constexpr int kProblems = 300;
   // Newton itself must do almost all of them: the fallback is a safety net.
@@ -386,6 +431,7 @@ TEST(FischerBurmeisterTest, RandomContactLcpsAllSolve) {
   int solved = 0, fallbacks = 0, newton_failures = 0;
   FischerBurmeisterOptions newton_only;
   newton_only.lemke_fallback = false;
+  newton_only.proximal_fallback = false;
   for (int k = 0; k < kProblems; ++k) {
     const int nb = bodies(rng);
     const int nc = std::uniform_int_distribution<int>(1, 5 * nb)(rng);
@@ -393,8 +439,10 @@ TEST(FischerBurmeisterTest, RandomContactLcpsAllSolve) {
     VectorXd z;
     const SolverReport r = FischerBurmeisterSolver().Solve(c.lcp, nullptr, &z);
     EXPECT_TRUE(r.ok()) << "problem " << k << " (n = " << c.lcp.size() << "): " << r.message;
-    const bool fell_back = r.message.find("Lemke fallback") != std::string::npos;
-    EXPECT_EQ(r.restarts, fell_back ? 1 : 0) << r.message;
+    const bool proximal = r.message.find("proximal-point fallback") != std::string::npos;
+    const bool lemke = r.message.find("Lemke fallback") != std::string::npos;
+    const bool fell_back = proximal || lemke;
+    EXPECT_EQ(r.restarts, (proximal ? 1 : 0) + (lemke ? 1 : 0)) << r.message;
     if (fell_back) {
       ++fallbacks;
       VectorXd z_newton;

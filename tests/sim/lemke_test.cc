@@ -348,6 +348,29 @@ TEST(LemkeTest, PileLcpSolvedByTheReportedNewtonFallback) {
   EXPECT_EQ(plain.residual, LcpResidual(p, z_plain));
 }
 
+// The tilted pile again (box_pile_tilted.yaml): step 233 as recorded at commit 57cc679 and
+// step 232 of a cold-started run with the current stepper, n = 234. A dropped box lands
+// flat on the top box with six contact points (rank 3) while sliding at ~0.26 m/s; M_nn has
+// rank 19 of 39 and every Lemke attempt ends on a spurious secondary ray or terminates in a
+// basis whose residual is 0.08–0.3 (pivots on roundoff-sized entries); FB Newton from the
+// terminated iterate stalls (residual 8e-7 after 100 steps). FB Newton's proximal-point fallback
+// (fischer_burmeister.h) solves both, and the report says how.
+TEST(LemkeTest, TiltedPileLcpsSolvedThroughTheReportedProximalFallback) {
+  for (const char* path : {VINCI_SOURCE_DIR "/tests/data/lcp/box_pile_tilted_step233.lcp",
+                           VINCI_SOURCE_DIR "/tests/data/lcp/box_pile_tilted_cold_step232.lcp"}) {
+    SCOPED_TRACE(path);
+    const LcpProblem p = ReadLcpFile(path);
+    ASSERT_EQ(p.size(), 234);
+    VectorXd z;
+    const SolverReport r = LemkeSolver().Solve(p, nullptr, &z);
+    ASSERT_TRUE(r.ok()) << r.message;
+    EXPECT_NE(r.message.find("proximal-point fallback"), std::string::npos) << r.message;
+    EXPECT_FALSE(r.regularized) << r.message;
+    EXPECT_EQ(r.residual, LcpResidual(p, z));
+    ExpectLcpSolution(p, z, kTol);
+  }
+}
+
 // Stepping the 10-box stack with no warm start: every step a cold Lemke solve of a
 // degenerate n = 240 LCP (the absolute residual test failed at step 1410).
 TEST(LemkeTest, ColdStartedStackSimulates2000Steps) {
