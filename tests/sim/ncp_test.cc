@@ -305,7 +305,7 @@ TEST(NcpTest, AFailedSolveIsReportedNotAccepted) {
   EXPECT_FALSE(info.ok);
   EXPECT_NE(info.failure.find("MCP failed from every start"), std::string::npos) << info.failure;
   EXPECT_NE(info.failure.find("LCP start"), std::string::npos) << info.failure;
-  EXPECT_NE(info.failure.find("zero start"), std::string::npos) << info.failure;
+  EXPECT_NE(info.failure.find("free-slip start"), std::string::npos) << info.failure;
   EXPECT_EQ(info.solver.status, SolverStatus::kMaxIterations);
   EXPECT_EQ(next.t, 0.0);  // *next == x
 }

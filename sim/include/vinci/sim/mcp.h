@@ -57,12 +57,16 @@ struct McpOptions {
   /// An attempt counts as stalled (and restarts) when its best merit has not dropped by 10%
   /// within this many consecutive iterations.
   int stall_iterations = 30;
+  /// Where the Newton step is unusable (H singular, not a descent direction, or its line search
+  /// fails), try a Levenberg–Marquardt step before the projected gradient (see Solve).
+  bool levenberg_marquardt = true;
 };
 
 /// Details of one McpSolver::Solve beyond the SolverReport.
 struct McpSolveStats {
   int restarts = 0;              ///< crash/restart attempts used (≤ max_restarts)
   int newton_steps = 0;          ///< accepted (projected) semismooth Newton steps
+  int lm_steps = 0;              ///< accepted Levenberg–Marquardt steps
   int gradient_steps = 0;        ///< accepted projected-gradient fallback steps
   int function_evaluations = 0;  ///< calls of McpProblem::evaluate
   double merit = 0.0;            ///< Ψ = ½‖Φ‖² at the returned z

@@ -62,7 +62,7 @@ struct NcpOptions {
   double tangent_regularization = 1e-10;  ///< ε_t = ε_o (m/s)
   /// ε_σ = this · p_ref² (N²·s³/m), p_ref = max(‖p_ext‖_∞, 1e-6 N·s).
   double cone_regularization = 1e-10;
-  bool scale_rows = false;  ///< divide the friction and cone rows by p_ref (see the file comment)
+  bool scale_rows = true;  ///< divide the friction and cone rows by p_ref (see the file comment)
   /// Steps with at least this many contacts use the sparse Jacobian (McpProblem::sparse_jacobian,
   /// SparseLU); smaller ones the dense one.
   int sparse_min_contacts = 16;
@@ -90,7 +90,8 @@ class NcpStepper final : public Formulation {
     LcpProblem lcp;                     ///< the Stewart–Trinkle LCP of the same step
     VectorXd v_star;
     StewartTrinkle::JointElimination joints;
-    McpProblem mcp;  ///< size 4 n_c, analytic dense and sparse Jacobians
+    McpProblem mcp;  ///< size 4 n_c, analytic dense and sparse Jacobians, unknowns z ⊘ scale
+    VectorXd scale;  ///< (P (3 n_c), V (n_c)); all ones without NcpOptions::scale_rows
   };
   /// Builds the step's problem at x (exposed for tests and benchmarks).
   StepProblem Build(const Scene& model, const State& x, const StepInput& u) const;
@@ -98,6 +99,9 @@ class NcpStepper final : public Formulation {
   VectorXd VelocityAfter(const StepProblem& sp, const VectorXd& z) const;
   /// The MCP start (p_n, p_t, p_o, σ) equivalent to a Stewart–Trinkle LCP solution.
   VectorXd FromLcpSolution(const StepProblem& sp, const VectorXd& z_lcp) const;
+
+  /// The free-slip start: impulses 0, σ_c the slip speed of contact c without contact impulses.
+  VectorXd FreeSlipStart(const StepProblem& sp) const;
 
   const NcpOptions& ncp_options() const { return ncp_; }
 
