@@ -402,7 +402,8 @@ bool SemismoothNewton::LevenbergMarquardtDirection() {
     dir_ = ldlt.solve(-grad_);
   } else {
     MatrixXd hth = h_.transpose() * h_;
-    const double m = std::min(1.0, phi_norm * phi_norm) * std::max(hth.diagonal().maxCoeff(), kLmFloor);
+    const double m =
+        std::min(1.0, phi_norm * phi_norm) * std::max(hth.diagonal().maxCoeff(), kLmFloor);
     hth.diagonal().array() += m;
     Eigen::LDLT<MatrixXd> ldlt(hth);
     if (ldlt.info() != Eigen::Success) return false;

@@ -272,7 +272,9 @@ void NcpStepper::Step(const Scene& model, const State& x, const StepInput& u, Wo
     double time_s = 0.0;
     bool solved = false;
     for (int attempt = warm ? 0 : 1; attempt < 3 && !solved; ++attempt) {
-      const char* start = attempt == 0 ? "warm start" : attempt == 1 ? "free-slip start" : "LCP start";
+      const char* start = attempt == 0   ? "warm start"
+                          : attempt == 1 ? "free-slip start"
+                                         : "LCP start";
       if (attempt == 0) {
         z = x.warm_start.cwiseQuotient(scale);
       } else if (attempt == 1) {
