@@ -29,12 +29,25 @@
 // velocity), a sticking creep ≤ ε_t (m/s) and a relative friction-magnitude error ε_σ σ/(μ p_n)²;
 // the slip direction is exact. Evaluate() checks the exact equations above.
 //
-// With NcpOptions::scale_rows the friction and cone rows are divided by p_ref (below) so that the
-// solver's absolute tolerance means ~1e-10 m/s on slip velocities (off by default: measured, it
-// makes the zero start stall more often on boxes whose redundant corner contacts unload).
+// Scaling (NcpOptions::scale_rows, on by default): the MCP is solved in dimensionless unknowns
+// p̂ = p/P, σ̂ = σ/V with rows F̂_n = u_n/V, F̂_f = F_f/(P V), F̂_σ = F_σ/P², where
+// P = max(‖p_ext‖_∞, max_c (−b_n,c)/W_cc, 1e-6 N·s) (the step's impulse scale: external impulse
+// or the impulse that stops the fastest free approach) and V = max(P max_c W_cc, ‖b‖_∞,
+// 1e-9 m/s) (its velocity scale: the velocity change P causes, or the fastest free contact
+// velocity), W the Delassus matrix and b the free contact velocities. The solver's tolerance
+// (1e-10) is then relative: normal velocities to 1e-10 V, slip rows to 1e-10 P V, cone rows to
+// 1e-10 P². Unscaled, a light part's rows differ by orders of magnitude (box on the vibrating
+// plate, P = 4e-5 N·s: u_n ~ 1e-4 m/s, friction rows ~ 1e-7, cone rows ~ 1e-12, i.e. below the
+// absolute tolerance, so σ was unconstrained) and the merit ½‖Φ‖² saw only the normal rows; the
+// Newton iterates ended at p_t = σ = 0 with the box sliding, a stationary point of the merit
+// (the σ p_t product has a saddle there). With scaling ε_t stays a creep speed (m/s) and
+// ε_σ = cone_regularization · P²/V; without it (scale_rows = false) the rows are as above in
+// SI units and ε_σ = cone_regularization · p_ref².
 //
 // Robustness: the MCP starts from the previous step's (p_n, p_t, p_o, σ) (State::warm_start,
-// when its size matches the contact set); if that fails (or there is none) from zero; then from
+// when its size matches the contact set); if that fails (or there is none) from the free-slip
+// start (impulses 0, σ_c the slip speed of contact c at zero impulse, which keeps Newton off the
+// p_t = σ = 0 saddle of a sliding contact); then from
 // the Stewart–Trinkle LCP solution of the same step (n_d = 4, LCP solver named by the scene)
 // mapped to (p_t, p_o). After a failed attempt the solve is "polished": contacts whose p_n
 // is below 1e-6 p_ref (unloaded: the squared cone's apex is degenerate, resolving p_t only to
@@ -62,7 +75,7 @@ struct NcpOptions {
   double tangent_regularization = 1e-10;  ///< ε_t = ε_o (m/s)
   /// ε_σ = this · p_ref² (N²·s³/m), p_ref = max(‖p_ext‖_∞, 1e-6 N·s).
   double cone_regularization = 1e-10;
-  bool scale_rows = true;  ///< divide the friction and cone rows by p_ref (see the file comment)
+  bool scale_rows = true;  ///< nondimensionalize the MCP by P and V (see the file comment)
   /// Steps with at least this many contacts use the sparse Jacobian (McpProblem::sparse_jacobian,
   /// SparseLU); smaller ones the dense one.
   int sparse_min_contacts = 16;
