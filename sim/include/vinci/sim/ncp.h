@@ -55,6 +55,10 @@
 // point, and the result is accepted only if it solves the FULL MCP to tolerance. The first
 // converged attempt is accepted (SolverReport::message lists the failed ones); if all fail the
 // step returns StepInfo ok = false with every reason.
+// Redundant contacts (a box on four corners: p_n, and while it sticks p_t, not unique) leave
+// the Newton matrix with singular values ~ε near the solution; McpSolver's Levenberg–Marquardt
+// step (mcp.h) crosses these nearly flat directions where the Newton step fails its descent
+// test (measured: the box on the vibrating plate, docs/field.md).
 #pragma once
 
 #include <memory>
@@ -73,7 +77,8 @@ struct NcpOptions {
   /// normal rows only; compliant rows are regular).
   double normal_regularization = 1e-10;
   double tangent_regularization = 1e-10;  ///< ε_t = ε_o (m/s)
-  /// ε_σ = this · p_ref² (N²·s³/m), p_ref = max(‖p_ext‖_∞, 1e-6 N·s).
+  /// Scaled: ε̂_σ = this, i.e. ε_σ = this · P²/V; unscaled: ε_σ = this · p_ref² (N²·s³/m),
+  /// p_ref = max(‖p_ext‖_∞, 1e-6 N·s).
   double cone_regularization = 1e-10;
   bool scale_rows = true;  ///< nondimensionalize the MCP by P and V (see the file comment)
   /// Steps with at least this many contacts use the sparse Jacobian (McpProblem::sparse_jacobian,
