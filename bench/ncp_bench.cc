@@ -79,6 +79,10 @@ VINCI_NCP_BENCH(BlockOnInclineSliding, "block_on_incline.yaml", 10, 0.5, -1.0)
 VINCI_NCP_BENCH(BlockOnInclineSticking, "block_on_incline.yaml", 10, 0.0, 0.5)
 // Ten stacked boxes after 100 settling steps: 40 contacts.
 VINCI_NCP_BENCH(BoxStack, "box_stack.yaml", 100, 0.0, -1.0)
+// The box (four redundant corners) on the vibrating conveyor plate, sliding and sticking
+// within each 30 Hz cycle, restarted every 0.5 s (NCP failed here before the MCP scaling and
+// LM step; docs/field.md).
+VINCI_NCP_BENCH(PlateBox, "plate_box.yaml", 10, 0.5, -1.0)
 
 }  // namespace
 }  // namespace vinci::sim

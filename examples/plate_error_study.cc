@@ -9,8 +9,9 @@
 //                       direction (Stewart–Trinkle), against the quadratic-cone NCP stepper
 //                       (FormulationType::kNcp) on the same scene, step and duration:
 //                       direction error (deg) and speed error per n_d, and finest n_d vs NCP.
-//                       If the NCP run fails (it does on this box: see docs/field.md) the
-//                       finest n_d is the reference, and the output says so with the reason.
+//                       If the NCP run fails (it did on this box before the MCP scaling and
+//                       LM step of branch ncpredund: see docs/field.md) the finest n_d is the
+//                       reference, and the output says so with the reason.
 //  3. solve_time.csv    mean LCP solve time per step and Lemke pivots vs n_d and h (and the
 //                       NCP reference's MCP time and Newton iterations, sweep "ncp").
 //  4. pose_rule.csv     the plate's pose set exactly vs integrated from its velocity, and the

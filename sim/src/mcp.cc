@@ -5,7 +5,9 @@
 // Fischer, Kanzow, "The semismooth algorithm for large scale complementarity problems" (2001).
 #include "vinci/sim/mcp.h"
 
+#include <Eigen/Cholesky>
 #include <Eigen/LU>
+#include <Eigen/SparseCholesky>
 #include <Eigen/SparseLU>
 #include <algorithm>
 #include <chrono>
@@ -35,6 +37,8 @@ constexpr double kDescentRho = 1e-10;
 constexpr double kDescentP = 2.1;
 // A stalled attempt: best merit not reduced by this factor within stall_iterations.
 constexpr double kStallFactor = 0.9;
+// Floor of the Levenberg–Marquardt scale max_i (HᵀH)_ii.
+constexpr double kLmFloor = 1e-300;
 
 // How row i of Φ is built from its bounds.
 enum class RowKind : unsigned char { kFree, kLower, kUpper, kBox, kFixed };
@@ -229,6 +233,9 @@ class SemismoothNewton {
   void AssembleSparseH();
   // Newton direction into dir_; false if H is singular or the solution is not finite.
   bool NewtonDirection();
+  // Levenberg–Marquardt direction (HᵀH + m I) d = −∇Ψ into dir_, m = min(1, ‖Φ‖) ·
+  // max(max_i (HᵀH)_ii, tiny); false if the solve fails or d is not finite.
+  bool LevenbergMarquardtDirection();
   // Line search along P[z + t·dir] (newton) or P[z − t·grad]; on success zt_/Ft_/phit_ hold
   // the accepted point. Sets *threw / *message when evaluate throws.
   bool LineSearch(const VectorXd& z, bool newton, double reference, double slope, double t0,
@@ -380,6 +387,31 @@ bool SemismoothNewton::NewtonDirection() {
   return dir_.allFinite();
 }
 
+bool SemismoothNewton::LevenbergMarquardtDirection() {
+  const double phi_norm = phi_.norm();
+  if (sparse_) {
+    SparseMatrixd hth = hs_.transpose() * hs_;
+    double scale = 0.0;
+    for (int j = 0; j < n_; ++j) scale = std::max(scale, hth.coeff(j, j));
+    const double m = std::min(1.0, phi_norm * phi_norm) * std::max(scale, kLmFloor);
+    SparseMatrixd eye(n_, n_);
+    eye.setIdentity();
+    hth += m * eye;
+    Eigen::SimplicialLDLT<SparseMatrixd> ldlt(hth);
+    if (ldlt.info() != Eigen::Success) return false;
+    dir_ = ldlt.solve(-grad_);
+  } else {
+    MatrixXd hth = h_.transpose() * h_;
+    const double m =
+        std::min(1.0, phi_norm * phi_norm) * std::max(hth.diagonal().maxCoeff(), kLmFloor);
+    hth.diagonal().array() += m;
+    Eigen::LDLT<MatrixXd> ldlt(hth);
+    if (ldlt.info() != Eigen::Success) return false;
+    dir_ = ldlt.solve(-grad_);
+  }
+  return dir_.allFinite();
+}
+
 bool SemismoothNewton::LineSearch(const VectorXd& z, bool newton, double reference, double slope,
                                   double t0, bool* threw) {
   double t = t0;
@@ -506,6 +538,13 @@ SolverReport SemismoothNewton::Run(VectorXd* z, McpSolveStats* stats_out) {
           if (slope <= -kDescentRho * std::pow(dir_.norm(), kDescentP)) {
             accepted = LineSearch(zc, true, reference, slope, 1.0, &threw);
             if (accepted) ++stats_.newton_steps;
+          }
+        }
+        if (!accepted && !threw && o_.levenberg_marquardt && LevenbergMarquardtDirection()) {
+          const double slope = grad_.dot(dir_);
+          if (slope < 0.0) {
+            accepted = LineSearch(zc, true, reference, slope, 1.0, &threw);
+            if (accepted) ++stats_.lm_steps;
           }
         }
         if (!accepted && !threw) {

@@ -18,6 +18,13 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kMinImpulseScale = 1e-6;
 // A contact with p_n ≤ this · p_ref is unloaded for the polish step.
 constexpr double kUnloaded = 1e-6;
+// Floor of the velocity scale V (m/s).
+constexpr double kMinVelocityScale = 1e-9;
+
+// p_ref = max(‖p_ext‖_∞, kMinImpulseScale).
+double ImpulseScale(const StewartTrinkle::Assembly& a) {
+  return std::max(a.p_ext.size() ? a.p_ext.cwiseAbs().maxCoeff() : 0.0, kMinImpulseScale);
+}
 
 StepperOptions AssemblyOptions(StepperOptions o) {
   o.formulation = FormulationType::kStewartTrinkle;  // position-level normal rows
@@ -35,7 +42,6 @@ struct NcpData {
   VectorXd mu;  // n_c
   double et2 = 1.0, eo2 = 1.0;
   double eps_t = 0.0, eps_s = 0.0;                        // ε_t (m/s) and ε_σ (N²·s³/m)
-  double inv_p_ref = 1.0;                                 // 1/p_ref if NcpOptions::scale_rows
   Eigen::SparseMatrix<double, Eigen::RowMajor> A_sparse;  // A without its zeros (sparse path)
 };
 
@@ -49,22 +55,21 @@ void SparseJacobianNcp(const NcpData& d, const VectorXd& z, Eigen::SparseMatrix<
   for (int c = 0; c < nc; ++c) {
     const int in = c, it = nc + 2 * c, io = it + 1, is = m + c;
     const double pn = z[in], pt = z[it], po = z[io], s = z[is], mu = d.mu[c];
-    const double w = d.inv_p_ref;
     for (RowIt e(d.A_sparse, in); e; ++e) t.emplace_back(in, static_cast<int>(e.col()), e.value());
     for (RowIt e(d.A_sparse, it); e; ++e)
-      t.emplace_back(it, static_cast<int>(e.col()), w * d.et2 * mu * pn * e.value());
+      t.emplace_back(it, static_cast<int>(e.col()), d.et2 * mu * pn * e.value());
     for (RowIt e(d.A_sparse, io); e; ++e)
-      t.emplace_back(io, static_cast<int>(e.col()), w * d.eo2 * mu * pn * e.value());
-    t.emplace_back(it, in, w * d.et2 * mu * u[it]);
-    t.emplace_back(io, in, w * d.eo2 * mu * u[io]);
-    t.emplace_back(it, it, w * (s + d.eps_t));
-    t.emplace_back(io, io, w * (s + d.eps_t));
-    t.emplace_back(it, is, w * pt);
-    t.emplace_back(io, is, w * po);
-    t.emplace_back(is, in, w * 2.0 * mu * mu * pn);
-    t.emplace_back(is, it, -w * 2.0 * pt / d.et2);
-    t.emplace_back(is, io, -w * 2.0 * po / d.eo2);
-    t.emplace_back(is, is, w * d.eps_s);
+      t.emplace_back(io, static_cast<int>(e.col()), d.eo2 * mu * pn * e.value());
+    t.emplace_back(it, in, d.et2 * mu * u[it]);
+    t.emplace_back(io, in, d.eo2 * mu * u[io]);
+    t.emplace_back(it, it, (s + d.eps_t));
+    t.emplace_back(io, io, (s + d.eps_t));
+    t.emplace_back(it, is, pt);
+    t.emplace_back(io, is, po);
+    t.emplace_back(is, in, 2.0 * mu * mu * pn);
+    t.emplace_back(is, it, -2.0 * pt / d.et2);
+    t.emplace_back(is, io, -2.0 * po / d.eo2);
+    t.emplace_back(is, is, d.eps_s);
   }
   J->resize(4 * nc, 4 * nc);
   J->setFromTriplets(t.begin(), t.end());  // duplicates (diagonal of A and the σ term) add
@@ -79,25 +84,24 @@ void EvaluateNcp(const NcpData& d, const VectorXd& z, VectorXd* F, MatrixXd* J) 
     const int in = c, it = nc + 2 * c, io = it + 1, is = m + c;
     const double pn = z[in], pt = z[it], po = z[io], s = z[is], mu = d.mu[c];
     (*F)[in] = u[in];
-    const double w = d.inv_p_ref;
     const double et = d.eps_t, es = d.eps_s;
-    (*F)[it] = w * (d.et2 * mu * pn * u[it] + (s + et) * pt);
-    (*F)[io] = w * (d.eo2 * mu * pn * u[io] + (s + et) * po);
-    (*F)[is] = w * (mu * mu * pn * pn - pt * pt / d.et2 - po * po / d.eo2 + es * s);
+    (*F)[it] = (d.et2 * mu * pn * u[it] + (s + et) * pt);
+    (*F)[io] = (d.eo2 * mu * pn * u[io] + (s + et) * po);
+    (*F)[is] = (mu * mu * pn * pn - pt * pt / d.et2 - po * po / d.eo2 + es * s);
     if (!J) continue;
     J->block(in, 0, 1, m) = d.A.row(in);
-    J->block(it, 0, 1, m) = w * d.et2 * mu * pn * d.A.row(it);
-    J->block(io, 0, 1, m) = w * d.eo2 * mu * pn * d.A.row(io);
-    (*J)(it, in) += w * d.et2 * mu * u[it];
-    (*J)(io, in) += w * d.eo2 * mu * u[io];
-    (*J)(it, it) += w * (s + et);
-    (*J)(io, io) += w * (s + et);
-    (*J)(it, is) = w * pt;
-    (*J)(io, is) = w * po;
-    (*J)(is, in) = w * 2.0 * mu * mu * pn;
-    (*J)(is, it) = -w * 2.0 * pt / d.et2;
-    (*J)(is, io) = -w * 2.0 * po / d.eo2;
-    (*J)(is, is) = w * es;
+    J->block(it, 0, 1, m) = d.et2 * mu * pn * d.A.row(it);
+    J->block(io, 0, 1, m) = d.eo2 * mu * pn * d.A.row(io);
+    (*J)(it, in) += d.et2 * mu * u[it];
+    (*J)(io, in) += d.eo2 * mu * u[io];
+    (*J)(it, it) += (s + et);
+    (*J)(io, io) += (s + et);
+    (*J)(it, is) = pt;
+    (*J)(io, is) = po;
+    (*J)(is, in) = 2.0 * mu * mu * pn;
+    (*J)(is, it) = -2.0 * pt / d.et2;
+    (*J)(is, io) = -2.0 * po / d.eo2;
+    (*J)(is, is) = es;
   }
 }
 
@@ -164,11 +168,23 @@ NcpStepper::StepProblem NcpStepper::Build(const Scene& model, const State& x,
   for (int c = 0; c < nc; ++c) diag = std::max(diag, d->A(c, c) - a.compliance[c].vel_diagonal);
   for (int c = 0; c < nc; ++c)
     if (!a.compliance[c].compliant) d->A(c, c) += ncp_.normal_regularization * diag;
-  d->eps_t = ncp_.tangent_regularization;
-  const double p_ref =
-      std::max(a.p_ext.size() ? a.p_ext.cwiseAbs().maxCoeff() : 0.0, kMinImpulseScale);
-  d->eps_s = ncp_.cone_regularization * p_ref * p_ref;
-  d->inv_p_ref = ncp_.scale_rows ? 1.0 / p_ref : 1.0;
+  // Scales (NcpOptions::scale_rows): impulses by P, σ and velocities by V (see ncp.h).
+  double P = 1.0, V = 1.0;
+  if (ncp_.scale_rows && nc > 0) {
+    P = ImpulseScale(a);
+    double approach = 0.0;  // impulse that stops the fastest free approach at one contact
+    for (int c = 0; c < nc; ++c)
+      if (d->A(c, c) > 0.0) approach = std::max(approach, -d->b[c] / d->A(c, c));
+    P = std::max(P, approach);
+    V = std::max({P * d->A.diagonal().maxCoeff(), d->b.cwiseAbs().maxCoeff(), kMinVelocityScale});
+  }
+  d->A *= P / V;
+  d->b /= V;
+  d->eps_t = ncp_.tangent_regularization / V;
+  d->eps_s = ncp_.scale_rows ? ncp_.cone_regularization
+                             : ncp_.cone_regularization * ImpulseScale(a) * ImpulseScale(a);
+  sp.scale = VectorXd::Constant(4 * nc, P);
+  sp.scale.tail(nc).setConstant(V);
 
   sp.mcp.lower = VectorXd::Zero(4 * nc);
   sp.mcp.upper = VectorXd::Constant(4 * nc, kInf);
@@ -213,6 +229,18 @@ VectorXd NcpStepper::FromLcpSolution(const StepProblem& sp, const VectorXd& z_lc
   return z;
 }
 
+VectorXd NcpStepper::FreeSlipStart(const StepProblem& sp) const {
+  const StewartTrinkle::Assembly& a = sp.assembly;
+  const int nc = static_cast<int>(a.contacts.size()), nd = a.nd;
+  VectorXd z = VectorXd::Zero(4 * nc);
+  for (int c = 0; c < nc; ++c) {
+    const double ut = sp.lcp.q[nc + c * nd];
+    const double uo = nd == 4 ? sp.lcp.q[nc + c * nd + 1] : 0.0;
+    z[3 * nc + c] = std::hypot(ncp_.e_t * ut, ncp_.e_o * uo);
+  }
+  return z;
+}
+
 void NcpStepper::Step(const Scene& model, const State& x, const StepInput& u, Workspace* ws,
                       State* next, StepInfo* info) const {
   *info = StepInfo{};
@@ -237,18 +265,20 @@ void NcpStepper::Step(const Scene& model, const State& x, const StepInput& u, Wo
     // of this step. The first converged attempt is accepted; each failure is reported.
     const bool warm = x.warm_start.size() == 4 * nc && x.warm_start.allFinite();
     const McpSolver& mcp = nc >= ncp_.sparse_min_contacts ? mcp_sparse_ : mcp_;
-    const double p_ref =
-        std::max(a.p_ext.size() ? a.p_ext.cwiseAbs().maxCoeff() : 0.0, kMinImpulseScale);
+    // The MCP's unknowns are ẑ = z ⊘ sp.scale; starts and the result are converted.
+    const VectorXd& scale = sp.scale;
     std::string history;
     int iterations = 0;
     double time_s = 0.0;
     bool solved = false;
     for (int attempt = warm ? 0 : 1; attempt < 3 && !solved; ++attempt) {
-      const char* start = attempt == 0 ? "warm start" : attempt == 1 ? "zero start" : "LCP start";
+      const char* start = attempt == 0   ? "warm start"
+                          : attempt == 1 ? "free-slip start"
+                                         : "LCP start";
       if (attempt == 0) {
-        z = x.warm_start;
+        z = x.warm_start.cwiseQuotient(scale);
       } else if (attempt == 1) {
-        z.setZero();
+        z = FreeSlipStart(sp).cwiseQuotient(scale);
       } else {
         VectorXd z_lcp;
         const SolverReport lcp = lcp_solver_->Solve(sp.lcp, nullptr, &z_lcp);
@@ -258,7 +288,7 @@ void NcpStepper::Step(const Scene& model, const State& x, const StepInput& u, Wo
                      "Stewart-Trinkle LCP for the start failed: " + Describe(lcp);
           continue;
         }
-        z = FromLcpSolution(sp, z_lcp);
+        z = FromLcpSolution(sp, z_lcp).cwiseQuotient(scale);
       }
       info->solver = mcp.Solve(sp.mcp, &z);
       iterations += info->solver.iterations;
@@ -271,7 +301,7 @@ void NcpStepper::Step(const Scene& model, const State& x, const StepInput& u, Wo
       VectorXd zr = z;
       int fixed = 0;
       for (int c = 0; c < nc; ++c) {
-        if (!(z[c] <= kUnloaded * p_ref)) continue;
+        if (!(z[c] * scale[c] <= kUnloaded * ImpulseScale(a))) continue;
         for (int i : {nc + 2 * c, nc + 2 * c + 1, 3 * nc + c}) {
           reduced.lower[i] = reduced.upper[i] = 0.0;
           zr[i] = 0.0;
@@ -285,6 +315,7 @@ void NcpStepper::Step(const Scene& model, const State& x, const StepInput& u, Wo
       if (polish.ok()) {
         // Give each fixed contact its exact sliding friction for the (tiny) p_n it carries:
         // p_(t,o) = −μ p_n (e_t² u_t, e_o² u_o)/σ, σ = ‖(e_t u_t, e_o u_o)‖ (0 if not slipping).
+        zr = zr.cwiseProduct(scale);
         const VectorXd v1 = VelocityAfter(sp, zr);
         const double et = ncp_.e_t, eo = ncp_.e_o;
         for (int c = 0; c < nc; ++c) {
@@ -300,12 +331,13 @@ void NcpStepper::Step(const Scene& model, const State& x, const StepInput& u, Wo
           zr[nc + 2 * c + 1] = -a.mu[c] * zr[c] * eo * eo * uo / slip;
           zr[3 * nc + c] = slip;
         }
+        zr = zr.cwiseQuotient(scale);
       }
       const double full = polish.ok() ? McpResidual(sp.mcp, zr) : polish.residual;
       double pn_fixed = 0.0;
       for (int c = 0; c < nc; ++c)
         if (reduced.lower[3 * nc + c] == reduced.upper[3 * nc + c])
-          pn_fixed = std::max(pn_fixed, zr[c]);
+          pn_fixed = std::max(pn_fixed, zr[c] * scale[c]);
       if (polish.ok() && full <= mcp_.options().tolerance) {
         z = zr;
         info->solver = polish;
@@ -330,6 +362,7 @@ void NcpStepper::Step(const Scene& model, const State& x, const StepInput& u, Wo
       info->failure = "MCP failed from every start: " + history;
       return;
     }
+    z = z.cwiseProduct(scale);
   } else {
     info->solver.status = SolverStatus::kSolved;
   }

@@ -743,12 +743,61 @@ TEST(McpSolverTest, ProjectedGradientWhenNewtonMatrixIsSingular) {
       *J << 1, 1, 1 + 3 * d * d, 1 - 3 * d * d;
     }
   };
-  VectorXd z = VectorXd::Zero(2);
-  McpSolveStats stats;
-  const SolverReport r = McpSolver().Solve(p, &z, &stats);
-  ExpectSolved(p, r, z);
-  EXPECT_GE(stats.gradient_steps, 1);
-  EXPECT_LE((z - Vec({1, 1})).lpNorm<Eigen::Infinity>(), 1e-3);  // cube-root conditioning
+  for (bool lm : {false, true}) {
+    SCOPED_TRACE(lm);
+    VectorXd z = VectorXd::Zero(2);
+    McpSolveStats stats;
+    McpOptions o;
+    o.levenberg_marquardt = lm;
+    const SolverReport r = McpSolver(o).Solve(p, &z, &stats);
+    ExpectSolved(p, r, z);
+    // Without LM the singular Newton matrix falls back to the gradient; with LM, LM steps.
+    EXPECT_GE(lm ? stats.lm_steps : stats.gradient_steps, 1);
+    EXPECT_LE((z - Vec({1, 1})).lpNorm<Eigen::Infinity>(), 1e-3);  // cube-root conditioning
+  }
+}
+
+TEST(McpSolverTest, LevenbergMarquardtCrossesANearlyFlatSolutionValley) {
+  // s + s³ = 0 with s = z1 + z2 + z3 − 3 (a plane of roots) and two tie-breaking rows
+  // ε1 (z1 − z2) = 0, ε2 (z2 − z3) = 0, ε1 = 1e-6, ε2 = 1e-7: the root (1, 1, 1) is unique but
+  // nearly non-isolated, like the redundant normal and sticking friction impulses of a box on
+  // four corners (ncp.h). From (1.2, 0.9, 0.9) the Newton step has ∇Ψᵀd = −‖Φ‖² ≈ −(0.3 ε1)², far
+  // below the descent test's −ρ‖d‖^2.1, and the gradient follows the ε1 direction and crawls
+  // along the ε2 one (rate 1 − (ε2/ε1)²): without LM the attempt stalls; the LM step
+  // (HᵀH + min(1, ‖Φ‖²) max diag(HᵀH) I) d = −∇Ψ is Newton's here and crosses the valley.
+  static constexpr double kE1 = 1e-6, kE2 = 1e-7;
+  McpProblem p;
+  p.lower = VectorXd::Constant(3, -kInf);
+  p.upper = VectorXd::Constant(3, kInf);
+  p.evaluate = [](const VectorXd& z, VectorXd* F, MatrixXd* J) {
+    const double s = z.sum() - 3.0;
+    *F = Vec({s + s * s * s, kE1 * (z(0) - z(1)), kE2 * (z(1) - z(2))});
+    if (J != nullptr) {
+      J->resize(3, 3);
+      const double ds = 1.0 + 3.0 * s * s;
+      *J << ds, ds, ds, kE1, -kE1, 0.0, 0.0, kE2, -kE2;
+    }
+  };
+  McpOptions o;
+  o.tolerance = 1e-14;  // the start's residual is 0.3 ε1: the valley must be crossed
+  o.max_restarts = 0;   // one attempt (a random restart off the plane would hide the stall)
+  for (bool lm : {false, true}) {
+    SCOPED_TRACE(lm);
+    o.levenberg_marquardt = lm;
+    VectorXd z = Vec({1.2, 0.9, 0.9});
+    McpSolveStats stats;
+    const SolverReport r = McpSolver(o).Solve(p, &z, &stats);
+    if (lm) {
+      EXPECT_TRUE(r.ok()) << r.message;
+      EXPECT_LE(McpResidual(p, z), o.tolerance);
+      EXPECT_GE(stats.lm_steps, 1);
+      // Residual ≤ 1e-14 leaves |z2 − z3| ≤ 1e-14/ε2 = 1e-7 along the valley.
+      EXPECT_LE((z - Vec({1, 1, 1})).lpNorm<Eigen::Infinity>(), 1e-6);
+    } else {
+      EXPECT_FALSE(r.ok()) << "the solver without LM crossed the valley: the test lost its point";
+      EXPECT_GT((z - Vec({1, 1, 1})).lpNorm<Eigen::Infinity>(), 1e-4);  // crawled, not crossed
+    }
+  }
 }
 
 TEST(McpSolverTest, RestartEscapesAStationaryPointOfTheMerit) {

@@ -57,12 +57,16 @@ struct McpOptions {
   /// An attempt counts as stalled (and restarts) when its best merit has not dropped by 10%
   /// within this many consecutive iterations.
   int stall_iterations = 30;
+  /// Where the Newton step is unusable (H singular, not a descent direction, or its line search
+  /// fails), try a Levenberg–Marquardt step before the projected gradient (see Solve).
+  bool levenberg_marquardt = true;
 };
 
 /// Details of one McpSolver::Solve beyond the SolverReport.
 struct McpSolveStats {
   int restarts = 0;              ///< crash/restart attempts used (≤ max_restarts)
   int newton_steps = 0;          ///< accepted (projected) semismooth Newton steps
+  int lm_steps = 0;              ///< accepted Levenberg–Marquardt steps
   int gradient_steps = 0;        ///< accepted projected-gradient fallback steps
   int function_evaluations = 0;  ///< calls of McpProblem::evaluate
   double merit = 0.0;            ///< Ψ = ½‖Φ‖² at the returned z
@@ -83,6 +87,14 @@ class McpSolver {
   ///   z⁺ = P[z − t ∇Ψ], ∇Ψ = Hᵀ Φ. Non-monotone Armijo test against the max of the last
   ///   `nonmonotone_memory` merits. Newton systems: PartialPivLU (dense) or SparseLU when
   ///   options.sparse and problem.sparse_jacobian are set.
+  /// - Levenberg–Marquardt (options.levenberg_marquardt, on by default): where the Newton step
+  ///   is unusable, first d from (HᵀH + m I) d = −∇Ψ, m = min(1, ‖Φ‖²) · max_i (HᵀH)_ii
+  ///   (Yamashita–Fukushima 2001: μ ~ ‖Φ‖², superlinear near non-isolated solutions under a
+  ///   local error bound), LDLT (dense) or SimplicialLDLT (sparse), with the same line search;
+  ///   only if that fails the projected gradient. It matters near nearly non-isolated
+  ///   solutions (singular values of H far below ‖Φ‖/‖d‖: the Newton step is rejected by the
+  ///   descent test and the gradient crawls), e.g. the redundant corner contacts of ncp.h;
+  ///   where Newton works the iterates are unchanged.
   /// - Stopping test: McpResidual ≤ tolerance. A starting point that passes takes 0
   ///   iterations. `iterations` counts Newton/gradient iterations over all restarts and is
   ///   bounded by max_iterations in total.

@@ -29,12 +29,25 @@
 // velocity), a sticking creep ≤ ε_t (m/s) and a relative friction-magnitude error ε_σ σ/(μ p_n)²;
 // the slip direction is exact. Evaluate() checks the exact equations above.
 //
-// With NcpOptions::scale_rows the friction and cone rows are divided by p_ref (below) so that the
-// solver's absolute tolerance means ~1e-10 m/s on slip velocities (off by default: measured, it
-// makes the zero start stall more often on boxes whose redundant corner contacts unload).
+// Scaling (NcpOptions::scale_rows, on by default): the MCP is solved in dimensionless unknowns
+// p̂ = p/P, σ̂ = σ/V with rows F̂_n = u_n/V, F̂_f = F_f/(P V), F̂_σ = F_σ/P², where
+// P = max(‖p_ext‖_∞, max_c (−b_n,c)/W_cc, 1e-6 N·s) (the step's impulse scale: external impulse
+// or the impulse that stops the fastest free approach) and V = max(P max_c W_cc, ‖b‖_∞,
+// 1e-9 m/s) (its velocity scale: the velocity change P causes, or the fastest free contact
+// velocity), W the Delassus matrix and b the free contact velocities. The solver's tolerance
+// (1e-10) is then relative: normal velocities to 1e-10 V, slip rows to 1e-10 P V, cone rows to
+// 1e-10 P². Unscaled, a light part's rows differ by orders of magnitude (box on the vibrating
+// plate, P = 4e-5 N·s: u_n ~ 1e-4 m/s, friction rows ~ 1e-7, cone rows ~ 1e-12, i.e. below the
+// absolute tolerance, so σ was unconstrained) and the merit ½‖Φ‖² saw only the normal rows; the
+// Newton iterates ended at p_t = σ = 0 with the box sliding, a stationary point of the merit
+// (the σ p_t product has a saddle there). With scaling ε_t stays a creep speed (m/s) and
+// ε_σ = cone_regularization · P²/V; without it (scale_rows = false) the rows are as above in
+// SI units and ε_σ = cone_regularization · p_ref².
 //
 // Robustness: the MCP starts from the previous step's (p_n, p_t, p_o, σ) (State::warm_start,
-// when its size matches the contact set); if that fails (or there is none) from zero; then from
+// when its size matches the contact set); if that fails (or there is none) from the free-slip
+// start (impulses 0, σ_c the slip speed of contact c at zero impulse, which keeps Newton off the
+// p_t = σ = 0 saddle of a sliding contact); then from
 // the Stewart–Trinkle LCP solution of the same step (n_d = 4, LCP solver named by the scene)
 // mapped to (p_t, p_o). After a failed attempt the solve is "polished": contacts whose p_n
 // is below 1e-6 p_ref (unloaded: the squared cone's apex is degenerate, resolving p_t only to
@@ -42,6 +55,10 @@
 // point, and the result is accepted only if it solves the FULL MCP to tolerance. The first
 // converged attempt is accepted (SolverReport::message lists the failed ones); if all fail the
 // step returns StepInfo ok = false with every reason.
+// Redundant contacts (a box on four corners: p_n, and while it sticks p_t, not unique) leave
+// the Newton matrix with singular values ~ε near the solution; McpSolver's Levenberg–Marquardt
+// step (mcp.h) crosses these nearly flat directions where the Newton step fails its descent
+// test (measured: the box on the vibrating plate, docs/field.md).
 #pragma once
 
 #include <memory>
@@ -60,9 +77,10 @@ struct NcpOptions {
   /// normal rows only; compliant rows are regular).
   double normal_regularization = 1e-10;
   double tangent_regularization = 1e-10;  ///< ε_t = ε_o (m/s)
-  /// ε_σ = this · p_ref² (N²·s³/m), p_ref = max(‖p_ext‖_∞, 1e-6 N·s).
+  /// Scaled: ε̂_σ = this, i.e. ε_σ = this · P²/V; unscaled: ε_σ = this · p_ref² (N²·s³/m),
+  /// p_ref = max(‖p_ext‖_∞, 1e-6 N·s).
   double cone_regularization = 1e-10;
-  bool scale_rows = false;  ///< divide the friction and cone rows by p_ref (see the file comment)
+  bool scale_rows = true;  ///< nondimensionalize the MCP by P and V (see the file comment)
   /// Steps with at least this many contacts use the sparse Jacobian (McpProblem::sparse_jacobian,
   /// SparseLU); smaller ones the dense one.
   int sparse_min_contacts = 16;
@@ -90,7 +108,8 @@ class NcpStepper final : public Formulation {
     LcpProblem lcp;                     ///< the Stewart–Trinkle LCP of the same step
     VectorXd v_star;
     StewartTrinkle::JointElimination joints;
-    McpProblem mcp;  ///< size 4 n_c, analytic dense and sparse Jacobians
+    McpProblem mcp;  ///< size 4 n_c, analytic dense and sparse Jacobians, unknowns z ⊘ scale
+    VectorXd scale;  ///< (P (3 n_c), V (n_c)); all ones without NcpOptions::scale_rows
   };
   /// Builds the step's problem at x (exposed for tests and benchmarks).
   StepProblem Build(const Scene& model, const State& x, const StepInput& u) const;
@@ -98,6 +117,9 @@ class NcpStepper final : public Formulation {
   VectorXd VelocityAfter(const StepProblem& sp, const VectorXd& z) const;
   /// The MCP start (p_n, p_t, p_o, σ) equivalent to a Stewart–Trinkle LCP solution.
   VectorXd FromLcpSolution(const StepProblem& sp, const VectorXd& z_lcp) const;
+
+  /// The free-slip start: impulses 0, σ_c the slip speed of contact c without contact impulses.
+  VectorXd FreeSlipStart(const StepProblem& sp) const;
 
   const NcpOptions& ncp_options() const { return ncp_; }
 
