@@ -12,6 +12,7 @@
 // changed (O(n |B|) per block) and recomputed from scratch every few sweeps to bound roundoff.
 #include "vinci/sim/pgs.h"
 
+#include <Eigen/QR>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -51,6 +52,7 @@ void ValidateOptions(const PgsOptions& o) {
   if (!(o.relaxation > 0.0 && o.relaxation < 2.0)) {
     fail("relaxation", o.relaxation, "a value in (0, 2)");
   }
+  if (o.polish_interval < 0) fail("polish_interval", o.polish_interval, ">= 0");
 }
 
 // Empty if `blocks` partitions {0..n−1}; otherwise what is wrong.
@@ -99,6 +101,57 @@ struct LocalLcp {
   VectorXd z_b;    // current z_B (Lemke's warm start)
   VectorXd x;      // local solution
 };
+
+// ‖min(x, M x + r)‖_∞ of a block LCP, +∞ if anything is NaN.
+double BlockResidual(const MatrixXd& M, const VectorXd& r, const VectorXd& x) {
+  return Residual(x, M * x + r);
+}
+
+// Active-set refinement of a block solution x of M x + r ⊥ x ≥ 0 (block Lemke's result, when it
+// misses its tight tolerance). A contact patch's M_BB is singular — its impulse columns act
+// through the 12 velocities of two bodies, and the patch's normal forces are statically
+// indeterminate — so Lemke's degenerate bases leave residuals of 1e-10…1e-9 on impulses of
+// ~1e-2 (box stack), a floor right at PGS's global tolerance. Each refinement step takes the
+// active set A = {i : x_i > w_i}, sets x_i = 0 off A and the minimum-norm correction δ of
+// M_AA δ = −w_A on A (complete orthogonal decomposition, rank-revealing, so the singular M_AA
+// is fine), projects onto x ≥ 0 and keeps the result only if the block residual drops.
+// Returns the block residual of the (possibly unchanged) x.
+double RefineOnActiveSet(const MatrixXd& M, const VectorXd& r, VectorXd* x) {
+  constexpr int kMaxRefinements = 3;
+  const int m = static_cast<int>(r.size());
+  double residual = BlockResidual(M, r, *x);
+  std::vector<int> active;
+  for (int it = 0; it < kMaxRefinements && residual > 0.0 && std::isfinite(residual); ++it) {
+    const VectorXd w = M * *x + r;
+    active.clear();
+    for (int i = 0; i < m; ++i)
+      if ((*x)(i) > w(i)) active.push_back(i);
+    const int k = static_cast<int>(active.size());
+    VectorXd trial = VectorXd::Zero(m);
+    if (k > 0) {
+      MatrixXd M_aa(k, k);
+      VectorXd w_a(k);
+      for (int c = 0; c < k; ++c) {
+        for (int rr = 0; rr < k; ++rr) M_aa(rr, c) = M(active[rr], active[c]);
+      }
+      // w_A after zeroing x off A.
+      for (int rr = 0; rr < k; ++rr) {
+        double v = w(active[rr]);
+        for (int i = 0; i < m; ++i) {
+          if ((*x)(i) <= w(i)) v -= M(active[rr], i) * (*x)(i);
+        }
+        w_a(rr) = v;
+      }
+      const VectorXd delta = M_aa.completeOrthogonalDecomposition().solve(-w_a);
+      for (int c = 0; c < k; ++c) trial(active[c]) = std::max(0.0, (*x)(active[c]) + delta(c));
+    }
+    const double trial_residual = BlockResidual(M, r, trial);
+    if (!(trial_residual < residual)) break;
+    *x = trial;
+    residual = trial_residual;
+  }
+  return residual;
+}
 
 }  // namespace
 
@@ -210,6 +263,7 @@ SolverReport PgsSolver::Solve(const LcpProblem& problem, const VectorXd* warm_st
   };
 
   int sweep = 0;
+  const int polish_interval = options_.polish_interval;
   while (sweep < options_.max_sweeps && !solved && failure.empty()) {
     for (int b = 0; b < num_blocks && failure.empty(); ++b) {
       const int* idx = index.data() + begin[b];
@@ -250,11 +304,16 @@ SolverReport PgsSolver::Solve(const LcpProblem& problem, const VectorXd* warm_st
         l.x.setZero();  // Lemke's trivial case, without the call
       } else {
         const SolverReport local = lemke.Solve(l.lcp, &l.z_b, &l.x);
-        // A block Lemke cannot bring below its tight tolerance is still accepted at the
-        // global tolerance (ill-conditioned blocks stop at ~1e-10).
+        // A block Lemke cannot bring below its tight tolerance is refined on its active set
+        // (RefineOnActiveSet) and then accepted at the global tolerance.
+        double local_residual_after = local.residual;
+        if (!local.ok() && l.x.allFinite() && l.x.size() == m) {
+          local_residual_after = RefineOnActiveSet(l.lcp.M, l.lcp.q, &l.x);
+        }
         const bool good_enough =
-            std::isfinite(local.residual) && l.x.allFinite() &&
-            local.residual <= block_tolerance * std::max(1.0, l.lcp.q.lpNorm<Eigen::Infinity>());
+            std::isfinite(local_residual_after) && l.x.allFinite() &&
+            local_residual_after <=
+                block_tolerance * std::max(1.0, l.lcp.q.lpNorm<Eigen::Infinity>());
         if (!local.ok() && !good_enough) {
           failure = DescribeBlock(b, idx, m) + ": Lemke failed on the block LCP (" +
                     std::string(ToString(local.status)) +
@@ -274,6 +333,17 @@ SolverReport PgsSolver::Solve(const LcpProblem& problem, const VectorXd* warm_st
       exact = true;
     }
     residual = Residual(*z, w);
+    if (polish_interval > 0 && residual > tolerance && sweep % polish_interval == 0 &&
+        std::isfinite(residual)) {
+      // Subspace minimization on the active set PGS has identified (RefineOnActiveSet).
+      const double before = residual;
+      residual = RefineOnActiveSet(problem.M, problem.q, z);
+      if (residual < before) {
+        w.noalias() = problem.M * *z;
+        w += problem.q;
+        exact = true;
+      }
+    }
     if (residual <= tolerance) {
       // Stop only on the independent residual (the updated w carries roundoff).
       residual = LcpResidual(problem, *z);
