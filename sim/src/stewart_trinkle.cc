@@ -304,7 +304,8 @@ StewartTrinkle::Assembly StewartTrinkle::Assemble(const Scene& model, const Stat
   return a;
 }
 
-std::vector<std::vector<int>> StewartTrinkle::LcpBlocks(const Assembly& a, LcpBlocking blocking) {
+std::vector<std::vector<int>> StewartTrinkle::LcpBlocks(const Assembly& a, LcpBlocking blocking,
+                                                        std::vector<std::vector<int>>* parts) {
   const int nc = static_cast<int>(a.contacts.size());
   const int nd = a.nd;
   const int nf = nc * nd;
@@ -330,12 +331,19 @@ std::vector<std::vector<int>> StewartTrinkle::LcpBlocks(const Assembly& a, LcpBl
       open[key] = {static_cast<int>(blocks.size()), 1};
     }
     blocks.emplace_back().reserve(rows);
+    if (parts) parts->emplace_back();
     return blocks.back();
   };
+  // Records where the next member of `b` (the block just returned by block_for) begins.
+  auto begin_part = [&](const std::vector<int>& b) {
+    if (parts) (*parts)[&b - blocks.data()].push_back(static_cast<int>(b.size()));
+  };
+  if (parts) parts->clear();
   for (int c = 0; c < nc; ++c) {
     const Contact& ct = a.contacts[c];
     std::vector<int>& b =
         block_for({std::min(ct.body_a, ct.body_b), std::max(ct.body_a, ct.body_b)}, nd + 3);
+    begin_part(b);
     b.push_back(c);
     for (int j = 0; j < nd; ++j) b.push_back(nc + c * nd + j);
     b.push_back(nc + nf + c);
@@ -344,6 +352,7 @@ std::vector<std::vector<int>> StewartTrinkle::LcpBlocks(const Assembly& a, LcpBl
   // Support points: keyed (−1, body), apart from every contact pair.
   for (int k = 0; k < ns; ++k) {
     std::vector<int>& b = block_for({-1, sup.body[k]}, sup.count[k] + 1);
+    begin_part(b);
     for (int j = 0; j < sup.count[k]; ++j) b.push_back(s0 + sup.first[k] + j);
     b.push_back(s0 + nps + k);
   }
@@ -432,7 +441,7 @@ LcpProblem StewartTrinkle::BuildLcp(const Scene& model, const Assembly& a, const
     lcp.M(nc + nf + c, c) = a.mu[c];  // U
   }
   // Blocks for block-iterative solvers: one per contact patch (LcpBlocks).
-  lcp.blocks = LcpBlocks(a, LcpBlocking::kContactPatch);
+  lcp.blocks = LcpBlocks(a, LcpBlocking::kContactPatch, &lcp.block_parts);
   lcp.q.head(nc) = a.G_n.transpose() * *v_star + a.dpsi_n;
   if (!velocity_level_) lcp.q.head(nc) += a.psi_n / h;
   for (int c = 0; c < nc; ++c) {

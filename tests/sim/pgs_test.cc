@@ -322,6 +322,7 @@ TEST(PgsTest, OverRelaxationIsProjectedOntoTheOrthant) {
 TEST(PgsTest, ScalarPgsOnStewartTrinkleReportsZeroDiagonalFailure) {
   StepLcp s("box_on_plane.yaml", 5);
   s.lcp.blocks.clear();
+  s.lcp.block_parts.clear();
   VectorXd z;
   const SolverReport r = PgsSolver().Solve(s.lcp, nullptr, &z);
   EXPECT_EQ(r.status, SolverStatus::kNumericalFailure);
@@ -440,6 +441,7 @@ TEST(PgsTest, BoxStackColdPerContactBlocksAreApproximate) {
   StepLcp s("box_stack.yaml", 5);
   ASSERT_EQ(s.lcp.size(), 240);
   s.lcp.blocks = StewartTrinkle::LcpBlocks(s.a, StewartTrinkle::LcpBlocking::kContact);
+  s.lcp.block_parts.clear();
   ASSERT_EQ(s.lcp.blocks.size(), 40u);
   VectorXd z;
   const SolverReport r = PgsSolver().Solve(s.lcp, nullptr, &z);
@@ -471,6 +473,8 @@ TEST(PgsTest, BoxStackColdPatchBlocksConverge) {
   }
   ASSERT_EQ(patches.size(), 10u);  // floor–box0, box0–box1, ..., box8–box9
   EXPECT_EQ(s.lcp.blocks, patches);
+  // Parts: one per contact (6 rows each: p_n, 4 p_f, σ).
+  EXPECT_EQ(s.lcp.block_parts, std::vector<std::vector<int>>(10, std::vector<int>{0, 6, 12, 18}));
   VectorXd z_lemke;
   ASSERT_TRUE(LemkeSolver().Solve(s.lcp, nullptr, &z_lemke).ok());
   for (const double omega : {1.0, 1.3}) {
@@ -533,6 +537,75 @@ TEST(PgsTest, PatchBlocksPartitionAndHoldCornerUnknowns) {
   const SolverReport r = PgsSolver().Solve(s.lcp, nullptr, &z);
   ASSERT_TRUE(r.ok()) << r.message;
   ExpectLcpSolution(s.lcp, z, kTol);
+}
+
+// A block on which Lemke fails falls back to its parts (LcpProblem::block_parts): the LCP of
+// bench/vinci_vs_siconos.cc's "pyramid2@50" (3 slightly rotated boxes, two resting on the floor
+// and one on both; n = 162) has a 6-contact patch (36 rows) whose block LCP Lemke cannot solve
+// (residual 1.3 after its retries). Its 6 contacts, solved one by one, converge (577 sweeps).
+TEST(PgsTest, FailedPatchBlockFallsBackToItsContacts) {
+  Scene scene = testing::LoadExample("box_stack.yaml");
+  std::mt19937 rng(12345);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  const Body like = scene.bodies[1];
+  scene.bodies.resize(1);
+  for (int row = 0; row < 2; ++row) {
+    for (int i = 0; i < 2 - row; ++i) {
+      Vector3d axis(unit(rng), unit(rng), unit(rng));
+      axis.normalize();
+      Body b = like;
+      b.name = "p" + std::to_string(row) + "_" + std::to_string(i);
+      b.X_WB0 = Isometry3d::Identity();
+      b.X_WB0.linear() = Eigen::AngleAxisd(0.01 * unit(rng), axis).toRotationMatrix();
+      b.X_WB0.translation() = Vector3d(0.205 * (i + 0.5 * row) + 0.002 * unit(rng),
+                                       0.002 * unit(rng), 0.1 + 0.2005 * row + 0.001);
+      scene.bodies.push_back(b);
+    }
+  }
+  const Simulator sim(std::move(scene));
+  State x = sim.InitialState(), next;
+  Workspace ws;
+  for (int k = 0; k < 50; ++k) {
+    ASSERT_TRUE(sim.Step(sim.DefaultParams(), x, StepInput{}, &ws, &next).ok) << "step " << k;
+    std::swap(x, next);
+  }
+  const auto& st = dynamic_cast<const StewartTrinkle&>(sim.formulation());
+  const StewartTrinkle::Assembly a = st.Assemble(sim.scene(), x, StepInput{});
+  VectorXd v_star;
+  StewartTrinkle::JointElimination joints;
+  LcpProblem lcp = st.BuildLcp(sim.scene(), a, x.v, &v_star, &joints);
+  ASSERT_EQ(lcp.size(), 162);
+  VectorXd z, z_lemke;
+  const SolverReport r = PgsSolver().Solve(lcp, nullptr, &z);
+  ASSERT_TRUE(r.ok()) << r.message;
+  EXPECT_GE(r.restarts, 1);  // at least one block fell back to its parts
+  ExpectLcpSolution(lcp, z, kTol);
+  ASSERT_TRUE(LemkeSolver().Solve(lcp, nullptr, &z_lemke).ok());
+  EXPECT_LE((st.VelocityAfter(a, v_star, z, joints) - st.VelocityAfter(a, v_star, z_lemke, joints))
+                .lpNorm<Eigen::Infinity>(),
+            1e-6);
+  // Without parts the same failure stops the solve, naming the block.
+  lcp.block_parts.clear();
+  const SolverReport without = PgsSolver().Solve(lcp, nullptr, &z);
+  EXPECT_EQ(without.status, SolverStatus::kNumericalFailure);
+  EXPECT_NE(without.message.find("Lemke failed on the block LCP"), std::string::npos)
+      << without.message;
+}
+
+TEST(PgsTest, InvalidBlockPartsAreReported) {
+  LcpProblem p = Make(MatrixXd::Identity(3, 3), -Eigen::Vector3d::Ones());
+  p.blocks = {{0, 1}, {2}};
+  for (const std::vector<std::vector<int>>& parts :
+       {std::vector<std::vector<int>>{{0}}, {{1}, {}}, {{0, 2}, {}}, {{0, 0}, {}}}) {
+    p.block_parts = parts;
+    VectorXd z;
+    const SolverReport r = PgsSolver().Solve(p, nullptr, &z);
+    EXPECT_EQ(r.status, SolverStatus::kInvalidInput);
+    EXPECT_NE(r.message.find("block_parts"), std::string::npos) << r.message;
+  }
+  p.block_parts = {{0, 1}, {}};
+  VectorXd z;
+  ASSERT_TRUE(PgsSolver().Solve(p, nullptr, &z).ok());
 }
 
 }  // namespace

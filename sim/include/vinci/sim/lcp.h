@@ -52,6 +52,12 @@ struct LcpProblem {
   /// per contact in the Stewart–Trinkle LCP. Empty: every variable is its own block. Direct
   /// solvers (Lemke) ignore it.
   std::vector<std::vector<int>> blocks;
+  /// Optional sub-structure of `blocks` (empty, or one entry per block): block_parts[b] lists
+  /// the offsets in blocks[b] at which its parts begin (0 first, increasing, each < the block's
+  /// size); an empty entry means no parts. A block solver whose solve of block b fails may solve
+  /// its parts in turn instead (PGS does, pgs.h). StewartTrinkle::BuildLcp: one part per
+  /// contact of a contact-patch block.
+  std::vector<std::vector<int>> block_parts;
   int size() const { return static_cast<int>(q.size()); }
 };
 

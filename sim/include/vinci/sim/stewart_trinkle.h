@@ -121,8 +121,11 @@ class StewartTrinkle final : public Formulation {
   /// Largest number of contacts (or support points) in one kContactPatch block.
   static constexpr int kMaxPatchContacts = 8;
   /// The blocks of BuildLcp's unknown layout z = [p_n; p_f; σ; p_s; σ_s; c] for `a` (a
-  /// partition of the LCP's indices), blocks in order of their first contact.
-  static std::vector<std::vector<int>> LcpBlocks(const Assembly& a, LcpBlocking blocking);
+  /// partition of the LCP's indices), blocks in order of their first contact. If `parts` is
+  /// given it receives LcpProblem::block_parts: where each contact's (support point's) rows
+  /// begin in its block.
+  static std::vector<std::vector<int>> LcpBlocks(const Assembly& a, LcpBlocking blocking,
+                                                 std::vector<std::vector<int>>* parts = nullptr);
   /// The LCP of the step in (p_n, p_f, σ[, p_s, σ_s][, c]) after eliminating ν and p_b; *v_star is
   /// ν_ℓ+1 for zero contact impulses. Its blocks are LcpBlocks(a, LcpBlocking::kContactPatch).
   LcpProblem BuildLcp(const Scene& model, const Assembly& a, const VectorXd& v, VectorXd* v_star,
