@@ -48,8 +48,9 @@ struct LcpProblem {
   MatrixXd M;
   VectorXd q;
   /// Optional block structure for block-iterative solvers (projected Gauss–Seidel): a partition
-  /// of {0..n−1} into groups solved together, e.g. one friction-cone block (p_n, p_f,1..n_d, σ)
-  /// per contact in the Stewart–Trinkle LCP. Empty: every variable is its own block. Direct
+  /// of {0..n−1} into groups solved together, e.g. in the Stewart–Trinkle LCP one block per
+  /// contact patch holding the friction-cone rows (p_n, p_f,1..n_d, σ) of every contact between
+  /// two bodies (StewartTrinkle::LcpBlocks). Empty: every variable is its own block. Direct
   /// solvers (Lemke) ignore it.
   std::vector<std::vector<int>> blocks;
   /// Optional sub-structure of `blocks` (empty, or one entry per block): block_parts[b] lists

@@ -12,8 +12,8 @@ struct PgsOptions {
   /// Every this many sweeps (0: never), polish the iterate on its active set (subspace
   /// minimization: the minimum-norm Newton correction of the equations the active set implies,
   /// kept only if the residual drops; see the contract below). Off by default: on single
-  /// stack LCPs it cuts the sweeps (10-box stack, cold: 585 → 25 with 25), but a simulated
-  /// stack stepped with it fails earlier (see below).
+  /// stack LCPs it cuts the sweeps (10-box stack, cold: 585 → 25 with 25), but the stack
+  /// stepped with it fails earlier (t = 0.185 s instead of 0.754 s, see below).
   int polish_interval = 0;
 };
 
@@ -30,10 +30,13 @@ struct PgsOptions {
 /// LCP in 585 sweeps (ω = 1) or 319 (ω = 1.3). StewartTrinkle::BuildLcp therefore emits one
 /// block per contact patch (StewartTrinkle::LcpBlocking; tests/sim/pgs_test.cc, BoxStack*).
 /// Stepping the stack with `solver: pgs`, the cold first step takes 585 sweeps and the
-/// warm-started steps after it 0–45; after ~700 steps (0.7 s) the stack has drifted by ~1e-11
-/// (the solves are exact only to the tolerance, Lemke's to ~1e-16) into a rocking state whose
-/// LCPs need 1000–2000 sweeps, and the step at 0.72–0.75 s fails with kMaxIterations at a
-/// residual ~1.1e-9. Box piles and single contacts converge in tens of sweeps.
+/// warm-started steps after it 0–45 (tests/sim/pgs_stepping_test.cc: 500 steps). Not solved:
+/// after ~700 steps the stack has drifted by ~1e-11 m (the solves are exact only to the
+/// tolerance, Lemke's to ~1e-16) into a rocking state — one corner of the lower patches near
+/// lift-off, normal velocity errors ±1e-9 m/s — on which PGS crawls (1250–1800 sweeps), and the
+/// step at t = 0.754 s fails with kMaxIterations at a residual of 1.05e-9 (tolerance 1e-9).
+/// Neither a 5× looser tolerance nor polish_interval fixes that (they fail at 0.786 s and
+/// 0.185 s). The box pile (box_pile.yaml, 1 s) steps with ≤ 119 sweeps per step.
 ///
 /// Details of the contract:
 /// - Block B is solved for x given the rest, M_BB x + r_B ⊥ x ≥ 0 with r_B = q_B + M_B,rest
@@ -47,19 +50,26 @@ struct PgsOptions {
 ///   refined on its active set A = {i : x_i > w_i}: x = 0 off A plus the minimum-norm correction
 ///   of M_AA x_A = −r_A (complete orthogonal decomposition, rank-revealing), projected onto
 ///   x ≥ 0, at most 3 times, each kept only if the block residual drops. The refined block is
-///   accepted if its residual is ≤ min(1e-9, tolerance) · max(1, ‖r_B‖∞); otherwise the solve
-///   stops as below. Without the refinement the stack's block errors sat at the global
-///   tolerance and warm-started steps needed 1000–2000 sweeps; with it, 0–45.
+///   accepted if its residual is ≤ min(1e-9, tolerance) · max(1, ‖r_B‖∞). Without the
+///   refinement the stack's block errors sat at the global tolerance: the warm-started solve
+///   before step 722 of the stack took 1764 sweeps, with it 1.
+/// - Fallback to parts: if a block still fails and LcpProblem::block_parts gives it parts
+///   (BuildLcp: its contacts), the block is solved part by part (one Gauss–Seidel pass over
+///   them, each part a block solve as above) for the rest of the solve; `restarts` counts the
+///   blocks that fell back. Needed on a 6-contact box–box patch of 36 rows on which Lemke
+///   ends at residual 1.3 (tests/sim/pgs_test.cc, FailedPatchBlockFallsBackToItsContacts). A
+///   block without parts, or a part that fails, stops the solve with kNumericalFailure naming
+///   the block.
 /// - Polish (polish_interval > 0): the same refinement on the whole LCP after every
 ///   polish_interval-th sweep (an O(n³) decomposition of the active rows), kept only if the
 ///   residual drops.
 /// - A scalar block with M_ii ≤ 0 gets x = 0 if r_i ≥ 0; if r_i < 0 its 1×1 LCP has no
 ///   solution, and the solve stops with kNumericalFailure naming the variable (scalar PGS on
-///   the Stewart–Trinkle LCP without its blocks ends this way). A block on which Lemke fails
-///   stops the solve the same way.
+///   the Stewart–Trinkle LCP without its blocks ends this way).
 /// - The warm start, projected onto z ≥ 0, is the first iterate; if it passes the tolerance
 ///   it is returned with 0 sweeps. `iterations` counts sweeps.
-/// - LcpProblem::blocks must partition {0..n−1} (each index exactly once), else kInvalidInput.
+/// - LcpProblem::blocks must partition {0..n−1} (each index exactly once), and block_parts be
+///   empty or fit the blocks (lcp.h), else kInvalidInput.
 /// - On failure z holds the iterate with the smallest residual seen at the end of a sweep
 ///   (or the start), zeros for invalid input.
 /// - Invalid options (max_sweeps < 1, negative tolerance, ω ∉ (0, 2), polish_interval < 0) throw
