@@ -37,7 +37,8 @@ struct SolverReport {
   bool regularized = false;     ///< true if the solution came from a regularized retry M + εI
   double regularization = 0.0;  ///< the ε used, if regularized
   /// Extra attempts after the first one failed: McpSolver restarts, FB Newton's Lemke
-  /// fallback, Lemke's Newton fallback (0: the first attempt decided the outcome).
+  /// fallback, Lemke's Newton fallback, PGS blocks that fell back to their parts (0: the first
+  /// attempt decided the outcome).
   int restarts = 0;
   std::string message;  ///< human-readable detail on failure
   bool ok() const { return status == SolverStatus::kSolved; }

@@ -37,7 +37,8 @@ struct PgsOptions {
 /// step at t = 0.754 s fails with kMaxIterations at a residual of 1.05e-9 (tolerance 1e-9).
 /// Neither a 5× looser tolerance nor polish_interval fixes that (they fail at 0.786 s and
 /// 0.185 s); a tighter one only delays it (1e-10: 0.848 s, 1e-11: 0.897 s, then a block
-/// Lemke fails at the tighter block tolerance).
+/// Lemke fails at the tighter block tolerance). The box pile (box_pile.yaml, 1 s) steps with
+/// ≤ 119 sweeps per step.
 ///
 /// Details of the contract:
 /// - Block B is solved for x given the rest, M_BB x + r_B ⊥ x ≥ 0 with r_B = q_B + M_B,rest
