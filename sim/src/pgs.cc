@@ -12,6 +12,7 @@
 // changed (O(n |B|) per block) and recomputed from scratch every few sweeps to bound roundoff.
 #include "vinci/sim/pgs.h"
 
+#include <Eigen/QR>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -51,6 +52,7 @@ void ValidateOptions(const PgsOptions& o) {
   if (!(o.relaxation > 0.0 && o.relaxation < 2.0)) {
     fail("relaxation", o.relaxation, "a value in (0, 2)");
   }
+  if (o.polish_interval < 0) fail("polish_interval", o.polish_interval, ">= 0");
 }
 
 // Empty if `blocks` partitions {0..n−1}; otherwise what is wrong.
@@ -77,6 +79,29 @@ std::string CheckBlocks(const std::vector<std::vector<int>>& blocks, int n) {
   return {};
 }
 
+// Empty if `parts` is empty or fits `blocks` (LcpProblem::block_parts); otherwise what is wrong.
+std::string CheckBlockParts(const std::vector<std::vector<int>>& parts,
+                            const std::vector<std::vector<int>>& blocks) {
+  if (parts.empty()) return {};
+  if (parts.size() != blocks.size()) {
+    return "block_parts has " + std::to_string(parts.size()) + " entries for " +
+           std::to_string(blocks.size()) + " blocks";
+  }
+  for (std::size_t b = 0; b < parts.size(); ++b) {
+    const int m = static_cast<int>(blocks[b].size());
+    for (std::size_t p = 0; p < parts[b].size(); ++p) {
+      const int s = parts[b][p];
+      if ((p == 0 && s != 0) || (p > 0 && s <= parts[b][p - 1]) || s >= m) {
+        return "block_parts[" + std::to_string(b) + "] = offset " + std::to_string(s) +
+               " at position " + std::to_string(p) +
+               "; expected 0 first, then increasing offsets below the block size " +
+               std::to_string(m);
+      }
+    }
+  }
+  return {};
+}
+
 // ‖min(z, w)‖_∞, +∞ if anything is NaN.
 double Residual(const VectorXd& z, const VectorXd& w) {
   double r = 0.0;
@@ -99,6 +124,57 @@ struct LocalLcp {
   VectorXd z_b;    // current z_B (Lemke's warm start)
   VectorXd x;      // local solution
 };
+
+// ‖min(x, M x + r)‖_∞ of a block LCP, +∞ if anything is NaN.
+double BlockResidual(const MatrixXd& M, const VectorXd& r, const VectorXd& x) {
+  return Residual(x, M * x + r);
+}
+
+// Active-set refinement of a block solution x of M x + r ⊥ x ≥ 0 (block Lemke's result, when it
+// misses its tight tolerance). A contact patch's M_BB is singular — its impulse columns act
+// through the 12 velocities of two bodies, and the patch's normal forces are statically
+// indeterminate — so Lemke's degenerate bases leave residuals of 1e-10…1e-9 on impulses of
+// ~1e-2 (box stack), a floor right at PGS's global tolerance. Each refinement step takes the
+// active set A = {i : x_i > w_i}, sets x_i = 0 off A and the minimum-norm correction δ of
+// M_AA δ = −w_A on A (complete orthogonal decomposition, rank-revealing, so the singular M_AA
+// is fine), projects onto x ≥ 0 and keeps the result only if the block residual drops.
+// Returns the block residual of the (possibly unchanged) x.
+double RefineOnActiveSet(const MatrixXd& M, const VectorXd& r, VectorXd* x) {
+  constexpr int kMaxRefinements = 3;
+  const int m = static_cast<int>(r.size());
+  double residual = BlockResidual(M, r, *x);
+  std::vector<int> active;
+  for (int it = 0; it < kMaxRefinements && residual > 0.0 && std::isfinite(residual); ++it) {
+    const VectorXd w = M * *x + r;
+    active.clear();
+    for (int i = 0; i < m; ++i)
+      if ((*x)(i) > w(i)) active.push_back(i);
+    const int k = static_cast<int>(active.size());
+    VectorXd trial = VectorXd::Zero(m);
+    if (k > 0) {
+      MatrixXd M_aa(k, k);
+      VectorXd w_a(k);
+      for (int c = 0; c < k; ++c) {
+        for (int rr = 0; rr < k; ++rr) M_aa(rr, c) = M(active[rr], active[c]);
+      }
+      // w_A after zeroing x off A.
+      for (int rr = 0; rr < k; ++rr) {
+        double v = w(active[rr]);
+        for (int i = 0; i < m; ++i) {
+          if ((*x)(i) <= w(i)) v -= M(active[rr], i) * (*x)(i);
+        }
+        w_a(rr) = v;
+      }
+      const VectorXd delta = M_aa.completeOrthogonalDecomposition().solve(-w_a);
+      for (int c = 0; c < k; ++c) trial(active[c]) = std::max(0.0, (*x)(active[c]) + delta(c));
+    }
+    const double trial_residual = BlockResidual(M, r, trial);
+    if (!(trial_residual < residual)) break;
+    *x = trial;
+    residual = trial_residual;
+  }
+  return residual;
+}
 
 }  // namespace
 
@@ -127,6 +203,9 @@ SolverReport PgsSolver::Solve(const LcpProblem& problem, const VectorXd* warm_st
   if (const std::string bad = CheckBlocks(problem.blocks, n); !bad.empty()) {
     return invalid("LcpProblem::blocks is not a partition of the " + std::to_string(n) +
                    " variables: " + bad);
+  }
+  if (const std::string bad = CheckBlockParts(problem.block_parts, problem.blocks); !bad.empty()) {
+    return invalid("LcpProblem::block_parts does not fit the blocks: " + bad);
   }
   if (n == 0) {
     z->resize(0);
@@ -209,7 +288,57 @@ SolverReport PgsSolver::Solve(const LcpProblem& problem, const VectorXd* warm_st
     (*z)(i) = x;
   };
 
-  int sweep = 0;
+  // The 1×1 block {i}; returns why it has no solution, else "".
+  auto solve_scalar = [&](int i) -> std::string {
+    const double d = problem.M(i, i);
+    if (d > 0.0) {
+      const double z_i = (*z)(i);
+      update(i, std::max(0.0, z_i - w(i) / d));
+      return {};
+    }
+    // 1×1 LCP d x + r ⊥ x ≥ 0 with d ≤ 0: x = 0 if r ≥ 0; no solution if r < 0.
+    const double r = w(i) - d * (*z)(i);
+    if (r >= 0.0) {
+      update(i, 0.0);
+      return {};
+    }
+    return "variable " + std::to_string(i) + " has M_ii = " + FormatDouble(d) +
+           " <= 0 and r_i = " + FormatDouble(r) +
+           " < 0, so its 1x1 LCP given the other variables has no solution (scalar "
+           "PGS cannot handle rows with a non-positive diagonal; group them with the "
+           "variables they couple to in LcpProblem::blocks)";
+  };
+  // The block LCP of the rows idx[0..m) (m = l->x.size(), l->lcp.M = M_BB filled in): sets
+  // l->x to its solution given the other variables (not applied yet); returns why it failed,
+  // else "".
+  auto solve_block = [&](const int* idx, LocalLcp* l) -> std::string {
+    const int m = static_cast<int>(l->x.size());
+    for (int k = 0; k < m; ++k) l->z_b(k) = (*z)(idx[k]);
+    l->lcp.q.noalias() = -l->lcp.M * l->z_b;
+    for (int k = 0; k < m; ++k) l->lcp.q(k) += w(idx[k]);
+    if (l->lcp.q.minCoeff() >= 0.0) {
+      l->x.setZero();  // Lemke's trivial case, without the call
+      return {};
+    }
+    const SolverReport local = lemke.Solve(l->lcp, &l->z_b, &l->x);
+    if (local.ok()) return {};
+    // A block Lemke cannot bring below its tight tolerance is refined on its active set
+    // (RefineOnActiveSet) and then accepted at the global tolerance.
+    double refined = local.residual;
+    if (l->x.size() == m && l->x.allFinite())
+      refined = RefineOnActiveSet(l->lcp.M, l->lcp.q, &l->x);
+    if (std::isfinite(refined) && l->x.allFinite() &&
+        refined <= block_tolerance * std::max(1.0, l->lcp.q.lpNorm<Eigen::Infinity>())) {
+      return {};
+    }
+    return "Lemke failed on the block LCP (" + std::string(ToString(local.status)) +
+           (local.message.empty() ? "" : ": " + local.message) + "; residual after refinement " +
+           FormatDouble(refined) + ")";
+  };
+
+  int sweep = 0, part_fallbacks = 0;
+  std::vector<char> use_parts(num_blocks, 0);  // blocks solved by their parts (fallback)
+  const int polish_interval = options_.polish_interval;
   while (sweep < options_.max_sweeps && !solved && failure.empty()) {
     for (int b = 0; b < num_blocks && failure.empty(); ++b) {
       const int* idx = index.data() + begin[b];
@@ -221,48 +350,52 @@ SolverReport PgsSolver::Solve(const LcpProblem& problem, const VectorXd* warm_st
       if (local_residual <= skip_tolerance) continue;
 
       if (m == 1) {
-        const int i = idx[0];
-        const double d = problem.M(i, i);
-        if (d > 0.0) {
-          const double z_i = (*z)(i);
-          update(i, std::max(0.0, z_i - w(i) / d));
-        } else {
-          // 1×1 LCP d x + r ⊥ x ≥ 0 with d ≤ 0: x = 0 if r ≥ 0; no solution if r < 0.
-          const double r = w(i) - d * (*z)(i);
-          if (r >= 0.0) {
-            update(i, 0.0);
-          } else {
-            failure = "variable " + std::to_string(i) + " has M_ii = " + FormatDouble(d) +
-                      " <= 0 and r_i = " + FormatDouble(r) +
-                      " < 0, so its 1x1 LCP given the other variables has no solution (scalar "
-                      "PGS cannot handle rows with a non-positive diagonal; group them with the "
-                      "variables they couple to in LcpProblem::blocks)";
-          }
-        }
+        failure = solve_scalar(idx[0]);
         continue;
       }
-
-      LocalLcp& l = locals[local_of[b]];
-      for (int k = 0; k < m; ++k) l.z_b(k) = (*z)(idx[k]);
-      l.lcp.q.noalias() = -l.lcp.M * l.z_b;
-      for (int k = 0; k < m; ++k) l.lcp.q(k) += w(idx[k]);
-      if (l.lcp.q.minCoeff() >= 0.0) {
-        l.x.setZero();  // Lemke's trivial case, without the call
-      } else {
-        const SolverReport local = lemke.Solve(l.lcp, &l.z_b, &l.x);
-        // A block Lemke cannot bring below its tight tolerance is still accepted at the
-        // global tolerance (ill-conditioned blocks stop at ~1e-10).
-        const bool good_enough =
-            std::isfinite(local.residual) && l.x.allFinite() &&
-            local.residual <= block_tolerance * std::max(1.0, l.lcp.q.lpNorm<Eigen::Infinity>());
-        if (!local.ok() && !good_enough) {
-          failure = DescribeBlock(b, idx, m) + ": Lemke failed on the block LCP (" +
-                    std::string(ToString(local.status)) +
-                    (local.message.empty() ? "" : ": " + local.message) + ")";
+      std::string error;
+      if (!use_parts[b]) {
+        LocalLcp& l = locals[local_of[b]];
+        error = solve_block(idx, &l);
+        if (error.empty()) {
+          for (int k = 0; k < m; ++k) update(idx[k], l.x(k));
           continue;
         }
       }
-      for (int k = 0; k < m; ++k) update(idx[k], l.x(k));
+      // Fallback: the block's parts (LcpProblem::block_parts, e.g. the contacts of a patch),
+      // one Gauss–Seidel pass over them in order.
+      const std::vector<int>* parts = problem.block_parts.empty() || problem.block_parts[b].empty()
+                                          ? nullptr
+                                          : &problem.block_parts[b];
+      if (parts == nullptr) {
+        failure = DescribeBlock(b, idx, m) + ": " + error;
+        continue;
+      }
+      if (!use_parts[b]) ++part_fallbacks;
+      use_parts[b] = 1;  // for the rest of this solve
+      for (std::size_t p = 0; p < parts->size() && failure.empty(); ++p) {
+        const int s = (*parts)[p];
+        const int e = p + 1 < parts->size() ? (*parts)[p + 1] : m;
+        if (e - s == 1) {
+          failure = solve_scalar(idx[s]);
+          continue;
+        }
+        LocalLcp part;
+        part.lcp.M.resize(e - s, e - s);
+        for (int c = s; c < e; ++c) {
+          for (int r = s; r < e; ++r) part.lcp.M(r - s, c - s) = problem.M(idx[r], idx[c]);
+        }
+        part.lcp.q.resize(e - s);
+        part.z_b.resize(e - s);
+        part.x.resize(e - s);
+        const std::string part_error = solve_block(idx + s, &part);
+        if (!part_error.empty()) {
+          failure = DescribeBlock(b, idx, m) + ": " + error + "; part " + std::to_string(p) +
+                    " of the block (the fallback) failed: " + part_error;
+          continue;
+        }
+        for (int k = s; k < e; ++k) update(idx[k], part.x(k - s));
+      }
     }
     ++sweep;
     if (!failure.empty()) break;
@@ -274,6 +407,17 @@ SolverReport PgsSolver::Solve(const LcpProblem& problem, const VectorXd* warm_st
       exact = true;
     }
     residual = Residual(*z, w);
+    if (polish_interval > 0 && residual > tolerance && sweep % polish_interval == 0 &&
+        std::isfinite(residual)) {
+      // Subspace minimization on the active set PGS has identified (RefineOnActiveSet).
+      const double before = residual;
+      residual = RefineOnActiveSet(problem.M, problem.q, z);
+      if (residual < before) {
+        w.noalias() = problem.M * *z;
+        w += problem.q;
+        exact = true;
+      }
+    }
     if (residual <= tolerance) {
       // Stop only on the independent residual (the updated w carries roundoff).
       residual = LcpResidual(problem, *z);
@@ -295,6 +439,7 @@ SolverReport PgsSolver::Solve(const LcpProblem& problem, const VectorXd* warm_st
   }
 
   report.iterations = sweep;
+  report.restarts = part_fallbacks;
   if (solved) {
     report.status = SolverStatus::kSolved;
   } else {

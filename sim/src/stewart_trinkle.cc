@@ -1,7 +1,11 @@
 #include "vinci/sim/stewart_trinkle.h"
 
+#include <algorithm>
 #include <cmath>
+#include <map>
 #include <stdexcept>
+#include <utility>
+#include <vector>
 
 #include "step_util.h"
 #include "vinci/sim/joint.h"
@@ -300,6 +304,61 @@ StewartTrinkle::Assembly StewartTrinkle::Assemble(const Scene& model, const Stat
   return a;
 }
 
+std::vector<std::vector<int>> StewartTrinkle::LcpBlocks(const Assembly& a, LcpBlocking blocking,
+                                                        std::vector<std::vector<int>>* parts) {
+  const int nc = static_cast<int>(a.contacts.size());
+  const int nd = a.nd;
+  const int nf = nc * nd;
+  const SupportRows& sup = a.support;
+  const int ns = sup.points(), nps = sup.columns(), s0 = nc + nf + nc;
+  const int nk = static_cast<int>(a.corner_contact.size());
+  const int o = nc + nf + nc + nps + ns;  // first corner unknown
+  std::vector<int> corner_of(nc, -1);
+  for (int k = 0; k < nk; ++k) corner_of[a.corner_contact[k]] = k;
+  const bool patches = blocking == LcpBlocking::kContactPatch;
+
+  std::vector<std::vector<int>> blocks;
+  // Open patch block per unordered body pair (contacts) or body (support points), and how many
+  // contacts it holds; a full block is closed and the next member opens a new one.
+  std::map<std::pair<int, int>, std::pair<int, int>> open;  // key → (block, members)
+  auto block_for = [&](std::pair<int, int> key, int rows) -> std::vector<int>& {
+    if (patches) {
+      auto it = open.find(key);
+      if (it != open.end() && it->second.second < kMaxPatchContacts) {
+        ++it->second.second;
+        return blocks[it->second.first];
+      }
+      open[key] = {static_cast<int>(blocks.size()), 1};
+    }
+    blocks.emplace_back().reserve(rows);
+    if (parts) parts->emplace_back();
+    return blocks.back();
+  };
+  // Records where the next member of `b` (the block just returned by block_for) begins.
+  auto begin_part = [&](const std::vector<int>& b) {
+    if (parts) (*parts)[&b - blocks.data()].push_back(static_cast<int>(b.size()));
+  };
+  if (parts) parts->clear();
+  for (int c = 0; c < nc; ++c) {
+    const Contact& ct = a.contacts[c];
+    std::vector<int>& b =
+        block_for({std::min(ct.body_a, ct.body_b), std::max(ct.body_a, ct.body_b)}, nd + 3);
+    begin_part(b);
+    b.push_back(c);
+    for (int j = 0; j < nd; ++j) b.push_back(nc + c * nd + j);
+    b.push_back(nc + nf + c);
+    if (corner_of[c] >= 0) b.push_back(o + corner_of[c]);
+  }
+  // Support points: keyed (−1, body), apart from every contact pair.
+  for (int k = 0; k < ns; ++k) {
+    std::vector<int>& b = block_for({-1, sup.body[k]}, sup.count[k] + 1);
+    begin_part(b);
+    for (int j = 0; j < sup.count[k]; ++j) b.push_back(s0 + sup.first[k] + j);
+    b.push_back(s0 + nps + k);
+  }
+  return blocks;
+}
+
 LcpProblem StewartTrinkle::BuildLcp(const Scene& model, const Assembly& a, const VectorXd& v,
                                     VectorXd* v_star, JointElimination* joints) const {
   const double h = options_.dt;
@@ -381,15 +440,8 @@ LcpProblem StewartTrinkle::BuildLcp(const Scene& model, const Assembly& a, const
     }
     lcp.M(nc + nf + c, c) = a.mu[c];  // U
   }
-  // One friction-cone block per contact for block-iterative solvers: (p_n, p_f,1..n_d, σ).
-  lcp.blocks.resize(nc);
-  for (int c = 0; c < nc; ++c) {
-    std::vector<int>& b = lcp.blocks[c];
-    b.reserve(nd + 2);
-    b.push_back(c);
-    for (int j = 0; j < nd; ++j) b.push_back(nc + c * nd + j);
-    b.push_back(nc + nf + c);
-  }
+  // Blocks for block-iterative solvers: one per contact patch (LcpBlocks).
+  lcp.blocks = LcpBlocks(a, LcpBlocking::kContactPatch, &lcp.block_parts);
   lcp.q.head(nc) = a.G_n.transpose() * *v_star + a.dpsi_n;
   if (!velocity_level_) lcp.q.head(nc) += a.psi_n / h;
   for (int c = 0; c < nc; ++c) {
@@ -426,7 +478,6 @@ LcpProblem StewartTrinkle::BuildLcp(const Scene& model, const Assembly& a, const
     for (int k = 0; k < nk; ++k) {
       lcp.M(o + k, o + k) = 1.0;
       lcp.M(a.corner_contact[k], o + k) = 1.0;
-      lcp.blocks[a.corner_contact[k]].push_back(o + k);
       // Anitescu–Potra: corner rows stay position-level (header comment).
       if (velocity_level_) lcp.q[a.corner_contact[k]] += a.psi_n[a.corner_contact[k]] / h;
     }
@@ -434,15 +485,11 @@ LcpProblem StewartTrinkle::BuildLcp(const Scene& model, const Assembly& a, const
   }
   // Support friction rows: 0 ≤ p_s ⊥ G_sᵀν + E_s σ_s, 0 ≤ σ_s ⊥ h μ_s N − E_sᵀ p_s.
   for (int k = 0; k < ns; ++k) {
-    std::vector<int> block;
     for (int j = 0; j < sup.count[k]; ++j) {
       const int row = s0 + sup.first[k] + j;
       lcp.M(row, s0 + nps + k) = 1.0;   // E_s
       lcp.M(s0 + nps + k, row) = -1.0;  // −E_sᵀ
-      block.push_back(row);
     }
-    block.push_back(s0 + nps + k);
-    lcp.blocks.push_back(std::move(block));
   }
   if (nps > 0) {
     lcp.q.segment(s0, nps) = sup.G_s.transpose() * *v_star;

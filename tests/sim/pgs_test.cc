@@ -218,12 +218,14 @@ TEST(PgsTest, ExactWarmStartNeedsNoSweeps) {
 }
 
 // The Stewart–Trinkle LCP (zero diagonal in the σ rows, non-symmetric U / −Eᵀ / E coupling)
-// of a box resting on a plane: the friction-cone blocks from BuildLcp are solved by Lemke each
+// of a box resting on a plane: the contact-patch block from BuildLcp is solved by Lemke each
 // sweep, and the step velocity matches Lemke's.
 TEST(PgsTest, StewartTrinkleBoxOnPlaneWithBlocksMatchesLemke) {
   const StepLcp s("box_on_plane.yaml", 5);
-  ASSERT_EQ(s.lcp.blocks.size(), 4u);  // 4 corner contacts, n_d = 8
+  // 4 corner contacts, n_d = 8, all between the box and the plane: one patch block.
   ASSERT_EQ(s.lcp.size(), 4 * (8 + 2));
+  ASSERT_EQ(s.lcp.blocks.size(), 1u);
+  ASSERT_EQ(s.lcp.blocks[0].size(), 40u);
   PgsOptions o;
   o.tolerance = 1e-8;
   VectorXd z, z_lemke;
@@ -320,6 +322,7 @@ TEST(PgsTest, OverRelaxationIsProjectedOntoTheOrthant) {
 TEST(PgsTest, ScalarPgsOnStewartTrinkleReportsZeroDiagonalFailure) {
   StepLcp s("box_on_plane.yaml", 5);
   s.lcp.blocks.clear();
+  s.lcp.block_parts.clear();
   VectorXd z;
   const SolverReport r = PgsSolver().Solve(s.lcp, nullptr, &z);
   EXPECT_EQ(r.status, SolverStatus::kNumericalFailure);
@@ -428,14 +431,17 @@ TEST(PgsTest, DeterministicAcrossCallsAndThreads) {
   EXPECT_EQ(r1.residual, r3.residual);
 }
 
-// Cold block PGS on the 10-box stack (n = 240) with the stepper's blocks (one friction-cone
-// block per contact, ordered bottom to top): approximate. 1000 sweeps reach a residual of
+// Cold block PGS on the 10-box stack (n = 240) with one friction-cone block per contact
+// (StewartTrinkle::LcpBlocking::kContact, ordered bottom to top; BuildLcp's blocks before the
+// contact-patch grouping): approximate. 1000 sweeps reach a residual of
 // 1.1e-5 (ω = 1; 5.9e-6 with ω = 0.7, 1e-5…4e-5 with ω = 1.3…1.9, the same in reverse order),
 // far from the 1e-9 tolerance. Grouping the 4 contacts of each box pair into one block
 // (solved exactly by Lemke) removes the stall: 585 sweeps at ω = 1, 319 at ω = 1.3.
 TEST(PgsTest, BoxStackColdPerContactBlocksAreApproximate) {
-  const StepLcp s("box_stack.yaml", 5);
+  StepLcp s("box_stack.yaml", 5);
   ASSERT_EQ(s.lcp.size(), 240);
+  s.lcp.blocks = StewartTrinkle::LcpBlocks(s.a, StewartTrinkle::LcpBlocking::kContact);
+  s.lcp.block_parts.clear();
   ASSERT_EQ(s.lcp.blocks.size(), 40u);
   VectorXd z;
   const SolverReport r = PgsSolver().Solve(s.lcp, nullptr, &z);
@@ -446,9 +452,12 @@ TEST(PgsTest, BoxStackColdPerContactBlocksAreApproximate) {
   EXPECT_GT(r.residual, PgsOptions().tolerance);
 }
 
-// The same LCP with one block per contact patch (all contacts between the same two bodies).
+// The same LCP with one block per contact patch (all contacts between the same two bodies):
+// BuildLcp's blocks, checked against patches built here from the per-contact blocks.
 TEST(PgsTest, BoxStackColdPatchBlocksConverge) {
   StepLcp s("box_stack.yaml", 5);
+  const std::vector<std::vector<int>> per_contact =
+      StewartTrinkle::LcpBlocks(s.a, StewartTrinkle::LcpBlocking::kContact);
   std::vector<std::vector<int>> patches;
   std::vector<std::pair<int, int>> patch_bodies;
   for (size_t c = 0; c < s.a.contacts.size(); ++c) {
@@ -456,14 +465,16 @@ TEST(PgsTest, BoxStackColdPatchBlocksConverge) {
     const auto it = std::find(patch_bodies.begin(), patch_bodies.end(), bodies);
     if (it == patch_bodies.end()) {
       patch_bodies.push_back(bodies);
-      patches.push_back(s.lcp.blocks[c]);
+      patches.push_back(per_contact[c]);
     } else {
       std::vector<int>& b = patches[it - patch_bodies.begin()];
-      b.insert(b.end(), s.lcp.blocks[c].begin(), s.lcp.blocks[c].end());
+      b.insert(b.end(), per_contact[c].begin(), per_contact[c].end());
     }
   }
   ASSERT_EQ(patches.size(), 10u);  // floor–box0, box0–box1, ..., box8–box9
-  s.lcp.blocks = patches;
+  EXPECT_EQ(s.lcp.blocks, patches);
+  // Parts: one per contact (6 rows each: p_n, 4 p_f, σ).
+  EXPECT_EQ(s.lcp.block_parts, std::vector<std::vector<int>>(10, std::vector<int>{0, 6, 12, 18}));
   VectorXd z_lemke;
   ASSERT_TRUE(LemkeSolver().Solve(s.lcp, nullptr, &z_lemke).ok());
   for (const double omega : {1.0, 1.3}) {
@@ -477,6 +488,124 @@ TEST(PgsTest, BoxStackColdPatchBlocksConverge) {
     ExpectLcpSolution(s.lcp, z, kTol);
     EXPECT_LE((s.VelocityAfter(z) - s.VelocityAfter(z_lemke)).lpNorm<Eigen::Infinity>(), 1e-6);
   }
+}
+
+// Polish (PgsOptions::polish_interval): subspace minimization on the active set every 25
+// sweeps solves the same cold stack LCP in 25 sweeps (measured) instead of 585.
+TEST(PgsTest, BoxStackColdPolishConvergesInFewSweeps) {
+  const StepLcp s("box_stack.yaml", 5);
+  PgsOptions o;
+  o.polish_interval = 25;
+  VectorXd z, z_lemke;
+  const SolverReport r = PgsSolver(o).Solve(s.lcp, nullptr, &z);
+  ASSERT_TRUE(r.ok()) << r.message;
+  EXPECT_LE(r.iterations, 50);  // measured 25: the first polish finds the active set
+  ExpectLcpSolution(s.lcp, z, kTol);
+  ASSERT_TRUE(LemkeSolver().Solve(s.lcp, nullptr, &z_lemke).ok());
+  EXPECT_LE((s.VelocityAfter(z) - s.VelocityAfter(z_lemke)).lpNorm<Eigen::Infinity>(), 1e-6);
+  o.polish_interval = -1;
+  EXPECT_THROW(PgsSolver(o).Solve(s.lcp, nullptr, &z), std::invalid_argument);
+}
+
+// LcpBlocks partitions the unknowns, with a corner unknown c_k in the block of its contact
+// (concave_trench.yaml: a box at the corners of a trench, contacts with the trench only).
+TEST(PgsTest, PatchBlocksPartitionAndHoldCornerUnknowns) {
+  const StepLcp s("concave_trench.yaml", 1000);  // the block over the first corner
+  const int nk = static_cast<int>(s.a.corner_contact.size());
+  ASSERT_GT(nk, 0);
+  const int n = s.lcp.size();
+  std::vector<int> owner(n, -1);
+  for (int b = 0; b < static_cast<int>(s.lcp.blocks.size()); ++b) {
+    for (int i : s.lcp.blocks[b]) {
+      ASSERT_TRUE(i >= 0 && i < n);
+      EXPECT_EQ(owner[i], -1) << "index " << i << " twice";
+      owner[i] = b;
+    }
+  }
+  for (int i = 0; i < n; ++i) EXPECT_GE(owner[i], 0) << "index " << i << " in no block";
+  for (int k = 0; k < nk; ++k) {
+    EXPECT_EQ(owner[n - nk + k], owner[s.a.corner_contact[k]]) << "corner " << k;
+  }
+  // One block per body pair here (fewer than kMaxPatchContacts contacts each).
+  std::vector<std::pair<int, int>> pairs;
+  for (const Contact& c : s.a.contacts) {
+    const std::pair<int, int> p(std::min(c.body_a, c.body_b), std::max(c.body_a, c.body_b));
+    if (std::find(pairs.begin(), pairs.end(), p) == pairs.end()) pairs.push_back(p);
+  }
+  EXPECT_EQ(s.lcp.blocks.size(), pairs.size());
+  VectorXd z;
+  const SolverReport r = PgsSolver().Solve(s.lcp, nullptr, &z);
+  ASSERT_TRUE(r.ok()) << r.message;
+  ExpectLcpSolution(s.lcp, z, kTol);
+}
+
+// A block on which Lemke fails falls back to its parts (LcpProblem::block_parts): the LCP of
+// bench/vinci_vs_siconos.cc's "pyramid2@50" (3 slightly rotated boxes, two resting on the floor
+// and one on both; n = 162) has a 6-contact patch (36 rows) whose block LCP Lemke cannot solve
+// (residual 1.3 after its retries). Its 6 contacts, solved one by one, converge (577 sweeps).
+TEST(PgsTest, FailedPatchBlockFallsBackToItsContacts) {
+  Scene scene = testing::LoadExample("box_stack.yaml");
+  std::mt19937 rng(12345);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  const Body like = scene.bodies[1];
+  scene.bodies.resize(1);
+  for (int row = 0; row < 2; ++row) {
+    for (int i = 0; i < 2 - row; ++i) {
+      Vector3d axis(unit(rng), unit(rng), unit(rng));
+      axis.normalize();
+      Body b = like;
+      b.name = "p" + std::to_string(row) + "_" + std::to_string(i);
+      b.X_WB0 = Isometry3d::Identity();
+      b.X_WB0.linear() = Eigen::AngleAxisd(0.01 * unit(rng), axis).toRotationMatrix();
+      b.X_WB0.translation() = Vector3d(0.205 * (i + 0.5 * row) + 0.002 * unit(rng),
+                                       0.002 * unit(rng), 0.1 + 0.2005 * row + 0.001);
+      scene.bodies.push_back(b);
+    }
+  }
+  const Simulator sim(std::move(scene));
+  State x = sim.InitialState(), next;
+  Workspace ws;
+  for (int k = 0; k < 50; ++k) {
+    ASSERT_TRUE(sim.Step(sim.DefaultParams(), x, StepInput{}, &ws, &next).ok) << "step " << k;
+    std::swap(x, next);
+  }
+  const auto& st = dynamic_cast<const StewartTrinkle&>(sim.formulation());
+  const StewartTrinkle::Assembly a = st.Assemble(sim.scene(), x, StepInput{});
+  VectorXd v_star;
+  StewartTrinkle::JointElimination joints;
+  LcpProblem lcp = st.BuildLcp(sim.scene(), a, x.v, &v_star, &joints);
+  ASSERT_EQ(lcp.size(), 162);
+  VectorXd z, z_lemke;
+  const SolverReport r = PgsSolver().Solve(lcp, nullptr, &z);
+  ASSERT_TRUE(r.ok()) << r.message;
+  EXPECT_GE(r.restarts, 1);  // at least one block fell back to its parts
+  ExpectLcpSolution(lcp, z, kTol);
+  ASSERT_TRUE(LemkeSolver().Solve(lcp, nullptr, &z_lemke).ok());
+  EXPECT_LE((st.VelocityAfter(a, v_star, z, joints) - st.VelocityAfter(a, v_star, z_lemke, joints))
+                .lpNorm<Eigen::Infinity>(),
+            1e-6);
+  // Without parts the same failure stops the solve, naming the block.
+  lcp.block_parts.clear();
+  const SolverReport without = PgsSolver().Solve(lcp, nullptr, &z);
+  EXPECT_EQ(without.status, SolverStatus::kNumericalFailure);
+  EXPECT_NE(without.message.find("Lemke failed on the block LCP"), std::string::npos)
+      << without.message;
+}
+
+TEST(PgsTest, InvalidBlockPartsAreReported) {
+  LcpProblem p = Make(MatrixXd::Identity(3, 3), -Eigen::Vector3d::Ones());
+  p.blocks = {{0, 1}, {2}};
+  for (const std::vector<std::vector<int>>& parts :
+       {std::vector<std::vector<int>>{{0}}, {{1}, {}}, {{0, 2}, {}}, {{0, 0}, {}}}) {
+    p.block_parts = parts;
+    VectorXd z;
+    const SolverReport r = PgsSolver().Solve(p, nullptr, &z);
+    EXPECT_EQ(r.status, SolverStatus::kInvalidInput);
+    EXPECT_NE(r.message.find("block_parts"), std::string::npos) << r.message;
+  }
+  p.block_parts = {{0, 1}, {}};
+  VectorXd z;
+  ASSERT_TRUE(PgsSolver().Solve(p, nullptr, &z).ok());
 }
 
 }  // namespace

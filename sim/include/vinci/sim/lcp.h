@@ -37,7 +37,8 @@ struct SolverReport {
   bool regularized = false;     ///< true if the solution came from a regularized retry M + εI
   double regularization = 0.0;  ///< the ε used, if regularized
   /// Extra attempts after the first one failed: McpSolver restarts, FB Newton's Lemke
-  /// fallback, Lemke's Newton fallback (0: the first attempt decided the outcome).
+  /// fallback, Lemke's Newton fallback, PGS blocks that fell back to their parts (0: the first
+  /// attempt decided the outcome).
   int restarts = 0;
   std::string message;  ///< human-readable detail on failure
   bool ok() const { return status == SolverStatus::kSolved; }
@@ -48,10 +49,17 @@ struct LcpProblem {
   MatrixXd M;
   VectorXd q;
   /// Optional block structure for block-iterative solvers (projected Gauss–Seidel): a partition
-  /// of {0..n−1} into groups solved together, e.g. one friction-cone block (p_n, p_f,1..n_d, σ)
-  /// per contact in the Stewart–Trinkle LCP. Empty: every variable is its own block. Direct
+  /// of {0..n−1} into groups solved together, e.g. in the Stewart–Trinkle LCP one block per
+  /// contact patch holding the friction-cone rows (p_n, p_f,1..n_d, σ) of every contact between
+  /// two bodies (StewartTrinkle::LcpBlocks). Empty: every variable is its own block. Direct
   /// solvers (Lemke) ignore it.
   std::vector<std::vector<int>> blocks;
+  /// Optional sub-structure of `blocks` (empty, or one entry per block): block_parts[b] lists
+  /// the offsets in blocks[b] at which its parts begin (0 first, increasing, each < the block's
+  /// size); an empty entry means no parts. A block solver whose solve of block b fails may solve
+  /// its parts in turn instead (PGS does, pgs.h). StewartTrinkle::BuildLcp: one part per
+  /// contact of a contact-patch block.
+  std::vector<std::vector<int>> block_parts;
   int size() const { return static_cast<int>(q.size()); }
 };
 
