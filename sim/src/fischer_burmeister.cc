@@ -157,17 +157,21 @@ ProximalOutcome ProximalPoint(const LcpProblem& problem, const FischerBurmeister
       out.residual = residual;
     }
     double c_next = c;
+    // The iterate moves only if the subproblem was solved or its result improved.
+    bool move = true;
     if (!r.ok()) {
       // Subproblem not solved: a larger weight makes it better conditioned.
       c_next = c * kProximalWeightStep;
       if (c_next > kProximalMaxWeight * s) break;
-      if (!(residual < r_k)) continue;
+      move = residual < r_k;
     } else if (!(residual <= kProximalProgress * r_k)) {
       // Stalled: a smaller weight takes longer steps.
       c_next = std::max(c / kProximalWeightStep, kProximalMinWeight * s);
     }
-    z_k = z_sub;
-    r_k = residual;
+    if (move) {
+      z_k = z_sub;
+      r_k = residual;
+    }
     if (c_next != c) {
       sub.M.diagonal().array() += c_next - c;
       c = c_next;

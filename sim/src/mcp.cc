@@ -233,7 +233,7 @@ class SemismoothNewton {
   void AssembleSparseH();
   // Newton direction into dir_; false if H is singular or the solution is not finite.
   bool NewtonDirection();
-  // Levenberg–Marquardt direction (HᵀH + m I) d = −∇Ψ into dir_, m = min(1, ‖Φ‖) ·
+  // Levenberg–Marquardt direction (HᵀH + m I) d = −∇Ψ into dir_, m = min(1, ‖Φ‖²) ·
   // max(max_i (HᵀH)_ii, tiny); false if the solve fails or d is not finite.
   bool LevenbergMarquardtDirection();
   // Line search along P[z + t·dir] (newton) or P[z − t·grad]; on success zt_/Ft_/phit_ hold
