@@ -40,8 +40,8 @@
 // step), the edge with the smaller |ψ_i|, the one the vertex slides along now — and stores it
 // as the contact's `point` (its column of G_n, G_f, ψ_n); edge 1 is G_1, ψ_1. c enters only its
 // own row and its contact's normal row; it carries no force. In the LCP the c_k are the last
-// unknowns, z = [p_n; p_f; σ; p_s; σ_s; c]; the c rows are −(G_1 − G_2)ᵀ W G_c in the (p_n, p_f, p_s)
-// columns and 1 on the diagonal, and c_k joins the friction-cone block of its contact. With
+// unknowns, z = [p_n; p_f; σ; p_s; σ_s; c]; the c rows are −(G_1 − G_2)ᵀ W G_c in the (p_n, p_f,
+// p_s) columns and 1 on the diagonal, and c_k joins the friction-cone block of its contact. With
 // StepperOptions::nonconvex_corners = false the narrow phase's corners arrive as two ordinary
 // contacts instead (per-edge constraints).
 //
@@ -93,7 +93,7 @@ class StewartTrinkle final : public Formulation {
     std::vector<int> corner_contact;  ///< nk
     MatrixXd G_1;                     ///< nv × nk
     VectorXd psi_1, dpsi_1;           ///< ψ_1, ∂ψ_1/∂t (nk)
-    SupportRows support;     ///< 2.5D support friction, linearized (empty without supports)
+    SupportRows support;  ///< 2.5D support friction, linearized (empty without supports)
   };
   Assembly Assemble(const Scene& model, const State& x, const StepInput& u) const;
   /// The Schur-complement pieces of the joint elimination (empty without joints).
