@@ -11,8 +11,8 @@
 #include <utility>
 #include <vector>
 
-#include "vinci/sim/scene_file.h"
-#include "vinci/sim/simulator.h"
+#include "vinci/sim/model/scene_file.h"
+#include "vinci/sim/simulator/simulator.h"
 
 namespace vinci::sim {
 namespace {

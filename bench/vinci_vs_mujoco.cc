@@ -25,8 +25,8 @@
 #include <string>
 #include <vector>
 
-#include "vinci/sim/scene_file.h"
-#include "vinci/sim/simulator.h"
+#include "vinci/sim/model/scene_file.h"
+#include "vinci/sim/simulator/simulator.h"
 
 namespace {
 

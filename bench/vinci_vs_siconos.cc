@@ -45,12 +45,12 @@
 #include <string>
 #include <vector>
 
-#include "vinci/sim/lcp.h"
-#include "vinci/sim/lcp_file.h"
-#include "vinci/sim/mcp.h"
-#include "vinci/sim/scene_file.h"
-#include "vinci/sim/simulator.h"
-#include "vinci/sim/stewart_trinkle.h"
+#include "vinci/sim/formulations/stewart_trinkle.h"
+#include "vinci/sim/model/scene_file.h"
+#include "vinci/sim/simulator/simulator.h"
+#include "vinci/sim/solvers/lcp.h"
+#include "vinci/sim/solvers/lcp_file.h"
+#include "vinci/sim/solvers/mcp.h"
 
 namespace {
 

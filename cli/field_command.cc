@@ -12,10 +12,10 @@
 #include <stdexcept>
 #include <string>
 
-#include "vinci/sim/plate_theory.h"
-#include "vinci/sim/scene_file.h"
-#include "vinci/sim/simulator.h"
-#include "vinci/sim/velocity_field.h"
+#include "vinci/sim/model/scene_file.h"
+#include "vinci/sim/plate/plate_theory.h"
+#include "vinci/sim/plate/velocity_field.h"
+#include "vinci/sim/simulator/simulator.h"
 
 namespace vinci::cli {
 namespace {

@@ -19,13 +19,13 @@
 #include <utility>
 #include <vector>
 
-#include "vinci/sim/contact.h"
-#include "vinci/sim/formulation.h"
-#include "vinci/sim/lcp.h"
-#include "vinci/sim/scene.h"
-#include "vinci/sim/scene_file.h"
-#include "vinci/sim/simulator.h"
-#include "vinci/sim/state.h"
+#include "vinci/sim/formulations/contact.h"
+#include "vinci/sim/formulations/formulation.h"
+#include "vinci/sim/model/scene.h"
+#include "vinci/sim/model/scene_file.h"
+#include "vinci/sim/model/state.h"
+#include "vinci/sim/simulator/simulator.h"
+#include "vinci/sim/solvers/lcp.h"
 
 namespace vinci::cli {
 namespace {

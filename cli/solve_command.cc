@@ -9,8 +9,8 @@
 #include <string>
 #include <vector>
 
-#include "vinci/sim/lcp.h"
-#include "vinci/sim/lcp_file.h"
+#include "vinci/sim/solvers/lcp.h"
+#include "vinci/sim/solvers/lcp_file.h"
 
 namespace vinci::cli {
 namespace {

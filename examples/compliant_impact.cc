@@ -1,4 +1,4 @@
-// Disc falling on a compliant half-plane (applications.md §B.3, formulations.md §4): simulates
+// Disc falling on a compliant half-plane (applications.md §B.3, docs/formulations.md §4): simulates
 // examples/scenes/disc_on_compliant_plane.yaml (Kelvin–Voigt layer, Stewart–Trinkle stepper) and
 // compares with the closed forms of a linear spring under gravity:
 //   ω = √(k/m), δ_s = m g / k, v = impact speed;
@@ -15,8 +15,8 @@
 #include <fstream>
 #include <iostream>
 
-#include "vinci/sim/scene_file.h"
-#include "vinci/sim/simulator.h"
+#include "vinci/sim/model/scene_file.h"
+#include "vinci/sim/simulator/simulator.h"
 
 namespace {
 

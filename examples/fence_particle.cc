@@ -1,4 +1,4 @@
-// Fence–particle study (formulations.md §5): a fence moving at angle β from its normal pushes
+// Fence–particle study (docs/formulations.md §5): a fence moving at angle β from its normal pushes
 // a particle resting on the table. Quasistatic DQC is compared with the closed form (stick when
 // tan β ≤ μ_f, else slide on the friction-cone edge with |v| = (v_F·n)/cos(atan μ_f)), and the
 // direction error of DLC is tabulated against the number n_d of support-friction directions.
@@ -14,8 +14,8 @@
 #include <string>
 #include <vector>
 
-#include "vinci/sim/scene_file.h"
-#include "vinci/sim/simulator.h"
+#include "vinci/sim/model/scene_file.h"
+#include "vinci/sim/simulator/simulator.h"
 
 using namespace vinci::sim;
 

@@ -21,9 +21,9 @@
 #include <string>
 #include <vector>
 
-#include "vinci/sim/scene_file.h"
-#include "vinci/sim/simulator.h"
-#include "vinci/sim/support.h"
+#include "vinci/sim/model/scene_file.h"
+#include "vinci/sim/model/support.h"
+#include "vinci/sim/simulator/simulator.h"
 
 using namespace vinci::sim;
 

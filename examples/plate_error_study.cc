@@ -27,9 +27,9 @@
 #include <string>
 #include <vector>
 
-#include "vinci/sim/scene_file.h"
-#include "vinci/sim/simulator.h"
-#include "vinci/sim/velocity_field.h"
+#include "vinci/sim/model/scene_file.h"
+#include "vinci/sim/plate/velocity_field.h"
+#include "vinci/sim/simulator/simulator.h"
 
 namespace {
 

@@ -13,8 +13,8 @@
 #include <iostream>
 #include <string>
 
-#include "vinci/sim/scene_file.h"
-#include "vinci/sim/simulator.h"
+#include "vinci/sim/model/scene_file.h"
+#include "vinci/sim/simulator/simulator.h"
 
 int main(int argc, char** argv) {
   using namespace vinci::sim;

@@ -8,7 +8,10 @@ packages=(
   libeigen3-dev libyaml-cpp-dev libcli11-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libmujoco-dev libsiconos-numerics-dev
-  python3-numpy python3-matplotlib
+  libnlopt-cxx-dev coinor-libipopt-dev libceres-dev
+  libompl-dev libboost-serialization-dev libboost-filesystem-dev libboost-system-dev
+  libopenmpi-dev openmpi-bin
+  python3-numpy python3-scipy python3-matplotlib
 )
 
 missing=()

@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "vinci/sim/shape.h"
+#include "vinci/sim/geometry/shape.h"
 
 namespace vinci::sim {
 namespace {

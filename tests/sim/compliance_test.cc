@@ -1,6 +1,6 @@
 // The quasi-rigid normal law (compliance.h): pair combination, linearization, scene-file parsing
 // and closed-form impacts with the Stewart–Trinkle stepper.
-#include "vinci/sim/compliance.h"
+#include "vinci/sim/model/compliance.h"
 
 #include <gtest/gtest.h>
 
@@ -56,7 +56,7 @@ TEST(ComplianceLaw, SpringsInSeries) {
 }
 
 TEST(ComplianceLaw, KelvinVoigtRowIsTheSpecEquation) {
-  // 0 ≤ p_n ⊥ ψ(q_ℓ+1) + p_n/(h k) ≥ 0 (formulations.md §4) and its velocity form.
+  // 0 ≤ p_n ⊥ ψ(q_ℓ+1) + p_n/(h k) ≥ 0 (docs/formulations.md §4) and its velocity form.
   const double k = 2e4, h = 1e-3, psi = -1e-3;
   const CompliantNormalRow r = LinearizeNormalLaw(Kv(k), psi, h);
   ASSERT_TRUE(r.compliant);

@@ -6,7 +6,7 @@
 #include <cmath>
 #include <random>
 
-#include "vinci/sim/lcp.h"
+#include "vinci/sim/solvers/lcp.h"
 
 namespace vinci::sim::testing {
 

@@ -1,4 +1,4 @@
-// The first-order (damping-dominated) model, formulations.md §8: closed-form checks.
+// The first-order (damping-dominated) model, docs/formulations.md §8: closed-form checks.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -7,8 +7,8 @@
 #include <string>
 
 #include "test_util.h"
-#include "vinci/sim/scene_file.h"
-#include "vinci/sim/simulator.h"
+#include "vinci/sim/model/scene_file.h"
+#include "vinci/sim/simulator/simulator.h"
 
 namespace vinci::sim {
 namespace {

@@ -2,7 +2,7 @@
 // closed-form LCPs, Murty's and the cycling example, random SPD and P-matrix problems,
 // degenerate and infeasible problems, warm start, invalid input and determinism. Every
 // solution is checked independently of the solver.
-#include "vinci/sim/fischer_burmeister.h"
+#include "vinci/sim/solvers/fischer_burmeister.h"
 
 #include <gtest/gtest.h>
 
@@ -16,10 +16,10 @@
 
 #include "contact_lcp_test_util.h"
 #include "test_util.h"
-#include "vinci/sim/lcp.h"
-#include "vinci/sim/lcp_file.h"
-#include "vinci/sim/lemke.h"
-#include "vinci/sim/stewart_trinkle.h"
+#include "vinci/sim/formulations/stewart_trinkle.h"
+#include "vinci/sim/solvers/lcp.h"
+#include "vinci/sim/solvers/lcp_file.h"
+#include "vinci/sim/solvers/lemke.h"
 
 namespace vinci::sim {
 namespace {

@@ -1,7 +1,7 @@
-// The geometrically implicit stepper (formulations.md §3, issue 4 deliverables 3 and 6):
+// The geometrically implicit stepper (docs/formulations.md §3, issue 4 deliverables 3 and 6):
 // equation count, analytic Jacobians against finite differences, rolling transition of a disc,
 // no faceting loss, no penetration, resting contact, and the residual face.
-#include "vinci/sim/geometrically_implicit.h"
+#include "vinci/sim/formulations/geometrically_implicit.h"
 
 #include <gtest/gtest.h>
 
@@ -9,7 +9,7 @@
 #include <string>
 
 #include "test_util.h"
-#include "vinci/sim/scene_file.h"
+#include "vinci/sim/model/scene_file.h"
 
 namespace vinci::sim {
 namespace {

@@ -1,5 +1,5 @@
 // Quasi-rigid contact with the geometrically implicit stepper (issue 4 deliverable 4,
-// formulations.md §4; compliance.h's position form): static overlap of a resting disc/sphere,
+// docs/formulations.md §4; compliance.h's position form): static overlap of a resting disc/sphere,
 // duration and rebound of an undamped impact, and the GI step equations with a compliant pair.
 #include <gtest/gtest.h>
 
@@ -10,9 +10,9 @@
 #include <vector>
 
 #include "test_util.h"
-#include "vinci/sim/compliance.h"
-#include "vinci/sim/geometrically_implicit.h"
-#include "vinci/sim/scene_file.h"
+#include "vinci/sim/formulations/geometrically_implicit.h"
+#include "vinci/sim/model/compliance.h"
+#include "vinci/sim/model/scene_file.h"
 
 namespace vinci::sim {
 namespace {

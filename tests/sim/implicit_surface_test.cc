@@ -1,7 +1,7 @@
 // Implicit-surface geometry: derivatives vs finite differences, the implicit form of the scene
 // shapes, closest points vs closed forms, and the mass properties / bounding boxes / scene-file
 // support of the smooth shape kinds.
-#include "vinci/sim/implicit_surface.h"
+#include "vinci/sim/geometry/implicit_surface.h"
 
 #include <gtest/gtest.h>
 
@@ -11,8 +11,8 @@
 #include <stdexcept>
 #include <string>
 
-#include "vinci/sim/scene_file.h"
-#include "vinci/sim/simulator.h"
+#include "vinci/sim/model/scene_file.h"
+#include "vinci/sim/simulator/simulator.h"
 
 namespace vinci::sim {
 namespace {

@@ -1,4 +1,4 @@
-#include "vinci/sim/joint.h"
+#include "vinci/sim/formulations/joint.h"
 
 #include <gtest/gtest.h>
 

@@ -2,7 +2,7 @@
 // rejection with its exact message and line, bit-exact round trips through WriteLcpFile, the
 // vector (warm start) files, and the bundled examples/lcp problems against their documented
 // solutions.
-#include "vinci/sim/lcp_file.h"
+#include "vinci/sim/solvers/lcp_file.h"
 
 #include <gtest/gtest.h>
 
@@ -20,8 +20,8 @@
 #include <string>
 #include <vector>
 
-#include "vinci/sim/lcp.h"
-#include "vinci/sim/lemke.h"
+#include "vinci/sim/solvers/lcp.h"
+#include "vinci/sim/solvers/lemke.h"
 
 namespace vinci::sim {
 namespace {

@@ -10,11 +10,11 @@
 #include <vector>
 
 #include "test_util.h"
-#include "vinci/sim/fischer_burmeister.h"
-#include "vinci/sim/lcp.h"
-#include "vinci/sim/lemke.h"
-#include "vinci/sim/pgs.h"
-#include "vinci/sim/stewart_trinkle.h"
+#include "vinci/sim/formulations/stewart_trinkle.h"
+#include "vinci/sim/solvers/fischer_burmeister.h"
+#include "vinci/sim/solvers/lcp.h"
+#include "vinci/sim/solvers/lemke.h"
+#include "vinci/sim/solvers/pgs.h"
 
 namespace vinci::sim {
 namespace {

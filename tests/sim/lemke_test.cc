@@ -1,7 +1,7 @@
 // Tests of the Lemke LCP solver: closed-form LCPs, known hard cases (exponential, cycling,
 // degenerate, infeasible), Stewart–Trinkle contact LCPs, warm start, regularized retry,
 // invalid input and determinism. Every solution is checked independently of the solver.
-#include "vinci/sim/lemke.h"
+#include "vinci/sim/solvers/lemke.h"
 
 #include <gtest/gtest.h>
 
@@ -17,8 +17,8 @@
 
 #include "contact_lcp_test_util.h"
 #include "test_util.h"
-#include "vinci/sim/lcp.h"
-#include "vinci/sim/lcp_file.h"
+#include "vinci/sim/solvers/lcp.h"
+#include "vinci/sim/solvers/lcp_file.h"
 
 namespace vinci::sim {
 namespace {

@@ -1,4 +1,4 @@
-// Unit-density mass properties and world bounding boxes (sim/src/mass_properties.cc).
+// Unit-density mass properties and world bounding boxes (sim/src/geometry/mass_properties.cc).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "vinci/sim/shape.h"
+#include "vinci/sim/geometry/shape.h"
 
 namespace vinci::sim {
 namespace {

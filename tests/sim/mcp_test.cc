@@ -4,7 +4,7 @@
 // differences, warm start, restarts and fallbacks, failures and misuse. Every solution is
 // checked independently of the solver: McpResidual and the complementarity conditions row by
 // row, and against the known solution where there is one.
-#include "vinci/sim/mcp.h"
+#include "vinci/sim/solvers/mcp.h"
 
 #include <gtest/gtest.h>
 
@@ -18,8 +18,8 @@
 #include <string>
 #include <vector>
 
-#include "vinci/sim/lcp.h"
-#include "vinci/sim/lemke.h"
+#include "vinci/sim/solvers/lcp.h"
+#include "vinci/sim/solvers/lemke.h"
 
 namespace vinci::sim {
 namespace {

@@ -1,4 +1,4 @@
-#include "vinci/sim/motion.h"
+#include "vinci/sim/model/motion.h"
 
 #include <gtest/gtest.h>
 

@@ -1,7 +1,7 @@
-// The NCP stepper with the quadratic friction cone (ncp.h, formulations.md §2): closed-form
+// The NCP stepper with the quadratic friction cone (ncp.h, docs/formulations.md §2): closed-form
 // friction physics, the diagonal push a linearized cone gets wrong, its own step equations and
 // the analytic MCP Jacobian.
-#include "vinci/sim/ncp.h"
+#include "vinci/sim/formulations/ncp.h"
 
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-// Non-convex non-penetration (formulations.md §7): concave polygons, corner contacts, the snag
+// Non-convex non-penetration (docs/formulations.md §7): concave polygons, corner contacts, the snag
 // that per-edge constraints produce, and the corner rows of the step equations.
 #include <gtest/gtest.h>
 
@@ -11,8 +11,8 @@
 #include <string>
 
 #include "test_util.h"
-#include "vinci/sim/scene_file.h"
-#include "vinci/sim/simulator.h"
+#include "vinci/sim/model/scene_file.h"
+#include "vinci/sim/simulator/simulator.h"
 
 namespace vinci::sim {
 namespace {

@@ -8,7 +8,7 @@
 #include <string>
 
 #include "test_util.h"
-#include "vinci/sim/simulator.h"
+#include "vinci/sim/simulator/simulator.h"
 
 namespace vinci::sim {
 namespace {

@@ -2,7 +2,7 @@
 // problems, the Stewart–Trinkle contact LCP with its friction-cone blocks (against Lemke),
 // scalar PGS failing cleanly on zero-diagonal rows, warm start, invalid input and
 // determinism. Every solution is checked independently of the solver.
-#include "vinci/sim/pgs.h"
+#include "vinci/sim/solvers/pgs.h"
 
 #include <gtest/gtest.h>
 
@@ -17,9 +17,9 @@
 #include <vector>
 
 #include "test_util.h"
-#include "vinci/sim/lcp.h"
-#include "vinci/sim/lemke.h"
-#include "vinci/sim/stewart_trinkle.h"
+#include "vinci/sim/formulations/stewart_trinkle.h"
+#include "vinci/sim/solvers/lcp.h"
+#include "vinci/sim/solvers/lemke.h"
 
 namespace vinci::sim {
 namespace {

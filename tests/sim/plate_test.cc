@@ -9,9 +9,9 @@
 #include <string>
 
 #include "test_util.h"
-#include "vinci/sim/plate_theory.h"
-#include "vinci/sim/stewart_trinkle.h"
-#include "vinci/sim/velocity_field.h"
+#include "vinci/sim/formulations/stewart_trinkle.h"
+#include "vinci/sim/plate/plate_theory.h"
+#include "vinci/sim/plate/velocity_field.h"
 
 namespace vinci::sim {
 namespace {

@@ -1,6 +1,6 @@
-// Quasistatic Model-DLC / Model-DQC (formulations.md §5): fence–particle against its closed
+// Quasistatic Model-DLC / Model-DQC (docs/formulations.md §5): fence–particle against its closed
 // form, DLC's direction error against n_d, Mason's voting theorem, and the Evaluate() face.
-#include "vinci/sim/quasistatic.h"
+#include "vinci/sim/formulations/quasistatic.h"
 
 #include <gtest/gtest.h>
 

@@ -1,6 +1,6 @@
 // The YAML scene-file loader: valid scenes map to the expected Scene values, and every kind of
 // bad input is rejected with "<file>:<line>: <field path>: expected ..., got ...".
-#include "vinci/sim/scene_file.h"
+#include "vinci/sim/model/scene_file.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>

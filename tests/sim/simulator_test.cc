@@ -1,6 +1,6 @@
 // Simulator-level properties: prescribed bodies, moving floors, momentum, determinism,
 // quaternion normalization, and the formulation's residual face (issue "Foundation" items 5, 10).
-#include "vinci/sim/simulator.h"
+#include "vinci/sim/simulator/simulator.h"
 
 #include <gtest/gtest.h>
 
@@ -8,8 +8,8 @@
 #include <cstring>
 
 #include "test_util.h"
-#include "vinci/sim/contact.h"
-#include "vinci/sim/stewart_trinkle.h"
+#include "vinci/sim/formulations/contact.h"
+#include "vinci/sim/formulations/stewart_trinkle.h"
 
 namespace vinci::sim {
 namespace {

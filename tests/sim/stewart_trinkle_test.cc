@@ -1,13 +1,13 @@
 // Closed-form physics checks of the Stewart–Trinkle stepper (applications.md §A, issue
 // "Foundation" item 10), on the bundled example scenes.
-#include "vinci/sim/stewart_trinkle.h"
+#include "vinci/sim/formulations/stewart_trinkle.h"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 
 #include "test_util.h"
-#include "vinci/sim/contact.h"
+#include "vinci/sim/formulations/contact.h"
 
 namespace vinci::sim {
 namespace {

@@ -1,14 +1,14 @@
-// 2.5D support friction (formulations.md §6): static load distributions, the tilted-plane
+// 2.5D support friction (docs/formulations.md §6): static load distributions, the tilted-plane
 // slider with the Stewart–Trinkle stepper, scene-file syntax and the Evaluate() face.
-#include "vinci/sim/support.h"
+#include "vinci/sim/model/support.h"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <string>
 
-#include "vinci/sim/scene_file.h"
-#include "vinci/sim/simulator.h"
+#include "vinci/sim/model/scene_file.h"
+#include "vinci/sim/simulator/simulator.h"
 
 namespace vinci::sim {
 namespace {

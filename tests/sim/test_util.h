@@ -3,8 +3,8 @@
 
 #include <string>
 
-#include "vinci/sim/scene_file.h"
-#include "vinci/sim/simulator.h"
+#include "vinci/sim/model/scene_file.h"
+#include "vinci/sim/simulator/simulator.h"
 
 namespace vinci::sim::testing {
 

@@ -6,9 +6,9 @@
 #include <sstream>
 #include <string>
 
-#include "vinci/sim/plate_theory.h"
-#include "vinci/sim/scene_file.h"
-#include "vinci/sim/velocity_field.h"
+#include "vinci/sim/model/scene_file.h"
+#include "vinci/sim/plate/plate_theory.h"
+#include "vinci/sim/plate/velocity_field.h"
 
 namespace vinci::sim {
 namespace {

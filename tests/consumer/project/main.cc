@@ -4,10 +4,10 @@
 #include <cstdio>
 #include <exception>
 
-#include "vinci/sim/scene.h"
-#include "vinci/sim/shape.h"
-#include "vinci/sim/simulator.h"
-#include "vinci/sim/state.h"
+#include "vinci/sim/geometry/shape.h"
+#include "vinci/sim/model/scene.h"
+#include "vinci/sim/model/state.h"
+#include "vinci/sim/simulator/simulator.h"
 
 namespace vs = vinci::sim;
 

@@ -1,0 +1,46 @@
+// Simulation state, per-step inputs and per-step reports.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "vinci/sim/solvers/solver_report.h"
+#include "vinci/sim/types.h"
+
+namespace vinci::sim {
+
+/// Everything a step depends on besides the scene and params — including the solver warm
+/// start, so that Step and Rollout are pure functions of their arguments.
+struct State {
+  double t = 0.0;       ///< s
+  VectorXd q;           ///< positions of the dynamic bodies (Scene::index(b).q)
+  VectorXd v;           ///< velocities of the dynamic bodies (Scene::index(b).v)
+  VectorXd warm_start;  ///< last step's complementarity solution (may be empty)
+};
+
+/// Per-step input: generalized forces added to the scene's applied forces.
+struct StepInput {
+  VectorXd generalized_force;  ///< size num_velocities() or empty (= 0); N, N·m (body frame
+                               ///< torques for spatial bodies, as ν is)
+};
+
+/// What one step did.
+struct StepInfo {
+  bool ok = false;
+  int contacts = 0;      ///< contacts in the step's LCP
+  int joint_rows = 0;    ///< bilateral constraint rows
+  double min_gap = 0.0;  ///< smallest ψ_n at the start of the step (m); 0 if no contact
+  SolverReport solver;   ///< the complementarity solve
+  std::string failure;   ///< reason when !ok
+};
+
+/// A rollout: states[0] is x0, states[k+1] follows from states[k] by step k.
+/// A failed step stops the rollout: steps.back() records it and states has one entry fewer.
+struct Trajectory {
+  std::vector<State> states;
+  std::vector<StepInfo> steps;
+  bool ok = true;
+  std::string failure;
+};
+
+}  // namespace vinci::sim

@@ -1,0 +1,106 @@
+#include "vinci/sim/formulations/contact.h"
+
+#include <iterator>
+
+namespace vinci::sim {
+
+std::vector<BodyKinematics> ComputeBodyKinematics(const Scene& scene, const State& x) {
+  std::vector<BodyKinematics> out(scene.bodies.size());
+  for (std::size_t i = 0; i < scene.bodies.size(); ++i) {
+    const Body& b = scene.bodies[i];
+    switch (b.kind) {
+      case BodyKind::kDynamic: {
+        const BodyIndex& idx = scene.index(static_cast<int>(i));
+        out[i] = KinematicsFromQV(scene.dim, x.q.data() + idx.q, x.v.data() + idx.v);
+        break;
+      }
+      case BodyKind::kStatic:
+        out[i].X_WB = b.X_WB0;
+        break;
+      case BodyKind::kPrescribed:
+        out[i] = EvaluateMotion(b.motion, b.X_WB0, scene.dim == Dim::kPlanar, x.t);
+        break;
+    }
+  }
+  return out;
+}
+
+namespace {
+bool Jointed(const Scene& scene, int a, int b) {
+  for (const Joint& j : scene.joints)
+    if ((j.body_a == a && j.body_b == b) || (j.body_a == b && j.body_b == a)) return true;
+  return false;
+}
+
+int MuParam(const Scene& scene, int ma, int mb) {
+  const auto key = std::make_pair(std::min(ma, mb), std::max(ma, mb));
+  const auto it = scene.mu.find(key);
+  // ParamTable layout (Scene::Finalize): 0 = mu.default, then the pairs in map order.
+  return it == scene.mu.end() ? 0 : 1 + static_cast<int>(std::distance(scene.mu.begin(), it));
+}
+}  // namespace
+
+void FindContacts(const Scene& scene, const std::vector<BodyKinematics>& bodies, double envelope,
+                  std::vector<Contact>* out) {
+  out->clear();
+  const int n = static_cast<int>(scene.bodies.size());
+  std::vector<ContactPoint> points;
+  // Broad phase: world AABBs of every shape, computed once.
+  std::vector<std::vector<Aabb>> boxes(n);
+  std::vector<std::vector<Isometry3d>> poses(n);
+  for (int i = 0; i < n; ++i) {
+    const Body& b = scene.bodies[i];
+    for (const Shape& s : b.shapes) {
+      poses[i].push_back(bodies[i].X_WB * s.X_BS);
+      boxes[i].push_back(ComputeAabb(s, poses[i].back()));
+    }
+  }
+  for (int ia = 0; ia < n; ++ia) {
+    const Body& A = scene.bodies[ia];
+    for (int ib = ia + 1; ib < n; ++ib) {
+      const Body& B = scene.bodies[ib];
+      if (A.kind != BodyKind::kDynamic && B.kind != BodyKind::kDynamic) continue;
+      if (Jointed(scene, ia, ib)) continue;
+      // Orient each pair so the dynamic body (or the first dynamic body) is A.
+      const bool swap = A.kind != BodyKind::kDynamic;
+      const int a = swap ? ib : ia, b = swap ? ia : ib;
+      const Body& BA = scene.bodies[a];
+      const Body& BB = scene.bodies[b];
+      for (std::size_t sa = 0; sa < BA.shapes.size(); ++sa) {
+        for (std::size_t sb = 0; sb < BB.shapes.size(); ++sb) {
+          if (!boxes[a][sa].Overlaps(boxes[b][sb], envelope)) continue;
+          points.clear();
+          CollideShapes(BA.shapes[sa], poses[a][sa], BB.shapes[sb], poses[b][sb], envelope,
+                        &points);
+          const int ma = BA.shapes[sa].material, mb = BB.shapes[sb].material;
+          if (!scene.options.nonconvex_corners) {  // per-edge constraints: split every corner
+            const std::size_t n_points = points.size();
+            for (std::size_t k = 0; k < n_points; ++k) {
+              if (!points[k].corner) continue;
+              points[k].corner = false;
+              ContactPoint second;
+              second.p_A_W = points[k].p2_A_W;
+              second.p_B_W = points[k].p2_B_W;
+              second.n_W = points[k].n2_W;
+              second.gap = points[k].gap2;
+              points.push_back(second);
+            }
+          }
+          for (const ContactPoint& p : points) {
+            Contact c;
+            c.body_a = a;
+            c.body_b = b;
+            c.shape_a = static_cast<int>(sa);
+            c.shape_b = static_cast<int>(sb);
+            c.point = p;
+            c.mu = scene.Mu(ma, mb);
+            c.mu_param = MuParam(scene, ma, mb);
+            out->push_back(c);
+          }
+        }
+      }
+    }
+  }
+}
+
+}  // namespace vinci::sim

@@ -1,0 +1,764 @@
+#include "vinci/sim/formulations/stewart_trinkle.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <stdexcept>
+#include <utility>
+#include <vector>
+
+#include "step_util.h"
+#include "vinci/sim/formulations/joint.h"
+#include "vinci/sim/model/kinematics.h"
+
+namespace vinci::sim {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+// Relative tolerance under which the two predicted gaps of a corner contact tie.
+constexpr double kCornerTieTol = 1e-9;
+
+// Tangent directions d_j, j = 0..nd−1, equally spaced in the plane ⟂ n (planar: ±t).
+void FrictionDirections(Dim dim, const Vector3d& n, int nd, std::vector<Vector3d>* d) {
+  d->clear();
+  if (dim == Dim::kPlanar) {
+    const Vector3d t(-n.y(), n.x(), 0.0);
+    d->push_back(t);
+    d->push_back(-t);
+    return;
+  }
+  // A deterministic orthonormal tangent basis (t1, t2) for n.
+  const Vector3d a = std::abs(n.x()) < 0.9 ? Vector3d::UnitX() : Vector3d::UnitY();
+  const Vector3d t1 = n.cross(a).normalized();
+  const Vector3d t2 = n.cross(t1);
+  for (int j = 0; j < nd; ++j) {
+    const double phi = 2.0 * kPi * j / nd;
+    d->push_back(std::cos(phi) * t1 + std::sin(phi) * t2);
+  }
+}
+
+// Adds `row` (the body's point-velocity row) into column `col` of G at the body's ν block,
+// or, for a non-dynamic body, adds its contribution row·ν_body to *dpsi.
+void Scatter(const Scene& model, int body, const BodyKinematics& k, const Vector3d& p,
+             const Vector3d& d, double sign, MatrixXd* G, int col, double* dpsi) {
+  if (model.bodies[body].kind == BodyKind::kDynamic) {
+    const int nvb = VelocitySize(model.dim);
+    G->block(model.index(body).v, col, nvb, 1) +=
+        sign * PointVelocityRow(model.dim, k.X_WB, p, d).transpose();
+  } else {
+    *dpsi += sign * d.dot(PointVelocity(k, p));
+  }
+}
+
+// Pose of a prescribed body at t under its PoseRule (exact, or integrated with the step h).
+BodyKinematics PrescribedKinematics(const Scene& model, int body, double t, double h) {
+  const Body& b = model.bodies[body];
+  return EvaluateMotion(b.motion, b.X_WB0, model.dim == Dim::kPlanar, t, h);
+}
+
+// Kinematics of a non-dynamic body for ∂ψ/∂t: the pose at t and
+//  - kSecant: the *secant* velocity over the step, v = (o(t+h) − o(t))/h,
+//    ω = log(R(t+h) R(t)ᵀ)/h. With it the linearized end-of-step gap ψ + h(Gᵀν + ∂ψ/∂t) moves
+//    exactly with a translating prescribed body (a moving floor is followed without lag); the
+//    instantaneous velocity would lag by O(h²) per step.
+//  - kExact: the prescription's exact velocity at t + h (the vibrating-plate studies: the
+//    plate's velocity is known exactly; with an integrated plate pose the two rules coincide).
+BodyKinematics StepKinematics(const Scene& model, int body, const BodyKinematics& at_t, double t,
+                              double h, PrescribedVelocity rule) {
+  const Body& b = model.bodies[body];
+  if (b.kind != BodyKind::kPrescribed) return at_t;
+  const BodyKinematics next = PrescribedKinematics(model, body, t + h, h);
+  BodyKinematics k = at_t;
+  if (rule == PrescribedVelocity::kExact) {
+    k.v_WB = next.v_WB;
+    k.w_WB = next.w_WB;
+    return k;
+  }
+  k.v_WB = (next.X_WB.translation() - at_t.X_WB.translation()) / h;
+  const Eigen::AngleAxisd dR(next.X_WB.linear() * at_t.X_WB.linear().transpose());
+  k.w_WB = dR.axis() * (dR.angle() / h);
+  return k;
+}
+
+// Appends the support-friction pairs (p_s, G_sᵀν + E_s σ_s) and (σ_s, h μ_s N − E_sᵀ p_s) to
+// the complementarity block of r (after every other pair).
+void AppendSupportPairs(const SupportRows& sup, const StepLayout& l, const VectorXd& z,
+                        StepResiduals* r) {
+  const int old = static_cast<int>(r->comp_a.size()), ncol = static_cast<int>(r->d_comp_a.cols());
+  const int add = l.nps + l.ns;
+  r->comp_a.conservativeResize(old + add);
+  r->comp_b.conservativeResize(old + add);
+  r->d_comp_a.conservativeResize(old + add, ncol);
+  r->d_comp_b.conservativeResize(old + add, ncol);
+  r->d_comp_a.bottomRows(add).setZero();
+  r->d_comp_b.bottomRows(add).setZero();
+  r->comp_a.tail(add) = z.segment(l.ps(), add);  // p_s, σ_s are contiguous
+  r->d_comp_a.block(old, l.ps(), add, add).setIdentity();
+  r->comp_b.segment(old, l.nps) = sup.G_s.transpose() * z.segment(l.v1(), l.nv);
+  r->d_comp_b.block(old, l.v1(), l.nps, l.nv) = sup.G_s.transpose();
+  for (int k = 0; k < l.ns; ++k) {
+    const int row = old + l.nps + k;
+    r->comp_b[row] = sup.limit[k];
+    for (int j = 0; j < sup.count[k]; ++j) {
+      const int col = sup.first[k] + j;
+      r->comp_b[old + col] += z[l.sigma_s() + k];
+      r->d_comp_b(old + col, l.sigma_s() + k) = 1.0;
+      r->comp_b[row] -= z[l.ps() + col];
+      r->d_comp_b(row, l.ps() + col) = -1.0;
+    }
+  }
+}
+
+// Throws for a scene with a shape this stepper cannot collide (the smooth GI-only kinds), so
+// the error does not depend on whether such a shape happens to be near another one.
+void CheckShapesSupported(const Scene& model) {
+  for (const Body& b : model.bodies)
+    for (const Shape& s : b.shapes)
+      if (RequiresImplicitContact(s.type))
+        throw std::invalid_argument("body '" + b.name + "' shape '" + s.name + "': shape type " +
+                                    ShapeKeyword(s.type) +
+                                    " requires formulation: gi (the Stewart-Trinkle and "
+                                    "Anitescu-Potra steppers have no contact for it)");
+}
+
+}  // namespace
+
+StewartTrinkle::StewartTrinkle(StepperOptions options, std::shared_ptr<const LcpSolver> solver)
+    : options_(std::move(options)),
+      solver_(std::move(solver)),
+      velocity_level_(options_.formulation == FormulationType::kAnitescuPotra),
+      first_order_(options_.formulation == FormulationType::kFirstOrder) {
+  if (!solver_) throw std::invalid_argument("StewartTrinkle: null solver");
+}
+
+std::string_view StewartTrinkle::name() const {
+  if (first_order_) return "first-order";
+  return velocity_level_ ? "anitescu-potra" : "stewart-trinkle";
+}
+
+StewartTrinkle::Assembly StewartTrinkle::Assemble(const Scene& model, const State& x,
+                                                  const StepInput& u) const {
+  Assembly a;
+  const Dim dim = model.dim;
+  const double h = options_.dt;
+  const int nv = model.num_velocities();
+  const int nvb = VelocitySize(dim);
+  CheckShapesSupported(model);
+  std::vector<BodyKinematics> kin = ComputeBodyKinematics(model, x);
+  for (std::size_t i = 0; i < kin.size(); ++i)  // integrated prescribed poses
+    if (model.bodies[i].kind == BodyKind::kPrescribed &&
+        model.bodies[i].motion.pose == PoseRule::kIntegrated)
+      kin[i] = PrescribedKinematics(model, static_cast<int>(i), x.t, h);
+  FindContacts(model, kin, options_.envelope, &a.contacts);
+  // From here on, non-dynamic bodies carry their velocity over the step (StepKinematics).
+  for (std::size_t i = 0; i < kin.size(); ++i)
+    kin[i] =
+        StepKinematics(model, static_cast<int>(i), kin[i], x.t, h, options_.prescribed_velocity);
+  const int nc = static_cast<int>(a.contacts.size());
+  a.nd = dim == Dim::kPlanar ? 2 : options_.friction_directions;
+  const int nd = a.nd;
+
+  // Mass matrix and external impulses.
+  a.M = MatrixXd::Zero(nv, nv);
+  a.M_inv = MatrixXd::Zero(nv, nv);
+  a.p_ext = VectorXd::Zero(nv);
+  for (int bi : model.dynamic_bodies()) {
+    const Body& b = model.bodies[bi];
+    const int o = model.index(bi).v;
+    const Vector3d f =
+        b.applied_force_W + (b.gravity ? Vector3d(b.mass * model.gravity_W) : Vector3d::Zero());
+    if (dim == Dim::kPlanar) {
+      a.M(o, o) = a.M(o + 1, o + 1) = b.mass;
+      a.M(o + 2, o + 2) = b.inertia(2, 2);
+      a.M_inv(o, o) = a.M_inv(o + 1, o + 1) = 1.0 / b.mass;
+      a.M_inv(o + 2, o + 2) = 1.0 / b.inertia(2, 2);
+      a.p_ext.segment<3>(o) = h * Vector3d(f.x(), f.y(), b.applied_torque_W.z());
+    } else {
+      a.M.block<3, 3>(o, o) = b.mass * Matrix3d::Identity();
+      a.M.block<3, 3>(o + 3, o + 3) = b.inertia;
+      a.M_inv.block<3, 3>(o, o) = Matrix3d::Identity() / b.mass;
+      a.M_inv.block<3, 3>(o + 3, o + 3) = b.inertia.inverse();
+      const Matrix3d& R = kin[bi].X_WB.linear();
+      const Vector3d w_B = x.v.segment<3>(o + 3);
+      a.p_ext.segment<3>(o) = h * f;
+      a.p_ext.segment<3>(o + 3) =
+          h * (R.transpose() * b.applied_torque_W - w_B.cross(b.inertia * w_B));
+    }
+  }
+  if (u.generalized_force.size() == nv) a.p_ext += h * u.generalized_force;
+  if (first_order_) {
+    // First-order model (first_order.h): h C ν_ℓ+1 = G_n p_n + G_f p_f + G_b p_b + h F_ext, i.e.
+    // M → h C, no ν_ℓ term (Step and Evaluate pass ν_ℓ = 0) and no gyroscopic impulse.
+    for (int bi : model.dynamic_bodies()) {
+      const Body& b = model.bodies[bi];
+      const int o = model.index(bi).v;
+      a.M.block(o, o, nvb, nvb) = h * b.damping;
+      a.M_inv.block(o, o, nvb, nvb) = (h * b.damping).inverse();
+      if (dim == Dim::kSpatial) {
+        const Vector3d w_B = x.v.segment<3>(o + 3);
+        a.p_ext.segment<3>(o + 3) += h * w_B.cross(b.inertia * w_B);
+      }
+    }
+  }
+
+  // Corner contacts: edge 2 (the contact's `point`) is the edge with the larger predicted gap
+  // ψ_i + h (G_iᵀ ν_ℓ + ∂ψ_i/∂t) (first order: ψ_i + h ∂ψ_i/∂t); near-ties (a vertex arriving
+  // exactly at the corner) go to the edge with the smaller |ψ_i|, the edge it slides along.
+  {
+    const VectorXd v_pred = first_order_ ? VectorXd::Zero(nv) : x.v;
+    MatrixXd g = MatrixXd::Zero(nv, 2);
+    for (int c = 0; c < nc; ++c) {
+      ContactPoint& p = a.contacts[c].point;
+      if (!p.corner) continue;
+      const Contact& ct = a.contacts[c];
+      g.setZero();
+      double dpsi[2] = {0.0, 0.0};
+      Scatter(model, ct.body_a, kin[ct.body_a], p.p_A_W, p.n_W, 1.0, &g, 0, &dpsi[0]);
+      Scatter(model, ct.body_b, kin[ct.body_b], p.p_B_W, p.n_W, -1.0, &g, 0, &dpsi[0]);
+      Scatter(model, ct.body_a, kin[ct.body_a], p.p2_A_W, p.n2_W, 1.0, &g, 1, &dpsi[1]);
+      Scatter(model, ct.body_b, kin[ct.body_b], p.p2_B_W, p.n2_W, -1.0, &g, 1, &dpsi[1]);
+      const double pred1 = p.gap + h * (g.col(0).dot(v_pred) + dpsi[0]);
+      const double pred2 = p.gap2 + h * (g.col(1).dot(v_pred) + dpsi[1]);
+      const double tie = kCornerTieTol * (std::abs(p.gap) + std::abs(p.gap2) +
+                                          h * (std::abs(pred1 - p.gap) + std::abs(pred2 - p.gap2)));
+      const bool second =
+          std::abs(pred2 - pred1) <= tie ? std::abs(p.gap2) < std::abs(p.gap) : pred2 > pred1;
+      if (second) {
+        std::swap(p.p_A_W, p.p2_A_W);
+        std::swap(p.p_B_W, p.p2_B_W);
+        std::swap(p.n_W, p.n2_W);
+        std::swap(p.gap, p.gap2);
+      }
+      a.corner_contact.push_back(c);
+    }
+    const int nk = static_cast<int>(a.corner_contact.size());
+    a.G_1 = MatrixXd::Zero(nv, nk);
+    a.psi_1.resize(nk);
+    a.dpsi_1 = VectorXd::Zero(nk);
+    for (int k = 0; k < nk; ++k) {
+      const Contact& ct = a.contacts[a.corner_contact[k]];
+      const ContactPoint& p = ct.point;
+      a.psi_1[k] = p.gap2;
+      Scatter(model, ct.body_a, kin[ct.body_a], p.p2_A_W, p.n2_W, 1.0, &a.G_1, k, &a.dpsi_1[k]);
+      Scatter(model, ct.body_b, kin[ct.body_b], p.p2_B_W, p.n2_W, -1.0, &a.G_1, k, &a.dpsi_1[k]);
+    }
+  }
+
+  // Contacts.
+  a.G_n = MatrixXd::Zero(nv, nc);
+  a.G_f = MatrixXd::Zero(nv, nc * nd);
+  a.psi_n.resize(nc);
+  a.dpsi_n = VectorXd::Zero(nc);
+  a.dpsi_f = VectorXd::Zero(nc * nd);
+  a.mu.resize(nc);
+  a.compliance.resize(nc);
+  std::vector<Vector3d> dirs;
+  for (int c = 0; c < nc; ++c) {
+    const Contact& ct = a.contacts[c];
+    const ContactPoint& p = ct.point;
+    a.psi_n[c] = p.gap;
+    a.mu[c] = ct.mu;
+    a.compliance[c] = LinearizeNormalLaw(
+        CombineCompliance(model.bodies[ct.body_a].compliance, model.bodies[ct.body_b].compliance),
+        p.gap, h);
+    Scatter(model, ct.body_a, kin[ct.body_a], p.p_A_W, p.n_W, 1.0, &a.G_n, c, &a.dpsi_n[c]);
+    Scatter(model, ct.body_b, kin[ct.body_b], p.p_B_W, p.n_W, -1.0, &a.G_n, c, &a.dpsi_n[c]);
+    FrictionDirections(dim, p.n_W, nd, &dirs);
+    for (int j = 0; j < nd; ++j) {
+      const int col = c * nd + j;
+      Scatter(model, ct.body_a, kin[ct.body_a], p.p_A_W, dirs[j], 1.0, &a.G_f, col, &a.dpsi_f[col]);
+      Scatter(model, ct.body_b, kin[ct.body_b], p.p_B_W, dirs[j], -1.0, &a.G_f, col,
+              &a.dpsi_f[col]);
+    }
+  }
+
+  // Joints.
+  int nb = 0;
+  for (const Joint& j : model.joints) nb += JointRowCount(j.type, dim);
+  a.G_b = MatrixXd::Zero(nv, nb);
+  a.psi_b.resize(nb);
+  a.dpsi_b = VectorXd::Zero(nb);
+  JointRows rows;
+  const BodyKinematics world;
+  int r = 0;
+  for (const Joint& j : model.joints) {
+    const BodyKinematics& ka = kin[j.body_a];
+    const BodyKinematics& kb = j.body_b < 0 ? world : kin[j.body_b];
+    EvaluateJoint(j, dim, ka, kb, &rows);
+    const int m = static_cast<int>(rows.psi.size());
+    a.psi_b.segment(r, m) = rows.psi;
+    const auto add = [&](int body, const BodyKinematics& k, const MatrixXd& J) {
+      if (body < 0) return;  // the world does not move
+      if (model.bodies[body].kind == BodyKind::kDynamic)
+        a.G_b.block(model.index(body).v, r, nvb, m) += J.transpose();
+      else
+        a.dpsi_b.segment(r, m) += J * BodyVelocity(dim, k);
+    };
+    add(j.body_a, ka, rows.J_a);
+    add(j.body_b, kb, rows.J_b);
+    r += m;
+  }
+
+  // 2.5D support friction (support.h): empty without support points.
+  a.support = AssembleSupport(model, x, h, /*quadratic=*/false);
+  return a;
+}
+
+std::vector<std::vector<int>> StewartTrinkle::LcpBlocks(const Assembly& a, LcpBlocking blocking,
+                                                        std::vector<std::vector<int>>* parts) {
+  const int nc = static_cast<int>(a.contacts.size());
+  const int nd = a.nd;
+  const int nf = nc * nd;
+  const SupportRows& sup = a.support;
+  const int ns = sup.points(), nps = sup.columns(), s0 = nc + nf + nc;
+  const int nk = static_cast<int>(a.corner_contact.size());
+  const int o = nc + nf + nc + nps + ns;  // first corner unknown
+  std::vector<int> corner_of(nc, -1);
+  for (int k = 0; k < nk; ++k) corner_of[a.corner_contact[k]] = k;
+  const bool patches = blocking == LcpBlocking::kContactPatch;
+
+  std::vector<std::vector<int>> blocks;
+  // Open patch block per unordered body pair (contacts) or body (support points), and how many
+  // contacts it holds; a full block is closed and the next member opens a new one.
+  std::map<std::pair<int, int>, std::pair<int, int>> open;  // key → (block, members)
+  auto block_for = [&](std::pair<int, int> key, int rows) -> std::vector<int>& {
+    if (patches) {
+      auto it = open.find(key);
+      if (it != open.end() && it->second.second < kMaxPatchContacts) {
+        ++it->second.second;
+        return blocks[it->second.first];
+      }
+      open[key] = {static_cast<int>(blocks.size()), 1};
+    }
+    blocks.emplace_back().reserve(rows);
+    if (parts) parts->emplace_back();
+    return blocks.back();
+  };
+  // Records where the next member of `b` (the block just returned by block_for) begins.
+  auto begin_part = [&](const std::vector<int>& b) {
+    if (parts) (*parts)[&b - blocks.data()].push_back(static_cast<int>(b.size()));
+  };
+  if (parts) parts->clear();
+  for (int c = 0; c < nc; ++c) {
+    const Contact& ct = a.contacts[c];
+    std::vector<int>& b =
+        block_for({std::min(ct.body_a, ct.body_b), std::max(ct.body_a, ct.body_b)}, nd + 3);
+    begin_part(b);
+    b.push_back(c);
+    for (int j = 0; j < nd; ++j) b.push_back(nc + c * nd + j);
+    b.push_back(nc + nf + c);
+    if (corner_of[c] >= 0) b.push_back(o + corner_of[c]);
+  }
+  // Support points: keyed (−1, body), apart from every contact pair.
+  for (int k = 0; k < ns; ++k) {
+    std::vector<int>& b = block_for({-1, sup.body[k]}, sup.count[k] + 1);
+    begin_part(b);
+    for (int j = 0; j < sup.count[k]; ++j) b.push_back(s0 + sup.first[k] + j);
+    b.push_back(s0 + nps + k);
+  }
+  return blocks;
+}
+
+LcpProblem StewartTrinkle::BuildLcp(const Scene& model, const Assembly& a, const VectorXd& v,
+                                    VectorXd* v_star, JointElimination* joints) const {
+  const double h = options_.dt;
+  const int nc = static_cast<int>(a.contacts.size());
+  const int nd = a.nd;
+  const int nf = nc * nd;
+  const int nb = static_cast<int>(a.psi_b.size());
+  const int nk = static_cast<int>(a.corner_contact.size());
+  const int nvb = VelocitySize(model.dim);
+  // Support friction: p_s (nps columns) and σ_s (ns points) follow (p_n, p_f, σ).
+  const SupportRows& sup = a.support;
+  const int ns = sup.points(), nps = sup.columns(), s0 = nc + nf + nc;
+  // Corner unknowns c (nk) come last: z = [p_n; p_f; σ; p_s; σ_s; c].
+  const int m = nc + nf + nc + nps + ns + nk;
+
+  *v_star = v + a.M_inv * a.p_ext;
+  LcpProblem lcp;
+  lcp.M = MatrixXd::Zero(m, m);
+  lcp.q = VectorXd::Zero(m);
+
+  // G_cᵀ M⁻¹ G_c from per-body blocks: M⁻¹ is block diagonal and each contact column touches at
+  // most two bodies, so only columns sharing a body interact (O(Σ_b k_b²) instead of dense).
+  std::vector<std::vector<int>> columns(model.bodies.size());
+  for (int c = 0; c < nc; ++c) {
+    for (int body : {a.contacts[c].body_a, a.contacts[c].body_b}) {
+      if (model.bodies[body].kind != BodyKind::kDynamic) continue;
+      std::vector<int>& cols = columns[body];
+      cols.push_back(c);
+      for (int j = 0; j < nd; ++j) cols.push_back(nc + c * nd + j);
+    }
+  }
+  for (int k = 0; k < ns; ++k)
+    for (int j = 0; j < sup.count[k]; ++j) columns[sup.body[k]].push_back(s0 + sup.first[k] + j);
+  MatrixXd Gb_cols, MinvG;
+  for (int body : model.dynamic_bodies()) {
+    const std::vector<int>& cols = columns[body];
+    if (cols.empty()) continue;
+    const int o = model.index(body).v, k = static_cast<int>(cols.size());
+    Gb_cols.resize(nvb, k);
+    for (int i = 0; i < k; ++i)
+      Gb_cols.col(i) = cols[i] < nc        ? a.G_n.block(o, cols[i], nvb, 1)
+                       : cols[i] < nc + nf ? a.G_f.block(o, cols[i] - nc, nvb, 1)
+                                           : sup.G_s.block(o, cols[i] - s0, nvb, 1);
+    MinvG.noalias() = a.M_inv.block(o, o, nvb, nvb) * Gb_cols;
+    const MatrixXd block = Gb_cols.transpose() * MinvG;
+    for (int i = 0; i < k; ++i)
+      for (int j = 0; j < k; ++j) lcp.M(cols[i], cols[j]) += block(i, j);
+  }
+
+  if (nb > 0) {
+    // Eliminate p_b with S = G_bᵀ M⁻¹ G_b:
+    //   S p_b = −(G_bᵀ ν* + ψ_b/h + ∂ψ_b/∂t + G_bᵀ M⁻¹ G_c p_c),
+    // which subtracts (G_bᵀM⁻¹G_c)ᵀ S⁻¹ (G_bᵀM⁻¹G_c) from the contact block.
+    joints->MinvGb = a.M_inv * a.G_b;
+    joints->S.compute(a.G_b.transpose() * joints->MinvGb);
+    VectorXd rhs = a.G_b.transpose() * *v_star + a.dpsi_b;
+    if (options_.joint_stabilization) rhs += a.psi_b / h;
+    *v_star -= joints->MinvGb * joints->S.solve(rhs);
+    if (nc > 0 && nps == 0) {
+      MatrixXd GbMinvGc(nb, nc + nf);
+      GbMinvGc << joints->MinvGb.transpose() * a.G_n, joints->MinvGb.transpose() * a.G_f;
+      lcp.M.topLeftCorner(nc + nf, nc + nf) -= GbMinvGc.transpose() * joints->S.solve(GbMinvGc);
+    } else if (nps > 0) {
+      // Same correction over the impulse columns (p_n, p_f, p_s), skipping the σ rows/columns.
+      MatrixXd GbMinvGc(nb, nc + nf + nps);
+      GbMinvGc << joints->MinvGb.transpose() * a.G_n, joints->MinvGb.transpose() * a.G_f,
+          joints->MinvGb.transpose() * sup.G_s;
+      const MatrixXd C = GbMinvGc.transpose() * joints->S.solve(GbMinvGc);
+      const auto at = [&](int i) { return i < nc + nf ? i : i + nc; };
+      for (int i = 0; i < nc + nf + nps; ++i)
+        for (int j = 0; j < nc + nf + nps; ++j) lcp.M(at(i), at(j)) -= C(i, j);
+    }
+  }
+
+  for (int c = 0; c < nc; ++c) {
+    for (int j = 0; j < nd; ++j) {
+      lcp.M(nc + c * nd + j, nc + nf + c) = 1.0;   // E
+      lcp.M(nc + nf + c, nc + c * nd + j) = -1.0;  // −Eᵀ
+    }
+    lcp.M(nc + nf + c, c) = a.mu[c];  // U
+  }
+  // Blocks for block-iterative solvers: one per contact patch (LcpBlocks).
+  lcp.blocks = LcpBlocks(a, LcpBlocking::kContactPatch, &lcp.block_parts);
+  lcp.q.head(nc) = a.G_n.transpose() * *v_star + a.dpsi_n;
+  if (!velocity_level_) lcp.q.head(nc) += a.psi_n / h;
+  for (int c = 0; c < nc; ++c) {
+    const CompliantNormalRow& law = a.compliance[c];
+    if (!law.compliant) continue;
+    lcp.q[c] =
+        a.G_n.col(c).dot(*v_star) + a.dpsi_n[c] + law.vel_psi * a.psi_n[c] + law.vel_constant;
+    lcp.M(c, c) += law.vel_diagonal;
+  }
+  lcp.q.segment(nc, nf) = a.G_f.transpose() * *v_star + a.dpsi_f;
+
+  // Corner contacts (header comment): c_k are the last unknowns. With D = G_1 − G_2 and
+  // e = (ψ_1 − ψ_2)/h + ∂ψ_1/∂t − ∂ψ_2/∂t, row k is c_k − Dᵀ(ν* + W G_c p_c) − e, and c_k adds to
+  // its contact's normal row.
+  if (nk > 0) {
+    const int o = m - nk;  // the corner unknowns are the last nk
+    MatrixXd D(a.G_1.rows(), nk);
+    VectorXd e(nk);
+    for (int k = 0; k < nk; ++k) {
+      const int c = a.corner_contact[k];
+      D.col(k) = a.G_1.col(k) - a.G_n.col(c);
+      e[k] = (a.psi_1[k] - a.psi_n[c]) / h + a.dpsi_1[k] - a.dpsi_n[c];
+    }
+    MatrixXd Gc(a.G_n.rows(), nc + nf);
+    Gc << a.G_n, a.G_f;
+    MatrixXd WGc = a.M_inv * Gc;
+    if (nb > 0) WGc -= joints->MinvGb * joints->S.solve(joints->MinvGb.transpose() * Gc);
+    lcp.M.block(o, 0, nk, nc + nf) = -D.transpose() * WGc;
+    if (nps > 0) {  // ν also depends on the support impulses p_s
+      MatrixXd WGs = a.M_inv * sup.G_s;
+      if (nb > 0) WGs -= joints->MinvGb * joints->S.solve(joints->MinvGb.transpose() * sup.G_s);
+      lcp.M.block(o, s0, nk, nps) = -D.transpose() * WGs;
+    }
+    for (int k = 0; k < nk; ++k) {
+      lcp.M(o + k, o + k) = 1.0;
+      lcp.M(a.corner_contact[k], o + k) = 1.0;
+      // Anitescu–Potra: corner rows stay position-level (header comment).
+      if (velocity_level_) lcp.q[a.corner_contact[k]] += a.psi_n[a.corner_contact[k]] / h;
+    }
+    lcp.q.segment(o, nk) = -(D.transpose() * *v_star + e);
+  }
+  // Support friction rows: 0 ≤ p_s ⊥ G_sᵀν + E_s σ_s, 0 ≤ σ_s ⊥ h μ_s N − E_sᵀ p_s.
+  for (int k = 0; k < ns; ++k) {
+    for (int j = 0; j < sup.count[k]; ++j) {
+      const int row = s0 + sup.first[k] + j;
+      lcp.M(row, s0 + nps + k) = 1.0;   // E_s
+      lcp.M(s0 + nps + k, row) = -1.0;  // −E_sᵀ
+    }
+  }
+  if (nps > 0) {
+    lcp.q.segment(s0, nps) = sup.G_s.transpose() * *v_star;
+    lcp.q.segment(s0 + nps, ns) = sup.limit;
+  }
+  return lcp;
+}
+
+VectorXd StewartTrinkle::VelocityAfter(const Assembly& a, const VectorXd& v_star, const VectorXd& z,
+                                       const JointElimination& joints) const {
+  const int nc = static_cast<int>(a.contacts.size());
+  const int nf = nc * a.nd;
+  VectorXd impulse = a.G_n * z.head(nc) + a.G_f * z.segment(nc, nf);
+  if (a.support.columns() > 0)
+    impulse += a.support.G_s * z.segment(nc + nf + nc, a.support.columns());
+  VectorXd dv = a.M_inv * impulse;
+  if (a.psi_b.size() > 0) dv -= joints.MinvGb * joints.S.solve(joints.MinvGb.transpose() * impulse);
+  return v_star + dv;
+}
+
+void StewartTrinkle::Step(const Scene& model, const State& x, const StepInput& u, Workspace* ws,
+                          State* next, StepInfo* info) const {
+  *info = StepInfo{};
+  *next = x;
+  const double h = options_.dt;
+  Assembly a = Assemble(model, x, u);
+  const int nc = static_cast<int>(a.contacts.size());
+  info->contacts = nc;
+  info->joint_rows = static_cast<int>(a.psi_b.size());
+  // A corner contact's gap is max(ψ_1, ψ_2).
+  VectorXd gaps = a.psi_n;
+  for (std::size_t k = 0; k < a.corner_contact.size(); ++k)
+    gaps[a.corner_contact[k]] = std::max(gaps[a.corner_contact[k]], a.psi_1[k]);
+  info->min_gap = nc > 0 ? gaps.minCoeff() : 0.0;
+  if (nc > 0 && info->min_gap < -options_.max_penetration) {
+    info->failure = "penetration " + std::to_string(-info->min_gap) +
+                    " m exceeds max_penetration " + std::to_string(options_.max_penetration) + " m";
+    info->solver.status = SolverStatus::kNumericalFailure;
+    return;
+  }
+
+  VectorXd v_star;
+  JointElimination joints;
+  const VectorXd v_l = first_order_ ? VectorXd::Zero(x.v.size()) : x.v;  // first order: no ν_ℓ
+  const LcpProblem lcp = BuildLcp(model, a, v_l, &v_star, &joints);
+  VectorXd z = VectorXd::Zero(lcp.size());
+  if (lcp.size() > 0) {
+    const VectorXd* warm = x.warm_start.size() == lcp.size() ? &x.warm_start : nullptr;
+    info->solver = solver_->Solve(lcp, warm, &z);
+    if (!info->solver.ok()) {
+      info->failure = "LCP solver '" + std::string(solver_->name()) +
+                      "' failed: " + std::string(ToString(info->solver.status)) +
+                      (info->solver.message.empty() ? "" : " (" + info->solver.message + ")");
+      return;
+    }
+  } else {
+    info->solver.status = SolverStatus::kSolved;
+  }
+
+  const VectorXd v1 = VelocityAfter(a, v_star, z, joints);
+  if (!internal::CompleteStep(model, x, v1, h, z, next, info)) return;
+  if (ws) ws->contacts = std::move(a.contacts);
+  info->ok = true;
+}
+
+StepLayout StewartTrinkle::Layout(const Scene& model, const State& x) const {
+  std::vector<BodyKinematics> kin = ComputeBodyKinematics(model, x);
+  for (std::size_t i = 0; i < kin.size(); ++i)  // as in Assemble
+    if (model.bodies[i].kind == BodyKind::kPrescribed &&
+        model.bodies[i].motion.pose == PoseRule::kIntegrated)
+      kin[i] = PrescribedKinematics(model, static_cast<int>(i), x.t, options_.dt);
+  std::vector<Contact> contacts;
+  CheckShapesSupported(model);
+  FindContacts(model, kin, options_.envelope, &contacts);
+  StepLayout l;
+  l.nq = model.num_positions();
+  l.nv = model.num_velocities();
+  l.nc = static_cast<int>(contacts.size());
+  l.nd = model.dim == Dim::kPlanar ? 2 : options_.friction_directions;
+  for (const Joint& j : model.joints) l.nb += JointRowCount(j.type, model.dim);
+  for (const Contact& c : contacts) l.nk += c.point.corner ? 1 : 0;
+  for (int bi : model.dynamic_bodies()) {
+    const Support& s = model.bodies[bi].support;
+    l.ns += static_cast<int>(s.points_B.size());
+    l.nps += static_cast<int>(s.points_B.size()) * s.directions;
+  }
+  return l;
+}
+
+StepResiduals StewartTrinkle::Evaluate(const Scene& model, const Params& params, const State& x,
+                                       const StepInput& u, const VectorXd& z) const {
+  const Assembly a = Assemble(model, x, u);
+  const double h = options_.dt;
+  StepResiduals r;
+  StepLayout& l = r.layout;
+  l.nq = model.num_positions();
+  l.nv = model.num_velocities();
+  l.nc = static_cast<int>(a.contacts.size());
+  l.nd = a.nd;
+  l.nb = static_cast<int>(a.psi_b.size());
+  l.nk = static_cast<int>(a.corner_contact.size());
+  l.ns = a.support.points();
+  l.nps = a.support.columns();
+  if (z.size() != l.size())
+    throw std::invalid_argument("StewartTrinkle::Evaluate: z has " + std::to_string(z.size()) +
+                                " entries, the step layout needs " + std::to_string(l.size()));
+  if (params.values.size() != model.param_table().size())
+    throw std::invalid_argument("StewartTrinkle::Evaluate: params do not match the scene");
+  // Differentiable parameters: friction coefficients and masses; column of each param.
+  std::vector<int> column_of(params.values.size(), -1);
+  for (int i = 0; i < model.param_table().size(); ++i) {
+    const ParamKind kind = model.param_table().info(i).kind;
+    if (kind == ParamKind::kDefaultFriction || kind == ParamKind::kFriction ||
+        kind == ParamKind::kMass || kind == ParamKind::kSupportFriction) {
+      column_of[i] = l.size() + static_cast<int>(r.param_columns.size());
+      r.param_columns.push_back(i);
+    }
+  }
+  const int np = static_cast<int>(r.param_columns.size());
+  const int nz = l.size(), ncol = nz + np;
+  const int nc = l.nc, nd = l.nd, nf = nc * nd, nv = l.nv, nq = l.nq, nb = l.nb;
+  const auto q1 = z.segment(l.q1(), nq);
+  const auto v1 = z.segment(l.v1(), nv);
+  const auto pn = z.segment(l.pn(), nc);
+  const auto pf = z.segment(l.pf(), nf);
+  const auto sigma = z.segment(l.sigma(), nc);
+  const auto pb = z.segment(l.pb(), nb);
+
+  // Equalities: [dynamics (nv); kinematics (nq); joints (nb)].
+  r.equality.resize(nv + nq + nb);
+  r.d_equality = MatrixXd::Zero(nv + nq + nb, ncol);
+  const VectorXd v_l = first_order_ ? VectorXd::Zero(nv) : x.v;  // first order: no ν_ℓ
+  r.equality.head(nv) = a.M * (v1 - v_l) - a.G_n * pn - a.G_f * pf - a.G_b * pb - a.p_ext;
+  r.d_equality.block(0, l.v1(), nv, nv) = a.M;
+  r.d_equality.block(0, l.pn(), nv, nc) = -a.G_n;
+  r.d_equality.block(0, l.pf(), nv, nf) = -a.G_f;
+  r.d_equality.block(0, l.pb(), nv, nb) = -a.G_b;
+  if (l.nps > 0) {
+    r.equality.head(nv) -= a.support.G_s * z.segment(l.ps(), l.nps);
+    r.d_equality.block(0, l.ps(), nv, l.nps) = -a.support.G_s;
+  }
+  // ∂/∂m of body b's rows: M_b and p_ext scale with the mass (inertia ∝ mass, same shape).
+  for (int i = 0; i < model.param_table().size(); ++i) {
+    const ParamInfo& info = model.param_table().info(i);
+    if (info.kind != ParamKind::kMass) continue;
+    const Body& b = model.bodies[info.a];
+    const int o = model.index(info.a).v, nvb = VelocitySize(model.dim);
+    const VectorXd dv = v1.segment(o, nvb) - x.v.segment(o, nvb);
+    // First order: h C does not scale with the mass, only the weight does.
+    VectorXd d = first_order_ ? VectorXd(VectorXd::Zero(nvb))
+                              : VectorXd(a.M.block(o, o, nvb, nvb) * dv / b.mass);
+    if (b.gravity) {
+      d.head(model.dim == Dim::kPlanar ? 2 : 3) -=
+          h * model.gravity_W.head(model.dim == Dim::kPlanar ? 2 : 3);
+    }
+    if (model.dim == Dim::kSpatial && !first_order_) {
+      const Vector3d w_B = x.v.segment<3>(o + 3);
+      d.tail<3>() += h * w_B.cross(b.inertia * w_B) / b.mass;
+    }
+    r.d_equality.block(o, column_of[i], nvb, 1) = d;
+  }
+
+  VectorXd q_pred(nq);
+  for (int bi : model.dynamic_bodies()) {
+    const BodyIndex& idx = model.index(bi);
+    IntegratePosition(model.dim, x.q.data() + idx.q, v1.data() + idx.v, h, q_pred.data() + idx.q);
+  }
+  r.equality.segment(nv, nq) = q1 - q_pred;
+  r.d_equality.block(nv, l.q1(), nq, nq).setIdentity();
+  // ∂q_pred/∂ν: planar and the position part of spatial bodies are exactly h·I; the quaternion
+  // block (exponential map) is differentiated by central differences.
+  for (int bi : model.dynamic_bodies()) {
+    const BodyIndex& idx = model.index(bi);
+    for (int k = 0; k < 3; ++k) r.d_equality(nv + idx.q + k, l.v1() + idx.v + k) = -h;
+    if (model.dim == Dim::kSpatial) {
+      const double eps = 1e-7;
+      for (int k = 3; k < 6; ++k) {
+        VectorXd vp = v1.segment(idx.v, 6), vm = vp;
+        vp[k] += eps;
+        vm[k] -= eps;
+        double qp[7], qm[7];
+        IntegratePosition(model.dim, x.q.data() + idx.q, vp.data(), h, qp);
+        IntegratePosition(model.dim, x.q.data() + idx.q, vm.data(), h, qm);
+        for (int i = 3; i < 7; ++i)
+          r.d_equality(nv + idx.q + i, l.v1() + idx.v + k) = -(qp[i] - qm[i]) / (2 * eps);
+      }
+    }
+  }
+  if (nb > 0) {
+    VectorXd jr = a.G_b.transpose() * v1 + a.dpsi_b;
+    if (options_.joint_stabilization) jr += a.psi_b / h;
+    r.equality.tail(nb) = jr;
+    r.d_equality.block(nv + nq, l.v1(), nb, nv) = a.G_b.transpose();
+  }
+
+  // Complementarity pairs: (p_n, normal), (p_f, friction), (σ, cone), then (c, corner).
+  const int nk = l.nk;
+  const int ncomp = nc + nf + nc + nk;
+  const auto cc = z.segment(l.corner(), nk);
+  r.comp_a.resize(ncomp);
+  r.comp_b.resize(ncomp);
+  r.d_comp_a = MatrixXd::Zero(ncomp, ncol);
+  r.d_comp_b = MatrixXd::Zero(ncomp, ncol);
+  r.comp_a << pn, pf, sigma, cc;
+  r.d_comp_a.block(0, l.pn(), nc + nf + nc, nc + nf + nc).setIdentity();  // contiguous
+  r.d_comp_a.block(ncomp - nk, l.corner(), nk, nk).setIdentity();
+
+  r.comp_b.head(nc) = a.G_n.transpose() * v1 + a.dpsi_n;
+  if (!velocity_level_) r.comp_b.head(nc) += a.psi_n / h;
+  r.d_comp_b.block(0, l.v1(), nc, nv) = a.G_n.transpose();
+  for (int c = 0; c < nc; ++c) {
+    const CompliantNormalRow& law = a.compliance[c];
+    if (!law.compliant) continue;
+    r.comp_b[c] = a.G_n.col(c).dot(v1) + a.dpsi_n[c] + law.vel_psi * a.psi_n[c] +
+                  law.vel_diagonal * pn[c] + law.vel_constant;
+    r.d_comp_b(c, l.pn() + c) = law.vel_diagonal;
+  }
+
+  r.comp_b.segment(nc, nf) = a.G_f.transpose() * v1 + a.dpsi_f;
+  r.d_comp_b.block(nc, l.v1(), nf, nv) = a.G_f.transpose();
+  for (int c = 0; c < nc; ++c) {
+    double sum_pf = 0.0;
+    for (int j = 0; j < nd; ++j) {
+      r.comp_b[nc + c * nd + j] += sigma[c];
+      r.d_comp_b(nc + c * nd + j, l.sigma() + c) = 1.0;
+      sum_pf += pf[c * nd + j];
+      r.d_comp_b(nc + nf + c, l.pf() + c * nd + j) = -1.0;
+    }
+    r.comp_b[nc + nf + c] = a.mu[c] * pn[c] - sum_pf;
+    r.d_comp_b(nc + nf + c, l.pn() + c) = a.mu[c];
+    r.d_comp_b(nc + nf + c, column_of[a.contacts[c].mu_param]) = pn[c];
+  }
+  // Corner rows: c_k − ((ψ_1 − ψ_2)/h + (G_1 − G_2)ᵀ ν + ∂ψ_1/∂t − ∂ψ_2/∂t), and + c_k in the
+  // normal row of its contact.
+  for (int k = 0; k < nk; ++k) {
+    const int c = a.corner_contact[k], row = ncomp - nk + k;  // corner pairs last
+    const VectorXd D = a.G_1.col(k) - a.G_n.col(c);
+    r.comp_b[row] = cc[k] - ((a.psi_1[k] - a.psi_n[c]) / h + D.dot(v1) + a.dpsi_1[k] - a.dpsi_n[c]);
+    r.d_comp_b(row, l.corner() + k) = 1.0;
+    r.d_comp_b.block(row, l.v1(), 1, nv) = -D.transpose();
+    r.comp_b[c] += cc[k];
+    if (velocity_level_) r.comp_b[c] += a.psi_n[c] / h;  // corners stay position-level
+    r.d_comp_b(c, l.corner() + k) = 1.0;
+  }
+  if (l.ns > 0) {
+    AppendSupportPairs(a.support, l, z, &r);
+    // A static distribution scales with the mass: ∂(h μ_s N_k)/∂m = h μ_s N_k / m.
+    for (int i = 0; i < model.param_table().size(); ++i) {
+      const ParamInfo& info = model.param_table().info(i);
+      if (info.kind == ParamKind::kSupportFriction) {  // ∂(h μ_s N_k)/∂μ_s = h N_k
+        for (int k = 0; k < l.ns; ++k)
+          if (a.support.body[k] == info.a)
+            r.d_comp_b(ncomp + l.nps + k, column_of[i]) = a.support.hN[k];
+      }
+      if (info.kind != ParamKind::kMass || !model.bodies[info.a].support.static_distribution)
+        continue;
+      for (int k = 0; k < l.ns; ++k)
+        if (a.support.body[k] == info.a)
+          r.d_comp_b(ncomp + l.nps + k, column_of[i]) =
+              a.support.limit[k] / model.bodies[info.a].mass;
+    }
+  }
+  return r;
+}
+
+double StepResiduals::Violation() const {
+  double v = equality.size() ? equality.cwiseAbs().maxCoeff() : 0.0;
+  for (int i = 0; i < comp_a.size(); ++i) v = std::max(v, std::abs(std::min(comp_a[i], comp_b[i])));
+  return v;
+}
+
+}  // namespace vinci::sim

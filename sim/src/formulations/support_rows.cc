@@ -1,0 +1,52 @@
+#include "vinci/sim/formulations/support_rows.h"
+
+#include <cmath>
+
+#include "vinci/sim/model/kinematics.h"
+
+namespace vinci::sim {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+}  // namespace
+
+SupportRows AssembleSupport(const Scene& model, const State& x, double h, bool quadratic) {
+  SupportRows r;
+  int ns = 0, ncol = 0;
+  for (int bi : model.dynamic_bodies()) {
+    const Support& s = model.bodies[bi].support;
+    ns += static_cast<int>(s.points_B.size());
+    ncol += static_cast<int>(s.points_B.size()) * (quadratic ? 2 : s.directions);
+  }
+  r.G_s = MatrixXd::Zero(model.num_velocities(), ncol);
+  r.limit.resize(ns);
+  r.hN.resize(ns);
+  int k = 0, col = 0;
+  for (int bi : model.dynamic_bodies()) {
+    const Body& b = model.bodies[bi];
+    const Support& s = b.support;
+    if (s.empty()) continue;
+    const BodyIndex& idx = model.index(bi);
+    const Isometry3d X_WB = PoseFromQ(model.dim, x.q.data() + idx.q);
+    const std::vector<double> N = SupportNormalForces(model, b);
+    const int nd = quadratic ? 2 : s.directions;
+    for (std::size_t p = 0; p < s.points_B.size(); ++p, ++k) {
+      const Vector3d p_W = X_WB * Vector3d(s.points_B[p].x(), s.points_B[p].y(), 0.0);
+      r.limit[k] = h * s.mu * N[p];
+      r.hN[k] = h * N[p];
+      r.body.push_back(bi);
+      r.first.push_back(col);
+      r.count.push_back(nd);
+      for (int j = 0; j < nd; ++j, ++col) {
+        const double phi = 2.0 * kPi * j / nd;
+        const Vector3d d = quadratic ? Vector3d(j == 0 ? 1.0 : 0.0, j == 1 ? 1.0 : 0.0, 0.0)
+                                     : Vector3d(std::cos(phi), std::sin(phi), 0.0);
+        r.G_s.block(idx.v, col, 3, 1) = PointVelocityRow(model.dim, X_WB, p_W, d).transpose();
+      }
+    }
+  }
+  return r;
+}
+
+}  // namespace vinci::sim

@@ -1,0 +1,105 @@
+#include "vinci/sim/simulator/simulator.h"
+
+#include <algorithm>
+#include <stdexcept>
+
+#include "vinci/sim/formulations/first_order.h"
+#include "vinci/sim/formulations/geometrically_implicit.h"
+#include "vinci/sim/formulations/ncp.h"
+#include "vinci/sim/formulations/quasistatic.h"
+#include "vinci/sim/formulations/stewart_trinkle.h"
+#include "vinci/sim/model/kinematics.h"
+#include "vinci/sim/solvers/lemke.h"
+
+namespace vinci::sim {
+
+std::unique_ptr<Formulation> MakeFormulation(const StepperOptions& options) {
+  if (options.formulation == FormulationType::kNcp) return std::make_unique<NcpStepper>(options);
+  if (options.formulation == FormulationType::kFirstOrder) return MakeFirstOrder(options);
+  if (options.formulation == FormulationType::kQuasistaticDlc ||
+      options.formulation == FormulationType::kQuasistaticDqc ||
+      options.formulation == FormulationType::kDynamicDqc)
+    return std::make_unique<Quasistatic>(options);  // §5, §6 (quasistatic.h)
+  if (options.formulation == FormulationType::kGeometricallyImplicit) {
+    // GI solves one mixed NCP with the semismooth Newton MCP solver; `solver` keeps its LCP
+    // default ("lemke"), which is accepted and unused here.
+    const std::vector<std::string> names = SolverNames(options.formulation);
+    if (std::find(names.begin(), names.end(), options.solver) == names.end())
+      throw std::invalid_argument("formulation gi uses the MCP solver 'semismooth-newton', not '" +
+                                  options.solver + "'");
+    return std::make_unique<GeometricallyImplicit>(options);
+  }
+  return std::make_unique<StewartTrinkle>(options, MakeLcpSolver(options.solver));
+}
+
+Simulator::Simulator(Scene scene) {
+  scene.Finalize();
+  scene_ = std::make_shared<const Scene>(std::move(scene));
+  formulation_ = MakeFormulation(scene_->options);
+}
+
+State Simulator::InitialState() const {
+  const Scene& s = *scene_;
+  State x;
+  x.t = 0.0;
+  x.q = VectorXd::Zero(s.num_positions());
+  x.v = VectorXd::Zero(s.num_velocities());
+  for (int bi : s.dynamic_bodies()) {
+    const Body& b = s.bodies[bi];
+    PoseToQ(s.dim, b.X_WB0, x.q.data() + s.index(bi).q);
+    VelocityToV(s.dim, b.X_WB0, b.v0_W, b.w0_W, x.v.data() + s.index(bi).v);
+  }
+  return x;
+}
+
+const Scene& Simulator::Resolve(const Params& params, Workspace* ws) const {
+  if (!ws->model || !(ws->resolved_for == params)) {
+    ws->model = std::make_shared<const Scene>(scene_->ApplyParams(params));
+    ws->resolved_for = params;
+  }
+  return *ws->model;
+}
+
+StepInfo Simulator::Step(const Params& params, const State& x, const StepInput& u, Workspace* ws,
+                         State* next) const {
+  if (!ws || !next) throw std::invalid_argument("Simulator::Step: null workspace or output");
+  if (x.q.size() != scene_->num_positions() || x.v.size() != scene_->num_velocities())
+    throw std::invalid_argument(
+        "Simulator::Step: state has " + std::to_string(x.q.size()) + " positions / " +
+        std::to_string(x.v.size()) + " velocities; the scene needs " +
+        std::to_string(scene_->num_positions()) + " / " + std::to_string(scene_->num_velocities()));
+  if (u.generalized_force.size() != 0 && u.generalized_force.size() != scene_->num_velocities())
+    throw std::invalid_argument("Simulator::Step: input force has the wrong size");
+  StepInfo info;
+  formulation_->Step(Resolve(params, ws), x, u, ws, next, &info);
+  return info;
+}
+
+Trajectory Simulator::Rollout(const Params& params, const State& x0,
+                              const std::vector<StepInput>& inputs) const {
+  Workspace ws;
+  Trajectory traj;
+  traj.states.reserve(inputs.size() + 1);
+  traj.steps.reserve(inputs.size());
+  traj.states.push_back(x0);
+  for (std::size_t k = 0; k < inputs.size(); ++k) {
+    State next;
+    StepInfo info = Step(params, traj.states.back(), inputs[k], &ws, &next);
+    const bool ok = info.ok;
+    traj.steps.push_back(std::move(info));
+    if (!ok) {
+      traj.ok = false;
+      traj.failure = "step " + std::to_string(k) + " (t = " + std::to_string(traj.states.back().t) +
+                     " s): " + traj.steps.back().failure;
+      break;
+    }
+    traj.states.push_back(std::move(next));
+  }
+  return traj;
+}
+
+Trajectory Simulator::Rollout(const Params& params, const State& x0, int num_steps) const {
+  return Rollout(params, x0, std::vector<StepInput>(static_cast<std::size_t>(num_steps)));
+}
+
+}  // namespace vinci::sim

@@ -1,0 +1,723 @@
+// Semismooth Newton for box-constrained MCPs on the penalized Fischer–Burmeister reformulation
+// (Chen, Chen, Kanzow 2000; box rows as in Billups 1995), with projected iterates, a
+// non-monotone Armijo line search (Grippo, Lampariello, Lucidi 1986), a projected-gradient
+// fallback and crash/restarts. Reference for the overall scheme: Munson, Facchinei, Ferris,
+// Fischer, Kanzow, "The semismooth algorithm for large scale complementarity problems" (2001).
+#include "vinci/sim/solvers/mcp.h"
+
+#include <Eigen/Cholesky>
+#include <Eigen/LU>
+#include <Eigen/SparseCholesky>
+#include <Eigen/SparseLU>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <exception>
+#include <limits>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace vinci::sim {
+namespace {
+
+using SparseMatrixd = Eigen::SparseMatrix<double>;
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kInf = std::numeric_limits<double>::infinity();
+// Armijo constant of the sufficient-decrease test.
+constexpr double kArmijo = 1e-4;
+// Backtracking factor and the number of halvings before a line search gives up (2⁻⁴⁰ ≈ 1e-12).
+constexpr double kBacktrack = 0.5;
+constexpr int kMaxBacktracks = 40;
+// Newton direction accepted as a descent direction iff ∇Ψᵀd ≤ −kDescentRho ‖d‖^kDescentP
+// (De Luca, Facchinei, Kanzow 1996).
+constexpr double kDescentRho = 1e-10;
+constexpr double kDescentP = 2.1;
+// A stalled attempt: best merit not reduced by this factor within stall_iterations.
+constexpr double kStallFactor = 0.9;
+// Floor of the Levenberg–Marquardt scale max_i (HᵀH)_ii.
+constexpr double kLmFloor = 1e-300;
+
+// How row i of Φ is built from its bounds.
+enum class RowKind : unsigned char { kFree, kLower, kUpper, kBox, kFixed };
+
+RowKind Classify(double l, double u) {
+  const bool lf = std::isfinite(l);
+  const bool uf = std::isfinite(u);
+  if (lf && uf) return l == u ? RowKind::kFixed : RowKind::kBox;
+  if (lf) return RowKind::kLower;
+  if (uf) return RowKind::kUpper;
+  return RowKind::kFree;
+}
+
+// φ(a, b) = λ(√(a² + b²) − a − b) − (1 − λ) a₊ b₊ with partials (da, db). At (a, b) = (0, 0)
+// the partials are those of the limit along the direction (xa, xb) and *degenerate is set; at
+// a kink of the penalty (a = 0 or b = 0) (x)₊' is 1 iff the direction increases x.
+struct FbValue {
+  double phi, da, db;
+};
+
+FbValue PenalizedFb(double a, double b, double lambda, double xa, double xb, bool* degenerate) {
+  const double r = std::hypot(a, b);
+  const double s = a + b;
+  // √(a² + b²) − (a + b), without cancellation when a + b > 0.
+  const double fb = s > 0.0 ? -2.0 * (a / (r + s)) * b : r - s;
+  const double ap = std::max(a, 0.0);
+  const double bp = std::max(b, 0.0);
+  FbValue v;
+  v.phi = lambda * fb - (1.0 - lambda) * ap * bp;
+  if (r > 0.0) {
+    const bool ha = a > 0.0 || (a == 0.0 && xa > 0.0);
+    const bool hb = b > 0.0 || (b == 0.0 && xb > 0.0);
+    v.da = lambda * (a / r - 1.0) - (1.0 - lambda) * (ha ? bp : 0.0);
+    v.db = lambda * (b / r - 1.0) - (1.0 - lambda) * (hb ? ap : 0.0);
+  } else {
+    *degenerate = true;
+    const double rd = std::hypot(xa, xb);
+    // Second pass: |xa| = 1. The first pass (direction 0) is overwritten; (1, 1)/√2 is a valid
+    // element anyway.
+    const double ca = rd > 0.0 ? xa / rd : std::sqrt(0.5);
+    const double cb = rd > 0.0 ? xb / rd : std::sqrt(0.5);
+    v.da = lambda * (ca - 1.0);
+    v.db = lambda * (cb - 1.0);
+  }
+  return v;
+}
+
+// Row i of Φ: value and dΦ_i = alpha dz_i + beta dF_i. (dz, dF) is the direction used where a
+// pair is degenerate or the penalty has a kink ((0, 0): the kinks take (x)₊' = 0). Returns true
+// iff some pair of the row is degenerate.
+bool EvalRow(RowKind kind, double z, double f, double l, double u, double lambda, double dz,
+             double df, double* phi, double* alpha, double* beta) {
+  bool degenerate = false;
+  switch (kind) {
+    case RowKind::kFree:
+      *phi = -f;
+      *alpha = 0.0;
+      *beta = -1.0;
+      break;
+    case RowKind::kFixed:
+      *phi = z - l;
+      *alpha = 1.0;
+      *beta = 0.0;
+      break;
+    case RowKind::kLower: {
+      const FbValue v = PenalizedFb(z - l, f, lambda, dz, df, &degenerate);
+      *phi = v.phi;
+      *alpha = v.da;
+      *beta = v.db;
+      break;
+    }
+    case RowKind::kUpper: {
+      // Φ = −φ(c, b), c = u − z, b = −F: dΦ = φ_c dz + φ_b dF.
+      const FbValue v = PenalizedFb(u - z, -f, lambda, -dz, -df, &degenerate);
+      *phi = -v.phi;
+      *alpha = v.da;
+      *beta = v.db;
+      break;
+    }
+    case RowKind::kBox: {
+      // ψ = φ(u − z, −F), dψ = −ψ_c dz − ψ_b dF; Φ = φ(z − l, ψ).
+      const FbValue in = PenalizedFb(u - z, -f, lambda, -dz, -df, &degenerate);
+      const double dpsi = -in.da * dz - in.db * df;
+      const FbValue out = PenalizedFb(z - l, in.phi, lambda, dz, dpsi, &degenerate);
+      *phi = out.phi;
+      *alpha = out.da - out.db * in.da;
+      *beta = -out.db * in.db;
+      break;
+    }
+  }
+  return degenerate;
+}
+
+// Natural residual from an evaluated F; NaN if anything is NaN.
+double NaturalResidual(const VectorXd& z, const VectorXd& F, const VectorXd& l, const VectorXd& u) {
+  double r = 0.0;
+  for (Eigen::Index i = 0; i < z.size(); ++i) {
+    const double p = std::min(std::max(z(i) - F(i), l(i)), u(i));
+    const double d = std::abs(z(i) - p);
+    if (std::isnan(d)) return kNaN;
+    r = std::max(r, d);
+  }
+  return r;
+}
+
+void ProjectInPlace(const VectorXd& l, const VectorXd& u, VectorXd* z) {
+  *z = z->cwiseMax(l).cwiseMin(u);
+}
+
+void CheckProblem(const McpProblem& p, const char* who) {
+  if (p.upper.size() != p.lower.size()) {
+    throw std::invalid_argument(std::string(who) + ": upper has size " +
+                                std::to_string(p.upper.size()) + " but lower has size " +
+                                std::to_string(p.lower.size()) + "; expected equal sizes");
+  }
+  if (!p.evaluate) {
+    throw std::invalid_argument(std::string(who) + ": McpProblem::evaluate is empty");
+  }
+}
+
+// Computes Φ and the (alpha, beta) of every row. `jf_times` computes J_F·d (used only if a row
+// is degenerate); may be empty when no Jacobian is wanted.
+template <typename JfTimes>
+void FbRows(const std::vector<RowKind>& kinds, const VectorXd& z, const VectorXd& F,
+            const VectorXd& l, const VectorXd& u, double lambda, const JfTimes& jf_times,
+            VectorXd* phi, VectorXd* alpha, VectorXd* beta, VectorXd* d, VectorXd* jd) {
+  const Eigen::Index n = z.size();
+  bool any = false;
+  d->setZero(n);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    if (EvalRow(kinds[i], z(i), F(i), l(i), u(i), lambda, 0.0, 0.0, &(*phi)(i), &(*alpha)(i),
+                &(*beta)(i))) {
+      (*d)(i) = 1.0;
+      any = true;
+    }
+  }
+  if (!any) return;
+  jf_times(*d, jd);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    if ((*d)(i) == 0.0) continue;
+    EvalRow(kinds[i], z(i), F(i), l(i), u(i), lambda, 1.0, (*jd)(i), &(*phi)(i), &(*alpha)(i),
+            &(*beta)(i));
+  }
+}
+
+// Deterministic pseudo-random numbers in [−1, 1] (splitmix64), identical on every platform.
+class Perturbation {
+ public:
+  explicit Perturbation(std::uint64_t seed) : state_(seed) {}
+  double Next() {
+    std::uint64_t x = (state_ += 0x9E3779B97F4A7C15ull);
+    x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
+    x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
+    x ^= x >> 31;
+    return 2.0 * (static_cast<double>(x >> 11) * 0x1.0p-53) - 1.0;
+  }
+
+ private:
+  std::uint64_t state_;
+};
+
+// The whole solve: workspace and the steps of the algorithm.
+class SemismoothNewton {
+ public:
+  SemismoothNewton(const McpProblem& problem, const McpOptions& options)
+      : p_(problem),
+        o_(options),
+        n_(problem.size()),
+        sparse_(options.sparse && static_cast<bool>(problem.sparse_jacobian)) {
+    kinds_.resize(n_);
+    for (int i = 0; i < n_; ++i) kinds_[i] = Classify(p_.lower(i), p_.upper(i));
+    for (VectorXd* v : {&F_, &phi_, &alpha_, &beta_, &grad_, &dir_, &rhs_, &d_, &jd_, &zt_, &Ft_,
+                        &phit_, &tmp_}) {
+      v->setZero(n_);
+    }
+    if (!sparse_) {
+      jf_.setZero(n_, n_);
+      h_.setZero(n_, n_);
+      lu_ = Eigen::PartialPivLU<MatrixXd>(n_);
+    }
+  }
+
+  SolverReport Run(VectorXd* z, McpSolveStats* stats);
+
+ private:
+  enum class Eval { kOk, kNonFinite, kThrew };
+
+  // F (and the Jacobian if `jacobian`) at x into *F (jf_ / jfs_). Catches user exceptions.
+  Eval Evaluate(const VectorXd& x, VectorXd* F, bool jacobian);
+  // Φ at x from F; with `jacobian` also H (h_ / hs_).
+  void Reformulate(const VectorXd& x, const VectorXd& F, VectorXd* phi, bool jacobian);
+  void AssembleSparseH();
+  // Newton direction into dir_; false if H is singular or the solution is not finite.
+  bool NewtonDirection();
+  // Levenberg–Marquardt direction (HᵀH + m I) d = −∇Ψ into dir_, m = min(1, ‖Φ‖²) ·
+  // max(max_i (HᵀH)_ii, tiny); false if the solve fails or d is not finite.
+  bool LevenbergMarquardtDirection();
+  // Line search along P[z + t·dir] (newton) or P[z − t·grad]; on success zt_/Ft_/phit_ hold
+  // the accepted point. Sets *threw / *message when evaluate throws.
+  bool LineSearch(const VectorXd& z, bool newton, double reference, double slope, double t0,
+                  bool* threw);
+  void RestartPoint(int attempt, const VectorXd& z0, const VectorXd& F0, const VectorXd& best,
+                    VectorXd* z);
+
+  const McpProblem& p_;
+  const McpOptions& o_;
+  const int n_;
+  const bool sparse_;
+  std::vector<RowKind> kinds_;
+  VectorXd F_, phi_, alpha_, beta_, grad_, dir_, rhs_, d_, jd_, zt_, Ft_, phit_, tmp_;
+  MatrixXd jf_, h_;
+  Eigen::PartialPivLU<MatrixXd> lu_;
+  SparseMatrixd jfs_, hs_;
+  Eigen::SparseLU<SparseMatrixd, Eigen::COLAMDOrdering<int>> slu_;
+  // Sparse H pattern cache: J_F's pattern, where each of its entries lands in H, H's diagonal.
+  std::vector<int> cached_outer_, cached_inner_, entry_pos_, diag_pos_;
+  bool pattern_valid_ = false;
+  // True iff jf_ / jfs_ hold the Jacobian at the last trial point zt_ (else at the iterate).
+  bool trial_has_jacobian_ = false;
+  McpSolveStats stats_;
+  std::string message_;
+};
+
+SemismoothNewton::Eval SemismoothNewton::Evaluate(const VectorXd& x, VectorXd* F, bool jacobian) {
+  ++stats_.function_evaluations;
+  try {
+    if (jacobian && !sparse_) {
+      p_.evaluate(x, F, &jf_);
+    } else {
+      p_.evaluate(x, F, nullptr);
+      if (jacobian) p_.sparse_jacobian(x, &jfs_);
+    }
+  } catch (const std::exception& e) {
+    message_ = std::string("McpProblem::evaluate threw: ") + e.what();
+    return Eval::kThrew;
+  } catch (...) {
+    message_ = "McpProblem::evaluate threw a non-standard exception";
+    return Eval::kThrew;
+  }
+  if (F->size() != n_) {
+    throw std::invalid_argument("McpSolver: evaluate returned F of size " +
+                                std::to_string(F->size()) + "; expected " + std::to_string(n_));
+  }
+  if (jacobian) {
+    const Eigen::Index rows = sparse_ ? jfs_.rows() : jf_.rows();
+    const Eigen::Index cols = sparse_ ? jfs_.cols() : jf_.cols();
+    if (rows != n_ || cols != n_) {
+      throw std::invalid_argument("McpSolver: the Jacobian is " + std::to_string(rows) + "x" +
+                                  std::to_string(cols) + "; expected " + std::to_string(n_) + "x" +
+                                  std::to_string(n_));
+    }
+  }
+  if (!F->allFinite()) return Eval::kNonFinite;
+  if (jacobian) {
+    if (sparse_) {
+      jfs_.makeCompressed();
+      for (Eigen::Index k = 0; k < jfs_.nonZeros(); ++k) {
+        if (!std::isfinite(jfs_.valuePtr()[k])) return Eval::kNonFinite;
+      }
+    } else if (!jf_.allFinite()) {
+      return Eval::kNonFinite;
+    }
+  }
+  return Eval::kOk;
+}
+
+void SemismoothNewton::Reformulate(const VectorXd& x, const VectorXd& F, VectorXd* phi,
+                                   bool jacobian) {
+  const auto jf_times = [&](const VectorXd& d, VectorXd* out) {
+    if (!jacobian) return;  // only the Jacobian depends on the direction
+    if (sparse_) {
+      out->noalias() = jfs_ * d;
+    } else {
+      out->noalias() = jf_ * d;
+    }
+  };
+  FbRows(kinds_, x, F, p_.lower, p_.upper, o_.lambda, jf_times, phi, &alpha_, &beta_, &d_, &jd_);
+  if (!jacobian) return;
+  if (sparse_) {
+    AssembleSparseH();
+  } else {
+    // H = diag(beta) J_F + diag(alpha).
+    h_.noalias() = beta_.asDiagonal() * jf_;
+    h_.diagonal() += alpha_;
+  }
+}
+
+void SemismoothNewton::AssembleSparseH() {
+  const int nnz = static_cast<int>(jfs_.nonZeros());
+  const int* outer = jfs_.outerIndexPtr();
+  const int* inner = jfs_.innerIndexPtr();
+  const bool same = pattern_valid_ && static_cast<int>(cached_inner_.size()) == nnz &&
+                    std::equal(outer, outer + n_ + 1, cached_outer_.begin()) &&
+                    std::equal(inner, inner + nnz, cached_inner_.begin());
+  if (!same) {
+    // H's pattern: J_F's plus the diagonal.
+    std::vector<Eigen::Triplet<double>> triplets;
+    triplets.reserve(nnz + n_);
+    for (int j = 0; j < n_; ++j) {
+      for (int k = outer[j]; k < outer[j + 1]; ++k) triplets.emplace_back(inner[k], j, 0.0);
+      triplets.emplace_back(j, j, 0.0);
+    }
+    hs_.resize(n_, n_);
+    hs_.setFromTriplets(triplets.begin(), triplets.end());
+    hs_.makeCompressed();
+    const int* houter = hs_.outerIndexPtr();
+    const int* hinner = hs_.innerIndexPtr();
+    const auto position = [&](int row, int col) {
+      return static_cast<int>(
+          std::lower_bound(hinner + houter[col], hinner + houter[col + 1], row) - hinner);
+    };
+    entry_pos_.resize(nnz);
+    diag_pos_.resize(n_);
+    for (int j = 0; j < n_; ++j) {
+      for (int k = outer[j]; k < outer[j + 1]; ++k) entry_pos_[k] = position(inner[k], j);
+      diag_pos_[j] = position(j, j);
+    }
+    cached_outer_.assign(outer, outer + n_ + 1);
+    cached_inner_.assign(inner, inner + nnz);
+    pattern_valid_ = true;
+    slu_.analyzePattern(hs_);
+  }
+  double* values = hs_.valuePtr();
+  std::fill(values, values + hs_.nonZeros(), 0.0);
+  const double* jv = jfs_.valuePtr();
+  for (int j = 0; j < n_; ++j) {
+    for (int k = outer[j]; k < outer[j + 1]; ++k) values[entry_pos_[k]] += beta_(inner[k]) * jv[k];
+    values[diag_pos_[j]] += alpha_(j);
+  }
+}
+
+bool SemismoothNewton::NewtonDirection() {
+  rhs_ = -phi_;
+  if (sparse_) {
+    slu_.factorize(hs_);
+    if (slu_.info() != Eigen::Success) return false;
+    dir_ = slu_.solve(rhs_);
+    if (slu_.info() != Eigen::Success) return false;
+  } else {
+    lu_.compute(h_);
+    // PartialPivLU does not detect singularity; reject a numerically singular H.
+    const double rcond = lu_.rcond();
+    if (!(rcond > 1e-15 * n_)) return false;
+    dir_ = lu_.solve(rhs_);
+  }
+  return dir_.allFinite();
+}
+
+bool SemismoothNewton::LevenbergMarquardtDirection() {
+  const double phi_norm = phi_.norm();
+  if (sparse_) {
+    SparseMatrixd hth = hs_.transpose() * hs_;
+    double scale = 0.0;
+    for (int j = 0; j < n_; ++j) scale = std::max(scale, hth.coeff(j, j));
+    const double m = std::min(1.0, phi_norm * phi_norm) * std::max(scale, kLmFloor);
+    SparseMatrixd eye(n_, n_);
+    eye.setIdentity();
+    hth += m * eye;
+    Eigen::SimplicialLDLT<SparseMatrixd> ldlt(hth);
+    if (ldlt.info() != Eigen::Success) return false;
+    dir_ = ldlt.solve(-grad_);
+  } else {
+    MatrixXd hth = h_.transpose() * h_;
+    const double m =
+        std::min(1.0, phi_norm * phi_norm) * std::max(hth.diagonal().maxCoeff(), kLmFloor);
+    hth.diagonal().array() += m;
+    Eigen::LDLT<MatrixXd> ldlt(hth);
+    if (ldlt.info() != Eigen::Success) return false;
+    dir_ = ldlt.solve(-grad_);
+  }
+  return dir_.allFinite();
+}
+
+bool SemismoothNewton::LineSearch(const VectorXd& z, bool newton, double reference, double slope,
+                                  double t0, bool* threw) {
+  double t = t0;
+  for (int k = 0; k < kMaxBacktracks; ++k, t *= kBacktrack) {
+    if (newton) {
+      zt_ = z + t * dir_;
+    } else {
+      zt_ = z - t * grad_;
+    }
+    ProjectInPlace(p_.lower, p_.upper, &zt_);
+    if (zt_ == z) return false;  // the projected path is stuck at z
+    // The full Newton step is the one accepted near a solution: evaluate the Jacobian with it
+    // so that accepting it costs no second evaluation.
+    trial_has_jacobian_ = newton && k == 0;
+    const Eval e = Evaluate(zt_, &Ft_, trial_has_jacobian_);
+    if (e == Eval::kThrew) {
+      *threw = true;
+      return false;
+    }
+    if (e == Eval::kNonFinite) continue;  // backtrack out of trouble
+    Reformulate(zt_, Ft_, &phit_, false);
+    const double merit = 0.5 * phit_.squaredNorm();
+    // Newton: the decrease predicted by the linear model (∇Ψᵀd = −‖Φ‖²) scaled by t;
+    // gradient: Armijo along the projected path.
+    const double predicted = newton ? t * slope : grad_.dot(zt_ - z);
+    if (std::isfinite(merit) && merit <= reference + kArmijo * predicted) return true;
+  }
+  return false;
+}
+
+void SemismoothNewton::RestartPoint(int attempt, const VectorXd& z0, const VectorXd& F0,
+                                    const VectorXd& best, VectorXd* z) {
+  if (attempt == 1) {
+    // Crash point: the projected start shifted toward the bounds F points at.
+    *z = z0 - F0;
+    ProjectInPlace(p_.lower, p_.upper, z);
+    if (*z != z0) return;
+  }
+  // Perturb the best point, with an amplitude growing with the attempt.
+  Perturbation rng(0x5EED0000u + static_cast<std::uint64_t>(attempt));
+  const double amplitude = 0.25 * attempt;
+  for (int i = 0; i < n_; ++i) {
+    (*z)(i) = best(i) + amplitude * (1.0 + std::abs(best(i))) * rng.Next();
+  }
+  ProjectInPlace(p_.lower, p_.upper, z);
+}
+
+SolverReport SemismoothNewton::Run(VectorXd* z, McpSolveStats* stats_out) {
+  const auto start = std::chrono::steady_clock::now();
+  SolverReport report;
+  const VectorXd& l = p_.lower;
+  const VectorXd& u = p_.upper;
+
+  VectorXd z0 = *z;
+  ProjectInPlace(l, u, &z0);
+  VectorXd zc = z0;
+  VectorXd best = z0;
+  double best_residual = kInf;
+  double best_merit = kInf;
+  VectorXd F0;
+  std::vector<double> merits;
+  merits.reserve(std::max(1, o_.nonmonotone_memory));
+
+  enum class End { kSolved, kBudget, kStalled, kFailure } end = End::kStalled;
+  int iterations = 0;
+
+  // Evaluates F, J, Φ, H at zc (into F_, phi_, ...) and updates the best point. Returns false
+  // (with end/message set) on a numerical failure. `evaluated`: F and J at zc are already in
+  // F_ and jf_ / jfs_.
+  const auto accept = [&](bool evaluated) {
+    if (!evaluated) {
+      const Eval e = Evaluate(zc, &F_, true);
+      if (e == Eval::kNonFinite) message_ = "non-finite F or Jacobian at an iterate";
+      if (e != Eval::kOk) {
+        end = End::kFailure;
+        return false;
+      }
+    }
+    Reformulate(zc, F_, &phi_, true);
+    const double residual = NaturalResidual(zc, F_, l, u);
+    if (residual < best_residual) {
+      best_residual = residual;
+      best_merit = 0.5 * phi_.squaredNorm();
+      best = zc;
+    }
+    return true;
+  };
+
+  int attempt = 0;
+  if (accept(false)) {
+    F0 = F_;
+    for (;; ++attempt) {
+      if (attempt > 0) {
+        if (attempt > o_.max_restarts) break;
+        ++stats_.restarts;
+        RestartPoint(attempt, z0, F0, best, &zc);
+        if (!accept(false)) break;
+      }
+      double merit = 0.5 * phi_.squaredNorm();
+      merits.assign(1, merit);
+      double attempt_best = merit;
+      int since_progress = 0;
+      bool stalled = false;
+      while (true) {
+        if (NaturalResidual(zc, F_, l, u) <= o_.tolerance) {
+          end = End::kSolved;
+          break;
+        }
+        if (iterations >= o_.max_iterations) {
+          end = End::kBudget;
+          break;
+        }
+        ++iterations;
+        if (sparse_) {
+          grad_.noalias() = hs_.transpose() * phi_;
+        } else {
+          grad_.noalias() = h_.transpose() * phi_;
+        }
+        const double reference = *std::max_element(merits.begin(), merits.end());
+        bool threw = false;
+        bool accepted = false;
+        if (NewtonDirection()) {
+          const double slope = grad_.dot(dir_);
+          if (slope <= -kDescentRho * std::pow(dir_.norm(), kDescentP)) {
+            accepted = LineSearch(zc, true, reference, slope, 1.0, &threw);
+            if (accepted) ++stats_.newton_steps;
+          }
+        }
+        if (!accepted && !threw && o_.levenberg_marquardt && LevenbergMarquardtDirection()) {
+          const double slope = grad_.dot(dir_);
+          if (slope < 0.0) {
+            accepted = LineSearch(zc, true, reference, slope, 1.0, &threw);
+            if (accepted) ++stats_.lm_steps;
+          }
+        }
+        if (!accepted && !threw) {
+          // Projected gradient; first trial at the Cauchy step of the linearized model.
+          if (sparse_) {
+            tmp_.noalias() = hs_ * grad_;
+          } else {
+            tmp_.noalias() = h_ * grad_;
+          }
+          const double gg = grad_.squaredNorm();
+          const double hg = tmp_.squaredNorm();
+          const double t0 = hg > 0.0 && std::isfinite(gg / hg) ? gg / hg : 1.0;
+          accepted = gg > 0.0 && LineSearch(zc, false, reference, 0.0, t0, &threw);
+          if (accepted) ++stats_.gradient_steps;
+        }
+        if (threw) {
+          end = End::kFailure;
+          break;
+        }
+        if (!accepted) {
+          stalled = true;
+          break;
+        }
+        zc = zt_;
+        if (trial_has_jacobian_) F_ = Ft_;
+        if (!accept(trial_has_jacobian_)) break;
+        merit = 0.5 * phi_.squaredNorm();
+        if (static_cast<int>(merits.size()) >= std::max(1, o_.nonmonotone_memory)) {
+          merits.erase(merits.begin());
+        }
+        merits.push_back(merit);
+        if (merit < kStallFactor * attempt_best) {
+          attempt_best = merit;
+          since_progress = 0;
+        } else if (++since_progress >= o_.stall_iterations) {
+          stalled = true;
+          break;
+        }
+      }
+      if (!stalled) break;
+      end = End::kStalled;
+    }
+  }
+
+  *z = best;
+  report.iterations = iterations;
+  report.residual = best_residual;
+  if (!(best_residual < kInf)) {
+    report.residual = kNaN;  // no point was ever evaluated successfully
+  }
+  if (best_residual <= o_.tolerance) {
+    report.status = SolverStatus::kSolved;
+    if (stats_.restarts > 0) {
+      message_ = "solved after " + std::to_string(stats_.restarts) + " restart(s)";
+    }
+  } else if (end == End::kBudget) {
+    report.status = SolverStatus::kMaxIterations;
+    message_ = "iteration limit " + std::to_string(o_.max_iterations) +
+               " reached; best natural residual " + std::to_string(best_residual) + " after " +
+               std::to_string(stats_.restarts) + " restart(s)";
+  } else if (end == End::kStalled) {
+    report.status = SolverStatus::kStalled;
+    message_ = "stalled at a non-solution (best natural residual " + std::to_string(best_residual) +
+               ") after " + std::to_string(stats_.restarts) + " restart(s)";
+  } else {
+    report.status = SolverStatus::kNumericalFailure;
+    if (end != End::kFailure) {
+      message_ = "stalled at a non-solution (best natural residual " +
+                 std::to_string(best_residual) + ") after " + std::to_string(stats_.restarts) +
+                 " restart(s)";
+    }
+  }
+  report.message = message_;
+  report.restarts = stats_.restarts;
+  stats_.merit = std::isfinite(best_merit) ? best_merit : kNaN;
+  if (stats_out != nullptr) *stats_out = stats_;
+  report.time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return report;
+}
+
+}  // namespace
+
+double McpResidual(const McpProblem& problem, const VectorXd& z) {
+  CheckProblem(problem, "McpResidual");
+  const Eigen::Index n = problem.lower.size();
+  if (z.size() != n) {
+    throw std::invalid_argument("McpResidual: z has size " + std::to_string(z.size()) +
+                                " but the problem has size " + std::to_string(n));
+  }
+  VectorXd F = VectorXd::Zero(n);
+  problem.evaluate(z, &F, nullptr);
+  if (F.size() != n) {
+    throw std::invalid_argument("McpResidual: evaluate returned F of size " +
+                                std::to_string(F.size()) + "; expected " + std::to_string(n));
+  }
+  return NaturalResidual(z, F, problem.lower, problem.upper);
+}
+
+VectorXd McpFischerBurmeister(const McpProblem& problem, const VectorXd& z, double lambda,
+                              MatrixXd* J) {
+  CheckProblem(problem, "McpFischerBurmeister");
+  const Eigen::Index n = problem.lower.size();
+  if (z.size() != n) {
+    throw std::invalid_argument("McpFischerBurmeister: z has size " + std::to_string(z.size()) +
+                                " but the problem has size " + std::to_string(n));
+  }
+  if (!(lambda > 0.0 && lambda <= 1.0)) {
+    throw std::invalid_argument("McpFischerBurmeister: lambda = " + std::to_string(lambda) +
+                                "; expected 0 < lambda <= 1");
+  }
+  std::vector<RowKind> kinds(n);
+  for (Eigen::Index i = 0; i < n; ++i) kinds[i] = Classify(problem.lower(i), problem.upper(i));
+  VectorXd F = VectorXd::Zero(n);
+  MatrixXd jf;
+  if (J != nullptr) jf.setZero(n, n);
+  problem.evaluate(z, &F, J != nullptr ? &jf : nullptr);
+  if (F.size() != n || (J != nullptr && (jf.rows() != n || jf.cols() != n))) {
+    throw std::invalid_argument("McpFischerBurmeister: evaluate returned F/J of the wrong size");
+  }
+  VectorXd phi(n), alpha(n), beta(n), d(n), jd(n);
+  const auto jf_times = [&](const VectorXd& dir, VectorXd* out) {
+    if (J != nullptr) out->noalias() = jf * dir;
+  };
+  FbRows(kinds, z, F, problem.lower, problem.upper, lambda, jf_times, &phi, &alpha, &beta, &d, &jd);
+  if (J != nullptr) {
+    *J = beta.asDiagonal() * jf;
+    J->diagonal() += alpha;
+  }
+  return phi;
+}
+
+SolverReport McpSolver::Solve(const McpProblem& problem, VectorXd* z) const {
+  return Solve(problem, z, nullptr);
+}
+
+SolverReport McpSolver::Solve(const McpProblem& problem, VectorXd* z, McpSolveStats* stats) const {
+  if (z == nullptr) throw std::invalid_argument("McpSolver::Solve: z is null");
+  CheckProblem(problem, "McpSolver::Solve");
+  const int n = problem.size();
+  if (z->size() != n) {
+    throw std::invalid_argument("McpSolver::Solve: z has size " + std::to_string(z->size()) +
+                                " but the problem has size " + std::to_string(n));
+  }
+  for (int i = 0; i < n; ++i) {
+    const double l = problem.lower(i);
+    const double u = problem.upper(i);
+    if (!(l <= u) || l == kInf || u == -kInf) {
+      throw std::invalid_argument("McpSolver::Solve: bounds of row " + std::to_string(i) +
+                                  " are [" + std::to_string(l) + ", " + std::to_string(u) +
+                                  "]; expected l <= u, l < +inf, u > -inf");
+    }
+    if (!std::isfinite((*z)(i))) {
+      throw std::invalid_argument("McpSolver::Solve: starting point z(" + std::to_string(i) +
+                                  ") = " + std::to_string((*z)(i)) + "; expected finite");
+    }
+  }
+  const McpOptions& o = options_;
+  const auto require = [](bool ok, const std::string& what) {
+    if (!ok) throw std::invalid_argument("McpSolver: invalid option " + what);
+  };
+  require(o.max_iterations >= 0,
+          "max_iterations = " + std::to_string(o.max_iterations) + "; expected >= 0");
+  require(o.tolerance >= 0.0, "tolerance = " + std::to_string(o.tolerance) + "; expected >= 0");
+  require(o.lambda > 0.0 && o.lambda <= 1.0,
+          "lambda = " + std::to_string(o.lambda) + "; expected 0 < lambda <= 1");
+  require(o.nonmonotone_memory >= 1,
+          "nonmonotone_memory = " + std::to_string(o.nonmonotone_memory) + "; expected >= 1");
+  require(o.max_restarts >= 0,
+          "max_restarts = " + std::to_string(o.max_restarts) + "; expected >= 0");
+  require(o.stall_iterations >= 1,
+          "stall_iterations = " + std::to_string(o.stall_iterations) + "; expected >= 1");
+  SemismoothNewton solver(problem, options_);
+  return solver.Run(z, stats);
+}
+
+}  // namespace vinci::sim
