@@ -21,7 +21,8 @@
 // New kinds of results (a design's best trajectory, a plan's paths) are new members of this
 // object with a drawing function below; the page ignores members it does not know.
 //
-// The page opens paused at the time in its URL fragment (#t=1.8, default 0). When the first
+// The page opens paused at the time in its URL fragment (#t=1.8, default 0; also &follow=BODY,
+// &field=0 to hide the field, &play to start playing). When the first
 // frame has been drawn, <body data-vinci-state="ready" data-vinci-time="T">; any error sets
 // data-vinci-state="error" (see viewer.html); the browser test checks this.
 (function () {
@@ -460,7 +461,9 @@
       let vmax = 0;
       for (const p of f.points) if (!p.failed && p.v[0] !== null) vmax = Math.max(vmax, v3(p.v).length());
       const spacing = f.spacing > 0 ? f.spacing : this.extent.size * 0.1;
-      const lift = this.planar ? new THREE.Vector3(0, 0, this.extent.size * 0.011)
+      // Just off the plate: planar above its surface line and in front of the extruded shapes.
+      const lift = this.planar ? v3(f.normal).multiplyScalar(spacing * 0.15)
+                                     .add(new THREE.Vector3(0, 0, this.extent.size * 0.011))
                                : v3(f.normal).multiplyScalar(spacing * 0.05);
       for (const p of f.points) {
         const origin = v3(p.p).add(lift);
@@ -567,7 +570,7 @@
       window.addEventListener('hashchange', () => this.applyHash());
     }
 
-    // #t=1.8[&follow=name][&play]
+    // #t=1.8[&follow=name][&field=0|1][&play]
     applyHash() {
       const params = new URLSearchParams(location.hash.replace(/^#/, ''));
       let t = this.t0;
@@ -579,6 +582,10 @@
       if (params.has('follow')) {
         const i = this.bodies.findIndex((b) => b.name === params.get('follow'));
         if (i >= 0) { this.setFollow(i); $('follow').value = String(i); }
+      }
+      if (params.has('field') && this.fieldGroup) {
+        $('showfield').checked = params.get('field') !== '0';
+        this.fieldGroup.visible = $('showfield').checked;
       }
       this.playing = false;
       this.setTime(t);

@@ -1,8 +1,7 @@
 #!/usr/bin/python3
-"""`vinci view` in a real browser (Debian's headless Chromium).
+"""`vinci view` in a real browser (Debian's headless Chromium). Three modes:
 
-Simulates a bundled scene (a ball dropped onto a floor), writes its page with `vinci view`, and
-checks:
+ball-drop  Simulates a bundled scene (a ball dropped onto a floor), writes its page and checks:
   1. the page's data: every CSV row is a frame; with --max-frames the trajectory is decimated
      (first and last rows kept, the step report's peaks kept), not truncated;
   2. the page reports itself ready at the time in its URL fragment (#t=0.5), i.e. three.js and
@@ -11,6 +10,10 @@ checks:
      (it falls 0.9 m between the two times);
   4. the same page with its three.js removed, or with its data corrupted, reports an error: the
      readiness check in 2 cannot pass for a page whose script fails.
+shapes     The page of a scene without trajectory is ready, and every dynamic body's colour
+           (the viewer's palette, in scene order) covers some pixels: each shape kind is drawn.
+field      A plate scene's page with a velocity field (vinci field) is ready, and its screenshot
+           differs from the one with the field hidden (#field=0): the arrows are drawn.
 Exits non-zero with a message on the first failed check. Chromium missing is a failure
 (scripts/setup.sh installs it), never a skip.
 """
@@ -88,15 +91,32 @@ def page_data(html_path):
     return json.loads(m.group(1)), text
 
 
-def ball_mask(rgb):
-    """Pixels of the first dynamic body's colour (orange, hue ~26 deg, and its lighter tint)."""
-    r, g, b = rgb[..., 0], rgb[..., 1], rgb[..., 2]
-    mx = np.maximum(np.maximum(r, g), b)
-    mn = np.minimum(np.minimum(r, g), b)
-    sat = (mx - mn) / np.maximum(mx, 1)
-    # Orange: red is the largest channel, blue the smallest, green in between.
-    hue_ok = (r == mx) & (b == mn) & (g > b + 0.15 * (r - b)) & (g < b + 0.75 * (r - b))
-    return hue_ok & (sat > 0.25) & (mx > 60)
+# The viewer's colours of dynamic bodies (cli/view/viewer.js, kDynamicColors), in order.
+PALETTE = [0xe8833a, 0x3a9ad9, 0x4caf50, 0x9c5fc7, 0xd94c6a, 0x2bb5a6, 0xc9a227, 0x6d7fd6]
+HUE_TOLERANCE_DEG = 10  # shading keeps the hue of a body's colour (and of its lighter tint)
+
+
+def hue_saturation(rgb):
+    f = rgb.astype(np.float64) / 255.0
+    mx, mn = f.max(axis=2), f.min(axis=2)
+    c = mx - mn
+    r, g, b = f[..., 0], f[..., 1], f[..., 2]
+    safe = np.where(c > 0, c, 1)
+    h = np.where(mx == r, ((g - b) / safe) % 6, np.where(mx == g, (b - r) / safe + 2,
+                                                           (r - g) / safe + 4)) * 60
+    return h, np.where(mx > 0, c / np.where(mx > 0, mx, 1), 0)
+
+
+def color_mask(rgb, color):
+    """Pixels of the hue of `color` (saturated, so not the grey floor, edges or background)."""
+    h, s = hue_saturation(rgb)
+    ref_h, _ = hue_saturation(np.array([[[color >> 16, (color >> 8) & 255, color & 255]]]))
+    d = np.abs((h - ref_h[0, 0] + 180) % 360 - 180)
+    return (d < HUE_TOLERANCE_DEG) & (s > 0.3)
+
+
+def color_pixels(rgb, color):
+    return int(color_mask(rgb, color).sum())
 
 
 def check_not_blank(rgb, name):
@@ -110,8 +130,56 @@ def check_not_blank(rgb, name):
         fail(name + " looks blank")
 
 
+def check_ready(a, url, t):
+    state, time, dom = page_state(a.chromium, url + "#t=" + t)
+    if state != "ready" or time is None or abs(float(time) - float(t)) > 1e-12:
+        fail("expected data-vinci-state=ready at t=%s, got state %r time %r\n%s" %
+             (t, state, time, dom[:3000]))
+    print("page ready at t =", time)
+
+
+def shapes(a):
+    name = os.path.splitext(os.path.basename(a.scene))[0]
+    html = os.path.join(a.out_dir, name + ".html")
+    run([a.vinci, "view", a.scene, "--out", html, "--quiet"])
+    url = "file://" + os.path.abspath(html)
+    check_ready(a, url, "0")
+    rgb = screenshot(a.chromium, url, os.path.join(a.out_dir, name + ".png"))
+    check_not_blank(rgb, name)
+    rgb = rgb[: rgb.shape[0] - 60]  # above the controls
+    data, _ = page_data(html)
+    dynamic = [b for b in data["scene"]["bodies"] if b["kind"] == "dynamic"]
+    for i, b in enumerate(dynamic):
+        n = color_pixels(rgb, PALETTE[i % len(PALETTE)])
+        print("%s (%s): %d px of its colour" % (b["name"], b["shapes"][0]["type"], n))
+        if n < 30:
+            fail("body %s (%s) is not drawn: %d px of its colour #%06x" %
+                 (b["name"], b["shapes"][0]["type"], n, PALETTE[i % len(PALETTE)]))
+    print("OK")
+
+
+def field(a):
+    csv_path = os.path.join(a.out_dir, "field.csv")
+    run([a.vinci, "field", a.scene, "--grid", "7", "--cycles", "2", "--average-cycles", "1",
+         "--quiet", "--out", csv_path])
+    html = os.path.join(a.out_dir, "field.html")
+    run([a.vinci, "view", a.scene, "--field", csv_path, "--out", html, "--quiet"])
+    url = "file://" + os.path.abspath(html)
+    check_ready(a, url, "0")
+    # The same page with the field hidden by its fragment: only the arrows differ.
+    shots = [screenshot(a.chromium, url + frag, os.path.join(a.out_dir, name))
+             for frag, name in (("#t=0", "field.png"), ("#t=0&field=0", "field_hidden.png"))]
+    H = shots[0].shape[0]
+    diff = (np.abs(shots[0] - shots[1]).sum(axis=2) > 60)[: H - 60]  # above the controls
+    print("field arrows: %d px differ" % diff.sum())
+    if diff.sum() < 200:
+        fail("the page with --field looks like the page without: %d px differ" % diff.sum())
+    print("OK")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("mode", choices=["ball-drop", "shapes", "field"])
     ap.add_argument("--vinci", required=True)
     ap.add_argument("--chromium", default="")
     ap.add_argument("--scene", required=True)
@@ -122,6 +190,10 @@ def main():
         fail("Chromium not found (%r): install it with scripts/setup.sh (Debian package "
              "chromium)" % a.chromium)
     os.makedirs(a.out_dir, exist_ok=True)
+    {"ball-drop": ball_drop, "shapes": shapes, "field": field}[a.mode](a)
+
+
+def ball_drop(a):
     traj = os.path.join(a.out_dir, "ball_drop.csv")
     html = os.path.join(a.out_dir, "ball_drop.html")
     run([a.vinci, "simulate", a.scene, "--quiet", "--out", traj])
@@ -158,11 +230,7 @@ def main():
 
     # 2. Ready at the fragment's time.
     url = "file://" + os.path.abspath(html)
-    state, time, dom = page_state(a.chromium, url + "#t=0.5")
-    if state != "ready" or time is None or abs(float(time) - 0.5) > 1e-12:
-        fail("expected data-vinci-state=ready at t=0.5, got state %r time %r\n%s" %
-             (state, time, dom[:3000]))
-    print("page ready at t =", time)
+    check_ready(a, url, "0.5")
 
     # 3. Screenshots: not blank, the ball moved down.
     shots = {}
@@ -173,7 +241,7 @@ def main():
     H, W = shots["0"].shape[:2]
     centroids = {}
     for t, rgb in shots.items():
-        m = ball_mask(rgb)
+        m = color_mask(rgb[: H - 60], PALETTE[0])  # the first dynamic body, above the controls
         if m.sum() < 100:
             fail("t=%s: expected the ball's orange pixels, found %d" % (t, m.sum()))
         ys, xs = np.nonzero(m)
