@@ -23,7 +23,8 @@
 //
 // The page opens paused at the time in its URL fragment (#t=1.8, default 0; also &follow=BODY,
 // &field=0 to hide the field, &play to start playing). When the first
-// frame has been drawn, <body data-vinci-state="ready" data-vinci-time="T">; any error sets
+// frame has been drawn, <body data-vinci-state="ready" data-vinci-time="T"> (T: the time of the
+// frame drawn last); any error sets
 // data-vinci-state="error" (see viewer.html); the browser test checks this.
 (function () {
   'use strict';
@@ -786,12 +787,12 @@
       this.update();
       this.renderer.render(this.scene, this.camera);
       this.dirty = false;
+      document.body.setAttribute('data-vinci-time', String(this.time));  // the time drawn
     }
 
     start() {
       this.applyHash();
       this.render();
-      document.body.setAttribute('data-vinci-time', String(this.time));
       if (document.body.getAttribute('data-vinci-state') === 'loading') {
         document.body.setAttribute('data-vinci-state', 'ready');
         document.title = 'vinci view: ' + (this.sceneData.name || 'scene');

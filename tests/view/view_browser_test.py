@@ -5,7 +5,7 @@ ball-drop  Simulates a bundled scene (a ball dropped onto a floor), writes its p
   1. the page's data: every CSV row is a frame; with --max-frames the trajectory is decimated
      (first and last rows kept, the step report's peaks kept), not truncated;
   2. the page reports itself ready at the time in its URL fragment (#t=0.5), i.e. three.js and
-     the viewer loaded and drew a frame without an error;
+     the viewer loaded and drew a frame without an error; with #t=0.1&play it plays on;
   3. screenshots at #t=0 and #t=0.5 are not blank and the ball's pixels moved down the screen
      (it falls 0.9 m between the two times);
   4. the same page with its three.js removed, or with its data corrupted, reports an error: the
@@ -231,6 +231,13 @@ def ball_drop(a):
     # 2. Ready at the fragment's time.
     url = "file://" + os.path.abspath(html)
     check_ready(a, url, "0.5")
+
+    # Playing (#play) advances the time drawn, without an error, up to at most the end.
+    state, time, dom = page_state(a.chromium, url + "#t=0.1&play")
+    if state != "ready" or time is None or not (0.1 < float(time) <= float(rows[-1]["t"])):
+        fail("#t=0.1&play: expected ready with 0.1 < t <= the end, got state %r time %r\n%s" %
+             (state, time, dom[:3000]))
+    print("playing from t = 0.1: drawn t =", time)
 
     # 3. Screenshots: not blank, the ball moved down.
     shots = {}
