@@ -114,8 +114,9 @@ std::vector<std::string> ExpectedColumns(const sim::Scene& scene) {
 }
 
 std::string DescribeScene(const sim::Scene& scene) {
-  return "the scene '" + scene.name + "' (" + (scene.dim == Dim::kPlanar ? "planar" : "spatial") +
-         ", " + std::to_string(scene.bodies.size()) + " bodies)";
+  return "the scene '" + (scene.name.empty() ? std::string("(unnamed)") : scene.name) + "' (" +
+         (scene.dim == Dim::kPlanar ? "planar" : "spatial") + ", " +
+         std::to_string(scene.bodies.size()) + " bodies)";
 }
 
 bool IsNormalStatus(const std::string& s) { return s == "solved" || s == "initial"; }
