@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <stdexcept>
 
+#include "vinci/sim/formulations/capabilities.h"
 #include "vinci/sim/formulations/first_order.h"
 #include "vinci/sim/formulations/geometrically_implicit.h"
 #include "vinci/sim/formulations/ncp.h"
@@ -36,6 +37,7 @@ Simulator::Simulator(Scene scene) {
   scene.Finalize();
   scene_ = std::make_shared<const Scene>(std::move(scene));
   formulation_ = MakeFormulation(scene_->options);
+  CheckSceneSupported(*scene_, scene_->options.formulation, formulation_->capabilities());
 }
 
 State Simulator::InitialState() const {

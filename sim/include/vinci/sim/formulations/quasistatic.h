@@ -50,6 +50,9 @@ class Quasistatic final : public Formulation {
   /// options.formulation must be kQuasistaticDlc, kQuasistaticDqc or kDynamicDqc.
   explicit Quasistatic(StepperOptions options, McpOptions mcp = {});
   std::string_view name() const override;
+  FormulationCapabilities capabilities() const override {
+    return CapabilitiesOf(options_.formulation);
+  }
   void Step(const Scene& model, const State& x, const StepInput& u, Workspace* ws, State* next,
             StepInfo* info) const override;
   /// Layout: StepLayout with p_s of n_d columns per point (DLC) or 2 (DQC, the x and y
