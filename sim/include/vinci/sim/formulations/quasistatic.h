@@ -72,8 +72,9 @@ class Quasistatic final : public Formulation {
  private:
   StewartTrinkle::Assembly Assemble(const Scene& model, const State& x, const StepInput& u,
                                     bool quadratic) const;
+  /// *contacts (if non-null) receives the assembly's contacts.
   McpProblem MakeMcp(const Scene& model, const State& x, const StepInput& u, bool quadratic,
-                     StepLayout* layout) const;
+                     StepLayout* layout, std::vector<Contact>* contacts = nullptr) const;
   /// Solves the DLC step by the split LCP (warm-started from *warm if it has the MCP's size);
   /// *y receives the MCP unknowns.
   SolverReport SolveDlc(const McpProblem& mcp, const VectorXd* warm, VectorXd* y) const;
