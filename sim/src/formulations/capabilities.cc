@@ -150,7 +150,9 @@ void CheckSceneSupported(const Scene& scene, FormulationType type,
                FormulationKeyword(type) + " does not support " + use.feature + " (" + use.where +
                "); formulations that do: " + (others.empty() ? "none" : others);
   }
-  if (!message.empty()) throw std::invalid_argument("scene '" + scene.name + "': " + message);
+  if (!message.empty())
+    throw std::invalid_argument((scene.name.empty() ? "scene: " : "scene '" + scene.name + "': ") +
+                                message);
 }
 
 }  // namespace vinci::sim

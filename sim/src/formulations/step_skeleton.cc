@@ -19,7 +19,7 @@ bool NeedsImplicitContact(const Scene& model) {
 
 }  // namespace
 
-double MinGapAt(const Scene& model, const State& x, double h, std::string* where) {
+double MinGapAt(const Scene& model, const State& x, double h, double envelope, std::string* where) {
   std::vector<BodyKinematics> kin = ComputeBodyKinematics(model, x);
   for (std::size_t i = 0; i < kin.size(); ++i) {  // as the next step's assembly poses them
     const Body& b = model.bodies[i];
@@ -27,7 +27,7 @@ double MinGapAt(const Scene& model, const State& x, double h, std::string* where
       kin[i] = EvaluateMotion(b.motion, b.X_WB0, model.dim == Dim::kPlanar, x.t, h);
   }
   std::vector<Contact> contacts;
-  FindContacts(model, kin, 0.0, &contacts);
+  FindContacts(model, kin, envelope, &contacts);
   double min_gap = std::numeric_limits<double>::infinity();
   for (const Contact& c : contacts) {
     const double gap = c.point.corner ? std::max(c.point.gap, c.point.gap2) : c.point.gap;
@@ -70,7 +70,7 @@ StepInfo RunStep(const Formulation& formulation, const Scene& model, const State
   const StepperOptions& o = model.options;
   if (!NeedsImplicitContact(model)) {
     std::string where;
-    const double gap = MinGapAt(model, *next, o.dt, &where);
+    const double gap = MinGapAt(model, *next, o.dt, -o.max_penetration, &where);
     if (gap < -o.max_penetration) {
       internal::FailStep(StepStatus::kPenetration,
                          "penetration " + internal::FormatNumber(-gap) + " m (" + where +

@@ -22,10 +22,12 @@ namespace vinci::sim {
 StepInfo RunStep(const Formulation& formulation, const Scene& model, const State& x,
                  const StepInput& u, Workspace* ws, State* next);
 
-/// The smallest gap (m) over the contacts with ψ ≤ 0 at state x (a corner contact counts
-/// max(ψ_1, ψ_2)), +∞ if there is none; `where` (may be null) names the pair of bodies.
-/// Prescribed bodies are posed at x.t by their pose rule with step `h`. Throws
-/// std::invalid_argument for shapes that need implicit contact (RequiresImplicitContact).
-double MinGapAt(const Scene& model, const State& x, double h, std::string* where);
+/// The smallest gap (m) over the contacts with ψ ≤ `envelope` at state x (a corner contact counts
+/// max(ψ_1, ψ_2)), +∞ if there is none; `where` (may be null) names the pair of bodies. A negative
+/// envelope (RunStep passes −max_penetration) lets the broad phase skip every pair that cannot
+/// overlap that deeply, so resting contacts cost no narrow phase. Prescribed bodies are posed at
+/// x.t by their pose rule with step `h`. Throws std::invalid_argument for shapes that need
+/// implicit contact (RequiresImplicitContact).
+double MinGapAt(const Scene& model, const State& x, double h, double envelope, std::string* where);
 
 }  // namespace vinci::sim
