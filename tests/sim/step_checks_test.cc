@@ -127,6 +127,19 @@ TEST(StepChecks, NonFiniteWarmStartIsIgnored) {
   EXPECT_EQ(a.q, b.q);
 }
 
+// A formulation's own Step reports a consistent status too (ok ⇔ kOk), skeleton or not.
+TEST(StepChecks, FormulationStepStatusMatchesOk) {
+  const Scene scene = testing::LoadExample("ball_drop.yaml");
+  const Simulator sim(scene);
+  Workspace ws;
+  State next;
+  StepInfo info;
+  sim.formulation().Step(sim.Resolve(sim.DefaultParams(), &ws), sim.InitialState(), StepInput{},
+                         &ws, &next, &info);
+  EXPECT_TRUE(info.ok);
+  EXPECT_EQ(info.status, StepStatus::kOk);
+}
+
 TEST(StepChecks, StatusNames) {
   EXPECT_STREQ(ToString(StepStatus::kOk), "ok");
   EXPECT_STREQ(ToString(StepStatus::kNonFinite), "non-finite");

@@ -1062,6 +1062,7 @@ void GeometricallyImplicit::Step(const Scene& model, const State& x, const StepI
     }
   }
   info->ok = true;
+  info->status = StepStatus::kOk;
 }
 
 VectorXd GeometricallyImplicit::UnknownsFromStep(const Scene& model, const State& x,

@@ -370,6 +370,7 @@ void NcpStepper::Step(const Scene& model, const State& x, const StepInput& u, Wo
   if (!internal::CompleteStep(model, x, v1, h, z, next, info)) return;
   if (ws) ws->contacts = std::move(sp.assembly.contacts);
   info->ok = true;
+  info->status = StepStatus::kOk;
 }
 
 StepLayout NcpStepper::Layout(const Scene& model, const State& x) const {

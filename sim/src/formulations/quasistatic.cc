@@ -286,6 +286,7 @@ void Quasistatic::Step(const Scene& model, const State& x, const StepInput& u, W
   if (!internal::CompleteStep(model, x, v1, h, y, next, info)) return;
   if (ws) ws->contacts = std::move(contacts);
   info->ok = true;
+  info->status = StepStatus::kOk;
 }
 
 StepResiduals Quasistatic::Evaluate(const Scene& model, const Params& params, const State& x,

@@ -545,6 +545,7 @@ void StewartTrinkle::Step(const Scene& model, const State& x, const StepInput& u
   if (!internal::CompleteStep(model, x, v1, h, z, next, info)) return;
   if (ws) ws->contacts = std::move(a.contacts);
   info->ok = true;
+  info->status = StepStatus::kOk;
 }
 
 StepLayout StewartTrinkle::Layout(const Scene& model, const State& x) const {
