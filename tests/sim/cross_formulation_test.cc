@@ -36,11 +36,6 @@ std::vector<std::string> ExampleScenes() {
   return names;
 }
 
-bool IsStewartTrinkleFamily(FormulationType t) {
-  return t == FormulationType::kStewartTrinkle || t == FormulationType::kAnitescuPotra ||
-         t == FormulationType::kFirstOrder;
-}
-
 bool IsQuasistatic(FormulationType t) {
   return t == FormulationType::kQuasistaticDlc || t == FormulationType::kQuasistaticDqc ||
          t == FormulationType::kDynamicDqc;
