@@ -140,6 +140,17 @@ TEST(StepChecks, FormulationStepStatusMatchesOk) {
   EXPECT_EQ(info.status, StepStatus::kOk);
 }
 
+TEST(StepChecks, NonFiniteStartStateFailsBeforeTheFormulation) {
+  const Simulator sim(testing::LoadExample("ball_drop.yaml"));
+  State x = sim.InitialState();
+  x.v[0] = std::nan("");
+  Workspace ws;
+  State next;
+  const StepInfo info = sim.Step(sim.DefaultParams(), x, StepInput{}, &ws, &next);
+  EXPECT_EQ(info.status, StepStatus::kNonFinite) << info.failure;
+  EXPECT_NE(info.failure.find("start of the step"), std::string::npos) << info.failure;
+}
+
 TEST(StepChecks, StatusNames) {
   EXPECT_STREQ(ToString(StepStatus::kOk), "ok");
   EXPECT_STREQ(ToString(StepStatus::kNonFinite), "non-finite");

@@ -44,6 +44,12 @@ double MinGapAt(const Scene& model, const State& x, double h, double envelope, s
 StepInfo RunStep(const Formulation& formulation, const Scene& model, const State& x,
                  const StepInput& u, Workspace* ws, State* next) {
   StepInfo info;
+  if (!std::isfinite(x.t) || !x.q.allFinite() || !x.v.allFinite()) {
+    internal::FailStep(StepStatus::kNonFinite,
+                       "non-finite state (t, q or v) at the start of the step", &info);
+    *next = x;
+    return info;
+  }
   if (x.warm_start.size() > 0 && !x.warm_start.allFinite()) {
     State cold = x;
     cold.warm_start.resize(0);

@@ -9,6 +9,8 @@
 namespace vinci::sim {
 
 /// One step of `formulation` from x on `model` (the scene with params applied):
+///  0. A non-finite start state (t, q or v) fails with StepStatus::kNonFinite before the
+///     formulation sees it.
 ///  1. Warm start: x.warm_start is the previous step's solution of the same formulation; a
 ///     formulation uses it only if its size matches this step's problem. A non-finite warm start
 ///     is dropped (cold start).
