@@ -3,10 +3,12 @@
 #include <algorithm>
 #include <stdexcept>
 
+#include "vinci/sim/formulations/capabilities.h"
 #include "vinci/sim/formulations/first_order.h"
 #include "vinci/sim/formulations/geometrically_implicit.h"
 #include "vinci/sim/formulations/ncp.h"
 #include "vinci/sim/formulations/quasistatic.h"
+#include "vinci/sim/formulations/step_skeleton.h"
 #include "vinci/sim/formulations/stewart_trinkle.h"
 #include "vinci/sim/model/kinematics.h"
 #include "vinci/sim/solvers/lemke.h"
@@ -36,6 +38,7 @@ Simulator::Simulator(Scene scene) {
   scene.Finalize();
   scene_ = std::make_shared<const Scene>(std::move(scene));
   formulation_ = MakeFormulation(scene_->options);
+  CheckSceneSupported(*scene_, scene_->options.formulation, formulation_->capabilities());
 }
 
 State Simulator::InitialState() const {
@@ -70,9 +73,7 @@ StepInfo Simulator::Step(const Params& params, const State& x, const StepInput& 
         std::to_string(scene_->num_positions()) + " / " + std::to_string(scene_->num_velocities()));
   if (u.generalized_force.size() != 0 && u.generalized_force.size() != scene_->num_velocities())
     throw std::invalid_argument("Simulator::Step: input force has the wrong size");
-  StepInfo info;
-  formulation_->Step(Resolve(params, ws), x, u, ws, next, &info);
-  return info;
+  return RunStep(*formulation_, Resolve(params, ws), x, u, ws, next);
 }
 
 Trajectory Simulator::Rollout(const Params& params, const State& x0,
