@@ -51,7 +51,7 @@ struct NcpOptions {
   /// Scaled: ε̂_σ = this, i.e. ε_σ = this · P²/V; unscaled: ε_σ = this · p_ref² (N²·s³/m),
   /// p_ref = max(‖p_ext‖_∞, 1e-6 N·s).
   double cone_regularization = 1e-10;
-  bool scale_rows = true;  ///< nondimensionalize the MCP by P and V (see the file comment)
+  bool scale_rows = true;  ///< nondimensionalize the MCP by P and V (docs/formulations.md §2)
   /// Steps with at least this many contacts use the sparse Jacobian (McpProblem::sparse_jacobian,
   /// SparseLU); smaller ones the dense one.
   int sparse_min_contacts = 16;

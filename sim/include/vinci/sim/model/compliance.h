@@ -74,7 +74,7 @@ double NormalForce(const ContactCompliance& c, double overlap, double overlap_ra
 /// Hunt–Crossley). Rigid: 0.
 double StaticOverlap(const ContactCompliance& c, double force);
 
-/// The linearized law of one contact over one step (see the file comment for the equations).
+/// The linearized law of one contact over one step (the file comment; docs/formulations.md §4).
 struct CompliantNormalRow {
   bool compliant = false;     ///< false: rigid pair, all terms below are unused (zero)
   double stiffness = 0.0;     ///< k_e (N/m)
