@@ -86,7 +86,7 @@ class StewartTrinkle final : public Formulation {
     /// Patches of more than kMaxPatchContacts contacts (points) are split into consecutive
     /// chunks of at most that many, to bound the block solves' cost (Lemke, O(rows³)). A patch
     /// solved as one block transmits a load through a stack within a sweep (per-contact blocks
-    /// stall on stacks: bench/README.md, PGS).
+    /// stall on stacks: bench/README.md, vinci_vs_siconos: PGS).
     kContactPatch,
     /// One friction-cone block per contact, (p_n, p_f,1..n_d, σ[, c]), and one per support
     /// point, (p_s, σ_s): the smallest blocks the σ rows (zero diagonal) allow. Kept for

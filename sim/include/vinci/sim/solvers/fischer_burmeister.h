@@ -58,7 +58,8 @@ struct FischerBurmeisterOptions {
 ///   At most 30 outer steps and max_iterations Newton steps in all. The best iterate on the
 ///   original problem is kept. Reported: restarts = 1; the message says "proximal-point
 ///   fallback" with the outer and Newton steps and the range of c; `iterations` includes the
-///   subproblems' Newton steps. (The LCPs it is needed on: bench/README.md, "The tilted pile".)
+///   subproblems' Newton steps. (The LCPs it is needed on: bench/README.md, vinci_vs_siconos: "The
+///   tilted pile".)
 /// - Lemke fallback (lemke_fallback, on by default): if Newton and the proximal fallback fail,
 ///   LemkeSolver is run warm-started at the best iterate, and Newton (without fallbacks) from
 ///   Lemke's answer; the result is kSolved if it passes the tolerance above. The report then

@@ -46,7 +46,8 @@ struct LemkeOptions {
 ///   own Lemke fallback) is run from z = 0; a result passing τ is returned as kSolved with
 ///   restarts = 1 and a message naming the fallback (and FB's proximal-point fallback if it
 ///   ran). An infeasible LCP still fails. Why the polish and the fallback exist (degenerate
-///   box-pile LCPs on which every Lemke attempt fails): bench/README.md, "The tilted pile".
+///   box-pile LCPs on which every Lemke attempt fails): bench/README.md, vinci_vs_siconos: "The
+///   tilted pile".
 /// - Scaling is symmetric, D M D with z = D z̃ and D a power-of-two diagonal (so the scaling
 ///   is exact), because a symmetric scaling keeps M copositive-plus / PSD and hence keeps
 ///   Lemke's termination guarantee.

@@ -12,7 +12,7 @@ struct PgsOptions {
   /// Every this many sweeps (0: never), polish the iterate on its active set (subspace
   /// minimization: the minimum-norm Newton correction of the equations the active set implies,
   /// kept only if the residual drops; see the contract below). Off by default (measurements:
-  /// bench/README.md, PGS).
+  /// bench/README.md, vinci_vs_siconos: PGS).
   int polish_interval = 0;
 };
 
@@ -22,7 +22,7 @@ struct PgsOptions {
 /// kMaxIterations when the tolerance is not reached. PGS is approximate on ill-conditioned
 /// contact LCPs: give it the contact-patch blocks of StewartTrinkle::BuildLcp (per-contact blocks
 /// stall on stacks; measurements, and where stepping a stack with `solver: pgs` still fails:
-/// bench/README.md, PGS).
+/// bench/README.md, vinci_vs_siconos: PGS).
 ///
 /// Details of the contract:
 /// - Block B is solved for x given the rest, M_BB x + r_B ⊥ x ≥ 0 with r_B = q_B + M_B,rest
