@@ -62,6 +62,40 @@ std::vector<std::string> SolverNames(FormulationType formulation) {
   return LcpSolverNames();
 }
 
+const std::vector<std::pair<std::string, FormulationType>>& FormulationTable() {
+  static const std::vector<std::pair<std::string, FormulationType>> kTable = {
+      {"stewart-trinkle", FormulationType::kStewartTrinkle},
+      {"anitescu-potra", FormulationType::kAnitescuPotra},
+      {"ncp", FormulationType::kNcp},
+      {"first-order", FormulationType::kFirstOrder},
+      {"quasistatic-dlc", FormulationType::kQuasistaticDlc},
+      {"quasistatic-dqc", FormulationType::kQuasistaticDqc},
+      {"dynamic-dqc", FormulationType::kDynamicDqc},
+      {"gi", FormulationType::kGeometricallyImplicit}};
+  return kTable;
+}
+
+std::vector<std::string> FormulationNames() {
+  std::vector<std::string> names;
+  for (const auto& entry : FormulationTable()) names.push_back(entry.first);
+  return names;
+}
+
+std::string_view ToString(FormulationType formulation) {
+  for (const auto& entry : FormulationTable())
+    if (entry.second == formulation) return entry.first;
+  throw std::logic_error("ToString: FormulationType " +
+                         std::to_string(static_cast<int>(formulation)) + " has no name");
+}
+
+FormulationType ParseFormulation(const std::string& name) {
+  for (const auto& entry : FormulationTable())
+    if (entry.first == name) return entry.second;
+  std::string list;
+  for (const std::string& n : FormulationNames()) list += (list.empty() ? "" : ", ") + n;
+  throw std::invalid_argument("unknown formulation '" + name + "'; expected one of: " + list);
+}
+
 int Scene::FindBody(const std::string& body_name) const {
   for (std::size_t i = 0; i < bodies.size(); ++i)
     if (bodies[i].name == body_name) return static_cast<int>(i);

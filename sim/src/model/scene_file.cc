@@ -873,16 +873,7 @@ Joint Parser::ParseJoint(const Field& f, const Scene& scene) const {
 void Parser::ParseStepper(const Field& f, StepperOptions* o) const {
   CheckMap(f, kStepperKeys, "stepper options: a map");
   if (auto v = Get(f, "formulation"))
-    o->formulation = Choice<FormulationType>(*v,
-                                             {{"stewart-trinkle", FormulationType::kStewartTrinkle},
-                                              {"anitescu-potra", FormulationType::kAnitescuPotra},
-                                              {"ncp", FormulationType::kNcp},
-                                              {"first-order", FormulationType::kFirstOrder},
-                                              {"quasistatic-dlc", FormulationType::kQuasistaticDlc},
-                                              {"quasistatic-dqc", FormulationType::kQuasistaticDqc},
-                                              {"dynamic-dqc", FormulationType::kDynamicDqc},
-                                              {"gi", FormulationType::kGeometricallyImplicit}},
-                                             "a formulation");
+    o->formulation = Choice<FormulationType>(*v, FormulationTable(), "a formulation");
   if (auto v = Get(f, "dt")) o->dt = Number(*v, Bound::kPositive);
   if (auto v = Get(f, "duration")) o->duration = Number(*v, Bound::kPositive);
   if (auto v = Get(f, "friction_directions")) {

@@ -4,6 +4,8 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <string_view>
+#include <utility>
 #include <vector>
 
 #include "vinci/sim/geometry/shape.h"
@@ -136,6 +138,18 @@ struct StepperOptions {
 /// solvers (LcpSolverNames) for the LCP formulations, which NCP and the quasistatic steppers also
 /// use for their start; "semismooth-newton" (and the default "lemke", unused) for GI.
 std::vector<std::string> SolverNames(FormulationType formulation);
+
+/// The scene-file names of the formulations (`stepper.formulation`, `vinci simulate
+/// --formulation`), one entry per FormulationType: stewart-trinkle, anitescu-potra, ncp,
+/// first-order, quasistatic-dlc, quasistatic-dqc, dynamic-dqc, gi. The one table that the scene
+/// loader, ParseFormulation and the CLI read.
+const std::vector<std::pair<std::string, FormulationType>>& FormulationTable();
+/// The names of FormulationTable(), in its order.
+std::vector<std::string> FormulationNames();
+/// The scene-file name of a formulation.
+std::string_view ToString(FormulationType formulation);
+/// The formulation named `name`. Throws std::invalid_argument naming the accepted names.
+FormulationType ParseFormulation(const std::string& name);
 
 /// Layout of one body in the generalized coordinate and velocity vectors.
 struct BodyIndex {
