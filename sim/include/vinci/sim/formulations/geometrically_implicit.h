@@ -40,9 +40,9 @@
 // segment, polyhedron, concave polygon) are rejected (std::invalid_argument from
 // Step/Layout/Evaluate); one contact point per convex pair means no torsional friction (a box
 // spinning flat on a floor keeps spinning; docs/formulations.md §2's optional p_r is not
-// implemented). Not honoured (as of this writing, docs/formulations.md §13): 2.5D support friction,
-// `pose: integrated` and `prescribed_velocity: exact` (always the exact pose and the secant
-// velocity).
+// implemented). Scenes with 2.5D support friction,
+// `pose: integrated` or `prescribed_velocity: exact` are rejected (capabilities(); docs/
+// formulations.md §13).
 #pragma once
 
 #include <memory>

@@ -28,8 +28,8 @@
 // (SolverReport::message lists the failed ones); if all fail, StepInfo::ok = false with every
 // reason. Details and the regularizations' values: docs/formulations.md §2; why the scaling and
 // McpSolver's Levenberg–Marquardt step are needed: bench/README.md, vinci_ncp_bench.
-// Not honoured (as of this writing, docs/formulations.md §13): 2.5D support friction, and the
-// corner unknowns of concave polygons (a corner acts as its edge-2 contact).
+// Scenes with 2.5D support friction or concave-polygon corner contacts are rejected
+// (capabilities(); docs/formulations.md §13).
 #pragma once
 
 #include <memory>

@@ -25,8 +25,8 @@
 // The same class provides "dynamic-dqc" (FormulationType::kDynamicDqc): the Stewart–Trinkle
 // dynamics with the EXACT support-friction disks, an NCP solved by McpSolver — the first line
 // above becomes 0 = M (ν_ℓ+1 − ν_ℓ) − (G_n p_n + G_f p_f + G_b p_b + G_s p_s + p_ext).
-// Not honoured (as of this writing, docs/formulations.md §13): compliance (the normal rows are
-// rigid) and the corner unknowns of concave polygons (a corner acts as its edge-2 contact).
+// Scenes with compliance or concave-polygon corner contacts are rejected (capabilities();
+// docs/formulations.md §13).
 #pragma once
 
 #include "vinci/sim/formulations/stewart_trinkle.h"
