@@ -101,6 +101,15 @@ struct Search {
       }
     }
     for (std::size_t r = 0; r < requests.size(); ++r) {
+      // Search evaluations (on the search stream) compete for the best design; the first of
+      // equal losses wins.
+      if (requests[r].stream == stream && requests[r].samples == samples &&
+          (!have_best || out[r].loss < result->best_search.loss)) {
+        result->best_search = out[r];
+        result->best = requests[r].x;
+        have_best = true;
+        progress.best_objective = out[r].objective;
+      }
       HistoryEntry h;
       h.index = result->evaluations++;
       h.phase = phases[r];
@@ -114,17 +123,8 @@ struct Search {
     return out;
   }
 
-  // One search evaluation: updates the best design (first of equal losses wins).
-  double Loss(const VectorXd& x) {
-    const Evaluation e = Run({EvalRequest{x, stream, samples}}, {phase})[0];
-    if (!have_best || e.loss < result->best_search.loss) {
-      result->best_search = e;
-      result->best = x;
-      have_best = true;
-      progress.best_objective = e.objective;
-    }
-    return e.loss;
-  }
+  // One search evaluation.
+  double Loss(const VectorXd& x) { return Run({EvalRequest{x, stream, samples}}, {phase})[0].loss; }
 };
 
 double NloptObjective(unsigned n, const double* x, double* grad, void* data) {
@@ -187,6 +187,12 @@ std::vector<std::string> OptimizerNames() {
   std::vector<std::string> names;
   for (const AlgorithmName& a : Algorithms()) names.push_back(a.name);
   return names;
+}
+
+void CheckOptimizer(const std::string& name) {
+  const AlgorithmName* global = nullptr;
+  const AlgorithmName* local = nullptr;
+  ParseOptimizer(name, &global, &local);
 }
 
 std::string DefaultOptimizer(const DesignSpec& spec) {

@@ -81,6 +81,8 @@ struct DesignResult {
 /// The optimizer names `--optimizer` accepts (combinations "global+local" of these).
 std::vector<std::string> OptimizerNames();
 std::string DefaultOptimizer(const DesignSpec& spec);
+/// Throws std::invalid_argument (listing the names) unless `name` is a valid optimizer.
+void CheckOptimizer(const std::string& name);
 
 /// Runs the search. Throws std::invalid_argument for an unknown optimizer name or option value.
 DesignResult RunDesign(const DesignSpec& spec, const JobOptions& options);
