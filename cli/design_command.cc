@@ -105,8 +105,8 @@ std::string HistoryRow(const design::HistoryEntry& e) {
                   "," + std::to_string(e.eval.samples);
   for (Eigen::Index k = 0; k < e.eval.x.size(); ++k) r += "," + Num(e.eval.x[k]);
   r += "," + Num(e.eval.objective) + "," + Num(e.eval.loss) + "," +
-       std::to_string(e.eval.successes) + "," + Num(e.eval.lower) + "," + Num(e.eval.upper) +
-       "," + std::to_string(e.eval.failures) + "," + Num(e.eval.time_s);
+       std::to_string(e.eval.successes) + "," + Num(e.eval.lower) + "," + Num(e.eval.upper) + "," +
+       std::to_string(e.eval.failures) + "," + Num(e.eval.time_s);
   return r;
 }
 
@@ -250,7 +250,7 @@ ExitCode RunDesignCommand(const DesignOptions& o) {
   if (o.resume && fs::exists(history_path)) job.replay = ReadHistory(history_path, spec);
 
   // Validate the optimizer name before touching the history.
-  design::CheckOptimizer(!o.optimizer.empty()     ? o.optimizer
+  design::CheckOptimizer(!o.optimizer.empty()      ? o.optimizer
                          : !spec.optimizer.empty() ? spec.optimizer
                                                    : design::DefaultOptimizer(spec));
 
@@ -276,17 +276,18 @@ ExitCode RunDesignCommand(const DesignOptions& o) {
   int last_decile = -1;
   const bool success_type = spec.objective.type == design::ObjectiveType::kSuccess;
   job.on_evaluation = [&](const design::HistoryEntry& h, const design::Progress& p) {
-    if (!h.replayed) history << HistoryRow(h) << "\n" << std::flush;
+    // A resumed run repeats the interrupted one: its first rows are already in the file.
+    if (h.index >= static_cast<int>(job.replay.size()))
+      history << HistoryRow(h) << "\n" << std::flush;
     if (!o.quiet) {
       const bool last = p.evaluations >= p.max_evaluations;
       const int decile = 10 * p.evaluations / std::max(1, p.max_evaluations);
       if (last || (tty ? p.elapsed_s - last_print >= kTtyRedrawS : decile != last_decile)) {
         last_decile = decile;
         last_print = p.elapsed_s;
-        const double eta = p.evaluations > 0 ? p.elapsed_s *
-                                                   (p.max_evaluations - p.evaluations) /
-                                                   p.evaluations
-                                             : 0.0;
+        const double eta = p.evaluations > 0
+                               ? p.elapsed_s * (p.max_evaluations - p.evaluations) / p.evaluations
+                               : 0.0;
         std::ostringstream s;
         s << "design: " << p.evaluations << " / " << p.max_evaluations << " evaluations ("
           << h.phase << "), best " << (success_type ? "success rate " : "objective ")
@@ -314,9 +315,9 @@ ExitCode RunDesignCommand(const DesignOptions& o) {
     j << "  \"spec\": " << JsonString(o.spec_path) << ",\n";
     j << "  \"optimizer\": " << JsonString(r.optimizer) << ",\n";
     j << "  \"objective_type\": \""
-      << (success_type                                                  ? "success"
+      << (success_type                                              ? "success"
           : spec.objective.type == design::ObjectiveType::kDistance ? "distance"
-                                                                        : "margin")
+                                                                    : "margin")
       << "\",\n";
     j << "  \"best\": " << DesignJson(spec, r.best) << ",\n";
     const Evaluation& reported = r.validated ? r.best_fresh : r.best_search;
@@ -369,7 +370,7 @@ ExitCode RunDesignCommand(const DesignOptions& o) {
       line("fresh best   ", r.best_fresh);
       line("fresh start  ", r.start_fresh);
     }
-    s << "evaluations  " << r.evaluations << " (" << r.replayed << " replayed), "
+    s << "evaluations  " << r.evaluations << " (" << r.replayed << " not recomputed), "
       << r.simulations << " simulations, " << Duration(r.time_s) << "\n";
     s << "results      " << o.out << "/{best.yaml,result.json,history.csv}\n";
     std::cout << s.str() << std::flush;
@@ -383,8 +384,9 @@ ExitCode RunDesignCommand(const DesignOptions& o) {
 Command RegisterDesignCommand(CLI::App& app) {
   auto options = std::make_shared<DesignOptions>();
   CLI::App* sub = app.add_subcommand(
-      "design", "Design search under uncertainty: the design with the best success probability "
-                "(docs/design.md).");
+      "design",
+      "Design search under uncertainty: the design with the best success probability "
+      "(docs/design.md).");
   sub->add_option("SPEC", options->spec_path, "Design spec file (YAML, docs/design.md)")
       ->required()
       ->check(CLI::ExistingFile);
@@ -398,8 +400,7 @@ Command RegisterDesignCommand(CLI::App& app) {
       ->type_name("NAME");
   sub->add_option("--budget", options->budget, "Simulations (rollouts) for the search")
       ->type_name("N");
-  sub->add_option("--samples", options->samples, "Monte Carlo samples per design")
-      ->type_name("N");
+  sub->add_option("--samples", options->samples, "Monte Carlo samples per design")->type_name("N");
   sub->add_option("--threads,-j", options->threads,
                   "Worker threads (the result is identical for any number)")
       ->type_name("N");
@@ -411,8 +412,7 @@ Command RegisterDesignCommand(CLI::App& app) {
          },
          "Random seed (default: the spec's seed)")
       ->type_name("S");
-  sub->add_option("--out,-o", options->out,
-                  "Output folder: best.yaml, result.json, history.csv")
+  sub->add_option("--out,-o", options->out, "Output folder: best.yaml, result.json, history.csv")
       ->required()
       ->type_name("DIR");
   sub->add_flag("--resume", options->resume,

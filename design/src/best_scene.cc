@@ -124,7 +124,8 @@ std::string BestSceneYaml(const DesignSpec& spec, const VectorXd& x) {
   YAML::Emitter out;
   out << root;
   return "# " + spec.scene_path + " with the design found by `vinci design " + spec.source +
-         "`:\n#" + [&] {
+         "`:\n#" +
+         [&] {
            std::string s;
            char buf[64];
            for (std::size_t k = 0; k < spec.parameters.size(); ++k) {
@@ -132,7 +133,8 @@ std::string BestSceneYaml(const DesignSpec& spec, const VectorXd& x) {
              s += " " + spec.parameters[k].name + buf + (k + 1 < spec.parameters.size() ? "," : "");
            }
            return s;
-         }() + "\n" + out.c_str() + "\n";
+         }() +
+         "\n" + out.c_str() + "\n";
 }
 
 }  // namespace vinci::design

@@ -222,8 +222,8 @@ SampleOutcome DesignProblem::RunSample(const sim::Simulator& simulator, const Ve
     const sim::StepInfo info = simulator.Step(params, state, input, ws, &next);
     if (!info.ok) {
       out.ok = false;
-      out.failure = "step " + std::to_string(k) + " (t = " + std::to_string(state.t) +
-                    " s): " + info.failure;
+      out.failure =
+          "step " + std::to_string(k) + " (t = " + std::to_string(state.t) + " s): " + info.failure;
       break;
     }
     std::swap(state, next);
@@ -315,9 +315,8 @@ std::vector<Evaluation> ThreadEvaluator::Evaluate(const std::vector<EvalRequest>
         const sim::Simulator* s = sims[task.request].get();
         if (s != last) ws = sim::Workspace{};
         last = s;
-        outcomes[task.request][task.sample] =
-            problem_->RunSample(*s, requests[task.request].x, requests[task.request].stream,
-                                task.sample, &ws);
+        outcomes[task.request][task.sample] = problem_->RunSample(
+            *s, requests[task.request].x, requests[task.request].stream, task.sample, &ws);
       }
     } catch (...) {
       if (!failed.exchange(true)) error = std::current_exception();

@@ -1,13 +1,12 @@
 #include "vinci/design/optimize.h"
 
-#include <nlopt.hpp>
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <map>
 #include <memory>
+#include <nlopt.hpp>
 #include <stdexcept>
 
 namespace vinci::design {
@@ -23,10 +22,14 @@ struct AlgorithmName {
 
 const std::vector<AlgorithmName>& Algorithms() {
   static const std::vector<AlgorithmName> list = {
-      {"direct-l", nlopt::GN_DIRECT_L, true},     {"crs2", nlopt::GN_CRS2_LM, true},
-      {"isres", nlopt::GN_ISRES, true},           {"esch", nlopt::GN_ESCH, true},
-      {"bobyqa", nlopt::LN_BOBYQA, false},        {"cobyla", nlopt::LN_COBYLA, false},
-      {"neldermead", nlopt::LN_NELDERMEAD, false}, {"sbplx", nlopt::LN_SBPLX, false},
+      {"direct-l", nlopt::GN_DIRECT_L, true},
+      {"crs2", nlopt::GN_CRS2_LM, true},
+      {"isres", nlopt::GN_ISRES, true},
+      {"esch", nlopt::GN_ESCH, true},
+      {"bobyqa", nlopt::LN_BOBYQA, false},
+      {"cobyla", nlopt::LN_COBYLA, false},
+      {"neldermead", nlopt::LN_NELDERMEAD, false},
+      {"sbplx", nlopt::LN_SBPLX, false},
   };
   return list;
 }
@@ -43,8 +46,8 @@ void ParseOptimizer(const std::string& name, const AlgorithmName** global,
   const auto fail = [&]() {
     std::string list;
     for (const std::string& n : OptimizerNames()) list += (list.empty() ? "" : ", ") + n;
-    throw std::invalid_argument("optimizer: expected one of {" + list +
-                                "} or global+local, got '" + name + "'");
+    throw std::invalid_argument("optimizer: expected one of {" + list + "} or global+local, got '" +
+                                name + "'");
   };
   *global = *local = nullptr;
   const std::size_t plus = name.find('+');
@@ -82,8 +85,8 @@ struct Search {
     std::vector<std::size_t> where;
     std::vector<bool> replayed(requests.size(), false);
     for (std::size_t r = 0; r < requests.size(); ++r) {
-      const auto it = memo.find(EvaluationKey(requests[r].stream, requests[r].samples,
-                                              requests[r].x));
+      const auto it =
+          memo.find(EvaluationKey(requests[r].stream, requests[r].samples, requests[r].x));
       if (it != memo.end()) {
         out[r] = it->second;
         replayed[r] = true;
@@ -131,7 +134,7 @@ double NloptObjective(unsigned n, const double* x, double* grad, void* data) {
   auto* opt_and_search = static_cast<std::pair<nlopt::opt*, Search*>*>(data);
   Search* s = opt_and_search->second;
   if (grad) std::fill(grad, grad + n, 0.0);  // derivative-free algorithms only
-  if (s->search_left <= 0 || s->stop) {  // some algorithms overrun maxeval by one
+  if (s->search_left <= 0 || s->stop) {      // some algorithms overrun maxeval by one
     opt_and_search->first->set_force_stop(1);
     return HUGE_VAL;
   }
@@ -273,9 +276,9 @@ DesignResult RunDesign(const DesignSpec& spec, const JobOptions& options) {
   if (s.have_best && !s.stop) {
     const std::uint64_t fresh = FreshStream(seed);
     try {
-      const std::vector<Evaluation> v = s.Run(
-          {EvalRequest{result.best, fresh, validation}, EvalRequest{x0, fresh, validation}},
-          {"validate-best", "validate-start"});
+      const std::vector<Evaluation> v =
+          s.Run({EvalRequest{result.best, fresh, validation}, EvalRequest{x0, fresh, validation}},
+                {"validate-best", "validate-start"});
       result.best_fresh = v[0];
       result.start_fresh = v[1];
       result.validated = true;

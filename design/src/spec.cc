@@ -17,11 +17,10 @@ namespace vinci::design {
 namespace {
 
 const std::vector<std::string> kTopKeys = {
-    "scene", "parameters", "uncertain", "samples", "validation_samples", "seed",
-    "duration", "objective", "optimizer", "budget"};
+    "scene", "parameters", "uncertain", "samples",   "validation_samples",
+    "seed",  "duration",   "objective", "optimizer", "budget"};
 const std::vector<std::string> kParameterKeys = {"name", "lower", "upper", "start"};
-const std::vector<std::string> kUncertainKeys = {"name", "uniform", "normal", "choice",
-                                                 "truncate"};
+const std::vector<std::string> kUncertainKeys = {"name", "uniform", "normal", "choice", "truncate"};
 const std::vector<std::string> kObjectiveKeys = {"type",  "body",   "region",     "angle",
                                                  "until", "target", "angle_scale"};
 const std::vector<std::string> kRegionKeys = {"min", "max"};
@@ -147,10 +146,10 @@ class Field {
     return node_.Scalar();
   }
   std::vector<double> Numbers(std::size_t min_size, std::size_t max_size) const {
-    const std::string what =
-        min_size == max_size ? "a list of " + std::to_string(min_size) + " numbers"
-                             : "a list of " + std::to_string(min_size) + " to " +
-                                   std::to_string(max_size) + " numbers";
+    const std::string what = min_size == max_size
+                                 ? "a list of " + std::to_string(min_size) + " numbers"
+                                 : "a list of " + std::to_string(min_size) + " to " +
+                                       std::to_string(max_size) + " numbers";
     if (!node_.IsSequence() || node_.size() < min_size || node_.size() > max_size) Fail(what);
     std::vector<double> v;
     for (std::size_t i = 0; i < node_.size(); ++i) v.push_back(At(i).Number());
@@ -202,8 +201,7 @@ bool ResolveDesignName(const sim::Scene& scene, const std::string& name, Target*
     return true;
   }
   std::string body, coord;
-  if (scene.dim != sim::Dim::kPlanar || !SplitBodyCoord(name, "pose.", &body, &coord))
-    return false;
+  if (scene.dim != sim::Dim::kPlanar || !SplitBodyCoord(name, "pose.", &body, &coord)) return false;
   const int b = scene.FindBody(body);
   const int c = IndexOf(kPoseCoords, coord);
   if (b < 0 || c < 0 || scene.bodies[b].kind == sim::BodyKind::kDynamic) return false;
@@ -244,9 +242,8 @@ DesignSpec ParseDesignSpec(const std::string& yaml_text, const std::string& sour
   // The scene.
   const Field scene_field = top.Required("scene");
   const std::string scene_name = scene_field.String();
-  spec.scene_path = (scene_name.front() == '/' || base_dir.empty())
-                        ? scene_name
-                        : base_dir + "/" + scene_name;
+  spec.scene_path =
+      (scene_name.front() == '/' || base_dir.empty()) ? scene_name : base_dir + "/" + scene_name;
   {
     std::ifstream in(spec.scene_path);
     if (!in) scene_field.Fail("a readable scene file (resolved to '" + spec.scene_path + "')");
@@ -275,16 +272,15 @@ DesignSpec ParseDesignSpec(const std::string& yaml_text, const std::string& sour
     if (!names.insert(p.name).second) f["name"].FailMessage("parameter listed twice");
     p.lower = f.Required("lower").Number();
     p.upper = f.Required("upper").Number();
-    if (!(p.upper > p.lower))
-      f["upper"].Fail("a number > lower (" + std::to_string(p.lower) + ")");
+    if (!(p.upper > p.lower)) f["upper"].Fail("a number > lower (" + std::to_string(p.lower) + ")");
     if (p.target.kind == TargetKind::kParam) {
       const sim::ParamInfo& info = scene.param_table().info(p.target.index);
       if (p.lower < info.lower)
-        f["lower"].Fail("a number >= " + std::to_string(info.lower) + " (the range of " +
-                        p.name + ")");
+        f["lower"].Fail("a number >= " + std::to_string(info.lower) + " (the range of " + p.name +
+                        ")");
       if (p.upper > info.upper)
-        f["upper"].Fail("a number <= " + std::to_string(info.upper) + " (the range of " +
-                        p.name + ")");
+        f["upper"].Fail("a number <= " + std::to_string(info.upper) + " (the range of " + p.name +
+                        ")");
     }
     if (f.Has("start")) {
       p.start = f["start"].Number();
@@ -321,8 +317,9 @@ DesignSpec ParseDesignSpec(const std::string& yaml_text, const std::string& sour
         f["name"].FailMessage("already a design parameter or an uncertain entry");
       const int kinds = f.Has("uniform") + f.Has("normal") + f.Has("choice");
       if (kinds != 1)
-        f.FailMessage("expected exactly one of uniform: [a, b], normal: [mean, std], "
-                      "choice: [v1, v2, ...]");
+        f.FailMessage(
+            "expected exactly one of uniform: [a, b], normal: [mean, std], "
+            "choice: [v1, v2, ...]");
       if (f.Has("uniform")) {
         const std::vector<double> v = f["uniform"].Numbers(2, 2);
         if (!(v[1] >= v[0])) f["uniform"].Fail("[a, b] with a <= b");
@@ -403,8 +400,7 @@ DesignSpec ParseDesignSpec(const std::string& yaml_text, const std::string& sour
   o.body = of.Required("body").String();
   o.body_index = scene.FindBody(o.body);
   if (o.body_index < 0) of["body"].Fail("the name of a body of the scene");
-  if (scene.bodies[o.body_index].kind != sim::BodyKind::kDynamic)
-    of["body"].Fail("a dynamic body");
+  if (scene.bodies[o.body_index].kind != sim::BodyKind::kDynamic) of["body"].Fail("a dynamic body");
   const auto vec = [](const std::vector<double>& v) {
     return Eigen::Map<const VectorXd>(v.data(), static_cast<Eigen::Index>(v.size()));
   };

@@ -75,8 +75,8 @@ class DesignProblem {
 
   /// Runs sample i of `stream` for design x on `simulator` (= SimulatorFor(x)) with the
   /// caller's workspace (one per thread; reset it when the simulator changes).
-  SampleOutcome RunSample(const sim::Simulator& simulator, const VectorXd& x,
-                          std::uint64_t stream, int i, sim::Workspace* ws) const;
+  SampleOutcome RunSample(const sim::Simulator& simulator, const VectorXd& x, std::uint64_t stream,
+                          int i, sim::Workspace* ws) const;
 
   /// Sample outcomes → the evaluation's statistics (outcomes in sample order).
   Evaluation Summarize(const VectorXd& x, std::uint64_t stream,

@@ -32,10 +32,10 @@ namespace vinci::design {
 
 /// One line of the history.
 struct HistoryEntry {
-  int index = 0;       ///< 0, 1, ... in the order evaluated
-  std::string phase;   ///< "start", "global", "local", "validate-best", "validate-start"
+  int index = 0;      ///< 0, 1, ... in the order evaluated
+  std::string phase;  ///< "start", "global", "local", "validate-best", "validate-start"
   Evaluation eval;
-  bool replayed = false;  ///< taken from JobOptions::replay
+  bool replayed = false;  ///< not recomputed: from JobOptions::replay or evaluated before
 };
 
 /// Progress after each evaluation.
@@ -64,15 +64,15 @@ struct JobOptions {
 
 struct DesignResult {
   std::string optimizer;
-  VectorXd best;               ///< the best design found on the search stream
-  Evaluation best_search;      ///< its evaluation on the search stream (biased upward)
-  Evaluation best_fresh;       ///< re-evaluated on fresh samples (validation_samples)
-  Evaluation start_search;     ///< the start design on the search stream
-  Evaluation start_fresh;      ///< the start design on the fresh samples
-  bool validated = false;      ///< best_fresh/start_fresh were computed
-  int evaluations = 0;         ///< all evaluations (replayed ones included)
-  int replayed = 0;            ///< of which taken from the replay
-  long long simulations = 0;   ///< rollouts actually run in this process
+  VectorXd best;            ///< the best design found on the search stream
+  Evaluation best_search;   ///< its evaluation on the search stream (biased upward)
+  Evaluation best_fresh;    ///< re-evaluated on fresh samples (validation_samples)
+  Evaluation start_search;  ///< the start design on the search stream
+  Evaluation start_fresh;   ///< the start design on the fresh samples
+  bool validated = false;   ///< best_fresh/start_fresh were computed
+  int evaluations = 0;      ///< all evaluations (replayed ones included)
+  int replayed = 0;  ///< of which not recomputed (in the replay, or a point already evaluated)
+  long long simulations = 0;  ///< rollouts actually run in this process
   double time_s = 0.0;
   bool cancelled = false;
   std::vector<std::string> errors;  ///< exceptions caught in optimizer callbacks
