@@ -1,5 +1,7 @@
 #include "vinci/design/optimize.h"
 
+#include <IpIpoptApplication.hpp>
+#include <IpTNLP.hpp>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -50,6 +52,7 @@ void ParseOptimizer(const std::string& name, const AlgorithmName** global,
                                 name + "'");
   };
   *global = *local = nullptr;
+  if (name == "ipopt") return;
   const std::size_t plus = name.find('+');
   if (plus == std::string::npos) {
     const AlgorithmName* a = FindAlgorithm(name);
@@ -184,11 +187,127 @@ void RunNlopt(const AlgorithmName& a, int max_evals, const VectorXd& lower, cons
   }
 }
 
+// Ipopt on a smooth loss (margin, distance): gradients by central differences under common
+// random numbers (every evaluation uses the search stream, so the differences are not sampling
+// noise), steps of 1e-4 of each parameter's range (one-sided at a bound), a limited-memory
+// Hessian. Each gradient costs 2n evaluations; the budget stops the solve through the
+// intermediate callback. No exception leaves a callback: it is recorded and the callback
+// returns false.
+class DesignTnlp : public Ipopt::TNLP {
+ public:
+  DesignTnlp(const VectorXd& lower, const VectorXd& upper, const VectorXd& x0, Search* s)
+      : lower_(lower), upper_(upper), x0_(x0), s_(s) {}
+
+  bool get_nlp_info(Ipopt::Index& n, Ipopt::Index& m, Ipopt::Index& nnz_jac, Ipopt::Index& nnz_h,
+                    IndexStyleEnum& style) override {
+    n = static_cast<Ipopt::Index>(lower_.size());
+    m = nnz_jac = nnz_h = 0;
+    style = C_STYLE;
+    return true;
+  }
+  bool get_bounds_info(Ipopt::Index n, Ipopt::Number* xl, Ipopt::Number* xu, Ipopt::Index,
+                       Ipopt::Number*, Ipopt::Number*) override {
+    for (Ipopt::Index k = 0; k < n; ++k) {
+      xl[k] = lower_[k];
+      xu[k] = upper_[k];
+    }
+    return true;
+  }
+  bool get_starting_point(Ipopt::Index n, bool, Ipopt::Number* x, bool, Ipopt::Number*,
+                          Ipopt::Number*, Ipopt::Index, bool, Ipopt::Number*) override {
+    for (Ipopt::Index k = 0; k < n; ++k) x[k] = x0_[k];
+    return true;
+  }
+  bool eval_f(Ipopt::Index n, const Ipopt::Number* x, bool, Ipopt::Number& f) override {
+    return Guard([&] { f = Loss(VectorXd(Eigen::Map<const VectorXd>(x, n))); });
+  }
+  bool eval_grad_f(Ipopt::Index n, const Ipopt::Number* x, bool, Ipopt::Number* g) override {
+    return Guard([&] {
+      VectorXd p = Eigen::Map<const VectorXd>(x, n);
+      for (Ipopt::Index k = 0; k < n; ++k) {
+        const double h = 1e-4 * (upper_[k] - lower_[k]);
+        const double a = std::max(lower_[k], p[k] - h), b = std::min(upper_[k], p[k] + h);
+        VectorXd xa = p, xb = p;
+        xa[k] = a;
+        xb[k] = b;
+        g[k] = (Loss(xb) - Loss(xa)) / (b - a);
+      }
+    });
+  }
+  bool eval_g(Ipopt::Index, const Ipopt::Number*, bool, Ipopt::Index, Ipopt::Number*) override {
+    return true;
+  }
+  bool eval_jac_g(Ipopt::Index, const Ipopt::Number*, bool, Ipopt::Index, Ipopt::Index,
+                  Ipopt::Index*, Ipopt::Index*, Ipopt::Number*) override {
+    return true;
+  }
+  bool intermediate_callback(Ipopt::AlgorithmMode, Ipopt::Index, Ipopt::Number, Ipopt::Number,
+                             Ipopt::Number, Ipopt::Number, Ipopt::Number, Ipopt::Number,
+                             Ipopt::Number, Ipopt::Number, Ipopt::Index, const Ipopt::IpoptData*,
+                             Ipopt::IpoptCalculatedQuantities*) override {
+    return !s_->stop && s_->search_left > 0;
+  }
+  void finalize_solution(Ipopt::SolverReturn, Ipopt::Index, const Ipopt::Number*,
+                         const Ipopt::Number*, const Ipopt::Number*, Ipopt::Index,
+                         const Ipopt::Number*, const Ipopt::Number*, Ipopt::Number,
+                         const Ipopt::IpoptData*, Ipopt::IpoptCalculatedQuantities*) override {}
+
+ private:
+  struct BudgetExhausted {};
+  double Loss(const VectorXd& x) {
+    if (s_->search_left <= 0) throw BudgetExhausted{};
+    --s_->search_left;
+    return s_->Loss(x);
+  }
+  template <class F>
+  bool Guard(F f) {
+    try {
+      f();
+      return true;
+    } catch (const BudgetExhausted&) {
+      return false;  // the intermediate callback then ends the solve
+    } catch (const std::exception& e) {
+      s_->result->errors.push_back(std::string("ipopt: ") + e.what());
+    } catch (...) {
+      s_->result->errors.push_back("ipopt: unknown exception");
+    }
+    s_->stop = true;
+    return false;
+  }
+
+  VectorXd lower_, upper_, x0_;
+  Search* s_;
+};
+
+void RunIpopt(int max_evals, const VectorXd& lower, const VectorXd& upper, const VectorXd& x0,
+              Search* s) {
+  if (max_evals < 1 || s->stop) return;
+  s->search_left = max_evals;
+  s->phase = "ipopt";
+  Ipopt::SmartPtr<Ipopt::IpoptApplication> app = IpoptApplicationFactory();
+  app->Options()->SetIntegerValue("print_level", 0);
+  app->Options()->SetStringValue("sb", "yes");
+  app->Options()->SetStringValue("hessian_approximation", "limited-memory");
+  app->Options()->SetNumericValue("tol", 1e-9);
+  app->Options()->SetIntegerValue("max_iter", std::max(1, max_evals));
+  if (app->Initialize() != Ipopt::Solve_Succeeded) {
+    s->result->errors.push_back("ipopt: initialization failed");
+    return;
+  }
+  Ipopt::SmartPtr<Ipopt::TNLP> nlp = new DesignTnlp(lower, upper, x0, s);
+  try {
+    app->OptimizeTNLP(nlp);  // the outcome is the best point seen (Search)
+  } catch (const std::exception& e) {
+    s->result->errors.push_back(std::string("ipopt: ") + e.what());
+  }
+}
+
 }  // namespace
 
 std::vector<std::string> OptimizerNames() {
   std::vector<std::string> names;
   for (const AlgorithmName& a : Algorithms()) names.push_back(a.name);
+  names.push_back("ipopt");
   return names;
 }
 
@@ -223,6 +342,10 @@ DesignResult RunDesign(const DesignSpec& spec, const JobOptions& options) {
   const AlgorithmName* global = nullptr;
   const AlgorithmName* local = nullptr;
   ParseOptimizer(result.optimizer, &global, &local);
+  const bool ipopt = result.optimizer == "ipopt";
+  if (ipopt && spec.objective.type == ObjectiveType::kSuccess)
+    throw std::invalid_argument(
+        "optimizer: ipopt needs a smooth objective (type margin or distance), got type success");
   if (options.budget < 0) throw std::invalid_argument("budget: expected an integer >= 1");
   if (options.samples < 0) throw std::invalid_argument("samples: expected an integer >= 1");
   if (options.threads < 1) throw std::invalid_argument("threads: expected an integer >= 1");
@@ -271,6 +394,7 @@ DesignResult RunDesign(const DesignSpec& spec, const JobOptions& options) {
     s.phase = "local";
     RunNlopt(*local, local_evals, lower, upper, s.have_best ? result.best : x0, &s);
   }
+  if (ipopt) RunIpopt(search_evals, lower, upper, x0, &s);
 
   // Fresh samples for the best and the start design.
   if (s.have_best && !s.stop) {

@@ -7,7 +7,9 @@
 //   local   bobyqa (LN_BOBYQA), cobyla (LN_COBYLA), neldermead (LN_NELDERMEAD), sbplx (LN_SBPLX)
 // named "global+local", "global" or "local" (e.g. "direct-l+bobyqa"). The budget counts
 // simulations (rollouts): an evaluation costs `samples` of them; the start design is evaluated
-// first, the global stage gets 60% of the rest. Stochastic algorithms are seeded from spec.seed
+// first, the global stage gets 60% of the rest. "ipopt": Ipopt on a margin or distance loss with
+// central-difference gradients under common random numbers (one solve per process: Ipopt 3.11
+// with sequential MUMPS is not thread-safe). Stochastic algorithms are seeded from spec.seed
 // (nlopt::srand), so a run is reproducible.
 //
 // Statistics: the best design (and the start design, for comparison) are re-evaluated on
