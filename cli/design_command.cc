@@ -362,8 +362,8 @@ ExitCode RunDesignCommand(const DesignOptions& o) {
           << e.lower << ", " << e.upper << "] of " << e.samples << " samples";
       if (spec.objective.type == design::ObjectiveType::kMargin) s << ", ";
       if (!success_type) s << "objective " << e.objective;
-      if (e.failures)
-        s << ", " << e.failures << " failed samples (first: " << e.first_failure << ")";
+      if (e.failures) s << ", " << e.failures << " failed samples";
+      if (!e.first_failure.empty()) s << " (first: " << e.first_failure << ")";
       s << "\n";
     };
     line("search       ", r.best_search);
