@@ -20,7 +20,7 @@
 
 namespace {
 
-constexpr int kMaxSize = 40;          // keeps each execution short
+constexpr int kMaxSize = 40;             // keeps each execution short
 constexpr double kSignTolerance = 1e-5;  // looser than every solver's acceptance (1e-6)
 
 [[noreturn]] void Finding(const std::string& solver, const std::string& what) {

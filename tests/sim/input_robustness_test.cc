@@ -12,9 +12,9 @@
 #include <stdexcept>
 #include <string>
 
+#include "vinci/sim/geometry/shape.h"
 #include "vinci/sim/model/scene_file.h"
 #include "vinci/sim/plate/velocity_field.h"
-#include "vinci/sim/geometry/shape.h"
 #include "vinci/sim/solvers/input_file.h"
 #include "vinci/sim/solvers/text_format.h"
 
@@ -93,10 +93,11 @@ TEST(InputRobustnessTest, FilesAboveTheLimitAreRejected) {
 // ----- rotations with overflowing or underflowing norms (finding 2) --------------------------
 
 Eigen::Matrix3d RotationOf(const std::string& rotation) {
-  const Scene scene = ParseScene("dimension: 3\nbodies:\n  - name: a\n    kind: static\n"
-                                 "    pose:\n      " +
-                                     rotation + "\n",
-                                 "t.yaml");
+  const Scene scene = ParseScene(
+      "dimension: 3\nbodies:\n  - name: a\n    kind: static\n"
+      "    pose:\n      " +
+          rotation + "\n",
+      "t.yaml");
   return scene.bodies[0].X_WB0.linear();
 }
 
@@ -104,8 +105,8 @@ TEST(InputRobustnessTest, RotationAxisScaleDoesNotMatter) {
   // The axis direction is what counts: [1, 1, 0] scaled by 1e155 (whose squared norm
   // overflows) or by 1e-200 (whose squared norm underflows) is the same rotation.
   for (const char* angle : {"3.14159", "1"}) {
-    const Eigen::Matrix3d R = RotationOf(std::string("rotation: {axis: [1, 1, 0], angle: ") +
-                                         angle + "}");
+    const Eigen::Matrix3d R =
+        RotationOf(std::string("rotation: {axis: [1, 1, 0], angle: ") + angle + "}");
     EXPECT_TRUE((R * R.transpose()).isIdentity(1e-12));
     for (const char* axis : {"[1e155, 1e155, 0]", "[1.7e308, 1.7e308, 0]", "[1e-200, 1e-200, 0]"})
       EXPECT_TRUE(RotationOf(std::string("rotation: {axis: ") + axis + ", angle: " + angle + "}")
@@ -116,8 +117,8 @@ TEST(InputRobustnessTest, RotationAxisScaleDoesNotMatter) {
 
 TEST(InputRobustnessTest, QuaternionScaleDoesNotMatter) {
   const Eigen::Matrix3d R = RotationOf("quaternion: [1, 1, 0, 0]");
-  EXPECT_TRUE(R.isApprox(Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitX()).toRotationMatrix(),
-                         1e-14));
+  EXPECT_TRUE(
+      R.isApprox(Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitX()).toRotationMatrix(), 1e-14));
   EXPECT_TRUE(RotationOf("quaternion: [1e200, 1e200, 0, 0]").isApprox(R, 1e-14));
   EXPECT_TRUE(RotationOf("quaternion: [1e-300, 1e-300, 0, 0]").isApprox(R, 1e-14));
   EXPECT_THAT(SceneError("dimension: 3\nbodies:\n  - name: a\n    kind: static\n    pose:\n"
@@ -205,14 +206,14 @@ TEST(InputRobustnessTest, VertexCountsAreBounded) {
   std::string v = "[";
   for (int i = 0; i <= SceneLimits::kMaxPolygonVertices; ++i) {
     const double a = 2.0 * M_PI * i / (SceneLimits::kMaxPolygonVertices + 1);
-    v += (i ? ", [" : "[") + std::to_string(std::cos(a)) + ", " + std::to_string(std::sin(a)) +
-         "]";
+    v += (i ? ", [" : "[") + std::to_string(std::cos(a)) + ", " + std::to_string(std::sin(a)) + "]";
   }
   v += "]";
   for (const char* type : {"polygon", "concave_polygon"}) {
-    const std::string text = "dimension: 2\nbodies:\n  - name: a\n    kind: static\n    shapes:\n"
-                             "      - type: " +
-                             std::string(type) + "\n        vertices: " + v + "\n";
+    const std::string text =
+        "dimension: 2\nbodies:\n  - name: a\n    kind: static\n    shapes:\n"
+        "      - type: " +
+        std::string(type) + "\n        vertices: " + v + "\n";
     EXPECT_THAT(SceneError(text),
                 HasSubstr("t.yaml:7: bodies[0].shapes[0].vertices: expected at most 1000 "
                           "vertices, got 1001 vertices"))
@@ -265,8 +266,9 @@ TEST(InputRobustnessTest, ParserAndParameterTableAgreeOnSizes) {
   };
   const std::string m = "1e-12";
   for (const std::string& shape :
-       {std::string("{type: sphere, radius: 1e-12}"), std::string("{type: box, half_extents: "
-                                                                  "[1e-12, 1e-12, 1e-12]}"),
+       {std::string("{type: sphere, radius: 1e-12}"),
+        std::string("{type: box, half_extents: "
+                    "[1e-12, 1e-12, 1e-12]}"),
         std::string("{type: cylinder, radius: 1e-12, half_length: 1e-12}"),
         std::string("{type: lens, radius: 1e-12, half_length: 1e-12}"),
         std::string("{type: ellipsoid, semi_axes: [1e-12, 1e-12, 1e-12]}"),

@@ -41,7 +41,7 @@ TEST(LcpAcceptanceTest, NegativePartsOfZAndWAreBounded) {
   const LcpProblem p = Make(MatrixXd::Identity(2, 2), VectorXd::Constant(2, 1.0));
   EXPECT_EQ(CheckLcpSolution(p, VectorXd::Zero(2)), "");
   VectorXd z = VectorXd::Zero(2);
-  z(0) = -0.5;  // w = (0.5, 1) ≥ 0 but z < 0
+  z(0) = -0.5;                                       // w = (0.5, 1) ≥ 0 but z < 0
   EXPECT_NEAR(LcpScaledResidual(p, z), 0.5, 1e-15);  // z_0 / s_z with s_z = ‖q‖/‖M‖ = 1
   EXPECT_THAT(CheckLcpSolution(p, z), ::testing::HasSubstr("scale-aware residual"));
   EXPECT_TRUE(std::isinf(LcpScaledResidual(p, VectorXd::Constant(2, INFINITY))));
@@ -50,8 +50,7 @@ TEST(LcpAcceptanceTest, NegativePartsOfZAndWAreBounded) {
 // M = 1e-12·I, q = −1e-12·(1, 1): the solution is z = (1, 1). The absolute floor
 // max(1, ‖q‖∞) of PGS and FB Newton accepted z = 0 (w = q < 0) as solved.
 TEST(LcpAcceptanceTest, EverySolverSolvesASmallScaleProblem) {
-  const LcpProblem p =
-      Make(1e-12 * MatrixXd::Identity(2, 2), VectorXd::Constant(2, -1e-12));
+  const LcpProblem p = Make(1e-12 * MatrixXd::Identity(2, 2), VectorXd::Constant(2, -1e-12));
   for (const std::string& name : LcpSolverNames()) {
     SCOPED_TRACE(name);
     VectorXd z;

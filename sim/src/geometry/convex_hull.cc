@@ -1,7 +1,9 @@
 // Convex hull of a polyhedron's points, the Polytope view used by the narrow phase, and
 // PrepareShape.
-#include <array>
+#include <libqhull_r/qhull_ra.h>
+
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -11,8 +13,6 @@
 #include <utility>
 
 #include "collision_internal.h"
-
-#include <libqhull_r/qhull_ra.h>
 
 namespace vinci::sim {
 namespace collision_internal {

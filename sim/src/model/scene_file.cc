@@ -547,8 +547,7 @@ Shape Parser::ParseShape(const Field& f, BodyKind kind) const {
       break;
     }
     case ShapeType::kBox:
-      s.half_extents =
-          Numbers(Require(f, "half_extents", "a list of 3 numbers"), 3, Bound::kSize);
+      s.half_extents = Numbers(Require(f, "half_extents", "a list of 3 numbers"), 3, Bound::kSize);
       break;
     case ShapeType::kConcavePolygon: {
       const std::string what = "a list of at least 3 points of 2 numbers";
@@ -576,9 +575,9 @@ Shape Parser::ParseShape(const Field& f, BodyKind kind) const {
       const Field vf = Require(f, "vertices", what);
       const std::vector<Field> items = Items(vf, what);
       if (static_cast<int>(items.size()) < n_min) Fail(vf, what);
-      CheckVertexCount(vf, items.size(),
-                       planar() ? SceneLimits::kMaxPolygonVertices
-                                : SceneLimits::kMaxPolyhedronVertices);
+      CheckVertexCount(
+          vf, items.size(),
+          planar() ? SceneLimits::kMaxPolygonVertices : SceneLimits::kMaxPolyhedronVertices);
       for (const Field& item : items) {
         const VectorXd p = Numbers(item, n_coords);
         s.vertices.push_back(planar() ? Vector3d(p[0], p[1], 0.0) : Vector3d(p));
@@ -595,9 +594,8 @@ Shape Parser::ParseShape(const Field& f, BodyKind kind) const {
     case ShapeType::kEllipse:
     case ShapeType::kSuperellipse: {
       const int n = planar() ? 2 : 3;
-      const VectorXd a =
-          Numbers(Require(f, "semi_axes", "a list of " + std::to_string(n) + " numbers"), n,
-                  Bound::kSize);
+      const VectorXd a = Numbers(
+          Require(f, "semi_axes", "a list of " + std::to_string(n) + " numbers"), n, Bound::kSize);
       s.half_extents.head(n) = a;
       if (s.type == ShapeType::kSuperquadric || s.type == ShapeType::kSuperellipse) {
         const Field ef = Require(f, "exponent", "a finite number >= 2");
@@ -919,8 +917,8 @@ void Parser::ParseStepper(const Field& f, StepperOptions* o) const {
   if (auto v = Get(f, "dt")) o->dt = Number(*v, Bound::kPositive);
   if (auto v = Get(f, "duration")) o->duration = Number(*v, Bound::kPositive);
   if (auto v = Get(f, "friction_directions")) {
-    const std::string what = "an even integer in [2, " +
-                             std::to_string(SceneLimits::kMaxFrictionDirections) + "]";
+    const std::string what =
+        "an even integer in [2, " + std::to_string(SceneLimits::kMaxFrictionDirections) + "]";
     const long long n = Integer(*v, what);
     if (n < 2 || n % 2 != 0 || n > SceneLimits::kMaxFrictionDirections) Fail(*v, what);
     o->friction_directions = static_cast<int>(n);

@@ -53,10 +53,10 @@ void FieldSpec::Validate(const Scene& scene) const {
         "], got " + std::to_string(average_cycles));
   const long long per_cycle = StepsPerCycle(scene.options.dt);
   if (per_cycle * cycles > kMaxFieldStepsPerPoint)
-    throw std::invalid_argument(
-        "field.cycles: expected at most " + std::to_string(kMaxFieldStepsPerPoint) +
-        " steps per point, got " + std::to_string(cycles) + " cycles x " +
-        std::to_string(per_cycle) + " steps per cycle = " + std::to_string(per_cycle * cycles));
+    throw std::invalid_argument("field.cycles: expected at most " +
+                                std::to_string(kMaxFieldStepsPerPoint) + " steps per point, got " +
+                                std::to_string(cycles) + " cycles x " + std::to_string(per_cycle) +
+                                " steps per cycle = " + std::to_string(per_cycle * cycles));
 }
 
 int FieldSpec::StepsPerCycle(double h) const {
@@ -65,9 +65,9 @@ int FieldSpec::StepsPerCycle(double h) const {
   if (!(steps >= 1.0) || !(steps <= static_cast<double>(kMaxFieldStepsPerPoint))) {
     std::snprintf(buf, sizeof buf, "T/dt = 1/(%g Hz * %g s) = %g steps per cycle", frequency, h,
                   1.0 / (frequency * h));
-    throw std::invalid_argument(
-        std::string("field.frequency: expected between 1 and ") +
-        std::to_string(kMaxFieldStepsPerPoint) + " time steps per plate cycle, got " + buf);
+    throw std::invalid_argument(std::string("field.frequency: expected between 1 and ") +
+                                std::to_string(kMaxFieldStepsPerPoint) +
+                                " time steps per plate cycle, got " + buf);
   }
   return static_cast<int>(steps);
 }

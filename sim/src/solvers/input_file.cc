@@ -9,8 +9,7 @@
 
 namespace vinci::sim {
 
-std::string ReadInputFile(const std::string& path, const std::string& what,
-                          std::size_t max_bytes) {
+std::string ReadInputFile(const std::string& path, const std::string& what, std::size_t max_bytes) {
   struct stat st {};
   if (::stat(path.c_str(), &st) != 0) throw std::invalid_argument(path + ": cannot open " + what);
   if (S_ISDIR(st.st_mode))

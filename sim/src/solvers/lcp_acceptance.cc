@@ -33,12 +33,10 @@ double LcpScaledResidual(const LcpProblem& problem, const VectorXd& z) {
 std::string CheckLcpSolution(const LcpProblem& problem, const VectorXd& z) {
   const double r = LcpScaledResidual(problem, z);
   if (r <= kLcpAcceptanceTolerance) return {};
-  if (std::isinf(r))
-    return "z or w = Mz + q is not finite (overflow at the problem's scale)";
+  if (std::isinf(r)) return "z or w = Mz + q is not finite (overflow at the problem's scale)";
   if (std::isnan(r)) return "z does not match the problem size";
-  return "the scale-aware residual max_i |min(z_i/s_z, w_i/s_w)| = " +
-         internal::FormatDouble(r) + " exceeds " +
-         internal::FormatDouble(kLcpAcceptanceTolerance) +
+  return "the scale-aware residual max_i |min(z_i/s_z, w_i/s_w)| = " + internal::FormatDouble(r) +
+         " exceeds " + internal::FormatDouble(kLcpAcceptanceTolerance) +
          " (z or w is negative, or they are not complementary, at the problem's own scale)";
 }
 
