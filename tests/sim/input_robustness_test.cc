@@ -11,6 +11,7 @@
 #include <fstream>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "vinci/sim/geometry/shape.h"
 #include "vinci/sim/model/scene_file.h"
@@ -310,6 +311,21 @@ TEST(InputRobustnessTest, RawBytesAndEscapesNeverReachTheMessage) {
   EXPECT_EQ(EscapeText("a\xc3\xbc\x9b\xff"), "a\xc3\xbc\\x9b\\xff");
   EXPECT_EQ(FormatNumber(-1e308), "-1e+308");
   EXPECT_EQ(FormatNumber(1e-13), "1e-13");
+}
+
+TEST(InputRobustnessTest, EnvelopeLargerThanTheSmallestShapeIsWarnedAbout) {
+  const auto scene = [](const std::string& envelope) {
+    return ParseScene("dimension: 3\nstepper: {envelope: " + envelope +
+                          "}\nbodies:\n  - {name: floor, kind: static, shapes: [{type: "
+                          "halfspace}]}\n  - {name: box, mass: 1, shapes: [{name: b, type: box, "
+                          "half_extents: [0.1, 0.1, 0.1]}]}\n",
+                      "t.yaml");
+  };
+  EXPECT_TRUE(SceneWarnings(scene("0.001")).empty());
+  const std::vector<std::string> w = SceneWarnings(scene("1"));
+  ASSERT_EQ(w.size(), 1u);
+  EXPECT_THAT(w[0], HasSubstr("stepper.envelope = 1 m is larger than the smallest shape "
+                              "('box.b', bounding radius 0.173205 m)"));
 }
 
 }  // namespace

@@ -12,6 +12,7 @@
 #include <cmath>
 #include <fstream>
 #include <iterator>
+#include <limits>
 #include <map>
 #include <optional>
 #include <set>
@@ -1076,6 +1077,38 @@ Scene ParseScene(const std::string& yaml_text, const std::string& source_name) {
     const std::string line = e.mark.is_null() ? "" : std::to_string(e.mark.line + 1) + ":";
     throw std::invalid_argument(source_name + ":" + line + " " + e.msg);
   }
+}
+
+std::vector<std::string> SceneWarnings(const Scene& scene) {
+  std::vector<std::string> warnings;
+  // The bounding radius of each bounded shape about its frame origin.
+  double smallest = std::numeric_limits<double>::infinity();
+  std::string smallest_name;
+  for (const Body& b : scene.bodies)
+    for (const Shape& sh : b.shapes) {
+      double r = 0.0;
+      switch (sh.type) {
+        case ShapeType::kHalfSpace:
+        case ShapeType::kHalfPlane:
+          continue;
+        case ShapeType::kPolyhedron:
+        case ShapeType::kPolygon:
+        case ShapeType::kConcavePolygon:
+          for (const Vector3d& v : sh.vertices) r = std::max(r, v.norm());
+          break;
+        default:
+          r = std::max({sh.radius + sh.half_length, sh.half_extents.norm()});
+          break;
+      }
+      if (r < smallest) smallest = r, smallest_name = b.name + "." + sh.name;
+    }
+  if (scene.options.envelope > smallest)
+    warnings.push_back("stepper.envelope = " + FormatNumber(scene.options.envelope) +
+                       " m is larger than the smallest shape ('" + smallest_name +
+                       "', bounding radius " + FormatNumber(smallest) +
+                       " m): every pair of shapes closer than that is a contact in every step, "
+                       "which can make steps very slow");
+  return warnings;
 }
 
 Scene LoadSceneFile(const std::string& path) {
