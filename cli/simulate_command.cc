@@ -26,6 +26,7 @@
 #include "vinci/sim/model/state.h"
 #include "vinci/sim/simulator/simulator.h"
 #include "vinci/sim/solvers/lcp.h"
+#include "vinci/sim/solvers/text_format.h"
 
 namespace vinci::cli {
 namespace {
@@ -390,6 +391,8 @@ ExitCode RunSimulate(const SimulateOptions& o) {
   if (o.duration) CheckPositiveFinite("--duration", *o.duration);
 
   sim::Scene scene = sim::LoadSceneFile(o.scene_path);
+  for (const std::string& w : sim::SceneWarnings(scene))
+    std::cerr << "vinci: warning: " << o.scene_path << ": " << sim::EscapeText(w) << "\n";
   if (o.dt) scene.options.dt = *o.dt;  // before the Simulator copies the scene
   if (o.duration) scene.options.duration = *o.duration;
   if (o.formulation) {

@@ -8,6 +8,7 @@
 
 #include "vinci/sim/model/support.h"
 #include "vinci/sim/solvers/lcp.h"
+#include "vinci/sim/solvers/text_format.h"
 
 namespace vinci::sim {
 namespace {
@@ -299,9 +300,9 @@ Scene Scene::ApplyParams(const Params& params) const {
     const ParamInfo& p = params_.info(i);
     const double x = params.values[i];
     if (!std::isfinite(x) || x < p.lower || x > p.upper)
-      throw std::invalid_argument("parameter '" + p.name + "' = " + std::to_string(x) +
-                                  " is outside [" + std::to_string(p.lower) + ", " +
-                                  std::to_string(p.upper) + "]");
+      throw std::invalid_argument("parameter '" + p.name + "' = " + FormatNumber(x) +
+                                  " is outside [" + FormatNumber(p.lower) + ", " +
+                                  FormatNumber(p.upper) + "]");
     switch (p.kind) {
       case ParamKind::kDefaultFriction:
         s.default_mu = x;
