@@ -36,11 +36,15 @@ struct StepInfo {
 
 /// A rollout: states[0] is x0, states[k+1] follows from states[k] by step k.
 /// A failed step stops the rollout: steps.back() records it and states has one entry fewer.
+/// With RolloutOptions::record_every = r > 1, states[i] is the state after i·r steps, except
+/// that the final state (after the last successful step) is always the last entry.
 struct Trajectory {
   std::vector<State> states;
   std::vector<StepInfo> steps;
   bool ok = true;
   std::string failure;
+  bool stopped = false;  ///< ended by RolloutOptions::stop (ok stays true)
+  int record_every = 1;  ///< RolloutOptions::record_every
 };
 
 }  // namespace vinci::sim
