@@ -54,12 +54,14 @@ State ExpectSameRollout(const Simulator& a, const Params& pa, const Simulator& b
 // A disc thrown onto a floor: it bounces, slides and starts rolling (the rolling transition
 // depends on its inertia, hence on its radius through the inertia from its shape).
 std::string DiscScene(const std::string& radius, const std::string& floor_pose = "",
-                      const std::string& floor_shape_pose = "") {
+                      const std::string& floor_shape_pose = "",
+                      const std::string& formulation = "stewart-trinkle") {
   return R"(
 name: disc
 dimension: 2
 gravity: [0, -9.81]
-stepper: {dt: 0.001}
+stepper: {dt: 0.001, formulation: )" +
+         formulation + R"(}
 friction: {default: 0.3}
 bodies:
   - name: floor
@@ -108,6 +110,16 @@ TEST(ParamsTest, DiscRadiusGivesTheSceneFileRollout) {
   EXPECT_FALSE(SameBits(resolved.inertia, a.scene().bodies[1].inertia));
   const State x = ExpectSameRollout(a, p, b, b.DefaultParams(), 600);
   EXPECT_NEAR(x.q[1], 0.15, 1e-3);  // resting on the floor at its new radius
+}
+
+// The other formulations read the resolved scene as they read a loaded file.
+TEST(ParamsTest, DiscRadiusGivesTheSceneFileRolloutInEveryFormulation) {
+  for (const char* f : {"anitescu-potra", "ncp", "gi"}) {
+    const Simulator a(ParseScene(DiscScene("0.1", "", "", f)));
+    const Simulator b(ParseScene(DiscScene("0.15", "", "", f)));
+    SCOPED_TRACE(f);
+    ExpectSameRollout(a, WithParams(a, {{"size.disc.s0.radius", 0.15}}), b, b.DefaultParams(), 300);
+  }
 }
 
 TEST(ParamsTest, BoxHalfExtentAndMassGiveTheSceneFileRollout) {
