@@ -15,7 +15,9 @@ struct State {
   double t = 0.0;       ///< s
   VectorXd q;           ///< positions of the dynamic bodies (Scene::index(b).q)
   VectorXd v;           ///< velocities of the dynamic bodies (Scene::index(b).v)
-  VectorXd warm_start;  ///< last step's complementarity solution (may be empty)
+  VectorXd warm_start;  ///< last step's complementarity solution (may be empty); what it holds
+                        ///< per formulation and how rollouts use it: WarmStartPolicy
+                        ///< (simulator/options.h)
 };
 
 /// Per-step input: generalized forces added to the scene's applied forces.

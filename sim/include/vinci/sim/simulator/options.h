@@ -51,8 +51,9 @@ std::vector<std::string> AllSolverNames();
 /// FB-Newton's first iterate), NCP ((p_n, p_t, p_o, σ) per contact, the MCP's first start),
 /// quasistatic-dlc/-dqc and dynamic-dqc (the mixed LCP/MCP unknowns y), GI (per contact pair: the
 /// pair's identity and its unknowns, matched by pair; also used to map a step to its unknowns).
-/// The size test means a warm start from a different contact set is ignored. Solvers are
-/// deterministic, so a step is a pure function of (params, x including x.warm_start, input).
+/// A warm start that does not fit the step (another contact count; for GI, pairs not found
+/// again) is ignored, entirely or for those entries. Solvers are deterministic, so a step is a
+/// pure function of (params, x including x.warm_start, input).
 enum class WarmStartPolicy {
   /// Each step starts from x.warm_start (x0's for the first step, then the previous step's
   /// solution). Fastest. A replay is bit-identical when it starts from a state that carries
