@@ -122,8 +122,8 @@ std::string Describe(const SolverReport& r) {
 NcpStepper::NcpStepper(StepperOptions options, NcpOptions ncp)
     : options_(options),
       ncp_(ncp),
-      st_(AssemblyOptions(options), MakeLcpSolver(options.solver)),
-      lcp_solver_(MakeLcpSolver(options.solver)),
+      st_(AssemblyOptions(options), MakeLcpSolver(options.solver, options.solver_options)),
+      lcp_solver_(MakeLcpSolver(options.solver, options.solver_options)),
       mcp_(ncp.mcp),
       mcp_sparse_([&] {
         McpOptions o = ncp.mcp;

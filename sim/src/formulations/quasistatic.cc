@@ -130,7 +130,7 @@ void StepFunction(const StepData& d, const VectorXd& y, VectorXd* F, MatrixXd* J
 Quasistatic::Quasistatic(StepperOptions options, McpOptions mcp)
     : options_(std::move(options)),
       solver_(mcp),
-      lcp_solver_(MakeLcpSolver(options_.solver)),
+      lcp_solver_(MakeLcpSolver(options_.solver, options_.solver_options)),
       assembler_(options_, lcp_solver_),
       quadratic_(options_.formulation != FormulationType::kQuasistaticDlc),
       dynamic_(options_.formulation == FormulationType::kDynamicDqc) {
