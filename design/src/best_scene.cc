@@ -32,8 +32,49 @@ void ScaleVertices(YAML::Node shape, double scale) {
       vertices[i][k] = Number(vertices[i][k].as<double>() * scale);
 }
 
-void WriteParam(YAML::Node root, const sim::Scene& scene, const sim::ParamInfo& p, double v) {
+// Writes a whole pose (position and angle / rpy) as the scene file reads it; a spatial pose's
+// other rotation keys are dropped so that rpy is the one rotation of the node.
+void WritePose(YAML::Node node, sim::Dim dim, const Eigen::Isometry3d& X) {
+  const Eigen::Matrix<double, 6, 1> c = sim::PoseComponents(dim, X);
+  const bool planar = dim == sim::Dim::kPlanar;
+  YAML::Node position(YAML::NodeType::Sequence), rpy(YAML::NodeType::Sequence);
+  for (int k = 0; k < (planar ? 2 : 3); ++k) position.push_back(Number(c[k]));
+  position.SetStyle(YAML::EmitterStyle::Flow);
+  node["position"] = position;
+  if (planar) {
+    node["angle"] = Number(c[2]);
+    return;
+  }
+  for (const char* key : {"rotation", "quaternion"}) node.remove(key);
+  for (int k = 3; k < 6; ++k) rpy.push_back(Number(c[k]));
+  rpy.SetStyle(YAML::EmitterStyle::Flow);
+  node["rpy"] = rpy;
+}
+
+// `applied` is `scene` with the design's parameters applied (for the pose kinds, whose
+// components are written together).
+void WriteParam(YAML::Node root, const sim::Scene& scene, const sim::Scene& applied,
+                const sim::ParamInfo& p, double v) {
   switch (p.kind) {
+    case sim::ParamKind::kPose:
+      if (p.b < 0)
+        WritePose(BodyNode(root, scene, p.a)["pose"], scene.dim, applied.bodies[p.a].X_WB0);
+      else
+        WritePose(BodyNode(root, scene, p.a)["shapes"][p.b]["pose"], scene.dim,
+                  applied.bodies[p.a].shapes[p.b].X_BS);
+      return;
+    case sim::ParamKind::kTiltAmplitude:
+      BodyNode(root, scene, p.a)["motion"]["tilt"]["amplitude"] = Number(v);
+      return;
+    case sim::ParamKind::kTiltFrequency:
+      BodyNode(root, scene, p.a)["motion"]["tilt"]["frequency"] = Number(v);
+      return;
+    case sim::ParamKind::kTiltPhase:
+      BodyNode(root, scene, p.a)["motion"]["tilt"]["phase"] = Number(v);
+      return;
+    case sim::ParamKind::kTiltDepth:
+      BodyNode(root, scene, p.a)["motion"]["tilt"]["depth"] = Number(v);
+      return;
     case sim::ParamKind::kDefaultFriction:
       root["friction"]["default"] = Number(v);
       return;
@@ -101,11 +142,16 @@ std::string BestSceneYaml(const DesignSpec& spec, const VectorXd& x) {
     throw std::invalid_argument("best scene: design vector of the wrong size");
   YAML::Node root = YAML::Load(spec.scene_text);
   const sim::Scene& scene = spec.scene;
+  sim::Params params = scene.DefaultParams();
+  for (std::size_t k = 0; k < spec.parameters.size(); ++k)
+    if (spec.parameters[k].target.kind == TargetKind::kParam)
+      params.values[spec.parameters[k].target.index] = x[k];
+  const sim::Scene applied = scene.ApplyParams(params);
   // Shape scales multiply the file's vertices: apply each once, after the other values.
   for (std::size_t k = 0; k < spec.parameters.size(); ++k) {
     const DesignParameter& p = spec.parameters[k];
     if (p.target.kind == TargetKind::kParam) {
-      WriteParam(root, scene, scene.param_table().info(p.target.index), x[k]);
+      WriteParam(root, scene, applied, scene.param_table().info(p.target.index), x[k]);
     } else if (p.target.kind == TargetKind::kPose) {
       YAML::Node pose = BodyNode(root, scene, p.target.body)["pose"];
       if (p.target.coord < 2) {

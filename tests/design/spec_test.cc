@@ -98,5 +98,28 @@ TEST(DesignSpec, BestSceneCarriesTheDesign) {
   EXPECT_EQ(scene.options.duration, s.duration);
 }
 
+// Pose parameters (sim's pose.<body>.<d>) are written as whole poses: the floor's angle and
+// position come back bit for bit through the scene loader.
+TEST(DesignSpec, BestSceneCarriesPoseParameters) {
+  const DesignSpec s = ParseDesignSpec(
+      "scene: block_slide.yaml\n"
+      "parameters: [{name: pose.floor.theta, lower: -0.5, upper: 0.5},\n"
+      "             {name: pose.floor.y, lower: -0.1, upper: 0.1}]\n"
+      "samples: 2\nseed: 1\nduration: 0.1\n"
+      "objective: {type: distance, body: block, target: [0.5, 0.05]}\n",
+      "pose.yaml", kData);
+  VectorXd x(2);
+  x << 0.1, -0.02;
+  const sim::Scene scene = sim::ParseScene(BestSceneYaml(s, x), "best.yaml");
+  sim::Params p = s.scene.DefaultParams();
+  p.values[s.scene.param_table().Index("pose.floor.theta")] = 0.1;
+  p.values[s.scene.param_table().Index("pose.floor.y")] = -0.02;
+  const sim::Scene expected = s.scene.ApplyParams(p);
+  const int floor = scene.FindBody("floor");
+  EXPECT_TRUE(scene.bodies[floor].X_WB0.matrix() == expected.bodies[floor].X_WB0.matrix())
+      << scene.bodies[floor].X_WB0.matrix() << "\nvs\n"
+      << expected.bodies[floor].X_WB0.matrix();
+}
+
 }  // namespace
 }  // namespace vinci::design
