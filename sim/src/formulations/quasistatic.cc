@@ -154,6 +154,17 @@ StewartTrinkle::Assembly Quasistatic::Assemble(const Scene& model, const State& 
   return a;
 }
 
+StewartTrinkle::Assembly Quasistatic::AssembleAt(const Scene& model, const State& x,
+                                                 const StepInput& u,
+                                                 std::vector<Contact> contacts) const {
+  if (model.dim != Dim::kPlanar)
+    throw std::invalid_argument(std::string(name()) + ": quasistatic models need a planar scene");
+  StewartTrinkle::Assembly a =
+      assembler_.AssembleAt(model, x, u, std::move(contacts), /*select_corner_edges=*/false);
+  if (quadratic_) a.support = AssembleSupport(model, x, options_.dt, /*quadratic=*/true);
+  return a;
+}
+
 StepLayout Quasistatic::Layout(const Scene& model, const State& x) const {
   StepLayout l = assembler_.Layout(model, x);
   if (quadratic_) l.nps = 2 * l.ns;
@@ -167,8 +178,13 @@ McpProblem Quasistatic::BuildMcp(const Scene& model, const State& x, const StepI
 
 McpProblem Quasistatic::MakeMcp(const Scene& model, const State& x, const StepInput& u,
                                 bool quadratic, StepLayout* layout) const {
+  return MakeMcpFrom(model, x, Assemble(model, x, u, quadratic), quadratic, layout);
+}
+
+McpProblem Quasistatic::MakeMcpFrom(const Scene& model, const State& x, StewartTrinkle::Assembly a,
+                                    bool quadratic, StepLayout* layout) const {
   auto d = std::make_shared<StepData>();
-  d->a = Assemble(model, x, u, quadratic);
+  d->a = std::move(a);
   StepLayout& l = d->layout;
   l.nq = model.num_positions();
   l.nv = model.num_velocities();
@@ -298,8 +314,14 @@ void Quasistatic::Step(const Scene& model, const State& x, const StepInput& u, W
 
 StepResiduals Quasistatic::Evaluate(const Scene& model, const Params& params, const State& x,
                                     const StepInput& u, const VectorXd& z) const {
+  return EvaluateAssembly(model, params, Assemble(model, x, u, quadratic_), x, z);
+}
+
+StepResiduals Quasistatic::EvaluateAssembly(const Scene& model, const Params& params,
+                                            const StewartTrinkle::Assembly& a, const State& x,
+                                            const VectorXd& z) const {
   StepLayout l;
-  const McpProblem mcp = BuildMcp(model, x, u, &l);
+  const McpProblem mcp = MakeMcpFrom(model, x, a, quadratic_, &l);
   const std::string who = std::string(name()) + "::Evaluate";
   if (z.size() != l.size())
     throw std::invalid_argument(who + ": z has " + std::to_string(z.size()) +
@@ -367,7 +389,6 @@ StepResiduals Quasistatic::Evaluate(const Scene& model, const Params& params, co
   }
 
   // Parameter columns. Friction: the σ rows U p_n − Eᵀ p_f (pairs nc + nf .. 2nc + nf).
-  const StewartTrinkle::Assembly a = Assemble(model, x, u, quadratic_);
   for (int c = 0; c < o.nc; ++c)
     r.d_comp_b(o.nc + o.nf + c, column_of[a.contacts[c].mu_param]) = y[o.pn() + c];
   // Support rows through the disk radius L_k = h μ_s N_k: column `col` with ∂L_k = dL.
