@@ -50,6 +50,8 @@ const Case kCases[] = {
     {"PendulumOnBlockST", "pendulum_on_block.yaml", FormulationType::kStewartTrinkle, 30},
     {"TrenchST", "concave_trench.yaml", FormulationType::kStewartTrinkle, 30},
     {"GiDisc", "disc_on_plane.yaml", FormulationType::kGeometricallyImplicit, 30},
+    {"GiSpheres", "sphere_on_two_spheres.yaml", FormulationType::kGeometricallyImplicit, 200},
+    {"GiBox", "box_on_plane.yaml", FormulationType::kGeometricallyImplicit, 10},
 };
 
 class StepModelTest : public ::testing::TestWithParam<Case> {
@@ -209,6 +211,33 @@ TEST(StepModelFrozenTest, LiftedBoxKeepsItsContactsAndGapsMoveWithIt) {
   ASSERT_EQ(v1.comp_b.size(), v0.comp_b.size());
   const double h = sim.scene().options.dt;
   for (int c = 0; c < 4; ++c) EXPECT_NEAR(v1.comp_b[c] - v0.comp_b[c], 0.01 / h, 1e-9);
+}
+
+// For vertex–face contacts on a static floor the moved contacts are exactly the re-detected
+// ones, so the frozen x_ℓ block equals Formulation::EvaluateStateJacobians (central differences
+// with collision detection re-run) — here on a tilted, spinning box on two of its corners.
+// Tolerance 1e-6: both are central differences (steps 1e-7), roundoff ~1e-16 |f| / 1e-7.
+TEST(StepModelFrozenTest, StateBlockMatchesRedetectionForVertexFaceContacts) {
+  const Simulator sim(LoadExample("box_on_plane.yaml"));
+  const Params p = sim.DefaultParams();
+  State x = sim.InitialState();
+  // Rotate the box about x by 0.2 rad and lower it so one edge (two corners) is in the envelope.
+  const Eigen::Quaterniond Q(Eigen::AngleAxisd(0.2, Vector3d::UnitX()));
+  x.q.segment<4>(3) << Q.w(), Q.x(), Q.y(), Q.z();
+  x.q[2] = 0.1 * std::sin(0.2) + 0.05 * std::cos(0.2) + 0.001;
+  x.v << 0.3, -0.2, -0.1, 0.5, 1.0, -2.0;
+  const auto frozen = Freeze(sim.formulation(), sim.scene(), p, x);
+  ASSERT_EQ(frozen->num_contacts(), 2);
+  VectorXd z = VectorXd::Zero(frozen->layout().size());
+  for (int i = 0; i < z.size(); ++i) z[i] = 0.1 * std::sin(1.0 + i);  // a generic point
+  const StepModelValues v = frozen->Evaluate(z, p, x);
+  const StateJacobians redetect =
+      sim.formulation().EvaluateStateJacobians(sim.scene(), p, x, StepInput{}, z);
+  ASSERT_TRUE(redetect.contact_set_stable);
+  EXPECT_LE((MatrixXd(v.d_equality.d_x) - redetect.d_equality).cwiseAbs().maxCoeff(), 1e-6);
+  EXPECT_LE((MatrixXd(v.d_comp_a.d_x) - redetect.d_comp_a).cwiseAbs().maxCoeff(), 1e-6);
+  EXPECT_LE((MatrixXd(v.d_comp_b.d_x) - redetect.d_comp_b).cwiseAbs().maxCoeff(), 1e-6);
+  EXPECT_GT(MatrixXd(v.d_comp_b.d_x).cwiseAbs().maxCoeff(), 1.0);  // not trivially zero
 }
 
 TEST(StepModelFrozenTest, RejectsMismatchedSizes) {

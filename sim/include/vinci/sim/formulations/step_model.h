@@ -121,8 +121,9 @@ class StepModel {
 /// Freezes `formulation`'s step at x (contacts / GI pairs found once at x). `model` is the scene
 /// with `params` applied (as for Formulation::Evaluate). Every formulation with an Evaluate is
 /// supported: Stewart–Trinkle, Anitescu–Potra, first order, NCP, quasistatic DLC/DQC,
-/// dynamic DQC and GI. Throws std::invalid_argument for another Formulation or a scene the
-/// formulation rejects.
+/// dynamic DQC and GI. The model keeps a reference to `formulation`, which must outlive it (a
+/// Simulator's formulation() lives as long as the Simulator). Throws std::invalid_argument for
+/// another Formulation, mismatched sizes or a scene the formulation rejects.
 std::unique_ptr<StepModel> Freeze(const Formulation& formulation, const Scene& model,
                                   const Params& params, const State& x, const StepInput& u = {});
 
