@@ -247,6 +247,10 @@ TEST(StepModelFrozenTest, RejectsMismatchedSizes) {
   const auto frozen = Freeze(sim.formulation(), sim.scene(), p, x);
   EXPECT_THROW(frozen->Evaluate(VectorXd::Zero(frozen->layout().size() + 1), p, x),
                std::invalid_argument);
+  State later = x;
+  later.t += 0.5;
+  EXPECT_THROW(frozen->Evaluate(VectorXd::Zero(frozen->layout().size()), p, later),
+               std::invalid_argument);
   State bad = x;
   bad.warm_start = VectorXd::Zero(3);
   EXPECT_THROW(frozen->UnknownsFromStep(bad), std::invalid_argument);

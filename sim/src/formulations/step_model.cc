@@ -136,13 +136,7 @@ class NcpModel final : public StepModel {
     contacts_ = ncp_.assembler().Assemble(*model_, x_, u_).contacts;
     const StewartTrinkle::Assembly a = AssembleAt(*model_, x_, u_);
     G_b_ = a.G_b;
-    StepLayout l;  // as NcpStepper::Evaluate
-    l.nq = model_->num_positions();
-    l.nv = model_->num_velocities();
-    l.nc = static_cast<int>(a.contacts.size());
-    l.nd = 2;
-    l.nb = static_cast<int>(a.psi_b.size());
-    Init(l.size());
+    Init(ncp_.Layout(*model_, x_).size());  // the contact set at x_ℓ is the frozen one
   }
 
  protected:
@@ -189,16 +183,7 @@ class QuasistaticModel final : public StepModel {
                   qs.assembler().options().dt),
         qs_(qs) {
     contacts_ = qs_.assembler().Assemble(*model_, x_, u_).contacts;
-    const StewartTrinkle::Assembly a = qs_.AssembleAt(*model_, x_, u_, contacts_);
-    StepLayout l;  // as Quasistatic's MCP
-    l.nq = model_->num_positions();
-    l.nv = model_->num_velocities();
-    l.nc = static_cast<int>(a.contacts.size());
-    l.nd = a.nd;
-    l.nb = static_cast<int>(a.psi_b.size());
-    l.ns = a.support.points();
-    l.nps = a.support.columns();
-    Init(l.size());
+    Init(qs_.Layout(*model_, x_).size());  // the contact set at x_ℓ is the frozen one
   }
 
  protected:
@@ -303,6 +288,10 @@ StepModelValues StepModel::Evaluate(const VectorXd& z, const Params& theta, cons
         "StepModel::Evaluate: x_ℓ has " + std::to_string(x.q.size()) + " positions / " +
         std::to_string(x.v.size()) + " velocities; the scene needs " +
         std::to_string(s0.num_positions()) + " / " + std::to_string(s0.num_velocities()));
+  if (x.t != x_.t)
+    throw std::invalid_argument("StepModel::Evaluate: x_ℓ.t = " + std::to_string(x.t) +
+                                " differs from the freeze time " + std::to_string(x_.t) +
+                                " (prescribed bodies are frozen at that time)");
   const int nv = s0.num_velocities();
   if (u.generalized_force.size() != 0 && u.generalized_force.size() != nv)
     throw std::invalid_argument("StepModel::Evaluate: input force " +

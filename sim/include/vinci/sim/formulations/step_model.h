@@ -78,7 +78,8 @@ class StepModel {
 
   /// The step equations at (z, θ, x_ℓ) with the frozen input. Throws std::invalid_argument for
   /// sizes that do not match (z: layout().size(); θ: the scene's ParamTable; x: the scene's
-  /// state) or an out-of-range θ.
+  /// state), x.t ≠ x_freeze().t (time is not a variable: prescribed bodies stay where they are
+  /// at the freeze) or an out-of-range θ. x.warm_start is ignored.
   StepModelValues Evaluate(const VectorXd& z, const Params& theta, const State& x,
                            const StepModelOptions& options = {}) const;
   /// Same with input u (empty = 0, else num_velocities() entries).
