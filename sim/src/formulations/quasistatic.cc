@@ -125,6 +125,35 @@ void StepFunction(const StepData& d, const VectorXd& y, VectorXd* F, MatrixXd* J
   }
 }
 
+// The MCP of the step data d, whose assembly is set: fills its layout *l (= d->layout) and the
+// rest of d from the assembly; *layout (if non-null) receives the layout.
+McpProblem MakeStepMcp(const Scene& model, const State& x, const StepperOptions& options,
+                       bool dynamic, bool quadratic, const std::shared_ptr<StepData>& d,
+                       StepLayout* l, StepLayout* layout) {
+  l->nq = model.num_positions();
+  l->nv = model.num_velocities();
+  l->nc = static_cast<int>(d->a.contacts.size());
+  l->nd = d->a.nd;
+  l->nb = static_cast<int>(d->a.psi_b.size());
+  l->ns = d->a.support.points();
+  l->nps = d->a.support.columns();
+  d->eps_M = dynamic ? d->a.M : MatrixXd(kQuasistaticRegularization * d->a.M);
+  d->v0 = dynamic ? x.v : VectorXd::Zero(l->nv);
+  d->h = options.dt;
+  d->quadratic = quadratic;
+  d->joint_stabilization = options.joint_stabilization;
+  const Offsets o = OffsetsOf(*l);
+  McpProblem mcp;
+  mcp.lower = VectorXd::Zero(o.size());
+  mcp.upper = VectorXd::Constant(o.size(), kInf);
+  mcp.lower.segment(o.v(), o.nv).setConstant(-kInf);
+  mcp.lower.segment(o.pb(), o.nb).setConstant(-kInf);
+  if (quadratic) mcp.lower.segment(o.ps(), o.nps).setConstant(-kInf);
+  mcp.evaluate = [d](const VectorXd& y, VectorXd* F, MatrixXd* J) { StepFunction(*d, y, F, J); };
+  if (layout) *layout = *l;
+  return mcp;
+}
+
 }  // namespace
 
 Quasistatic::Quasistatic(StepperOptions options, McpOptions mcp)
@@ -178,36 +207,17 @@ McpProblem Quasistatic::BuildMcp(const Scene& model, const State& x, const StepI
 
 McpProblem Quasistatic::MakeMcp(const Scene& model, const State& x, const StepInput& u,
                                 bool quadratic, StepLayout* layout) const {
-  return MakeMcpFrom(model, x, Assemble(model, x, u, quadratic), quadratic, layout);
+  auto d = std::make_shared<StepData>();
+  d->a = Assemble(model, x, u, quadratic);
+  StepLayout& l = d->layout;
+  return MakeStepMcp(model, x, options_, dynamic_, quadratic, d, &l, layout);
 }
 
 McpProblem Quasistatic::MakeMcpFrom(const Scene& model, const State& x, StewartTrinkle::Assembly a,
                                     bool quadratic, StepLayout* layout) const {
   auto d = std::make_shared<StepData>();
   d->a = std::move(a);
-  StepLayout& l = d->layout;
-  l.nq = model.num_positions();
-  l.nv = model.num_velocities();
-  l.nc = static_cast<int>(d->a.contacts.size());
-  l.nd = d->a.nd;
-  l.nb = static_cast<int>(d->a.psi_b.size());
-  l.ns = d->a.support.points();
-  l.nps = d->a.support.columns();
-  d->eps_M = dynamic_ ? d->a.M : MatrixXd(kQuasistaticRegularization * d->a.M);
-  d->v0 = dynamic_ ? x.v : VectorXd::Zero(l.nv);
-  d->h = options_.dt;
-  d->quadratic = quadratic;
-  d->joint_stabilization = options_.joint_stabilization;
-  const Offsets o = OffsetsOf(l);
-  McpProblem mcp;
-  mcp.lower = VectorXd::Zero(o.size());
-  mcp.upper = VectorXd::Constant(o.size(), kInf);
-  mcp.lower.segment(o.v(), o.nv).setConstant(-kInf);
-  mcp.lower.segment(o.pb(), o.nb).setConstant(-kInf);
-  if (quadratic) mcp.lower.segment(o.ps(), o.nps).setConstant(-kInf);
-  mcp.evaluate = [d](const VectorXd& y, VectorXd* F, MatrixXd* J) { StepFunction(*d, y, F, J); };
-  if (layout) *layout = l;
-  return mcp;
+  return MakeStepMcp(model, x, options_, dynamic_, quadratic, d, &d->layout, layout);
 }
 
 SolverReport Quasistatic::SolveDlc(const McpProblem& mcp, const VectorXd* warm, VectorXd* y) const {

@@ -82,11 +82,12 @@ class Quasistatic final : public Formulation {
                                     bool quadratic) const;
   McpProblem MakeMcp(const Scene& model, const State& x, const StepInput& u, bool quadratic,
                      StepLayout* layout) const;
-  McpProblem MakeMcpFrom(const Scene& model, const State& x, StewartTrinkle::Assembly a,
-                         bool quadratic, StepLayout* layout) const;
   /// Solves the DLC step by the split LCP (warm-started from *warm if it has the MCP's size);
   /// *y receives the MCP unknowns.
   SolverReport SolveDlc(const McpProblem& mcp, const VectorXd* warm, VectorXd* y) const;
+  /// MakeMcp for a given assembly (EvaluateAssembly).
+  McpProblem MakeMcpFrom(const Scene& model, const State& x, StewartTrinkle::Assembly a,
+                         bool quadratic, StepLayout* layout) const;
 
   StepperOptions options_;
   McpSolver solver_;
