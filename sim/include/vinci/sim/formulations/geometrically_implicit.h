@@ -111,6 +111,28 @@ class GeometricallyImplicit final : public Formulation {
   /// produced by this stepper from x.
   VectorXd UnknownsFromStep(const Scene& model, const State& x, const State& next) const;
 
+  /// The parts of a step fixed at x_ℓ by the frozen step model (step_model.h): the candidate
+  /// pairs (with their closest points at x_ℓ, which also fix a compliant pair's law constant and
+  /// the tangent reference) and the solver form's tie-breaker reference a_1,start (from
+  /// x.warm_start, as in Step). Throws std::invalid_argument like Pairs() or on a closest-point
+  /// failure.
+  struct FrozenPairs {
+    std::vector<GiPair> pairs;
+    std::vector<Vector3d> a1_start;
+    StepLayout layout;  ///< the step layout of these pairs
+  };
+  FrozenPairs FreezePairs(const Scene& model, const State& x) const;
+  /// Evaluate() with the pairs and tie-breaker reference of `frozen` instead of those found at
+  /// x; μ per pair is re-read from `model`. Evaluate(x) = EvaluateFrozen(FreezePairs(x), x).
+  StepResiduals EvaluateFrozen(const Scene& model, const Params& params, const FrozenPairs& frozen,
+                               const State& x, const StepInput& u, const VectorXd& z) const;
+  /// UnknownsFromStep() for the frozen pairs.
+  VectorXd UnknownsFromStep(const Scene& model, const FrozenPairs& frozen, const State& x,
+                            const State& next) const;
+  /// The end-of-step state (t + h, pose, ν, warm start) that a step with unknowns z writes.
+  State StateFromUnknowns(const Scene& model, const FrozenPairs& frozen, const State& x,
+                          const VectorXd& z) const;
+
   const StepperOptions& options() const { return options_; }
   const McpOptions& mcp_options() const { return mcp_; }
 

@@ -75,6 +75,13 @@ class NcpStepper final : public Formulation {
   StepResiduals Evaluate(const Scene& model, const Params& params, const State& x,
                          const StepInput& u, const VectorXd& z) const override;
   StepLayout Layout(const Scene& model, const State& x) const override;
+  /// Evaluate() for an assembly of assembler() made at x (Evaluate = EvaluateAssembly(
+  /// assembler().Assemble(x))).
+  StepResiduals EvaluateAssembly(const Scene& model, const Params& params,
+                                 const StewartTrinkle::Assembly& a, const State& x,
+                                 const VectorXd& z) const;
+  /// The Stewart–Trinkle stepper (n_d = 4) that assembles this stepper's contact rows.
+  const StewartTrinkle& assembler() const { return st_; }
 
   /// One step's MCP and what is needed to recover ν_ℓ+1 from its solution.
   struct StepProblem {

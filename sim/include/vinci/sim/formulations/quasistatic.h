@@ -54,6 +54,17 @@ class Quasistatic final : public Formulation {
                          const StepInput& u, const VectorXd& z) const override;
   StepLayout Layout(const Scene& model, const State& x) const override;
 
+  /// Evaluate() for an assembly made at x by AssembleAt() (or the stepper's own assembly).
+  StepResiduals EvaluateAssembly(const Scene& model, const Params& params,
+                                 const StewartTrinkle::Assembly& a, const State& x,
+                                 const VectorXd& z) const;
+  /// The step's assembly at x for a given contact list (the frozen step model, step_model.h):
+  /// corner edges as given, DQC support disks exact.
+  StewartTrinkle::Assembly AssembleAt(const Scene& model, const State& x, const StepInput& u,
+                                      std::vector<Contact> contacts) const;
+  /// The contact detection this stepper uses (Assemble's, at the stepper's options).
+  const StewartTrinkle& assembler() const { return assembler_; }
+
   bool quadratic() const { return quadratic_; }
 
   /// The MCP of a step at x over y = z without q_ℓ+1 (exposed for tests and benchmarks).
@@ -70,6 +81,9 @@ class Quasistatic final : public Formulation {
   /// Solves the DLC step by the split LCP (warm-started from *warm if it has the MCP's size);
   /// *y receives the MCP unknowns.
   SolverReport SolveDlc(const McpProblem& mcp, const VectorXd* warm, VectorXd* y) const;
+  /// MakeMcp for a given assembly (EvaluateAssembly).
+  McpProblem MakeMcpFrom(const Scene& model, const State& x, StewartTrinkle::Assembly a,
+                         bool quadratic, StepLayout* layout) const;
 
   StepperOptions options_;
   McpSolver solver_;

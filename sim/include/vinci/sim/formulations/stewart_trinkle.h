@@ -75,6 +75,15 @@ class StewartTrinkle final : public Formulation {
     SupportRows support;  ///< 2.5D support friction, linearized (empty without supports)
   };
   Assembly Assemble(const Scene& model, const State& x, const StepInput& u) const;
+  /// Assemble() with the contact list given instead of found at x (the frozen step model,
+  /// step_model.h: contacts found once at x_ℓ, moved with their bodies). With
+  /// `select_corner_edges` false each corner contact keeps the edge order it arrives with
+  /// (Assemble()'s choice at the freeze), so the rows stay the same functions of x.
+  Assembly AssembleAt(const Scene& model, const State& x, const StepInput& u,
+                      std::vector<Contact> contacts, bool select_corner_edges) const;
+  /// Evaluate() for an assembly made at x (Evaluate = EvaluateAssembly(Assemble(x))).
+  StepResiduals EvaluateAssembly(const Scene& model, const Params& params, const Assembly& a,
+                                 const State& x, const VectorXd& z) const;
   /// The Schur-complement pieces of the joint elimination (empty without joints).
   struct JointElimination {
     MatrixXd MinvGb;          ///< M⁻¹ G_b
