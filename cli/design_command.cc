@@ -230,9 +230,12 @@ ExitCode RunDesignCommand(const DesignOptions& o) {
   if (o.threads < 1) throw std::invalid_argument("--threads: expected an integer >= 1");
   if (o.budget < 0) throw std::invalid_argument("--budget: expected an integer >= 1");
   if (o.samples < 0) throw std::invalid_argument("--samples: expected an integer >= 1");
+  if (o.validation_samples < 0)
+    throw std::invalid_argument("--validation-samples: expected an integer >= 1");
   if (o.has_seed && o.seed < 0) throw std::invalid_argument("--seed: expected an integer >= 0");
   if (o.out.empty()) throw std::invalid_argument("--out: expected an output folder");
   design::DesignSpec spec = design::LoadDesignSpec(o.spec_path);
+  if (o.validation_samples > 0) spec.validation_samples = o.validation_samples;
 
   std::error_code ec;
   fs::create_directories(o.out, ec);
@@ -402,6 +405,10 @@ Command RegisterDesignCommand(CLI::App& app) {
   sub->add_option("--budget", options->budget, "Simulations (rollouts) for the search")
       ->type_name("N");
   sub->add_option("--samples", options->samples, "Monte Carlo samples per design")->type_name("N");
+  sub->add_option("--validation-samples", options->validation_samples,
+                  "Fresh samples for the final estimate of the best and the start design "
+                  "(default: the spec's validation_samples)")
+      ->type_name("N");
   sub->add_option("--threads,-j", options->threads,
                   "Worker threads (the result is identical for any number)")
       ->type_name("N");

@@ -11,9 +11,10 @@ namespace vinci::cli {
 /// Everything `vinci design` takes from the command line.
 struct DesignOptions {
   std::string spec_path;
-  std::string optimizer;  ///< empty: the spec's, else the default for the objective
-  int budget = 0;         ///< simulations; 0: the spec's
-  int samples = 0;        ///< per evaluation; 0: the spec's
+  std::string optimizer;       ///< empty: the spec's, else the default for the objective
+  int budget = 0;              ///< simulations; 0: the spec's
+  int samples = 0;             ///< per evaluation; 0: the spec's
+  int validation_samples = 0;  ///< fresh samples of the final estimate; 0: the spec's
   int threads = 1;
   bool has_seed = false;
   long long seed = 0;
