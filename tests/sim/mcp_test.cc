@@ -20,6 +20,7 @@
 
 #include "vinci/sim/solvers/lcp.h"
 #include "vinci/sim/solvers/lemke.h"
+#include "vinci/sim/types.h"
 
 namespace vinci::sim {
 namespace {

@@ -9,6 +9,7 @@
 #include "vinci/sim/formulations/quasistatic.h"
 #include "vinci/sim/formulations/stewart_trinkle.h"
 #include "vinci/sim/model/kinematics.h"
+#include "vinci/sim/model/motion_input.h"
 #include "vinci/sim/solvers/lemke.h"
 
 namespace vinci::sim {
@@ -60,6 +61,20 @@ const Scene& Simulator::Resolve(const Params& params, Workspace* ws) const {
   return *ws->model;
 }
 
+const Scene& Simulator::ResolveWithInputs(const Params& params, const StepInput& u,
+                                          Workspace* ws) const {
+  const Scene& model = Resolve(params, ws);
+  if (u.motions.empty()) return model;
+  // One copy per segment: consecutive steps of a segment carry the same motions.
+  if (!ws->motion_model || ws->motion_base != ws->model ||
+      !SameMotionInputs(ws->motions_for, u.motions)) {
+    ws->motion_model = std::make_shared<const Scene>(ApplyMotionInputs(model, u.motions));
+    ws->motion_base = ws->model;
+    ws->motions_for = u.motions;
+  }
+  return *ws->motion_model;
+}
+
 StepInfo Simulator::Step(const Params& params, const State& x, const StepInput& u, Workspace* ws,
                          State* next) const {
   if (!ws || !next) throw std::invalid_argument("Simulator::Step: null workspace or output");
@@ -71,7 +86,7 @@ StepInfo Simulator::Step(const Params& params, const State& x, const StepInput& 
   if (u.generalized_force.size() != 0 && u.generalized_force.size() != scene_->num_velocities())
     throw std::invalid_argument("Simulator::Step: input force has the wrong size");
   StepInfo info;
-  formulation_->Step(Resolve(params, ws), x, u, ws, next, &info);
+  formulation_->Step(ResolveWithInputs(params, u, ws), x, u, ws, next, &info);
   return info;
 }
 
