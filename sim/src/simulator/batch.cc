@@ -118,7 +118,7 @@ std::vector<TaskOutcome> RunBatch(int n, const std::function<void(int task, int 
       if (now > reported && options.progress) {
         lock.unlock();
         try {
-          options.progress(now, n);
+          for (int d = reported + 1; d <= now; ++d) options.progress(d, n);
         } catch (...) {
           error = std::current_exception();
         }

@@ -11,10 +11,9 @@
 //   - Tasks start in index order. An exception thrown by a task is caught and recorded in that
 //     task's result (status kError, what(), the exception_ptr); it never reaches std::terminate,
 //     and every started thread is joined before the function returns or throws.
-//   - progress(done, total) runs on the calling thread, never concurrently with itself; `done`
-//     counts finished tasks and increases (intermediate values may be skipped under load). If
-//     the callback throws, no further task starts, the threads are joined, and the exception
-//     propagates to the caller.
+//   - progress(done, total) runs on the calling thread, never concurrently with itself, once per
+//     finished task (ok or error): done = 1, 2, ... in order. If the callback throws, no further
+//     task starts, the threads are joined, and the exception propagates to the caller.
 //   - cancel: once *cancel is true no further task starts (status kCancelled); running tasks
 //     finish (rollouts stop at their next step and return their partial trajectory). The flag may
 //     be set from any thread, including inside progress.
