@@ -179,13 +179,19 @@ TEST(BatchTest, ThrowingProgressPropagatesAfterJoiningTheThreads) {
   for (int threads : {1, 2}) {
     BatchOptions o;
     o.threads = threads;
-    o.progress = [](int done, int) {
+    int calls = 0;
+    o.progress = [&calls](int done, int) {
+      ++calls;
       if (done >= 2) throw std::runtime_error("stop here");
     };
-    EXPECT_THROW(
-        RunBatch(
-            50, [](int, int) { std::this_thread::sleep_for(std::chrono::microseconds(100)); }, o),
-        std::runtime_error);
+    std::atomic<int> ran{0};
+    const auto task = [&ran](int, int) {
+      ++ran;
+      std::this_thread::sleep_for(std::chrono::microseconds(100));
+    };
+    EXPECT_THROW(RunBatch(50, task, o), std::runtime_error);
+    EXPECT_EQ(calls, 2);  // not called again after it threw
+    EXPECT_LT(ran.load(), 50);
   }
 }
 

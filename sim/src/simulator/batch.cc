@@ -115,7 +115,7 @@ std::vector<TaskOutcome> RunBatch(int n, const std::function<void(int task, int 
       changed.wait(lock, [&] { return done > reported || running == 0; });
       const int now = done;
       const bool finished = running == 0;
-      if (now > reported && options.progress) {
+      if (now > reported && options.progress && !error) {
         lock.unlock();
         try {
           for (int d = reported + 1; d <= now; ++d) options.progress(d, n);
