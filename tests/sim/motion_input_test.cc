@@ -196,6 +196,27 @@ TEST(MotionInputTest, BadInputsThrowAndTheWorkspaceCacheFollowsTheInput) {
   EXPECT_GT(lifted.v[vz], plain.v[vz] + 0.1);  // the overlap of 1e-4 m is pushed out in one step
 }
 
+TEST(MotionInputTest, PhaseLockedSegmentChecksItsArguments) {
+  const Simulator sim(LoadExample("plate_conveyor.yaml"));
+  const Scene& s = sim.scene();
+  const int plate = s.FindBody("plate");
+  const PrescribedMotion& m = s.bodies[plate].motion;
+  const Isometry3d& X = s.bodies[plate].X_WB0;
+  const double h = s.options.dt;
+  EXPECT_THROW(PhaseLockedSegment(s, plate, m, 0.0, X, -1, h), std::invalid_argument);
+  EXPECT_THROW(PhaseLockedSegment(s, plate, m, 0.0, X, 1, 0.0), std::invalid_argument);
+  EXPECT_THROW(PhaseLockedSegment(s, s.FindBody("part"), m, 0.0, X, 1, h), std::invalid_argument);
+  EXPECT_THROW(PhaseLockedSegment(s, plate, m, 0.0, X, 2000000000, h), std::invalid_argument);
+  PrescribedMotion no_frequency = m;
+  no_frequency.base_frequency = 0.0;
+  EXPECT_THROW(PhaseLockedSegment(s, plate, no_frequency, 0.0, X, 1, h), std::invalid_argument);
+  // An explicit frequency sets the cycle: 15 Hz at h = 1/4800 s is 320 steps.
+  EXPECT_EQ(PhaseLockedSegment(s, plate, no_frequency, 0.0, X, 1, h, 15.0).inputs.size(), 320u);
+  const MotionSegment none = PhaseLockedSegment(s, plate, m, 0.25, X, 0, h);
+  EXPECT_TRUE(none.inputs.empty());
+  EXPECT_EQ(none.t_end, 0.25);
+}
+
 // ReferencePose inverts the offset at τ = 0, for planar and spatial motions with a tilt phase.
 TEST(MotionInputTest, ReferencePoseStartsTheMotionAtTheGivenPose) {
   PrescribedMotion m;
