@@ -8,6 +8,7 @@
 #include "field_command.h"
 #include "simulate_command.h"
 #include "solve_command.h"
+#include "view_command.h"
 
 #ifndef VINCI_VERSION
 #error "VINCI_VERSION must be defined by the build (cli/CMakeLists.txt)"
@@ -50,6 +51,7 @@ int main(int argc, char** argv) {
       vinci::cli::RegisterSimulateCommand(app),
       vinci::cli::RegisterSolveCommand(app),
       vinci::cli::RegisterFieldCommand(app),
+      vinci::cli::RegisterViewCommand(app),
   };
 
   try {

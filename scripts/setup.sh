@@ -12,6 +12,7 @@ packages=(
   libompl-dev libboost-serialization-dev libboost-filesystem-dev libboost-system-dev
   libopenmpi-dev openmpi-bin
   python3-numpy python3-scipy python3-matplotlib
+  libjs-three chromium  # vinci view: three.js embedded at build time; its test runs Chromium
 )
 
 missing=()

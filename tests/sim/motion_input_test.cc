@@ -196,6 +196,30 @@ TEST(MotionInputTest, BadInputsThrowAndTheWorkspaceCacheFollowsTheInput) {
   EXPECT_GT(lifted.v[vz], plain.v[vz] + 0.1);  // the overlap of 1e-4 m is pushed out in one step
 }
 
+// An input motion is checked against the formulation's capabilities like a scene motion: the
+// geometrically implicit stepper has no integrated pose rule, so such an input is rejected,
+// never run with the rule ignored.
+TEST(MotionInputTest, InputMotionsAreCheckedAgainstTheFormulation) {
+  Scene scene = LoadExample("plate_conveyor.yaml");
+  scene.options.formulation = FormulationType::kGeometricallyImplicit;
+  scene.options.prescribed_velocity = PrescribedVelocity::kSecant;
+  const Simulator sim(std::move(scene));
+  const int plate = sim.scene().FindBody("plate");
+  MotionInput m{plate, sim.scene().bodies[plate].motion, sim.scene().bodies[plate].X_WB0};
+  StepInput u;
+  u.motions.push_back(m);
+  Workspace ws;
+  State next;
+  EXPECT_TRUE(sim.Step(sim.DefaultParams(), sim.InitialState(), u, &ws, &next).ok);
+  u.motions[0].motion.pose = PoseRule::kIntegrated;
+  try {
+    sim.Step(sim.DefaultParams(), sim.InitialState(), u, &ws, &next);
+    ADD_FAILURE() << "an integrated pose input ran under gi";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("pose: integrated"), std::string::npos) << e.what();
+  }
+}
+
 TEST(MotionInputTest, PhaseLockedSegmentChecksItsArguments) {
   const Simulator sim(LoadExample("plate_conveyor.yaml"));
   const Scene& s = sim.scene();

@@ -5,6 +5,7 @@
 #include <limits>
 #include <stdexcept>
 
+#include "step_util.h"
 #include "vinci/sim/formulations/contact.h"
 #include "vinci/sim/model/compliance.h"
 #include "vinci/sim/model/kinematics.h"
@@ -936,8 +937,7 @@ StepLayout GeometricallyImplicit::Layout(const Scene& model, const State& x) con
 
 void GeometricallyImplicit::Step(const Scene& model, const State& x, const StepInput& u,
                                  Workspace* ws, State* next, StepInfo* info) const {
-  *info = StepInfo{};
-  *next = x;
+  internal::BeginStep(x, next, info);
   std::string failure;
   auto c = std::make_shared<Context>(MakeContext(*this, model, x, u, &failure));
   const StepLayout& l = c->layout;
@@ -947,17 +947,18 @@ void GeometricallyImplicit::Step(const Scene& model, const State& x, const StepI
     info->min_gap =
         k == 0 ? c->pairs[k].start.distance : std::min(info->min_gap, c->pairs[k].start.distance);
   if (!failure.empty()) {
-    info->failure = failure;
-    info->solver.status = SolverStatus::kNumericalFailure;
+    internal::FailStep(StepStatus::kGeometryFailed, failure, info);
     return;
   }
-  if (l.nc > 0 && info->min_gap < -options_.max_penetration) {
-    info->failure = "penetration " + std::to_string(-info->min_gap) +
-                    " m exceeds max_penetration " + std::to_string(options_.max_penetration) + " m";
-    info->solver.status = SolverStatus::kNumericalFailure;
-    return;
-  }
+  if (!internal::CheckStartPenetration(l.nc, options_.max_penetration, info)) return;
   VectorXd z = InitialGuess(*c);
+  if (!z.allFinite()) {  // e.g. q_ℓ + h ν_ℓ beyond the range of doubles
+    internal::FailStep(StepStatus::kNonFinite,
+                       "geometrically implicit step: non-finite starting point (the predicted "
+                       "state q + h v is not finite)",
+                       info);
+    return;
+  }
   SetStart(c.get(), z);
   const McpProblem prob = MakeProblem(c);
   info->solver = McpSolver(mcp_).Solve(prob, &z);
@@ -968,6 +969,7 @@ void GeometricallyImplicit::Step(const Scene& model, const State& x, const StepI
     Context cold = *c;
     cold.x.warm_start.resize(0);
     VectorXd z_cold = InitialGuess(cold);
+    if (!z_cold.allFinite()) z_cold = z;  // (finite: checked above)
     const SolverReport first = info->solver;
     info->solver = McpSolver(mcp_).Solve(prob, &z_cold);
     info->solver.iterations += first.iterations;
@@ -975,11 +977,9 @@ void GeometricallyImplicit::Step(const Scene& model, const State& x, const StepI
     if (info->solver.ok()) z = z_cold;
   }
   if (!info->solver.ok()) {
-    info->failure = "geometrically implicit step: MCP solver failed: " +
-                    std::string(ToString(info->solver.status)) + " after " +
-                    std::to_string(info->solver.iterations) + " iterations, residual " +
-                    std::to_string(info->solver.residual) +
-                    (info->solver.message.empty() ? "" : " (" + info->solver.message + ")");
+    internal::SolverFailed("geometrically implicit step: MCP solver", info);
+    info->failure += " after " + std::to_string(info->solver.iterations) +
+                     " iterations, residual " + internal::FormatNumber(info->solver.residual);
     return;
   }
   // Next state: ν, and the pose the constraints were solved at.
@@ -1003,8 +1003,7 @@ void GeometricallyImplicit::Step(const Scene& model, const State& x, const StepI
   }
   if (!next->v.allFinite() || !next->q.allFinite()) {
     *next = x;
-    info->failure = "non-finite state after the step";
-    info->solver.status = SolverStatus::kNumericalFailure;
+    internal::FailStep(StepStatus::kNonFinite, "non-finite state after the step", info);
     return;
   }
   // Safety net: a converged solve on a spurious branch of the contact equations (closest points
@@ -1028,12 +1027,13 @@ void GeometricallyImplicit::Step(const Scene& model, const State& x, const StepI
             ? std::max(0.0, c->law_diagonal[k] * ReadPair(*c, k, z).pn + c->law_constant[k])
             : 0.0;
     if (end.ok && end.distance < -(law_overlap + kEndPenetrationCheck)) {
-      info->failure = "geometrically implicit step: the solution penetrates by " +
-                      std::to_string(-end.distance) +
-                      " m at the end of the step (pair of bodies '" + model.bodies[p.body_a].name +
-                      "' and '" + model.bodies[p.body_b].name +
-                      "'): a spurious branch of the contact equations";
-      info->solver.status = SolverStatus::kNumericalFailure;
+      internal::FailStep(StepStatus::kPenetration,
+                         "geometrically implicit step: the solution penetrates by " +
+                             internal::FormatNumber(-end.distance) +
+                             " m at the end of the step (pair of bodies '" +
+                             model.bodies[p.body_a].name + "' and '" + model.bodies[p.body_b].name +
+                             "'): a spurious branch of the contact equations",
+                         info);
       *next = x;
       return;
     }
@@ -1062,6 +1062,7 @@ void GeometricallyImplicit::Step(const Scene& model, const State& x, const StepI
     }
   }
   info->ok = true;
+  info->status = StepStatus::kOk;
 }
 
 VectorXd GeometricallyImplicit::UnknownsFromStep(const Scene& model, const State& x,

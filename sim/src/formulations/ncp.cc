@@ -243,8 +243,7 @@ VectorXd NcpStepper::FreeSlipStart(const StepProblem& sp) const {
 
 void NcpStepper::Step(const Scene& model, const State& x, const StepInput& u, Workspace* ws,
                       State* next, StepInfo* info) const {
-  *info = StepInfo{};
-  *next = x;
+  internal::BeginStep(x, next, info);
   const double h = options_.dt;
   StepProblem sp = Build(model, x, u);
   const StewartTrinkle::Assembly& a = sp.assembly;
@@ -252,12 +251,7 @@ void NcpStepper::Step(const Scene& model, const State& x, const StepInput& u, Wo
   info->contacts = nc;
   info->joint_rows = static_cast<int>(a.psi_b.size());
   info->min_gap = nc > 0 ? a.psi_n.minCoeff() : 0.0;
-  if (nc > 0 && info->min_gap < -options_.max_penetration) {
-    info->failure = "penetration " + std::to_string(-info->min_gap) +
-                    " m exceeds max_penetration " + std::to_string(options_.max_penetration) + " m";
-    info->solver.status = SolverStatus::kNumericalFailure;
-    return;
-  }
+  if (!internal::CheckStartPenetration(nc, options_.max_penetration, info)) return;
 
   VectorXd z = VectorXd::Zero(4 * nc);
   if (nc > 0) {
@@ -289,6 +283,10 @@ void NcpStepper::Step(const Scene& model, const State& x, const StepInput& u, Wo
           continue;
         }
         z = FromLcpSolution(sp, z_lcp).cwiseQuotient(scale);
+      }
+      if (!z.allFinite()) {
+        history += std::string(history.empty() ? "" : "; ") + start + ": not finite";
+        continue;
       }
       info->solver = mcp.Solve(sp.mcp, &z);
       iterations += info->solver.iterations;
@@ -359,7 +357,8 @@ void NcpStepper::Step(const Scene& model, const State& x, const StepInput& u, Wo
           info->solver.message.empty() || !solved ? note : info->solver.message + "; " + note;
     }
     if (!solved) {
-      info->failure = "MCP failed from every start: " + history;
+      internal::FailStep(StepStatus::kSolverFailed, "MCP failed from every start: " + history,
+                         info);
       return;
     }
     z = z.cwiseProduct(scale);
@@ -371,6 +370,7 @@ void NcpStepper::Step(const Scene& model, const State& x, const StepInput& u, Wo
   if (!internal::CompleteStep(model, x, v1, h, z, next, info)) return;
   if (ws) ws->contacts = std::move(sp.assembly.contacts);
   info->ok = true;
+  info->status = StepStatus::kOk;
 }
 
 StepLayout NcpStepper::Layout(const Scene& model, const State& x) const {

@@ -166,9 +166,11 @@ McpProblem Quasistatic::BuildMcp(const Scene& model, const State& x, const StepI
 }
 
 McpProblem Quasistatic::MakeMcp(const Scene& model, const State& x, const StepInput& u,
-                                bool quadratic, StepLayout* layout) const {
+                                bool quadratic, StepLayout* layout,
+                                std::vector<Contact>* contacts) const {
   auto d = std::make_shared<StepData>();
   d->a = Assemble(model, x, u, quadratic);
+  if (contacts) *contacts = d->a.contacts;
   StepLayout& l = d->layout;
   l.nq = model.num_positions();
   l.nv = model.num_velocities();
@@ -230,26 +232,17 @@ SolverReport Quasistatic::SolveDlc(const McpProblem& mcp, const VectorXd* warm, 
 
 void Quasistatic::Step(const Scene& model, const State& x, const StepInput& u, Workspace* ws,
                        State* next, StepInfo* info) const {
-  *info = StepInfo{};
-  *next = x;
+  internal::BeginStep(x, next, info);
   const double h = options_.dt;
   StepLayout l;
-  const McpProblem mcp = BuildMcp(model, x, u, &l);
-  // The contacts (for the report) come from the same detection the MCP used.
-  const std::vector<BodyKinematics> kin = ComputeBodyKinematics(model, x);
-  std::vector<Contact> contacts;
-  FindContacts(model, kin, options_.envelope, &contacts);
+  std::vector<Contact> contacts;  // the assembly's (for the report)
+  const McpProblem mcp = MakeMcp(model, x, u, quadratic_, &l, &contacts);
   info->contacts = l.nc;
   info->joint_rows = l.nb;
   info->min_gap = 0.0;
   for (std::size_t c = 0; c < contacts.size(); ++c)
     info->min_gap = c == 0 ? contacts[c].point.gap : std::min(info->min_gap, contacts[c].point.gap);
-  if (l.nc > 0 && info->min_gap < -options_.max_penetration) {
-    info->failure = "penetration " + std::to_string(-info->min_gap) +
-                    " m exceeds max_penetration " + std::to_string(options_.max_penetration) + " m";
-    info->solver.status = SolverStatus::kNumericalFailure;
-    return;
-  }
+  if (!internal::CheckStartPenetration(l.nc, options_.max_penetration, info)) return;
   VectorXd y;
   std::string solver_name;
   if (!quadratic_) {
@@ -286,14 +279,14 @@ void Quasistatic::Step(const Scene& model, const State& x, const StepInput& u, W
     }
   }
   if (!info->solver.ok()) {
-    info->failure = solver_name + " failed: " + std::string(ToString(info->solver.status)) +
-                    (info->solver.message.empty() ? "" : " (" + info->solver.message + ")");
+    internal::SolverFailed(solver_name, info);
     return;
   }
   const VectorXd v1 = y.head(l.nv);
   if (!internal::CompleteStep(model, x, v1, h, y, next, info)) return;
   if (ws) ws->contacts = std::move(contacts);
   info->ok = true;
+  info->status = StepStatus::kOk;
 }
 
 StepResiduals Quasistatic::Evaluate(const Scene& model, const Params& params, const State& x,

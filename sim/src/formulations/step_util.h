@@ -1,5 +1,12 @@
-// Shared end-of-step bookkeeping of the steppers (internal header).
+// Shared pieces of the steppers' Step (internal header): the report's start, the start-of-step
+// penetration check, the solver-failure wording and the end-of-step state. The checks every step
+// gets after the formulation has run (non-finite state, end-of-step penetration) are in
+// step_skeleton.h.
 #pragma once
+
+#include <cstdio>
+#include <string>
+#include <utility>
 
 #include "vinci/sim/model/kinematics.h"
 #include "vinci/sim/model/scene.h"
@@ -7,15 +14,55 @@
 
 namespace vinci::sim::internal {
 
+/// A number for a message: %.6g (never a 300-digit std::to_string).
+inline std::string FormatNumber(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.6g", v);
+  return buf;
+}
+
+/// Marks the step failed with `status` and `failure`.
+inline void FailStep(StepStatus status, std::string failure, StepInfo* info) {
+  info->ok = false;
+  info->status = status;
+  info->failure = std::move(failure);
+  if (status != StepStatus::kSolverFailed) info->solver.status = SolverStatus::kNumericalFailure;
+}
+
+/// Starts a step: a fresh report and *next = x (the output state on failure).
+inline void BeginStep(const State& x, State* next, StepInfo* info) {
+  *info = StepInfo{};
+  *next = x;
+}
+
+/// The start-of-step penetration check on the smallest gap of the nc contacts (info->min_gap).
+/// Returns false, the step failed with kPenetration, if it is below −max_penetration.
+inline bool CheckStartPenetration(int nc, double max_penetration, StepInfo* info) {
+  if (nc == 0 || !(info->min_gap < -max_penetration)) return true;
+  FailStep(StepStatus::kPenetration,
+           "penetration " + FormatNumber(-info->min_gap) +
+               " m at the start of the step exceeds max_penetration " +
+               FormatNumber(max_penetration) + " m",
+           info);
+  return false;
+}
+
+/// Marks the step failed because `solver` (e.g. "LCP solver 'lemke'") did not converge; the
+/// solver report in info->solver gives the status and message.
+inline void SolverFailed(const std::string& solver, StepInfo* info) {
+  FailStep(StepStatus::kSolverFailed,
+           solver + " failed: " + std::string(ToString(info->solver.status)) +
+               (info->solver.message.empty() ? "" : " (" + info->solver.message + ")"),
+           info);
+}
+
 /// Writes the end-of-step state from the solved velocity: t + h, ν_ℓ+1 = v1,
 /// q_ℓ+1 = q_ℓ + h G(q_ℓ) ν_ℓ+1 per dynamic body (IntegratePosition), and the solver warm start.
-/// Returns false, with info->failure and a numerical-failure status set and *next untouched, if
-/// v1 is not finite.
+/// Returns false, the step failed with kNonFinite and *next untouched, if v1 is not finite.
 inline bool CompleteStep(const Scene& model, const State& x, const VectorXd& v1, double h,
                          VectorXd warm_start, State* next, StepInfo* info) {
   if (!v1.allFinite()) {
-    info->failure = "non-finite velocity after the step";
-    info->solver.status = SolverStatus::kNumericalFailure;
+    FailStep(StepStatus::kNonFinite, "non-finite velocity after the step", info);
     return false;
   }
   next->t = x.t + h;

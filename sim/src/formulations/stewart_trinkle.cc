@@ -512,8 +512,7 @@ VectorXd StewartTrinkle::VelocityAfter(const Assembly& a, const VectorXd& v_star
 
 void StewartTrinkle::Step(const Scene& model, const State& x, const StepInput& u, Workspace* ws,
                           State* next, StepInfo* info) const {
-  *info = StepInfo{};
-  *next = x;
+  internal::BeginStep(x, next, info);
   const double h = options_.dt;
   Assembly a = Assemble(model, x, u);
   const int nc = static_cast<int>(a.contacts.size());
@@ -524,12 +523,7 @@ void StewartTrinkle::Step(const Scene& model, const State& x, const StepInput& u
   for (std::size_t k = 0; k < a.corner_contact.size(); ++k)
     gaps[a.corner_contact[k]] = std::max(gaps[a.corner_contact[k]], a.psi_1[k]);
   info->min_gap = nc > 0 ? gaps.minCoeff() : 0.0;
-  if (nc > 0 && info->min_gap < -options_.max_penetration) {
-    info->failure = "penetration " + std::to_string(-info->min_gap) +
-                    " m exceeds max_penetration " + std::to_string(options_.max_penetration) + " m";
-    info->solver.status = SolverStatus::kNumericalFailure;
-    return;
-  }
+  if (!internal::CheckStartPenetration(nc, options_.max_penetration, info)) return;
 
   VectorXd v_star;
   JointElimination joints;
@@ -540,9 +534,7 @@ void StewartTrinkle::Step(const Scene& model, const State& x, const StepInput& u
     const VectorXd* warm = x.warm_start.size() == lcp.size() ? &x.warm_start : nullptr;
     info->solver = solver_->Solve(lcp, warm, &z);
     if (!info->solver.ok()) {
-      info->failure = "LCP solver '" + std::string(solver_->name()) +
-                      "' failed: " + std::string(ToString(info->solver.status)) +
-                      (info->solver.message.empty() ? "" : " (" + info->solver.message + ")");
+      internal::SolverFailed("LCP solver '" + std::string(solver_->name()) + "'", info);
       return;
     }
   } else {
@@ -553,6 +545,7 @@ void StewartTrinkle::Step(const Scene& model, const State& x, const StepInput& u
   if (!internal::CompleteStep(model, x, v1, h, z, next, info)) return;
   if (ws) ws->contacts = std::move(a.contacts);
   info->ok = true;
+  info->status = StepStatus::kOk;
 }
 
 StepLayout StewartTrinkle::Layout(const Scene& model, const State& x) const {

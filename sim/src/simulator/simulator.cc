@@ -3,10 +3,12 @@
 #include <algorithm>
 #include <stdexcept>
 
+#include "vinci/sim/formulations/capabilities.h"
 #include "vinci/sim/formulations/first_order.h"
 #include "vinci/sim/formulations/geometrically_implicit.h"
 #include "vinci/sim/formulations/ncp.h"
 #include "vinci/sim/formulations/quasistatic.h"
+#include "vinci/sim/formulations/step_skeleton.h"
 #include "vinci/sim/formulations/stewart_trinkle.h"
 #include "vinci/sim/model/kinematics.h"
 #include "vinci/sim/model/motion_input.h"
@@ -37,6 +39,7 @@ Simulator::Simulator(Scene scene) {
   scene.Finalize();
   scene_ = std::make_shared<const Scene>(std::move(scene));
   formulation_ = MakeFormulation(scene_->options);
+  CheckSceneSupported(*scene_, scene_->options.formulation, formulation_->capabilities());
 }
 
 State Simulator::InitialState() const {
@@ -68,7 +71,10 @@ const Scene& Simulator::ResolveWithInputs(const Params& params, const StepInput&
   // One copy per segment: consecutive steps of a segment carry the same motions.
   if (!ws->motion_model || ws->motion_base != ws->model ||
       !SameMotionInputs(ws->motions_for, u.motions)) {
-    ws->motion_model = std::make_shared<const Scene>(ApplyMotionInputs(model, u.motions));
+    auto with_inputs = std::make_shared<const Scene>(ApplyMotionInputs(model, u.motions));
+    // An input motion may use a feature the formulation lacks (e.g. pose: integrated).
+    CheckSceneSupported(*with_inputs, scene_->options.formulation, formulation_->capabilities());
+    ws->motion_model = std::move(with_inputs);
     ws->motion_base = ws->model;
     ws->motions_for = u.motions;
   }
@@ -85,9 +91,7 @@ StepInfo Simulator::Step(const Params& params, const State& x, const StepInput& 
         std::to_string(scene_->num_positions()) + " / " + std::to_string(scene_->num_velocities()));
   if (u.generalized_force.size() != 0 && u.generalized_force.size() != scene_->num_velocities())
     throw std::invalid_argument("Simulator::Step: input force has the wrong size");
-  StepInfo info;
-  formulation_->Step(ResolveWithInputs(params, u, ws), x, u, ws, next, &info);
-  return info;
+  return RunStep(*formulation_, ResolveWithInputs(params, u, ws), x, u, ws, next);
 }
 
 Trajectory Simulator::Rollout(const Params& params, const State& x0,

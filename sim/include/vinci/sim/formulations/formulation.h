@@ -7,6 +7,7 @@
 #include <string_view>
 #include <vector>
 
+#include "vinci/sim/formulations/capabilities.h"
 #include "vinci/sim/formulations/contact.h"
 #include "vinci/sim/model/scene.h"
 #include "vinci/sim/model/state.h"
@@ -76,6 +77,9 @@ class Formulation {
  public:
   virtual ~Formulation() = default;
   virtual std::string_view name() const = 0;
+  /// The scene features this formulation implements (capabilities.h); the Simulator rejects a
+  /// scene that uses any other.
+  virtual FormulationCapabilities capabilities() const = 0;
   /// One step from x to *next. `model` is the scene with params applied. Never throws on
   /// numerical trouble: info->ok = false with a reason, *next then equals x.
   virtual void Step(const Scene& model, const State& x, const StepInput& u, Workspace* ws,

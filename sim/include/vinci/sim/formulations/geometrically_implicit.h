@@ -148,6 +148,9 @@ class GeometricallyImplicit final : public Formulation {
  public:
   explicit GeometricallyImplicit(StepperOptions options, McpOptions mcp = {});
   std::string_view name() const override { return "geometrically-implicit"; }
+  FormulationCapabilities capabilities() const override {
+    return CapabilitiesOf(options_.formulation);
+  }
   void Step(const Scene& model, const State& x, const StepInput& u, Workspace* ws, State* next,
             StepInfo* info) const override;
   StepResiduals Evaluate(const Scene& model, const Params& params, const State& x,

@@ -92,6 +92,9 @@ class NcpStepper final : public Formulation {
   /// non-positive ellipticities.
   explicit NcpStepper(StepperOptions options, NcpOptions ncp = {});
   std::string_view name() const override { return "ncp"; }
+  FormulationCapabilities capabilities() const override {
+    return CapabilitiesOf(options_.formulation);
+  }
   void Step(const Scene& model, const State& x, const StepInput& u, Workspace* ws, State* next,
             StepInfo* info) const override;
   /// The equations in the file comment, z in StepLayout order with nd = 2, p_f = (p_t, p_o) per

@@ -50,6 +50,9 @@ class Quasistatic final : public Formulation {
   /// options.formulation must be kQuasistaticDlc, kQuasistaticDqc or kDynamicDqc.
   explicit Quasistatic(StepperOptions options, McpOptions mcp = {});
   std::string_view name() const override;
+  FormulationCapabilities capabilities() const override {
+    return CapabilitiesOf(options_.formulation);
+  }
   void Step(const Scene& model, const State& x, const StepInput& u, Workspace* ws, State* next,
             StepInfo* info) const override;
   /// Layout: StepLayout with p_s of n_d columns per point (DLC) or 2 (DQC, the x and y
@@ -69,8 +72,9 @@ class Quasistatic final : public Formulation {
  private:
   StewartTrinkle::Assembly Assemble(const Scene& model, const State& x, const StepInput& u,
                                     bool quadratic) const;
+  /// *contacts (if non-null) receives the assembly's contacts.
   McpProblem MakeMcp(const Scene& model, const State& x, const StepInput& u, bool quadratic,
-                     StepLayout* layout) const;
+                     StepLayout* layout, std::vector<Contact>* contacts = nullptr) const;
   /// Solves the DLC step by the split LCP (warm-started from *warm if it has the MCP's size);
   /// *y receives the MCP unknowns.
   SolverReport SolveDlc(const McpProblem& mcp, const VectorXd* warm, VectorXd* y) const;

@@ -67,6 +67,9 @@ class StewartTrinkle final : public Formulation {
  public:
   StewartTrinkle(StepperOptions options, std::shared_ptr<const LcpSolver> solver);
   std::string_view name() const override;
+  FormulationCapabilities capabilities() const override {
+    return CapabilitiesOf(options_.formulation);
+  }
   void Step(const Scene& model, const State& x, const StepInput& u, Workspace* ws, State* next,
             StepInfo* info) const override;
   StepResiduals Evaluate(const Scene& model, const Params& params, const State& x,

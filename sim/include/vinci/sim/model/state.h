@@ -27,11 +27,24 @@ struct StepInput {
   std::vector<MotionInput> motions;  ///< at most one per prescribed body; empty: scene motions
 };
 
+/// How a step ended (StepInfo::status). Every failure leaves the output state equal to the input.
+enum class StepStatus {
+  kOk,              ///< solved; the next state is finite and within max_penetration
+  kPenetration,     ///< a gap below −max_penetration at the start or the end of the step
+  kSolverFailed,    ///< the complementarity solver did not converge
+  kNonFinite,       ///< the solution or the next state (t, q or v) is not finite
+  kGeometryFailed,  ///< contact detection failed (closest points of implicit surfaces)
+};
+
+/// "ok", "penetration", "solver failed", "non-finite", "geometry failed".
+const char* ToString(StepStatus status);
+
 /// What one step did.
 struct StepInfo {
-  bool ok = false;
-  int contacts = 0;      ///< contacts in the step's LCP
-  int joint_rows = 0;    ///< bilateral constraint rows
+  bool ok = false;                                ///< status == StepStatus::kOk
+  StepStatus status = StepStatus::kSolverFailed;  ///< why the step failed, kOk if it did not
+  int contacts = 0;                               ///< contacts in the step's LCP
+  int joint_rows = 0;                             ///< bilateral constraint rows
   double min_gap = 0.0;  ///< smallest ψ_n at the start of the step (m); 0 if no contact
   SolverReport solver;   ///< the complementarity solve
   std::string failure;   ///< reason when !ok

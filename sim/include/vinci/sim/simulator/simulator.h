@@ -15,6 +15,8 @@ namespace vinci::sim {
 class Simulator {
  public:
   /// Finalizes `scene` (see Scene::Finalize) and builds the formulation from its options.
+  /// Throws std::invalid_argument if the scene uses a feature the formulation does not
+  /// implement (CheckSceneSupported, capabilities.h).
   explicit Simulator(Scene scene);
 
   const Scene& scene() const { return *scene_; }

@@ -1,0 +1,94 @@
+#include "vinci/sim/formulations/step_skeleton.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "step_util.h"
+#include "vinci/sim/formulations/contact.h"
+
+namespace vinci::sim {
+namespace {
+
+bool NeedsImplicitContact(const Scene& model) {
+  for (const Body& b : model.bodies)
+    for (const Shape& s : b.shapes)
+      if (RequiresImplicitContact(s.type)) return true;
+  return false;
+}
+
+}  // namespace
+
+double MinGapAt(const Scene& model, const State& x, double h, double envelope, std::string* where) {
+  std::vector<BodyKinematics> kin = ComputeBodyKinematics(model, x);
+  for (std::size_t i = 0; i < kin.size(); ++i) {  // as the next step's assembly poses them
+    const Body& b = model.bodies[i];
+    if (b.kind == BodyKind::kPrescribed && b.motion.pose == PoseRule::kIntegrated)
+      kin[i] = EvaluateMotion(b.motion, b.X_WB0, model.dim == Dim::kPlanar, x.t, h);
+  }
+  std::vector<Contact> contacts;
+  FindContacts(model, kin, envelope, &contacts);
+  double min_gap = std::numeric_limits<double>::infinity();
+  for (const Contact& c : contacts) {
+    const double gap = c.point.corner ? std::max(c.point.gap, c.point.gap2) : c.point.gap;
+    if (gap < min_gap) {
+      min_gap = gap;
+      if (where)
+        *where = "bodies '" + model.bodies[c.body_a].name + "' and '" +
+                 model.bodies[c.body_b].name + "'";
+    }
+  }
+  return min_gap;
+}
+
+StepInfo RunStep(const Formulation& formulation, const Scene& model, const State& x,
+                 const StepInput& u, Workspace* ws, State* next) {
+  StepInfo info;
+  if (!std::isfinite(x.t) || !x.q.allFinite() || !x.v.allFinite()) {
+    internal::FailStep(StepStatus::kNonFinite,
+                       "non-finite state (t, q or v) at the start of the step", &info);
+    *next = x;
+    return info;
+  }
+  if (x.warm_start.size() > 0 && !x.warm_start.allFinite()) {
+    State cold = x;
+    cold.warm_start.resize(0);
+    formulation.Step(model, cold, u, ws, next, &info);
+  } else {
+    formulation.Step(model, x, u, ws, next, &info);
+  }
+  if (!info.ok) {
+    if (info.status == StepStatus::kOk) info.status = StepStatus::kSolverFailed;
+    *next = x;
+    return info;
+  }
+  if (!std::isfinite(next->t) || !next->q.allFinite() || !next->v.allFinite()) {
+    internal::FailStep(StepStatus::kNonFinite,
+                       std::string("non-finite ") +
+                           (!next->q.allFinite()   ? "positions q"
+                            : !next->v.allFinite() ? "velocities v"
+                                                   : "time t") +
+                           " after the step",
+                       &info);
+    *next = x;
+    return info;
+  }
+  const StepperOptions& o = model.options;
+  if (!NeedsImplicitContact(model)) {
+    std::string where;
+    const double gap = MinGapAt(model, *next, o.dt, -o.max_penetration, &where);
+    if (gap < -o.max_penetration) {
+      internal::FailStep(StepStatus::kPenetration,
+                         "penetration " + internal::FormatNumber(-gap) + " m (" + where +
+                             ") at the end of the step exceeds max_penetration " +
+                             internal::FormatNumber(o.max_penetration) + " m",
+                         &info);
+      *next = x;
+      return info;
+    }
+  }
+  info.status = StepStatus::kOk;
+  return info;
+}
+
+}  // namespace vinci::sim
