@@ -4,11 +4,14 @@
 #include <iostream>
 #include <stdexcept>
 
+#include "vinci/sim/solvers/text_format.h"
+
 namespace vinci::cli {
 
 void PrintError(const std::string& message) {
   std::cout.flush();  // keep stdout and stderr in order on a shared terminal
-  std::cerr << "vinci: error: " << message << "\n";
+  // Escaped: a message may quote a user's file (raw bytes, terminal escape sequences).
+  std::cerr << "vinci: error: " << sim::EscapeText(message, true) << "\n";
 }
 
 ExitCode RunCommand(const Command& command) {
@@ -19,7 +22,7 @@ ExitCode RunCommand(const Command& command) {
     return ExitCode::kBadInput;
   } catch (const std::exception& e) {
     std::cout.flush();
-    std::cerr << "vinci: internal error: " << e.what() << "\n";
+    std::cerr << "vinci: internal error: " << sim::EscapeText(e.what(), true) << "\n";
     return ExitCode::kInternal;
   }
 }

@@ -50,6 +50,10 @@ void ParseGrid(const std::string& text, bool planar, int* nx, int* ny) {
   *nx = parse_int(text.substr(0, x));
   *ny = parse_int(text.substr(x + 1));
   if (planar && *ny != 1) fail();
+  const long long points = static_cast<long long>(*nx) * *ny;
+  if (points > sim::kMaxFieldPoints)
+    throw std::invalid_argument("--grid: expected at most " + std::to_string(sim::kMaxFieldPoints) +
+                                " points, got '" + text + "' = " + std::to_string(points));
 }
 
 std::string Duration(double s) {

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "command.h"
+#include "design_command.h"
 #include "field_command.h"
 #include "simulate_command.h"
 #include "solve_command.h"
@@ -52,6 +53,7 @@ int main(int argc, char** argv) {
       vinci::cli::RegisterSolveCommand(app),
       vinci::cli::RegisterFieldCommand(app),
       vinci::cli::RegisterViewCommand(app),
+      vinci::cli::RegisterDesignCommand(app),
   };
 
   try {

@@ -26,6 +26,7 @@
 #include "vinci/sim/model/state.h"
 #include "vinci/sim/simulator/simulator.h"
 #include "vinci/sim/solvers/lcp.h"
+#include "vinci/sim/solvers/text_format.h"
 
 namespace vinci::cli {
 namespace {
@@ -327,7 +328,8 @@ void PrintSummary(const sim::Simulator& simulator, const RunStats& stats, std::i
     << " bodies: " << count[0] << " dynamic, " << count[1] << " static, " << count[2]
     << " prescribed)\n";
   s << "steps       " << stats.steps_done << " / " << num_steps << " (dt = " << scene.options.dt
-    << " s, solver " << scene.options.solver << ")" << (partial ? "  PARTIAL" : "") << "\n";
+    << " s, formulation " << sim::ToString(scene.options.formulation) << ", solver "
+    << scene.options.solver << ")" << (partial ? "  PARTIAL" : "") << "\n";
   s << "simulated   " << t_final << " s\n";
   s << "wall time   " << wall_s << " s";
   if (wall_s > 0 && stats.steps_done > 0)
@@ -357,6 +359,30 @@ void PrintSummary(const sim::Simulator& simulator, const RunStats& stats, std::i
   std::cout << s.str() << std::flush;
 }
 
+// "a, b, c".
+std::string JoinNames(const std::vector<std::string>& names) {
+  std::string s;
+  for (const std::string& n : names) s += (s.empty() ? "" : ", ") + n;
+  return s;
+}
+
+// The solver names each formulation accepts (sim::SolverNames), formulations with the same
+// list grouped: "stewart-trinkle, ...: lemke, pgs, fb-newton; gi: lemke, semismooth-newton".
+std::string SolverHelp() {
+  std::vector<std::pair<std::vector<std::string>, std::vector<std::string>>> groups;
+  for (const auto& [name, type] : sim::FormulationTable()) {
+    const std::vector<std::string> solvers = sim::SolverNames(type);
+    auto it = std::find_if(groups.begin(), groups.end(),
+                           [&](const auto& g) { return g.first == solvers; });
+    if (it == groups.end()) it = groups.insert(groups.end(), {solvers, {}});
+    it->second.push_back(name);
+  }
+  std::string s;
+  for (const auto& [solvers, formulations] : groups)
+    s += (s.empty() ? "" : "; ") + JoinNames(formulations) + ": " + JoinNames(solvers);
+  return "By formulation: " + s;
+}
+
 }  // namespace
 
 ExitCode RunSimulate(const SimulateOptions& o) {
@@ -365,14 +391,33 @@ ExitCode RunSimulate(const SimulateOptions& o) {
   if (o.duration) CheckPositiveFinite("--duration", *o.duration);
 
   sim::Scene scene = sim::LoadSceneFile(o.scene_path);
+  for (const std::string& w : sim::SceneWarnings(scene))
+    std::cerr << "vinci: warning: " << o.scene_path << ": " << sim::EscapeText(w) << "\n";
   if (o.dt) scene.options.dt = *o.dt;  // before the Simulator copies the scene
   if (o.duration) scene.options.duration = *o.duration;
-  if (o.solver) {
-    scene.options.solver = *o.solver;
+  if (o.formulation) {
+    try {
+      scene.options.formulation = sim::ParseFormulation(*o.formulation);
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument(std::string("--formulation: ") + e.what());
+    }
+  }
+  if (o.solver) scene.options.solver = *o.solver;
+  if (o.solver || o.formulation) {
+    // The solver (given or the scene's) must be one the formulation (given or the scene's)
+    // accepts.
+    const std::vector<std::string> names = sim::SolverNames(scene.options.formulation);
+    if (std::find(names.begin(), names.end(), scene.options.solver) == names.end())
+      throw std::invalid_argument(
+          std::string(o.solver ? "--solver: '" : "--formulation: the scene's solver '") +
+          scene.options.solver + "' is not a solver of formulation " +
+          std::string(sim::ToString(scene.options.formulation)) +
+          "; expected one of: " + JoinNames(names) + (o.solver ? "" : " (use --solver)"));
     try {
       sim::MakeFormulation(scene.options);
     } catch (const std::invalid_argument& e) {
-      throw std::invalid_argument(std::string("--solver: ") + e.what());
+      throw std::invalid_argument(std::string(o.solver ? "--solver: " : "--formulation: ") +
+                                  e.what());
     }
   }
   const double dt = scene.options.dt, duration = scene.options.duration;
@@ -470,8 +515,13 @@ Command RegisterSimulateCommand(CLI::App& app) {
                   "the step that produced it")
       ->type_name("FILE");
   sub->add_option_function<std::string>(
+         "--formulation", [options](const std::string& v) { options->formulation = v; },
+         "Time-stepping formulation (default: the scene's stepper.formulation), one of: " +
+             JoinNames(sim::FormulationNames()) + " (docs/formulations.md)")
+      ->type_name("NAME");
+  sub->add_option_function<std::string>(
          "--solver", [options](const std::string& v) { options->solver = v; },
-         "LCP solver by name (default: the scene's stepper.solver)")
+         "Complementarity solver by name (default: the scene's stepper.solver). " + SolverHelp())
       ->type_name("NAME");
   sub->add_flag("--quiet,-q", options->quiet, "Print nothing but errors (no progress, no summary)");
   sub->footer(

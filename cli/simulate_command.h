@@ -17,6 +17,8 @@ struct SimulateOptions {
   std::optional<std::string> solver;  ///< overrides stepper.solver
   std::string out;                    ///< CSV path; empty: no CSV
   bool quiet = false;                 ///< no progress, no summary (errors are still printed)
+  /// Overrides stepper.formulation: a name from sim::FormulationNames().
+  std::optional<std::string> formulation;
 };
 
 /// Adds the `simulate` subcommand to `app`.

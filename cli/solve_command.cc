@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "vinci/sim/solvers/lcp.h"
+#include "vinci/sim/solvers/lcp_acceptance.h"
 #include "vinci/sim/solvers/lcp_file.h"
 
 namespace vinci::cli {
@@ -179,6 +180,8 @@ ExitCode RunSolve(const SolveOptions& o) {
                            std::to_string(r.z.size()) + " for a problem of size " +
                            std::to_string(n));
   }
+  // The shared scale-aware acceptance test, independent of the solver's own.
+  sim::ConfirmSolved(problem, r.z, &r.report);
   r.w = problem.M * r.z + problem.q;
   r.residual = sim::LcpResidual(problem, r.z);
 

@@ -5,7 +5,8 @@ set -euo pipefail
 
 packages=(
   build-essential cmake pkg-config
-  libeigen3-dev libyaml-cpp-dev libcli11-dev
+  clang  # scripts/fuzz.sh: libFuzzer targets (-DVINCI_FUZZ=ON)
+  libeigen3-dev libyaml-cpp-dev libcli11-dev libqhull-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libmujoco-dev libsiconos-numerics-dev
   libnlopt-cxx-dev coinor-libipopt-dev libceres-dev

@@ -271,7 +271,7 @@ TEST(LcpFileTest, UnreadableFilesThrowInvalidArgument) {
     ReadLcpFile(dir.path());  // a directory
     FAIL() << "no exception";
   } catch (const std::invalid_argument& e) {
-    EXPECT_EQ(std::string(e.what()), dir.path() + ": cannot read LCP file");
+    EXPECT_EQ(std::string(e.what()), dir.path() + ": cannot read LCP file: it is a directory");
   }
   // An empty file is read (and then rejected by the parser, not as unreadable).
   const std::string empty = dir.Write("empty.lcp", "");

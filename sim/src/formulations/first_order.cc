@@ -9,7 +9,8 @@ namespace vinci::sim {
 std::unique_ptr<Formulation> MakeFirstOrder(const StepperOptions& options) {
   if (options.formulation != FormulationType::kFirstOrder)
     throw std::invalid_argument("MakeFirstOrder: options.formulation is not kFirstOrder");
-  return std::make_unique<StewartTrinkle>(options, MakeLcpSolver(options.solver));
+  return std::make_unique<StewartTrinkle>(options,
+                                          MakeLcpSolver(options.solver, options.solver_options));
 }
 
 }  // namespace vinci::sim

@@ -652,8 +652,11 @@ std::vector<GiPair> GeometricallyImplicit::Pairs(const Scene& model, const State
 
 namespace {
 
+// The step's context at x; `frozen` (the frozen step model) gives the pairs instead of
+// Pairs(x), with μ re-read from `model` (its parameters may differ from the freeze's).
 Context MakeContext(const GeometricallyImplicit& gi, const Scene& model, const State& x,
-                    const StepInput& u, std::string* failure) {
+                    const StepInput& u, std::string* failure,
+                    const std::vector<GiPair>* frozen = nullptr) {
   Context c;
   c.model = &model;
   c.dim = model.dim;
@@ -663,7 +666,14 @@ Context MakeContext(const GeometricallyImplicit& gi, const Scene& model, const S
   c.nvb = VelocitySize(model.dim);
   c.h = gi.options().dt;
   c.x = x;
-  c.pairs = gi.Pairs(model, x, failure);
+  if (frozen) {
+    c.pairs = *frozen;
+    for (GiPair& p : c.pairs)
+      p.mu = model.Mu(model.bodies[p.body_a].shapes[p.shape_a].material,
+                      model.bodies[p.body_b].shapes[p.shape_b].material);
+  } else {
+    c.pairs = gi.Pairs(model, x, failure);
+  }
   const int n = static_cast<int>(model.bodies.size());
   c.sets.resize(n);
   for (int i = 0; i < n; ++i)
@@ -1065,44 +1075,10 @@ void GeometricallyImplicit::Step(const Scene& model, const State& x, const StepI
   info->status = StepStatus::kOk;
 }
 
-VectorXd GeometricallyImplicit::UnknownsFromStep(const Scene& model, const State& x,
-                                                 const State& next) const {
-  std::string failure;
-  const Context c = MakeContext(*this, model, x, StepInput{}, &failure);
-  const StepLayout& l = c.layout;
-  if (next.v.size() != l.nv || next.q.size() != model.num_positions())
-    throw std::invalid_argument("UnknownsFromStep: next state has the wrong size");
-  VectorXd z = VectorXd::Zero(l.size());
-  z.segment(l.v1(), l.nv) = next.v;
-  for (int bi : model.dynamic_bodies()) {
-    const int qo = l.q1() + c.pose_offset[bi];
-    const auto q = next.q.segment(model.index(bi).q, PositionSize(model.dim));
-    if (model.dim == Dim::kPlanar) {
-      z.segment(qo, 3) = q;
-    } else {
-      const Isometry3d X = PoseFromQ(model.dim, q.data());
-      z.segment(qo, 3) = q.head<3>();
-      z.segment(qo + 3, 3) = LogSO3(c.X_start[bi].linear().transpose() * X.linear());
-    }
-  }
-  // Pair unknowns from next.warm_start, which must hold exactly x's pairs in order.
-  Context cn = c;
-  cn.x.warm_start = next.warm_start;
-  const VectorXd guess = InitialGuess(cn);
-  const VectorXd& ws = next.warm_start;
-  if (ws.size() < 1 || static_cast<int>(ws[0]) != l.nc)
-    throw std::invalid_argument(
-        "UnknownsFromStep: next.warm_start does not hold the pairs of this step");
-  z.tail(l.size() - l.pn()) = guess.tail(l.size() - l.pn());
-  return z;
-}
-
-StepResiduals GeometricallyImplicit::Evaluate(const Scene& model, const Params& params,
-                                              const State& x, const StepInput& u,
-                                              const VectorXd& z) const {
-  std::string failure;
-  Context c = MakeContext(*this, model, x, u, &failure);
-  SetStart(&c, InitialGuess(c));  // the tie-breaker's reference, as in Step (from x.warm_start)
+namespace {
+StepResiduals EvaluateContext(const Context& c, const Params& params, const VectorXd& z) {
+  const Scene& model = *c.model;
+  const State& x = c.x;
   StepResiduals r;
   r.layout = c.layout;
   const StepLayout& l = c.layout;
@@ -1235,6 +1211,111 @@ StepResiduals GeometricallyImplicit::Evaluate(const Scene& model, const Params& 
     r.d_equality.block(o, column_of[i], nvb, 1) = dm;
   }
   return r;
+}
+}  // namespace
+
+namespace {
+VectorXd UnknownsOf(const Context& c, const Scene& model, const State& next) {
+  const StepLayout& l = c.layout;
+  if (next.v.size() != l.nv || next.q.size() != model.num_positions())
+    throw std::invalid_argument("UnknownsFromStep: next state has the wrong size");
+  VectorXd z = VectorXd::Zero(l.size());
+  z.segment(l.v1(), l.nv) = next.v;
+  for (int bi : model.dynamic_bodies()) {
+    const int qo = l.q1() + c.pose_offset[bi];
+    const auto q = next.q.segment(model.index(bi).q, PositionSize(model.dim));
+    if (model.dim == Dim::kPlanar) {
+      z.segment(qo, 3) = q;
+    } else {
+      const Isometry3d X = PoseFromQ(model.dim, q.data());
+      z.segment(qo, 3) = q.head<3>();
+      z.segment(qo + 3, 3) = LogSO3(c.X_start[bi].linear().transpose() * X.linear());
+    }
+  }
+  // Pair unknowns from next.warm_start, which must hold exactly x's pairs in order.
+  Context cn = c;
+  cn.x.warm_start = next.warm_start;
+  const VectorXd guess = InitialGuess(cn);
+  const VectorXd& ws = next.warm_start;
+  if (ws.size() < 1 || static_cast<int>(ws[0]) != l.nc)
+    throw std::invalid_argument(
+        "UnknownsFromStep: next.warm_start does not hold the pairs of this step");
+  z.tail(l.size() - l.pn()) = guess.tail(l.size() - l.pn());
+  return z;
+}
+}  // namespace
+
+VectorXd GeometricallyImplicit::UnknownsFromStep(const Scene& model, const State& x,
+                                                 const State& next) const {
+  std::string failure;
+  const Context c = MakeContext(*this, model, x, StepInput{}, &failure);
+  return UnknownsOf(c, model, next);
+}
+
+StepResiduals GeometricallyImplicit::Evaluate(const Scene& model, const Params& params,
+                                              const State& x, const StepInput& u,
+                                              const VectorXd& z) const {
+  std::string failure;
+  Context c = MakeContext(*this, model, x, u, &failure);
+  SetStart(&c, InitialGuess(c));  // the tie-breaker's reference, as in Step (from x.warm_start)
+  return EvaluateContext(c, params, z);
+}
+
+GeometricallyImplicit::FrozenPairs GeometricallyImplicit::FreezePairs(const Scene& model,
+                                                                      const State& x) const {
+  std::string failure;
+  Context c = MakeContext(*this, model, x, StepInput{}, &failure);
+  if (!failure.empty())
+    throw std::invalid_argument("GeometricallyImplicit::FreezePairs: " + failure);
+  SetStart(&c, InitialGuess(c));
+  return {c.pairs, c.a1_start, c.layout};
+}
+
+StepResiduals GeometricallyImplicit::EvaluateFrozen(const Scene& model, const Params& params,
+                                                    const FrozenPairs& frozen, const State& x,
+                                                    const StepInput& u, const VectorXd& z) const {
+  std::string failure;
+  Context c = MakeContext(*this, model, x, u, &failure, &frozen.pairs);
+  c.a1_start = frozen.a1_start;
+  return EvaluateContext(c, params, z);
+}
+
+VectorXd GeometricallyImplicit::UnknownsFromStep(const Scene& model, const FrozenPairs& frozen,
+                                                 const State& x, const State& next) const {
+  std::string failure;
+  const Context c = MakeContext(*this, model, x, StepInput{}, &failure, &frozen.pairs);
+  return UnknownsOf(c, model, next);
+}
+
+State GeometricallyImplicit::StateFromUnknowns(const Scene& model, const FrozenPairs& frozen,
+                                               const State& x, const VectorXd& z) const {
+  std::string failure;
+  const Context c = MakeContext(*this, model, x, StepInput{}, &failure, &frozen.pairs);
+  const StepLayout& l = c.layout;
+  if (z.size() != l.size())
+    throw std::invalid_argument("GeometricallyImplicit::StateFromUnknowns: z has " +
+                                std::to_string(z.size()) + " entries, the step layout needs " +
+                                std::to_string(l.size()));
+  State next = x;
+  next.t = x.t + c.h;
+  next.v = z.segment(l.v1(), l.nv);
+  for (int bi : model.dynamic_bodies()) {  // as Step writes the pose
+    const int qo = l.q1() + c.pose_offset[bi];
+    double* q = next.q.data() + model.index(bi).q;
+    if (model.dim == Dim::kPlanar) {
+      for (int i = 0; i < 3; ++i) q[i] = z[qo + i];
+    } else {
+      Isometry3d X = Isometry3d::Identity();
+      X.translation() = z.segment<3>(qo);
+      X.linear() = c.X_start[bi].linear() * ExpSO3(z.segment<3>(qo + 3));
+      PoseToQ(model.dim, X, q);
+      const Eigen::Vector4d q0 = x.q.segment<4>(model.index(bi).q + 3);
+      Eigen::Map<Eigen::Vector4d> q1(q + 3);
+      if (q0.dot(q1) < 0.0) q1 = -q1;
+    }
+  }
+  next.warm_start = WarmStartOf(c, z);
+  return next;
 }
 
 }  // namespace vinci::sim

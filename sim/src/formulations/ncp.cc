@@ -122,8 +122,8 @@ std::string Describe(const SolverReport& r) {
 NcpStepper::NcpStepper(StepperOptions options, NcpOptions ncp)
     : options_(options),
       ncp_(ncp),
-      st_(AssemblyOptions(options), MakeLcpSolver(options.solver)),
-      lcp_solver_(MakeLcpSolver(options.solver)),
+      st_(AssemblyOptions(options), MakeLcpSolver(options.solver, options.solver_options)),
+      lcp_solver_(MakeLcpSolver(options.solver, options.solver_options)),
       mcp_(ncp.mcp),
       mcp_sparse_([&] {
         McpOptions o = ncp.mcp;
@@ -381,7 +381,12 @@ StepLayout NcpStepper::Layout(const Scene& model, const State& x) const {
 
 StepResiduals NcpStepper::Evaluate(const Scene& model, const Params& params, const State& x,
                                    const StepInput& u, const VectorXd& z) const {
-  const StewartTrinkle::Assembly a = st_.Assemble(model, x, u);
+  return EvaluateAssembly(model, params, st_.Assemble(model, x, u), x, z);
+}
+
+StepResiduals NcpStepper::EvaluateAssembly(const Scene& model, const Params& params,
+                                           const StewartTrinkle::Assembly& a, const State& x,
+                                           const VectorXd& z) const {
   StepResiduals r;
   StepLayout& l = r.layout;
   l.nq = model.num_positions();
@@ -407,7 +412,7 @@ StepResiduals NcpStepper::Evaluate(const Scene& model, const Params& params, con
   }
   zs.segment(ls.sigma(), nc) = z.segment(l.sigma(), nc);
   zs.segment(ls.pb(), nb) = z.segment(l.pb(), nb);
-  const StepResiduals rs = st_.Evaluate(model, params, x, u, zs);
+  const StepResiduals rs = st_.EvaluateAssembly(model, params, a, x, zs);
   r.param_columns = rs.param_columns;
   const int np = static_cast<int>(r.param_columns.size());
   const int ncol = l.size() + np;

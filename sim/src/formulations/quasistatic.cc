@@ -125,12 +125,41 @@ void StepFunction(const StepData& d, const VectorXd& y, VectorXd* F, MatrixXd* J
   }
 }
 
+// The MCP of the step data d, whose assembly is set: fills its layout *l (= d->layout) and the
+// rest of d from the assembly; *layout (if non-null) receives the layout.
+McpProblem MakeStepMcp(const Scene& model, const State& x, const StepperOptions& options,
+                       bool dynamic, bool quadratic, const std::shared_ptr<StepData>& d,
+                       StepLayout* l, StepLayout* layout) {
+  l->nq = model.num_positions();
+  l->nv = model.num_velocities();
+  l->nc = static_cast<int>(d->a.contacts.size());
+  l->nd = d->a.nd;
+  l->nb = static_cast<int>(d->a.psi_b.size());
+  l->ns = d->a.support.points();
+  l->nps = d->a.support.columns();
+  d->eps_M = dynamic ? d->a.M : MatrixXd(kQuasistaticRegularization * d->a.M);
+  d->v0 = dynamic ? x.v : VectorXd::Zero(l->nv);
+  d->h = options.dt;
+  d->quadratic = quadratic;
+  d->joint_stabilization = options.joint_stabilization;
+  const Offsets o = OffsetsOf(*l);
+  McpProblem mcp;
+  mcp.lower = VectorXd::Zero(o.size());
+  mcp.upper = VectorXd::Constant(o.size(), kInf);
+  mcp.lower.segment(o.v(), o.nv).setConstant(-kInf);
+  mcp.lower.segment(o.pb(), o.nb).setConstant(-kInf);
+  if (quadratic) mcp.lower.segment(o.ps(), o.nps).setConstant(-kInf);
+  mcp.evaluate = [d](const VectorXd& y, VectorXd* F, MatrixXd* J) { StepFunction(*d, y, F, J); };
+  if (layout) *layout = *l;
+  return mcp;
+}
+
 }  // namespace
 
 Quasistatic::Quasistatic(StepperOptions options, McpOptions mcp)
     : options_(std::move(options)),
       solver_(mcp),
-      lcp_solver_(MakeLcpSolver(options_.solver)),
+      lcp_solver_(MakeLcpSolver(options_.solver, options_.solver_options)),
       assembler_(options_, lcp_solver_),
       quadratic_(options_.formulation != FormulationType::kQuasistaticDlc),
       dynamic_(options_.formulation == FormulationType::kDynamicDqc) {
@@ -154,6 +183,17 @@ StewartTrinkle::Assembly Quasistatic::Assemble(const Scene& model, const State& 
   return a;
 }
 
+StewartTrinkle::Assembly Quasistatic::AssembleAt(const Scene& model, const State& x,
+                                                 const StepInput& u,
+                                                 std::vector<Contact> contacts) const {
+  if (model.dim != Dim::kPlanar)
+    throw std::invalid_argument(std::string(name()) + ": quasistatic models need a planar scene");
+  StewartTrinkle::Assembly a =
+      assembler_.AssembleAt(model, x, u, std::move(contacts), /*select_corner_edges=*/false);
+  if (quadratic_) a.support = AssembleSupport(model, x, options_.dt, /*quadratic=*/true);
+  return a;
+}
+
 StepLayout Quasistatic::Layout(const Scene& model, const State& x) const {
   StepLayout l = assembler_.Layout(model, x);
   if (quadratic_) l.nps = 2 * l.ns;
@@ -172,28 +212,14 @@ McpProblem Quasistatic::MakeMcp(const Scene& model, const State& x, const StepIn
   d->a = Assemble(model, x, u, quadratic);
   if (contacts) *contacts = d->a.contacts;
   StepLayout& l = d->layout;
-  l.nq = model.num_positions();
-  l.nv = model.num_velocities();
-  l.nc = static_cast<int>(d->a.contacts.size());
-  l.nd = d->a.nd;
-  l.nb = static_cast<int>(d->a.psi_b.size());
-  l.ns = d->a.support.points();
-  l.nps = d->a.support.columns();
-  d->eps_M = dynamic_ ? d->a.M : MatrixXd(kQuasistaticRegularization * d->a.M);
-  d->v0 = dynamic_ ? x.v : VectorXd::Zero(l.nv);
-  d->h = options_.dt;
-  d->quadratic = quadratic;
-  d->joint_stabilization = options_.joint_stabilization;
-  const Offsets o = OffsetsOf(l);
-  McpProblem mcp;
-  mcp.lower = VectorXd::Zero(o.size());
-  mcp.upper = VectorXd::Constant(o.size(), kInf);
-  mcp.lower.segment(o.v(), o.nv).setConstant(-kInf);
-  mcp.lower.segment(o.pb(), o.nb).setConstant(-kInf);
-  if (quadratic) mcp.lower.segment(o.ps(), o.nps).setConstant(-kInf);
-  mcp.evaluate = [d](const VectorXd& y, VectorXd* F, MatrixXd* J) { StepFunction(*d, y, F, J); };
-  if (layout) *layout = l;
-  return mcp;
+  return MakeStepMcp(model, x, options_, dynamic_, quadratic, d, &l, layout);
+}
+
+McpProblem Quasistatic::MakeMcpFrom(const Scene& model, const State& x, StewartTrinkle::Assembly a,
+                                    bool quadratic, StepLayout* layout) const {
+  auto d = std::make_shared<StepData>();
+  d->a = std::move(a);
+  return MakeStepMcp(model, x, options_, dynamic_, quadratic, d, &d->layout, layout);
 }
 
 SolverReport Quasistatic::SolveDlc(const McpProblem& mcp, const VectorXd* warm, VectorXd* y) const {
@@ -291,8 +317,14 @@ void Quasistatic::Step(const Scene& model, const State& x, const StepInput& u, W
 
 StepResiduals Quasistatic::Evaluate(const Scene& model, const Params& params, const State& x,
                                     const StepInput& u, const VectorXd& z) const {
+  return EvaluateAssembly(model, params, Assemble(model, x, u, quadratic_), x, z);
+}
+
+StepResiduals Quasistatic::EvaluateAssembly(const Scene& model, const Params& params,
+                                            const StewartTrinkle::Assembly& a, const State& x,
+                                            const VectorXd& z) const {
   StepLayout l;
-  const McpProblem mcp = BuildMcp(model, x, u, &l);
+  const McpProblem mcp = MakeMcpFrom(model, x, a, quadratic_, &l);
   const std::string who = std::string(name()) + "::Evaluate";
   if (z.size() != l.size())
     throw std::invalid_argument(who + ": z has " + std::to_string(z.size()) +
@@ -360,7 +392,6 @@ StepResiduals Quasistatic::Evaluate(const Scene& model, const Params& params, co
   }
 
   // Parameter columns. Friction: the σ rows U p_n − Eᵀ p_f (pairs nc + nf .. 2nc + nf).
-  const StewartTrinkle::Assembly a = Assemble(model, x, u, quadratic_);
   for (int c = 0; c < o.nc; ++c)
     r.d_comp_b(o.nc + o.nf + c, column_of[a.contacts[c].mu_param]) = y[o.pn() + c];
   // Support rows through the disk radius L_k = h μ_s N_k: column `col` with ∂L_k = dL.

@@ -138,7 +138,23 @@ std::string_view StewartTrinkle::name() const {
 
 StewartTrinkle::Assembly StewartTrinkle::Assemble(const Scene& model, const State& x,
                                                   const StepInput& u) const {
+  CheckShapesSupported(model);
+  std::vector<BodyKinematics> kin = ComputeBodyKinematics(model, x);
+  for (std::size_t i = 0; i < kin.size(); ++i)  // integrated prescribed poses
+    if (model.bodies[i].kind == BodyKind::kPrescribed &&
+        model.bodies[i].motion.pose == PoseRule::kIntegrated)
+      kin[i] = PrescribedKinematics(model, static_cast<int>(i), x.t, options_.dt);
+  std::vector<Contact> contacts;
+  FindContacts(model, kin, options_.envelope, &contacts);
+  return AssembleAt(model, x, u, std::move(contacts), /*select_corner_edges=*/true);
+}
+
+StewartTrinkle::Assembly StewartTrinkle::AssembleAt(const Scene& model, const State& x,
+                                                    const StepInput& u,
+                                                    std::vector<Contact> contacts,
+                                                    bool select_corner_edges) const {
   Assembly a;
+  a.contacts = std::move(contacts);
   const Dim dim = model.dim;
   const double h = options_.dt;
   const int nv = model.num_velocities();
@@ -149,7 +165,6 @@ StewartTrinkle::Assembly StewartTrinkle::Assemble(const Scene& model, const Stat
     if (model.bodies[i].kind == BodyKind::kPrescribed &&
         model.bodies[i].motion.pose == PoseRule::kIntegrated)
       kin[i] = PrescribedKinematics(model, static_cast<int>(i), x.t, h);
-  FindContacts(model, kin, options_.envelope, &a.contacts);
   // From here on, non-dynamic bodies carry their velocity over the step (StepKinematics).
   for (std::size_t i = 0; i < kin.size(); ++i)
     kin[i] =
@@ -222,7 +237,8 @@ StewartTrinkle::Assembly StewartTrinkle::Assemble(const Scene& model, const Stat
       const double tie = kCornerTieTol * (std::abs(p.gap) + std::abs(p.gap2) +
                                           h * (std::abs(pred1 - p.gap) + std::abs(pred2 - p.gap2)));
       const bool second =
-          std::abs(pred2 - pred1) <= tie ? std::abs(p.gap2) < std::abs(p.gap) : pred2 > pred1;
+          select_corner_edges &&
+          (std::abs(pred2 - pred1) <= tie ? std::abs(p.gap2) < std::abs(p.gap) : pred2 > pred1);
       if (second) {
         std::swap(p.p_A_W, p.p2_A_W);
         std::swap(p.p_B_W, p.p2_B_W);
@@ -574,7 +590,12 @@ StepLayout StewartTrinkle::Layout(const Scene& model, const State& x) const {
 
 StepResiduals StewartTrinkle::Evaluate(const Scene& model, const Params& params, const State& x,
                                        const StepInput& u, const VectorXd& z) const {
-  const Assembly a = Assemble(model, x, u);
+  return EvaluateAssembly(model, params, Assemble(model, x, u), x, z);
+}
+
+StepResiduals StewartTrinkle::EvaluateAssembly(const Scene& model, const Params& params,
+                                               const Assembly& a, const State& x,
+                                               const VectorXd& z) const {
   const double h = options_.dt;
   StepResiduals r;
   StepLayout& l = r.layout;

@@ -51,7 +51,7 @@ double SignedTwiceArea(const std::vector<Vector3d>& v) {
 }
 
 WorldPolygon MakeWorldPolygon(const Shape& s, const Isometry3d& X_WS) {
-  if (s.type == ShapeType::kConcavePolygon) CheckSimplePolygon(s);
+  if (s.type == ShapeType::kConcavePolygon && !s.polygon_checked) CheckSimplePolygon(s);
   const int n = static_cast<int>(s.vertices.size());
   if (n < 3) {
     throw std::invalid_argument("polygon shape '" + s.name + "': needs at least 3 vertices, got " +

@@ -9,6 +9,7 @@
 #include <string>
 
 #include "vinci/sim/solvers/mcp.h"
+#include "vinci/sim/solvers/text_format.h"
 
 namespace vinci::sim {
 namespace {
@@ -121,7 +122,7 @@ Isometry3d Translation(const Vector3d& p) {
 
 void RequirePositive(const Shape& s, const char* field, double v) {
   if (!(v > 0.0) || !std::isfinite(v))
-    ThrowShape(s, std::string(field) + " = " + std::to_string(v) + ", expected a number > 0");
+    ThrowShape(s, std::string(field) + " = " + FormatNumber(v) + ", expected a number > 0");
 }
 
 }  // namespace
@@ -272,7 +273,7 @@ ImplicitSet MakeImplicitSet(const Shape& s) {
       if (planar) radii.z() = 1.0;
       const bool super = s.type == ShapeType::kSuperquadric || s.type == ShapeType::kSuperellipse;
       if (super && !(s.exponent >= 2.0 && std::isfinite(s.exponent)))
-        ThrowShape(s, "exponent = " + std::to_string(s.exponent) + ", expected a number >= 2");
+        ThrowShape(s, "exponent = " + FormatNumber(s.exponent) + ", expected a number >= 2");
       const ImplicitType t = s.type == ShapeType::kEllipsoid      ? ImplicitType::kEllipsoid
                              : s.type == ShapeType::kSuperquadric ? ImplicitType::kSuperquadric
                              : s.type == ShapeType::kEllipse      ? ImplicitType::kEllipse
@@ -300,7 +301,7 @@ ImplicitSet MakeImplicitSet(const Shape& s) {
       RequirePositive(s, "radius", s.radius);
       RequirePositive(s, "half_length", s.half_length);
       if (s.half_length > s.radius)
-        ThrowShape(s, "half_length = " + std::to_string(s.half_length) + ", expected <= radius");
+        ThrowShape(s, "half_length = " + FormatNumber(s.half_length) + ", expected <= radius");
       const double R = s.radius, c = R - s.half_length;
       // The upper face is the sphere centred below the origin, and vice versa.
       for (double sign : {-1.0, 1.0})

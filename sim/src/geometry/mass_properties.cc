@@ -6,6 +6,7 @@
 #include <string>
 
 #include "collision_internal.h"
+#include "vinci/sim/solvers/text_format.h"
 
 namespace vinci::sim {
 namespace {
@@ -22,12 +23,12 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 
 void RequirePositive(const Shape& s, const char* field, double value) {
   if (!(value > 0.0))
-    ThrowBad(s, std::string(field) + " = " + std::to_string(value) + ", expected > 0");
+    ThrowBad(s, std::string(field) + " = " + FormatNumber(value) + ", expected > 0");
 }
 
 void RequireNonNegative(const Shape& s, const char* field, double value) {
   if (!(value >= 0.0)) {
-    ThrowBad(s, std::string(field) + " = " + std::to_string(value) + ", expected >= 0");
+    ThrowBad(s, std::string(field) + " = " + FormatNumber(value) + ", expected >= 0");
   }
 }
 
@@ -130,7 +131,7 @@ double SuperballVolume(double e, int n) {
 
 void RequireExponent(const Shape& s) {
   if (!(s.exponent >= 2.0) || !std::isfinite(s.exponent))
-    ThrowBad(s, "exponent = " + std::to_string(s.exponent) + ", expected a finite number >= 2");
+    ThrowBad(s, "exponent = " + FormatNumber(s.exponent) + ", expected a finite number >= 2");
 }
 
 void RequireSemiAxes(const Shape& s, int n) {
@@ -150,8 +151,8 @@ UnitMassProperties Lens(const Shape& s) {
   RequirePositive(s, "radius", s.radius);
   RequirePositive(s, "half_length", s.half_length);
   if (s.half_length > s.radius)
-    ThrowBad(s, "half_length = " + std::to_string(s.half_length) +
-                    ", expected <= radius = " + std::to_string(s.radius));
+    ThrowBad(s, "half_length = " + FormatNumber(s.half_length) +
+                    ", expected <= radius = " + FormatNumber(s.radius));
   const double R = s.radius, t = s.half_length, c = R - t;
   constexpr double kNodes[4] = {-0.8611363115940526, -0.3399810435848563, 0.3399810435848563,
                                 0.8611363115940526};
@@ -227,7 +228,7 @@ UnitMassProperties ComputeUnitMassProperties(const Shape& s) {
     case ShapeType::kPolygon:
       return Polygon(s);
     case ShapeType::kConcavePolygon:  // the shoelace sums are exact for any simple polygon
-      collision_internal::CheckSimplePolygon(s);
+      if (!s.polygon_checked) collision_internal::CheckSimplePolygon(s);
       return Polygon(s);
     case ShapeType::kSegment: {
       RequireNonNegative(s, "radius", s.radius);

@@ -32,6 +32,13 @@ Params ParamTable::Defaults() const {
   return p;
 }
 
+std::vector<std::string> ParamTable::DifferentiableNames() const {
+  std::vector<std::string> names;
+  for (const ParamInfo& p : info_)
+    if (p.differentiable) names.push_back(p.name);
+  return names;
+}
+
 ParamSelection::ParamSelection(const ParamTable& table, const std::vector<std::string>& names) {
   lower_.resize(static_cast<int>(names.size()));
   upper_.resize(static_cast<int>(names.size()));

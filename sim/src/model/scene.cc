@@ -8,9 +8,12 @@
 
 #include "vinci/sim/model/support.h"
 #include "vinci/sim/solvers/lcp.h"
+#include "vinci/sim/solvers/text_format.h"
 
 namespace vinci::sim {
 namespace {
+
+using Vector6d = Eigen::Matrix<double, 6, 1>;
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 const char* const kPlanarDofNames[] = {"x", "y", "theta"};
@@ -55,11 +58,88 @@ Matrix3d InertiaFromShapes(const Body& body) {
   return I;
 }
 
+void CheckInertia(const Body& b, bool planar) {
+  if (!b.inertia.allFinite() || (planar ? b.inertia(2, 2) <= 0.0 : b.inertia.determinant() <= 0.0))
+    throw std::invalid_argument(BodyContext(b) + ": inertia must be positive definite");
+}
+
+void CheckTilt(const Body& b, bool planar) {
+  const TiltMotion& t = b.motion.tilt;
+  if (t.IsZero()) return;
+  if (!std::isfinite(t.amplitude) || !(t.frequency > 0.0) || !std::isfinite(t.frequency) ||
+      !std::isfinite(t.phase) || !std::isfinite(t.depth))
+    throw std::invalid_argument(BodyContext(b) +
+                                ": tilt needs finite amplitude, phase, depth and frequency > 0");
+  if (!planar && (std::abs(t.axis_B.norm() - 1.0) > 1e-9 || std::abs(t.axis_B.z()) > 1e-9))
+    throw std::invalid_argument(BodyContext(b) +
+                                ": tilt axis must be a unit vector in the body's x-y plane");
+}
+
 }  // namespace
+
+Vector6d PoseComponents(Dim dim, const Isometry3d& X) {
+  const Matrix3d& R = X.linear();
+  const Vector3d p = X.translation();
+  Vector6d c = Vector6d::Zero();
+  if (dim == Dim::kPlanar) {
+    c << p.x(), p.y(), std::atan2(R(1, 0), R(0, 0)), 0.0, 0.0, 0.0;
+    return c.array() + 0.0;  // −0 → +0
+  }
+  // R = Rz(yaw) Ry(pitch) Rx(roll).
+  c << p.x(), p.y(), p.z(), std::atan2(R(2, 1), R(2, 2)),
+      std::atan2(-R(2, 0), std::hypot(R(2, 1), R(2, 2))), std::atan2(R(1, 0), R(0, 0));
+  return c.array() + 0.0;  // −0 → +0
+}
+
+Isometry3d PoseFromComponents(Dim dim, const Vector6d& c) {
+  if (dim == Dim::kPlanar) return PlanarPose(c[0], c[1], c[2]);
+  // The scene file's `rpy` (scene_file.cc), operation for operation.
+  Isometry3d X = Isometry3d::Identity();
+  X.translation() = c.head<3>();
+  X.linear() =
+      (Eigen::AngleAxisd(c[5], Vector3d::UnitZ()) * Eigen::AngleAxisd(c[4], Vector3d::UnitY()) *
+       Eigen::AngleAxisd(c[3], Vector3d::UnitX()))
+          .toRotationMatrix();
+  return X;
+}
 
 std::vector<std::string> SolverNames(FormulationType formulation) {
   if (formulation == FormulationType::kGeometricallyImplicit) return {"lemke", "semismooth-newton"};
   return LcpSolverNames();
+}
+
+const std::vector<std::pair<std::string, FormulationType>>& FormulationTable() {
+  static const std::vector<std::pair<std::string, FormulationType>> kTable = {
+      {"stewart-trinkle", FormulationType::kStewartTrinkle},
+      {"anitescu-potra", FormulationType::kAnitescuPotra},
+      {"ncp", FormulationType::kNcp},
+      {"first-order", FormulationType::kFirstOrder},
+      {"quasistatic-dlc", FormulationType::kQuasistaticDlc},
+      {"quasistatic-dqc", FormulationType::kQuasistaticDqc},
+      {"dynamic-dqc", FormulationType::kDynamicDqc},
+      {"gi", FormulationType::kGeometricallyImplicit}};
+  return kTable;
+}
+
+std::vector<std::string> FormulationNames() {
+  std::vector<std::string> names;
+  for (const auto& entry : FormulationTable()) names.push_back(entry.first);
+  return names;
+}
+
+std::string_view ToString(FormulationType formulation) {
+  for (const auto& entry : FormulationTable())
+    if (entry.second == formulation) return entry.first;
+  throw std::logic_error("ToString: FormulationType " +
+                         std::to_string(static_cast<int>(formulation)) + " has no name");
+}
+
+FormulationType ParseFormulation(const std::string& name) {
+  for (const auto& entry : FormulationTable())
+    if (entry.first == name) return entry.second;
+  std::string list;
+  for (const std::string& n : FormulationNames()) list += (list.empty() ? "" : ", ") + n;
+  throw std::invalid_argument("unknown formulation '" + name + "'; expected one of: " + list);
 }
 
 int Scene::FindBody(const std::string& body_name) const {
@@ -131,9 +211,7 @@ void Scene::Finalize() {
           throw std::invalid_argument(BodyContext(b) +
                                       ": a dynamic body cannot carry an unbounded half-space");
       if (b.inertia_from_shapes) b.inertia = InertiaFromShapes(b);
-      if (!b.inertia.allFinite() ||
-          (planar ? b.inertia(2, 2) <= 0.0 : b.inertia.determinant() <= 0.0))
-        throw std::invalid_argument(BodyContext(b) + ": inertia must be positive definite");
+      CheckInertia(b, planar);
       if (options.formulation == FormulationType::kFirstOrder) {
         const int n = VelocitySize(dim);
         if (b.damping.rows() != n || b.damping.cols() != n || !b.damping.allFinite() ||
@@ -154,16 +232,7 @@ void Scene::Finalize() {
         b.motion.dofs.size() != static_cast<std::size_t>(planar ? 3 : 6))
       throw std::invalid_argument(BodyContext(b) + ": motion needs " + (planar ? "3" : "6") +
                                   " dofs");
-    if (b.kind == BodyKind::kPrescribed && !b.motion.tilt.IsZero()) {
-      const TiltMotion& t = b.motion.tilt;
-      if (!std::isfinite(t.amplitude) || !(t.frequency > 0.0) || !std::isfinite(t.frequency) ||
-          !std::isfinite(t.phase) || !std::isfinite(t.depth))
-        throw std::invalid_argument(
-            BodyContext(b) + ": tilt needs finite amplitude, phase, depth and frequency > 0");
-      if (!planar && (std::abs(t.axis_B.norm() - 1.0) > 1e-9 || std::abs(t.axis_B.z()) > 1e-9))
-        throw std::invalid_argument(BodyContext(b) +
-                                    ": tilt axis must be a unit vector in the body's x-y plane");
-    }
+    if (b.kind == BodyKind::kPrescribed) CheckTilt(b, planar);
   }
   for (const Joint& j : joints) {
     const int n = static_cast<int>(bodies.size());
@@ -172,20 +241,37 @@ void Scene::Finalize() {
   }
   FinalizeSupports(this);  // 2.5D support friction (support.h)
 
-  // The parameter table.
+  BuildParamTable();
+}
+
+void Scene::BuildParamTable() {
+  const bool planar = dim == Dim::kPlanar;
+  const int pose_size = planar ? 3 : 6;
+  const char* const* pose_names = planar ? kPlanarDofNames : kSpatialDofNames;
   params_ = ParamTable();
-  params_.Add({"mu.default", ParamKind::kDefaultFriction, -1, -1, -1, default_mu, 0.0, kInf});
+  // Every entry's default is the scene's own value, read back as ApplyParams would see it.
+  const auto add = [this](std::string name, ParamKind kind, int a, int b, int c, double lower,
+                          double upper, bool differentiable = false) {
+    ParamInfo info{std::move(name), kind, a, b, c, 0.0, lower, upper, differentiable};
+    info.default_value = ParamValue(info);
+    params_.Add(std::move(info));
+  };
+  const auto add_pose = [&](const std::string& pre, int body, int shape) {
+    for (int c = 0; c < pose_size; ++c)
+      add(pre + pose_names[c], ParamKind::kPose, body, shape, c, -kInf, kInf);
+  };
+  add("mu.default", ParamKind::kDefaultFriction, -1, -1, -1, 0.0, kInf, true);
   for (const auto& [pair, value] : mu)
-    params_.Add({"mu." + materials[pair.first].name + "." + materials[pair.second].name,
-                 ParamKind::kFriction, pair.first, pair.second, -1, value, 0.0, kInf});
+    add("mu." + materials[pair.first].name + "." + materials[pair.second].name,
+        ParamKind::kFriction, pair.first, pair.second, -1, 0.0, kInf, true);
   for (std::size_t i = 0; i < bodies.size(); ++i) {
     const Body& b = bodies[i];
     const int bi = static_cast<int>(i);
     if (b.kind == BodyKind::kDynamic)
-      params_.Add({"mass." + b.name, ParamKind::kMass, bi, -1, -1, b.mass, 1e-12, kInf});
+      add("mass." + b.name, ParamKind::kMass, bi, -1, -1, 1e-12, kInf, true);
     if (b.kind == BodyKind::kDynamic && !b.support.empty())
-      params_.Add({"support_mu." + b.name, ParamKind::kSupportFriction, bi, -1, -1, b.support.mu,
-                   0.0, kInf});
+      add("support_mu." + b.name, ParamKind::kSupportFriction, bi, -1, -1, 0.0, kInf, true);
+    if (b.kind != BodyKind::kDynamic) add_pose("pose." + b.name + ".", bi, -1);
     for (std::size_t s = 0; s < b.shapes.size(); ++s) {
       const Shape& sh = b.shapes[s];
       const int si = static_cast<int>(s);
@@ -193,44 +279,41 @@ void Scene::Finalize() {
       switch (sh.type) {
         case ShapeType::kSphere:
         case ShapeType::kDisc:
-          params_.Add(
-              {pre + "radius", ParamKind::kShapeRadius, bi, si, -1, sh.radius, 1e-12, kInf});
+          add(pre + "radius", ParamKind::kShapeRadius, bi, si, -1, 1e-12, kInf);
           break;
         case ShapeType::kCylinder:
         case ShapeType::kLens:
-          params_.Add(
-              {pre + "radius", ParamKind::kShapeRadius, bi, si, -1, sh.radius, 1e-12, kInf});
-          params_.Add({pre + "half_length", ParamKind::kShapeHalfLength, bi, si, -1, sh.half_length,
-                       1e-12, kInf});
+          add(pre + "radius", ParamKind::kShapeRadius, bi, si, -1, 1e-12, kInf);
+          add(pre + "half_length", ParamKind::kShapeHalfLength, bi, si, -1, 1e-12, kInf);
           break;
         case ShapeType::kEllipsoid:
         case ShapeType::kSuperquadric:
         case ShapeType::kEllipse:
         case ShapeType::kSuperellipse:
           for (int c = 0; c < (IsPlanar(sh.type) ? 2 : 3); ++c)
-            params_.Add({pre + "half_extents." + "xyz"[c], ParamKind::kShapeHalfExtent, bi, si, c,
-                         sh.half_extents[c], 1e-12, kInf});
+            add(pre + "half_extents." + "xyz"[c], ParamKind::kShapeHalfExtent, bi, si, c, 1e-12,
+                kInf);
           break;
         case ShapeType::kCapsule:
         case ShapeType::kSegment:
-          params_.Add({pre + "radius", ParamKind::kShapeRadius, bi, si, -1, sh.radius, 0.0, kInf});
-          params_.Add({pre + "half_length", ParamKind::kShapeHalfLength, bi, si, -1, sh.half_length,
-                       0.0, kInf});
+          add(pre + "radius", ParamKind::kShapeRadius, bi, si, -1, 0.0, kInf);
+          add(pre + "half_length", ParamKind::kShapeHalfLength, bi, si, -1, 0.0, kInf);
           break;
         case ShapeType::kBox:
           for (int c = 0; c < 3; ++c)
-            params_.Add({pre + "half_extents." + "xyz"[c], ParamKind::kShapeHalfExtent, bi, si, c,
-                         sh.half_extents[c], 1e-12, kInf});
+            add(pre + "half_extents." + "xyz"[c], ParamKind::kShapeHalfExtent, bi, si, c, 1e-12,
+                kInf);
           break;
         case ShapeType::kPolygon:
         case ShapeType::kConcavePolygon:
         case ShapeType::kPolyhedron:
-          params_.Add({pre + "scale", ParamKind::kShapeScale, bi, si, -1, 1.0, 1e-12, kInf});
+          add(pre + "scale", ParamKind::kShapeScale, bi, si, -1, 1e-12, kInf);
           break;
         case ShapeType::kHalfSpace:
         case ShapeType::kHalfPlane:
           break;
       }
+      add_pose("pose." + b.name + "." + sh.name + ".", bi, si);
     }
     if (b.kind == BodyKind::kPrescribed) {
       for (std::size_t d = 0; d < b.motion.dofs.size(); ++d) {
@@ -239,35 +322,111 @@ void Scene::Finalize() {
         const std::string pre =
             "motion." + b.name + "." + (planar ? kPlanarDofNames[d] : kSpatialDofNames[d]) + ".";
         if (!m.keyframes.empty()) continue;
-        params_.Add(
-            {pre + "velocity", ParamKind::kMotionVelocity, bi, di, -1, m.velocity, -kInf, kInf});
+        add(pre + "velocity", ParamKind::kMotionVelocity, bi, di, -1, -kInf, kInf);
         for (std::size_t k = 0; k < m.harmonics.size(); ++k) {
           const int ki = static_cast<int>(k);
-          const Harmonic& h = m.harmonics[k];
-          params_.Add({pre + "amplitude" + std::to_string(k), ParamKind::kMotionAmplitude, bi, di,
-                       ki, h.amplitude, -kInf, kInf});
-          params_.Add({pre + "frequency" + std::to_string(k), ParamKind::kMotionFrequency, bi, di,
-                       ki, h.frequency, 0.0, kInf});
-          params_.Add({pre + "phase" + std::to_string(k), ParamKind::kMotionPhase, bi, di, ki,
-                       h.phase, -kInf, kInf});
+          const std::string n = std::to_string(k);
+          add(pre + "amplitude" + n, ParamKind::kMotionAmplitude, bi, di, ki, -kInf, kInf);
+          add(pre + "frequency" + n, ParamKind::kMotionFrequency, bi, di, ki, 0.0, kInf);
+          add(pre + "phase" + n, ParamKind::kMotionPhase, bi, di, ki, -kInf, kInf);
         }
+      }
+      // A tilt is a parameter when it is active or has a frequency to be switched on with.
+      if (!b.motion.tilt.IsZero() || b.motion.tilt.frequency > 0.0) {
+        const std::string pre = "motion." + b.name + ".tilt.";
+        add(pre + "amplitude", ParamKind::kTiltAmplitude, bi, -1, -1, -kInf, kInf);
+        add(pre + "frequency", ParamKind::kTiltFrequency, bi, -1, -1, 0.0, kInf);
+        add(pre + "phase", ParamKind::kTiltPhase, bi, -1, -1, -kInf, kInf);
+        add(pre + "depth", ParamKind::kTiltDepth, bi, -1, -1, -kInf, kInf);
       }
     }
   }
+}
+
+const Isometry3d& Scene::PoseOf(const ParamInfo& p) const {
+  const Body& b = bodies[p.a];
+  return p.b < 0 ? b.X_WB0 : b.shapes[p.b].X_BS;
+}
+
+double Scene::ParamValue(const ParamInfo& p) const {
+  switch (p.kind) {
+    case ParamKind::kDefaultFriction:
+      return default_mu;
+    case ParamKind::kFriction:
+      return Mu(p.a, p.b);
+    case ParamKind::kSupportFriction:
+      return bodies[p.a].support.mu;
+    case ParamKind::kMass:
+      return bodies[p.a].mass;
+    case ParamKind::kShapeRadius:
+      return bodies[p.a].shapes[p.b].radius;
+    case ParamKind::kShapeHalfExtent:
+      return bodies[p.a].shapes[p.b].half_extents[p.c];
+    case ParamKind::kShapeHalfLength:
+      return bodies[p.a].shapes[p.b].half_length;
+    case ParamKind::kShapeScale:
+      return 1.0;  // relative to the scene's vertices
+    case ParamKind::kMotionVelocity:
+      return bodies[p.a].motion.dofs[p.b].velocity;
+    case ParamKind::kMotionAmplitude:
+      return bodies[p.a].motion.dofs[p.b].harmonics[p.c].amplitude;
+    case ParamKind::kMotionFrequency:
+      return bodies[p.a].motion.dofs[p.b].harmonics[p.c].frequency;
+    case ParamKind::kMotionPhase:
+      return bodies[p.a].motion.dofs[p.b].harmonics[p.c].phase;
+    case ParamKind::kTiltAmplitude:
+      return bodies[p.a].motion.tilt.amplitude;
+    case ParamKind::kTiltFrequency:
+      return bodies[p.a].motion.tilt.frequency;
+    case ParamKind::kTiltPhase:
+      return bodies[p.a].motion.tilt.phase;
+    case ParamKind::kTiltDepth:
+      return bodies[p.a].motion.tilt.depth;
+    case ParamKind::kPose:
+      return PoseComponents(dim, PoseOf(p))[p.c];
+  }
+  return 0.0;
 }
 
 Scene Scene::ApplyParams(const Params& params) const {
   if (params.values.size() != params_.size())
     throw std::invalid_argument("parameter vector has " + std::to_string(params.values.size()) +
                                 " entries; the scene has " + std::to_string(params_.size()));
-  Scene s = *this;
   for (int i = 0; i < params_.size(); ++i) {
     const ParamInfo& p = params_.info(i);
     const double x = params.values[i];
     if (!std::isfinite(x) || x < p.lower || x > p.upper)
-      throw std::invalid_argument("parameter '" + p.name + "' = " + std::to_string(x) +
-                                  " is outside [" + std::to_string(p.lower) + ", " +
-                                  std::to_string(p.upper) + "]");
+      throw std::invalid_argument("parameter '" + p.name + "' = " + FormatNumber(x) +
+                                  " is outside [" + FormatNumber(p.lower) + ", " +
+                                  FormatNumber(p.upper) + "]");
+  }
+  Scene s = *this;
+  // Bodies whose derived data (inertia from shapes, tilt checks) must be recomputed.
+  std::vector<unsigned char> geometry_changed(bodies.size(), 0), mass_changed(bodies.size(), 0),
+      tilt_changed(bodies.size(), 0);
+  const bool planar = dim == Dim::kPlanar;
+  for (int i = 0; i < params_.size(); ++i) {
+    const ParamInfo& p = params_.info(i);
+    const double x = params.values[i];
+    if (p.kind == ParamKind::kPose) {
+      // One pose: components c = 0…n−1 at i…i+n−1 (BuildParamTable). The rotation is rebuilt
+      // as the scene file builds it, and only if an angle changed, so an unchanged pose keeps
+      // its bits.
+      const int n = planar ? 3 : 6;
+      const Vector6d old = PoseComponents(dim, PoseOf(p));
+      Vector6d now = Vector6d::Zero();
+      for (int c = 0; c < n; ++c) now[c] = params.values[i + c];
+      i += n - 1;
+      const int nt = planar ? 2 : 3;
+      if (now.head(n) == old.head(n)) continue;
+      Isometry3d& X = p.b < 0 ? s.bodies[p.a].X_WB0 : s.bodies[p.a].shapes[p.b].X_BS;
+      X.translation().head(nt) = now.head(nt);
+      if (now.segment(nt, n - nt) != old.segment(nt, n - nt))
+        X.linear() = PoseFromComponents(dim, now).linear();
+      if (p.b >= 0) geometry_changed[p.a] = 1;
+      continue;
+    }
+    if (x == ParamValue(p)) continue;  // nothing to write, nothing to recompute
     switch (p.kind) {
       case ParamKind::kDefaultFriction:
         s.default_mu = x;
@@ -278,28 +437,34 @@ Scene Scene::ApplyParams(const Params& params) const {
       case ParamKind::kSupportFriction:
         s.bodies[p.a].support.mu = x;
         break;
-      case ParamKind::kMass: {
-        Body& b = s.bodies[p.a];
-        b.inertia *= x / b.mass;  // same shape, new density
-        b.mass = x;
+      case ParamKind::kMass:
+        s.bodies[p.a].mass = x;
+        mass_changed[p.a] = 1;
         break;
-      }
       case ParamKind::kShapeRadius:
         s.bodies[p.a].shapes[p.b].radius = x;
+        geometry_changed[p.a] = 1;
         break;
       case ParamKind::kShapeHalfExtent:
         s.bodies[p.a].shapes[p.b].half_extents[p.c] = x;
+        geometry_changed[p.a] = 1;
         break;
       case ParamKind::kShapeHalfLength:
         s.bodies[p.a].shapes[p.b].half_length = x;
+        geometry_changed[p.a] = 1;
         break;
-      case ParamKind::kShapeScale:
-        if (x != 1.0) {
-          Shape& sh = s.bodies[p.a].shapes[p.b];
-          for (Vector3d& v : sh.vertices) v *= x;
-          for (HullFace& f : sh.faces) f.offset *= x;  // scaling about the origin keeps normals
+      case ParamKind::kShapeScale: {
+        // As if the scene had listed the scaled vertices: the hull is recomputed from them.
+        Shape& sh = s.bodies[p.a].shapes[p.b];
+        for (Vector3d& v : sh.vertices) v *= x;
+        if (sh.type == ShapeType::kPolyhedron) {
+          sh.faces.clear();
+          sh.hull_vertices.clear();
+          PrepareShape(&sh);
         }
+        geometry_changed[p.a] = 1;
         break;
+      }
       case ParamKind::kMotionVelocity:
         s.bodies[p.a].motion.dofs[p.b].velocity = x;
         break;
@@ -312,8 +477,38 @@ Scene Scene::ApplyParams(const Params& params) const {
       case ParamKind::kMotionPhase:
         s.bodies[p.a].motion.dofs[p.b].harmonics[p.c].phase = x;
         break;
+      case ParamKind::kTiltAmplitude:
+        s.bodies[p.a].motion.tilt.amplitude = x;
+        tilt_changed[p.a] = 1;
+        break;
+      case ParamKind::kTiltFrequency:
+        s.bodies[p.a].motion.tilt.frequency = x;
+        tilt_changed[p.a] = 1;
+        break;
+      case ParamKind::kTiltPhase:
+        s.bodies[p.a].motion.tilt.phase = x;
+        break;
+      case ParamKind::kTiltDepth:
+        s.bodies[p.a].motion.tilt.depth = x;
+        break;
+      case ParamKind::kPose:
+        break;  // handled above
     }
   }
+  // What Finalize derives from the changed fields, computed as Finalize computes it.
+  for (std::size_t i = 0; i < s.bodies.size(); ++i) {
+    Body& b = s.bodies[i];
+    if (tilt_changed[i]) CheckTilt(b, planar);
+    if (b.kind != BodyKind::kDynamic || !(geometry_changed[i] || mass_changed[i])) continue;
+    if (b.inertia_from_shapes) {
+      b.inertia = InertiaFromShapes(b);
+    } else if (mass_changed[i]) {
+      b.inertia *= b.mass / bodies[i].mass;  // a given inertia keeps its shape: same density
+    }
+    CheckInertia(b, planar);
+  }
+  // Support load fractions depend only on the support points (not parameters); the normal
+  // forces follow the mass at step time (SupportNormalForces).
   return s;
 }
 

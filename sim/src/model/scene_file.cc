@@ -12,6 +12,7 @@
 #include <cmath>
 #include <fstream>
 #include <iterator>
+#include <limits>
 #include <map>
 #include <optional>
 #include <set>
@@ -20,11 +21,13 @@
 #include <utility>
 #include <vector>
 
+#include "vinci/sim/solvers/input_file.h"
+#include "vinci/sim/solvers/text_format.h"
+#include "yaml_load.h"
+
 namespace vinci::sim {
 namespace {
 
-// Norms below this are "zero" for rotation axes and quaternions.
-constexpr double kMinNorm = 1e-12;
 // Relative tolerance for "strictly convex" (cross products of polygon edges) and for the
 // volume spanned by polyhedron vertices, scaled by the shape's size.
 constexpr double kRelativeDegeneracy = 1e-12;
@@ -79,6 +82,16 @@ std::string Join(const std::vector<std::string>& items) {
 std::string Truncated(const std::string& s) {
   constexpr std::size_t kMax = 40;
   return s.size() <= kMax ? s : s.substr(0, kMax) + "...";
+}
+
+// v / ‖v‖ without overflow or underflow in the norm: v is first divided by max |v_i|, so any
+// finite v ≠ 0 gives a unit vector, and v and c·v (c > 0) give the same one. nullopt for v = 0.
+template <typename V>
+std::optional<V> UnitDirection(const V& v) {
+  const double scale = v.cwiseAbs().maxCoeff();
+  if (!(scale > 0.0) || !std::isfinite(scale)) return std::nullopt;
+  const V u = v / scale;
+  return V(u / u.norm());
 }
 
 // What a node is, for the "got ..." half of a message.
@@ -176,9 +189,11 @@ class Parser {
   // ----- errors -------------------------------------------------------------------------------
   [[noreturn]] void Fail(const Field& f, const std::string& expected,
                          const std::string& got) const {
-    throw std::invalid_argument(src_ + ":" + std::to_string(f.line) + ": " +
-                                (f.path.empty() ? "(document)" : f.path) + ": expected " +
-                                expected + ", got " + got);
+    // Escaped: names, keys and values quoted from the file must not carry raw bytes or terminal
+    // escape sequences to the user's terminal.
+    throw std::invalid_argument(EscapeText(src_ + ":" + std::to_string(f.line) + ": " +
+                                           (f.path.empty() ? "(document)" : f.path) +
+                                           ": expected " + expected + ", got " + got));
   }
   [[noreturn]] void Fail(const Field& f, const std::string& expected) const {
     Fail(f, expected, Describe(f.node));
@@ -241,18 +256,24 @@ class Parser {
   }
 
   // ----- scalars ------------------------------------------------------------------------------
-  enum class Bound { kAny, kPositive, kNonNegative };
+  // kSize: a length or mass the parameter table bounds below by SceneLimits::kMinSize
+  // (Scene::Finalize), so that every accepted value also passes Scene::ApplyParams.
+  enum class Bound { kAny, kPositive, kNonNegative, kSize };
 
   double Number(const Field& f, Bound bound = Bound::kAny) const {
-    const char* what = bound == Bound::kPositive      ? "a finite number > 0"
-                       : bound == Bound::kNonNegative ? "a finite number >= 0"
-                                                      : "a finite number";
+    static const std::string kSizeWhat =
+        "a finite number >= " + FormatNumber(SceneLimits::kMinSize);
+    const std::string what = bound == Bound::kPositive      ? "a finite number > 0"
+                             : bound == Bound::kNonNegative ? "a finite number >= 0"
+                             : bound == Bound::kSize        ? kSizeWhat
+                                                            : "a finite number";
     if (!f.node.IsScalar()) Fail(f, what);
     if (!IsPlainOrTagged(f.node, {"tag:yaml.org,2002:float", "tag:yaml.org,2002:int"}))
       Fail(f, what, Describe(f.node) + " (a quoted string)");
     double x = 0.0;
     if (!YAML::convert<double>::decode(f.node, x) || !std::isfinite(x)) Fail(f, what);
-    if ((bound == Bound::kPositive && !(x > 0.0)) || (bound == Bound::kNonNegative && x < 0.0))
+    if ((bound == Bound::kPositive && !(x > 0.0)) || (bound == Bound::kNonNegative && x < 0.0) ||
+        (bound == Bound::kSize && !(x >= SceneLimits::kMinSize)))
       Fail(f, what);
     return x;
   }
@@ -279,9 +300,11 @@ class Parser {
     return f.node.Scalar();
   }
 
+  // Names end up in CSV headers and messages: printable text (UTF-8 allowed) without ',' or '"'.
   std::string Name(const Field& f) const {
-    const std::string s = String(f, "a non-empty name");
-    if (s.empty()) Fail(f, "a non-empty name");
+    const std::string what = "a non-empty name of printable characters without ',' or '\"'";
+    const std::string s = String(f, what);
+    if (!IsPrintableName(s)) Fail(f, what);
     return s;
   }
 
@@ -327,6 +350,11 @@ class Parser {
   void CheckPolygon(const Field& vertices_field, const std::vector<Field>& items,
                     const std::vector<Vector3d>& v) const;
   void CheckPolyhedron(const Field& vertices_field, const std::vector<Vector3d>& v) const;
+  void CheckVertexCount(const Field& vertices_field, std::size_t n, int limit) const {
+    if (n > static_cast<std::size_t>(limit))
+      Fail(vertices_field, "at most " + std::to_string(limit) + " vertices",
+           std::to_string(n) + " vertices");
+  }
   PrescribedMotion Motion(const Field& f) const;
   DofMotion ParseDofMotion(const Field& f, std::optional<double> base_frequency) const;
   Body ParseBody(const Field& f) const;
@@ -379,12 +407,13 @@ Isometry3d Parser::Pose(const Field& f) const {
       const Field axis_field = Require(*r, "axis", "a list of 3 numbers");
       const Vector3d axis = Numbers(axis_field, 3);
       const double angle = Number(Require(*r, "angle", "a finite number"));
-      if (!(axis.norm() >= kMinNorm)) Fail(axis_field, "a rotation axis of non-zero length");
-      X.linear() = Eigen::AngleAxisd(angle, axis.normalized()).toRotationMatrix();
+      const std::optional<Vector3d> u = UnitDirection(axis);
+      if (!u) Fail(axis_field, "a rotation axis of non-zero length");
+      X.linear() = Eigen::AngleAxisd(angle, *u).toRotationMatrix();
     } else if (k == "quaternion") {
-      const VectorXd q = Numbers(*r, 4);
-      if (!(q.norm() >= kMinNorm)) Fail(*r, "a quaternion [w, x, y, z] of non-zero norm");
-      X.linear() = Quaterniond(q[0], q[1], q[2], q[3]).normalized().toRotationMatrix();
+      const std::optional<VectorXd> q = UnitDirection(Numbers(*r, 4));
+      if (!q) Fail(*r, "a quaternion [w, x, y, z] of non-zero norm");
+      X.linear() = Quaterniond((*q)[0], (*q)[1], (*q)[2], (*q)[3]).toRotationMatrix();
     } else {
       const VectorXd rpy = Numbers(*r, 3);
       X.linear() = (Eigen::AngleAxisd(rpy[2], Vector3d::UnitZ()) *
@@ -502,7 +531,7 @@ Shape Parser::ParseShape(const Field& f, BodyKind kind) const {
   switch (s.type) {
     case ShapeType::kSphere:
     case ShapeType::kDisc:
-      s.radius = Number(Require(f, "radius", "a finite number > 0"), Bound::kPositive);
+      s.radius = Number(Require(f, "radius", "a finite number > 0"), Bound::kSize);
       break;
     case ShapeType::kCapsule:
       s.radius = Number(Require(f, "radius", "a finite number > 0"), Bound::kPositive);
@@ -519,14 +548,14 @@ Shape Parser::ParseShape(const Field& f, BodyKind kind) const {
       break;
     }
     case ShapeType::kBox:
-      s.half_extents =
-          Numbers(Require(f, "half_extents", "a list of 3 numbers"), 3, Bound::kPositive);
+      s.half_extents = Numbers(Require(f, "half_extents", "a list of 3 numbers"), 3, Bound::kSize);
       break;
     case ShapeType::kConcavePolygon: {
       const std::string what = "a list of at least 3 points of 2 numbers";
       const Field vf = Require(f, "vertices", what);
       const std::vector<Field> items = Items(vf, what);
       if (items.size() < 3) Fail(vf, what);
+      CheckVertexCount(vf, items.size(), SceneLimits::kMaxPolygonVertices);
       for (const Field& item : items) {
         const VectorXd p = Numbers(item, 2);
         s.vertices.push_back(Vector3d(p[0], p[1], 0.0));
@@ -547,6 +576,9 @@ Shape Parser::ParseShape(const Field& f, BodyKind kind) const {
       const Field vf = Require(f, "vertices", what);
       const std::vector<Field> items = Items(vf, what);
       if (static_cast<int>(items.size()) < n_min) Fail(vf, what);
+      CheckVertexCount(
+          vf, items.size(),
+          planar() ? SceneLimits::kMaxPolygonVertices : SceneLimits::kMaxPolyhedronVertices);
       for (const Field& item : items) {
         const VectorXd p = Numbers(item, n_coords);
         s.vertices.push_back(planar() ? Vector3d(p[0], p[1], 0.0) : Vector3d(p));
@@ -563,9 +595,8 @@ Shape Parser::ParseShape(const Field& f, BodyKind kind) const {
     case ShapeType::kEllipse:
     case ShapeType::kSuperellipse: {
       const int n = planar() ? 2 : 3;
-      const VectorXd a =
-          Numbers(Require(f, "semi_axes", "a list of " + std::to_string(n) + " numbers"), n,
-                  Bound::kPositive);
+      const VectorXd a = Numbers(
+          Require(f, "semi_axes", "a list of " + std::to_string(n) + " numbers"), n, Bound::kSize);
       s.half_extents.head(n) = a;
       if (s.type == ShapeType::kSuperquadric || s.type == ShapeType::kSuperellipse) {
         const Field ef = Require(f, "exponent", "a finite number >= 2");
@@ -575,13 +606,13 @@ Shape Parser::ParseShape(const Field& f, BodyKind kind) const {
       break;
     }
     case ShapeType::kCylinder:
-      s.radius = Number(Require(f, "radius", "a finite number > 0"), Bound::kPositive);
-      s.half_length = Number(Require(f, "half_length", "a finite number > 0"), Bound::kPositive);
+      s.radius = Number(Require(f, "radius", "a finite number > 0"), Bound::kSize);
+      s.half_length = Number(Require(f, "half_length", "a finite number > 0"), Bound::kSize);
       break;
     case ShapeType::kLens: {
-      s.radius = Number(Require(f, "radius", "a finite number > 0"), Bound::kPositive);
+      s.radius = Number(Require(f, "radius", "a finite number > 0"), Bound::kSize);
       const Field hl = Require(f, "half_length", "a finite number > 0 and <= radius");
-      s.half_length = Number(hl, Bound::kPositive);
+      s.half_length = Number(hl, Bound::kSize);
       if (s.half_length > s.radius) Fail(hl, "a finite number > 0 and <= radius");
       break;
     }
@@ -663,10 +694,10 @@ PrescribedMotion Parser::Motion(const Field& f) const {
     if (auto d = Get(*t, "depth")) tilt.depth = Number(*d);
     if (auto ax = Get(*t, "axis")) {
       if (planar()) Fail(*ax, "no axis in a planar scene (the tilt turns about z)");
-      const Vector3d a = Vector(*ax);
-      if (!(a.norm() > kMinNorm) || std::abs(a.normalized().z()) > 1e-9)
+      const std::optional<Vector3d> a = UnitDirection(Vector(*ax));
+      if (!a || std::abs(a->z()) > 1e-9)
         Fail(*ax, "a non-zero axis in the plate plane (z component 0, body frame)");
-      tilt.axis_B = a.normalized();
+      tilt.axis_B = *a;
     }
   }
   if (auto p = Get(f, "pose"))
@@ -704,7 +735,7 @@ Body Parser::ParseBody(const Field& f) const {
     if (auto lin = Get(*v, "linear")) b.v0_W = Vector(*lin);
     if (auto ang = Get(*v, "angular")) b.w0_W = AngularVector(*ang);
   }
-  if (dynamic) b.mass = Number(Require(f, "mass", "a finite number > 0"), Bound::kPositive);
+  if (dynamic) b.mass = Number(Require(f, "mass", "a finite number > 0"), Bound::kSize);
   if (auto g = Get(f, "gravity")) b.gravity = Bool(*g);
   if (auto force = Get(f, "force")) b.applied_force_W = Vector(*force);
   if (auto torque = Get(f, "torque")) b.applied_torque_W = AngularVector(*torque);
@@ -818,7 +849,8 @@ Support Parser::ParseSupport(const Field& f) const {
   if (auto d = Get(f, "directions")) {
     const std::string dwhat = "an integer >= 3";
     const long long n = Integer(*d, dwhat);
-    if (n < 3 || n > 100000) Fail(*d, dwhat);
+    if (n < 3 || n > SceneLimits::kMaxSupportDirections)
+      Fail(*d, dwhat + " and <= " + std::to_string(SceneLimits::kMaxSupportDirections));
     s.directions = static_cast<int>(n);
   }
   return s;
@@ -873,22 +905,14 @@ Joint Parser::ParseJoint(const Field& f, const Scene& scene) const {
 void Parser::ParseStepper(const Field& f, StepperOptions* o) const {
   CheckMap(f, kStepperKeys, "stepper options: a map");
   if (auto v = Get(f, "formulation"))
-    o->formulation = Choice<FormulationType>(*v,
-                                             {{"stewart-trinkle", FormulationType::kStewartTrinkle},
-                                              {"anitescu-potra", FormulationType::kAnitescuPotra},
-                                              {"ncp", FormulationType::kNcp},
-                                              {"first-order", FormulationType::kFirstOrder},
-                                              {"quasistatic-dlc", FormulationType::kQuasistaticDlc},
-                                              {"quasistatic-dqc", FormulationType::kQuasistaticDqc},
-                                              {"dynamic-dqc", FormulationType::kDynamicDqc},
-                                              {"gi", FormulationType::kGeometricallyImplicit}},
-                                             "a formulation");
+    o->formulation = Choice<FormulationType>(*v, FormulationTable(), "a formulation");
   if (auto v = Get(f, "dt")) o->dt = Number(*v, Bound::kPositive);
   if (auto v = Get(f, "duration")) o->duration = Number(*v, Bound::kPositive);
   if (auto v = Get(f, "friction_directions")) {
-    const std::string what = "an even integer >= 2";
+    const std::string what =
+        "an even integer in [2, " + std::to_string(SceneLimits::kMaxFrictionDirections) + "]";
     const long long n = Integer(*v, what);
-    if (n < 2 || n % 2 != 0 || n > 1000000) Fail(*v, what);
+    if (n < 2 || n % 2 != 0 || n > SceneLimits::kMaxFrictionDirections) Fail(*v, what);
     o->friction_directions = static_cast<int>(n);
   }
   if (auto v = Get(f, "envelope")) o->envelope = Number(*v, Bound::kNonNegative);
@@ -937,7 +961,11 @@ Scene Parser::Parse(const YAML::Node& root) {
   const Field top{root, "", LineOf(root, 1)};
   CheckMap(top, kTopKeys, "a scene: a map");
   Scene scene;
-  if (auto n = Get(top, "name")) scene.name = String(*n);
+  if (auto n = Get(top, "name")) {
+    scene.name = String(*n);
+    if (!scene.name.empty() && !IsPrintableName(scene.name))
+      Fail(*n, "a name of printable characters without ',' or '\"'");
+  }
 
   const Field dim_field = Require(top, "dimension", "2 or 3");
   const long long dim = Integer(dim_field, "2 or 3");
@@ -985,6 +1013,9 @@ Scene Parser::Parse(const YAML::Node& root) {
   const Field bodies = Require(top, "bodies", "a non-empty list of bodies");
   const std::vector<Field> body_items = Items(bodies, "a non-empty list of bodies");
   if (body_items.empty()) Fail(bodies, "a non-empty list of bodies");
+  if (body_items.size() > static_cast<std::size_t>(SceneLimits::kMaxBodies))
+    Fail(bodies, "at most " + std::to_string(SceneLimits::kMaxBodies) + " bodies",
+         std::to_string(body_items.size()) + " bodies");
   std::map<std::string, int> body_lines;
   for (const Field& item : body_items) {
     Body b = ParseBody(item);
@@ -1022,13 +1053,7 @@ Scene Parser::Parse(const YAML::Node& root) {
 }  // namespace
 
 Scene ParseScene(const std::string& yaml_text, const std::string& source_name) {
-  std::vector<YAML::Node> docs;
-  try {
-    docs = YAML::LoadAll(yaml_text);
-  } catch (const YAML::Exception& e) {
-    const std::string line = e.mark.is_null() ? "" : std::to_string(e.mark.line + 1) + ":";
-    throw std::invalid_argument(source_name + ":" + line + " YAML syntax error: " + e.msg);
-  }
+  const std::vector<YAML::Node> docs = internal::LoadYamlDocuments(yaml_text, source_name);
   if (docs.empty() || docs[0].IsNull())
     throw std::invalid_argument(source_name +
                                 ":1: (document): expected a scene: a map, got an empty document");
@@ -1045,12 +1070,40 @@ Scene ParseScene(const std::string& yaml_text, const std::string& source_name) {
   }
 }
 
+std::vector<std::string> SceneWarnings(const Scene& scene) {
+  std::vector<std::string> warnings;
+  // The bounding radius of each bounded shape about its frame origin.
+  double smallest = std::numeric_limits<double>::infinity();
+  std::string smallest_name;
+  for (const Body& b : scene.bodies)
+    for (const Shape& sh : b.shapes) {
+      double r = 0.0;
+      switch (sh.type) {
+        case ShapeType::kHalfSpace:
+        case ShapeType::kHalfPlane:
+          continue;
+        case ShapeType::kPolyhedron:
+        case ShapeType::kPolygon:
+        case ShapeType::kConcavePolygon:
+          for (const Vector3d& v : sh.vertices) r = std::max(r, v.norm());
+          break;
+        default:
+          r = std::max({sh.radius + sh.half_length, sh.half_extents.norm()});
+          break;
+      }
+      if (r < smallest) smallest = r, smallest_name = b.name + "." + sh.name;
+    }
+  if (scene.options.envelope > smallest)
+    warnings.push_back("stepper.envelope = " + FormatNumber(scene.options.envelope) +
+                       " m is larger than the smallest shape ('" + smallest_name +
+                       "', bounding radius " + FormatNumber(smallest) +
+                       " m): every pair of shapes closer than that is a contact in every step, "
+                       "which can make steps very slow");
+  return warnings;
+}
+
 Scene LoadSceneFile(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in.is_open()) throw std::invalid_argument(path + ": cannot open scene file");
-  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (in.bad()) throw std::invalid_argument(path + ": cannot read scene file");
-  return ParseScene(text, path);
+  return ParseScene(ReadInputFile(path, "scene file"), path);
 }
 
 }  // namespace vinci::sim

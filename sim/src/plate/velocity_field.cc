@@ -10,10 +10,19 @@
 #include <ostream>
 #include <stdexcept>
 
+#include "../model/yaml_load.h"
 #include "vinci/sim/model/kinematics.h"
 #include "vinci/sim/simulator/batch.h"
+#include "vinci/sim/solvers/input_file.h"
 
 namespace vinci::sim {
+namespace {
+std::string FormatNumber(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", v);
+  return buf;
+}
+}  // namespace
 
 void FieldSpec::Validate(const Scene& scene) const {
   const int n = static_cast<int>(scene.bodies.size());
@@ -23,11 +32,16 @@ void FieldSpec::Validate(const Scene& scene) const {
     throw std::invalid_argument("field.part: expected a dynamic body");
   if (!(frequency > 0.0) || !std::isfinite(frequency))
     throw std::invalid_argument("field.frequency: expected a finite number > 0 (Hz), got " +
-                                std::to_string(frequency));
+                                FormatNumber(frequency));
   if (!(x_min <= x_max) || !(y_min <= y_max))
     throw std::invalid_argument("field.grid: expected min <= max on each axis");
   if (nx < 1 || ny < 1)
     throw std::invalid_argument("field.grid.points: expected at least 1 point per axis");
+  if (static_cast<long long>(nx) * ny > kMaxFieldPoints)
+    throw std::invalid_argument("field.grid.points: expected at most " +
+                                std::to_string(kMaxFieldPoints) + " points, got " +
+                                std::to_string(nx) + " x " + std::to_string(ny) + " = " +
+                                std::to_string(static_cast<long long>(nx) * ny));
   if (scene.dim == Dim::kPlanar && ny != 1)
     throw std::invalid_argument("field.grid.points: expected 1 row in a planar scene");
   if (cycles < 1) throw std::invalid_argument("field.cycles: expected an integer >= 1");
@@ -35,10 +49,25 @@ void FieldSpec::Validate(const Scene& scene) const {
     throw std::invalid_argument(
         "field.average_cycles: expected an integer in [1, cycles = " + std::to_string(cycles) +
         "], got " + std::to_string(average_cycles));
+  const long long per_cycle = StepsPerCycle(scene.options.dt);
+  if (per_cycle * cycles > kMaxFieldStepsPerPoint)
+    throw std::invalid_argument("field.cycles: expected at most " +
+                                std::to_string(kMaxFieldStepsPerPoint) + " steps per point, got " +
+                                std::to_string(cycles) + " cycles x " + std::to_string(per_cycle) +
+                                " steps per cycle = " + std::to_string(per_cycle * cycles));
 }
 
 int FieldSpec::StepsPerCycle(double h) const {
-  return std::max(1, static_cast<int>(std::lround(1.0 / (frequency * h))));
+  const double steps = std::round(1.0 / (frequency * h));  // T/h, in double: no int overflow
+  char buf[160];
+  if (!(steps >= 1.0) || !(steps <= static_cast<double>(kMaxFieldStepsPerPoint))) {
+    std::snprintf(buf, sizeof buf, "T/dt = 1/(%g Hz * %g s) = %g steps per cycle", frequency, h,
+                  1.0 / (frequency * h));
+    throw std::invalid_argument(std::string("field.frequency: expected between 1 and ") +
+                                std::to_string(kMaxFieldStepsPerPoint) +
+                                " time steps per plate cycle, got " + buf);
+  }
+  return static_cast<int>(steps);
 }
 
 namespace {
@@ -334,16 +363,9 @@ class FieldParser {
 }  // namespace
 
 FieldSpec LoadFieldSpec(const std::string& path, const Scene& scene) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in.is_open()) throw std::invalid_argument(path + ": cannot open scene file");
-  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  YAML::Node root;
-  try {
-    root = YAML::Load(text);
-  } catch (const YAML::Exception& e) {
-    const std::string line = e.mark.is_null() ? "" : std::to_string(e.mark.line + 1) + ":";
-    throw std::invalid_argument(path + ":" + line + " YAML syntax error: " + e.msg);
-  }
+  const std::vector<YAML::Node> docs =
+      internal::LoadYamlDocuments(ReadInputFile(path, "scene file"), path);
+  const YAML::Node root = docs.empty() ? YAML::Node() : docs[0];
   if (!root.IsMap()) throw std::invalid_argument(path + ":1: expected a scene: a map");
   return FieldParser(path, scene).Parse(root);
 }

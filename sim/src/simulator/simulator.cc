@@ -17,12 +17,16 @@
 namespace vinci::sim {
 
 std::unique_ptr<Formulation> MakeFormulation(const StepperOptions& options) {
-  if (options.formulation == FormulationType::kNcp) return std::make_unique<NcpStepper>(options);
+  if (options.formulation == FormulationType::kNcp) {
+    NcpOptions ncp;
+    ncp.mcp = options.solver_options.mcp;
+    return std::make_unique<NcpStepper>(options, ncp);
+  }
   if (options.formulation == FormulationType::kFirstOrder) return MakeFirstOrder(options);
   if (options.formulation == FormulationType::kQuasistaticDlc ||
       options.formulation == FormulationType::kQuasistaticDqc ||
       options.formulation == FormulationType::kDynamicDqc)
-    return std::make_unique<Quasistatic>(options);  // §5, §6 (quasistatic.h)
+    return std::make_unique<Quasistatic>(options, options.solver_options.mcp);  // §5, §6
   if (options.formulation == FormulationType::kGeometricallyImplicit) {
     // GI solves one mixed NCP with the semismooth Newton MCP solver; `solver` keeps its LCP
     // default ("lemke"), which is accepted and unused here.
@@ -30,12 +34,17 @@ std::unique_ptr<Formulation> MakeFormulation(const StepperOptions& options) {
     if (std::find(names.begin(), names.end(), options.solver) == names.end())
       throw std::invalid_argument("formulation gi uses the MCP solver 'semismooth-newton', not '" +
                                   options.solver + "'");
-    return std::make_unique<GeometricallyImplicit>(options);
+    return std::make_unique<GeometricallyImplicit>(options, options.solver_options.mcp);
   }
-  return std::make_unique<StewartTrinkle>(options, MakeLcpSolver(options.solver));
+  return std::make_unique<StewartTrinkle>(options,
+                                          MakeLcpSolver(options.solver, options.solver_options));
 }
 
-Simulator::Simulator(Scene scene) {
+Simulator::Simulator(Scene scene) : Simulator(scene, SimulatorOptions::FromScene(scene)) {}
+
+Simulator::Simulator(Scene scene, const SimulatorOptions& options) {
+  options.Validate();
+  scene.options = options;
   scene.Finalize();
   scene_ = std::make_shared<const Scene>(std::move(scene));
   formulation_ = MakeFormulation(scene_->options);
@@ -96,23 +105,57 @@ StepInfo Simulator::Step(const Params& params, const State& x, const StepInput& 
 
 Trajectory Simulator::Rollout(const Params& params, const State& x0,
                               const std::vector<StepInput>& inputs) const {
+  return Rollout(params, x0, inputs, RolloutOptions{});
+}
+
+Trajectory Simulator::Rollout(const Params& params, const State& x0,
+                              const std::vector<StepInput>& inputs,
+                              const RolloutOptions& options) const {
+  options.Validate();
+  const bool cold = options.warm_start == WarmStartPolicy::kCold;
+  const int every = options.record_every;
   Workspace ws;
   Trajectory traj;
-  traj.states.reserve(inputs.size() + 1);
+  traj.record_every = every;
+  traj.states.reserve(inputs.size() / static_cast<std::size_t>(every) + 2);
   traj.steps.reserve(inputs.size());
   traj.states.push_back(x0);
+  // x: the current state, recorded or not. Cold: x steps without a warm start; `held` keeps
+  // the one its step produced, for the record.
+  State x = x0, next;
+  VectorXd held;
+  if (cold) {
+    held.swap(x.warm_start);
+    x.warm_start.resize(0);
+  }
   for (std::size_t k = 0; k < inputs.size(); ++k) {
-    State next;
-    StepInfo info = Step(params, traj.states.back(), inputs[k], &ws, &next);
+    StepInfo info = Step(params, x, inputs[k], &ws, &next);
     const bool ok = info.ok;
+    const int step = static_cast<int>(k);
+    if (options.observer) options.observer(step, next, info);
     traj.steps.push_back(std::move(info));
     if (!ok) {
       traj.ok = false;
-      traj.failure = "step " + std::to_string(k) + " (t = " + std::to_string(traj.states.back().t) +
+      traj.failure = "step " + std::to_string(k) + " (t = " + std::to_string(x.t) +
                      " s): " + traj.steps.back().failure;
+      if (k % static_cast<std::size_t>(every) != 0) {  // x, the final state, is not recorded
+        traj.states.push_back(x);
+        if (cold) traj.states.back().warm_start = held;
+      }
       break;
     }
-    traj.states.push_back(std::move(next));
+    const bool stop = options.stop && options.stop(step, next);
+    std::swap(x, next);
+    if (stop || k + 1 == inputs.size() || (k + 1) % static_cast<std::size_t>(every) == 0)
+      traj.states.push_back(x);
+    if (cold) {
+      held.swap(x.warm_start);
+      x.warm_start.resize(0);
+    }
+    if (stop) {
+      traj.stopped = true;
+      break;
+    }
   }
   return traj;
 }

@@ -22,6 +22,7 @@
 #include <string>
 
 #include "solver_util.h"
+#include "vinci/sim/solvers/lcp_acceptance.h"
 #include "vinci/sim/solvers/lemke.h"
 
 namespace vinci::sim {
@@ -222,7 +223,12 @@ SolverReport FischerBurmeisterSolver::Solve(const LcpProblem& problem, const Vec
   }
   VectorXd best = x.cwiseMax(0.0);
   double best_residual = LcpResidual(problem, best);
-  if (best_residual <= tolerance) {
+  // `tolerance` has an absolute floor (max(1, ‖q‖∞)) that would accept z = 0 on a problem in
+  // small units: every acceptance also needs the scale-aware check (lcp_acceptance.h).
+  const auto acceptable = [&](const VectorXd& candidate_z, double r) {
+    return r <= tolerance && CheckLcpSolution(problem, candidate_z).empty();
+  };
+  if (acceptable(best, best_residual)) {
     *z = std::move(best);
     report.status = SolverStatus::kSolved;
     report.residual = best_residual;
@@ -330,7 +336,9 @@ SolverReport FischerBurmeisterSolver::Solve(const LcpProblem& problem, const Vec
       best_residual = r;
       best = candidate;
     }
-    if (r <= tolerance) {
+    if (acceptable(candidate, r)) {
+      best_residual = r;
+      best = candidate;
       solved = true;
       break;
     }
@@ -344,7 +352,7 @@ SolverReport FischerBurmeisterSolver::Solve(const LcpProblem& problem, const Vec
     stats = " (" + std::to_string(least_squares) + " least-squares directions, " +
             std::to_string(gradient_steps) + " gradient steps)";
   }
-  if (solved && report.residual <= tolerance) {
+  if (solved && acceptable(*z, report.residual)) {
     report.status = SolverStatus::kSolved;
     // Only the safeguards are worth a message on success.
     if (!stats.empty()) report.message = "solved" + stats;
@@ -371,7 +379,7 @@ SolverReport FischerBurmeisterSolver::Solve(const LcpProblem& problem, const Vec
       *z = prox.z;
       report.residual = LcpResidual(problem, *z);
     }
-    if (report.residual <= tolerance) {
+    if (acceptable(*z, report.residual)) {
       report.status = SolverStatus::kSolved;
       report.message =
           "solved by the proximal-point fallback (" + what + ") after " + report.message;
@@ -396,7 +404,7 @@ SolverReport FischerBurmeisterSolver::Solve(const LcpProblem& problem, const Vec
       report.iterations += polish.iterations;
       VectorXd& chosen = polish.ok() ? z_polished : z_lemke;
       const double r = LcpResidual(problem, chosen);
-      if (r <= tolerance) {
+      if (acceptable(chosen, r)) {
         report.status = SolverStatus::kSolved;
         report.residual = r;
         report.message = "solved by the Lemke fallback (" + std::to_string(lemke.iterations) +
@@ -411,6 +419,7 @@ SolverReport FischerBurmeisterSolver::Solve(const LcpProblem& problem, const Vec
     }
   }
   report.tolerance = tolerance;
+  ConfirmSolved(problem, *z, &report);
   return finish();
 }
 

@@ -19,6 +19,8 @@
 #include <system_error>
 #include <vector>
 
+#include "vinci/sim/solvers/input_file.h"
+
 namespace vinci::sim {
 namespace {
 
@@ -155,20 +157,6 @@ std::string Entries(std::int64_t count, const char* name) {
   return std::to_string(count) + (count == 1 ? " entry of " : " entries of ") + name;
 }
 
-std::string ReadWholeFile(const std::string& path, const char* what) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in.is_open()) throw std::invalid_argument(path + ": cannot open " + what);
-  std::string text;
-  char buf[1 << 16];
-  while (in.read(buf, sizeof(buf)) || in.gcount() > 0) {
-    text.append(buf, static_cast<std::size_t>(in.gcount()));
-    if (!in) break;
-  }
-  // A directory opens fine but fails on the first read (badbit, no eof).
-  if (in.bad() || !in.eof()) throw std::invalid_argument(path + ": cannot read " + what);
-  return text;
-}
-
 void AppendNumber(double v, std::string* s) {
   char buf[32];
   const std::to_chars_result r = std::to_chars(buf, buf + sizeof(buf), v);
@@ -225,7 +213,7 @@ LcpProblem ParseLcp(const std::string& text, const std::string& source_name) {
 }
 
 LcpProblem ReadLcpFile(const std::string& path) {
-  return ParseLcp(ReadWholeFile(path, "LCP file"), path);
+  return ParseLcp(ReadInputFile(path, "LCP file"), path);
 }
 
 void WriteLcpFile(const LcpProblem& problem, std::ostream& out) {
@@ -287,7 +275,7 @@ VectorXd ParseLcpVector(const std::string& text, int n, const std::string& sourc
 }
 
 VectorXd ReadLcpVectorFile(const std::string& path, int n) {
-  return ParseLcpVector(ReadWholeFile(path, "vector file"), n, path);
+  return ParseLcpVector(ReadInputFile(path, "vector file"), n, path);
 }
 
 }  // namespace vinci::sim

@@ -26,6 +26,7 @@
 
 #include "solver_util.h"
 #include "vinci/sim/solvers/fischer_burmeister.h"
+#include "vinci/sim/solvers/lcp_acceptance.h"
 
 namespace vinci::sim {
 namespace {
@@ -631,6 +632,7 @@ struct Attempt {
   double epsilon = 0.0;    // regularization of this attempt
   double residual = kInf;  // on the original problem
   double tolerance = 0.0;  // acceptance tolerance for this z (Acceptance::For)
+  bool scale_ok = false;   // z passes CheckLcpSolution (lcp_acceptance.h)
   std::string message;
   VectorXd z;
 };
@@ -661,6 +663,9 @@ Attempt RunAttempt(const LcpProblem& problem, double epsilon, const LemkeOptions
   a.pivots = core.pivots;
   a.terminated = core.status == SolverStatus::kSolved;
   a.residual = OrInf(LcpResidual(problem, a.z));
+  // τ has the absolute floor max(1, ‖q‖∞): a problem in small units also needs the shared
+  // scale-aware check, or a regularized retry's z = 1e-3 would pass for z = 1.
+  a.scale_ok = CheckLcpSolution(problem, a.z).empty();
   a.tolerance = acceptance.For(a.z);
   const double tolerance = a.tolerance;
   a.status = core.status;
@@ -672,22 +677,29 @@ Attempt RunAttempt(const LcpProblem& problem, double epsilon, const LemkeOptions
   if (core.status == SolverStatus::kSecondaryRay) {
     const double z0 = scaled ? core.z0 / scale.minCoeff() : core.z0;
     if (core.z0 <= kSecondaryRayZ0Fraction * core.z0_initial && z0 <= tolerance &&
-        a.residual <= tolerance) {
+        std::isfinite(a.residual) && a.residual <= tolerance) {
       a.terminated = true;
       a.status = SolverStatus::kSolved;
       a.message = "accepted the secondary-ray iterate with z0 = " + FormatDouble(z0) +
                   " as a solution (" + core.message + ")";
     }
   }
-  if (a.terminated && !(a.residual <= tolerance)) {
+  // An overflowed residual (inf) fails even against an overflowed τ (inf).
+  if (a.terminated && !(std::isfinite(a.residual) && a.residual <= tolerance)) {
     a.status = SolverStatus::kNumericalFailure;
     a.message = "Lemke terminated but the residual " + FormatDouble(a.residual) +
                 " exceeds the tolerance " + FormatDouble(tolerance);
+  } else if (a.terminated && !a.scale_ok) {
+    a.status = SolverStatus::kNumericalFailure;
+    a.message = "Lemke terminated but " + CheckLcpSolution(problem, a.z);
   }
   return a;
 }
 
-bool Passes(const Attempt& a) { return a.terminated && a.residual <= a.tolerance; }
+// A residual that overflowed (inf) never passes, even against an overflowed τ.
+bool Passes(const Attempt& a) {
+  return a.terminated && std::isfinite(a.residual) && a.residual <= a.tolerance && a.scale_ok;
+}
 
 // Solve on a guessed basis: with B = {i : in_basis_i}, z_B solves M_BB z_B = −q_B, accepted
 // if z_B ≥ −tol, w_N ≥ −tol and the residual passes. The solve is anchored at the guess,
@@ -719,6 +731,7 @@ bool TryBasis(const LcpProblem& problem, const std::vector<bool>& in_basis, cons
   }
   candidate = candidate.cwiseMax(0.0);
   if (!(LcpResidual(problem, candidate) <= acceptance.For(candidate))) return false;
+  if (!CheckLcpSolution(problem, candidate).empty()) return false;  // lcp_acceptance.h
   *z = std::move(candidate);
   return true;
 }
@@ -751,6 +764,8 @@ bool PolishTerminalIterate(const LcpProblem& problem, const VectorXd* z_lemke,
   const double tau_start =
       z_lemke != nullptr ? acceptance.For(*z_lemke) : acceptance.For(VectorXd::Zero(0));
   options.tolerance = std::max(options.tolerance, 0.5 * tau_start / q_base);
+  // τ overflows on a problem near the largest double (‖q‖∞ ~ 1e308): nothing to polish to.
+  if (!std::isfinite(options.tolerance)) return false;
   VectorXd candidate;
   const SolverReport r = FischerBurmeisterSolver(options).Solve(problem, z_lemke, &candidate);
   *iterations = r.iterations;
@@ -758,6 +773,7 @@ bool PolishTerminalIterate(const LcpProblem& problem, const VectorXd* z_lemke,
   if (!candidate.allFinite() || candidate.size() != problem.q.size()) return false;
   candidate = candidate.cwiseMax(0.0);
   if (!(LcpResidual(problem, candidate) <= acceptance.For(candidate))) return false;
+  if (!CheckLcpSolution(problem, candidate).empty()) return false;  // lcp_acceptance.h
   *z = std::move(candidate);
   return true;
 }
@@ -834,6 +850,7 @@ SolverReport LemkeSolver::Solve(const LcpProblem& problem, const VectorXd* warm_
       first.z = std::move(polished);
       first.residual = LcpResidual(problem, first.z);
       first.tolerance = acceptance.For(first.z);
+      first.scale_ok = true;  // PolishTerminalIterate checked it
       first.status = SolverStatus::kSolved;
       first.message.clear();
     }
@@ -892,7 +909,7 @@ SolverReport LemkeSolver::Solve(const LcpProblem& problem, const VectorXd* warm_
   report.regularized = use_retry;
   report.regularization = use_retry ? chosen.epsilon : 0.0;
   report.tolerance = chosen.tolerance;
-  const bool passes = chosen.terminated && report.residual <= chosen.tolerance;
+  const bool passes = Passes(chosen);
   report.status = passes ? SolverStatus::kSolved : first.status;
   if (report.status == SolverStatus::kSolved && !passes) {
     // RunAttempt turns a terminated-but-inaccurate run into kNumericalFailure.
@@ -936,6 +953,7 @@ SolverReport LemkeSolver::Solve(const LcpProblem& problem, const VectorXd* warm_
                        ") after Lemke failed: " + report.message;
     }
   }
+  ConfirmSolved(problem, *z, &report);
   return finish();
 }
 

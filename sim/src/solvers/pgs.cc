@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "solver_util.h"
+#include "vinci/sim/solvers/lcp_acceptance.h"
 #include "vinci/sim/solvers/lemke.h"
 
 namespace vinci::sim {
@@ -222,7 +223,7 @@ SolverReport PgsSolver::Solve(const LcpProblem& problem, const VectorXd* warm_st
     z->setZero(n);
   }
   double residual = LcpResidual(problem, *z);
-  if (residual <= tolerance) {
+  if (residual <= tolerance && CheckLcpSolution(problem, *z).empty()) {
     report.status = SolverStatus::kSolved;
     report.residual = residual;
     return finish();
@@ -272,7 +273,10 @@ SolverReport PgsSolver::Solve(const LcpProblem& problem, const VectorXd* warm_st
   const LemkeSolver lemke(lemke_options);
   const double block_tolerance = std::min(1e-9, options_.tolerance);
   const double omega = options_.relaxation;
-  const double skip_tolerance = kSkipFraction * tolerance;
+  // Blocks within kSkipFraction of the tolerance are skipped, unless the iterate already meets
+  // the tolerance but not the scale-aware check (a problem in small units, where the absolute
+  // floor of `tolerance` hides every block's error): then no block is skipped.
+  double skip_tolerance = residual <= tolerance ? 0.0 : kSkipFraction * tolerance;
 
   VectorXd best = *z;
   double best_residual = residual;
@@ -435,7 +439,10 @@ SolverReport PgsSolver::Solve(const LcpProblem& problem, const VectorXd* warm_st
       best_residual = residual;
       best = *z;
     }
-    solved = residual <= tolerance;
+    // The absolute floor of `tolerance` (max(1, ‖q‖∞)) would accept z = 0 on a problem in
+    // small units: sweep on until the scale-aware check passes too (lcp_acceptance.h).
+    solved = residual <= tolerance && CheckLcpSolution(problem, *z).empty();
+    if (residual <= tolerance && !solved) skip_tolerance = 0.0;
   }
 
   report.iterations = sweep;
@@ -460,6 +467,7 @@ SolverReport PgsSolver::Solve(const LcpProblem& problem, const VectorXd* warm_st
   if (report.status == SolverStatus::kSolved && !(report.residual <= tolerance)) {
     throw std::logic_error("PgsSolver: solved iterate fails the residual check");
   }
+  ConfirmSolved(problem, *z, &report);
   return finish();
 }
 

@@ -10,31 +10,23 @@
 //   0 ≤ p_n ⊥ G_nᵀ ν_ℓ+1 + ψ_n/h + ∂ψ_n/∂t ≥ 0
 //   0 ≤ p_f ⊥ G_fᵀ ν_ℓ+1 + E σ + ∂ψ_f/∂t ≥ 0
 //   0 ≤ σ   ⊥ U p_n − Eᵀ p_f ≥ 0
-//   support friction (support.h), DLC: the linearized rows
-//     0 ≤ p_s ⊥ G_sᵀ ν_ℓ+1 + E_s σ_s ≥ 0,   0 ≤ σ_s ⊥ h μ_s N − E_sᵀ p_s ≥ 0
-//   DQC: the exact disk (p_s,k = (p_x, p_y) free)
-//     0 = G_s,kᵀ ν_ℓ+1 + σ_s,k p_s,k / (h μ_s N_k)
-//     0 ≤ σ_s,k ⊥ ((h μ_s N_k)² − |p_s,k|²) / (h μ_s N_k) ≥ 0
+//   support friction (docs/formulations.md §6): DLC the linearized rows, DQC the exact disks
 //   q_ℓ+1 = q_ℓ + h ν_ℓ+1
 //
-// with p_ext = h (m g + F_applied + u). Planar contact friction uses d = ±t, which is exact,
-// so the two models differ only in the support-friction disks (and DLC equals DQC when no
-// body has supports). ε_M = kQuasistaticRegularization is a vanishing inertia that keeps the
-// step well posed when a body's motion is not determined by its constraints (a disc free to
-// spin about its only support point); it perturbs the impulse balance by ε_M |M ν|.
-// The step is a mixed complementarity problem in (ν, p_n, p_f, σ, p_b, p_s, σ_s). DLC's is
-// linear (a mixed LCP): its free unknowns (ν, p_b) are split into differences of non-negative
-// parts, y = y⁺ − y⁻, with the rows F ≥ 0 ⊥ y⁺ and −F ≥ 0 ⊥ y⁻, giving a standard LCP for the
-// scene's LCP solver (Lemke by default). DQC's is solved by McpSolver (semismooth Newton) from
-// the previous step's solution; if that fails, from the DLC solution of the step (its support
-// impulses summed into x, y components), which is close for a fine linearization.
-// Quasistatic models need planar scenes. State::v after a step is ν_ℓ+1 (the mean velocity
-// over the step); State::warm_start holds y.
+// with p_ext = h (m g + F_applied + u). Planar contact friction (d = ±t) is exact, so DLC and
+// DQC differ only in the support disks. ε_M = kQuasistaticRegularization is a vanishing
+// inertia that keeps the step well posed when a body's motion is not determined by its
+// constraints (a disc free to spin about its only support point). The step is an MCP in
+// y = [ν; p_n; p_f; σ; p_b; p_s; σ_s]: DLC's (linear) is solved as an LCP by the scene's LCP
+// solver after splitting the free unknowns, DQC's by McpSolver from the previous step's y, then
+// from the DLC solution of the step. Planar scenes only (std::invalid_argument otherwise).
+// State::v after a step is ν_ℓ+1 (the mean velocity over the step); State::warm_start holds y.
 //
 // The same class provides "dynamic-dqc" (FormulationType::kDynamicDqc): the Stewart–Trinkle
-// dynamics with the EXACT support-friction disks of support.h, an NCP solved by McpSolver —
-// the first line above becomes 0 = M (ν_ℓ+1 − ν_ℓ) − (G_n p_n + G_f p_f + G_b p_b + G_s p_s +
-// p_ext) and everything else is unchanged (planar contact friction ±t is exact).
+// dynamics with the EXACT support-friction disks, an NCP solved by McpSolver — the first line
+// above becomes 0 = M (ν_ℓ+1 − ν_ℓ) − (G_n p_n + G_f p_f + G_b p_b + G_s p_s + p_ext).
+// Scenes with compliance or concave-polygon corner contacts are rejected (capabilities();
+// docs/formulations.md §13).
 #pragma once
 
 #include "vinci/sim/formulations/stewart_trinkle.h"
@@ -62,6 +54,17 @@ class Quasistatic final : public Formulation {
                          const StepInput& u, const VectorXd& z) const override;
   StepLayout Layout(const Scene& model, const State& x) const override;
 
+  /// Evaluate() for an assembly made at x by AssembleAt() (or the stepper's own assembly).
+  StepResiduals EvaluateAssembly(const Scene& model, const Params& params,
+                                 const StewartTrinkle::Assembly& a, const State& x,
+                                 const VectorXd& z) const;
+  /// The step's assembly at x for a given contact list (the frozen step model, step_model.h):
+  /// corner edges as given, DQC support disks exact.
+  StewartTrinkle::Assembly AssembleAt(const Scene& model, const State& x, const StepInput& u,
+                                      std::vector<Contact> contacts) const;
+  /// The contact detection this stepper uses (Assemble's, at the stepper's options).
+  const StewartTrinkle& assembler() const { return assembler_; }
+
   bool quadratic() const { return quadratic_; }
 
   /// The MCP of a step at x over y = z without q_ℓ+1 (exposed for tests and benchmarks).
@@ -78,6 +81,9 @@ class Quasistatic final : public Formulation {
   /// Solves the DLC step by the split LCP (warm-started from *warm if it has the MCP's size);
   /// *y receives the MCP unknowns.
   SolverReport SolveDlc(const McpProblem& mcp, const VectorXd* warm, VectorXd* y) const;
+  /// MakeMcp for a given assembly (EvaluateAssembly).
+  McpProblem MakeMcpFrom(const Scene& model, const State& x, StewartTrinkle::Assembly a,
+                         bool quadratic, StepLayout* layout) const;
 
   StepperOptions options_;
   McpSolver solver_;

@@ -12,47 +12,23 @@
 //   q_ℓ+1 = q_ℓ + h G(q_ℓ) ν_ℓ+1
 //
 // with p_ext = h (m g + F_applied + u) and p_vp = −h ω × (I ω) (spatial, body frame).
-// The mixed LCP with joints is solved by eliminating (ν, p_b) through the Schur complement
-// S = G_bᵀ M⁻¹ G_b, leaving a standard LCP in (p_n, p_f, σ) with matrix
-// A = [[G_nᵀWG_n, G_nᵀWG_f, 0], [G_fᵀWG_n, G_fᵀWG_f, E], [U, −Eᵀ, 0]],
-// W = M⁻¹ − M⁻¹G_b S⁻¹ G_bᵀ M⁻¹ (= M⁻¹ without joints).
-// Planar friction uses n_d = 2 (d = ±t, exact); spatial uses n_d equally spaced directions.
-// ∂ψ/∂t of a prescribed body uses its secant velocity over the step, (pose(t+h) − pose(t))/h,
-// so that the linearized end-of-step gap moves exactly with a translating floor or pusher, or,
-// with StepperOptions::prescribed_velocity = kExact, its exact velocity at t + h.
-// Quasi-rigid contact (docs/formulations.md §4): a pair with a compliant body replaces its normal
-// row by the compliance law's velocity form (compliance.h),
-//   0 ≤ p_n ⊥ G_nᵀ ν_ℓ+1 + ∂ψ_n/∂t + β ψ_n + γ p_n + ε ≥ 0   (Kelvin–Voigt, c = 0: β = 1/h,
-//   γ = 1/(h² k), ε = 0, i.e. ψ_n(q_ℓ+1) + p_n/(h k) ≥ 0 linearized), in both variants.
-//
-// Corner contacts (docs/formulations.md §7; ContactPoint::corner, from concave polygons): a vertex
-// at a convex corner of edges 1 and 2 is free iff max(ψ_1, ψ_2) ≥ 0. Linearized over the step
-// like the other normal rows, with ψ_i⁺/h = ψ_i/h + G_iᵀ ν_ℓ+1 + ∂ψ_i/∂t the end-of-step gap
-// over h, each corner k adds one unknown c_k (m/s) and the rows
-//   0 ≤ c_k ⊥ c_k − (ψ_1⁺ − ψ_2⁺)/h ≥ 0          so c_k = max(ψ_1⁺ − ψ_2⁺, 0)/h,
-//   0 ≤ p_n ⊥ ψ_2⁺/h + c_k ≥ 0                    (= max(ψ_1⁺, ψ_2⁺)/h)
-// (Anitescu–Potra too: a velocity-level corner row, max(ψ_1⁺, ψ_2⁺) ≥ ψ_2, would stop a vertex
-// whose larger gap shrinks to the smaller one's as it passes the corner — the snag again). The
-// impulse p_n and the friction impulses act along edge 2's normal and tangent, so
-// edge 2 must be the edge the vertex will be against: Assemble() takes as edge 2 the edge with
-// the larger predicted gap ψ_i + h (G_iᵀ ν_ℓ + ∂ψ_i/∂t) (first order: ν_ℓ → 0) — when the two
-// agree to a relative 1e-9 (the vertex reaches the corner point exactly at the end of the
-// step), the edge with the smaller |ψ_i|, the one the vertex slides along now — and stores it
-// as the contact's `point` (its column of G_n, G_f, ψ_n); edge 1 is G_1, ψ_1. c enters only its
-// own row and its contact's normal row; it carries no force. In the LCP the c_k are the last
-// unknowns, z = [p_n; p_f; σ; p_s; σ_s; c]; the c rows are −(G_1 − G_2)ᵀ W G_c in the (p_n, p_f,
-// p_s) columns and 1 on the diagonal, and c_k joins the friction-cone block of its contact. With
-// StepperOptions::nonconvex_corners = false the narrow phase's corners arrive as two ordinary
-// contacts instead (per-edge constraints).
-//
-// With options.formulation = kFirstOrder the same class steps the first-order model (see
-// first_order.h): M is replaced by h C (C the bodies' damping matrices), ν_ℓ by 0 and p_vp by 0;
-// everything else, including the corner rows, is unchanged.
-//
-// 2.5D support friction (docs/formulations.md §6, support.h): planar bodies with support points add
-// −G_s p_s to the dynamics and the rows 0 ≤ p_s ⊥ G_sᵀ ν_ℓ+1 + E_s σ_s ≥ 0,
-// 0 ≤ σ_s ⊥ h μ_s N − E_sᵀ p_s ≥ 0; the LCP unknowns become (p_n, p_f, σ, p_s, σ_s). Scenes
-// without supports build exactly the LCP above.
+// Planar friction uses n_d = 2 (d = ±t, exact); spatial n_d equally spaced directions.
+// ∂ψ/∂t of a prescribed body uses StepperOptions::prescribed_velocity (secant by default).
+// The step is solved as a standard LCP in z = [p_n; p_f; σ; p_s; σ_s; c] by the scene's LCP
+// solver after eliminating (ν, p_b) (joints through the Schur complement G_bᵀ M⁻¹ G_b);
+// State::warm_start holds the previous z. Assemble() also builds the following (NCP and the
+// quasistatic steppers reuse it; docs/formulations.md §13 says which rows they keep):
+// - quasi-rigid contact (docs/formulations.md §4): a compliant pair's normal row is the
+//   compliance law's velocity form (compliance.h), in both variants;
+// - corner contacts of concave polygons (docs/formulations.md §7): one unknown c_k (m/s) and
+//   one row per corner, position-level in both variants; StepperOptions::nonconvex_corners =
+//   false gives two per-edge contacts instead;
+// - 2.5D support friction (docs/formulations.md §6, support.h): −G_s p_s in the dynamics and
+//   the linearized disk rows; scenes without supports build exactly the LCP above;
+// - with options.formulation = kFirstOrder the first-order model (docs/formulations.md §8,
+//   first_order.h): M → h C, ν_ℓ → 0, p_vp → 0, everything else unchanged.
+// The LCP matrix, the corner and support rows and the edge choice at a corner are in
+// docs/formulations.md §1, §6, §7.
 #pragma once
 
 #include <Eigen/Cholesky>
@@ -99,6 +75,15 @@ class StewartTrinkle final : public Formulation {
     SupportRows support;  ///< 2.5D support friction, linearized (empty without supports)
   };
   Assembly Assemble(const Scene& model, const State& x, const StepInput& u) const;
+  /// Assemble() with the contact list given instead of found at x (the frozen step model,
+  /// step_model.h: contacts found once at x_ℓ, moved with their bodies). With
+  /// `select_corner_edges` false each corner contact keeps the edge order it arrives with
+  /// (Assemble()'s choice at the freeze), so the rows stay the same functions of x.
+  Assembly AssembleAt(const Scene& model, const State& x, const StepInput& u,
+                      std::vector<Contact> contacts, bool select_corner_edges) const;
+  /// Evaluate() for an assembly made at x (Evaluate = EvaluateAssembly(Assemble(x))).
+  StepResiduals EvaluateAssembly(const Scene& model, const Params& params, const Assembly& a,
+                                 const State& x, const VectorXd& z) const;
   /// The Schur-complement pieces of the joint elimination (empty without joints).
   struct JointElimination {
     MatrixXd MinvGb;          ///< M⁻¹ G_b
@@ -112,9 +97,8 @@ class StewartTrinkle final : public Formulation {
     /// and one block per body with support points (the rows (p_s, σ_s) of all its points).
     /// Patches of more than kMaxPatchContacts contacts (points) are split into consecutive
     /// chunks of at most that many, to bound the block solves' cost (Lemke, O(rows³)). A patch
-    /// solved as one block transmits a load through the stack within a sweep: on the 10-box
-    /// stack cold PGS converges in 585 sweeps with patch blocks, while per-contact blocks stall
-    /// at a residual of ~1e-5 after 1000 (pgs.h).
+    /// solved as one block transmits a load through a stack within a sweep (per-contact blocks
+    /// stall on stacks: bench/README.md, vinci_vs_siconos: PGS).
     kContactPatch,
     /// One friction-cone block per contact, (p_n, p_f,1..n_d, σ[, c]), and one per support
     /// point, (p_s, σ_s): the smallest blocks the σ rows (zero diagonal) allow. Kept for

@@ -85,10 +85,15 @@ struct Shape {
   /// Polyhedron only, filled by PrepareShape(): the hull's faces, and the indices of the points
   /// of `vertices` that are hull corners (points inside the hull or inside a hull face or edge
   /// are left out). While empty, CollideShapes/ComputeUnitMassProperties compute the hull on
-  /// every call (correct, but O(n⁴) and allocating). Re-run PrepareShape after editing
-  /// `vertices`.
+  /// every call (correct, but O(n log n) and allocating each time). Re-run PrepareShape after
+  /// editing `vertices`.
   std::vector<HullFace> faces;
   std::vector<int> hull_vertices;  ///< see `faces`
+  /// Concave polygon only: set by PrepareShape() once `vertices` passed the simple-polygon check
+  /// (O(n²)), which collision and mass properties then skip; they run it on every call while it
+  /// is false. Clear it (or re-run PrepareShape) after editing `vertices` other than by a
+  /// uniform scaling.
+  bool polygon_checked = false;
 };
 
 /// Precomputes derived collision data once per shape (the scene builder calls it): for a

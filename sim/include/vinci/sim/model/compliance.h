@@ -10,36 +10,24 @@
 //   kHuntCrossley f = k δ^{3/2} (1 + α δ̇)       k in N/m^{3/2}, α in s/m
 // with f ≥ 0 enforced by the complementarity (no adhesion).
 //
-// Discrete equations. The force acting over step ℓ → ℓ+1 is f = p_n/h, taken at the END of the
-// step (implicit in δ_ℓ+1 = −ψ_n(q_ℓ+1), δ̇_ℓ+1 = −ψ̇_ℓ+1). Nonlinear laws are linearized about the
-// start-of-step overlap δ_ℓ = max(−ψ_ℓ, 0):
-//   f ≈ f_0 + k_e δ_ℓ+1 + c_e δ̇_ℓ+1,
-//   Kelvin–Voigt: k_e = k, c_e = c, f_0 = 0;
-//   Hertz (tangent at δ_r = δ_ℓ if δ_ℓ ≥ δ_min): k_e = (3/2) k √δ_r, f_0 = −(1/2) k δ_r^{3/2};
-//     (secant through 0 if δ_ℓ < δ_min, δ_r = δ_min): k_e = k √δ_min, f_0 = 0;
-//   Hunt–Crossley: Hertz's k_e, f_0 and c_e = α k δ_ℓ^{3/2};
-// so the law is exact at the linearization point (a resting contact sits exactly at the law's
-// static overlap). Damping acts only on contacts that overlap at the start of the step
-// (ψ_ℓ < 0): a dashpot must not pull or push across a gap.
-// With ψ̇_ℓ+1 = (ψ_ℓ+1 − ψ_ℓ)/h this gives the POSITION form (what a geometrically implicit
-// stepper imposes with ψ_ℓ+1 = ψ_n(q_ℓ+1) exact):
-//   0 ≤ p_n ⊥ ψ_n(q_ℓ+1) + a p_n + b ψ_ℓ + e ≥ 0,
-//   a = 1/(h k_e + c_e),  b = −c_e/(h k_e + c_e),  e = −h f_0/(h k_e + c_e)
-// (for Kelvin–Voigt without damping: ψ_n(q_ℓ+1) + p_n/(h k) ≥ 0, docs/formulations.md §4), and with
-// the linearization ψ_ℓ+1 = ψ_ℓ + h (G_nᵀ ν_ℓ+1 + ∂ψ_n/∂t), divided by h, the VELOCITY form (what
-// Stewart–Trinkle and the NCP stepper impose):
-//   0 ≤ p_n ⊥ G_nᵀ ν_ℓ+1 + ∂ψ_n/∂t + β ψ_ℓ + γ p_n + ε ≥ 0,
-//   β = k_e/(h k_e + c_e)  (replaces the rigid 1/h),  γ = a/h  (the diagonal added to the normal
-//   row of the LCP/MCP matrix),  ε = e/h  (added to the constant).
-// Implicit in δ, the undamped spring is the backward-Euler oscillator: it loses a fraction
-// ≈ (π/2) h √(k/m) of the rebound speed per impact, so resolve the contact with h √(k/m) ≪ 1.
+// Discrete equations (docs/formulations.md §4 gives the linearization in full). The force over
+// step ℓ → ℓ+1 is f = p_n/h at the END of the step (δ_ℓ+1 = −ψ_n(q_ℓ+1)); nonlinear laws are
+// linearized about the start-of-step overlap δ_ℓ, f ≈ f_0 + k_e δ_ℓ+1 + c_e δ̇_ℓ+1, exact at the
+// linearization point (a resting contact sits exactly at the law's static overlap). Damping acts
+// only on contacts that overlap at the start of the step. This gives the POSITION form (what a
+// geometrically implicit stepper imposes, ψ_n(q_ℓ+1) exact)
+//   0 ≤ p_n ⊥ ψ_n(q_ℓ+1) + a p_n + b ψ_ℓ + e ≥ 0
+// (for Kelvin–Voigt without damping: ψ_n(q_ℓ+1) + p_n/(h k) ≥ 0) and, with the linearization
+// ψ_ℓ+1 = ψ_ℓ + h (G_nᵀ ν_ℓ+1 + ∂ψ_n/∂t) divided by h, the VELOCITY form (Stewart–Trinkle, NCP)
+//   0 ≤ p_n ⊥ G_nᵀ ν_ℓ+1 + ∂ψ_n/∂t + β ψ_ℓ + γ p_n + ε ≥ 0
+// with the coefficients of CompliantNormalRow. The undamped spring is the backward-Euler
+// oscillator: it loses ≈ (π/2) h √(k/m) of the rebound speed per impact, so resolve the contact
+// with h √(k/m) ≪ 1.
 //
-// Pairs: two compliant layers act as springs in series. For the exponent n (1 or 3/2) the
-// deflections add, δ = δ_A + δ_B, at a common force, so k = (k_A^{−1/n} + k_B^{−1/n})^{−n};
-// body i takes the share w_i = k_i^{−1/n} / Σ_j k_j^{−1/n} of the deflection, and damping is
-// combined by matching the dissipated power, c = w_A² c_A + w_B² c_B (α likewise). A rigid body
-// takes no deflection: rigid + compliant = the compliant one; rigid + rigid = rigid. Two
-// compliant bodies with different laws are rejected (CheckCompliancePair).
+// Pairs: two compliant layers act as springs in series (CombineCompliance: stiffnesses combined
+// for the law's exponent, damping by matching the dissipated power); rigid + compliant = the
+// compliant one; rigid + rigid = rigid; two compliant bodies with different laws are rejected
+// (CheckCompliancePair).
 #pragma once
 
 #include <string>
@@ -86,7 +74,7 @@ double NormalForce(const ContactCompliance& c, double overlap, double overlap_ra
 /// Hunt–Crossley). Rigid: 0.
 double StaticOverlap(const ContactCompliance& c, double force);
 
-/// The linearized law of one contact over one step (see the file comment for the equations).
+/// The linearized law of one contact over one step (the file comment; docs/formulations.md §4).
 struct CompliantNormalRow {
   bool compliant = false;     ///< false: rigid pair, all terms below are unused (zero)
   double stiffness = 0.0;     ///< k_e (N/m)

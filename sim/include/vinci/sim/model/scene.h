@@ -4,12 +4,15 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <string_view>
+#include <utility>
 #include <vector>
 
 #include "vinci/sim/geometry/shape.h"
 #include "vinci/sim/model/compliance.h"
 #include "vinci/sim/model/motion.h"
 #include "vinci/sim/model/params.h"
+#include "vinci/sim/solvers/solver_options.h"
 #include "vinci/sim/types.h"
 
 namespace vinci::sim {
@@ -115,7 +118,8 @@ enum class PrescribedVelocity {
   kExact,   ///< the prescription's exact velocity at t + h (the end of the step, like ν_ℓ+1)
 };
 
-/// Stepper options stored with the scene.
+/// Stepper options stored with the scene: its file's `stepper:` section. A Simulator runs with
+/// SimulatorOptions (simulator/options.h), which default to these.
 struct StepperOptions {
   FormulationType formulation = FormulationType::kStewartTrinkle;
   double dt = 1e-3;                 ///< step h (s)
@@ -124,7 +128,10 @@ struct StepperOptions {
   double envelope = 1e-3;           ///< ε: contacts with ψ_n ≤ ε enter the step (m)
   bool joint_stabilization = true;  ///< include ψ_b/h in the joint rows
   std::string solver = "lemke";     ///< LCP solver by name
-  double max_penetration = 0.05;    ///< a step with ψ_n below −this fails (m)
+  /// Typed options of the solvers (the named LCP solver's entry, and `mcp` for the NCP
+  /// formulations); not in the scene file: set them through SimulatorOptions (options.h).
+  SolverOptions solver_options;
+  double max_penetration = 0.05;  ///< a step with ψ_n below −this fails (m)
   PrescribedVelocity prescribed_velocity = PrescribedVelocity::kSecant;  ///< in ∂ψ/∂t
   /// docs/formulations.md §7: a vertex at a convex corner of a concave polygon is one corner
   /// contact (free iff max(ψ_1, ψ_2) ≥ 0). false: two per-edge contacts (ψ_1 ≥ 0 and ψ_2 ≥ 0),
@@ -136,6 +143,25 @@ struct StepperOptions {
 /// solvers (LcpSolverNames) for the LCP formulations, which NCP and the quasistatic steppers also
 /// use for their start; "semismooth-newton" (and the default "lemke", unused) for GI.
 std::vector<std::string> SolverNames(FormulationType formulation);
+
+/// The scene-file names of the formulations (`stepper.formulation`, `vinci simulate
+/// --formulation`), one entry per FormulationType: stewart-trinkle, anitescu-potra, ncp,
+/// first-order, quasistatic-dlc, quasistatic-dqc, dynamic-dqc, gi. The one table that the scene
+/// loader, ParseFormulation and the CLI read.
+const std::vector<std::pair<std::string, FormulationType>>& FormulationTable();
+/// The names of FormulationTable(), in its order.
+std::vector<std::string> FormulationNames();
+/// The scene-file name of a formulation.
+std::string_view ToString(FormulationType formulation);
+/// The formulation named `name`. Throws std::invalid_argument naming the accepted names.
+FormulationType ParseFormulation(const std::string& name);
+/// The components of a pose as pose parameters see them (params.h): planar (x, y, θ, 0, 0, 0),
+/// spatial (x, y, z, roll, pitch, yaw) with R = Rz(yaw) Ry(pitch) Rx(roll), pitch in
+/// [−π/2, π/2].
+Eigen::Matrix<double, 6, 1> PoseComponents(Dim dim, const Isometry3d& X);
+/// The pose with these components, built as the scene file builds `position` + `angle`
+/// (planar) or `position` + `rpy` (spatial), bit for bit.
+Isometry3d PoseFromComponents(Dim dim, const Eigen::Matrix<double, 6, 1>& components);
 
 /// Layout of one body in the generalized coordinate and velocity vectors.
 struct BodyIndex {
@@ -177,11 +203,28 @@ class Scene {
   const ParamTable& param_table() const { return params_; }
   /// The scene's own values of every parameter.
   Params DefaultParams() const { return params_.Defaults(); }
-  /// A copy of this scene with `params` written into the fields they name.
-  /// Throws std::invalid_argument if params has the wrong size or a value is out of range.
+  /// The value of a parameter of the table in this scene (for a scene returned by ApplyParams,
+  /// the applied value; `scale` is relative to this scene's vertices, so always 1).
+  double ParamValue(const ParamInfo& info) const;
+  /// A copy of this scene with `params` written into the fields they name, and what Finalize
+  /// derives from them recomputed the way Finalize computes it: the inertia of a dynamic body
+  /// whose inertia comes from its shapes (inertia_from_shapes) after a size, shape-pose, scale or
+  /// mass change (a given inertia is scaled with the mass), a polyhedron's hull after a scale.
+  /// So the result equals, bit for bit, the scene loaded from a file with those values written
+  /// in it (a pose's rotation as `angle` / `rpy`; scaled vertices). Entries equal to this scene's
+  /// values change nothing (an unchanged rotation keeps its bits). Support load fractions
+  /// depend only on the support points and need no update; joint frames are body-fixed, so a
+  /// pose parameter moves a body's joint frames with it. Cost: one scene copy plus the
+  /// recomputation for changed bodies (Simulator::Resolve caches the result per workspace).
+  /// Throws std::invalid_argument if params has the wrong size, a value is out of range, or the
+  /// changed scene is invalid (e.g. a shape pose that moves a body's centroid off its origin, a
+  /// tilt without a frequency).
   Scene ApplyParams(const Params& params) const;
 
  private:
+  void BuildParamTable();
+  const Isometry3d& PoseOf(const ParamInfo& info) const;  // kPose: X_WB0 or X_BS
+
   int nq_ = 0, nv_ = 0;
   std::vector<BodyIndex> index_;
   std::vector<int> dynamic_;

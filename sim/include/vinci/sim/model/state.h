@@ -16,7 +16,9 @@ struct State {
   double t = 0.0;       ///< s
   VectorXd q;           ///< positions of the dynamic bodies (Scene::index(b).q)
   VectorXd v;           ///< velocities of the dynamic bodies (Scene::index(b).v)
-  VectorXd warm_start;  ///< last step's complementarity solution (may be empty)
+  VectorXd warm_start;  ///< last step's complementarity solution (may be empty); what it holds
+                        ///< per formulation and how rollouts use it: WarmStartPolicy
+                        ///< (simulator/options.h)
 };
 
 /// Per-step input: generalized forces added to the scene's applied forces, and motions that
@@ -52,11 +54,15 @@ struct StepInfo {
 
 /// A rollout: states[0] is x0, states[k+1] follows from states[k] by step k.
 /// A failed step stops the rollout: steps.back() records it and states has one entry fewer.
+/// With RolloutOptions::record_every = r > 1, states[i] is the state after i·r steps, except
+/// that the final state (after the last successful step) is always the last entry.
 struct Trajectory {
   std::vector<State> states;
   std::vector<StepInfo> steps;
   bool ok = true;
   std::string failure;
+  bool stopped = false;  ///< ended by RolloutOptions::stop (ok stays true)
+  int record_every = 1;  ///< RolloutOptions::record_every
 };
 
 }  // namespace vinci::sim

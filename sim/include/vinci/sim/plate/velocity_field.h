@@ -19,6 +19,11 @@
 
 namespace vinci::sim {
 
+/// Limits of a field run (docs/scene-format.md, "Limits"): grid points nx·ny, and simulated
+/// steps per point (steps per cycle × cycles), both enforced by FieldSpec::Validate.
+constexpr long long kMaxFieldPoints = 1000000;
+constexpr long long kMaxFieldStepsPerPoint = 1000000000;
+
 /// What to compute (the scene file's `field:` section, docs/field.md).
 struct FieldSpec {
   int plate = -1;                   ///< body index of the prescribed plate
@@ -33,9 +38,12 @@ struct FieldSpec {
   /// run stops there.
   double plate_x_min = -1e300, plate_x_max = 1e300;
   double plate_y_min = -1e300, plate_y_max = 1e300;
-  /// Throws std::invalid_argument naming the field if the spec does not fit `scene`.
+  /// Throws std::invalid_argument naming the field if the spec does not fit `scene`, or if it
+  /// exceeds the limits above with the scene's time step (fewer than 1 or more than
+  /// kMaxFieldStepsPerPoint steps per cycle, nx·ny > kMaxFieldPoints, ...).
   void Validate(const Scene& scene) const;
-  /// Steps per cycle, round(T/h) (≥ 1).
+  /// Steps per cycle, round(T/h); throws std::invalid_argument if that is < 1 or above
+  /// kMaxFieldStepsPerPoint (T/h overflowing an int used to give 1 silently).
   int StepsPerCycle(double h) const;
 };
 

@@ -7,6 +7,7 @@
 #include "vinci/sim/formulations/formulation.h"
 #include "vinci/sim/model/scene.h"
 #include "vinci/sim/model/state.h"
+#include "vinci/sim/simulator/options.h"
 
 namespace vinci::sim {
 
@@ -18,8 +19,14 @@ class Simulator {
   /// Throws std::invalid_argument if the scene uses a feature the formulation does not
   /// implement (CheckSceneSupported, capabilities.h).
   explicit Simulator(Scene scene);
+  /// Runs `scene` with `options` instead of its own (SimulatorOptions::FromScene): the
+  /// simulator's copy of the scene holds them (scene().options). Throws std::invalid_argument
+  /// for invalid options (SimulatorOptions::Validate) or scene.
+  Simulator(Scene scene, const SimulatorOptions& options);
 
   const Scene& scene() const { return *scene_; }
+  /// The options this simulator runs with.
+  SimulatorOptions options() const { return SimulatorOptions(scene_->options); }
   const Formulation& formulation() const { return *formulation_; }
   Params DefaultParams() const { return scene_->DefaultParams(); }
 
@@ -35,6 +42,10 @@ class Simulator {
                      const std::vector<StepInput>& inputs) const;
   /// Rollout with no inputs for num_steps steps.
   Trajectory Rollout(const Params& params, const State& x0, int num_steps) const;
+  /// Rollout with an observer, a stop condition, sparse recording and a warm-start policy
+  /// (RolloutOptions). With default options identical to Rollout(params, x0, inputs).
+  Trajectory Rollout(const Params& params, const State& x0, const std::vector<StepInput>& inputs,
+                     const RolloutOptions& options) const;
 
   /// The scene with params applied, cached in the workspace.
   const Scene& Resolve(const Params& params, Workspace* ws) const;

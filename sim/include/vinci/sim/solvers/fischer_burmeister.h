@@ -58,23 +58,13 @@ struct FischerBurmeisterOptions {
 ///   At most 30 outer steps and max_iterations Newton steps in all. The best iterate on the
 ///   original problem is kept. Reported: restarts = 1; the message says "proximal-point
 ///   fallback" with the outer and Newton steps and the range of c; `iterations` includes the
-///   subproblems' Newton steps. Needed on the tilted box pile (examples/scenes/
-///   box_pile_tilted.yaml; tests/data/lcp/box_pile_tilted_step233.lcp, n = 234: six contacts
-///   of one box face on another, rank 3, sliding at 0.26 m/s; M_nn has rank 19 of 39), where
-///   Newton from z = 0 stalls at residual 1.5e-6 after 100 steps (62 least-squares
-///   directions) and the proximal loop reaches 2e-13 in 4 outer steps (27 Newton steps). A
-///   fixed c stalls for several outer steps at 6e-9 (z moves by r/c per step along a
-///   direction that changes no w), which the decrease of c cures. It also solves the one
-///   random contact LCP of 300 (RandomContactLcpsAllSolve) on which Newton stalls.
+///   subproblems' Newton steps. (The LCPs it is needed on: bench/README.md, vinci_vs_siconos: "The
+///   tilted pile".)
 /// - Lemke fallback (lemke_fallback, on by default): if Newton and the proximal fallback fail,
 ///   LemkeSolver is run warm-started at the best iterate, and Newton (without fallbacks) from
 ///   Lemke's answer; the result is kSolved if it passes the tolerance above. The report then
 ///   has restarts = 2 (1 with proximal_fallback off), the message names both fallbacks, and
-///   `iterations` includes Lemke's pivots and the polishing Newton steps. Needed on a
-///   cold-started step of the tilted pile (box_pile_tilted_cold_step232.lcp), where the
-///   proximal loop stalls at 2e-8 (its subproblems stall too). Without either fallback Newton
-///   failed on ~1% of random contact LCPs with 20–240 unknowns (iteration limit at residuals
-///   1e-4…2e-2, Newton stalling on degenerate friction rows).
+///   `iterations` includes Lemke's pivots and the polishing Newton steps.
 /// - Invalid options throw std::invalid_argument, as does a null `z`.
 class FischerBurmeisterSolver final : public LcpSolver {
  public:

@@ -32,11 +32,8 @@ struct LemkeOptions {
 ///     τ(z) = residual_tolerance · max(b, min(‖M‖∞ ‖z‖∞, 1000·b)),   b = max(1, ‖q‖∞),
 ///   with ‖M‖∞ = max_i Σ_j |M_ij|, reported as SolverReport::tolerance. The ‖M‖∞‖z‖∞ term is the
 ///   size of the terms whose cancellation gives w = Mz + q, so the test is invariant to scaling z
-///   (units of impulse) and stays meaningful when ‖z‖ is large next to ‖q‖. An absolute test
-///   (max(1, ‖q‖∞) only) rejected a cold solve of the 10-box stack at step 1410 with
-///   residual 1.4e-9 against ‖M‖∞‖z‖∞ = 6.1 (a relative accuracy of 2e-10, all that the degenerate
-///   basis allows). The warm-start check, the secondary-ray acceptance and the choice among retries
-///   all use this τ. The cap 1000·b keeps a huge z from passing with a large residual (a
+///   (units of impulse). The warm-start check, the secondary-ray acceptance and the choice among
+///   retries all use this τ. The cap 1000·b keeps a huge z from passing with a large residual (a
 ///   regularized retry of an infeasible LCP returns ‖z‖ ~ ‖q‖/ε).
 /// - Polish: a run that terminates (z0 leaves) with a residual above τ, from roundoff in a
 ///   degenerate basis, is handed to FischerBurmeisterSolver (with its proximal-point fallback,
@@ -48,26 +45,9 @@ struct LemkeOptions {
 ///   fail with a secondary ray or a numerical failure, FischerBurmeisterSolver (without its
 ///   own Lemke fallback) is run from z = 0; a result passing τ is returned as kSolved with
 ///   restarts = 1 and a message naming the fallback (and FB's proximal-point fallback if it
-///   ran). Needed on a box pile (tests/data/lcp/box_pile_tilted_step216.lcp, n = 246), where
-///   every Lemke attempt ends on a spurious secondary ray although the LCP is solvable. An
-///   infeasible LCP still fails.
-/// - The tilted pile (examples/scenes/box_pile_tilted.yaml; tests/data/lcp/
-///   box_pile_tilted_step233.lcp and box_pile_tilted_cold_step232.lcp, n = 234). Diagnosis:
-///   the LCP is solvable (Stewart–Trinkle, n_d = 4: copositive-plus and feasible; FB with the
-///   proximal loop reaches 2e-13) but extremely degenerate: a box lies on the top box with six
-///   contact points (the clipped face polygon; a correct contact set, not duplicates) whose
-///   normal rows have rank 3, M_nn has rank 19 of 39, cond(M) ≈ 3e18, and the box slides at
-///   0.26 m/s. Lemke pivots on entries that are roundoff (the scaled run "terminates" after
-///   12 pivots in a basis with residual 0.08, the unscaled one ends on a secondary ray, the
-///   regularized retry terminates at 0.08 again). Recomputing B⁻¹ from an LU factorization
-///   every pivot (refactor_interval = 1) happens to solve step 233 (207 pivots, 2e-14) but
-///   fails on step 216 with a singular basis, and refactor_interval = 3 fails on 233: the
-///   outcome is decided by roundoff in the tie-breaking, not by drift alone, so it is no fix.
-///   Siconos 4.4's Lemke solves step 233 to 9.5e-8 (378 pivots; above τ = 5.7e-9) and fails
-///   on step 216 (residual 75); its FB Newton stops at 2.8e-6 / 5.4e-3. What solves both here
-///   is the polish: FB Newton from the terminated iterate stalls (8e-7 after 100 steps), its
-///   proximal-point fallback (fischer_burmeister.h) passes τ (step 233: 4.8e-10 after 4
-///   outer / 32 Newton steps; cold step 232: 1.9e-10 after 6 / 53), reported in the message.
+///   ran). An infeasible LCP still fails. Why the polish and the fallback exist (degenerate
+///   box-pile LCPs on which every Lemke attempt fails): bench/README.md, vinci_vs_siconos: "The
+///   tilted pile".
 /// - Scaling is symmetric, D M D with z = D z̃ and D a power-of-two diagonal (so the scaling
 ///   is exact), because a symmetric scaling keeps M copositive-plus / PSD and hence keeps
 ///   Lemke's termination guarantee.

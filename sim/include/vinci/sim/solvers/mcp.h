@@ -93,8 +93,8 @@ class McpSolver {
   ///   local error bound), LDLT (dense) or SimplicialLDLT (sparse), with the same line search;
   ///   only if that fails the projected gradient. It matters near nearly non-isolated
   ///   solutions (singular values of H far below ‖Φ‖/‖d‖: the Newton step is rejected by the
-  ///   descent test and the gradient crawls), e.g. the redundant corner contacts of ncp.h;
-  ///   where Newton works the iterates are unchanged.
+  ///   descent test and the gradient crawls), e.g. the redundant corner contacts of a box in the
+  ///   NCP stepper (bench/README.md); where Newton works the iterates are unchanged.
   /// - Stopping test: McpResidual ≤ tolerance. A starting point that passes takes 0
   ///   iterations. `iterations` counts Newton/gradient iterations over all restarts and is
   ///   bounded by max_iterations in total.

@@ -11,34 +11,18 @@ struct PgsOptions {
   double relaxation = 1.0;  ///< SOR factor ω ∈ (0, 2)
   /// Every this many sweeps (0: never), polish the iterate on its active set (subspace
   /// minimization: the minimum-norm Newton correction of the equations the active set implies,
-  /// kept only if the residual drops; see the contract below). Off by default: on single
-  /// stack LCPs it cuts the sweeps (10-box stack, cold: 585 → 25 with 25), but the stack
-  /// stepped with it fails earlier (t = 0.185 s instead of 0.754 s, see below).
+  /// kept only if the residual drops; see the contract below). Off by default (measurements:
+  /// bench/README.md, vinci_vs_siconos: PGS).
   int polish_interval = 0;
 };
 
 /// Block projected Gauss–Seidel: sweeps over LcpProblem::blocks (scalar PGS when empty),
 /// solving each block's small LCP exactly (given the other variables) — so blocks with zero
 /// diagonal, like the σ rows of the Stewart–Trinkle LCP, are handled. Approximate: reports
-/// kMaxIterations when the tolerance is not reached.
-///
-/// Blocks on contact stacks: PGS is approximate on ill-conditioned contact LCPs. On the 10-box
-/// stack (n = 240, contact-matrix eigenvalues 1e-3…94) with one block per contact, 1000
-/// sweeps started cold reach a residual of ~1e-5 only (ω = 0.7…1.9 and the sweep order do not
-/// change that materially), against the 1e-9 tolerance. Blocks that hold a whole contact patch
-/// (every contact between the same two bodies, solved together by Lemke) converge on the same
-/// LCP in 585 sweeps (ω = 1) or 319 (ω = 1.3). StewartTrinkle::BuildLcp therefore emits one
-/// block per contact patch (StewartTrinkle::LcpBlocking; tests/sim/pgs_test.cc, BoxStack*).
-/// Stepping the stack with `solver: pgs`, the cold first step takes 585 sweeps and the
-/// warm-started steps after it 0–45 (tests/sim/pgs_stepping_test.cc: 500 steps). Not solved:
-/// after ~700 steps the stack has drifted by ~1e-11 m (the solves are exact only to the
-/// tolerance, Lemke's to ~1e-16) into a rocking state — one corner of the lower patches near
-/// lift-off, normal velocity errors ±1e-9 m/s — on which PGS crawls (1250–1800 sweeps), and the
-/// step at t = 0.754 s fails with kMaxIterations at a residual of 1.05e-9 (tolerance 1e-9).
-/// Neither a 5× looser tolerance nor polish_interval fixes that (they fail at 0.786 s and
-/// 0.185 s); a tighter one only delays it (1e-10: 0.848 s, 1e-11: 0.897 s, then a block
-/// Lemke fails at the tighter block tolerance). The box pile (box_pile.yaml, 1 s) steps with
-/// ≤ 119 sweeps per step.
+/// kMaxIterations when the tolerance is not reached. PGS is approximate on ill-conditioned
+/// contact LCPs: give it the contact-patch blocks of StewartTrinkle::BuildLcp (per-contact blocks
+/// stall on stacks; measurements, and where stepping a stack with `solver: pgs` still fails:
+/// bench/README.md, vinci_vs_siconos: PGS).
 ///
 /// Details of the contract:
 /// - Block B is solved for x given the rest, M_BB x + r_B ⊥ x ≥ 0 with r_B = q_B + M_B,rest
@@ -52,16 +36,12 @@ struct PgsOptions {
 ///   refined on its active set A = {i : x_i > w_i}: x = 0 off A plus the minimum-norm correction
 ///   of M_AA x_A = −r_A (complete orthogonal decomposition, rank-revealing), projected onto
 ///   x ≥ 0, at most 3 times, each kept only if the block residual drops. The refined block is
-///   accepted if its residual is ≤ min(1e-9, tolerance) · max(1, ‖r_B‖∞). Without the
-///   refinement the stack's block errors sat at the global tolerance: the warm-started solve
-///   before step 722 of the stack took 1764 sweeps, with it 1.
+///   accepted if its residual is ≤ min(1e-9, tolerance) · max(1, ‖r_B‖∞).
 /// - Fallback to parts: if a block still fails and LcpProblem::block_parts gives it parts
 ///   (BuildLcp: its contacts), the block is solved part by part (one Gauss–Seidel pass over
 ///   them, each part a block solve as above) for the rest of the solve; `restarts` counts the
-///   blocks that fell back. Needed on a 6-contact box–box patch of 36 rows on which Lemke
-///   ends at residual 1.3 (tests/sim/pgs_test.cc, FailedPatchBlockFallsBackToItsContacts). A
-///   block without parts, or a part that fails, stops the solve with kNumericalFailure naming
-///   the block.
+///   blocks that fell back. A block without parts, or a part that fails, stops the solve with
+///   kNumericalFailure naming the block.
 /// - Polish (polish_interval > 0): the same refinement on the whole LCP after every
 ///   polish_interval-th sweep (an O(n³) decomposition of the active rows), kept only if the
 ///   residual drops.

@@ -1,0 +1,428 @@
+#include "design_command.h"
+
+#include <unistd.h>
+
+#include <cerrno>
+#include <charconv>
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "vinci/design/best_scene.h"
+#include "vinci/design/optimize.h"
+#include "vinci/design/spec.h"
+
+namespace vinci::cli {
+namespace {
+
+namespace fs = std::filesystem;
+using design::Evaluation;
+
+constexpr double kTtyRedrawS = 0.2;
+
+volatile std::sig_atomic_t g_interrupted = 0;
+
+extern "C" void OnDesignInterrupt(int signal) {
+  g_interrupted = signal;
+  std::signal(signal, SIG_DFL);  // a second signal terminates
+}
+
+class InterruptGuard {
+ public:
+  InterruptGuard() {
+    g_interrupted = 0;
+    old_int_ = Install(SIGINT);
+    old_term_ = Install(SIGTERM);
+  }
+  ~InterruptGuard() {
+    std::signal(SIGINT, old_int_);
+    std::signal(SIGTERM, old_term_);
+  }
+  InterruptGuard(const InterruptGuard&) = delete;
+  InterruptGuard& operator=(const InterruptGuard&) = delete;
+
+ private:
+  static void (*Install(int signal))(int) {
+    void (*old)(int) = std::signal(signal, OnDesignInterrupt);
+    if (old == SIG_IGN) std::signal(signal, SIG_IGN);
+    return old;
+  }
+  void (*old_int_)(int) = SIG_DFL;
+  void (*old_term_)(int) = SIG_DFL;
+};
+
+// Shortest text that reads back as exactly v.
+std::string Num(double v) {
+  char buf[32];
+  const auto res = std::to_chars(buf, buf + sizeof(buf), v);
+  return std::string(buf, res.ptr);
+}
+
+std::string JsonString(const std::string& s) {
+  std::string o = "\"";
+  for (char c : s) {
+    if (c == '"' || c == '\\') {
+      o += '\\';
+      o += c;
+    } else if (static_cast<unsigned char>(c) < 0x20) {
+      char buf[8];
+      std::snprintf(buf, sizeof buf, "\\u%04x", c);
+      o += buf;
+    } else {
+      o += c;
+    }
+  }
+  return o + "\"";
+}
+
+std::string Duration(double s) {
+  std::ostringstream o;
+  if (s < 60)
+    o << std::fixed << std::setprecision(0) << s << " s";
+  else
+    o << static_cast<int>(s / 60) << " min " << static_cast<int>(std::fmod(s, 60.0)) << " s";
+  return o.str();
+}
+
+// history.csv: one row per evaluation; x with full precision so that --resume matches exactly.
+std::string HistoryHeader(const design::DesignSpec& spec) {
+  std::string h = "index,phase,stream,samples";
+  for (const design::DesignParameter& p : spec.parameters) h += "," + p.name;
+  return h + ",objective,loss,successes,lower,upper,failures,time_s";
+}
+
+std::string HistoryRow(const design::HistoryEntry& e) {
+  std::string r = std::to_string(e.index) + "," + e.phase + "," + std::to_string(e.eval.stream) +
+                  "," + std::to_string(e.eval.samples);
+  for (Eigen::Index k = 0; k < e.eval.x.size(); ++k) r += "," + Num(e.eval.x[k]);
+  r += "," + Num(e.eval.objective) + "," + Num(e.eval.loss) + "," +
+       std::to_string(e.eval.successes) + "," + Num(e.eval.lower) + "," + Num(e.eval.upper) + "," +
+       std::to_string(e.eval.failures) + "," + Num(e.eval.time_s);
+  return r;
+}
+
+std::vector<std::string> SplitCsv(const std::string& line) {
+  std::vector<std::string> f;
+  std::string cur;
+  for (char c : line) {
+    if (c == ',') {
+      f.push_back(cur);
+      cur.clear();
+    } else if (c != '\r') {
+      cur += c;
+    }
+  }
+  f.push_back(cur);
+  return f;
+}
+
+double ParseDouble(const std::string& s, const std::string& where) {
+  double v = 0.0;
+  const auto res = std::from_chars(s.data(), s.data() + s.size(), v);
+  if (res.ec != std::errc() || res.ptr != s.data() + s.size())
+    throw std::invalid_argument(where + ": expected a number, got '" + s + "'");
+  return v;
+}
+
+long long ParseInt(const std::string& s, const std::string& where) {
+  long long v = 0;
+  const auto res = std::from_chars(s.data(), s.data() + s.size(), v);
+  if (res.ec != std::errc() || res.ptr != s.data() + s.size())
+    throw std::invalid_argument(where + ": expected an integer, got '" + s + "'");
+  return v;
+}
+
+unsigned long long ParseUnsigned(const std::string& s, const std::string& where) {
+  unsigned long long v = 0;
+  const auto res = std::from_chars(s.data(), s.data() + s.size(), v);
+  if (res.ec != std::errc() || res.ptr != s.data() + s.size())
+    throw std::invalid_argument(where + ": expected an integer, got '" + s + "'");
+  return v;
+}
+
+// Reads a previous history; a truncated last line (a crash mid-write) is dropped.
+std::vector<Evaluation> ReadHistory(const std::string& path, const design::DesignSpec& spec) {
+  std::ifstream in(path);
+  if (!in) throw std::invalid_argument("--resume: cannot open '" + path + "'");
+  std::string line;
+  const std::string header = HistoryHeader(spec);
+  if (!std::getline(in, line) || line != header)
+    throw std::invalid_argument(path + ":1: expected the header '" + header +
+                                "' (a history of this spec), got '" + line + "'");
+  const std::size_t n = spec.parameters.size();
+  std::vector<Evaluation> rows;
+  std::vector<std::string> lines;
+  while (std::getline(in, line)) lines.push_back(line);
+  const bool complete_last = [&] {
+    in.clear();
+    in.seekg(-1, std::ios::end);
+    char c = 0;
+    return in.get(c) && c == '\n';
+  }();
+  for (std::size_t i = 0; i < lines.size(); ++i) {
+    const std::string where = path + ":" + std::to_string(i + 2);
+    const std::vector<std::string> f = SplitCsv(lines[i]);
+    if (f.size() != 4 + n + 7) {
+      if (i + 1 == lines.size() && !complete_last) break;  // cut off by an interruption
+      throw std::invalid_argument(where + ": expected " + std::to_string(4 + n + 7) +
+                                  " fields, got " + std::to_string(f.size()));
+    }
+    Evaluation e;
+    e.stream = ParseUnsigned(f[2], where);
+    e.samples = static_cast<int>(ParseInt(f[3], where));
+    e.x.resize(static_cast<Eigen::Index>(n));
+    for (std::size_t k = 0; k < n; ++k) e.x[k] = ParseDouble(f[4 + k], where);
+    e.objective = ParseDouble(f[4 + n], where);
+    e.loss = ParseDouble(f[5 + n], where);
+    e.successes = static_cast<int>(ParseInt(f[6 + n], where));
+    e.lower = ParseDouble(f[7 + n], where);
+    e.upper = ParseDouble(f[8 + n], where);
+    e.failures = static_cast<int>(ParseInt(f[9 + n], where));
+    e.time_s = ParseDouble(f[10 + n], where);
+    rows.push_back(e);
+  }
+  return rows;
+}
+
+std::string EvaluationJson(const design::DesignSpec& spec, const Evaluation& e,
+                           const std::string& indent) {
+  std::ostringstream o;
+  o << "{\"samples\": " << e.samples << ", \"objective\": " << Num(e.objective);
+  if (spec.objective.type != design::ObjectiveType::kDistance)
+    o << ", \"success_rate\": " << Num(static_cast<double>(e.successes) / std::max(1, e.samples))
+      << ", \"interval\": [" << Num(e.lower) << ", " << Num(e.upper) << "]";
+  o << ", \"failed_samples\": " << e.failures << "}";
+  (void)indent;
+  return o.str();
+}
+
+std::string DesignJson(const design::DesignSpec& spec, const design::VectorXd& x) {
+  std::string s = "{";
+  for (std::size_t k = 0; k < spec.parameters.size(); ++k)
+    s += (k ? ", " : "") + JsonString(spec.parameters[k].name) + ": " + Num(x[k]);
+  return s + "}";
+}
+
+void WriteAtomically(const std::string& path, const std::string& text) {
+  const std::string tmp = path + ".partial";
+  {
+    std::ofstream out(tmp);
+    out << text;
+    out.close();
+    if (!out) throw std::invalid_argument("--out: cannot write '" + tmp + "'");
+  }
+  if (std::rename(tmp.c_str(), path.c_str()) != 0)
+    throw std::invalid_argument("--out: cannot rename '" + tmp + "' to '" + path + "'");
+}
+
+}  // namespace
+
+ExitCode RunDesignCommand(const DesignOptions& o) {
+  if (o.threads < 1) throw std::invalid_argument("--threads: expected an integer >= 1");
+  if (o.budget < 0) throw std::invalid_argument("--budget: expected an integer >= 1");
+  if (o.samples < 0) throw std::invalid_argument("--samples: expected an integer >= 1");
+  if (o.has_seed && o.seed < 0) throw std::invalid_argument("--seed: expected an integer >= 0");
+  if (o.out.empty()) throw std::invalid_argument("--out: expected an output folder");
+  design::DesignSpec spec = design::LoadDesignSpec(o.spec_path);
+
+  std::error_code ec;
+  fs::create_directories(o.out, ec);
+  if (ec || !fs::is_directory(o.out))
+    throw std::invalid_argument("--out: cannot create the folder '" + o.out + "'");
+  const std::string history_path = o.out + "/history.csv";
+
+  design::JobOptions job;
+  job.optimizer = o.optimizer;
+  job.budget = o.budget;
+  job.samples = o.samples;
+  job.threads = o.threads;
+  job.has_seed = o.has_seed;
+  job.seed = static_cast<std::uint64_t>(o.seed);
+  if (o.resume && fs::exists(history_path)) job.replay = ReadHistory(history_path, spec);
+
+  // Validate the optimizer name before touching the history.
+  design::CheckOptimizer(!o.optimizer.empty()      ? o.optimizer
+                         : !spec.optimizer.empty() ? spec.optimizer
+                                                   : design::DefaultOptimizer(spec));
+
+  // The history: a resumed run appends after the replayed rows (rewritten without a truncated
+  // last line); otherwise a new file.
+  std::ofstream history;
+  {
+    std::string kept = HistoryHeader(spec) + "\n";
+    if (o.resume && !job.replay.empty()) {
+      std::ifstream in(history_path);
+      std::string line;
+      std::getline(in, line);
+      for (std::size_t i = 0; i < job.replay.size() && std::getline(in, line); ++i)
+        kept += line + "\n";
+    }
+    WriteAtomically(history_path, kept);
+    history.open(history_path, std::ios::app);
+    if (!history) throw std::invalid_argument("--out: cannot open '" + history_path + "'");
+  }
+
+  const bool tty = isatty(STDERR_FILENO);
+  double last_print = -1e9;
+  int last_decile = -1;
+  const bool success_type = spec.objective.type == design::ObjectiveType::kSuccess;
+  job.on_evaluation = [&](const design::HistoryEntry& h, const design::Progress& p) {
+    // A resumed run repeats the interrupted one: its first rows are already in the file.
+    if (h.index >= static_cast<int>(job.replay.size()))
+      history << HistoryRow(h) << "\n" << std::flush;
+    if (!o.quiet) {
+      const bool last = p.evaluations >= p.max_evaluations;
+      const int decile = 10 * p.evaluations / std::max(1, p.max_evaluations);
+      if (last || (tty ? p.elapsed_s - last_print >= kTtyRedrawS : decile != last_decile)) {
+        last_decile = decile;
+        last_print = p.elapsed_s;
+        const double eta = p.evaluations > 0
+                               ? p.elapsed_s * (p.max_evaluations - p.evaluations) / p.evaluations
+                               : 0.0;
+        std::ostringstream s;
+        s << "design: " << p.evaluations << " / " << p.max_evaluations << " evaluations ("
+          << h.phase << "), best " << (success_type ? "success rate " : "objective ")
+          << std::setprecision(6) << p.best_objective << ", " << Duration(p.elapsed_s)
+          << " elapsed";
+        if (p.evaluations < p.max_evaluations) s << ", ETA " << Duration(eta);
+        std::cerr << (tty ? "\r" : "") << s.str() << (tty ? "\x1b[K" : "\n") << std::flush;
+      }
+    }
+    return g_interrupted == 0;
+  };
+
+  design::DesignResult r;
+  {
+    InterruptGuard guard;
+    r = design::RunDesign(spec, job);
+  }
+  if (!o.quiet && tty) std::cerr << "\n";
+  history.close();
+
+  if (r.best.size() > 0) {
+    WriteAtomically(o.out + "/best.yaml", design::BestSceneYaml(spec, r.best));
+    std::ostringstream j;
+    j << "{\n";
+    j << "  \"spec\": " << JsonString(o.spec_path) << ",\n";
+    j << "  \"optimizer\": " << JsonString(r.optimizer) << ",\n";
+    j << "  \"objective_type\": \""
+      << (success_type                                              ? "success"
+          : spec.objective.type == design::ObjectiveType::kDistance ? "distance"
+                                                                    : "margin")
+      << "\",\n";
+    j << "  \"best\": " << DesignJson(spec, r.best) << ",\n";
+    const Evaluation& reported = r.validated ? r.best_fresh : r.best_search;
+    j << "  \"objective\": " << Num(reported.objective) << ",\n";
+    if (spec.objective.type != design::ObjectiveType::kDistance) {
+      j << "  \"success_rate\": "
+        << Num(static_cast<double>(reported.successes) / std::max(1, reported.samples)) << ",\n";
+      j << "  \"interval\": [" << Num(reported.lower) << ", " << Num(reported.upper) << "],\n";
+    }
+    j << "  \"fresh_samples\": " << (r.validated ? "true" : "false") << ",\n";
+    j << "  \"best_search\": " << EvaluationJson(spec, r.best_search, "  ") << ",\n";
+    if (r.validated) j << "  \"best_fresh\": " << EvaluationJson(spec, r.best_fresh, "  ") << ",\n";
+    j << "  \"start\": " << DesignJson(spec, r.start_search.x) << ",\n";
+    j << "  \"start_search\": " << EvaluationJson(spec, r.start_search, "  ") << ",\n";
+    if (r.validated)
+      j << "  \"start_fresh\": " << EvaluationJson(spec, r.start_fresh, "  ") << ",\n";
+    j << "  \"evaluations\": " << r.evaluations << ",\n";
+    j << "  \"replayed\": " << r.replayed << ",\n";
+    j << "  \"simulations\": " << r.simulations << ",\n";
+    j << "  \"time_s\": " << Num(r.time_s) << ",\n";
+    j << "  \"cancelled\": " << (r.cancelled ? "true" : "false") << ",\n";
+    j << "  \"errors\": [";
+    for (std::size_t k = 0; k < r.errors.size(); ++k)
+      j << (k ? ", " : "") << JsonString(r.errors[k]);
+    j << "],\n";
+    j << "  \"screening\": []\n}\n";
+    WriteAtomically(o.out + "/result.json", j.str());
+  }
+
+  if (!o.quiet && r.best.size() > 0) {
+    std::ostringstream s;
+    s << std::setprecision(6);
+    s << "optimizer    " << r.optimizer << "\n";
+    s << "best         ";
+    for (std::size_t k = 0; k < spec.parameters.size(); ++k)
+      s << (k ? ", " : "") << spec.parameters[k].name << " = " << r.best[k];
+    s << "\n";
+    const auto line = [&](const char* label, const Evaluation& e) {
+      s << label;
+      if (success_type || spec.objective.type == design::ObjectiveType::kMargin)
+        s << "success " << static_cast<double>(e.successes) / std::max(1, e.samples) << " ["
+          << e.lower << ", " << e.upper << "] of " << e.samples << " samples";
+      if (spec.objective.type == design::ObjectiveType::kMargin) s << ", ";
+      if (!success_type) s << "objective " << e.objective;
+      if (e.failures) s << ", " << e.failures << " failed samples";
+      if (!e.first_failure.empty()) s << " (first: " << e.first_failure << ")";
+      s << "\n";
+    };
+    line("search       ", r.best_search);
+    if (r.validated) {
+      line("fresh best   ", r.best_fresh);
+      line("fresh start  ", r.start_fresh);
+    }
+    s << "evaluations  " << r.evaluations << " (" << r.replayed << " not recomputed), "
+      << r.simulations << " simulations, " << Duration(r.time_s) << "\n";
+    s << "results      " << o.out << "/{best.yaml,result.json,history.csv}\n";
+    std::cout << s.str() << std::flush;
+  }
+  for (const std::string& e : r.errors) PrintError(e);
+  if (g_interrupted) return ExitCode::kInterrupted;
+  if (!r.errors.empty() || r.best.size() == 0) return ExitCode::kSolveFailed;
+  return ExitCode::kOk;
+}
+
+Command RegisterDesignCommand(CLI::App& app) {
+  auto options = std::make_shared<DesignOptions>();
+  CLI::App* sub = app.add_subcommand(
+      "design",
+      "Design search under uncertainty: the design with the best success probability "
+      "(docs/design.md).");
+  sub->add_option("SPEC", options->spec_path, "Design spec file (YAML, docs/design.md)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  std::string names;
+  for (const std::string& n : design::OptimizerNames()) names += (names.empty() ? "" : ", ") + n;
+  sub->add_option("--optimizer", options->optimizer,
+                  "NLopt algorithm(s): GLOBAL+LOCAL, GLOBAL or LOCAL with GLOBAL one of "
+                  "direct-l, crs2, isres, esch and LOCAL one of bobyqa, cobyla, neldermead, "
+                  "sbplx (default: the spec's, else direct-l+sbplx for success, "
+                  "direct-l+bobyqa otherwise)")
+      ->type_name("NAME");
+  sub->add_option("--budget", options->budget, "Simulations (rollouts) for the search")
+      ->type_name("N");
+  sub->add_option("--samples", options->samples, "Monte Carlo samples per design")->type_name("N");
+  sub->add_option("--threads,-j", options->threads,
+                  "Worker threads (the result is identical for any number)")
+      ->type_name("N");
+  sub->add_option_function<long long>(
+         "--seed",
+         [options](long long v) {
+           options->has_seed = true;
+           options->seed = v;
+         },
+         "Random seed (default: the spec's seed)")
+      ->type_name("S");
+  sub->add_option("--out,-o", options->out, "Output folder: best.yaml, result.json, history.csv")
+      ->required()
+      ->type_name("DIR");
+  sub->add_flag("--resume", options->resume,
+                "Replay DIR/history.csv (an interrupted run) instead of recomputing it");
+  sub->add_flag("--quiet,-q", options->quiet, "Print nothing but errors");
+  sub->footer("Optimizer names: " + names +
+              ".\nExit 3 if an evaluation failed (results so far are written), 130 if "
+              "interrupted (history.csv is kept: rerun with --resume).");
+  return Command{sub, [options] { return RunDesignCommand(*options); }};
+}
+
+}  // namespace vinci::cli

@@ -1,0 +1,186 @@
+#include "vinci/design/best_scene.h"
+
+#include <yaml-cpp/yaml.h>
+
+#include <cstdio>
+#include <stdexcept>
+
+namespace vinci::design {
+namespace {
+
+// Numbers are written with 17 significant digits so that the scene reproduces the design.
+YAML::Node Number(double v) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.17g", v);
+  return YAML::Node(std::string(buf));
+}
+
+YAML::Node BodyNode(const YAML::Node& root, const sim::Scene& scene, int body) {
+  YAML::Node bodies = root["bodies"];
+  if (!bodies.IsSequence() || static_cast<int>(bodies.size()) <= body ||
+      !bodies[body]["name"].IsScalar() || bodies[body]["name"].Scalar() != scene.bodies[body].name)
+    throw std::invalid_argument("best scene: cannot find body '" + scene.bodies[body].name +
+                                "' at bodies[" + std::to_string(body) + "] of the scene file");
+  return bodies[body];
+}
+
+// Multiplies every vertex of a shape by `scale` (the kShapeScale parameter's meaning).
+void ScaleVertices(YAML::Node shape, double scale) {
+  YAML::Node vertices = shape["vertices"];
+  for (std::size_t i = 0; i < vertices.size(); ++i)
+    for (std::size_t k = 0; k < vertices[i].size(); ++k)
+      vertices[i][k] = Number(vertices[i][k].as<double>() * scale);
+}
+
+// Writes a whole pose (position and angle / rpy) as the scene file reads it; a spatial pose's
+// other rotation keys are dropped so that rpy is the one rotation of the node.
+void WritePose(YAML::Node node, sim::Dim dim, const Eigen::Isometry3d& X) {
+  const Eigen::Matrix<double, 6, 1> c = sim::PoseComponents(dim, X);
+  const bool planar = dim == sim::Dim::kPlanar;
+  YAML::Node position(YAML::NodeType::Sequence), rpy(YAML::NodeType::Sequence);
+  for (int k = 0; k < (planar ? 2 : 3); ++k) position.push_back(Number(c[k]));
+  position.SetStyle(YAML::EmitterStyle::Flow);
+  node["position"] = position;
+  if (planar) {
+    node["angle"] = Number(c[2]);
+    return;
+  }
+  for (const char* key : {"rotation", "quaternion"}) node.remove(key);
+  for (int k = 3; k < 6; ++k) rpy.push_back(Number(c[k]));
+  rpy.SetStyle(YAML::EmitterStyle::Flow);
+  node["rpy"] = rpy;
+}
+
+// `applied` is `scene` with the design's parameters applied (for the pose kinds, whose
+// components are written together).
+void WriteParam(YAML::Node root, const sim::Scene& scene, const sim::Scene& applied,
+                const sim::ParamInfo& p, double v) {
+  switch (p.kind) {
+    case sim::ParamKind::kPose:
+      if (p.b < 0)
+        WritePose(BodyNode(root, scene, p.a)["pose"], scene.dim, applied.bodies[p.a].X_WB0);
+      else
+        WritePose(BodyNode(root, scene, p.a)["shapes"][p.b]["pose"], scene.dim,
+                  applied.bodies[p.a].shapes[p.b].X_BS);
+      return;
+    case sim::ParamKind::kTiltAmplitude:
+      BodyNode(root, scene, p.a)["motion"]["tilt"]["amplitude"] = Number(v);
+      return;
+    case sim::ParamKind::kTiltFrequency:
+      BodyNode(root, scene, p.a)["motion"]["tilt"]["frequency"] = Number(v);
+      return;
+    case sim::ParamKind::kTiltPhase:
+      BodyNode(root, scene, p.a)["motion"]["tilt"]["phase"] = Number(v);
+      return;
+    case sim::ParamKind::kTiltDepth:
+      BodyNode(root, scene, p.a)["motion"]["tilt"]["depth"] = Number(v);
+      return;
+    case sim::ParamKind::kDefaultFriction:
+      root["friction"]["default"] = Number(v);
+      return;
+    case sim::ParamKind::kFriction: {
+      const std::string a = scene.materials[p.a].name, b = scene.materials[p.b].name;
+      YAML::Node pairs = root["friction"]["pairs"];
+      for (std::size_t i = 0; i < pairs.size(); ++i) {
+        const std::string x = pairs[i][0].as<std::string>(), y = pairs[i][1].as<std::string>();
+        if ((x == a && y == b) || (x == b && y == a)) {
+          pairs[i][2] = Number(v);
+          return;
+        }
+      }
+      break;
+    }
+    case sim::ParamKind::kMass:
+      BodyNode(root, scene, p.a)["mass"] = Number(v);
+      return;
+    case sim::ParamKind::kSupportFriction:
+      BodyNode(root, scene, p.a)["support"]["mu"] = Number(v);
+      return;
+    case sim::ParamKind::kShapeRadius:
+      BodyNode(root, scene, p.a)["shapes"][p.b]["radius"] = Number(v);
+      return;
+    case sim::ParamKind::kShapeHalfLength:
+      BodyNode(root, scene, p.a)["shapes"][p.b]["half_length"] = Number(v);
+      return;
+    case sim::ParamKind::kShapeHalfExtent: {
+      YAML::Node shape = BodyNode(root, scene, p.a)["shapes"][p.b];
+      const char* key = shape["semi_axes"].IsDefined() ? "semi_axes" : "half_extents";
+      shape[key][p.c] = Number(v);
+      return;
+    }
+    case sim::ParamKind::kShapeScale:
+      ScaleVertices(BodyNode(root, scene, p.a)["shapes"][p.b], v);
+      return;
+    case sim::ParamKind::kMotionVelocity:
+    case sim::ParamKind::kMotionAmplitude:
+    case sim::ParamKind::kMotionFrequency:
+    case sim::ParamKind::kMotionPhase: {
+      // motion.<body>.<dof>.<field>[k]
+      const std::string& n = p.name;
+      const std::size_t last = n.rfind('.'), dof_dot = n.rfind('.', last - 1);
+      const std::string dof = n.substr(dof_dot + 1, last - dof_dot - 1);
+      YAML::Node m = BodyNode(root, scene, p.a)["motion"][dof];
+      if (p.kind == sim::ParamKind::kMotionVelocity) {
+        m["velocity"] = Number(v);
+        return;
+      }
+      const char* field = p.kind == sim::ParamKind::kMotionAmplitude   ? "amplitude"
+                          : p.kind == sim::ParamKind::kMotionFrequency ? "frequency"
+                                                                       : "phase";
+      m["harmonics"][p.c][field] = Number(v);
+      return;
+    }
+  }
+  throw std::invalid_argument("best scene: cannot write parameter '" + p.name +
+                              "' into the scene file");
+}
+
+}  // namespace
+
+std::string BestSceneYaml(const DesignSpec& spec, const VectorXd& x) {
+  if (x.size() != static_cast<Eigen::Index>(spec.parameters.size()))
+    throw std::invalid_argument("best scene: design vector of the wrong size");
+  YAML::Node root = YAML::Load(spec.scene_text);
+  const sim::Scene& scene = spec.scene;
+  sim::Params params = scene.DefaultParams();
+  for (std::size_t k = 0; k < spec.parameters.size(); ++k)
+    if (spec.parameters[k].target.kind == TargetKind::kParam)
+      params.values[spec.parameters[k].target.index] = x[k];
+  const sim::Scene applied = scene.ApplyParams(params);
+  // Shape scales multiply the file's vertices: apply each once, after the other values.
+  for (std::size_t k = 0; k < spec.parameters.size(); ++k) {
+    const DesignParameter& p = spec.parameters[k];
+    if (p.target.kind == TargetKind::kParam) {
+      WriteParam(root, scene, applied, scene.param_table().info(p.target.index), x[k]);
+    } else if (p.target.kind == TargetKind::kPose) {
+      YAML::Node pose = BodyNode(root, scene, p.target.body)["pose"];
+      if (p.target.coord < 2) {
+        if (!pose["position"].IsDefined()) {
+          pose["position"].push_back(Number(0.0));
+          pose["position"].push_back(Number(0.0));
+          pose["position"].SetStyle(YAML::EmitterStyle::Flow);
+        }
+        pose["position"][p.target.coord] = Number(x[k]);
+      } else {
+        pose["angle"] = Number(x[k]);
+      }
+    }
+  }
+  root["stepper"]["duration"] = Number(spec.duration);
+  YAML::Emitter out;
+  out << root;
+  return "# " + spec.scene_path + " with the design found by `vinci design " + spec.source +
+         "`:\n#" +
+         [&] {
+           std::string s;
+           char buf[64];
+           for (std::size_t k = 0; k < spec.parameters.size(); ++k) {
+             std::snprintf(buf, sizeof buf, " = %.9g", x[k]);
+             s += " " + spec.parameters[k].name + buf + (k + 1 < spec.parameters.size() ? "," : "");
+           }
+           return s;
+         }() +
+         "\n" + out.c_str() + "\n";
+}
+
+}  // namespace vinci::design

@@ -1,0 +1,342 @@
+#include "vinci/design/evaluate.h"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <exception>
+#include <stdexcept>
+#include <thread>
+
+namespace vinci::design {
+namespace {
+
+constexpr double kZ95 = 1.959963984540054;
+constexpr double kPi = 3.14159265358979323846;
+
+std::uint64_t SplitMix64(std::uint64_t x) {
+  x += 0x9e3779b97f4a7c15ULL;
+  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
+  return x ^ (x >> 31);
+}
+
+// xoshiro256** seeded by SplitMix64: a small generator whose output is the same on every
+// platform (std distributions are implementation-defined, so they are not used).
+class Rng {
+ public:
+  explicit Rng(std::uint64_t seed) {
+    for (auto& w : s_) w = seed = SplitMix64(seed);
+  }
+  std::uint64_t Next() {
+    const std::uint64_t result = Rotl(s_[1] * 5, 7) * 9;
+    const std::uint64_t t = s_[1] << 17;
+    s_[2] ^= s_[0];
+    s_[3] ^= s_[1];
+    s_[1] ^= s_[2];
+    s_[0] ^= s_[3];
+    s_[2] ^= t;
+    s_[3] = Rotl(s_[3], 45);
+    return result;
+  }
+  /// Uniform in [0, 1).
+  double Uniform() { return static_cast<double>(Next() >> 11) * 0x1.0p-53; }
+  /// Standard normal (Box–Muller, one value per call).
+  double Normal() {
+    const double u1 = 1.0 - Uniform();  // (0, 1]
+    const double u2 = Uniform();
+    return std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * kPi * u2);
+  }
+
+ private:
+  static std::uint64_t Rotl(std::uint64_t x, int k) { return (x << k) | (x >> (64 - k)); }
+  std::uint64_t s_[4];
+};
+
+double Draw(const Uncertain& u, Rng* rng) {
+  switch (u.type) {
+    case DistributionType::kUniform:
+      return u.a + (u.b - u.a) * rng->Uniform();
+    case DistributionType::kChoice: {
+      const std::size_t k = static_cast<std::size_t>(rng->Uniform() * u.choices.size());
+      return u.choices[std::min(k, u.choices.size() - 1)];
+    }
+    case DistributionType::kNormal:
+      break;
+  }
+  if (!u.truncated) return u.a + u.b * rng->Normal();
+  // Redraw until inside [lo, hi] (the loader bounds the interval within 5 std of the mean, so
+  // the acceptance probability is > 1e-7; the clamp after the limit is a formality).
+  for (int k = 0; k < 100000; ++k) {
+    const double v = u.a + u.b * rng->Normal();
+    if (v >= u.lo && v <= u.hi) return v;
+  }
+  return std::min(std::max(u.a, u.lo), u.hi);
+}
+
+// Angle error wrapped to (−π, π], or to (−s/2, s/2] modulo a symmetry s.
+double AngleError(const Objective& o, double theta) {
+  const double period = o.angle_symmetry > 0.0 ? o.angle_symmetry : 2.0 * kPi;
+  return std::remainder(theta - o.angle_target, period);
+}
+
+// Signed distance of p to the box [lo, hi] (negative inside).
+double BoxSignedDistance(const VectorXd& p, const VectorXd& lo, const VectorXd& hi) {
+  double outside = 0.0, inside = -1e300;
+  for (Eigen::Index k = 0; k < p.size(); ++k) {
+    const double q = std::max(lo[k] - p[k], p[k] - hi[k]);
+    outside += q > 0.0 ? q * q : 0.0;
+    inside = std::max(inside, q);
+  }
+  return outside > 0.0 ? std::sqrt(outside) : inside;
+}
+
+}  // namespace
+
+void WilsonInterval(int k, int n, double* lower, double* upper) {
+  if (n <= 0) {
+    *lower = 0.0;
+    *upper = 1.0;
+    return;
+  }
+  const double p = static_cast<double>(k) / n, z2 = kZ95 * kZ95;
+  const double denom = 1.0 + z2 / n;
+  const double centre = (p + z2 / (2.0 * n)) / denom;
+  const double half = kZ95 * std::sqrt(p * (1.0 - p) / n + z2 / (4.0 * n * n)) / denom;
+  *lower = std::max(0.0, centre - half);
+  *upper = std::min(1.0, centre + half);
+}
+
+std::uint64_t SampleSeed(std::uint64_t stream, int i) {
+  return SplitMix64(SplitMix64(stream) ^ static_cast<std::uint64_t>(i));
+}
+
+std::uint64_t FreshStream(std::uint64_t seed) { return SplitMix64(seed ^ 0x6672657368ULL); }
+
+DesignProblem::DesignProblem(const DesignSpec& spec)
+    : spec_(&spec), base_(std::make_shared<const sim::Simulator>(spec.scene)) {
+  for (const DesignParameter& p : spec.parameters)
+    has_pose_ = has_pose_ || p.target.kind == TargetKind::kPose;
+}
+
+VectorXd DesignProblem::lower() const {
+  VectorXd v(size());
+  for (int k = 0; k < size(); ++k) v[k] = spec_->parameters[k].lower;
+  return v;
+}
+
+VectorXd DesignProblem::upper() const {
+  VectorXd v(size());
+  for (int k = 0; k < size(); ++k) v[k] = spec_->parameters[k].upper;
+  return v;
+}
+
+VectorXd DesignProblem::start() const {
+  VectorXd v(size());
+  for (int k = 0; k < size(); ++k) v[k] = spec_->parameters[k].start;
+  return v;
+}
+
+sim::Scene DesignProblem::SceneFor(const VectorXd& x) const {
+  sim::Scene scene = spec_->scene;
+  for (int k = 0; k < size(); ++k) {
+    const DesignParameter& p = spec_->parameters[k];
+    if (p.target.kind != TargetKind::kPose) continue;
+    Eigen::Isometry3d& X = scene.bodies[p.target.body].X_WB0;
+    if (p.target.coord < 2) {
+      X.translation()[p.target.coord] = x[k];
+    } else {
+      X.linear() = Eigen::AngleAxisd(x[k], Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    }
+  }
+  return scene;
+}
+
+std::shared_ptr<const sim::Simulator> DesignProblem::SimulatorFor(const VectorXd& x) const {
+  if (!has_pose_) return base_;
+  return std::make_shared<const sim::Simulator>(SceneFor(x));
+}
+
+SampleOutcome DesignProblem::RunSample(const sim::Simulator& simulator, const VectorXd& x,
+                                       std::uint64_t stream, int i, sim::Workspace* ws) const {
+  const DesignSpec& spec = *spec_;
+  const sim::Scene& scene = simulator.scene();
+  const bool planar = scene.dim == sim::Dim::kPlanar;
+  sim::Params params = simulator.DefaultParams();
+  for (int k = 0; k < size(); ++k) {
+    const DesignParameter& p = spec.parameters[k];
+    if (p.target.kind == TargetKind::kParam) params.values[p.target.index] = x[k];
+  }
+  sim::State state = simulator.InitialState();
+  Rng rng(SampleSeed(stream, i));
+  for (const Uncertain& u : spec.uncertain) {
+    const double v = Draw(u, &rng);
+    if (u.target.kind == TargetKind::kParam) {
+      params.values[u.target.index] = v;
+    } else {
+      const sim::BodyIndex& bi = scene.index(u.target.body);
+      if (u.target.velocity) {
+        state.v[bi.v + u.target.coord] = v;
+      } else if (planar || u.target.coord < 3) {
+        state.q[bi.q + u.target.coord] = v;
+      }
+    }
+  }
+
+  const Objective& o = spec.objective;
+  const int iq = scene.index(o.body_index).q;
+  const int np = planar ? 2 : 3;
+  VectorXd p(np);
+  // The per-state value: margin (success: inside iff margin ≤ 0 and the parts agree).
+  const auto judge = [&](const sim::State& s, bool* inside) {
+    for (int k = 0; k < np; ++k) p[k] = s.q[iq + k];
+    if (o.type == ObjectiveType::kDistance) {
+      *inside = false;
+      return (p - o.target).norm();
+    }
+    bool in = true;
+    double margin = -1e300;
+    if (o.has_region) {
+      const double sd = BoxSignedDistance(p, o.region_min, o.region_max);
+      in = in && sd <= 0.0;
+      margin = std::max(margin, sd);
+    }
+    if (o.has_angle) {
+      const double e = std::abs(AngleError(o, s.q[iq + 2])) - o.angle_tolerance;
+      in = in && e <= 0.0;
+      margin = std::max(margin, o.angle_scale * e);
+    }
+    *inside = in;
+    return margin;
+  };
+
+  SampleOutcome out;
+  const int steps = std::max(1, static_cast<int>(std::lround(spec.duration / scene.options.dt)));
+  const sim::StepInput input;
+  sim::State next;
+  bool inside = false;
+  double value = judge(state, &inside);
+  double best = value;
+  bool reached = o.until && inside;
+  for (int k = 0; k < steps && !reached; ++k) {
+    const sim::StepInfo info = simulator.Step(params, state, input, ws, &next);
+    if (!info.ok) {
+      out.ok = false;
+      out.failure =
+          "step " + std::to_string(k) + " (t = " + std::to_string(state.t) + " s): " + info.failure;
+      break;
+    }
+    std::swap(state, next);
+    if (o.until) {
+      value = judge(state, &inside);
+      best = std::min(best, value);
+      reached = inside;
+    }
+  }
+  if (!o.until) {
+    value = judge(state, &inside);
+    best = value;
+  }
+  switch (o.type) {
+    case ObjectiveType::kDistance:
+      out.value = value;
+      break;
+    case ObjectiveType::kSuccess:
+      out.success = out.ok && (o.until ? reached : inside);
+      out.value = out.success ? 1.0 : 0.0;
+      break;
+    case ObjectiveType::kMargin:
+      out.success = out.ok && (o.until ? reached : inside);
+      out.value = best;
+      break;
+  }
+  return out;
+}
+
+Evaluation DesignProblem::Summarize(const VectorXd& x, std::uint64_t stream,
+                                    const std::vector<SampleOutcome>& outcomes,
+                                    double time_s) const {
+  Evaluation e;
+  e.x = x;
+  e.stream = stream;
+  e.samples = static_cast<int>(outcomes.size());
+  e.time_s = time_s;
+  double sum = 0.0;
+  for (const SampleOutcome& s : outcomes) {
+    e.successes += s.success ? 1 : 0;
+    if (!s.ok) {
+      if (e.failures == 0) e.first_failure = s.failure;
+      ++e.failures;
+    }
+    sum += s.value;
+  }
+  WilsonInterval(e.successes, e.samples, &e.lower, &e.upper);
+  const double mean = e.samples > 0 ? sum / e.samples : 0.0;
+  if (spec_->objective.type == ObjectiveType::kSuccess) {
+    e.objective = e.samples > 0 ? static_cast<double>(e.successes) / e.samples : 0.0;
+    e.loss = 1.0 - e.objective;
+  } else {
+    e.objective = mean;
+    e.loss = mean;
+  }
+  return e;
+}
+
+ThreadEvaluator::ThreadEvaluator(const DesignProblem& problem, int threads)
+    : problem_(&problem), threads_(std::max(1, threads)) {}
+
+std::vector<Evaluation> ThreadEvaluator::Evaluate(const std::vector<EvalRequest>& requests) {
+  using Clock = std::chrono::steady_clock;
+  const Clock::time_point start = Clock::now();
+  struct Task {
+    int request, sample;
+  };
+  std::vector<Task> tasks;
+  std::vector<std::shared_ptr<const sim::Simulator>> sims;
+  std::vector<std::vector<SampleOutcome>> outcomes(requests.size());
+  for (std::size_t r = 0; r < requests.size(); ++r) {
+    if (requests[r].x.size() != problem_->size())
+      throw std::invalid_argument("ThreadEvaluator: design vector of size " +
+                                  std::to_string(requests[r].x.size()) + ", expected " +
+                                  std::to_string(problem_->size()));
+    sims.push_back(problem_->SimulatorFor(requests[r].x));
+    outcomes[r].resize(requests[r].samples);
+    for (int i = 0; i < requests[r].samples; ++i) tasks.push_back({static_cast<int>(r), i});
+  }
+  std::atomic<std::size_t> next{0};
+  std::exception_ptr error;
+  std::atomic<bool> failed{false};
+  const auto worker = [&]() {
+    sim::Workspace ws;
+    const sim::Simulator* last = nullptr;
+    try {
+      for (std::size_t t = next++; t < tasks.size() && !failed; t = next++) {
+        const Task& task = tasks[t];
+        const sim::Simulator* s = sims[task.request].get();
+        if (s != last) ws = sim::Workspace{};
+        last = s;
+        outcomes[task.request][task.sample] = problem_->RunSample(
+            *s, requests[task.request].x, requests[task.request].stream, task.sample, &ws);
+      }
+    } catch (...) {
+      if (!failed.exchange(true)) error = std::current_exception();
+    }
+  };
+  const int n = static_cast<int>(std::min<std::size_t>(threads_, tasks.size()));
+  if (n <= 1) {
+    worker();
+  } else {
+    std::vector<std::thread> pool;
+    for (int k = 0; k < n; ++k) pool.emplace_back(worker);
+    for (std::thread& t : pool) t.join();
+  }
+  if (error) std::rethrow_exception(error);
+  const double per = std::chrono::duration<double>(Clock::now() - start).count() /
+                     std::max<std::size_t>(1, requests.size());
+  std::vector<Evaluation> result;
+  for (std::size_t r = 0; r < requests.size(); ++r)
+    result.push_back(problem_->Summarize(requests[r].x, requests[r].stream, outcomes[r], per));
+  return result;
+}
+
+}  // namespace vinci::design

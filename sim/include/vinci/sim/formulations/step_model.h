@@ -1,0 +1,131 @@
+// The frozen, sparse step model: one step's equations with the contact set found once at x_ℓ,
+// for estimators and sensitivity checks (docs/formulations.md; issue 12 item 5).
+//
+// Formulation::Evaluate re-detects contacts at its x, so the number of unknowns changes as an
+// optimizer moves the states. Freeze() finds the contact set (GI: the candidate pairs) once at
+// x_ℓ; StepModel::Evaluate then evaluates the formulation's own step equations — through the
+// same assembly and residual code as Formulation::Evaluate, which the simulator's Step solves —
+// with that set held fixed while the step unknowns z, the parameters θ and the start state x_ℓ
+// move. At x_ℓ = the freeze state (bitwise q and t) the equations are exactly
+// Formulation::Evaluate's.
+//
+// Moving x_ℓ with the contact set fixed (Stewart–Trinkle, Anitescu–Potra, first order, NCP,
+// quasistatic): each contact keeps its bodies, shapes and (corner) edge choice; its witness
+// points move rigidly with their bodies, its normal(s) with body B, and its gap becomes
+//   ψ(x) = ψ_ℓ + n(x)·(p_A(x) − p_B(x)) − n_ℓ·(p_A,ℓ − p_B,ℓ),
+// which has the exact first derivative of the signed distance for any contact whose features
+// stay active (∂ψ = n·(δp_A − δp_B), the witness points' rigid motion). GI: the pairs, their
+// closest points at the freeze (tangent reference, compliant law constant) and the solver
+// form's tie-breaker reference stay fixed; the contact points are GI unknowns anyway.
+//
+// Jacobian columns (all sparse, Eigen column-major): z (layout().size()), θ (the differentiable
+// parameters param_columns(): friction coefficients, support friction μ_s, masses; analytic, as
+// Formulation::Evaluate), x_ℓ = [q_ℓ (nq of the State); ν_ℓ (nv)] (central differences of the
+// frozen equations, step StepModelOptions::state_step · max(1, |x_i|): exact to ~1e-8 relative
+// since the frozen equations are smooth in x_ℓ) and the input u = StepInput::generalized_force
+// (analytic: the dynamics rows carry −h u in every formulation).
+#pragma once
+
+#include <Eigen/SparseCore>
+#include <memory>
+#include <vector>
+
+#include "vinci/sim/formulations/formulation.h"
+
+namespace vinci::sim {
+
+using SparseMatrixXd = Eigen::SparseMatrix<double>;
+
+/// What StepModel::Evaluate computes besides the values.
+struct StepModelOptions {
+  bool jacobians = true;       ///< the z, θ and u blocks
+  bool state_jacobian = true;  ///< the x_ℓ block (2 (nq + nv) extra evaluations); needs jacobians
+  double state_step = 1e-7;    ///< relative central-difference step of the x_ℓ block; > 0
+};
+
+/// One row group's derivatives, by column group.
+struct StepModelJacobian {
+  SparseMatrixXd d_z;      ///< rows × layout().size()
+  SparseMatrixXd d_theta;  ///< rows × param_columns().size()
+  SparseMatrixXd d_x;      ///< rows × (nq + nv) of the State: [q_ℓ; ν_ℓ]
+  SparseMatrixXd d_u;      ///< rows × nv: StepInput::generalized_force
+};
+
+/// The step equations at a point: equality = 0 and 0 ≤ comp_a ⊥ comp_b ≥ 0 (the rows and pairs
+/// of the formulation's Evaluate, documented in its header). Jacobian blocks are empty (0 × 0)
+/// when not requested.
+struct StepModelValues {
+  VectorXd equality, comp_a, comp_b;
+  StepModelJacobian d_equality, d_comp_a, d_comp_b;
+  /// max(|equality|_∞, |min(comp_a, comp_b)|_∞)
+  double Violation() const;
+};
+
+/// A step frozen at x_ℓ (make one with Freeze()). Immutable; Evaluate is const and thread-safe.
+class StepModel {
+ public:
+  virtual ~StepModel() = default;
+
+  /// Unknowns z of the frozen contact set (the formulation's StepLayout).
+  const StepLayout& layout() const { return layout_; }
+  /// ParamTable indices of the θ columns.
+  const std::vector<int>& param_columns() const { return param_columns_; }
+  /// The freeze state x_ℓ and input.
+  const State& x_freeze() const { return x_; }
+  const StepInput& input() const { return u_; }
+  /// Contacts (GI: candidate pairs) held fixed.
+  int num_contacts() const { return layout_.nc; }
+
+  /// The step equations at (z, θ, x_ℓ) with the frozen input. Throws std::invalid_argument for
+  /// sizes that do not match (z: layout().size(); θ: the scene's ParamTable; x: the scene's
+  /// state), x.t ≠ x_freeze().t (time is not a variable: prescribed bodies stay where they are
+  /// at the freeze) or an out-of-range θ. x.warm_start is ignored.
+  StepModelValues Evaluate(const VectorXd& z, const Params& theta, const State& x,
+                           const StepModelOptions& options = {}) const;
+  /// Same with input u (empty = 0, else num_velocities() entries).
+  StepModelValues Evaluate(const VectorXd& z, const Params& theta, const State& x,
+                           const StepInput& u, const StepModelOptions& options = {}) const;
+
+  /// The unknowns z of a step the simulator took from x_freeze() to `next` (read from next.q,
+  /// next.v and next.warm_start, the step's solver solution; impulses the solver eliminates,
+  /// the joint impulses p_b, are recovered from the dynamics rows by least squares). Throws
+  /// std::invalid_argument if next does not fit this step (sizes, warm start of another
+  /// contact set).
+  VectorXd UnknownsFromStep(const State& next) const;
+  /// The end-of-step state a step with unknowns z writes: t + h, q_ℓ+1, ν_ℓ+1 and the warm
+  /// start (the solver's unknowns) — StateFromUnknowns(UnknownsFromStep(next)) reproduces next.
+  State StateFromUnknowns(const VectorXd& z) const;
+
+ protected:
+  StepModel(std::shared_ptr<const Scene> model, Params params, State x, StepInput u, double dt);
+  /// Completes construction: layout and parameter columns from an evaluation at z = 0.
+  void Init(int num_unknowns);
+  /// The formulation's residuals at x with the frozen contact set, on `model` (θ applied).
+  virtual StepResiduals Residuals(const Scene& model, const Params& theta, const State& x,
+                                  const StepInput& u, const VectorXd& z) const = 0;
+  virtual VectorXd Unknowns(const State& next) const = 0;
+  virtual VectorXd WarmStart(const VectorXd& z) const = 0;
+  /// ν_ℓ+1, q_ℓ+1 written from z (default: the z blocks; GI overrides).
+  virtual State EndState(const VectorXd& z) const;
+  /// Recovers the p_b block of z from the dynamics rows (least squares through G_b).
+  void RecoverJointImpulses(const MatrixXd& G_b, VectorXd* z) const;
+
+  std::shared_ptr<const Scene> model_;  ///< scene with the freeze parameters applied
+  Params params_;
+  State x_;
+  StepInput u_;
+  double dt_ = 0.0;
+  StepLayout layout_;
+  std::vector<int> param_columns_;
+};
+
+/// Freezes `formulation`'s step at x (contacts / GI pairs found once at x). `model` is the scene
+/// with `params` applied (as for Formulation::Evaluate). Every formulation with an Evaluate is
+/// supported: Stewart–Trinkle, Anitescu–Potra, first order, NCP, quasistatic DLC/DQC,
+/// dynamic DQC and GI. The model keeps a reference to `formulation`, which must outlive it (a
+/// Simulator's formulation() lives as long as the Simulator). Throws std::invalid_argument for
+/// another Formulation, mismatched sizes or a scene the formulation rejects.
+std::unique_ptr<StepModel> Freeze(const Formulation& formulation, const Scene& model,
+                                  const Params& params, const State& x, const StepInput& u = {});
+
+}  // namespace vinci::sim

@@ -1,0 +1,402 @@
+#include "vinci/sim/formulations/step_model.h"
+
+#include <Eigen/QR>
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+#include <utility>
+
+#include "vinci/sim/formulations/contact.h"
+#include "vinci/sim/formulations/geometrically_implicit.h"
+#include "vinci/sim/formulations/ncp.h"
+#include "vinci/sim/formulations/quasistatic.h"
+#include "vinci/sim/formulations/stewart_trinkle.h"
+#include "vinci/sim/model/kinematics.h"
+
+namespace vinci::sim {
+namespace {
+
+bool SamePose(const State& a, const State& b) {
+  return a.t == b.t && a.q.size() == b.q.size() && (a.q.array() == b.q.array()).all();
+}
+
+// The frozen contacts moved to x (header comment): witness points rigidly with their bodies,
+// normals with body B, gaps by the change of n·(p_A − p_B); μ from `model`. At the freeze pose
+// the contacts are returned unchanged.
+std::vector<Contact> MoveContacts(const Scene& model, const std::vector<Contact>& frozen,
+                                  const State& x0, const State& x) {
+  std::vector<Contact> out = frozen;
+  for (Contact& c : out)
+    c.mu = model.Mu(model.bodies[c.body_a].shapes[c.shape_a].material,
+                    model.bodies[c.body_b].shapes[c.shape_b].material);
+  if (SamePose(x0, x)) return out;
+  const std::vector<BodyKinematics> k0 = ComputeBodyKinematics(model, x0);
+  const std::vector<BodyKinematics> k1 = ComputeBodyKinematics(model, x);
+  std::vector<Isometry3d> T(model.bodies.size(), Isometry3d::Identity());
+  for (int bi : model.dynamic_bodies()) T[bi] = k1[bi].X_WB * k0[bi].X_WB.inverse();
+  const auto move = [](const Isometry3d& Ta, const Isometry3d& Tb, Vector3d* pa, Vector3d* pb,
+                       Vector3d* n, double* gap) {
+    const double before = n->dot(*pa - *pb);
+    *pa = Ta * *pa;
+    *pb = Tb * *pb;
+    *n = Tb.linear() * *n;
+    *gap += n->dot(*pa - *pb) - before;
+  };
+  for (Contact& c : out) {
+    ContactPoint& p = c.point;
+    const Isometry3d& Ta = T[c.body_a];
+    const Isometry3d& Tb = T[c.body_b];
+    move(Ta, Tb, &p.p_A_W, &p.p_B_W, &p.n_W, &p.gap);
+    if (p.corner) move(Ta, Tb, &p.p2_A_W, &p.p2_B_W, &p.n2_W, &p.gap2);
+  }
+  return out;
+}
+
+std::string Sizes(const char* what, Eigen::Index got, Eigen::Index want) {
+  return std::string(what) + "has " + std::to_string(got) + " entries; the frozen step needs " +
+         std::to_string(want);
+}
+
+// --- Stewart–Trinkle, Anitescu–Potra, first order -----------------------------------------------
+
+class StewartTrinkleModel final : public StepModel {
+ public:
+  StewartTrinkleModel(const StewartTrinkle& st, std::shared_ptr<const Scene> model, Params params,
+                      State x, StepInput u)
+      : StepModel(std::move(model), std::move(params), std::move(x), std::move(u), st.options().dt),
+        st_(st) {
+    contacts_ = st_.Assemble(*model_, x_, u_).contacts;
+    const StewartTrinkle::Assembly a = AssembleAt(*model_, x_, u_);
+    lcp_size_ = a.psi_n.size() * (2 + a.nd) + a.support.points() + a.support.columns() +
+                static_cast<Eigen::Index>(a.corner_contact.size());
+    G_b_ = a.G_b;
+    StepLayout l;
+    l.nq = model_->num_positions();
+    l.nv = model_->num_velocities();
+    l.nc = static_cast<int>(a.contacts.size());
+    l.nd = a.nd;
+    l.nb = static_cast<int>(a.psi_b.size());
+    l.nk = static_cast<int>(a.corner_contact.size());
+    l.ns = a.support.points();
+    l.nps = a.support.columns();
+    Init(l.size());
+  }
+
+ protected:
+  StepResiduals Residuals(const Scene& model, const Params& theta, const State& x,
+                          const StepInput& u, const VectorXd& z) const override {
+    return st_.EvaluateAssembly(model, theta, AssembleAt(model, x, u), x, z);
+  }
+  VectorXd Unknowns(const State& next) const override {
+    const StepLayout& l = layout_;
+    const VectorXd& w = next.warm_start;
+    if (w.size() != lcp_size_)
+      throw std::invalid_argument("StepModel::UnknownsFromStep: next.warm_start " +
+                                  Sizes("", w.size(), lcp_size_) +
+                                  " (the LCP solution of this contact set)");
+    VectorXd z = VectorXd::Zero(l.size());
+    z.segment(l.q1(), l.nq) = next.q;
+    z.segment(l.v1(), l.nv) = next.v;
+    const int head = l.nc * (2 + l.nd), tail = l.nps + l.ns + l.nk;
+    z.segment(l.pn(), head) = w.head(head);  // p_n, p_f, σ
+    z.segment(l.ps(), tail) = w.tail(tail);  // p_s, σ_s, c
+    RecoverJointImpulses(G_b_, &z);
+    return z;
+  }
+  VectorXd WarmStart(const VectorXd& z) const override {
+    const StepLayout& l = layout_;
+    const int head = l.nc * (2 + l.nd), tail = l.nps + l.ns + l.nk;
+    VectorXd w(head + tail);
+    w << z.segment(l.pn(), head), z.segment(l.ps(), tail);
+    return w;
+  }
+
+ private:
+  StewartTrinkle::Assembly AssembleAt(const Scene& model, const State& x,
+                                      const StepInput& u) const {
+    return st_.AssembleAt(model, x, u, MoveContacts(model, contacts_, x_, x),
+                          /*select_corner_edges=*/false);
+  }
+  const StewartTrinkle& st_;
+  std::vector<Contact> contacts_;
+  Eigen::Index lcp_size_ = 0;
+  MatrixXd G_b_;
+};
+
+// --- NCP ---------------------------------------------------------------------------------------
+
+class NcpModel final : public StepModel {
+ public:
+  NcpModel(const NcpStepper& ncp, std::shared_ptr<const Scene> model, Params params, State x,
+           StepInput u)
+      : StepModel(std::move(model), std::move(params), std::move(x), std::move(u),
+                  ncp.assembler().options().dt),
+        ncp_(ncp) {
+    contacts_ = ncp_.assembler().Assemble(*model_, x_, u_).contacts;
+    const StewartTrinkle::Assembly a = AssembleAt(*model_, x_, u_);
+    G_b_ = a.G_b;
+    Init(ncp_.Layout(*model_, x_).size());  // the contact set at x_ℓ is the frozen one
+  }
+
+ protected:
+  StepResiduals Residuals(const Scene& model, const Params& theta, const State& x,
+                          const StepInput& u, const VectorXd& z) const override {
+    return ncp_.EvaluateAssembly(model, theta, AssembleAt(model, x, u), x, z);
+  }
+  // The MCP solution [p_n (nc); (p_t, p_o) per contact (2 nc); σ (nc)] is z's p_n, p_f, σ.
+  VectorXd Unknowns(const State& next) const override {
+    const StepLayout& l = layout_;
+    const VectorXd& w = next.warm_start;
+    if (w.size() != 4 * l.nc)
+      throw std::invalid_argument("StepModel::UnknownsFromStep: next.warm_start " +
+                                  Sizes("", w.size(), 4 * l.nc) + " (the NCP step's solution)");
+    VectorXd z = VectorXd::Zero(l.size());
+    z.segment(l.q1(), l.nq) = next.q;
+    z.segment(l.v1(), l.nv) = next.v;
+    z.segment(l.pn(), 4 * l.nc) = w;
+    RecoverJointImpulses(G_b_, &z);
+    return z;
+  }
+  VectorXd WarmStart(const VectorXd& z) const override {
+    return z.segment(layout_.pn(), 4 * layout_.nc);
+  }
+
+ private:
+  StewartTrinkle::Assembly AssembleAt(const Scene& model, const State& x,
+                                      const StepInput& u) const {
+    return ncp_.assembler().AssembleAt(model, x, u, MoveContacts(model, contacts_, x_, x),
+                                       /*select_corner_edges=*/false);
+  }
+  const NcpStepper& ncp_;
+  std::vector<Contact> contacts_;
+  MatrixXd G_b_;
+};
+
+// --- Quasistatic DLC / DQC, dynamic DQC --------------------------------------------------------
+
+class QuasistaticModel final : public StepModel {
+ public:
+  QuasistaticModel(const Quasistatic& qs, std::shared_ptr<const Scene> model, Params params,
+                   State x, StepInput u)
+      : StepModel(std::move(model), std::move(params), std::move(x), std::move(u),
+                  qs.assembler().options().dt),
+        qs_(qs) {
+    contacts_ = qs_.assembler().Assemble(*model_, x_, u_).contacts;
+    Init(qs_.Layout(*model_, x_).size());  // the contact set at x_ℓ is the frozen one
+  }
+
+ protected:
+  StepResiduals Residuals(const Scene& model, const Params& theta, const State& x,
+                          const StepInput& u, const VectorXd& z) const override {
+    return qs_.EvaluateAssembly(
+        model, theta, qs_.AssembleAt(model, x, u, MoveContacts(model, contacts_, x_, x)), x, z);
+  }
+  // The MCP unknowns y = z without q_ℓ+1.
+  VectorXd Unknowns(const State& next) const override {
+    const StepLayout& l = layout_;
+    const VectorXd& w = next.warm_start;
+    if (w.size() != l.size() - l.nq)
+      throw std::invalid_argument("StepModel::UnknownsFromStep: next.warm_start " +
+                                  Sizes("", w.size(), l.size() - l.nq) +
+                                  " (the quasistatic step's solution)");
+    VectorXd z(l.size());
+    z << next.q, w;
+    return z;
+  }
+  VectorXd WarmStart(const VectorXd& z) const override { return z.tail(z.size() - layout_.nq); }
+
+ private:
+  const Quasistatic& qs_;
+  std::vector<Contact> contacts_;
+};
+
+// --- Geometrically implicit ----------------------------------------------------------------------
+
+class GiModel final : public StepModel {
+ public:
+  GiModel(const GeometricallyImplicit& gi, std::shared_ptr<const Scene> model, Params params,
+          State x, StepInput u)
+      : StepModel(std::move(model), std::move(params), std::move(x), std::move(u), gi.options().dt),
+        gi_(gi) {
+    frozen_ = gi_.FreezePairs(*model_, x_);
+    Init(frozen_.layout.size());
+  }
+
+ protected:
+  StepResiduals Residuals(const Scene& model, const Params& theta, const State& x,
+                          const StepInput& u, const VectorXd& z) const override {
+    return gi_.EvaluateFrozen(model, theta, frozen_, x, u, z);
+  }
+  VectorXd Unknowns(const State& next) const override {
+    return gi_.UnknownsFromStep(*model_, frozen_, x_, next);
+  }
+  VectorXd WarmStart(const VectorXd& z) const override {
+    return gi_.StateFromUnknowns(*model_, frozen_, x_, z).warm_start;
+  }
+  State EndState(const VectorXd& z) const override {
+    return gi_.StateFromUnknowns(*model_, frozen_, x_, z);
+  }
+
+ private:
+  const GeometricallyImplicit& gi_;
+  GeometricallyImplicit::FrozenPairs frozen_;
+};
+
+void AppendRows(const MatrixXd& J, int nz, int np, StepModelJacobian* out) {
+  out->d_z = J.leftCols(nz).sparseView(0.0, 0.0);
+  out->d_theta = J.middleCols(nz, np).sparseView(0.0, 0.0);
+}
+
+}  // namespace
+
+double StepModelValues::Violation() const {
+  double v = equality.size() ? equality.cwiseAbs().maxCoeff() : 0.0;
+  for (int i = 0; i < comp_a.size(); ++i) v = std::max(v, std::abs(std::min(comp_a[i], comp_b[i])));
+  return v;
+}
+
+StepModel::StepModel(std::shared_ptr<const Scene> model, Params params, State x, StepInput u,
+                     double dt)
+    : model_(std::move(model)),
+      params_(std::move(params)),
+      x_(std::move(x)),
+      u_(std::move(u)),
+      dt_(dt) {}
+
+void StepModel::Init(int num_unknowns) {
+  const StepResiduals r = Residuals(*model_, params_, x_, u_, VectorXd::Zero(num_unknowns));
+  layout_ = r.layout;
+  param_columns_ = r.param_columns;
+}
+
+StepModelValues StepModel::Evaluate(const VectorXd& z, const Params& theta, const State& x,
+                                    const StepModelOptions& options) const {
+  return Evaluate(z, theta, x, u_, options);
+}
+
+StepModelValues StepModel::Evaluate(const VectorXd& z, const Params& theta, const State& x,
+                                    const StepInput& u, const StepModelOptions& options) const {
+  const Scene& s0 = *model_;
+  if (z.size() != layout_.size())
+    throw std::invalid_argument("StepModel::Evaluate: z " + Sizes("", z.size(), layout_.size()));
+  if (theta.values.size() != s0.param_table().size())
+    throw std::invalid_argument("StepModel::Evaluate: θ " +
+                                Sizes("", theta.values.size(), s0.param_table().size()));
+  if (x.q.size() != s0.num_positions() || x.v.size() != s0.num_velocities())
+    throw std::invalid_argument(
+        "StepModel::Evaluate: x_ℓ has " + std::to_string(x.q.size()) + " positions / " +
+        std::to_string(x.v.size()) + " velocities; the scene needs " +
+        std::to_string(s0.num_positions()) + " / " + std::to_string(s0.num_velocities()));
+  if (x.t != x_.t)
+    throw std::invalid_argument("StepModel::Evaluate: x_ℓ.t = " + std::to_string(x.t) +
+                                " differs from the freeze time " + std::to_string(x_.t) +
+                                " (prescribed bodies are frozen at that time)");
+  const int nv = s0.num_velocities();
+  if (u.generalized_force.size() != 0 && u.generalized_force.size() != nv)
+    throw std::invalid_argument("StepModel::Evaluate: input force " +
+                                Sizes("", u.generalized_force.size(), nv));
+  if (!(options.state_step > 0.0))
+    throw std::invalid_argument("StepModel::Evaluate: state_step must be > 0");
+  Scene applied;
+  const Scene* model = &s0;
+  if (!(theta == params_)) {
+    applied = s0.ApplyParams(theta);
+    model = &applied;
+  }
+  const StepResiduals r = Residuals(*model, theta, x, u, z);
+  StepModelValues out;
+  out.equality = r.equality;
+  out.comp_a = r.comp_a;
+  out.comp_b = r.comp_b;
+  if (!options.jacobians) return out;
+  const int nz = layout_.size(), np = static_cast<int>(param_columns_.size());
+  AppendRows(r.d_equality, nz, np, &out.d_equality);
+  AppendRows(r.d_comp_a, nz, np, &out.d_comp_a);
+  AppendRows(r.d_comp_b, nz, np, &out.d_comp_b);
+  // Input: every formulation's dynamics rows (the first nv equalities) carry −h u.
+  std::vector<Eigen::Triplet<double>> du;
+  for (int i = 0; i < nv; ++i) du.emplace_back(i, i, -dt_);
+  out.d_equality.d_u.resize(r.equality.size(), nv);
+  out.d_equality.d_u.setFromTriplets(du.begin(), du.end());
+  out.d_comp_a.d_u.resize(r.comp_a.size(), nv);
+  out.d_comp_b.d_u.resize(r.comp_b.size(), nv);
+
+  const int nq = static_cast<int>(x.q.size()), nx = nq + nv;
+  out.d_equality.d_x.resize(r.equality.size(), nx);
+  out.d_comp_a.d_x.resize(r.comp_a.size(), nx);
+  out.d_comp_b.d_x.resize(r.comp_b.size(), nx);
+  if (!options.state_jacobian) return out;
+  MatrixXd De = MatrixXd::Zero(r.equality.size(), nx), Da = MatrixXd::Zero(r.comp_a.size(), nx),
+           Db = MatrixXd::Zero(r.comp_b.size(), nx);
+  for (int j = 0; j < nx; ++j) {
+    State xp = x, xm = x;
+    double& cp = j < nq ? xp.q[j] : xp.v[j - nq];
+    double& cm = j < nq ? xm.q[j] : xm.v[j - nq];
+    const double step = options.state_step * std::max(1.0, std::abs(cp));
+    cp += step;
+    cm -= step;
+    const StepResiduals rp = Residuals(*model, theta, xp, u, z);
+    const StepResiduals rm = Residuals(*model, theta, xm, u, z);
+    De.col(j) = (rp.equality - rm.equality) / (2 * step);
+    Da.col(j) = (rp.comp_a - rm.comp_a) / (2 * step);
+    Db.col(j) = (rp.comp_b - rm.comp_b) / (2 * step);
+  }
+  out.d_equality.d_x = De.sparseView(0.0, 0.0);
+  out.d_comp_a.d_x = Da.sparseView(0.0, 0.0);
+  out.d_comp_b.d_x = Db.sparseView(0.0, 0.0);
+  return out;
+}
+
+VectorXd StepModel::UnknownsFromStep(const State& next) const {
+  if (next.q.size() != model_->num_positions() || next.v.size() != model_->num_velocities())
+    throw std::invalid_argument("StepModel::UnknownsFromStep: next state has the wrong size");
+  return Unknowns(next);
+}
+
+State StepModel::StateFromUnknowns(const VectorXd& z) const {
+  if (z.size() != layout_.size())
+    throw std::invalid_argument("StepModel::StateFromUnknowns: z " +
+                                Sizes("", z.size(), layout_.size()));
+  return EndState(z);
+}
+
+State StepModel::EndState(const VectorXd& z) const {
+  State next;
+  next.t = x_.t + dt_;
+  next.q = z.segment(layout_.q1(), layout_.nq);
+  next.v = z.segment(layout_.v1(), layout_.nv);
+  next.warm_start = WarmStart(z);
+  return next;
+}
+
+void StepModel::RecoverJointImpulses(const MatrixXd& G_b, VectorXd* z) const {
+  const StepLayout& l = layout_;
+  if (l.nb == 0) return;
+  z->segment(l.pb(), l.nb).setZero();
+  // Dynamics rows with p_b = 0: r₀ = M(ν − ν_ℓ) − G_c p_c − p_ext = G_b p_b at the solution.
+  const StepResiduals r = Residuals(*model_, params_, x_, u_, *z);
+  z->segment(l.pb(), l.nb) = G_b.colPivHouseholderQr().solve(r.equality.head(l.nv));
+}
+
+std::unique_ptr<StepModel> Freeze(const Formulation& formulation, const Scene& model,
+                                  const Params& params, const State& x, const StepInput& u) {
+  auto scene = std::make_shared<const Scene>(model);
+  if (params.values.size() != model.param_table().size())
+    throw std::invalid_argument("Freeze: params " +
+                                Sizes("", params.values.size(), model.param_table().size()));
+  if (x.q.size() != model.num_positions() || x.v.size() != model.num_velocities())
+    throw std::invalid_argument("Freeze: x has the wrong size for the scene");
+  if (const auto* st = dynamic_cast<const StewartTrinkle*>(&formulation))
+    return std::make_unique<StewartTrinkleModel>(*st, scene, params, x, u);
+  if (const auto* ncp = dynamic_cast<const NcpStepper*>(&formulation))
+    return std::make_unique<NcpModel>(*ncp, scene, params, x, u);
+  if (const auto* qs = dynamic_cast<const Quasistatic*>(&formulation))
+    return std::make_unique<QuasistaticModel>(*qs, scene, params, x, u);
+  if (const auto* gi = dynamic_cast<const GeometricallyImplicit*>(&formulation))
+    return std::make_unique<GiModel>(*gi, scene, params, x, u);
+  throw std::invalid_argument("Freeze: formulation '" + std::string(formulation.name()) +
+                              "' has no frozen step model");
+}
+
+}  // namespace vinci::sim
