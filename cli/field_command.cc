@@ -100,6 +100,28 @@ class Progress {
   int last_decile_ = -1;
 };
 
+// Removes a temporary output file when the scope ends before Release(): on every error path,
+// exceptions included, no FILE.partial is left behind.
+class TempFile {
+ public:
+  explicit TempFile(std::string path) : path_(std::move(path)) {}
+  TempFile(const TempFile&) = delete;
+  TempFile& operator=(const TempFile&) = delete;
+  ~TempFile() {
+    if (!path_.empty()) std::remove(path_.c_str());
+  }
+  const std::string& path() const { return path_; }
+  /// Renames the file to `to`; afterwards nothing is removed. False if the rename failed.
+  bool RenameTo(const std::string& to) {
+    if (std::rename(path_.c_str(), to.c_str()) != 0) return false;
+    path_.clear();
+    return true;
+  }
+
+ private:
+  std::string path_;
+};
+
 }  // namespace
 
 ExitCode RunField(const FieldOptions& o) {
@@ -131,6 +153,7 @@ ExitCode RunField(const FieldOptions& o) {
     std::ofstream probe(tmp);
     if (!probe) throw std::invalid_argument("--out: cannot open '" + tmp + "' for writing");
   }
+  TempFile tmp_file(tmp);  // removed if anything below throws
 
   const double h = simulator.scene().options.dt;
   const int per_cycle = spec.StepsPerCycle(h);
@@ -153,7 +176,7 @@ ExitCode RunField(const FieldOptions& o) {
     out.close();
     if (!out) throw std::invalid_argument("--out: cannot write '" + tmp + "'");
   }
-  if (std::rename(tmp.c_str(), o.out.c_str()) != 0)
+  if (!tmp_file.RenameTo(o.out))
     throw std::invalid_argument("--out: cannot rename '" + tmp + "' to '" + o.out + "'");
 
   if (!o.theory.empty()) {
@@ -163,6 +186,7 @@ ExitCode RunField(const FieldOptions& o) {
     const std::string ttmp = o.theory + ".partial";
     std::ofstream t(ttmp);
     if (!t) throw std::invalid_argument("--theory: cannot open '" + ttmp + "' for writing");
+    TempFile ttmp_file(ttmp);
     t << "x,y,vx,vy,contact_fraction,ok\n";
     char buf[200];
     for (const sim::FieldPoint& p : field.points) {
@@ -172,7 +196,7 @@ ExitCode RunField(const FieldOptions& o) {
       t << buf;
     }
     t.close();
-    if (!t || std::rename(ttmp.c_str(), o.theory.c_str()) != 0)
+    if (!t || !ttmp_file.RenameTo(o.theory))
       throw std::invalid_argument("--theory: cannot write '" + o.theory + "'");
   }
   if (!o.quiet) {

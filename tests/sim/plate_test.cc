@@ -261,6 +261,26 @@ TEST(VelocityFieldTest, BitIdenticalForAnyThreadCount) {
   EXPECT_NE(one.points[0].vx, 0.0);  // the part moved
 }
 
+// issue 18 finding 6: an exception inside a point (here a parameter out of its range) is
+// rethrown after every thread is joined — never std::terminate — for any thread count.
+TEST(VelocityFieldTest, ErrorInsideAPointIsRethrownForAnyThreadCount) {
+  const std::string path = std::string(VINCI_SOURCE_DIR) + "/examples/scenes/plate_whirlpool.yaml";
+  Simulator sim(LoadSceneFile(path));
+  FieldSpec spec = LoadFieldSpec(path, sim.scene());
+  spec.nx = spec.ny = 3;
+  spec.cycles = spec.average_cycles = 1;
+  Params bad = sim.DefaultParams();
+  bad.values[sim.scene().param_table().Index("size.part.s0.radius")] = -1.0;
+  for (int threads : {1, 2, 4}) {
+    try {
+      ComputeVelocityField(sim, bad, spec, {threads, {}});
+      ADD_FAILURE() << "no exception, " << threads << " threads";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find("size.part.s0.radius"), std::string::npos) << e.what();
+    }
+  }
+}
+
 TEST(VelocityFieldTest, PartLeavingThePlateIsFlaggedAndStops) {
   Scene scene = ParseScene(ConveyorYaml(30.0, 30.0, 5.0, 0.5 * kPi, 50));
   Simulator sim(scene);

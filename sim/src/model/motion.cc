@@ -99,6 +99,7 @@ BodyKinematics EvaluateMotion(const PrescribedMotion& motion, const Isometry3d& 
   BodyKinematics k;
   k.X_WB = X_WB0;
   if (motion.IsAtRest()) return k;
+  t -= motion.time_origin;  // τ; exact (t itself) for the default origin 0
   const std::size_t n = planar ? 3 : 6;
   if (!motion.dofs.empty() && motion.dofs.size() != n)
     throw std::invalid_argument("prescribed motion needs " + std::to_string(n) + " dofs, got " +

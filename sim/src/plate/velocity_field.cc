@@ -2,19 +2,17 @@
 
 #include <yaml-cpp/yaml.h>
 
-#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <iterator>
-#include <mutex>
 #include <optional>
 #include <ostream>
 #include <stdexcept>
-#include <thread>
 
 #include "../model/yaml_load.h"
 #include "vinci/sim/model/kinematics.h"
+#include "vinci/sim/simulator/batch.h"
 #include "vinci/sim/solvers/input_file.h"
 
 namespace vinci::sim {
@@ -92,6 +90,13 @@ struct Sums {
 
 FieldPoint ComputeFieldPoint(const Simulator& sim, const Params& params, const FieldSpec& spec,
                              double x, double y) {
+  Workspace ws;
+  return ComputeFieldPoint(sim, params, spec, x, y, &ws);
+}
+
+FieldPoint ComputeFieldPoint(const Simulator& sim, const Params& params, const FieldSpec& spec,
+                             double x, double y, Workspace* ws) {
+  if (!ws) throw std::invalid_argument("ComputeFieldPoint: null workspace");
   const Scene& scene = sim.scene();
   const bool planar = scene.dim == Dim::kPlanar;
   const Body& plate = scene.bodies[spec.plate];
@@ -115,12 +120,11 @@ FieldPoint ComputeFieldPoint(const Simulator& sim, const Params& params, const F
   const BodyIndex& idx = scene.index(spec.part);
   PoseToQ(scene.dim, X_WP * X_PB, s.q.data() + idx.q);
 
-  Workspace ws;
   const StepInput u;
   Sums window, cycle, last_cycle;
   State next;
   for (int k = 0; k < total; ++k) {
-    const StepInfo info = sim.Step(params, s, u, &ws, &next);
+    const StepInfo info = sim.Step(params, s, u, ws, &next);
     if (!info.ok) {
       out.failed = true;
       out.failure =
@@ -177,30 +181,26 @@ VelocityField ComputeVelocityField(const Simulator& sim, const Params& params,
   VelocityField field;
   field.spec = spec;
   const int total = spec.nx * spec.ny;
-  field.points.resize(total);
   const auto coord = [](double lo, double hi, int n, int i) {
     return n == 1 ? 0.5 * (lo + hi) : lo + (hi - lo) * i / (n - 1);
   };
-  std::atomic<int> next{0};
-  std::mutex progress_mutex;
-  int done = 0;
-  // Each point is a pure function of (sim, params, spec, x, y), written to its own slot.
-  const auto worker = [&]() {
-    for (int i = next++; i < total; i = next++) {
-      const int ix = i % spec.nx, iy = i / spec.nx;
-      field.points[i] =
-          ComputeFieldPoint(sim, params, spec, coord(spec.x_min, spec.x_max, spec.nx, ix),
-                            coord(spec.y_min, spec.y_max, spec.ny, iy));
-      std::lock_guard<std::mutex> lock(progress_mutex);
-      ++done;
-      if (options.progress) options.progress(done, total);
-    }
-  };
-  const int nthreads = std::min(options.threads, total);
-  std::vector<std::thread> pool;
-  for (int t = 1; t < nthreads; ++t) pool.emplace_back(worker);
-  worker();
-  for (std::thread& t : pool) t.join();
+  BatchOptions batch;
+  batch.threads = options.threads;
+  batch.progress = options.progress;
+  batch.stop_on_error = true;  // an exception is bad input: report the first point's and stop
+  // Each point is a pure function of (sim, params, spec, x, y); the workspace only caches the
+  // resolved scene.
+  auto results = BatchMap<Workspace>(
+      total,
+      [&](int i, Workspace& ws) {
+        const int ix = i % spec.nx, iy = i / spec.nx;
+        return ComputeFieldPoint(sim, params, spec, coord(spec.x_min, spec.x_max, spec.nx, ix),
+                                 coord(spec.y_min, spec.y_max, spec.ny, iy), &ws);
+      },
+      batch);
+  RethrowFirstError(results);  // the lowest-index failure, as a single thread would report it
+  field.points.reserve(results.size());
+  for (auto& r : results) field.points.push_back(std::move(r.value));
   for (const FieldPoint& p : field.points) {
     field.left_plate += p.left_plate ? 1 : 0;
     field.failed += p.failed ? 1 : 0;

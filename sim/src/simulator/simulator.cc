@@ -11,6 +11,7 @@
 #include "vinci/sim/formulations/step_skeleton.h"
 #include "vinci/sim/formulations/stewart_trinkle.h"
 #include "vinci/sim/model/kinematics.h"
+#include "vinci/sim/model/motion_input.h"
 #include "vinci/sim/solvers/lemke.h"
 
 namespace vinci::sim {
@@ -72,6 +73,23 @@ const Scene& Simulator::Resolve(const Params& params, Workspace* ws) const {
   return *ws->model;
 }
 
+const Scene& Simulator::ResolveWithInputs(const Params& params, const StepInput& u,
+                                          Workspace* ws) const {
+  const Scene& model = Resolve(params, ws);
+  if (u.motions.empty()) return model;
+  // One copy per segment: consecutive steps of a segment carry the same motions.
+  if (!ws->motion_model || ws->motion_base != ws->model ||
+      !SameMotionInputs(ws->motions_for, u.motions)) {
+    auto with_inputs = std::make_shared<const Scene>(ApplyMotionInputs(model, u.motions));
+    // An input motion may use a feature the formulation lacks (e.g. pose: integrated).
+    CheckSceneSupported(*with_inputs, scene_->options.formulation, formulation_->capabilities());
+    ws->motion_model = std::move(with_inputs);
+    ws->motion_base = ws->model;
+    ws->motions_for = u.motions;
+  }
+  return *ws->motion_model;
+}
+
 StepInfo Simulator::Step(const Params& params, const State& x, const StepInput& u, Workspace* ws,
                          State* next) const {
   if (!ws || !next) throw std::invalid_argument("Simulator::Step: null workspace or output");
@@ -82,7 +100,7 @@ StepInfo Simulator::Step(const Params& params, const State& x, const StepInput& 
         std::to_string(scene_->num_positions()) + " / " + std::to_string(scene_->num_velocities()));
   if (u.generalized_force.size() != 0 && u.generalized_force.size() != scene_->num_velocities())
     throw std::invalid_argument("Simulator::Step: input force has the wrong size");
-  return RunStep(*formulation_, Resolve(params, ws), x, u, ws, next);
+  return RunStep(*formulation_, ResolveWithInputs(params, u, ws), x, u, ws, next);
 }
 
 Trajectory Simulator::Rollout(const Params& params, const State& x0,

@@ -68,6 +68,9 @@ struct Workspace {
   Params resolved_for;
   std::shared_ptr<const Scene> model;  ///< scene with `resolved_for` applied
   std::vector<Contact> contacts;  ///< the contacts of the last successful step (for inspection)
+  /// `model` with the last step input's motions applied (Simulator::Step, motion_input.h).
+  std::shared_ptr<const Scene> motion_base, motion_model;
+  std::vector<MotionInput> motions_for;
 };
 
 class Formulation {

@@ -73,7 +73,19 @@ struct PrescribedMotion {
   TiltMotion tilt;              ///< inactive when tilt.amplitude == 0
   PoseRule pose = PoseRule::kExact;
   double base_frequency = 0.0;  ///< Hz; the scene file's motion `frequency` (0: not given)
+  /// s: the motion is evaluated at τ = t − time_origin (everything above is a function of τ).
+  /// 0 for a scene's own motion; a phase-locked segment (motion_input.h) sets its start time.
+  double time_origin = 0.0;
   bool IsAtRest() const { return dofs.empty() && tilt.IsZero(); }
+};
+
+/// A prescribed body's motion for one step, replacing the scene's (StepInput::motions): during
+/// the step the body moves as a scene body with motion `motion` and initial pose X_WB0 would,
+/// i.e. EvaluateMotion(motion, X_WB0, planar, t[, h]). Semantics and helpers: motion_input.h.
+struct MotionInput {
+  int body = -1;                              ///< index of a prescribed body
+  PrescribedMotion motion;                    ///< with its time_origin t0
+  Isometry3d X_WB0 = Isometry3d::Identity();  ///< reference pose the offsets apply to
 };
 
 /// Pose and velocity of a prescribed (or static) body at time t.
@@ -83,8 +95,8 @@ struct BodyKinematics {
   Vector3d w_WB = Vector3d::Zero();  ///< angular velocity, world frame (rad/s)
 };
 
-/// Evaluates a prescribed motion from the initial pose X_WB0 at time t: the exact pose (whatever
-/// motion.pose says) and the exact velocity at t.
+/// Evaluates a prescribed motion from the initial pose X_WB0 at time t (at τ = t −
+/// motion.time_origin): the exact pose (whatever motion.pose says) and the exact velocity at t.
 BodyKinematics EvaluateMotion(const PrescribedMotion& motion, const Isometry3d& X_WB0, bool planar,
                               double t);
 /// As above, but honours motion.pose: with PoseRule::kIntegrated and h > 0 the pose is the one

@@ -4,6 +4,7 @@
 #include <string>
 #include <vector>
 
+#include "vinci/sim/model/motion.h"
 #include "vinci/sim/solvers/solver_report.h"
 #include "vinci/sim/types.h"
 
@@ -20,10 +21,12 @@ struct State {
                         ///< (simulator/options.h)
 };
 
-/// Per-step input: generalized forces added to the scene's applied forces.
+/// Per-step input: generalized forces added to the scene's applied forces, and motions that
+/// replace prescribed bodies' scene motions for this step (motion_input.h).
 struct StepInput {
-  VectorXd generalized_force;  ///< size num_velocities() or empty (= 0); N, N·m (body frame
-                               ///< torques for spatial bodies, as ν is)
+  VectorXd generalized_force;        ///< size num_velocities() or empty (= 0); N, N·m (body frame
+                                     ///< torques for spatial bodies, as ν is)
+  std::vector<MotionInput> motions;  ///< at most one per prescribed body; empty: scene motions
 };
 
 /// How a step ended (StepInfo::status). Every failure leaves the output state equal to the input.

@@ -6,8 +6,8 @@
 // cycles. Coordinates and velocities are in the plate's initial frame P (spatial: the plate
 // surface is P's z = 0 plane, in-plane axes x, y; planar: the surface is P's y = 0 line, the
 // in-plane axis x and "vy" the average normal velocity). ω is the angular velocity about the
-// plate normal. Grid points are simulated in parallel (std::thread); each point is an
-// independent pure rollout, so the result is bit-identical for any thread count.
+// plate normal. Grid points are simulated in parallel (BatchMap, simulator/batch.h); each point
+// is an independent pure rollout, so the result is bit-identical for any thread count.
 #pragma once
 
 #include <functional>
@@ -71,8 +71,8 @@ struct VelocityField {
 
 struct FieldOptions {
   int threads = 1;  ///< worker threads (≥ 1)
-  /// Called after each finished point with (points done, total), from a worker thread but
-  /// serialized (never concurrently). May be empty.
+  /// Called as points finish with (points done, total), on the calling thread (BatchOptions).
+  /// May be empty.
   std::function<void(int, int)> progress;
 };
 
@@ -81,8 +81,13 @@ struct FieldOptions {
 /// before leaving, or over everything simulated if no cycle completed.
 FieldPoint ComputeFieldPoint(const Simulator& sim, const Params& params, const FieldSpec& spec,
                              double x, double y);
+/// As above with the caller's workspace (one per thread).
+FieldPoint ComputeFieldPoint(const Simulator& sim, const Params& params, const FieldSpec& spec,
+                             double x, double y, Workspace* ws);
 
-/// The whole grid, in parallel. Bit-identical for any options.threads.
+/// The whole grid, in parallel. Bit-identical for any options.threads. An exception inside a
+/// point (bad input, e.g. a parameter out of range) stops the run after joining every thread
+/// and is rethrown: the one of the lowest-index failing point, as with one thread.
 VelocityField ComputeVelocityField(const Simulator& sim, const Params& params,
                                    const FieldSpec& spec, const FieldOptions& options = {});
 

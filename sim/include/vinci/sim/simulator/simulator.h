@@ -49,6 +49,9 @@ class Simulator {
 
   /// The scene with params applied, cached in the workspace.
   const Scene& Resolve(const Params& params, Workspace* ws) const;
+  /// Resolve(params) with u.motions applied (ApplyMotionInputs, motion_input.h), cached in the
+  /// workspace: the model a step with input u runs on.
+  const Scene& ResolveWithInputs(const Params& params, const StepInput& u, Workspace* ws) const;
 
  private:
   std::shared_ptr<const Scene> scene_;
