@@ -1,12 +1,12 @@
 #include "vinci/design/evaluate.h"
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <exception>
 #include <stdexcept>
-#include <thread>
+
+#include "vinci/sim/simulator/batch.h"
 
 namespace vinci::design {
 namespace {
@@ -303,34 +303,29 @@ std::vector<Evaluation> ThreadEvaluator::Evaluate(const std::vector<EvalRequest>
     outcomes[r].resize(requests[r].samples);
     for (int i = 0; i < requests[r].samples; ++i) tasks.push_back({static_cast<int>(r), i});
   }
-  std::atomic<std::size_t> next{0};
-  std::exception_ptr error;
-  std::atomic<bool> failed{false};
-  const auto worker = [&]() {
+  // One sim::Workspace per thread (sim/simulator/batch.h), reset when the thread moves on to
+  // another design's Simulator; stop at the first error (the lowest-index one is rethrown).
+  struct ThreadWorkspace {
     sim::Workspace ws;
     const sim::Simulator* last = nullptr;
-    try {
-      for (std::size_t t = next++; t < tasks.size() && !failed; t = next++) {
-        const Task& task = tasks[t];
-        const sim::Simulator* s = sims[task.request].get();
-        if (s != last) ws = sim::Workspace{};
-        last = s;
-        outcomes[task.request][task.sample] = problem_->RunSample(
-            *s, requests[task.request].x, requests[task.request].stream, task.sample, &ws);
-      }
-    } catch (...) {
-      if (!failed.exchange(true)) error = std::current_exception();
-    }
   };
-  const int n = static_cast<int>(std::min<std::size_t>(threads_, tasks.size()));
-  if (n <= 1) {
-    worker();
-  } else {
-    std::vector<std::thread> pool;
-    for (int k = 0; k < n; ++k) pool.emplace_back(worker);
-    for (std::thread& t : pool) t.join();
-  }
-  if (error) std::rethrow_exception(error);
+  sim::BatchOptions options;
+  options.threads = threads_;
+  options.stop_on_error = true;
+  const auto results = sim::BatchMap<ThreadWorkspace>(
+      static_cast<int>(tasks.size()),
+      [&](int t, ThreadWorkspace& tw) {
+        const Task& task = tasks[static_cast<std::size_t>(t)];
+        const sim::Simulator* s = sims[task.request].get();
+        if (s != tw.last) tw.ws = sim::Workspace{};
+        tw.last = s;
+        return problem_->RunSample(*s, requests[task.request].x, requests[task.request].stream,
+                                   task.sample, &tw.ws);
+      },
+      options);
+  sim::RethrowFirstError(results);
+  for (std::size_t t = 0; t < tasks.size(); ++t)
+    outcomes[tasks[t].request][tasks[t].sample] = results[t].value;
   const double per = std::chrono::duration<double>(Clock::now() - start).count() /
                      std::max<std::size_t>(1, requests.size());
   std::vector<Evaluation> result;
