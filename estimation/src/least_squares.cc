@@ -21,6 +21,9 @@ using sim::Params;
 using sim::State;
 using sim::VectorXd;
 
+// Samples of the quadratic fit that gives a log's initial velocity.
+constexpr int kVelocityFitSamples = 8;
+
 bool Planar(const sim::Simulator& s) { return s.scene().dim == Dim::kPlanar; }
 int StateBlockSize(bool planar) { return planar ? 6 : 12; }
 
@@ -123,18 +126,54 @@ void LeastSquaresOptions::Validate() const {
     fail("fd_relative_step", fd_relative_step, "in (0, 1e-2)");
 }
 
-State InitialStateFromLog(const sim::Simulator& simulator, const Episode& ep) {
+namespace {
+
+// The log's initial state (InitialStateFromLog) and, in the layout of the state unknowns
+// (StateFromVector), the standard error of each velocity component estimated from the samples
+// (0 for poses and for logged velocities or when the fit has no spare samples).
+State GuessInitialState(const sim::Simulator& simulator, const Episode& ep, VectorXd* velocity_se) {
   const sim::Scene& scene = simulator.scene();
   const bool planar = Planar(simulator);
   State x = simulator.InitialState();
   x.t = ep.t.front();
   x.warm_start.resize(0);
+  velocity_se->setZero(ObservedDynamic(ep) * StateBlockSize(planar));
   const int n = ep.num_samples();
-  const int k = n > 1 ? 1 : 0;
-  const double dt = n > 1 ? ep.t[k] - ep.t[0] : 1.0;
+  const int k = std::min(n - 1, kVelocityFitSamples - 1);
+  // Velocity of a logged series at the first sample: the slope at t0 of a least-squares
+  // quadratic through the first samples (a line through two if there are only two), and its
+  // standard error from the fit's residuals.
+  auto slope = [&](const std::vector<double>& y, double* se) {
+    *se = 0.0;
+    if (k == 0) return 0.0;
+    const int m = k + 1;
+    Eigen::MatrixXd A(m, m >= 3 ? 3 : 2);
+    VectorXd yv(m);
+    for (int i = 0; i < m; ++i) {
+      const double tau = ep.t[i] - ep.t[0];
+      A(i, 0) = 1.0;
+      A(i, 1) = tau;
+      if (A.cols() == 3) A(i, 2) = tau * tau;
+      yv[i] = y[i];
+    }
+    const VectorXd c = A.colPivHouseholderQr().solve(yv);
+    if (m > A.cols()) {
+      const double s2 = (A * c - yv).squaredNorm() / (m - A.cols());
+      const Eigen::MatrixXd cov = (A.transpose() * A).inverse() * s2;
+      *se = std::sqrt(std::max(0.0, cov(1, 1)));
+    }
+    return c[1];
+  };
+  auto column = [&](const BodyTrack& b, int col) {
+    std::vector<double> y(k + 1);
+    for (int i = 0; i <= k; ++i) y[i] = b.pose(i, col);
+    return y;
+  };
+  int o = 0;
   for (const BodyTrack& b : ep.bodies) {
     if (!b.dynamic) continue;
     Eigen::Vector3d v = Eigen::Vector3d::Zero(), w = Eigen::Vector3d::Zero();
+    double* se = velocity_se->data() + o;
     if (planar) {
       const Eigen::Matrix3d R = sim::GetBodyKinematics(scene, x, b.body).X_WB.linear();
       const double th = b.has_orientation ? b.pose(0, 2) : std::atan2(R(1, 0), R(0, 0));
@@ -143,8 +182,8 @@ State InitialStateFromLog(const sim::Simulator& simulator, const Episode& ep) {
         v << b.velocity(0, 0), b.velocity(0, 1), 0;
         w << 0, 0, b.velocity(0, 2);
       } else {
-        v << (b.pose(k, 0) - b.pose(0, 0)) / dt, (b.pose(k, 1) - b.pose(0, 1)) / dt, 0;
-        if (b.has_orientation) w.z() = (b.pose(k, 2) - b.pose(0, 2)) / dt;
+        v << slope(column(b, 0), se + 3), slope(column(b, 1), se + 4), 0;
+        if (b.has_orientation) w.z() = slope(column(b, 2), se + 5);
       }
     } else {
       Eigen::Isometry3d X = sim::GetBodyKinematics(scene, x, b.body).X_WB;
@@ -155,14 +194,30 @@ State InitialStateFromLog(const sim::Simulator& simulator, const Episode& ep) {
         v = b.velocity.row(0).head<3>().transpose();
         w = b.velocity.row(0).tail<3>().transpose();
       } else {
-        v = (b.pose.row(k).head<3>() - b.pose.row(0).head<3>()).transpose() / dt;
-        if (b.has_orientation)
-          w = RotationLog(LoggedQuaternion(b, k) * LoggedQuaternion(b, 0).conjugate()) / dt;
+        for (int j = 0; j < 3; ++j) v[j] = slope(column(b, j), se + 6 + j);
+        if (b.has_orientation) {
+          // World-frame rotation vectors from the first orientation: their slope is w_W.
+          std::vector<std::vector<double>> rv(3, std::vector<double>(k + 1));
+          for (int i = 0; i <= k; ++i) {
+            const Eigen::Vector3d r =
+                RotationLog(LoggedQuaternion(b, i) * LoggedQuaternion(b, 0).conjugate());
+            for (int j = 0; j < 3; ++j) rv[j][i] = r[j];
+          }
+          for (int j = 0; j < 3; ++j) w[j] = slope(rv[j], se + 9 + j);
+        }
       }
     }
     sim::SetBodyVelocity(scene, b.body, v, w, &x);
+    o += StateBlockSize(planar);
   }
   return x;
+}
+
+}  // namespace
+
+State InitialStateFromLog(const sim::Simulator& simulator, const Episode& ep) {
+  VectorXd se;
+  return GuessInitialState(simulator, ep, &se);
 }
 
 bool EpisodeResiduals(const sim::Simulator& simulator, const Params& params, const Episode& ep,
@@ -372,9 +427,10 @@ EstimateResult EstimateLeastSquares(const sim::Simulator& simulator, const Log& 
   result.initial_values = sel.Get(base);
   VectorXd theta = result.initial_values;
   std::vector<State> refs;
-  std::vector<VectorXd> states;
+  std::vector<VectorXd> states, velocity_se;
   for (const Episode& ep : log.episodes) {
-    refs.push_back(InitialStateFromLog(simulator, ep));
+    velocity_se.emplace_back();
+    refs.push_back(GuessInitialState(simulator, ep, &velocity_se.back()));
     states.push_back(VectorFromState(simulator, ep, refs.back()));
   }
 
@@ -388,17 +444,56 @@ EstimateResult EstimateLeastSquares(const sim::Simulator& simulator, const Log& 
     if (sel.upper()[i] < 1e299) problem.SetParameterUpperBound(theta.data(), i, sel.upper()[i]);
   }
   int m = 0;
+  std::vector<const EpisodeCost*> costs;
   for (size_t e = 0; e < log.episodes.size(); ++e) {
     auto* cost = new EpisodeCost(simulator, sel, base, log.episodes[e], refs[e],
                                  options.estimate_initial_state, states[e], options, &failures);
     m += cost->num_residuals();
+    costs.push_back(cost);
     if (options.estimate_initial_state)
       problem.AddResidualBlock(cost, nullptr, theta.data(), states[e].data());
     else
       problem.AddResidualBlock(cost, nullptr, theta.data());
   }
   result.num_residuals = m;
-  result.num_unknowns = problem.NumParameters();
+
+  // Initial-state components the residuals do not see at the start have a zero Jacobian column
+  // and are held fixed, so that the problem stays well-posed. The typical case is a velocity
+  // into a resting contact, which the contact removes in the first step: its guess from noisy
+  // samples is small but not zero, and can even lift the body off. So velocity components that
+  // the samples do not distinguish from zero (|v| ≤ 3 standard errors of the fit) are tested at
+  // zero, and held at zero if the rollout does not depend on them there.
+  if (options.estimate_initial_state) {
+    for (size_t e = 0; e < log.episodes.size(); ++e) {
+      const int ns = static_cast<int>(states[e].size());
+      VectorXd s0 = states[e];
+      std::vector<bool> candidate(ns, false);
+      for (int j = 0; j < ns; ++j) {
+        candidate[j] = velocity_se[e][j] > 0 && std::abs(s0[j]) <= 3.0 * velocity_se[e][j];
+        if (candidate[j]) s0[j] = 0.0;
+      }
+      const ceres::CostFunction* cost = costs[e];
+      VectorXd r(cost->num_residuals());
+      Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> J(
+          cost->num_residuals(), ns);
+      const double* params[2] = {theta.data(), s0.data()};
+      double* jac[2] = {nullptr, J.data()};
+      if (!cost->Evaluate(params, r.data(), jac)) continue;  // the solver will report it
+      const double tol = 1e-9 * std::sqrt(static_cast<double>(std::max<Eigen::Index>(1, J.rows())));
+      std::vector<int> frozen;
+      for (int j = 0; j < ns; ++j) {
+        if (J.col(j).norm() > tol) continue;
+        frozen.push_back(j);
+        if (candidate[j]) states[e][j] = 0.0;
+      }
+      result.frozen_state_components += static_cast<int>(frozen.size());
+      if (static_cast<int>(frozen.size()) == ns)
+        problem.SetParameterBlockConstant(states[e].data());
+      else if (!frozen.empty())
+        problem.SetManifold(states[e].data(), new ceres::SubsetManifold(ns, frozen));
+    }
+  }
+  result.num_unknowns = problem.NumParameters() - result.frozen_state_components;
 
   ceres::Solver::Options so;
   so.minimizer_type = ceres::TRUST_REGION;
@@ -435,6 +530,7 @@ EstimateResult EstimateLeastSquares(const sim::Simulator& simulator, const Log& 
     ceres::Covariance::Options co;
     co.algorithm_type = result.num_unknowns <= 1000 ? ceres::DENSE_SVD : ceres::SPARSE_QR;
     co.num_threads = options.threads;
+    co.null_space_rank = -1;  // pseudo-inverse: directions the data do not determine are dropped
     ceres::Covariance cov(co);
     std::vector<std::pair<const double*, const double*>> blocks = {{theta.data(), theta.data()}};
     if (cov.Compute(blocks, &problem)) {

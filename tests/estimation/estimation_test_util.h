@@ -61,10 +61,11 @@ inline const char* kSpatialBox =
 // Simulates `sim` from its initial state with mu.default = mu for `duration` and writes the
 // body's pose (planar x, y, theta; spatial x, y, z, qw..qz) at irregular times (every
 // `every`-th step, with every third gap one step longer), with Gaussian position noise of
-// standard deviation sigma (angles get sigma / orientation_length, 0.1 m). Returns the path.
+// standard deviation sigma (angles get sigma / orientation_length, 0.1 m); without
+// `orientation` the log has positions only. Returns the path.
 inline std::string SyntheticLog(const sim::Simulator& sim, const std::string& body, double mu,
                                 double duration, int every, double sigma, unsigned seed,
-                                const std::string& name) {
+                                const std::string& name, bool orientation = true) {
   sim::Params p = sim.DefaultParams();
   p.values[sim.scene().param_table().Index("mu.default")] = mu;
   const int steps = static_cast<int>(std::lround(duration / sim.scene().options.dt));
@@ -74,9 +75,11 @@ inline std::string SyntheticLog(const sim::Simulator& sim, const std::string& bo
   const bool planar = sim.scene().dim == sim::Dim::kPlanar;
   const int qo = sim.scene().index(sim.scene().FindBody(body)).q;
   std::string text = "# synthetic log, mu = " + std::to_string(mu) + "\n";
-  text += planar ? "t," + body + ".x," + body + ".y," + body + ".theta\n"
-                 : "t," + body + ".x," + body + ".y," + body + ".z," + body + ".qw," + body +
-                       ".qx," + body + ".qy," + body + ".qz\n";
+  text += "t," + body + ".x," + body + ".y" + (planar ? "" : "," + body + ".z");
+  if (orientation)
+    text += planar ? "," + body + ".theta"
+                   : "," + body + ".qw," + body + ".qx," + body + ".qy," + body + ".qz";
+  text += "\n";
   char buf[128];
   int gap = 0;
   for (int k = 0; k < static_cast<int>(tr.states.size());) {
@@ -88,7 +91,9 @@ inline std::string SyntheticLog(const sim::Simulator& sim, const std::string& bo
       std::snprintf(buf, sizeof buf, ",%.17g", x.q[qo + j] + sigma * n01(rng));
       text += buf;
     }
-    if (planar) {
+    if (!orientation) {
+      // positions only
+    } else if (planar) {
       std::snprintf(buf, sizeof buf, ",%.17g", x.q[qo + 2] + sigma / 0.1 * n01(rng));
       text += buf;
     } else {

@@ -14,8 +14,12 @@
 // orientations as angle errors times `orientation_length` (so every residual is in metres).
 // Single shooting: one rollout per episode over its whole log (no multiple shooting yet).
 // Jacobians by central finite differences of rollouts. Standard errors from the Gauss–Newton
-// covariance (JᵀJ)⁻¹ σ² (ceres::Covariance), σ the stated noise or, if none is stated, the
-// residual estimate σ̂² = Σ r² / (m − n).
+// covariance (JᵀJ)⁺ σ² (ceres::Covariance, pseudo-inverse), σ the stated noise or, if none is
+// stated, the residual estimate σ̂² = Σ r² / (m − n). Initial-state components with a zero
+// Jacobian column at the start (a velocity into a resting contact, which the first step removes)
+// are held at the log's values. The log's initial velocity (the starting guess, or the value
+// used without estimate_initial_state and without velocity columns) is the slope at t0 of a
+// least-squares quadratic through the first 8 samples.
 #pragma once
 
 #include <string>
@@ -60,7 +64,11 @@ struct EstimateResult {
   bool converged = false;
   std::string reason;  ///< the solver's termination message (and any rollout failure)
   double initial_cost = 0.0, final_cost = 0.0;  ///< ½ Σ r² (m²)
-  int num_residuals = 0, num_unknowns = 0;
+  int num_residuals = 0, num_unknowns = 0;      ///< unknowns: parameters + free state components
+  /// Initial-state components held at the log's values because no residual depends on them at
+  /// the start (zero Jacobian column: e.g. a velocity into a resting contact, removed by the
+  /// first step).
+  int frozen_state_components = 0;
   double sigma = 0.0;  ///< σ used for the standard errors (stated or estimated)
   std::vector<EpisodeEstimate> episodes;
 };
