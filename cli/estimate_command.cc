@@ -107,6 +107,14 @@ ExitCode RunEstimateCommand(const EstimateOptions& o) {
   lo.max_iterations = o.max_iterations;
   lo.estimate_initial_state = !o.fixed_initial_state;
   if (!o.quiet) {
+    lo.progress = [&o](int iteration, double cost, const sim::VectorXd& p) {
+      std::ostringstream line;
+      line.precision(8);
+      line << "iteration " << iteration << "  cost " << cost;
+      for (size_t i = 0; i < o.params.size(); ++i)
+        line << "  " << o.params[i] << " " << p[static_cast<Eigen::Index>(i)];
+      std::cerr << line.str() << "\n";
+    };
     std::cerr << "vinci estimate: lsq, " << log.episodes.size() << " episode(s), "
               << o.params.size() << " parameter(s)" << std::endl;
   }

@@ -394,6 +394,26 @@ class EpisodeCost : public ceres::CostFunction {
   FailureLog* failures_;
 };
 
+// Forwards Ceres' iteration summaries to LeastSquaresOptions::progress.
+class ProgressCallback : public ceres::IterationCallback {
+ public:
+  ProgressCallback(const std::function<void(int, double, const VectorXd&)>& f,
+                   const VectorXd& theta)
+      : f_(f), theta_(theta) {}
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary& s) override {
+    try {
+      if (f_) f_(s.iteration, s.cost, theta_);
+    } catch (...) {
+      // progress reporting must not end the solve
+    }
+    return ceres::SOLVER_CONTINUE;
+  }
+
+ private:
+  const std::function<void(int, double, const VectorXd&)>& f_;
+  const VectorXd& theta_;
+};
+
 }  // namespace
 
 EstimateResult EstimateLeastSquares(const sim::Simulator& simulator, const Log& log,
@@ -506,8 +526,11 @@ EstimateResult EstimateLeastSquares(const sim::Simulator& simulator, const Log& 
   so.parameter_tolerance = options.parameter_tolerance;
   so.gradient_tolerance = options.gradient_tolerance;
   so.num_threads = options.threads;
+  so.update_state_every_iteration = static_cast<bool>(options.progress);
   so.logging_type = ceres::SILENT;
   so.minimizer_progress_to_stdout = false;
+  ProgressCallback callback(options.progress, theta);
+  if (options.progress) so.callbacks.push_back(&callback);
   ceres::Solver::Summary summary;
   ceres::Solve(so, &problem, &summary);
 

@@ -22,6 +22,7 @@
 // least-squares quadratic through the first 8 samples.
 #pragma once
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -43,6 +44,9 @@ struct LeastSquaresOptions {
   double parameter_tolerance = 1e-10;
   double gradient_tolerance = 1e-14;
   double fd_relative_step = 1e-6;  ///< central-difference step, relative (absolute ≥ this)
+  /// Called after every solver iteration with its number (0 = the starting point), the cost
+  /// ½ Σ r² (m²) and the current parameter values. May be empty. Must not throw.
+  std::function<void(int iteration, double cost, const sim::VectorXd& params)> progress;
   /// Throws std::invalid_argument naming the first invalid field.
   void Validate() const;
 };
