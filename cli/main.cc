@@ -6,6 +6,7 @@
 
 #include "command.h"
 #include "design_command.h"
+#include "estimate_command.h"
 #include "field_command.h"
 #include "simulate_command.h"
 #include "solve_command.h"
@@ -54,6 +55,7 @@ int main(int argc, char** argv) {
       vinci::cli::RegisterFieldCommand(app),
       vinci::cli::RegisterViewCommand(app),
       vinci::cli::RegisterDesignCommand(app),
+      vinci::cli::RegisterEstimateCommand(app),
   };
 
   try {

@@ -1,0 +1,190 @@
+#include "estimate_command.h"
+
+#include <charconv>
+#include <cmath>
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "vinci/estimation/least_squares.h"
+#include "vinci/estimation/log.h"
+#include "vinci/sim/model/scene_file.h"
+
+namespace vinci::cli {
+namespace {
+
+// Shortest text that reads back as exactly v; null for NaN/inf (JSON has neither).
+std::string Num(double v) {
+  if (!std::isfinite(v)) return "null";
+  char buf[32];
+  const auto res = std::to_chars(buf, buf + sizeof(buf), v);
+  return std::string(buf, res.ptr);
+}
+
+std::string JsonString(const std::string& s) {
+  std::string o = "\"";
+  for (char c : s) {
+    if (c == '"' || c == '\\') {
+      o += '\\';
+      o += c;
+    } else if (static_cast<unsigned char>(c) < 0x20) {
+      char buf[8];
+      std::snprintf(buf, sizeof buf, "\\u%04x", c);
+      o += buf;
+    } else {
+      o += c;
+    }
+  }
+  return o + "\"";
+}
+
+std::string NamedValues(const std::vector<std::string>& names, const sim::VectorXd& v) {
+  std::string o = "{";
+  for (size_t i = 0; i < names.size(); ++i)
+    o += (i ? ", " : "") + JsonString(names[i]) + ": " + Num(v[static_cast<Eigen::Index>(i)]);
+  return o + "}";
+}
+
+std::string ResultJson(const EstimateOptions& o, const estimation::EstimateResult& r) {
+  std::ostringstream j;
+  j << "{\n  \"scene\": " << JsonString(o.scene_path) << ",\n  \"logs\": [";
+  for (size_t i = 0; i < o.logs.size(); ++i) j << (i ? ", " : "") << JsonString(o.logs[i]);
+  j << "],\n  \"methods\": {\n    " << JsonString(r.method) << ": {\n"
+    << "      \"estimates\": " << NamedValues(r.names, r.estimates) << ",\n"
+    << "      \"std_errors\": " << NamedValues(r.names, r.std_errors) << ",\n"
+    << "      \"initial_values\": " << NamedValues(r.names, r.initial_values) << ",\n"
+    << "      \"iterations\": " << r.iterations << ",\n"
+    << "      \"time_s\": " << Num(r.time_s) << ",\n"
+    << "      \"converged\": " << (r.converged ? "true" : "false") << ",\n"
+    << "      \"reason\": " << JsonString(r.reason) << ",\n"
+    << "      \"sigma\": " << Num(r.sigma) << ",\n"
+    << "      \"noise_stated\": " << (o.noise > 0 ? "true" : "false") << ",\n"
+    << "      \"initial_cost\": " << Num(r.initial_cost) << ",\n"
+    << "      \"final_cost\": " << Num(r.final_cost) << ",\n"
+    << "      \"num_residuals\": " << r.num_residuals << ",\n"
+    << "      \"num_unknowns\": " << r.num_unknowns << ",\n"
+    << "      \"initial_state_estimated\": " << (o.fixed_initial_state ? "false" : "true")
+    << ",\n      \"frozen_state_components\": " << r.frozen_state_components
+    << ",\n      \"episodes\": [";
+  for (size_t e = 0; e < r.episodes.size(); ++e) {
+    j << (e ? ", " : "") << "{\"file\": " << JsonString(r.episodes[e].file)
+      << ", \"rms_residual\": " << Num(r.episodes[e].rms_residual) << "}";
+  }
+  j << "]\n    }\n  }\n}\n";
+  return j.str();
+}
+
+}  // namespace
+
+ExitCode RunEstimateCommand(const EstimateOptions& o) {
+  if (o.method == "mpec" || o.method == "filter") {
+    throw std::invalid_argument(
+        "--method " + o.method +
+        ": not implemented yet (only lsq is; the MPEC estimator with Ipopt and the recursive "
+        "filter are planned, docs/estimation.md)");
+  }
+  if (o.method != "lsq") {
+    throw std::invalid_argument("--method " + o.method +
+                                ": expected lsq (mpec and filter are not implemented yet)");
+  }
+  if (o.noise < 0 || !std::isfinite(o.noise))
+    throw std::invalid_argument("--noise: expected a finite σ ≥ 0 in m");
+  // Check that the output can be written before the work.
+  {
+    std::ofstream test(o.out, std::ios::app);
+    if (!test) throw std::invalid_argument("--out: cannot open '" + o.out + "' for writing");
+  }
+  const sim::Simulator simulator(sim::LoadSceneFile(o.scene_path));
+  const estimation::Log log = estimation::ReadLog(o.logs, simulator.scene());
+  estimation::LeastSquaresOptions lo;
+  lo.params = o.params;
+  lo.noise_sigma = o.noise;
+  lo.threads = o.threads;
+  lo.max_iterations = o.max_iterations;
+  lo.estimate_initial_state = !o.fixed_initial_state;
+  if (!o.quiet) {
+    lo.progress = [&o](int iteration, double cost, const sim::VectorXd& p) {
+      std::ostringstream line;
+      line.precision(8);
+      line << "iteration " << iteration << "  cost " << cost;
+      for (size_t i = 0; i < o.params.size(); ++i)
+        line << "  " << o.params[i] << " " << p[static_cast<Eigen::Index>(i)];
+      std::cerr << line.str() << "\n";
+    };
+    std::cerr << "vinci estimate: lsq, " << log.episodes.size() << " episode(s), "
+              << o.params.size() << " parameter(s)" << std::endl;
+  }
+  const estimation::EstimateResult r = estimation::EstimateLeastSquares(simulator, log, lo);
+  std::ofstream out(o.out, std::ios::out | std::ios::trunc);
+  out << ResultJson(o, r);
+  out.close();
+  if (!out) throw std::invalid_argument("--out: writing '" + o.out + "' failed");
+  if (!o.quiet) {
+    std::ostringstream s;
+    s.precision(6);
+    for (size_t i = 0; i < r.names.size(); ++i) {
+      s << r.names[i] << " = " << r.estimates[static_cast<Eigen::Index>(i)] << " ± "
+        << r.std_errors[static_cast<Eigen::Index>(i)] << " (from "
+        << r.initial_values[static_cast<Eigen::Index>(i)] << ")\n";
+    }
+    s << "iterations " << r.iterations << ", " << r.time_s << " s, "
+      << (r.converged ? "converged" : "did not converge") << ": " << r.reason << "\n"
+      << "result      " << o.out << "\n";
+    std::cout << s.str() << std::flush;
+  }
+  if (!r.converged) {
+    PrintError("the estimator did not converge (" + r.reason + "); the result in '" + o.out +
+               "' is the last iterate");
+    return ExitCode::kSolveFailed;
+  }
+  return ExitCode::kOk;
+}
+
+Command RegisterEstimateCommand(CLI::App& app) {
+  auto options = std::make_shared<EstimateOptions>();
+  CLI::App* sub = app.add_subcommand(
+      "estimate", "Estimate scene parameters (friction, masses) from logged trajectories");
+  sub->add_option("SCENE", options->scene_path, "Scene file (YAML, see docs/scene-format.md)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  sub->add_option("LOGS", options->logs,
+                  "Log files (CSV with the columns of `vinci simulate --out`), one episode each")
+      ->required()
+      ->check(CLI::ExistingFile);
+  sub->add_option("--param,-p", options->params,
+                  "A parameter to estimate (repeat for several): a differentiable entry of the "
+                  "scene's parameter table, e.g. mu.default, mu.<a>.<b>, support_mu.<body>, "
+                  "mass.<body>; its start value is the scene's")
+      ->required()
+      ->type_name("NAME");
+  sub->add_option("--method", options->method,
+                  "Estimator: lsq (least squares with the simulator in the loop, Ceres). mpec "
+                  "and filter are not implemented yet")
+      ->type_name("NAME");
+  sub->add_option("--noise", options->noise,
+                  "Measurement noise σ of the logged positions in m for the standard errors "
+                  "(default: estimated from the residuals)")
+      ->type_name("SIGMA");
+  sub->add_option("--threads,-j", options->threads, "Threads (episodes evaluated in parallel)")
+      ->type_name("N")
+      ->check(CLI::PositiveNumber);
+  sub->add_option("--max-iterations", options->max_iterations, "Solver iterations at most")
+      ->type_name("N")
+      ->check(CLI::PositiveNumber);
+  sub->add_flag("--fixed-initial-state", options->fixed_initial_state,
+                "Take each episode's initial state from its first sample (logged velocity or "
+                "a finite difference) instead of estimating it");
+  sub->add_option("--out,-o", options->out, "Result file (JSON)")->required()->type_name("FILE");
+  sub->add_flag("--quiet,-q", options->quiet, "Print nothing but errors");
+  sub->footer(
+      "result.json: {scene, logs, methods: {lsq: {estimates, std_errors, initial_values, "
+      "iterations, time_s, converged, reason, sigma, ...}}}.\nExit 0 converged, 1 bad input, 3 "
+      "did not converge (the result is still written).");
+  return Command{sub, [options] { return RunEstimateCommand(*options); }};
+}
+
+}  // namespace vinci::cli

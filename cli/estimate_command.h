@@ -1,0 +1,35 @@
+// `vinci estimate SCENE.yaml LOG.csv... --param NAME --out result.json`: estimation of scene
+// parameters (friction, masses) from logged trajectories (docs/estimation.md).
+#pragma once
+
+#include <CLI/CLI.hpp>
+#include <string>
+#include <vector>
+
+#include "command.h"
+
+namespace vinci::cli {
+
+/// Everything `vinci estimate` takes from the command line.
+struct EstimateOptions {
+  std::string scene_path;
+  std::vector<std::string> logs;
+  std::vector<std::string> params;
+  std::string method = "lsq";
+  double noise = 0.0;  ///< stated measurement noise σ (m); 0: estimated from the residuals
+  int threads = 1;
+  int max_iterations = 100;
+  bool fixed_initial_state = false;
+  std::string out;
+  bool quiet = false;
+};
+
+/// Adds the `estimate` subcommand to `app`.
+Command RegisterEstimateCommand(CLI::App& app);
+
+/// Runs `vinci estimate`. Throws std::invalid_argument for bad input (including a method that
+/// is not implemented). Returns kOk, or kSolveFailed if the estimator did not converge (the
+/// result is still written, with the reason).
+ExitCode RunEstimateCommand(const EstimateOptions& options);
+
+}  // namespace vinci::cli

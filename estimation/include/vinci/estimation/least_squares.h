@@ -1,0 +1,100 @@
+// Least-squares estimation of scene parameters with the simulator in the loop (Ceres).
+//
+// Unknowns: θ, the chosen parameters (differentiable entries of the ParamTable, e.g.
+// mu.default), and optionally each episode's initial state s_e: per observed dynamic body its
+// pose and world velocity (planar x, y, θ, vx, vy, ω; spatial position, a rotation vector δ
+// with R = exp(δ) R̂ (R̂ the first logged orientation), v_W, w_W). Unobserved dynamic bodies
+// start from the scene's initial state.
+//
+//   min_{θ, s}  ½ Σ_e Σ_i ‖ y_ei − h(x_e(t_ei; θ, s_e)) ‖²
+//
+// where x_e(t; θ, s_e) is the simulator's rollout from s_e at the log's first time with the
+// scene's dt, linearly interpolated between steps at the logged times t_ei (any sampling), and
+// h returns the positions of the observed dynamic bodies plus, where the log has them, their
+// orientations as angle errors times `orientation_length` (so every residual is in metres).
+// Single shooting: one rollout per episode over its whole log (no multiple shooting yet).
+// Jacobians by central finite differences of rollouts. Standard errors from the Gauss–Newton
+// covariance (JᵀJ)⁺ σ² (ceres::Covariance, pseudo-inverse), σ the stated noise or, if none is
+// stated, the residual estimate σ̂² = Σ r² / (m − n). Initial-state components with a zero
+// Jacobian column at the start (a velocity into a resting contact, which the first step removes)
+// are held at the log's values. The log's initial velocity (the starting guess, or the value
+// used without estimate_initial_state and without velocity columns) is the slope at t0 of a
+// least-squares quadratic through the first 8 samples.
+#pragma once
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "vinci/estimation/log.h"
+#include "vinci/sim/simulator/simulator.h"
+
+namespace vinci::estimation {
+
+struct LeastSquaresOptions {
+  std::vector<std::string> params;  ///< names in the scene's ParamTable, differentiable
+  /// Estimate each episode's initial state (else it is taken from the log's first sample, with
+  /// the logged velocity or, without velocity columns, a finite difference of the first samples).
+  bool estimate_initial_state = true;
+  double noise_sigma = 0.0;         ///< measurement noise σ (m); 0: estimated from residuals
+  double orientation_length = 0.1;  ///< m per rad for orientation residuals
+  int threads = 1;                  ///< Ceres evaluation threads (episodes in parallel)
+  int max_iterations = 100;
+  double function_tolerance = 1e-12;
+  double parameter_tolerance = 1e-10;
+  double gradient_tolerance = 1e-14;
+  double fd_relative_step = 1e-6;  ///< central-difference step, relative (absolute ≥ this)
+  /// Called after every solver iteration with its number (0 = the starting point), the cost
+  /// ½ Σ r² (m²) and the current parameter values. May be empty. Must not throw.
+  std::function<void(int iteration, double cost, const sim::VectorXd& params)> progress;
+  /// Throws std::invalid_argument naming the first invalid field.
+  void Validate() const;
+};
+
+/// Estimated initial state of one episode (world frame).
+struct EpisodeEstimate {
+  std::string file;
+  sim::State x0;  ///< the estimated (or log-derived) initial state, at the log's first time
+  double rms_residual = 0.0;  ///< m
+};
+
+struct EstimateResult {
+  std::string method = "lsq";
+  std::vector<std::string> names;
+  sim::VectorXd estimates, std_errors;  ///< std_errors NaN where the covariance failed
+  sim::VectorXd initial_values;
+  int iterations = 0;
+  double time_s = 0.0;
+  bool converged = false;
+  std::string reason;  ///< the solver's termination message (and any rollout failure)
+  double initial_cost = 0.0, final_cost = 0.0;  ///< ½ Σ r² (m²)
+  int num_residuals = 0, num_unknowns = 0;      ///< unknowns: parameters + free state components
+  /// Initial-state components held at the log's values because no residual depends on them at
+  /// the start (zero Jacobian column: e.g. a velocity into a resting contact, removed by the
+  /// first step).
+  int frozen_state_components = 0;
+  double sigma = 0.0;  ///< σ used for the standard errors (stated or estimated)
+  std::vector<EpisodeEstimate> episodes;
+};
+
+/// Runs the estimation from the scene's values of the parameters. Throws std::invalid_argument
+/// for an unknown or non-differentiable parameter, invalid options, or too few samples
+/// (CheckEnoughSamples); numerical trouble (failed rollouts, no convergence) is reported in
+/// the result, never thrown.
+EstimateResult EstimateLeastSquares(const sim::Simulator& simulator, const Log& log,
+                                    const LeastSquaresOptions& options);
+
+/// Simulated observations of one episode at its logged times for the given parameters and
+/// initial state: rows = samples, columns as the episode's residuals (ResidualsPerSample; the
+/// orientation entries are the rotation angles from the logged ones times orientation_length,
+/// i.e. measured minus simulated). Returns false if the rollout failed. For tests and tools.
+bool EpisodeResiduals(const sim::Simulator& simulator, const sim::Params& params,
+                      const Episode& episode, const sim::State& x0, double orientation_length,
+                      sim::VectorXd* residuals, std::string* failure);
+
+/// The initial state the log suggests for an episode: the scene's initial state with the
+/// observed dynamic bodies at their first logged pose and velocity (logged, or a finite
+/// difference over the first samples), t = the log's first time.
+sim::State InitialStateFromLog(const sim::Simulator& simulator, const Episode& episode);
+
+}  // namespace vinci::estimation

@@ -1,0 +1,114 @@
+// Synthetic logs for the estimation tests: simulate a scene with known parameters and write
+// the observed bodies' poses at chosen times in the log format (vinci/estimation/log.h).
+#pragma once
+
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "vinci/sim/model/scene_file.h"
+#include "vinci/sim/simulator/simulator.h"
+
+namespace vinci::estimation::testing {
+
+inline std::string TempDir() {
+  const std::filesystem::path d = std::filesystem::temp_directory_path() /
+                                  ("vinci_estimation_test_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(d);
+  return d.string();
+}
+
+inline std::string WriteFile(const std::string& name, const std::string& text) {
+  const std::string path = TempDir() + "/" + name;
+  std::ofstream(path) << text;
+  return path;
+}
+
+// A planar block (0.4 × 0.2 m, 1 kg) launched at 1.5 m/s along a floor; the scene's μ = 0.5
+// (the estimator's starting value), the logs are simulated with another μ.
+inline const char* kPlanarBlock =
+    "dimension: 2\n"
+    "gravity: [0, -9.81]\n"
+    "stepper: {dt: 0.002, duration: 0.6, envelope: 0.002}\n"
+    "friction: {default: 0.5}\n"
+    "bodies:\n"
+    "  - {name: floor, kind: static, shapes: [{type: halfplane}]}\n"
+    "  - name: block\n"
+    "    mass: 1.0\n"
+    "    pose: {position: [0, 0.1]}\n"
+    "    velocity: {linear: [1.5, 0]}\n"
+    "    shapes: [{type: polygon, vertices: [[-0.2, -0.1], [0.2, -0.1], [0.2, 0.1], "
+    "[-0.2, 0.1]]}]\n";
+
+// A spatial box (0.2 × 0.2 × 0.1 m) sliding on a plane at 1.2 m/s along x.
+inline const char* kSpatialBox =
+    "dimension: 3\n"
+    "stepper: {dt: 0.002, duration: 0.5, friction_directions: 8, envelope: 0.002}\n"
+    "friction: {default: 0.5}\n"
+    "bodies:\n"
+    "  - {name: floor, kind: static, shapes: [{type: halfspace}]}\n"
+    "  - name: box\n"
+    "    mass: 1.0\n"
+    "    pose: {position: [0, 0, 0.05]}\n"
+    "    velocity: {linear: [1.2, 0, 0]}\n"
+    "    shapes: [{type: box, half_extents: [0.1, 0.1, 0.05]}]\n";
+
+// Simulates `sim` from its initial state with mu.default = mu for `duration` and writes the
+// body's pose (planar x, y, theta; spatial x, y, z, qw..qz) at irregular times (every
+// `every`-th step, with every third gap one step longer), with Gaussian position noise of
+// standard deviation sigma (angles get sigma / orientation_length, 0.1 m); without
+// `orientation` the log has positions only. Returns the path.
+inline std::string SyntheticLog(const sim::Simulator& sim, const std::string& body, double mu,
+                                double duration, int every, double sigma, unsigned seed,
+                                const std::string& name, bool orientation = true) {
+  sim::Params p = sim.DefaultParams();
+  p.values[sim.scene().param_table().Index("mu.default")] = mu;
+  const int steps = static_cast<int>(std::lround(duration / sim.scene().options.dt));
+  const sim::Trajectory tr = sim.Rollout(p, sim.InitialState(), steps);
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> n01(0.0, 1.0);
+  const bool planar = sim.scene().dim == sim::Dim::kPlanar;
+  const int qo = sim.scene().index(sim.scene().FindBody(body)).q;
+  std::string text = "# synthetic log, mu = " + std::to_string(mu) + "\n";
+  text += "t," + body + ".x," + body + ".y" + (planar ? "" : "," + body + ".z");
+  if (orientation)
+    text += planar ? "," + body + ".theta"
+                   : "," + body + ".qw," + body + ".qx," + body + ".qy," + body + ".qz";
+  text += "\n";
+  char buf[128];
+  int gap = 0;
+  for (int k = 0; k < static_cast<int>(tr.states.size());) {
+    const sim::State& x = tr.states[k];
+    std::snprintf(buf, sizeof buf, "%.17g", x.t);
+    text += buf;
+    const int np = planar ? 2 : 3;
+    for (int j = 0; j < np; ++j) {
+      std::snprintf(buf, sizeof buf, ",%.17g", x.q[qo + j] + sigma * n01(rng));
+      text += buf;
+    }
+    if (!orientation) {
+      // positions only
+    } else if (planar) {
+      std::snprintf(buf, sizeof buf, ",%.17g", x.q[qo + 2] + sigma / 0.1 * n01(rng));
+      text += buf;
+    } else {
+      Eigen::Quaterniond q(x.q[qo + 3], x.q[qo + 4], x.q[qo + 5], x.q[qo + 6]);
+      if (sigma > 0) {
+        const Eigen::Vector3d d(n01(rng), n01(rng), n01(rng));
+        q = Eigen::Quaterniond(Eigen::AngleAxisd(sigma / 0.1 * d.norm(), d.normalized())) * q;
+      }
+      std::snprintf(buf, sizeof buf, ",%.17g,%.17g,%.17g,%.17g", q.w(), q.x(), q.y(), q.z());
+      text += buf;
+    }
+    text += "\n";
+    k += every + (++gap % 3 == 0 ? 1 : 0);
+  }
+  return WriteFile(name, text);
+}
+
+}  // namespace vinci::estimation::testing
