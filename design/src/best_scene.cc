@@ -32,37 +32,41 @@ void ScaleVertices(YAML::Node shape, double scale) {
       vertices[i][k] = Number(vertices[i][k].as<double>() * scale);
 }
 
-// Writes a whole pose (position and angle / rpy) as the scene file reads it; a spatial pose's
-// other rotation keys are dropped so that rpy is the one rotation of the node.
-void WritePose(YAML::Node node, sim::Dim dim, const Eigen::Isometry3d& X) {
-  const Eigen::Matrix<double, 6, 1> c = sim::PoseComponents(dim, X);
+// Writes pose component c (params.h: planar x, y, θ; spatial x, y, z, roll, pitch, yaw) of the
+// pose whose components are `c0[0..n)`: a translation component writes the whole `position`, a
+// rotation component the whole `angle` (planar) or `rpy` (spatial; the node's other rotation
+// keys are dropped so that rpy is its one rotation). The values are the Params entries
+// themselves, so the scene loader rebuilds the pose ApplyParams builds, bit for bit.
+void WritePose(YAML::Node node, sim::Dim dim, const double* c0, int c) {
   const bool planar = dim == sim::Dim::kPlanar;
-  YAML::Node position(YAML::NodeType::Sequence), rpy(YAML::NodeType::Sequence);
-  for (int k = 0; k < (planar ? 2 : 3); ++k) position.push_back(Number(c[k]));
-  position.SetStyle(YAML::EmitterStyle::Flow);
-  node["position"] = position;
-  if (planar) {
-    node["angle"] = Number(c[2]);
-    return;
+  const int nt = planar ? 2 : 3;
+  YAML::Node list(YAML::NodeType::Sequence);
+  list.SetStyle(YAML::EmitterStyle::Flow);
+  if (c < nt) {
+    for (int k = 0; k < nt; ++k) list.push_back(Number(c0[k]));
+    node["position"] = list;
+  } else if (planar) {
+    node["angle"] = Number(c0[2]);
+  } else {
+    for (const char* key : {"rotation", "quaternion"}) node.remove(key);
+    for (int k = 3; k < 6; ++k) list.push_back(Number(c0[k]));
+    node["rpy"] = list;
   }
-  for (const char* key : {"rotation", "quaternion"}) node.remove(key);
-  for (int k = 3; k < 6; ++k) rpy.push_back(Number(c[k]));
-  rpy.SetStyle(YAML::EmitterStyle::Flow);
-  node["rpy"] = rpy;
 }
 
-// `applied` is `scene` with the design's parameters applied (for the pose kinds, whose
-// components are written together).
-void WriteParam(YAML::Node root, const sim::Scene& scene, const sim::Scene& applied,
+// `params` is the full parameter vector of the design and `index` p's entry in it (pose
+// components are consecutive in the table: p.c of them precede p).
+void WriteParam(YAML::Node root, const sim::Scene& scene, const sim::Params& params, int index,
                 const sim::ParamInfo& p, double v) {
   switch (p.kind) {
-    case sim::ParamKind::kPose:
+    case sim::ParamKind::kPose: {
+      const double* c0 = params.values.data() + (index - p.c);
       if (p.b < 0)
-        WritePose(BodyNode(root, scene, p.a)["pose"], scene.dim, applied.bodies[p.a].X_WB0);
+        WritePose(BodyNode(root, scene, p.a)["pose"], scene.dim, c0, p.c);
       else
-        WritePose(BodyNode(root, scene, p.a)["shapes"][p.b]["pose"], scene.dim,
-                  applied.bodies[p.a].shapes[p.b].X_BS);
+        WritePose(BodyNode(root, scene, p.a)["shapes"][p.b]["pose"], scene.dim, c0, p.c);
       return;
+    }
     case sim::ParamKind::kTiltAmplitude:
       BodyNode(root, scene, p.a)["motion"]["tilt"]["amplitude"] = Number(v);
       return;
@@ -146,12 +150,12 @@ std::string BestSceneYaml(const DesignSpec& spec, const VectorXd& x) {
   for (std::size_t k = 0; k < spec.parameters.size(); ++k)
     if (spec.parameters[k].target.kind == TargetKind::kParam)
       params.values[spec.parameters[k].target.index] = x[k];
-  const sim::Scene applied = scene.ApplyParams(params);
   // Shape scales multiply the file's vertices: apply each once, after the other values.
   for (std::size_t k = 0; k < spec.parameters.size(); ++k) {
     const DesignParameter& p = spec.parameters[k];
     if (p.target.kind == TargetKind::kParam) {
-      WriteParam(root, scene, applied, scene.param_table().info(p.target.index), x[k]);
+      WriteParam(root, scene, params, p.target.index, scene.param_table().info(p.target.index),
+                 x[k]);
     } else if (p.target.kind == TargetKind::kPose) {
       YAML::Node pose = BodyNode(root, scene, p.target.body)["pose"];
       if (p.target.coord < 2) {
