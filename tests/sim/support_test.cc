@@ -5,16 +5,19 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
+#include <random>
 #include <string>
 
 #include "vinci/sim/model/scene_file.h"
 #include "vinci/sim/simulator/simulator.h"
+#include "vinci/sim/solvers/mcp.h"
 
 namespace vinci::sim {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-// Static fractions come from a semismooth Newton solve at tolerance 1e-13.
+// Static fractions come from a dual Newton solve to 1e-14 (support.cc).
 constexpr double kFractionTol = 1e-10;
 
 std::vector<Vector3d> Points(std::initializer_list<std::pair<double, double>> xy) {
@@ -45,6 +48,57 @@ TEST(SupportFractions, MoreThanThreePointsUseTheMinimumNormDistribution) {
   EXPECT_NEAR(-g[0] + g[1] + 3 * g[2], 0.0, kFractionTol);
   EXPECT_NEAR(g[0], 7.0 / 12.0, kFractionTol);
   EXPECT_NEAR(g[2], 1.0 / 12.0, kFractionTol);
+}
+
+// The minimum-norm distribution with f ≥ 0 against an independent solve of its KKT conditions as
+// a mixed complementarity problem (McpSolver), on point sets where some f_k = 0 at the optimum.
+TEST(SupportFractions, MinimumNormWithActiveBoundsMatchesTheKktSolution) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  int with_zero = 0;
+  for (int trial = 0; trial < 40; ++trial) {
+    const int n = 4 + trial % 5;
+    std::vector<Vector3d> p;
+    for (int k = 0; k < n; ++k) p.push_back(Vector3d(u(rng), u(rng), 0.0));
+    p.push_back(Vector3d(4.0 + u(rng), 0.1 * u(rng), 0.0));  // a far point: often unloaded
+    const int m = static_cast<int>(p.size());
+    MatrixXd A(3, m);
+    for (int k = 0; k < m; ++k) A.col(k) << 1.0, p[k].x(), p[k].y();
+    McpProblem mcp;
+    const double inf = std::numeric_limits<double>::infinity();
+    mcp.lower = VectorXd::Zero(m + 3);
+    mcp.lower.tail(3).setConstant(-inf);
+    mcp.upper = VectorXd::Constant(m + 3, inf);
+    MatrixXd J = MatrixXd::Zero(m + 3, m + 3);
+    J.topLeftCorner(m, m).setIdentity();
+    J.topRightCorner(m, 3) = -A.transpose();
+    J.bottomLeftCorner(3, m) = A;
+    VectorXd c = VectorXd::Zero(m + 3);
+    c[m] = -1.0;
+    mcp.evaluate = [J, c](const VectorXd& z, VectorXd* F, MatrixXd* Jz) {
+      *F = J * z + c;
+      if (Jz) *Jz = J;
+    };
+    VectorXd z = VectorXd::Zero(m + 3);
+    z.head(m).setConstant(1.0 / m);
+    McpOptions options;
+    options.tolerance = 1e-13;
+    std::vector<double> f;
+    try {
+      f = ComputeSupportFractions(p, "t");
+    } catch (const std::invalid_argument&) {
+      // Centre outside the hull: the KKT system must have no solution either.
+      EXPECT_FALSE(McpSolver(options).Solve(mcp, &z).ok()) << "trial " << trial;
+      continue;
+    }
+    ASSERT_TRUE(McpSolver(options).Solve(mcp, &z).ok()) << "trial " << trial;
+    for (int k = 0; k < m; ++k) {
+      EXPECT_GE(f[k], 0.0);
+      EXPECT_NEAR(f[k], std::max(0.0, z[k]), 1e-9) << "trial " << trial << " point " << k;
+      if (f[k] == 0.0) ++with_zero;
+    }
+  }
+  EXPECT_GT(with_zero, 0);  // the bound f ≥ 0 was active somewhere
 }
 
 TEST(SupportFractions, CentreOutsideTheSupportHullThrows) {

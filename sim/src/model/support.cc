@@ -1,5 +1,6 @@
 #include "vinci/sim/model/support.h"
 
+#include <Eigen/Cholesky>
 #include <Eigen/SVD>
 #include <cmath>
 #include <limits>
@@ -7,7 +8,6 @@
 #include <stdexcept>
 
 #include "vinci/sim/model/kinematics.h"
-#include "vinci/sim/solvers/mcp.h"
 
 namespace vinci::sim {
 namespace {
@@ -19,6 +19,12 @@ constexpr double kRankTolerance = 1e-10;
 // A static distribution must balance force and moment to this (relative to the load 1 and the
 // support extent): the solver's tolerance with a wide margin.
 constexpr double kBalanceTolerance = 1e-8;
+// The dual Newton iteration of ComputeSupportFractions: stop at ‖g‖∞ below this (the load is 1),
+// after at most this many steps; the Hessian's relative diagonal shift keeps a step defined when
+// fewer than `rank` points are active.
+constexpr double kNewtonTolerance = 1e-14;
+constexpr int kMaxNewtonSteps = 100;
+constexpr double kNewtonRegularization = 1e-12;
 
 }  // namespace
 
@@ -51,30 +57,33 @@ std::vector<double> ComputeSupportFractions(const std::vector<Vector3d>& points_
   };
   if ((U * br - b).norm() > kBalanceTolerance) fail();
 
-  // min ½‖f‖² s.t. A_r f = b_r, f ≥ 0, as the mixed LCP of its KKT conditions in (f ≥ 0, λ):
-  //   0 ≤ f ⊥ f − A_rᵀ λ ≥ 0,   A_r f − b_r = 0.
-  McpProblem mcp;
-  const double inf = std::numeric_limits<double>::infinity();
-  mcp.lower = VectorXd::Zero(n + rank);
-  mcp.upper = VectorXd::Constant(n + rank, inf);
-  mcp.lower.tail(rank).setConstant(-inf);
-  MatrixXd J = MatrixXd::Zero(n + rank, n + rank);
-  J.topLeftCorner(n, n).setIdentity();
-  J.topRightCorner(n, rank) = -Ar.transpose();
-  J.bottomLeftCorner(rank, n) = Ar;
-  VectorXd c = VectorXd::Zero(n + rank);
-  c.tail(rank) = -br;
-  mcp.evaluate = [J, c](const VectorXd& z, VectorXd* F, MatrixXd* Jz) {
-    *F = J * z + c;
-    if (Jz) *Jz = J;
+  // min ½‖f‖² s.t. A_r f = b_r, f ≥ 0. Its KKT conditions give f = (A_rᵀ λ)₊ for the λ that
+  // solves g(λ) = A_r (A_rᵀ λ)₊ − b_r = 0, the gradient of the convex, piecewise-quadratic dual
+  // φ(λ) = ½‖(A_rᵀ λ)₊‖² − b_rᵀ λ (rank ≤ 3 unknowns). Newton on g with the active set
+  // F = {k : (A_rᵀ λ)_k > 0} (Hessian A_F A_Fᵀ) and a backtracking line search on φ; it ends in
+  // finitely many steps on a piecewise-quadratic φ. No feasible f (the centre of mass outside
+  // the hull) makes φ unbounded below: the iteration cap and the balance check below catch it.
+  const auto phi = [&](const VectorXd& l) {
+    return 0.5 * (Ar.transpose() * l).cwiseMax(0.0).squaredNorm() - br.dot(l);
   };
-  VectorXd z = VectorXd::Zero(n + rank);
-  z.head(n).setConstant(1.0 / n);
-  McpOptions options;
-  options.tolerance = 1e-13;
-  const SolverReport report = McpSolver(options).Solve(mcp, &z);
-  VectorXd f = z.head(n).cwiseMax(0.0);
-  if (!report.ok() || (A * f - b).lpNorm<Eigen::Infinity>() > kBalanceTolerance) fail();
+  // Start from the multiplier of the minimum-norm solution without the sign constraints.
+  VectorXd lambda = (Ar * Ar.transpose()).ldlt().solve(br);
+  for (int iter = 0; iter < kMaxNewtonSteps; ++iter) {
+    const VectorXd u = Ar.transpose() * lambda;
+    const VectorXd g = Ar * u.cwiseMax(0.0) - br;
+    if (g.lpNorm<Eigen::Infinity>() <= kNewtonTolerance) break;
+    MatrixXd H = MatrixXd::Zero(rank, rank);
+    for (int c = 0; c < n; ++c)
+      if (u[c] > 0.0) H += Ar.col(c) * Ar.col(c).transpose();
+    H.diagonal().array() += kNewtonRegularization * std::max(1.0, H.trace());
+    const VectorXd d = -H.ldlt().solve(g);
+    double t = 1.0;
+    const double phi0 = phi(lambda), slope = g.dot(d);
+    while (t > 1e-12 && phi(lambda + t * d) > phi0 + 1e-4 * t * slope) t *= 0.5;
+    lambda += t * d;
+  }
+  VectorXd f = (Ar.transpose() * lambda).cwiseMax(0.0);
+  if ((A * f - b).lpNorm<Eigen::Infinity>() > kBalanceTolerance) fail();
   f /= f.sum();
   return std::vector<double>(f.data(), f.data() + n);
 }
