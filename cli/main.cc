@@ -7,6 +7,7 @@
 #include "command.h"
 #include "design_command.h"
 #include "field_command.h"
+#include "field_design_command.h"
 #include "simulate_command.h"
 #include "solve_command.h"
 #include "view_command.h"
@@ -49,11 +50,9 @@ int main(int argc, char** argv) {
 
   // One line per subcommand.
   const std::vector<Command> commands = {
-      vinci::cli::RegisterSimulateCommand(app),
-      vinci::cli::RegisterSolveCommand(app),
-      vinci::cli::RegisterFieldCommand(app),
-      vinci::cli::RegisterViewCommand(app),
-      vinci::cli::RegisterDesignCommand(app),
+      vinci::cli::RegisterSimulateCommand(app), vinci::cli::RegisterSolveCommand(app),
+      vinci::cli::RegisterFieldCommand(app),    vinci::cli::RegisterViewCommand(app),
+      vinci::cli::RegisterDesignCommand(app),   vinci::cli::RegisterFieldDesignCommand(app),
   };
 
   try {
