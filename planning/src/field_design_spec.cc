@@ -384,7 +384,7 @@ std::vector<Vector2d> ReadTargetCsv(const std::string& path, const FieldDesignSp
     if (std::abs(x[0] - p.x()) > 1e-9 * std::max(scale, 1e-3) ||
         std::abs(x[1] - p.y()) > 1e-9 * std::max(scale, 1e-3)) {
       std::ostringstream s;
-      s.precision(17);
+      s.precision(12);
       s << where << "x,y: expected the grid point (" << p.x() << ", " << p.y() << "), got (" << x[0]
         << ", " << x[1] << ")";
       throw std::invalid_argument(s.str());

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <fstream>
 #include <stdexcept>
 #include <string>
 
@@ -206,6 +207,56 @@ TEST(DesignField, AnExceptionInTheCallbackStopsTheSearchAndIsReported) {
   EXPECT_EQ(r.evaluations, 2);
   ASSERT_EQ(r.errors.size(), 1u);
   EXPECT_NE(r.errors[0].find("disk full"), std::string::npos);
+}
+
+TEST(DesignField, IdenticalForAnyThreadCount) {
+  FieldDesignSpec spec = ParseFieldDesignSpec(kSpec, "ok.yaml", kData);
+  spec.tolerance = 1e-30;  // the whole budget runs
+  const FieldDesignProblem problem(spec);
+  std::vector<double> errors[2];
+  for (const int threads : {1, 2}) {
+    FieldDesignOptions options;
+    options.budget = 6;
+    options.seed = 11;
+    options.threads = threads;
+    options.on_evaluation = [&](const FieldEvaluation& e) {
+      errors[threads - 1].push_back(e.error);
+    };
+    DesignField(problem, options);
+  }
+  ASSERT_EQ(errors[0].size(), 6u);
+  EXPECT_EQ(errors[0], errors[1]);
+}
+
+TEST(FieldDesignSpec, ReadsACsvTargetOnTheGrid) {
+  // A `vinci field`-style CSV (extra columns) with the grid's points in grid order.
+  const std::string path = ::testing::TempDir() + "/field_design_target.csv";
+  {
+    std::ofstream out(path);
+    out << "x,y,vx,vy,omega\n";
+    for (int j = 0; j < 3; ++j)
+      for (int i = 0; i < 3; ++i)
+        out << -0.05 + 0.05 * i << "," << -0.05 + 0.05 * j << "," << i << "," << -j << ",0\n";
+  }
+  const FieldDesignSpec s =
+      ParseFieldDesignSpec("scene: plate_point.yaml\ntarget: {csv: " + path +
+                               "}\nmotion: {frequency: 30, dofs: {x: {amplitude: 1e-4}}}\n"
+                               "grid: {x: [-0.05, 0.05], y: [-0.05, 0.05], points: [3, 3]}\n",
+                           "ok.yaml", kData);
+  ASSERT_EQ(s.target.type, TargetType::kCsv);
+  ASSERT_EQ(s.target.velocities.size(), 9u);
+  EXPECT_EQ(s.target.velocities[5], Vector2d(2, -1));
+  // A row off the grid is named with its line.
+  {
+    std::ofstream out(path);
+    out << "x,y,vx,vy\n-0.05,-0.05,1,0\n0.01,-0.05,1,0\n";
+  }
+  const std::string e = Error("scene: plate_point.yaml\ntarget: {csv: " + path +
+                              "}\nmotion: {frequency: 30, dofs: {x: {amplitude: 1e-4}}}\n"
+                              "grid: {x: [-0.05, 0.05], y: [-0.05, 0.05], points: [3, 3]}\n");
+  EXPECT_NE(e.find("field_design_target.csv:3: x,y: expected the grid point (0, -0.05)"),
+            std::string::npos)
+      << e;
 }
 
 }  // namespace
