@@ -8,6 +8,7 @@
 #include "design_command.h"
 #include "estimate_command.h"
 #include "field_command.h"
+#include "field_design_command.h"
 #include "simulate_command.h"
 #include "solve_command.h"
 #include "view_command.h"
@@ -50,12 +51,10 @@ int main(int argc, char** argv) {
 
   // One line per subcommand.
   const std::vector<Command> commands = {
-      vinci::cli::RegisterSimulateCommand(app),
-      vinci::cli::RegisterSolveCommand(app),
-      vinci::cli::RegisterFieldCommand(app),
-      vinci::cli::RegisterViewCommand(app),
-      vinci::cli::RegisterDesignCommand(app),
-      vinci::cli::RegisterEstimateCommand(app),
+      vinci::cli::RegisterSimulateCommand(app),    vinci::cli::RegisterSolveCommand(app),
+      vinci::cli::RegisterFieldCommand(app),       vinci::cli::RegisterViewCommand(app),
+      vinci::cli::RegisterDesignCommand(app),      vinci::cli::RegisterEstimateCommand(app),
+      vinci::cli::RegisterFieldDesignCommand(app),
   };
 
   try {

@@ -1,0 +1,192 @@
+#include "field_design_command.h"
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+
+#include "vinci/planning/field_design.h"
+#include "vinci/planning/field_design_spec.h"
+
+namespace vinci::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string Num(double v) {
+  if (!std::isfinite(v)) return "null";
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.17g", v);
+  return buf;
+}
+
+std::string JsonString(const std::string& s) {
+  std::string o = "\"";
+  for (const char c : s) {
+    if (c == '"' || c == '\\') {
+      o += '\\';
+      o += c;
+    } else if (static_cast<unsigned char>(c) < 0x20) {
+      char buf[8];
+      std::snprintf(buf, sizeof buf, "\\u%04x", c);
+      o += buf;
+    } else {
+      o += c;
+    }
+  }
+  return o + "\"";
+}
+
+void WriteFile(const fs::path& path, const std::string& text) {
+  std::ofstream out(path);
+  out << text;
+  out.close();
+  if (!out) throw std::runtime_error("cannot write " + path.string());
+}
+
+}  // namespace
+
+ExitCode RunFieldDesignCommand(const FieldDesignOptions& o) {
+  if (o.threads < 1) throw std::invalid_argument("--threads: expected an integer >= 1");
+  if (o.budget < 0) throw std::invalid_argument("--budget: expected an integer >= 1");
+  if (o.has_seed && (o.seed < 0 || o.seed > 4294967295LL))
+    throw std::invalid_argument("--seed: expected an integer in [0, 4294967295], got " +
+                                std::to_string(o.seed));
+  if (o.out.empty()) throw std::invalid_argument("--out: expected an output folder");
+  planning::FieldDesignSpec spec = planning::LoadFieldDesignSpec(o.spec_path);
+  if (o.budget > 0) spec.budget = o.budget;
+  if (o.has_seed) spec.seed = static_cast<unsigned>(o.seed);
+  const planning::FieldDesignProblem problem(spec);
+
+  const fs::path dir(o.out);
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (!fs::is_directory(dir))
+    throw std::invalid_argument("--out: cannot create the folder '" + o.out + "'");
+
+  std::ofstream history(dir / "history.csv");
+  if (!history)
+    throw std::invalid_argument("--out: cannot write " + (dir / "history.csv").string());
+  history << "evaluation,phase,field_error,feasible,peak_vertical_acceleration,bad_points,time_s";
+  for (const std::string& n : problem.names()) history << "," << n;
+  history << "\n" << std::flush;
+
+  if (!o.quiet)
+    std::cerr << "field-design: " << problem.names().size() << " free parameters, "
+              << spec.nx * spec.ny << " grid points x " << spec.cycles << " cycles, budget "
+              << spec.budget << " evaluations\n";
+  planning::FieldDesignOptions options;
+  options.budget = spec.budget;
+  options.seed = spec.seed;
+  options.threads = o.threads;
+  double best = HUGE_VAL;
+  options.on_evaluation = [&](const planning::FieldEvaluation& e) {
+    history << e.index << "," << e.phase << "," << Num(e.error) << "," << (e.feasible ? 1 : 0)
+            << "," << Num(e.peak_vertical_acceleration) << "," << e.bad_points << ","
+            << Num(e.time_s);
+    for (Eigen::Index k = 0; k < e.x.size(); ++k) history << "," << Num(e.x[k]);
+    history << "\n" << std::flush;
+    best = std::min(best, e.error);
+    if (!o.quiet)
+      std::cerr << "field-design: " << e.index << " / " << spec.budget << " (" << e.phase
+                << ") error " << e.error << (e.feasible ? "" : " (over the actuator limit)")
+                << (e.bad_points ? " (" + std::to_string(e.bad_points) + " bad points)" : "")
+                << ", best " << best << "\n";
+  };
+  const planning::FieldDesignResult r = planning::DesignField(problem, options);
+  for (const std::string& e : r.errors) std::cerr << "vinci: field-design: " << e << "\n";
+  if (r.evaluations == 0) return ExitCode::kSolveFailed;  // the start point threw
+
+  // best.yaml: the plate scene with the best motion (and the spec's grid as its field section).
+  WriteFile(dir / "best.yaml", problem.SceneYaml(r.best.x));
+  // field.csv: the best field (the `vinci field` columns).
+  if (!r.best.field.points.empty()) {
+    std::ostringstream csv;
+    sim::WriteFieldCsv(r.best.field, csv);
+    WriteFile(dir / "field.csv", csv.str());
+  }
+  // target.csv: the target on the same grid (x, y, vx, vy), for the plot.
+  {
+    std::ostringstream t;
+    t << "x,y,vx,vy\n";
+    for (int k = 0; k < spec.nx * spec.ny; ++k) {
+      const planning::Vector2d p = planning::GridPoint(spec, k);
+      t << Num(p.x()) << "," << Num(p.y()) << "," << Num(problem.target()[k].x()) << ","
+        << Num(problem.target()[k].y()) << "\n";
+    }
+    WriteFile(dir / "target.csv", t.str());
+  }
+  std::ostringstream j;
+  j << "{\n";
+  j << "  \"spec\": " << JsonString(o.spec_path) << ",\n";
+  j << "  \"scene\": " << JsonString(spec.scene_path) << ",\n";
+  j << "  \"objective\": " << JsonString(spec.absolute ? "absolute" : "shape") << ",\n";
+  j << "  \"field_error\": " << Num(r.best.error) << ",\n";
+  j << "  \"tolerance\": " << Num(spec.tolerance) << ",\n";
+  j << "  \"reached_tolerance\": " << (r.reached_tolerance ? "true" : "false") << ",\n";
+  j << "  \"feasible\": " << (r.best.feasible ? "true" : "false") << ",\n";
+  j << "  \"bad_points\": " << r.best.bad_points << ",\n";
+  j << "  \"peak_vertical_acceleration\": " << Num(r.best.peak_vertical_acceleration) << ",\n";
+  j << "  \"parameters\": {";
+  for (std::size_t k = 0; k < problem.names().size(); ++k)
+    j << (k ? ", " : "") << JsonString(problem.names()[k]) << ": " << Num(r.best.x[k]);
+  j << "},\n";
+  j << "  \"motion\": {\"frequency\": " << Num(spec.frequency);
+  for (const auto& d : problem.DofValues(r.best.x))
+    j << ", " << JsonString(d.dof) << ": {\"amplitude\": " << Num(d.amplitude)
+      << ", \"phase\": " << Num(d.phase) << "}";
+  j << "},\n";
+  j << "  \"grid\": [" << spec.nx << ", " << spec.ny << "],\n";
+  j << "  \"cycles\": " << spec.cycles << ",\n";
+  j << "  \"evaluations\": " << r.evaluations << ",\n";
+  j << "  \"budget\": " << spec.budget << ",\n";
+  j << "  \"seed\": " << spec.seed << ",\n";
+  j << "  \"threads\": " << o.threads << ",\n";
+  j << "  \"time_s\": " << Num(r.time_s) << ",\n";
+  j << "  \"errors\": [";
+  for (std::size_t k = 0; k < r.errors.size(); ++k) j << (k ? ", " : "") << JsonString(r.errors[k]);
+  j << "]\n}\n";
+  WriteFile(dir / "result.json", j.str());
+  if (!o.quiet)
+    std::cerr << "field-design: best field error " << r.best.error << " after " << r.evaluations
+              << " evaluations, " << r.time_s << " s; wrote " << dir.string()
+              << "/{best.yaml,result.json,field.csv,target.csv,history.csv}\n";
+  return r.errors.empty() ? ExitCode::kOk : ExitCode::kSolveFailed;
+}
+
+Command RegisterFieldDesignCommand(CLI::App& app) {
+  auto options = std::make_shared<FieldDesignOptions>();
+  CLI::App* sub = app.add_subcommand(
+      "field-design",
+      "Plate motion whose simulated velocity field matches a target field (docs/planning.md).");
+  sub->add_option("SPEC", options->spec_path, "Field-design spec (YAML, docs/planning.md)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  sub->add_option("--out,-o", options->out,
+                  "Output folder: best.yaml, result.json, field.csv, target.csv, history.csv")
+      ->required()
+      ->type_name("DIR");
+  sub->add_option("--budget", options->budget, "Field evaluations (default: the spec's budget)")
+      ->type_name("N");
+  sub->add_option("--threads,-j", options->threads,
+                  "Worker threads (the result is identical for any number)")
+      ->type_name("N");
+  sub->add_option_function<long long>(
+         "--seed",
+         [options](long long v) {
+           options->has_seed = true;
+           options->seed = v;
+         },
+         "Random seed (default: the spec's seed)")
+      ->type_name("S");
+  sub->add_flag("--quiet,-q", options->quiet, "Print nothing but errors");
+  sub->footer("Exit 3 if an evaluation failed (the best so far is written).");
+  return Command{sub, [options] { return RunFieldDesignCommand(*options); }};
+}
+
+}  // namespace vinci::cli

@@ -1,0 +1,128 @@
+// Field design (applications.md §D, docs/planning.md): the plate motion whose simulated velocity
+// field best matches a target field on a grid.
+//
+// Parametrization: every DOF named in the spec moves as one sinusoid A sin(2π f t + φ) of the
+// base frequency f (the plate's scene motion is replaced by these DOFs); the free variables are
+// the amplitudes and phases with lo < hi, i.e. the scene parameters
+// motion.<plate>.<dof>.amplitude0 / phase0 (model/params.h) of the rewritten scene.
+//
+// Objective (the field error) over the M grid points, v_i simulated, t_i target:
+//   shape (default):  e = √( (1/M) Σ_i |v_i/s_v − t_i/s_t|² ),  s_· = √((1/M) Σ |·_i|²)
+//                     (each field scaled to unit RMS speed: directions and relative speeds);
+//                     a field with s_v = 0 has e = 1.
+//   absolute:         e = √( (1/M) Σ_i |v_i − t_i|² ) / s_t.
+// A point whose part left the plate or whose step failed contributes a mismatch of
+// kBadPointMismatch (its velocity is excluded from s_v) and is counted. A motion over the
+// actuator limit (FieldDesignSpec::max_vertical_acceleration) is not simulated: its error is
+// kInfeasibleError plus the relative excess, so the search is pushed back inside.
+//
+// Search: NLopt GN_CRS2_LM (global, seeded) over the box of the free variables for ~60% of the
+// budget, then LN_BOBYQA from the best point with the rest; both stop at the spec's tolerance.
+// The reported error is always the simulated one. No exception leaves an NLopt callback.
+#pragma once
+
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "vinci/planning/field_design_spec.h"
+#include "vinci/sim/plate/velocity_field.h"
+#include "vinci/sim/simulator/simulator.h"
+
+namespace vinci::planning {
+
+/// Per-point mismatch of a point whose part left the plate or failed (shape units: 2 is the
+/// largest mismatch of two unit vectors).
+constexpr double kBadPointMismatch = 2.0;
+/// Error of a motion over the actuator limit, before adding the relative excess.
+constexpr double kInfeasibleError = 10.0;
+
+/// The field error of `field` against `target` (one vector per grid point, grid order).
+/// `bad_points` (may be null) receives the points that left the plate or failed. Throws
+/// std::invalid_argument if the sizes differ or the target is zero everywhere.
+double FieldError(const sim::VelocityField& field, const std::vector<Vector2d>& target,
+                  bool absolute, int* bad_points = nullptr);
+
+/// One evaluated motion.
+struct FieldEvaluation {
+  int index = 0;         ///< 1-based evaluation count
+  std::string phase;     ///< "start", "global", "local"
+  VectorXd x;            ///< the free variables (FieldDesignProblem::names order)
+  double error = 0.0;    ///< field error (see the file comment)
+  bool feasible = true;  ///< within the actuator limit (else not simulated)
+  double peak_vertical_acceleration = 0.0;  ///< m/s², the actuator-limit estimate
+  int bad_points = 0;                       ///< points that left the plate or failed
+  double time_s = 0.0;                      ///< wall time of this evaluation
+  sim::VelocityField field;                 ///< empty if not feasible
+};
+
+/// The spec turned into a simulator, a field spec, the target and the free variables.
+class FieldDesignProblem {
+ public:
+  /// Loads the scene (its `field:` section names the plate, the part and the plate extent),
+  /// replaces the plate's motion by the spec's DOFs (amplitudes and phases at the middle of their
+  /// ranges), and sets the grid and cycles. Throws std::invalid_argument (file:line where known).
+  explicit FieldDesignProblem(const FieldDesignSpec& spec);
+
+  const FieldDesignSpec& spec() const { return spec_; }
+  const sim::Simulator& simulator() const { return *simulator_; }
+  const sim::FieldSpec& field_spec() const { return field_spec_; }
+  const std::vector<Vector2d>& target() const { return target_; }
+  /// Free variables: parameter names (motion.<plate>.<dof>.amplitude0 | phase0) and bounds.
+  const std::vector<std::string>& names() const { return names_; }
+  const VectorXd& lower() const { return lower_; }
+  const VectorXd& upper() const { return upper_; }
+  /// The middle of the box.
+  VectorXd Start() const { return 0.5 * (lower_ + upper_); }
+  /// The scene parameters for free variables x.
+  sim::Params ParamsFor(const VectorXd& x) const;
+  /// (2πf)² (|A_z| + |A_roll| max|y| + |A_pitch| max|x|) over the grid (m/s²).
+  double PeakVerticalAcceleration(const VectorXd& x) const;
+  /// Simulates the field of x (if feasible) and scores it. index/phase are left to the caller.
+  FieldEvaluation Evaluate(const VectorXd& x, int threads) const;
+  /// The rewritten scene file with x's amplitudes and phases written in (17 digits): a plate
+  /// scene that `vinci field` and `vinci simulate` run as is.
+  std::string SceneYaml(const VectorXd& x) const;
+  /// Amplitude and phase of every spec DOF (fixed ones included) for x: {dof, A, φ}.
+  struct DofValue {
+    std::string dof;
+    double amplitude = 0.0, phase = 0.0;
+  };
+  std::vector<DofValue> DofValues(const VectorXd& x) const;
+
+ private:
+  FieldDesignSpec spec_;
+  std::string scene_yaml_;  ///< the scene file with the spec's motion (middle values)
+  std::unique_ptr<sim::Simulator> simulator_;
+  sim::FieldSpec field_spec_;
+  std::vector<Vector2d> target_;
+  std::vector<std::string> names_;
+  std::vector<int> indices_;  ///< into the scene's ParamTable
+  VectorXd lower_, upper_;
+  sim::Params defaults_;
+};
+
+struct FieldDesignOptions {
+  int budget = 200;              ///< field evaluations in all (the start point included)
+  unsigned seed = 1;             ///< NLopt's random seed
+  int threads = 1;               ///< field simulation threads
+  double global_fraction = 0.6;  ///< share of the budget for the global phase
+  /// Called after every evaluation, on the calling thread. An exception from it stops the search
+  /// (recorded in FieldDesignResult::errors).
+  std::function<void(const FieldEvaluation&)> on_evaluation;
+};
+
+struct FieldDesignResult {
+  FieldEvaluation best;  ///< lowest error
+  int evaluations = 0;
+  double time_s = 0.0;
+  bool reached_tolerance = false;   ///< best.error ≤ spec.tolerance
+  std::vector<std::string> errors;  ///< exceptions caught in the search (then it stopped)
+};
+
+/// Runs the search (see the file comment). The start point (middle of the box) is evaluated
+/// first. Deterministic for a given seed and budget, for any thread count.
+FieldDesignResult DesignField(const FieldDesignProblem& problem, const FieldDesignOptions& options);
+
+}  // namespace vinci::planning

@@ -1,0 +1,83 @@
+// The field-design spec (docs/planning.md): a plate scene, a target velocity field on a grid, the
+// plate-motion parametrization searched (one sinusoid per DOF at the base frequency, amplitude and
+// phase bounds) and its actuator limit, the simulation length and the search budget.
+//
+// Errors are std::invalid_argument as "file:line: field: expected ..., got ...".
+#pragma once
+
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "vinci/sim/types.h"
+
+namespace vinci::planning {
+
+using Eigen::Vector2d;
+using Eigen::VectorXd;
+
+/// The target field's family. At a grid point p with r = p − center, ρ = |r|, R = radius,
+/// d = direction (unit), n = ẑ × d, s = speed:
+///   sink      v = −s r / R            source  v = s r / R
+///   whirlpool v = s ẑ × r / R  (counter-clockwise; `clockwise: true` flips it)
+///   circle    v = s (t̂ + (R − ρ)/R r̂), t̂ = ẑ × r̂: around the circle of radius R, drawn onto it
+///   saddle    v = s ((r·d) d − (r·n) n) / R: repelling along d, attracting along n
+///   conveyor  v = s d (uniform)
+///   csv       the velocities of a CSV file, one row per grid point.
+enum class TargetType { kSink, kSource, kWhirlpool, kCircle, kSaddle, kConveyor, kCsv };
+
+struct FieldTarget {
+  TargetType type = TargetType::kConveyor;
+  Vector2d center = Vector2d::Zero();      ///< m, plate frame
+  double radius = 1.0;                     ///< R (m): required for circle
+  Vector2d direction = Vector2d::UnitX();  ///< unit
+  double speed = 1.0;                      ///< s (m/s); only the shape matters unless absolute
+  bool clockwise = false;                  ///< whirlpool / circle
+  /// type kCsv: the target velocity of every grid point (y outer, x inner).
+  std::vector<Vector2d> velocities;
+  /// The target velocity at plate point p (not for kCsv).
+  Vector2d At(const Vector2d& p) const;
+};
+
+/// One searched plate DOF: A sin(2π f t + φ), A ∈ [amplitude_lo, amplitude_hi] (m or rad),
+/// φ ∈ [phase_lo, phase_hi] (rad). A bound with lo == hi fixes that value (not searched).
+struct DofRange {
+  std::string dof;  ///< x, y, z, roll, pitch, yaw
+  double amplitude_lo = 0.0, amplitude_hi = 0.0;
+  double phase_lo = 0.0, phase_hi = 0.0;
+};
+
+struct FieldDesignSpec {
+  std::string path;        ///< the spec file ("<string>" when parsed from text)
+  std::string scene_path;  ///< the plate scene (relative paths: from the spec's folder)
+  FieldTarget target;
+  double frequency = 0.0;      ///< base frequency f (Hz)
+  std::vector<DofRange> dofs;  ///< in the scene file's DOF order
+  /// Actuator limit (m/s²): the peak normal acceleration of the plate over the grid,
+  /// (2πf)² (|A_z| + |A_roll| max|y| + |A_pitch| max|x|), must stay below it. ∞: no limit.
+  double max_vertical_acceleration = std::numeric_limits<double>::infinity();
+  double x_min = 0.0, x_max = 0.0, y_min = 0.0, y_max = 0.0;  ///< grid extent (m)
+  int nx = 11, ny = 11;
+  int cycles = 20;         ///< simulated cycles per grid point
+  int average_cycles = 5;  ///< last cycles averaged (≤ cycles)
+  bool absolute = false;   ///< objective: `shape` (default) or `absolute` speed
+  double tolerance = 0.1;  ///< field error counted as a match (reported, and stops the search)
+  int budget = 200;        ///< field evaluations
+  unsigned seed = 1;
+};
+
+/// Reads a spec file. Throws std::invalid_argument ("file:line: field: expected ..., got ...").
+FieldDesignSpec LoadFieldDesignSpec(const std::string& path);
+/// Parses spec text; relative `scene:` and `target.csv:` paths are resolved from `base_dir`.
+FieldDesignSpec ParseFieldDesignSpec(const std::string& text, const std::string& source_name,
+                                     const std::string& base_dir);
+
+/// The CSV target: header with at least x, y, vx, vy (other columns ignored, so a `vinci field`
+/// CSV is a target), one row per grid point in grid order (y outer, x inner) with x, y equal to
+/// the grid point's within 1e-9 of the grid size. Throws "file:line: ..." on a mismatch.
+std::vector<Vector2d> ReadTargetCsv(const std::string& path, const FieldDesignSpec& spec);
+
+/// The grid point k (y outer, x inner).
+Vector2d GridPoint(const FieldDesignSpec& spec, int k);
+
+}  // namespace vinci::planning

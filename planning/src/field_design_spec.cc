@@ -1,0 +1,401 @@
+#include "vinci/planning/field_design_spec.h"
+
+#include <yaml-cpp/yaml.h>
+
+#include <cmath>
+#include <fstream>
+#include <set>
+#include <sstream>
+#include <stdexcept>
+
+namespace vinci::planning {
+namespace {
+
+const std::vector<std::string> kTopKeys = {
+    "scene",          "target",    "motion",    "grid",   "cycles",
+    "average_cycles", "objective", "tolerance", "budget", "seed"};
+const std::vector<std::string> kDofs = {"x", "y", "z", "roll", "pitch", "yaw"};
+
+std::string Join(const std::vector<std::string>& v) {
+  std::string s;
+  for (const auto& x : v) s += (s.empty() ? "" : ", ") + x;
+  return s;
+}
+
+// A node with its dotted name and line, for error messages.
+struct Field {
+  YAML::Node node;
+  std::string name;
+  int line;
+};
+
+class Reader {
+ public:
+  explicit Reader(std::string source) : source_(std::move(source)) {}
+
+  [[noreturn]] void Fail(const Field& f, const std::string& expected,
+                         const std::string& got) const {
+    throw std::invalid_argument(source_ + ":" + std::to_string(f.line) + ": " + f.name +
+                                ": expected " + expected + ", got " + got);
+  }
+  [[noreturn]] void Fail(const Field& f, const std::string& expected) const {
+    Fail(f, expected, Describe(f.node));
+  }
+  static std::string Describe(const YAML::Node& n) {
+    if (!n || n.IsNull()) return "nothing";
+    if (n.IsScalar()) return "'" + n.Scalar() + "'";
+    if (n.IsSequence()) return "a list of " + std::to_string(n.size());
+    return "a map";
+  }
+  static int LineOf(const YAML::Node& n, int fallback) {
+    const YAML::Mark m = n.Mark();
+    return m.line >= 0 ? m.line + 1 : fallback;
+  }
+  Field Child(const Field& f, const std::string& key) const {
+    const YAML::Node c = f.node[key];
+    return {c, f.name.empty() ? key : f.name + "." + key, c ? LineOf(c, f.line) : f.line};
+  }
+  // A map whose keys are all in `allowed`.
+  void Map(const Field& f, const std::vector<std::string>& allowed, const std::string& what) const {
+    if (!f.node.IsMap()) Fail(f, what);
+    std::set<std::string> seen;
+    for (const auto& kv : f.node) {
+      const std::string key = kv.first.Scalar();
+      const Field kf{kv.first, f.name.empty() ? key : f.name + "." + key, LineOf(kv.first, f.line)};
+      if (!seen.insert(key).second) Fail(kf, "each key once", "a duplicate");
+      bool ok = false;
+      for (const auto& a : allowed) ok = ok || a == key;
+      if (!ok) Fail(kf, "one of the keys (" + Join(allowed) + ")", "unknown key '" + key + "'");
+    }
+  }
+  Field Require(const Field& f, const std::string& key, const std::string& expected) const {
+    Field c = Child(f, key);
+    if (!c.node) Fail(c, expected, "nothing (missing key)");
+    return c;
+  }
+  double Number(const Field& f) const {
+    if (!f.node.IsScalar()) Fail(f, "a number");
+    std::istringstream s(f.node.Scalar());
+    double v = 0.0;
+    s >> v;
+    if (!s || !s.eof() || !std::isfinite(v)) Fail(f, "a finite number");
+    return v;
+  }
+  double Positive(const Field& f) const {
+    const double v = Number(f);
+    if (!(v > 0.0)) Fail(f, "a number > 0");
+    return v;
+  }
+  long long Integer(const Field& f, long long lo, long long hi) const {
+    const std::string expected =
+        "an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]";
+    if (!f.node.IsScalar()) Fail(f, expected);
+    const std::string& t = f.node.Scalar();
+    if (t.empty() || t.size() > 18 ||
+        t.find_first_not_of("0123456789", t[0] == '-' ? 1 : 0) != std::string::npos)
+      Fail(f, expected);
+    const long long v = std::stoll(t);
+    if (v < lo || v > hi) Fail(f, expected);
+    return v;
+  }
+  std::string String(const Field& f) const {
+    if (!f.node.IsScalar() || f.node.Scalar().empty()) Fail(f, "a string");
+    return f.node.Scalar();
+  }
+  bool Bool(const Field& f) const {
+    if (f.node.IsScalar() && f.node.Scalar() == "true") return true;
+    if (f.node.IsScalar() && f.node.Scalar() == "false") return false;
+    Fail(f, "true or false");
+  }
+  // [a, b] with a ≤ b.
+  std::pair<double, double> Range(const Field& f) const {
+    if (!f.node.IsSequence() || f.node.size() != 2) Fail(f, "[lo, hi]");
+    const double a = Number({f.node[0], f.name + "[0]", LineOf(f.node[0], f.line)});
+    const double b = Number({f.node[1], f.name + "[1]", LineOf(f.node[1], f.line)});
+    if (a > b)
+      Fail(f, "[lo, hi] with lo <= hi", "[" + f.node[0].Scalar() + ", " + f.node[1].Scalar() + "]");
+    return {a, b};
+  }
+  Vector2d Vec2(const Field& f) const {
+    if (!f.node.IsSequence() || f.node.size() != 2) Fail(f, "[x, y]");
+    return {Number({f.node[0], f.name + "[0]", LineOf(f.node[0], f.line)}),
+            Number({f.node[1], f.name + "[1]", LineOf(f.node[1], f.line)})};
+  }
+
+ private:
+  std::string source_;
+};
+
+std::string Resolve(const std::string& base_dir, const std::string& p) {
+  if (p.empty() || p[0] == '/' || base_dir.empty()) return p;
+  return base_dir + "/" + p;
+}
+
+void ReadTarget(const Reader& r, const Field& t, const std::string& base_dir, FieldDesignSpec* spec,
+                std::string* csv_path, int* csv_line) {
+  r.Map(t, {"type", "center", "radius", "direction", "speed", "clockwise", "csv"},
+        "a map {type: ..., ...} or {csv: file.csv}");
+  FieldTarget& g = spec->target;
+  if (t.node["csv"]) {
+    if (t.node["type"] && t.node["type"].Scalar() != "csv")
+      r.Fail(r.Child(t, "type"), "csv (or no type) with a csv: file");
+    for (const char* k : {"center", "radius", "direction", "clockwise"})
+      if (t.node[k]) r.Fail(r.Child(t, k), "no such key with csv:", "'" + std::string(k) + "'");
+    g.type = TargetType::kCsv;
+    const Field c = r.Child(t, "csv");
+    *csv_path = Resolve(base_dir, r.String(c));
+    *csv_line = c.line;
+    if (t.node["speed"])
+      r.Fail(r.Child(t, "speed"), "no speed with csv: (its velocities are absolute)");
+    return;
+  }
+  const Field type = r.Require(t, "type", "sink, source, whirlpool, circle, saddle or conveyor");
+  const std::string name = r.String(type);
+  struct Known {
+    const char* name;
+    TargetType type;
+    bool center, radius, direction, clockwise;
+  };
+  const Known known[] = {{"sink", TargetType::kSink, true, true, false, false},
+                         {"source", TargetType::kSource, true, true, false, false},
+                         {"whirlpool", TargetType::kWhirlpool, true, true, false, true},
+                         {"circle", TargetType::kCircle, true, true, false, true},
+                         {"saddle", TargetType::kSaddle, true, true, true, false},
+                         {"conveyor", TargetType::kConveyor, false, false, true, false}};
+  const Known* k = nullptr;
+  for (const Known& c : known)
+    if (name == c.name) k = &c;
+  if (!k) r.Fail(type, "sink, source, whirlpool, circle, saddle, conveyor (or csv: FILE)");
+  g.type = k->type;
+  const auto reject = [&](const char* key, bool allowed) {
+    if (!allowed && t.node[key])
+      r.Fail(r.Child(t, key), "no '" + std::string(key) + "' for a " + name + " target",
+             "'" + std::string(key) + "'");
+  };
+  reject("center", k->center);
+  reject("radius", k->radius);
+  reject("direction", k->direction);
+  reject("clockwise", k->clockwise);
+  if (t.node["center"]) g.center = r.Vec2(r.Child(t, "center"));
+  if (g.type == TargetType::kCircle)
+    g.radius = r.Positive(r.Require(t, "radius", "the circle's radius (m) > 0"));
+  else if (t.node["radius"])
+    g.radius = r.Positive(r.Child(t, "radius"));
+  if (g.type == TargetType::kConveyor) {
+    const Field d = r.Require(t, "direction", "[dx, dy], not zero");
+    g.direction = r.Vec2(d);
+  } else if (t.node["direction"]) {
+    g.direction = r.Vec2(r.Child(t, "direction"));
+  }
+  if (!(g.direction.norm() > 0.0)) r.Fail(r.Child(t, "direction"), "a non-zero [dx, dy]");
+  g.direction.normalize();
+  if (t.node["speed"]) g.speed = r.Positive(r.Child(t, "speed"));
+  if (t.node["clockwise"]) g.clockwise = r.Bool(r.Child(t, "clockwise"));
+}
+
+void ReadMotion(const Reader& r, const Field& m, FieldDesignSpec* spec) {
+  r.Map(m, {"frequency", "dofs", "max_vertical_acceleration"},
+        "a map {frequency: Hz, dofs: {...}, max_vertical_acceleration: m/s^2}");
+  spec->frequency = r.Positive(r.Require(m, "frequency", "the base frequency (Hz) > 0"));
+  if (m.node["max_vertical_acceleration"])
+    spec->max_vertical_acceleration = r.Positive(r.Child(m, "max_vertical_acceleration"));
+  const Field dofs = r.Require(m, "dofs", "a map of plate DOFs (" + Join(kDofs) + ")");
+  r.Map(dofs, kDofs, "a non-empty map of plate DOFs (" + Join(kDofs) + ")");
+  if (dofs.node.size() == 0) r.Fail(dofs, "at least one DOF (" + Join(kDofs) + ")");
+  for (const std::string& name : kDofs) {  // the scene file's order
+    if (!dofs.node[name]) continue;
+    const Field d = r.Child(dofs, name);
+    r.Map(d, {"amplitude", "phase"}, "a map {amplitude: [lo, hi], phase: [lo, hi]}");
+    DofRange range;
+    range.dof = name;
+    const Field a = r.Require(d, "amplitude", "[lo, hi] (m or rad), or a number (fixed)");
+    if (a.node.IsScalar())
+      range.amplitude_lo = range.amplitude_hi = r.Number(a);
+    else
+      std::tie(range.amplitude_lo, range.amplitude_hi) = r.Range(a);
+    if (d.node["phase"]) {
+      const Field p = r.Child(d, "phase");
+      if (p.node.IsScalar())
+        range.phase_lo = range.phase_hi = r.Number(p);
+      else
+        std::tie(range.phase_lo, range.phase_hi) = r.Range(p);
+    }
+    spec->dofs.push_back(range);
+  }
+}
+
+void ReadGrid(const Reader& r, const Field& g, FieldDesignSpec* spec) {
+  r.Map(g, {"x", "y", "points"}, "a map {x: [x0, x1], y: [y0, y1], points: [nx, ny]}");
+  std::tie(spec->x_min, spec->x_max) = r.Range(r.Require(g, "x", "[x0, x1] (m)"));
+  std::tie(spec->y_min, spec->y_max) = r.Range(r.Require(g, "y", "[y0, y1] (m)"));
+  const Field p = r.Require(g, "points", "[nx, ny], integers >= 1");
+  if (!p.node.IsSequence() || p.node.size() != 2) r.Fail(p, "[nx, ny], integers >= 1");
+  spec->nx = static_cast<int>(
+      r.Integer({p.node[0], p.name + "[0]", Reader::LineOf(p.node[0], p.line)}, 1, 1000));
+  spec->ny = static_cast<int>(
+      r.Integer({p.node[1], p.name + "[1]", Reader::LineOf(p.node[1], p.line)}, 1, 1000));
+}
+
+}  // namespace
+
+Vector2d FieldTarget::At(const Vector2d& p) const {
+  const Vector2d r = p - center;
+  const auto perp = [](const Vector2d& v) { return Vector2d(-v.y(), v.x()); };  // ẑ × v
+  const double sign = clockwise ? -1.0 : 1.0;
+  switch (type) {
+    case TargetType::kSink:
+      return -speed * r / radius;
+    case TargetType::kSource:
+      return speed * r / radius;
+    case TargetType::kWhirlpool:
+      return sign * speed * perp(r) / radius;
+    case TargetType::kCircle: {
+      const double rho = r.norm();
+      if (rho == 0.0) return Vector2d::Zero();
+      const Vector2d rh = r / rho;
+      return speed * (sign * perp(rh) + (radius - rho) / radius * rh);
+    }
+    case TargetType::kSaddle: {
+      const Vector2d n = perp(direction);
+      return speed * (r.dot(direction) * direction - r.dot(n) * n) / radius;
+    }
+    case TargetType::kConveyor:
+      return speed * direction;
+    case TargetType::kCsv:
+      break;
+  }
+  throw std::invalid_argument("FieldTarget::At: a csv target has no formula");
+}
+
+Vector2d GridPoint(const FieldDesignSpec& spec, int k) {
+  const int i = k % spec.nx, j = k / spec.nx;
+  const double x = spec.nx == 1 ? 0.5 * (spec.x_min + spec.x_max)
+                                : spec.x_min + (spec.x_max - spec.x_min) * i / (spec.nx - 1);
+  const double y = spec.ny == 1 ? 0.5 * (spec.y_min + spec.y_max)
+                                : spec.y_min + (spec.y_max - spec.y_min) * j / (spec.ny - 1);
+  return {x, y};
+}
+
+FieldDesignSpec ParseFieldDesignSpec(const std::string& text, const std::string& source_name,
+                                     const std::string& base_dir) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(text);
+  } catch (const YAML::Exception& e) {
+    throw std::invalid_argument(source_name + ":" + std::to_string(e.mark.line + 1) +
+                                ": (document): expected YAML, got " + e.msg);
+  }
+  const Reader r(source_name);
+  const Field top{root, "", 1};
+  if (!root || root.IsNull()) r.Fail({root, "(document)", 1}, "a field-design spec (a map)");
+  r.Map(top, kTopKeys, "a field-design spec (a map)");
+  FieldDesignSpec spec;
+  spec.path = source_name;
+  spec.scene_path = Resolve(base_dir, r.String(r.Require(top, "scene", "a plate scene file")));
+  std::string csv_path;
+  int csv_line = 0;
+  ReadTarget(r, r.Require(top, "target", "a target field {type: ...} or {csv: FILE}"), base_dir,
+             &spec, &csv_path, &csv_line);
+  ReadMotion(r, r.Require(top, "motion", "the plate-motion parametrization"), &spec);
+  ReadGrid(r, r.Require(top, "grid", "the grid {x: [x0, x1], y: [y0, y1], points: [nx, ny]}"),
+           &spec);
+  if (root["cycles"]) spec.cycles = static_cast<int>(r.Integer(r.Child(top, "cycles"), 1, 100000));
+  spec.average_cycles = std::min(spec.average_cycles, spec.cycles);
+  if (root["average_cycles"]) {
+    const Field a = r.Child(top, "average_cycles");
+    spec.average_cycles = static_cast<int>(r.Integer(a, 1, spec.cycles));
+  }
+  if (root["objective"]) {
+    const Field o = r.Child(top, "objective");
+    const std::string v = o.node.IsScalar() ? o.node.Scalar() : "";
+    if (v != "shape" && v != "absolute") r.Fail(o, "shape or absolute");
+    spec.absolute = v == "absolute";
+  }
+  if (root["tolerance"]) spec.tolerance = r.Positive(r.Child(top, "tolerance"));
+  if (root["budget"]) spec.budget = static_cast<int>(r.Integer(r.Child(top, "budget"), 1, 1000000));
+  if (root["seed"])
+    spec.seed = static_cast<unsigned>(r.Integer(r.Child(top, "seed"), 0, 4294967295LL));
+  if (!csv_path.empty()) {
+    try {
+      spec.target.velocities = ReadTargetCsv(csv_path, spec);
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument(source_name + ":" + std::to_string(csv_line) +
+                                  ": target.csv: " + e.what());
+    }
+  }
+  return spec;
+}
+
+FieldDesignSpec LoadFieldDesignSpec(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw std::invalid_argument(path + ": cannot open the field-design spec");
+  std::stringstream s;
+  s << in.rdbuf();
+  const std::size_t slash = path.find_last_of('/');
+  return ParseFieldDesignSpec(s.str(), path,
+                              slash == std::string::npos ? "." : path.substr(0, slash));
+}
+
+std::vector<Vector2d> ReadTargetCsv(const std::string& path, const FieldDesignSpec& spec) {
+  std::ifstream in(path);
+  if (!in) throw std::invalid_argument(path + ": cannot open the target CSV");
+  const auto split = [](const std::string& line) {
+    std::vector<std::string> cells;
+    std::stringstream s(line);
+    std::string c;
+    while (std::getline(s, c, ',')) cells.push_back(c);
+    return cells;
+  };
+  std::string line;
+  if (!std::getline(in, line))
+    throw std::invalid_argument(path + ":1: header: expected x,y,vx,vy columns, got nothing");
+  const std::vector<std::string> header = split(line);
+  int col[4] = {-1, -1, -1, -1};
+  const char* names[4] = {"x", "y", "vx", "vy"};
+  for (int c = 0; c < static_cast<int>(header.size()); ++c)
+    for (int k = 0; k < 4; ++k)
+      if (header[c] == names[k]) col[k] = c;
+  for (int k = 0; k < 4; ++k)
+    if (col[k] < 0)
+      throw std::invalid_argument(path + ":1: header: expected a column '" + names[k] + "', got '" +
+                                  line + "'");
+  const int n = spec.nx * spec.ny;
+  const double scale = std::max(spec.x_max - spec.x_min, spec.y_max - spec.y_min);
+  std::vector<Vector2d> v;
+  int line_no = 1;
+  while (std::getline(in, line)) {
+    ++line_no;
+    if (line.empty()) continue;
+    const std::string where = path + ":" + std::to_string(line_no) + ": ";
+    if (static_cast<int>(v.size()) == n)
+      throw std::invalid_argument(where + "row: expected " + std::to_string(n) +
+                                  " rows (the grid's points), got more");
+    const std::vector<std::string> cells = split(line);
+    double x[4];
+    for (int k = 0; k < 4; ++k) {
+      char* end = nullptr;
+      const std::string cell = col[k] < static_cast<int>(cells.size()) ? cells[col[k]] : "";
+      x[k] = std::strtod(cell.c_str(), &end);
+      if (cell.empty() || *end != '\0' || !std::isfinite(x[k]))
+        throw std::invalid_argument(where + names[k] + ": expected a finite number, got '" + cell +
+                                    "'");
+    }
+    const Vector2d p = GridPoint(spec, static_cast<int>(v.size()));
+    if (std::abs(x[0] - p.x()) > 1e-9 * std::max(scale, 1e-3) ||
+        std::abs(x[1] - p.y()) > 1e-9 * std::max(scale, 1e-3)) {
+      std::ostringstream s;
+      s.precision(12);
+      s << where << "x,y: expected the grid point (" << p.x() << ", " << p.y() << "), got (" << x[0]
+        << ", " << x[1] << ")";
+      throw std::invalid_argument(s.str());
+    }
+    v.emplace_back(x[2], x[3]);
+  }
+  if (static_cast<int>(v.size()) != n)
+    throw std::invalid_argument(path + ":" + std::to_string(line_no) + ": rows: expected " +
+                                std::to_string(n) + " (the grid's points), got " +
+                                std::to_string(v.size()));
+  return v;
+}
+
+}  // namespace vinci::planning

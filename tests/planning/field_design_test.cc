@@ -1,0 +1,263 @@
+// Field design (docs/planning.md): the spec loader's errors, the field error's closed forms, and
+// recovery of a field produced by known plate-motion parameters.
+#include "vinci/planning/field_design.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <stdexcept>
+#include <string>
+
+#include "vinci/planning/field_design_spec.h"
+
+namespace vinci::planning {
+namespace {
+
+const std::string kData = VINCI_SOURCE_DIR "/tests/planning/data";
+constexpr double kPi = 3.14159265358979323846;
+
+// A conveyor-like spec on the test plate: x amplitude and z phase free, 3x3 grid, 6 cycles.
+const std::string kSpec =
+    "scene: plate_point.yaml\n"
+    "target: {type: conveyor, direction: [-1, 0], speed: 0.05}\n"
+    "motion:\n"
+    "  frequency: 30\n"
+    "  dofs:\n"
+    "    x: {amplitude: [2.0e-4, 1.2e-3], phase: 0}\n"
+    "    z: {amplitude: 1.407e-4, phase: [-3.14159, 3.14159]}\n"
+    "  max_vertical_acceleration: 9.0\n"
+    "grid: {x: [-0.05, 0.05], y: [-0.05, 0.05], points: [3, 3]}\n"
+    "cycles: 6\n"
+    "average_cycles: 2\n";
+
+std::string Error(const std::string& text) {
+  try {
+    ParseFieldDesignSpec(text, "bad.yaml", kData);
+  } catch (const std::invalid_argument& e) {
+    return e.what();
+  }
+  return "(accepted)";
+}
+
+TEST(FieldDesignSpec, ReadsTheDocumentedKeys) {
+  const FieldDesignSpec s = ParseFieldDesignSpec(kSpec + "budget: 7\nseed: 9\n", "ok.yaml", kData);
+  EXPECT_EQ(s.scene_path, kData + "/plate_point.yaml");
+  EXPECT_EQ(s.target.type, TargetType::kConveyor);
+  EXPECT_EQ(s.target.direction, Vector2d(-1, 0));
+  ASSERT_EQ(s.dofs.size(), 2u);
+  EXPECT_EQ(s.dofs[0].dof, "x");
+  EXPECT_EQ(s.dofs[1].phase_lo, -3.14159);
+  EXPECT_EQ(s.max_vertical_acceleration, 9.0);
+  EXPECT_EQ(s.nx, 3);
+  EXPECT_EQ(s.budget, 7);
+  EXPECT_EQ(s.seed, 9u);
+}
+
+TEST(FieldDesignSpec, RejectsBadSpecsWithFileLine) {
+  EXPECT_EQ(Error("scene: plate_point.yaml\ntarget: {type: spiral}\n")
+                .rfind("bad.yaml:2: target.type: expected sink, source", 0),
+            0u)
+      << Error("scene: plate_point.yaml\ntarget: {type: spiral}\n");
+  const std::string no_radius =
+      Error("scene: plate_point.yaml\ntarget: {type: circle, center: [0, 0]}\nmotion: {}\n");
+  EXPECT_NE(no_radius.find("bad.yaml:2: target.radius: expected the circle's radius"),
+            std::string::npos)
+      << no_radius;
+  std::string s = kSpec;
+  s.replace(s.find("phase: 0}"), 9, "phase: [1, 0]}");
+  EXPECT_NE(Error(s).find("bad.yaml:6: motion.dofs.x.phase: expected [lo, hi] with lo <= hi"),
+            std::string::npos)
+      << Error(s);
+  EXPECT_NE(Error(kSpec + "budget: -3\n").find("bad.yaml:12: budget: expected an integer"),
+            std::string::npos)
+      << Error(kSpec + "budget: -3\n");
+  EXPECT_NE(Error(kSpec + "speed: 3\n").find("bad.yaml:12: speed: expected one of the keys"),
+            std::string::npos);
+  std::string dof = kSpec;
+  dof.replace(dof.find("    z:"), 6, "    w:");
+  EXPECT_NE(Error(dof).find("bad.yaml:7: motion.dofs.w: expected one of the keys"),
+            std::string::npos)
+      << Error(dof);
+  EXPECT_NE(Error("scene: plate_point.yaml\ntarget: {type: conveyor}\n")
+                .find("bad.yaml:2: target.direction: expected [dx, dy]"),
+            std::string::npos);
+  // A CSV target that does not fit the grid names the CSV line and the spec line.
+  const std::string csv = Error(
+      "scene: plate_point.yaml\ntarget: {csv: short.csv}\nmotion: {frequency: 30, dofs: {x: "
+      "{amplitude: 1e-4}}}\ngrid: {x: [-0.05, 0.05], y: [-0.05, 0.05], points: [3, 3]}\n");
+  EXPECT_NE(csv.find("bad.yaml:2: target.csv: "), std::string::npos) << csv;
+  EXPECT_NE(csv.find("short.csv:2: rows: expected 9"), std::string::npos) << csv;
+}
+
+TEST(FieldDesignSpec, TargetFormulas) {
+  FieldTarget t;
+  t.center = Vector2d(0.1, 0.0);
+  t.radius = 0.05;
+  t.speed = 2.0;
+  t.type = TargetType::kSink;
+  EXPECT_TRUE(t.At(Vector2d(0.15, 0.0)).isApprox(Vector2d(-2.0, 0.0)));
+  t.type = TargetType::kWhirlpool;
+  EXPECT_TRUE(t.At(Vector2d(0.15, 0.0)).isApprox(Vector2d(0.0, 2.0)));
+  t.type = TargetType::kCircle;  // on the circle: tangential only; inside: pushed out
+  EXPECT_TRUE(t.At(Vector2d(0.15, 0.0)).isApprox(Vector2d(0.0, 2.0)));
+  EXPECT_GT(t.At(Vector2d(0.125, 0.0)).x(), 0.0);
+  t.type = TargetType::kSaddle;  // repelling along d = x, attracting along y
+  EXPECT_GT(t.At(Vector2d(0.15, 0.0)).x(), 0.0);
+  EXPECT_LT(t.At(Vector2d(0.1, 0.05)).y(), 0.0);
+}
+
+TEST(FieldError, ZeroForTheSameFieldAndClosedFormsUnderPerturbations) {
+  const FieldDesignProblem problem(ParseFieldDesignSpec(kSpec, "ok.yaml", kData));
+  VectorXd x(2);
+  x << 8.443e-4, kPi / 2;
+  const FieldEvaluation e = problem.Evaluate(x, 1);
+  ASSERT_TRUE(e.feasible);
+  ASSERT_EQ(e.bad_points, 0);
+  std::vector<Vector2d> v;
+  for (const auto& p : e.field.points) v.emplace_back(p.vx, p.vy);
+  ASSERT_GT(v[0].norm(), 1e-3);  // the conveyor moves parts
+  EXPECT_EQ(FieldError(e.field, v, false), 0.0);
+  EXPECT_EQ(FieldError(e.field, v, true), 0.0);
+  // Rotating every target vector by δ: shape error 2 sin(δ/2), growing with δ.
+  for (const double delta : {0.05, 0.3, 1.0}) {
+    std::vector<Vector2d> r;
+    for (const Vector2d& t : v) r.push_back(Eigen::Rotation2Dd(delta) * t);
+    EXPECT_NEAR(FieldError(e.field, r, false), 2 * std::sin(delta / 2), 1e-12);
+  }
+  // Scaling the target: the shape is unchanged, the absolute error is |1 − 1/k|.
+  std::vector<Vector2d> twice;
+  for (const Vector2d& t : v) twice.push_back(2.0 * t);
+  EXPECT_NEAR(FieldError(e.field, twice, false), 0.0, 1e-14);
+  EXPECT_NEAR(FieldError(e.field, twice, true), 0.5, 1e-14);
+  // A point that left the plate is penalized and counted.
+  sim::VelocityField left = e.field;
+  left.points[4].left_plate = true;
+  int bad = 0;
+  EXPECT_GT(FieldError(left, v, false, &bad), 0.5);
+  EXPECT_EQ(bad, 1);
+}
+
+TEST(FieldError, ShapeOfAConveyorTargetFromTheSimulation) {
+  // The bundled-style conveyor (z leads x by π/2) moves parts along −x: its field matches the
+  // conveyor target toward −x closely and the opposite direction not at all.
+  FieldDesignSpec spec = ParseFieldDesignSpec(kSpec, "ok.yaml", kData);
+  const FieldDesignProblem minus_x(spec);
+  VectorXd x(2);
+  x << 8.443e-4, kPi / 2;
+  EXPECT_LT(minus_x.Evaluate(x, 2).error, 0.05);
+  spec.target.direction = Vector2d(1, 0);
+  const FieldDesignProblem plus_x(spec);
+  EXPECT_GT(plus_x.Evaluate(x, 2).error, 1.9);
+}
+
+TEST(FieldDesignProblem, ActuatorLimitIsNotSimulated) {
+  FieldDesignSpec spec = ParseFieldDesignSpec(kSpec, "ok.yaml", kData);
+  spec.max_vertical_acceleration = 4.0;  // (2π 30)² 1.407e-4 = 5.0 m/s²
+  const FieldDesignProblem problem(spec);
+  VectorXd x(2);
+  x << 8.443e-4, kPi / 2;
+  EXPECT_NEAR(problem.PeakVerticalAcceleration(x), std::pow(2 * kPi * 30, 2) * 1.407e-4, 1e-12);
+  const FieldEvaluation e = problem.Evaluate(x, 1);
+  EXPECT_FALSE(e.feasible);
+  EXPECT_TRUE(e.field.points.empty());
+  EXPECT_GT(e.error, kInfeasibleError);
+}
+
+// Recovery: the field of known parameters (x amplitude, z phase) is the target (absolute
+// speeds); the search from the middle of the box finds parameters matching it to the tolerance.
+TEST(DesignField, RecoversAFieldOfKnownParameters) {
+  FieldDesignSpec spec = ParseFieldDesignSpec(kSpec, "ok.yaml", kData);
+  VectorXd truth(2);
+  truth << 6.0e-4, 2.0;
+  const FieldDesignProblem source(spec);
+  const FieldEvaluation produced = source.Evaluate(truth, 2);
+  ASSERT_EQ(produced.bad_points, 0);
+  spec.target.type = TargetType::kCsv;
+  spec.target.velocities.clear();
+  for (const auto& p : produced.field.points) spec.target.velocities.emplace_back(p.vx, p.vy);
+  spec.absolute = true;
+  spec.tolerance = 0.05;
+  const FieldDesignProblem problem(spec);
+  EXPECT_GT(problem.Evaluate(problem.Start(), 1).error, 0.3);  // the start is far off
+  FieldDesignOptions options;
+  options.budget = 60;
+  options.seed = 5;
+  options.threads = 2;
+  int calls = 0;
+  options.on_evaluation = [&](const FieldEvaluation& e) { EXPECT_EQ(e.index, ++calls); };
+  const FieldDesignResult r = DesignField(problem, options);
+  EXPECT_TRUE(r.errors.empty());
+  EXPECT_EQ(calls, r.evaluations);
+  EXPECT_LE(r.evaluations, 60);
+  EXPECT_TRUE(r.reached_tolerance) << "best error " << r.best.error;
+  EXPECT_LE(r.best.error, 0.05);
+  // The reported error is the simulated one.
+  EXPECT_EQ(problem.Evaluate(r.best.x, 1).error, r.best.error);
+}
+
+TEST(DesignField, AnExceptionInTheCallbackStopsTheSearchAndIsReported) {
+  const FieldDesignProblem problem(ParseFieldDesignSpec(kSpec, "ok.yaml", kData));
+  FieldDesignOptions options;
+  options.budget = 10;
+  options.on_evaluation = [](const FieldEvaluation& e) {
+    if (e.index == 2) throw std::runtime_error("disk full");
+  };
+  const FieldDesignResult r = DesignField(problem, options);
+  EXPECT_EQ(r.evaluations, 2);
+  ASSERT_EQ(r.errors.size(), 1u);
+  EXPECT_NE(r.errors[0].find("disk full"), std::string::npos);
+}
+
+TEST(DesignField, IdenticalForAnyThreadCount) {
+  FieldDesignSpec spec = ParseFieldDesignSpec(kSpec, "ok.yaml", kData);
+  spec.tolerance = 1e-30;  // the whole budget runs
+  const FieldDesignProblem problem(spec);
+  std::vector<double> errors[2];
+  for (const int threads : {1, 2}) {
+    FieldDesignOptions options;
+    options.budget = 6;
+    options.seed = 11;
+    options.threads = threads;
+    options.on_evaluation = [&](const FieldEvaluation& e) {
+      errors[threads - 1].push_back(e.error);
+    };
+    DesignField(problem, options);
+  }
+  ASSERT_EQ(errors[0].size(), 6u);
+  EXPECT_EQ(errors[0], errors[1]);
+}
+
+TEST(FieldDesignSpec, ReadsACsvTargetOnTheGrid) {
+  // A `vinci field`-style CSV (extra columns) with the grid's points in grid order.
+  const std::string path = ::testing::TempDir() + "/field_design_target.csv";
+  {
+    std::ofstream out(path);
+    out << "x,y,vx,vy,omega\n";
+    for (int j = 0; j < 3; ++j)
+      for (int i = 0; i < 3; ++i)
+        out << -0.05 + 0.05 * i << "," << -0.05 + 0.05 * j << "," << i << "," << -j << ",0\n";
+  }
+  const FieldDesignSpec s =
+      ParseFieldDesignSpec("scene: plate_point.yaml\ntarget: {csv: " + path +
+                               "}\nmotion: {frequency: 30, dofs: {x: {amplitude: 1e-4}}}\n"
+                               "grid: {x: [-0.05, 0.05], y: [-0.05, 0.05], points: [3, 3]}\n",
+                           "ok.yaml", kData);
+  ASSERT_EQ(s.target.type, TargetType::kCsv);
+  ASSERT_EQ(s.target.velocities.size(), 9u);
+  EXPECT_EQ(s.target.velocities[5], Vector2d(2, -1));
+  // A row off the grid is named with its line.
+  {
+    std::ofstream out(path);
+    out << "x,y,vx,vy\n-0.05,-0.05,1,0\n0.01,-0.05,1,0\n";
+  }
+  const std::string e = Error("scene: plate_point.yaml\ntarget: {csv: " + path +
+                              "}\nmotion: {frequency: 30, dofs: {x: {amplitude: 1e-4}}}\n"
+                              "grid: {x: [-0.05, 0.05], y: [-0.05, 0.05], points: [3, 3]}\n");
+  EXPECT_NE(e.find("field_design_target.csv:3: x,y: expected the grid point (0, -0.05)"),
+            std::string::npos)
+      << e;
+}
+
+}  // namespace
+}  // namespace vinci::planning
