@@ -50,12 +50,17 @@ int main(int argc, char** argv) {
   app.require_subcommand(0, 1);
 
   // One line per subcommand.
+  // clang-format off
   const std::vector<Command> commands = {
-      vinci::cli::RegisterSimulateCommand(app),    vinci::cli::RegisterSolveCommand(app),
-      vinci::cli::RegisterFieldCommand(app),       vinci::cli::RegisterViewCommand(app),
-      vinci::cli::RegisterDesignCommand(app),      vinci::cli::RegisterEstimateCommand(app),
+      vinci::cli::RegisterSimulateCommand(app),
+      vinci::cli::RegisterSolveCommand(app),
+      vinci::cli::RegisterFieldCommand(app),
+      vinci::cli::RegisterViewCommand(app),
+      vinci::cli::RegisterDesignCommand(app),
+      vinci::cli::RegisterEstimateCommand(app),
       vinci::cli::RegisterFieldDesignCommand(app),
   };
+  // clang-format on
 
   try {
     app.parse(argc, argv);
