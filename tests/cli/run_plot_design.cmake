@@ -1,0 +1,30 @@
+# Runs scripts/plot_design.py (PYTHON, SCRIPT) on the design output folder DIR and checks it:
+#   -DOUT=<png>  : exit 0, OUT is a PNG (signature) of at least MIN_BYTES bytes (a figure with
+#                  its three panels, not an empty canvas);
+#   -DERROR=<re> : exit 1 and stderr matching the regex (a malformed history, file:line).
+file(REMOVE "${OUT}")
+execute_process(COMMAND "${PYTHON}" "${SCRIPT}" "${DIR}" --out "${OUT}"
+                RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+if(DEFINED ERROR)
+  if(NOT rc EQUAL 1)
+    message(FATAL_ERROR "expected exit 1, got ${rc}\nstdout: ${out}\nstderr: ${err}")
+  endif()
+  if(NOT err MATCHES "${ERROR}")
+    message(FATAL_ERROR "stderr does not match '${ERROR}':\n${err}")
+  endif()
+  return()
+endif()
+if(NOT rc EQUAL 0)
+  message(FATAL_ERROR "expected exit 0, got ${rc}\nstdout: ${out}\nstderr: ${err}")
+endif()
+if(NOT EXISTS "${OUT}")
+  message(FATAL_ERROR "${OUT} was not written")
+endif()
+file(READ "${OUT}" magic LIMIT 8 HEX)
+if(NOT magic STREQUAL "89504e470d0a1a0a")
+  message(FATAL_ERROR "${OUT} is not a PNG (starts with ${magic})")
+endif()
+file(SIZE "${OUT}" size)
+if(size LESS MIN_BYTES)
+  message(FATAL_ERROR "${OUT}: ${size} bytes, expected at least ${MIN_BYTES}")
+endif()
