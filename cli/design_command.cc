@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "json.h"
 #include "vinci/design/best_scene.h"
 #include "vinci/design/optimize.h"
 #include "vinci/design/spec.h"
@@ -65,23 +66,6 @@ std::string Num(double v) {
   char buf[32];
   const auto res = std::to_chars(buf, buf + sizeof(buf), v);
   return std::string(buf, res.ptr);
-}
-
-std::string JsonString(const std::string& s) {
-  std::string o = "\"";
-  for (char c : s) {
-    if (c == '"' || c == '\\') {
-      o += '\\';
-      o += c;
-    } else if (static_cast<unsigned char>(c) < 0x20) {
-      char buf[8];
-      std::snprintf(buf, sizeof buf, "\\u%04x", c);
-      o += buf;
-    } else {
-      o += c;
-    }
-  }
-  return o + "\"";
 }
 
 std::string Duration(double s) {

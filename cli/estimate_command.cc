@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "json.h"
 #include "vinci/estimation/least_squares.h"
 #include "vinci/estimation/log.h"
 #include "vinci/sim/model/scene_file.h"
@@ -23,23 +24,6 @@ std::string Num(double v) {
   char buf[32];
   const auto res = std::to_chars(buf, buf + sizeof(buf), v);
   return std::string(buf, res.ptr);
-}
-
-std::string JsonString(const std::string& s) {
-  std::string o = "\"";
-  for (char c : s) {
-    if (c == '"' || c == '\\') {
-      o += '\\';
-      o += c;
-    } else if (static_cast<unsigned char>(c) < 0x20) {
-      char buf[8];
-      std::snprintf(buf, sizeof buf, "\\u%04x", c);
-      o += buf;
-    } else {
-      o += c;
-    }
-  }
-  return o + "\"";
 }
 
 std::string NamedValues(const std::vector<std::string>& names, const sim::VectorXd& v) {

@@ -10,6 +10,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "json.h"
 #include "vinci/planning/field_design.h"
 #include "vinci/planning/field_design_spec.h"
 
@@ -23,23 +24,6 @@ std::string Num(double v) {
   char buf[40];
   std::snprintf(buf, sizeof buf, "%.17g", v);
   return buf;
-}
-
-std::string JsonString(const std::string& s) {
-  std::string o = "\"";
-  for (const char c : s) {
-    if (c == '"' || c == '\\') {
-      o += '\\';
-      o += c;
-    } else if (static_cast<unsigned char>(c) < 0x20) {
-      char buf[8];
-      std::snprintf(buf, sizeof buf, "\\u%04x", c);
-      o += buf;
-    } else {
-      o += c;
-    }
-  }
-  return o + "\"";
 }
 
 void WriteFile(const fs::path& path, const std::string& text) {

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "json.h"
 #include "vinci/sim/solvers/lcp.h"
 #include "vinci/sim/solvers/lcp_acceptance.h"
 #include "vinci/sim/solvers/lcp_file.h"
@@ -32,40 +33,6 @@ void AppendJsonNumber(double v, std::string* s) {
     s->append("null");
 }
 
-// A JSON string literal (RFC 8259): quotes, backslashes and control characters escaped; other
-// bytes pass through (file names and messages are expected to be UTF-8).
-void AppendJsonString(const std::string& text, std::string* s) {
-  *s += '"';
-  for (const char c : text) {
-    switch (c) {
-      case '"':
-        *s += "\\\"";
-        break;
-      case '\\':
-        *s += "\\\\";
-        break;
-      case '\n':
-        *s += "\\n";
-        break;
-      case '\t':
-        *s += "\\t";
-        break;
-      case '\r':
-        *s += "\\r";
-        break;
-      default:
-        if (static_cast<unsigned char>(c) < 0x20) {
-          char buf[8];
-          std::snprintf(buf, sizeof(buf), "\\u%04x", static_cast<unsigned>(c));
-          *s += buf;
-        } else {
-          *s += c;
-        }
-    }
-  }
-  *s += '"';
-}
-
 void AppendJsonArray(const sim::VectorXd& v, std::string* s) {
   *s += '[';
   for (Eigen::Index i = 0; i < v.size(); ++i) {
@@ -86,12 +53,12 @@ struct Result {
 
 std::string FormatJson(const Result& r) {
   std::string s = "{\n  \"problem\": ";
-  AppendJsonString(r.problem_path, &s);
+  s += JsonString(r.problem_path);
   s += ",\n  \"n\": " + std::to_string(r.n);
   s += ",\n  \"solver\": ";
-  AppendJsonString(r.solver, &s);
+  s += JsonString(r.solver);
   s += ",\n  \"status\": ";
-  AppendJsonString(std::string(sim::ToString(r.report.status)), &s);
+  s += JsonString(std::string(sim::ToString(r.report.status)));
   s += ",\n  \"iterations\": " + std::to_string(r.report.iterations);
   s += ",\n  \"residual\": ";
   AppendJsonNumber(r.residual, &s);
@@ -102,7 +69,7 @@ std::string FormatJson(const Result& r) {
   s += ",\n  \"regularization\": ";
   AppendJsonNumber(r.report.regularized ? r.report.regularization : 0.0, &s);
   s += ",\n  \"message\": ";
-  AppendJsonString(r.report.message, &s);
+  s += JsonString(r.report.message);
   s += ",\n  \"z\": ";
   AppendJsonArray(r.z, &s);
   s += ",\n  \"w\": ";

@@ -11,6 +11,7 @@
 #include <system_error>
 #include <vector>
 
+#include "json.h"
 #include "vinci/sim/geometry/shape.h"
 #include "vinci/sim/plate/velocity_field.h"
 
@@ -123,48 +124,6 @@ bool IsNormalStatus(const std::string& s) { return s == "solved" || s == "initia
 
 // ---- JSON ------------------------------------------------------------------------------------
 
-void JsonString(const std::string& s, std::ostream& out) {
-  out << '"';
-  for (const char c : s) {
-    const auto u = static_cast<unsigned char>(c);
-    switch (c) {
-      case '"':
-        out << "\\\"";
-        break;
-      case '\\':
-        out << "\\\\";
-        break;
-      case '\n':
-        out << "\\n";
-        break;
-      case '\r':
-        out << "\\r";
-        break;
-      case '\t':
-        out << "\\t";
-        break;
-      // '<' and '>' as escapes keep "</script>" and "<!--" out of the page's <script> element.
-      case '<':
-        out << "\\u003c";
-        break;
-      case '>':
-        out << "\\u003e";
-        break;
-      case '&':
-        out << "\\u0026";
-        break;
-      default:
-        if (u < 0x20) {
-          const char* hex = "0123456789abcdef";
-          out << "\\u00" << hex[u >> 4] << hex[u & 15];
-        } else {
-          out << c;
-        }
-    }
-  }
-  out << '"';
-}
-
 // A number with `digits` significant digits (locale-independent); null if not finite.
 void JsonNumber(double v, std::ostream& out, int digits = 9) {
   if (!std::isfinite(v)) {
@@ -219,9 +178,9 @@ void JsonShape(const sim::Shape& shape_in, std::ostream& out) {
   sim::Shape shape = shape_in;
   if (shape.type == sim::ShapeType::kPolyhedron && shape.faces.empty()) sim::PrepareShape(&shape);
   out << "{\"type\":";
-  JsonString(sim::ShapeKeyword(shape.type), out);
+  out << JsonString(sim::ShapeKeyword(shape.type));
   out << ",\"name\":";
-  JsonString(shape.name, out);
+  out << JsonString(shape.name);
   out << ',';
   JsonPose(shape.X_BS, out);
   out << ",\"radius\":";
@@ -464,19 +423,19 @@ void WriteViewJson(const sim::Scene& scene, const std::string& scene_path,
                    const ViewField* field, const std::string& field_path, std::ostream& out) {
   const bool planar = scene.dim == Dim::kPlanar;
   out << "{\"format\":\"vinci-view-1\",\"sources\":{\"scene\":";
-  JsonString(scene_path, out);
+  out << JsonString(scene_path);
   out << ",\"trajectory\":";
   if (traj)
-    JsonString(trajectory_path, out);
+    out << JsonString(trajectory_path);
   else
     out << "null";
   out << ",\"field\":";
   if (field)
-    JsonString(field_path, out);
+    out << JsonString(field_path);
   else
     out << "null";
   out << "},\n\"scene\":{\"name\":";
-  JsonString(scene.name, out);
+  out << JsonString(scene.name);
   out << ",\"dim\":" << (planar ? 2 : 3) << ",\"gravity\":";
   JsonVector(scene.gravity_W, out);
   out << ",\"dt\":";
@@ -488,7 +447,7 @@ void WriteViewJson(const sim::Scene& scene, const std::string& scene_path,
     const sim::Body& body = scene.bodies[b];
     if (b > 0) out << ",\n";
     out << "{\"name\":";
-    JsonString(body.name, out);
+    out << JsonString(body.name);
     out << ",\"kind\":\"" << KindName(body.kind) << "\",";
     JsonPose(body.X_WB0, out);
     out << ",\"shapes\":";
@@ -523,13 +482,13 @@ void WriteViewJson(const sim::Scene& scene, const std::string& scene_path,
       out << ",\n\"status\":";
       JsonArray(traj->status, out, [&](int v) { out << v; });
       out << ",\"status_names\":";
-      JsonArray(traj->status_names, out, [&](const std::string& s) { JsonString(s, out); });
+      JsonArray(traj->status_names, out, [&](const std::string& s) { out << JsonString(s); });
       out << ",\n\"flagged\":";
       JsonArray(traj->flagged, out, [&](const ViewTrajectory::Flag& f) {
         out << "{\"step\":" << f.step << ",\"t\":";
         JsonNumber(f.t, out, 12);
         out << ",\"status\":";
-        JsonString(f.status, out);
+        out << JsonString(f.status);
         out << '}';
       });
       out << ",\"num_flagged\":" << traj->num_flagged << '}';
@@ -541,9 +500,9 @@ void WriteViewJson(const sim::Scene& scene, const std::string& scene_path,
     out << "null";
   } else {
     out << "{\"plate\":";
-    JsonString(field->plate, out);
+    out << JsonString(field->plate);
     out << ",\"part\":";
-    JsonString(field->part, out);
+    out << JsonString(field->part);
     out << ",\"spacing\":";
     JsonNumber(field->spacing, out);
     out << ",\"normal\":";
