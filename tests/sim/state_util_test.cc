@@ -80,8 +80,9 @@ TEST(StateUtilTest, NonDynamicBodiesAndMisuse) {
   try {
     GetBodyKinematics(s, x, "nobody");
     ADD_FAILURE() << "expected std::invalid_argument";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find(b.name), std::string::npos) << e.what();  // lists names
+  } catch (const std::invalid_argument& error) {
+    EXPECT_NE(std::string(error.what()).find(b.name), std::string::npos)
+        << error.what();  // lists names
   }
   State wrong;
   EXPECT_THROW(SetBodyVelocity(s, s.bodies[s.dynamic_bodies()[0]].name, Vector3d::Zero(),

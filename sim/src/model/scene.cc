@@ -250,9 +250,9 @@ void Scene::BuildParamTable() {
   const char* const* pose_names = planar ? kPlanarDofNames : kSpatialDofNames;
   params_ = ParamTable();
   // Every entry's default is the scene's own value, read back as ApplyParams would see it.
-  const auto add = [this](std::string name, ParamKind kind, int a, int b, int c, double lower,
+  const auto add = [this](std::string param_name, ParamKind kind, int a, int b, int c, double lower,
                           double upper, bool differentiable = false) {
-    ParamInfo info{std::move(name), kind, a, b, c, 0.0, lower, upper, differentiable};
+    ParamInfo info{std::move(param_name), kind, a, b, c, 0.0, lower, upper, differentiable};
     info.default_value = ParamValue(info);
     params_.Add(std::move(info));
   };
