@@ -1,5 +1,6 @@
 #include "command.h"
 
+#include <csignal>
 #include <exception>
 #include <iostream>
 #include <stdexcept>
@@ -36,5 +37,35 @@ std::string ExitCodeHelp() {
          "    4  internal error\n"
          "  130  interrupted (Ctrl-C, SIGTERM); partial results are still written";
 }
+
+namespace {
+
+volatile std::sig_atomic_t g_interrupted = 0;
+
+extern "C" void OnInterrupt(int signal) {
+  g_interrupted = signal;
+  std::signal(signal, SIG_DFL);  // a second signal terminates
+}
+
+void (*Install(int signal))(int) {
+  void (*old)(int) = std::signal(signal, OnInterrupt);
+  if (old == SIG_IGN) std::signal(signal, SIG_IGN);
+  return old;
+}
+
+}  // namespace
+
+InterruptGuard::InterruptGuard() {
+  g_interrupted = 0;
+  old_int_ = Install(SIGINT);
+  old_term_ = Install(SIGTERM);
+}
+
+InterruptGuard::~InterruptGuard() {
+  std::signal(SIGINT, old_int_);
+  std::signal(SIGTERM, old_term_);
+}
+
+int Interrupted() { return g_interrupted; }
 
 }  // namespace vinci::cli

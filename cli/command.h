@@ -4,6 +4,7 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <csignal>
 #include <functional>
 #include <string>
 
@@ -33,6 +34,25 @@ ExitCode RunCommand(const Command& command);
 
 /// Prints "vinci: error: <message>" on stderr.
 void PrintError(const std::string& message);
+
+/// Catches SIGINT and SIGTERM for its lifetime so a long job can stop after its current unit of
+/// work and write what it has (Interrupted() says a signal came); a second signal takes the
+/// default action (terminates). A signal the parent ignored (nohup, `cmd &` in a script) stays
+/// ignored. One guard at a time.
+class InterruptGuard {
+ public:
+  InterruptGuard();
+  ~InterruptGuard();
+  InterruptGuard(const InterruptGuard&) = delete;
+  InterruptGuard& operator=(const InterruptGuard&) = delete;
+
+ private:
+  void (*old_int_)(int) = SIG_DFL;
+  void (*old_term_)(int) = SIG_DFL;
+};
+
+/// The signal caught by the current (or last) InterruptGuard, 0 if none.
+int Interrupted();
 
 /// The footer appended to `vinci --help` (exit codes).
 std::string ExitCodeHelp();

@@ -30,37 +30,6 @@ using design::Evaluation;
 
 constexpr double kTtyRedrawS = 0.2;
 
-volatile std::sig_atomic_t g_interrupted = 0;
-
-extern "C" void OnDesignInterrupt(int signal) {
-  g_interrupted = signal;
-  std::signal(signal, SIG_DFL);  // a second signal terminates
-}
-
-class InterruptGuard {
- public:
-  InterruptGuard() {
-    g_interrupted = 0;
-    old_int_ = Install(SIGINT);
-    old_term_ = Install(SIGTERM);
-  }
-  ~InterruptGuard() {
-    std::signal(SIGINT, old_int_);
-    std::signal(SIGTERM, old_term_);
-  }
-  InterruptGuard(const InterruptGuard&) = delete;
-  InterruptGuard& operator=(const InterruptGuard&) = delete;
-
- private:
-  static void (*Install(int signal))(int) {
-    void (*old)(int) = std::signal(signal, OnDesignInterrupt);
-    if (old == SIG_IGN) std::signal(signal, SIG_IGN);
-    return old;
-  }
-  void (*old_int_)(int) = SIG_DFL;
-  void (*old_term_)(int) = SIG_DFL;
-};
-
 // Shortest text that reads back as exactly v.
 std::string Num(double v) {
   char buf[32];
@@ -284,7 +253,7 @@ ExitCode RunDesignCommand(const DesignOptions& o) {
         std::cerr << (tty ? "\r" : "") << s.str() << (tty ? "\x1b[K" : "\n") << std::flush;
       }
     }
-    return g_interrupted == 0;
+    return Interrupted() == 0;
   };
 
   design::DesignResult r;
@@ -364,7 +333,7 @@ ExitCode RunDesignCommand(const DesignOptions& o) {
     std::cout << s.str() << std::flush;
   }
   for (const std::string& e : r.errors) PrintError(e);
-  if (g_interrupted) return ExitCode::kInterrupted;
+  if (Interrupted()) return ExitCode::kInterrupted;
   if (!r.errors.empty() || r.best.size() == 0) return ExitCode::kSolveFailed;
   return ExitCode::kOk;
 }

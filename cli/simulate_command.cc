@@ -44,42 +44,6 @@ constexpr double kTtyRedrawS = 0.1;
 constexpr double kQuietRunS = 2.0;
 constexpr double kTwoPi = 6.283185307179586476925286766559;
 
-// Set by SIGINT/SIGTERM during a run: the loop stops after the current step and the results so
-// far are written as for a failed step. A second signal takes the default action (terminates).
-volatile std::sig_atomic_t g_interrupted = 0;
-
-extern "C" void OnInterrupt(int signal) {
-  g_interrupted = signal;
-  std::signal(signal, SIG_DFL);
-}
-
-// Installs OnInterrupt for the lifetime of the object.
-class InterruptGuard {
- public:
-  InterruptGuard() {
-    g_interrupted = 0;
-    old_int_ = Install(SIGINT);
-    old_term_ = Install(SIGTERM);
-  }
-  ~InterruptGuard() {
-    std::signal(SIGINT, old_int_);
-    std::signal(SIGTERM, old_term_);
-  }
-  InterruptGuard(const InterruptGuard&) = delete;
-  InterruptGuard& operator=(const InterruptGuard&) = delete;
-
- private:
-  // A signal the parent told us to ignore (nohup, `cmd &` in a script) stays ignored.
-  static void (*Install(int signal))(int) {
-    void (*old)(int) = std::signal(signal, OnInterrupt);
-    if (old == SIG_IGN) std::signal(signal, SIG_IGN);
-    return old;
-  }
-
-  void (*old_int_)(int) = SIG_DFL;
-  void (*old_term_)(int) = SIG_DFL;
-};
-
 double Seconds(Clock::duration d) { return std::chrono::duration<double>(d).count(); }
 
 // Shortest decimal text that reads back as exactly `v` (full precision, locale-independent).
@@ -452,9 +416,11 @@ ExitCode RunSimulate(const SimulateOptions& o) {
   Progress progress(!o.quiet, num_steps);
   sim::StepInfo failed;
   std::int64_t failed_step = -1;
+  // SIGINT/SIGTERM during the run: the loop stops after the current step and the results so far
+  // are written as for a failed step.
   InterruptGuard interrupt_guard;
   for (std::int64_t k = 0; k < num_steps; ++k) {
-    if (g_interrupted) break;
+    if (Interrupted()) break;
     sim::StepInfo info = simulator.Step(params, x, no_input, &ws, &next);
     if (!info.ok) {
       failed = std::move(info);
