@@ -25,20 +25,18 @@ std::vector<BodyKinematics> ComputeBodyKinematics(const Scene& scene, const Stat
   return out;
 }
 
-namespace {
-bool Jointed(const Scene& scene, int a, int b) {
+bool BodiesJointed(const Scene& scene, int a, int b) {
   for (const Joint& j : scene.joints)
     if ((j.body_a == a && j.body_b == b) || (j.body_a == b && j.body_b == a)) return true;
   return false;
 }
 
-int MuParam(const Scene& scene, int ma, int mb) {
+int FrictionParamIndex(const Scene& scene, int ma, int mb) {
   const auto key = std::make_pair(std::min(ma, mb), std::max(ma, mb));
   const auto it = scene.mu.find(key);
   // ParamTable layout (Scene::Finalize): 0 = mu.default, then the pairs in map order.
   return it == scene.mu.end() ? 0 : 1 + static_cast<int>(std::distance(scene.mu.begin(), it));
 }
-}  // namespace
 
 void FindContacts(const Scene& scene, const std::vector<BodyKinematics>& bodies, double envelope,
                   std::vector<Contact>* out) {
@@ -60,7 +58,7 @@ void FindContacts(const Scene& scene, const std::vector<BodyKinematics>& bodies,
     for (int ib = ia + 1; ib < n; ++ib) {
       const Body& B = scene.bodies[ib];
       if (A.kind != BodyKind::kDynamic && B.kind != BodyKind::kDynamic) continue;
-      if (Jointed(scene, ia, ib)) continue;
+      if (BodiesJointed(scene, ia, ib)) continue;
       // Orient each pair so the dynamic body (or the first dynamic body) is A.
       const bool swap = A.kind != BodyKind::kDynamic;
       const int a = swap ? ib : ia, b = swap ? ia : ib;
@@ -94,7 +92,7 @@ void FindContacts(const Scene& scene, const std::vector<BodyKinematics>& bodies,
             c.shape_b = static_cast<int>(sb);
             c.point = p;
             c.mu = scene.Mu(ma, mb);
-            c.mu_param = MuParam(scene, ma, mb);
+            c.mu_param = FrictionParamIndex(scene, ma, mb);
             out->push_back(c);
           }
         }

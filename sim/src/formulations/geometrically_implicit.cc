@@ -528,18 +528,6 @@ std::string Describe(const Scene& s, int body, int shape) {
   return "body '" + s.bodies[body].name + "' shape '" + s.bodies[body].shapes[shape].name + "'";
 }
 
-bool Jointed(const Scene& s, int a, int b) {
-  for (const Joint& j : s.joints)
-    if ((j.body_a == a && j.body_b == b) || (j.body_a == b && j.body_b == a)) return true;
-  return false;
-}
-
-int MuParam(const Scene& scene, int ma, int mb) {
-  const auto key = std::make_pair(std::min(ma, mb), std::max(ma, mb));
-  const auto it = scene.mu.find(key);
-  return it == scene.mu.end() ? 0 : 1 + static_cast<int>(std::distance(scene.mu.begin(), it));
-}
-
 // Pose at t + h and secant velocity over the step of a non-dynamic body.
 BodyKinematics MovingKinematics(const Scene& s, int body, double t, double h) {
   const Body& b = s.bodies[body];
@@ -602,7 +590,7 @@ std::vector<GiPair> GeometricallyImplicit::Pairs(const Scene& model, const State
       const Body& BA0 = model.bodies[ia];
       const Body& BB0 = model.bodies[ib];
       if (BA0.kind != BodyKind::kDynamic && BB0.kind != BodyKind::kDynamic) continue;
-      if (Jointed(model, ia, ib)) continue;
+      if (BodiesJointed(model, ia, ib)) continue;
       const bool swap = BA0.kind != BodyKind::kDynamic;
       const int a = swap ? ib : ia, b = swap ? ia : ib;
       const Body& BA = model.bodies[a];
@@ -637,7 +625,7 @@ std::vector<GiPair> GeometricallyImplicit::Pairs(const Scene& model, const State
           p.m_b = static_cast<int>(B.functions.size());
           const int ma = BA.shapes[sa].material, mb = BB.shapes[sb].material;
           p.mu = model.Mu(ma, mb);
-          p.mu_param = MuParam(model, ma, mb);
+          p.mu_param = FrictionParamIndex(model, ma, mb);
           p.start = prox;
           int axis = 0;
           prox.n_W.cwiseAbs().minCoeff(&axis);

@@ -19,6 +19,13 @@ struct Contact {
   int mu_param = -1;   ///< index in the scene's ParamTable of the parameter giving μ
 };
 
+/// True if a joint connects bodies a and b (their shapes do not collide).
+bool BodiesJointed(const Scene& scene, int a, int b);
+
+/// Index in the scene's ParamTable of the friction coefficient of materials (ma, mb): the pair's
+/// `mu.<a>.<b>` entry, or 0 (`mu.default`) for a pair without its own coefficient.
+int FrictionParamIndex(const Scene& scene, int ma, int mb);
+
 /// World kinematics of every body at state x (dynamic: from q, v; prescribed: from the motion
 /// at x.t; static: initial pose).
 std::vector<BodyKinematics> ComputeBodyKinematics(const Scene& scene, const State& x);
