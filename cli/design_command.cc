@@ -299,7 +299,15 @@ ExitCode RunDesignCommand(const DesignOptions& o) {
     for (std::size_t k = 0; k < r.errors.size(); ++k)
       j << (k ? ", " : "") << JsonString(r.errors[k]);
     j << "],\n";
-    j << "  \"screening\": []\n}\n";
+    j << "  \"screening\": [";
+    for (std::size_t k = 0; k < r.screening.size(); ++k) {
+      const design::StageReport& st = r.screening[k];
+      j << (k ? ",\n    " : "\n    ") << "{\"stage\": " << JsonString(st.stage)
+        << ", \"candidates_in\": " << st.candidates_in
+        << ", \"candidates_out\": " << st.candidates_out << ", \"simulations\": " << st.simulations
+        << ", \"time_s\": " << Num(st.time_s) << "}";
+    }
+    j << (r.screening.empty() ? "]\n}\n" : "\n  ]\n}\n");
     WriteAtomically(o.out + "/result.json", j.str());
   }
 
@@ -329,6 +337,15 @@ ExitCode RunDesignCommand(const DesignOptions& o) {
     }
     s << "evaluations  " << r.evaluations << " (" << r.replayed << " not recomputed), "
       << r.simulations << " simulations, " << Duration(r.time_s) << "\n";
+    if (!r.screening.empty()) {
+      s << "screening    stage        candidates in  candidates out  simulations   time\n";
+      for (const design::StageReport& st : r.screening)
+        s << "             " << std::left << std::setw(12) << st.stage << std::right
+          << std::setw(14) << st.candidates_in << std::setw(16) << st.candidates_out
+          << std::setw(13) << st.simulations << "   " << std::fixed << std::setprecision(1)
+          << st.time_s << " s\n"
+          << std::defaultfloat << std::setprecision(6);
+    }
     s << "results      " << o.out << "/{best.yaml,result.json,history.csv}\n";
     std::cout << s.str() << std::flush;
   }

@@ -26,7 +26,8 @@ of the points the optimizer chose to evaluate (which cluster near the optimum), 
 sensitivity index.
 
 The objective type comes from result.json (`objective_type`); without it (an interrupted run)
-a history whose objective is successes/samples with loss = 1 - objective is taken as a success
+a history whose objective is successes/samples with loss = 1 - objective + [0, 1/samples) (the
+margin tie-break; >= 2 for a screened-out candidate) is taken as a success
 objective. A missing or malformed file is reported as FILE:LINE: message, exit code 1.
 """
 import csv
@@ -44,7 +45,9 @@ import numpy as np  # noqa: E402
 LEADING = ["index", "phase", "stream", "samples"]
 TRAILING = ["objective", "loss", "successes", "lower", "upper", "failures", "time_s"]
 SEARCH_PHASES = ("start", "global", "local", "ipopt")
-KNOWN_PHASES = SEARCH_PHASES + ("validate-best", "validate-start")
+# Candidates a screening stage rejected (not simulated in full: not search evaluations here).
+SCREENED_PHASES = ("screened-geometric", "screened-short")
+KNOWN_PHASES = SEARCH_PHASES + SCREENED_PHASES + ("validate-best", "validate-start")
 PHASE_COLOURS = {
     "start": "black",
     "global": "tab:blue",
@@ -52,6 +55,8 @@ PHASE_COLOURS = {
     "ipopt": "tab:green",
     "validate-best": "tab:red",
     "validate-start": "tab:gray",
+    "screened-geometric": "tab:purple",
+    "screened-short": "tab:brown",
 }
 
 
@@ -124,7 +129,10 @@ def is_success(cols, result):
     if result is not None and "objective_type" in result:
         return result["objective_type"] == "success"
     obj, n = cols["objective"], np.maximum(cols["samples"], 1)
-    return bool(np.allclose(obj, cols["successes"] / n) and np.allclose(cols["loss"], 1 - obj))
+    # loss = 1 - rate + a tie-break term in [0, 1/n) (docs/design.md), >= 2 if screened out.
+    d = cols["loss"] - (1 - obj)
+    tie = (d >= -1e-12) & ((d < 1 / n + 1e-12) | (cols["loss"] >= 2))
+    return bool(np.allclose(obj, cols["successes"] / n) and tie.all())
 
 
 def correlation_ratio(x, y):

@@ -156,18 +156,6 @@ std::string BestSceneYaml(const DesignSpec& spec, const VectorXd& x) {
     if (p.target.kind == TargetKind::kParam) {
       WriteParam(root, scene, params, p.target.index, scene.param_table().info(p.target.index),
                  x[k]);
-    } else if (p.target.kind == TargetKind::kPose) {
-      YAML::Node pose = BodyNode(root, scene, p.target.body)["pose"];
-      if (p.target.coord < 2) {
-        if (!pose["position"].IsDefined()) {
-          pose["position"].push_back(Number(0.0));
-          pose["position"].push_back(Number(0.0));
-          pose["position"].SetStyle(YAML::EmitterStyle::Flow);
-        }
-        pose["position"][p.target.coord] = Number(x[k]);
-      } else {
-        pose["angle"] = Number(x[k]);
-      }
     }
   }
   root["stepper"]["duration"] = Number(spec.duration);

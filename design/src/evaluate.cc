@@ -114,10 +114,7 @@ std::uint64_t SampleSeed(std::uint64_t stream, int i) {
 std::uint64_t FreshStream(std::uint64_t seed) { return SplitMix64(seed ^ 0x6672657368ULL); }
 
 DesignProblem::DesignProblem(const DesignSpec& spec)
-    : spec_(&spec), base_(std::make_shared<const sim::Simulator>(spec.scene)) {
-  for (const DesignParameter& p : spec.parameters)
-    has_pose_ = has_pose_ || p.target.kind == TargetKind::kPose;
-}
+    : spec_(&spec), base_(std::make_shared<const sim::Simulator>(spec.scene)) {}
 
 VectorXd DesignProblem::lower() const {
   VectorXd v(size());
@@ -137,24 +134,41 @@ VectorXd DesignProblem::start() const {
   return v;
 }
 
-sim::Scene DesignProblem::SceneFor(const VectorXd& x) const {
-  sim::Scene scene = spec_->scene;
-  for (int k = 0; k < size(); ++k) {
-    const DesignParameter& p = spec_->parameters[k];
-    if (p.target.kind != TargetKind::kPose) continue;
-    Eigen::Isometry3d& X = scene.bodies[p.target.body].X_WB0;
-    if (p.target.coord < 2) {
-      X.translation()[p.target.coord] = x[k];
-    } else {
-      X.linear() = Eigen::AngleAxisd(x[k], Eigen::Vector3d::UnitZ()).toRotationMatrix();
-    }
-  }
-  return scene;
+sim::Params DesignProblem::ParamsFor(const VectorXd& x) const {
+  sim::Params params = spec_->scene.DefaultParams();
+  for (int k = 0; k < size(); ++k) params.values[spec_->parameters[k].target.index] = x[k];
+  return params;
 }
 
-std::shared_ptr<const sim::Simulator> DesignProblem::SimulatorFor(const VectorXd& x) const {
-  if (!has_pose_) return base_;
-  return std::make_shared<const sim::Simulator>(SceneFor(x));
+sim::Scene DesignProblem::SceneFor(const VectorXd& x) const {
+  return spec_->scene.ApplyParams(ParamsFor(x));
+}
+
+std::shared_ptr<const sim::Simulator> DesignProblem::SimulatorFor(const VectorXd&) const {
+  return base_;
+}
+
+void DesignProblem::SampleStart(const sim::Simulator& simulator, const VectorXd& x,
+                                std::uint64_t stream, int i, sim::Params* params,
+                                sim::State* state) const {
+  const sim::Scene& scene = simulator.scene();
+  const bool planar = scene.dim == sim::Dim::kPlanar;
+  *params = ParamsFor(x);
+  *state = simulator.InitialState();
+  Rng rng(SampleSeed(stream, i));
+  for (const Uncertain& u : spec_->uncertain) {
+    const double v = Draw(u, &rng);
+    if (u.target.kind == TargetKind::kParam) {
+      params->values[u.target.index] = v;
+    } else {
+      const sim::BodyIndex& bi = scene.index(u.target.body);
+      if (u.target.velocity) {
+        state->v[bi.v + u.target.coord] = v;
+      } else if (planar || u.target.coord < 3) {
+        state->q[bi.q + u.target.coord] = v;
+      }
+    }
+  }
 }
 
 SampleOutcome DesignProblem::RunSample(const sim::Simulator& simulator, const VectorXd& x,
@@ -162,26 +176,9 @@ SampleOutcome DesignProblem::RunSample(const sim::Simulator& simulator, const Ve
   const DesignSpec& spec = *spec_;
   const sim::Scene& scene = simulator.scene();
   const bool planar = scene.dim == sim::Dim::kPlanar;
-  sim::Params params = simulator.DefaultParams();
-  for (int k = 0; k < size(); ++k) {
-    const DesignParameter& p = spec.parameters[k];
-    if (p.target.kind == TargetKind::kParam) params.values[p.target.index] = x[k];
-  }
-  sim::State state = simulator.InitialState();
-  Rng rng(SampleSeed(stream, i));
-  for (const Uncertain& u : spec.uncertain) {
-    const double v = Draw(u, &rng);
-    if (u.target.kind == TargetKind::kParam) {
-      params.values[u.target.index] = v;
-    } else {
-      const sim::BodyIndex& bi = scene.index(u.target.body);
-      if (u.target.velocity) {
-        state.v[bi.v + u.target.coord] = v;
-      } else if (planar || u.target.coord < 3) {
-        state.q[bi.q + u.target.coord] = v;
-      }
-    }
-  }
+  sim::Params params;
+  sim::State state;
+  SampleStart(simulator, x, stream, i, &params, &state);
 
   const Objective& o = spec.objective;
   const int iq = scene.index(o.body_index).q;
@@ -243,7 +240,8 @@ SampleOutcome DesignProblem::RunSample(const sim::Simulator& simulator, const Ve
       break;
     case ObjectiveType::kSuccess:
       out.success = out.ok && (o.until ? reached : inside);
-      out.value = out.success ? 1.0 : 0.0;
+      // The margin, for ranking designs of equal success rate (a failed sample is not inside).
+      out.value = out.ok ? best : std::max(best, 0.0);
       break;
     case ObjectiveType::kMargin:
       out.success = out.ok && (o.until ? reached : inside);
@@ -275,6 +273,13 @@ Evaluation DesignProblem::Summarize(const VectorXd& x, std::uint64_t stream,
   if (spec_->objective.type == ObjectiveType::kSuccess) {
     e.objective = e.samples > 0 ? static_cast<double>(e.successes) / e.samples : 0.0;
     e.loss = 1.0 - e.objective;
+    // Ties on the rate are broken by the mean margin: + T(m̄)/S with T increasing in (0, 1),
+    // so the term never reorders different success counts (they differ by ≥ 1/S).
+    if (e.samples > 0) {
+      const double s = spec_->objective.angle_scale;
+      const double t = 0.5 * (1.0 + mean / (std::abs(mean) + s));
+      e.loss += std::min(std::max(t, 0.0), 1.0 - 1e-9) / e.samples;
+    }
   } else {
     e.objective = mean;
     e.loss = mean;

@@ -70,41 +70,64 @@ struct Search {
   const DesignSpec* spec = nullptr;
   const JobOptions* options = nullptr;
   Evaluator* evaluator = nullptr;
-  std::map<std::string, Evaluation> memo;  // replayed and computed evaluations
+  std::map<std::string, Evaluation> memo;             // replayed and computed evaluations
+  std::map<std::string, std::string> screened_phase;  // memo keys a screening stage rejected
   std::uint64_t stream = 0;
   int samples = 0;
   Progress progress;
   Clock::time_point start;
   DesignResult* result = nullptr;
+  Screener* screener = nullptr;  // null: no screening stages
   bool stop = false;
   bool have_best = false;
   int search_left = 0;  // evaluations the budget still allows
   std::string phase;
 
   std::vector<Evaluation> Run(const std::vector<EvalRequest>& requests,
-                              const std::vector<std::string>& phases) {
+                              std::vector<std::string> phases) {
     std::vector<Evaluation> out(requests.size());
     std::vector<EvalRequest> todo;
     std::vector<std::size_t> where;
     std::vector<bool> replayed(requests.size(), false);
     for (std::size_t r = 0; r < requests.size(); ++r) {
-      const auto it =
-          memo.find(EvaluationKey(requests[r].stream, requests[r].samples, requests[r].x));
+      const std::string key = EvaluationKey(requests[r].stream, requests[r].samples, requests[r].x);
+      const auto it = memo.find(key);
       if (it != memo.end()) {
         out[r] = it->second;
         replayed[r] = true;
-      } else {
-        todo.push_back(requests[r]);
-        where.push_back(r);
+        const auto sp = screened_phase.find(key);
+        if (sp != screened_phase.end()) phases[r] = sp->second;
+        continue;
       }
+      // Search candidates pass the screening stages first; a rejected one is not simulated.
+      if (screener && IsSearch(requests[r])) {
+        const int k = screener->Screen(requests[r].x, requests[r].stream);
+        if (k >= 0) {
+          out[r] = memo[key] =
+              screener->Rejected(requests[r].x, requests[r].stream, requests[r].samples, k);
+          phases[r] = screened_phase[key] = screener->Phase(k);
+          continue;
+        }
+      }
+      todo.push_back(requests[r]);
+      where.push_back(r);
     }
     if (!todo.empty()) {
+      const Clock::time_point t0 = Clock::now();
       const std::vector<Evaluation> fresh = evaluator->Evaluate(todo);
+      const double wall = std::chrono::duration<double>(Clock::now() - t0).count();
+      int full = 0;
+      long long full_sims = 0;
       for (std::size_t k = 0; k < fresh.size(); ++k) {
         out[where[k]] = fresh[k];
         result->simulations += todo[k].samples;
         memo[EvaluationKey(todo[k].stream, todo[k].samples, todo[k].x)] = fresh[k];
+        if (IsSearch(todo[k])) {
+          ++full;
+          full_sims += todo[k].samples;
+        }
       }
+      if (screener) screener->CountFull(full, full_sims, wall * full / fresh.size());
     }
     for (std::size_t r = 0; r < requests.size(); ++r) {
       // Search evaluations (on the search stream) compete for the best design; the first of
@@ -128,6 +151,8 @@ struct Search {
     }
     return out;
   }
+
+  bool IsSearch(const EvalRequest& r) const { return r.stream == stream && r.samples == samples; }
 
   // One search evaluation.
   double Loss(const VectorXd& x) { return Run({EvalRequest{x, stream, samples}}, {phase})[0].loss; }
@@ -375,6 +400,8 @@ DesignResult RunDesign(const DesignSpec& spec, const JobOptions& options) {
   const int local_evals = local ? search_evals - global_evals : 0;
   s.progress.max_evaluations = max_evals + 2;
   nlopt::srand(seed);
+  Screener screener(spec, problem, options.threads);
+  if (screener.active()) s.screener = &screener;
 
   // The start design.
   const VectorXd lower = problem.lower(), upper = problem.upper(), x0 = problem.start();
@@ -410,6 +437,9 @@ DesignResult RunDesign(const DesignSpec& spec, const JobOptions& options) {
       result.errors.push_back(std::string("validation: ") + e.what());
     }
   }
+  result.screening = screener.Report();
+  for (std::size_t k = 0; k + 1 < result.screening.size(); ++k)
+    result.simulations += result.screening[k].simulations;
   result.cancelled = s.stop && result.errors.empty();
   result.time_s = std::chrono::duration<double>(Clock::now() - start).count();
   return result;

@@ -12,17 +12,21 @@
 #include <stdexcept>
 
 #include "vinci/sim/model/scene_file.h"
+#include "vinci/sim/simulator/simulator.h"
 
 namespace vinci::design {
 namespace {
 
 const std::vector<std::string> kTopKeys = {
-    "scene", "parameters", "uncertain", "samples",   "validation_samples",
-    "seed",  "duration",   "objective", "optimizer", "budget"};
+    "scene",    "parameters", "uncertain", "samples", "validation_samples", "seed",
+    "duration", "objective",  "optimizer", "budget",  "screening"};
 const std::vector<std::string> kParameterKeys = {"name", "lower", "upper", "start"};
 const std::vector<std::string> kUncertainKeys = {"name", "uniform", "normal", "choice", "truncate"};
 const std::vector<std::string> kObjectiveKeys = {"type",  "body",   "region",     "angle",
                                                  "until", "target", "angle_scale"};
+const std::vector<std::string> kGeometricKeys = {"type", "tolerance", "samples"};
+const std::vector<std::string> kShortKeys = {"type",        "duration",    "samples", "objective",
+                                             "min_success", "formulation", "dt"};
 const std::vector<std::string> kRegionKeys = {"min", "max"};
 const std::vector<std::string> kAngleKeys = {"target", "tolerance", "symmetry"};
 
@@ -163,7 +167,6 @@ class Field {
   int line_;
 };
 
-const std::vector<std::string> kPoseCoords = {"x", "y", "theta"};
 const std::vector<std::string> kInitialPlanar = {"x", "y", "theta", "vx", "vy", "omega"};
 const std::vector<std::string> kInitialSpatial = {"x", "y", "z", "vx", "vy", "vz"};
 
@@ -192,20 +195,131 @@ std::string ReadFile(const std::string& path, const std::string& what) {
   return s.str();
 }
 
+// An objective map (the spec's `objective:` or a screening stage's).
+void ParseObjective(const Field& of, const sim::Scene& scene, Objective* out) {
+  const bool planar = scene.dim == sim::Dim::kPlanar;
+  const std::size_t pos_size = planar ? 2 : 3;
+  Objective& o = *out;
+  of.ExpectMap(kObjectiveKeys);
+  const Field tf = of.Required("type");
+  const std::string type = tf.String();
+  if (type == "success")
+    o.type = ObjectiveType::kSuccess;
+  else if (type == "distance")
+    o.type = ObjectiveType::kDistance;
+  else if (type == "margin")
+    o.type = ObjectiveType::kMargin;
+  else
+    tf.Fail("one of success, distance, margin");
+  o.body = of.Required("body").String();
+  o.body_index = scene.FindBody(o.body);
+  if (o.body_index < 0) of["body"].Fail("the name of a body of the scene");
+  if (scene.bodies[o.body_index].kind != sim::BodyKind::kDynamic) of["body"].Fail("a dynamic body");
+  const auto vec = [](const std::vector<double>& v) {
+    return Eigen::Map<const VectorXd>(v.data(), static_cast<Eigen::Index>(v.size()));
+  };
+  if (o.type == ObjectiveType::kDistance) {
+    for (const char* k : {"region", "angle", "until", "angle_scale"})
+      if (of.Has(k)) of[k].FailMessage("does not apply to type distance");
+    o.target = vec(of.Required("target").Numbers(pos_size, pos_size));
+  } else {
+    if (of.Has("target")) of["target"].FailMessage("applies to type distance only");
+    if (of.Has("region")) {
+      const Field r = of["region"];
+      r.ExpectMap(kRegionKeys);
+      o.region_min = vec(r.Required("min").Numbers(pos_size, pos_size));
+      o.region_max = vec(r.Required("max").Numbers(pos_size, pos_size));
+      for (std::size_t k = 0; k < pos_size; ++k)
+        if (!(o.region_max[k] >= o.region_min[k])) r["max"].Fail("max >= min in every coordinate");
+      o.has_region = true;
+    }
+    if (of.Has("angle")) {
+      const Field a = of["angle"];
+      if (!planar) a.FailMessage("angle: applies to planar scenes only");
+      a.ExpectMap(kAngleKeys);
+      o.angle_target = a.Required("target").Number();
+      o.angle_tolerance = a.Required("tolerance").Positive();
+      if (a.Has("symmetry")) o.angle_symmetry = a["symmetry"].Positive();
+      o.has_angle = true;
+    }
+    if (!o.has_region && !o.has_angle)
+      of.FailMessage("expected region: and/or angle: (what success means)");
+    if (of.Has("until")) o.until = of["until"].Bool();
+    if (of.Has("angle_scale")) o.angle_scale = of["angle_scale"].Positive();
+  }
+}
+
+// `screening:` (after the objective, the samples and the duration it refers to).
+void ParseScreening(const Field& list, DesignSpec* spec) {
+  list.ExpectList();
+  if (spec->objective.type != ObjectiveType::kSuccess)
+    list.FailMessage(
+        "applies to objectives of type success only (a rejected design gets the "
+        "worst success rate, 0)");
+  for (std::size_t i = 0; i < list.node().size(); ++i) {
+    const Field f = list.At(i);
+    if (!f.node().IsMap()) f.Fail("a map with a type (geometric or short)");
+    ScreeningStage st;
+    st.line = f.line();
+    const Field tf = f.Required("type");
+    const std::string type = tf.String();
+    if (type == "geometric") {
+      f.ExpectMap(kGeometricKeys);
+      st.type = StageType::kGeometric;
+      if (f.Has("tolerance")) {
+        st.tolerance = f["tolerance"].Number();
+        if (st.tolerance < 0.0) f["tolerance"].Fail("a number >= 0 (m)");
+      }
+      if (f.Has("samples")) st.samples = static_cast<int>(f["samples"].Integer(0));
+    } else if (type == "short") {
+      f.ExpectMap(kShortKeys);
+      st.type = StageType::kShort;
+      st.duration = f.Required("duration").Positive();
+      st.samples = spec->samples;
+      if (f.Has("samples")) st.samples = static_cast<int>(f["samples"].Integer(1));
+      if (st.samples > 10000000) f["samples"].Fail("an integer <= 10000000");
+      st.min_success = f.Required("min_success").Number();
+      if (st.min_success < 0.0 || st.min_success > 1.0)
+        f["min_success"].Fail("a number in [0, 1] (a success rate)");
+      st.objective = spec->objective;
+      if (f.Has("objective")) {
+        ParseObjective(f["objective"], spec->scene, &st.objective);
+        if (st.objective.type != ObjectiveType::kSuccess)
+          f["objective"]["type"].Fail("success (a stage passes on its success rate)");
+      }
+      st.options = sim::SimulatorOptions::FromScene(spec->scene);
+      if (f.Has("dt")) st.options.dt = f["dt"].Positive();
+      if (f.Has("formulation")) {
+        const Field ff = f["formulation"];
+        const std::string name = ff.String();
+        try {
+          st.options.formulation = sim::ParseFormulation(name);
+        } catch (const std::invalid_argument& e) {
+          ff.FailMessage(e.what());
+        }
+      }
+      // The stage's simulator must take the scene: build it once here.
+      if (f.Has("formulation") || f.Has("dt")) {
+        try {
+          (void)sim::Simulator(spec->scene, st.options);
+        } catch (const std::invalid_argument& e) {
+          f[f.Has("formulation") ? "formulation" : "dt"].FailMessage(
+              std::string("the scene cannot run with it: ") + e.what());
+        }
+      }
+    } else {
+      tf.Fail("one of geometric, short");
+    }
+    spec->screening.push_back(st);
+  }
+}
+
 }  // namespace
 
 bool ResolveDesignName(const sim::Scene& scene, const std::string& name, Target* target) {
   const int p = scene.param_table().Find(name);
-  if (p >= 0) {
-    *target = Target{TargetKind::kParam, p, -1, -1, false};
-    return true;
-  }
-  std::string body, coord;
-  if (scene.dim != sim::Dim::kPlanar || !SplitBodyCoord(name, "pose.", &body, &coord)) return false;
-  const int b = scene.FindBody(body);
-  const int c = IndexOf(kPoseCoords, coord);
-  if (b < 0 || c < 0 || scene.bodies[b].kind == sim::BodyKind::kDynamic) return false;
-  *target = Target{TargetKind::kPose, -1, b, c, false};
+  if (p < 0) return false;
+  *target = Target{TargetKind::kParam, p, -1, -1, false};
   return true;
 }
 
@@ -252,7 +366,6 @@ DesignSpec ParseDesignSpec(const std::string& yaml_text, const std::string& sour
   spec.scene = sim::ParseScene(spec.scene_text, spec.scene_path);
   const sim::Scene& scene = spec.scene;
   const bool planar = scene.dim == sim::Dim::kPlanar;
-  const std::size_t pos_size = planar ? 2 : 3;
 
   std::set<std::string> names;
   // Design parameters.
@@ -267,20 +380,31 @@ DesignSpec ParseDesignSpec(const std::string& yaml_text, const std::string& sour
     p.name = f.Required("name").String();
     if (!ResolveDesignName(scene, p.name, &p.target))
       f["name"].Fail(
-          "a scene parameter (e.g. mu.default, mass.<body>, size.<body>.<shape>.radius, "
-          "support_mu.<body>) or pose.<static body>.x|y|theta (planar)");
+          std::string("a scene parameter (e.g. mu.default, mass.<body>, "
+                      "size.<body>.<shape>.radius, support_mu.<body>, "
+                      "pose.<static or prescribed body>.<d>, pose.<body>.<shape>.<d> with <d> ") +
+          (planar ? "x|y|theta)" : "x|y|z|roll|pitch|yaw)"));
     if (!names.insert(p.name).second) f["name"].FailMessage("parameter listed twice");
     p.lower = f.Required("lower").Number();
     p.upper = f.Required("upper").Number();
     if (!(p.upper > p.lower)) f["upper"].Fail("a number > lower (" + std::to_string(p.lower) + ")");
-    if (p.target.kind == TargetKind::kParam) {
-      const sim::ParamInfo& info = scene.param_table().info(p.target.index);
-      if (p.lower < info.lower)
-        f["lower"].Fail("a number >= " + std::to_string(info.lower) + " (the range of " + p.name +
-                        ")");
-      if (p.upper > info.upper)
-        f["upper"].Fail("a number <= " + std::to_string(info.upper) + " (the range of " + p.name +
-                        ")");
+    const sim::ParamInfo& info = scene.param_table().info(p.target.index);
+    if (p.lower < info.lower)
+      f["lower"].Fail("a number >= " + std::to_string(info.lower) + " (the range of " + p.name +
+                      ")");
+    if (p.upper > info.upper)
+      f["upper"].Fail("a number <= " + std::to_string(info.upper) + " (the range of " + p.name +
+                      ")");
+    // The scene must accept both bounds (e.g. a shape pose of a dynamic body whose inertia comes
+    // from its shapes cannot move the shapes' centroid off the body origin).
+    for (const char* bound : {"lower", "upper"}) {
+      sim::Params values = scene.DefaultParams();
+      values.values[p.target.index] = bound[0] == 'l' ? p.lower : p.upper;
+      try {
+        (void)scene.ApplyParams(values);
+      } catch (const std::invalid_argument& e) {
+        f[bound].FailMessage(std::string("the scene rejects this value: ") + e.what());
+      }
     }
     if (f.Has("start")) {
       p.start = f["start"].Number();
@@ -288,15 +412,7 @@ DesignSpec ParseDesignSpec(const std::string& yaml_text, const std::string& sour
         f["start"].Fail("a number in [lower, upper] = [" + std::to_string(p.lower) + ", " +
                         std::to_string(p.upper) + "]");
     } else {
-      double v = 0.0;
-      if (p.target.kind == TargetKind::kParam) {
-        v = scene.param_table().info(p.target.index).default_value;
-      } else {
-        const sim::Body& b = scene.bodies[p.target.body];
-        v = p.target.coord < 2 ? b.X_WB0.translation()[p.target.coord]
-                               : std::atan2(b.X_WB0.linear()(1, 0), b.X_WB0.linear()(0, 0));
-      }
-      p.start = std::min(std::max(v, p.lower), p.upper);
+      p.start = std::min(std::max(info.default_value, p.lower), p.upper);
     }
     spec.parameters.push_back(p);
   }
@@ -383,56 +499,8 @@ DesignSpec ParseDesignSpec(const std::string& yaml_text, const std::string& sour
   if (top.Has("optimizer")) spec.optimizer = top["optimizer"].String();
   if (top.Has("budget")) spec.budget = static_cast<int>(top["budget"].Integer(1));
 
-  // The objective.
-  const Field of = top.Required("objective");
-  of.ExpectMap(kObjectiveKeys);
-  Objective& o = spec.objective;
-  const Field tf = of.Required("type");
-  const std::string type = tf.String();
-  if (type == "success")
-    o.type = ObjectiveType::kSuccess;
-  else if (type == "distance")
-    o.type = ObjectiveType::kDistance;
-  else if (type == "margin")
-    o.type = ObjectiveType::kMargin;
-  else
-    tf.Fail("one of success, distance, margin");
-  o.body = of.Required("body").String();
-  o.body_index = scene.FindBody(o.body);
-  if (o.body_index < 0) of["body"].Fail("the name of a body of the scene");
-  if (scene.bodies[o.body_index].kind != sim::BodyKind::kDynamic) of["body"].Fail("a dynamic body");
-  const auto vec = [](const std::vector<double>& v) {
-    return Eigen::Map<const VectorXd>(v.data(), static_cast<Eigen::Index>(v.size()));
-  };
-  if (o.type == ObjectiveType::kDistance) {
-    for (const char* k : {"region", "angle", "until", "angle_scale"})
-      if (of.Has(k)) of[k].FailMessage("does not apply to type distance");
-    o.target = vec(of.Required("target").Numbers(pos_size, pos_size));
-  } else {
-    if (of.Has("target")) of["target"].FailMessage("applies to type distance only");
-    if (of.Has("region")) {
-      const Field r = of["region"];
-      r.ExpectMap(kRegionKeys);
-      o.region_min = vec(r.Required("min").Numbers(pos_size, pos_size));
-      o.region_max = vec(r.Required("max").Numbers(pos_size, pos_size));
-      for (std::size_t k = 0; k < pos_size; ++k)
-        if (!(o.region_max[k] >= o.region_min[k])) r["max"].Fail("max >= min in every coordinate");
-      o.has_region = true;
-    }
-    if (of.Has("angle")) {
-      const Field a = of["angle"];
-      if (!planar) a.FailMessage("angle: applies to planar scenes only");
-      a.ExpectMap(kAngleKeys);
-      o.angle_target = a.Required("target").Number();
-      o.angle_tolerance = a.Required("tolerance").Positive();
-      if (a.Has("symmetry")) o.angle_symmetry = a["symmetry"].Positive();
-      o.has_angle = true;
-    }
-    if (!o.has_region && !o.has_angle)
-      of.FailMessage("expected region: and/or angle: (what success means)");
-    if (of.Has("until")) o.until = of["until"].Bool();
-    if (of.Has("angle_scale")) o.angle_scale = of["angle_scale"].Positive();
-  }
+  ParseObjective(top.Required("objective"), scene, &spec.objective);
+  if (top.Has("screening")) ParseScreening(top["screening"], &spec);
   return spec;
 }
 

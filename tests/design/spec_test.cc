@@ -8,7 +8,9 @@
 #include <string>
 
 #include "vinci/design/best_scene.h"
+#include "vinci/design/evaluate.h"
 #include "vinci/sim/model/scene_file.h"
+#include "vinci/sim/simulator/simulator.h"
 
 namespace vinci::design {
 namespace {
@@ -119,6 +121,78 @@ TEST(DesignSpec, BestSceneCarriesPoseParameters) {
   EXPECT_TRUE(scene.bodies[floor].X_WB0.matrix() == expected.bodies[floor].X_WB0.matrix())
       << scene.bodies[floor].X_WB0.matrix() << "\nvs\n"
       << expected.bodies[floor].X_WB0.matrix();
+}
+
+// A shape's pose within its body is a design parameter: moving the wall of the `stops` body moves
+// where the sliding block comes to rest (against the wall's face: x = wall.x − 0.05), and
+// best.yaml carries the pose so that simulating it reproduces the design's rollout bit for bit.
+TEST(DesignSpec, ShapePoseIsADesignParameter) {
+  const DesignSpec s = ParseDesignSpec(
+      "scene: block_stop.yaml\n"
+      "parameters: [{name: pose.stops.wall.x, lower: 0.2, upper: 0.4}]\n"
+      "samples: 1\nduration: 1.0\n"
+      "objective: {type: distance, body: block, target: [0.0, 0.05]}\n",
+      "shape_pose.yaml", kData);
+  EXPECT_EQ(s.parameters[0].start, 0.3);  // the scene's value
+  const DesignProblem problem(s);
+  ThreadEvaluator evaluator(problem, 1);
+  const std::vector<Evaluation> e = evaluator.Evaluate(
+      {{VectorXd::Constant(1, 0.25), 1, 1}, {VectorXd::Constant(1, 0.35), 1, 1}});
+  EXPECT_NEAR(e[0].objective, 0.25 - 0.05, 2e-3);
+  EXPECT_NEAR(e[1].objective, 0.35 - 0.05, 2e-3);
+
+  const VectorXd x = VectorXd::Constant(1, 0.3456789);
+  const sim::Scene best = sim::ParseScene(BestSceneYaml(s, x), "best.yaml");
+  const sim::Scene expected = problem.SceneFor(x);
+  const int b = best.FindBody("stops");
+  EXPECT_TRUE(best.bodies[b].shapes[0].X_BS.matrix() == expected.bodies[b].shapes[0].X_BS.matrix());
+  // The same rollout: best.yaml with its own parameters, the spec's scene with design x.
+  const sim::Simulator from_file(best), from_spec(s.scene);
+  sim::Workspace w1, w2;
+  sim::State a = from_file.InitialState(), c = from_spec.InitialState(), next;
+  const sim::Params pa = from_file.DefaultParams(), pc = problem.ParamsFor(x);
+  for (int k = 0; k < 250; ++k) {
+    ASSERT_TRUE(from_file.Step(pa, a, {}, &w1, &next).ok);
+    std::swap(a, next);
+    ASSERT_TRUE(from_spec.Step(pc, c, {}, &w2, &next).ok);
+    std::swap(c, next);
+  }
+  EXPECT_TRUE(a.q == c.q) << a.q.transpose() << " vs " << c.q.transpose();
+  EXPECT_NEAR(a.q[0], 0.3456789 - 0.05, 2e-3);
+}
+
+// Spatial scenes: body and shape poses with z, roll, pitch, yaw; a shape pose the scene cannot
+// take (it would move a dynamic body's centroid off its origin) is rejected at its bound.
+TEST(DesignSpec, SpatialPosesAndRejectedShapePoses) {
+  const DesignSpec s = ParseDesignSpec(
+      "scene: box_floor3d.yaml\n"
+      "parameters: [{name: pose.floor.z, lower: -0.01, upper: 0.01},\n"
+      "             {name: pose.floor.top.roll, lower: -0.1, upper: 0.1},\n"
+      "             {name: pose.floor.yaw, lower: -0.1, upper: 0.1}]\n"
+      "duration: 0.05\n"
+      "objective: {type: distance, body: box, target: [0, 0, 0.05]}\n",
+      "spatial.yaml", kData);
+  ASSERT_EQ(s.parameters.size(), 3u);
+  VectorXd x(3);
+  x << 0.005, 0.05, -0.02;
+  const sim::Scene best = sim::ParseScene(BestSceneYaml(s, x), "best.yaml");
+  const sim::Scene expected = DesignProblem(s).SceneFor(x);
+  const int f = best.FindBody("floor");
+  EXPECT_TRUE(best.bodies[f].X_WB0.matrix() == expected.bodies[f].X_WB0.matrix());
+  EXPECT_TRUE(best.bodies[f].shapes[0].X_BS.matrix() == expected.bodies[f].shapes[0].X_BS.matrix());
+
+  const std::string e = Error(
+      "scene: block_slide.yaml\n"
+      "parameters: [{name: pose.block.s0.x, lower: 0.01, upper: 0.02}]\n"
+      "duration: 1\nobjective: {type: distance, body: block, target: [0.5, 0]}\n");
+  EXPECT_NE(e.find("bad.yaml:2: parameters[0].lower: the scene rejects this value"),
+            std::string::npos)
+      << e;
+  EXPECT_NE(Error("scene: block_slide.yaml\n"
+                  "parameters: [{name: pose.block.x, lower: 0.01, upper: 0.02}]\n"
+                  "duration: 1\nobjective: {type: distance, body: block, target: [0.5, 0]}\n")
+                .find("parameters[0].name: expected a scene parameter"),
+            std::string::npos);
 }
 
 }  // namespace

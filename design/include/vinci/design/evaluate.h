@@ -8,7 +8,12 @@
 //
 //   success   s_i ∈ {0, 1}: body in the region and |wrap(θ − θ*) mod symmetry| ≤ tolerance;
 //             p̂ = Σ s_i / S with the 95% Wilson interval
-//             (p̂ + z²/2S ± z √(p̂(1−p̂)/S + z²/4S²)) / (1 + z²/S), z = 1.96.
+//             (p̂ + z²/2S ± z √(p̂(1−p̂)/S + z²/4S²)) / (1 + z²/S), z = 1.96. The loss
+//             1 − p̂ + T(m̄)/S breaks ties on p̂ by the mean margin m̄ (below; a failed sample's
+//             is ≥ 0), T(m) = (1 + m/(|m| + angle_scale))/2 ∈ (0, 1) increasing: of two designs
+//             with the same rate the one whose samples end deeper inside the success set (or
+//             nearer to it) ranks first, and an optimizer sees a slope where the rate is flat.
+//             The term is < 1/S, so it never reorders different rates.
 //   distance  d_i = ‖p_i − target‖, objective mean d_i (minimized).
 //   margin    m_i = max(sd_box(p_i), angle_scale (|Δθ| − tolerance)), sd_box the signed distance
 //             to the region (negative inside); with `until` the minimum over the rollout;
@@ -29,7 +34,7 @@ namespace vinci::design {
 struct SampleOutcome {
   bool ok = true;        ///< false: a step failed (the sample is a failure)
   bool success = false;  ///< success objective (and margin < 0 for margin)
-  double value = 0.0;    ///< distance d_i or margin m_i; success: 1 or 0
+  double value = 0.0;    ///< distance d_i or margin m_i (success: the margin, for ties)
   std::string failure;   ///< reason when !ok
 };
 
@@ -39,7 +44,9 @@ struct Evaluation {
   std::uint64_t stream = 0;
   int samples = 0;
   double objective = 0.0;  ///< success rate, mean distance or mean margin
-  double loss = 0.0;       ///< what optimizers minimize: 1 − rate, mean distance, mean margin
+  /// What optimizers minimize: 1 − rate + T(mean margin)/S (ties broken, above), mean
+  /// distance, mean margin.
+  double loss = 0.0;
   int successes = 0;
   double lower = 0.0, upper = 0.0;  ///< 95% Wilson interval of the success rate
   int failures = 0;                 ///< samples with a failed step
@@ -68,10 +75,18 @@ class DesignProblem {
   VectorXd upper() const;
   VectorXd start() const;
 
-  /// The simulator for design x: the shared one, or one built for x's body poses.
+  /// The simulator for design x. Every design number is a Params entry (poses included), so
+  /// this is the one shared simulator; the design enters through RunSample's Params.
   std::shared_ptr<const sim::Simulator> SimulatorFor(const VectorXd& x) const;
-  /// The scene of design x (poses written in, parameters not applied).
+  /// The scene's parameters with design x written in (no uncertain number drawn).
+  sim::Params ParamsFor(const VectorXd& x) const;
+  /// The scene of design x (ParamsFor(x) applied). Throws std::invalid_argument if the scene
+  /// rejects the values.
   sim::Scene SceneFor(const VectorXd& x) const;
+  /// Sample i of `stream` before it runs: design x's parameters and the initial state with the
+  /// sample's uncertain numbers drawn (in the order of the spec).
+  void SampleStart(const sim::Simulator& simulator, const VectorXd& x, std::uint64_t stream, int i,
+                   sim::Params* params, sim::State* state) const;
 
   /// Runs sample i of `stream` for design x on `simulator` (= SimulatorFor(x)) with the
   /// caller's workspace (one per thread; reset it when the simulator changes).
@@ -85,7 +100,6 @@ class DesignProblem {
  private:
   const DesignSpec* spec_;
   std::shared_ptr<const sim::Simulator> base_;
-  bool has_pose_ = false;
 };
 
 /// A batch of designs to judge.

@@ -28,14 +28,17 @@
 #include <vector>
 
 #include "vinci/design/evaluate.h"
+#include "vinci/design/screening.h"
 #include "vinci/design/spec.h"
 
 namespace vinci::design {
 
 /// One line of the history.
 struct HistoryEntry {
-  int index = 0;      ///< 0, 1, ... in the order evaluated
-  std::string phase;  ///< "start", "global", "local", "validate-best", "validate-start"
+  int index = 0;  ///< 0, 1, ... in the order evaluated
+  /// "start", "global", "local", "ipopt", "validate-best", "validate-start", or
+  /// "screened-<stage type>" for a search candidate a screening stage rejected
+  std::string phase;
   Evaluation eval;
   bool replayed = false;  ///< not recomputed: from JobOptions::replay or evaluated before
 };
@@ -74,10 +77,14 @@ struct DesignResult {
   bool validated = false;   ///< best_fresh/start_fresh were computed
   int evaluations = 0;      ///< all evaluations (replayed ones included)
   int replayed = 0;  ///< of which not recomputed (in the replay, or a point already evaluated)
-  long long simulations = 0;  ///< rollouts actually run in this process
+  long long simulations = 0;  ///< rollouts actually run in this process (screening included)
   double time_s = 0.0;
   bool cancelled = false;
   std::vector<std::string> errors;  ///< exceptions caught in optimizer callbacks
+  /// Hierarchical screening (screening.h): one row per stage, then the full evaluation of the
+  /// candidates that passed; empty without stages. Candidates replayed from a history are not
+  /// counted (they are not screened again).
+  std::vector<StageReport> screening;
 };
 
 /// The optimizer names `--optimizer` accepts (combinations "global+local" of these).

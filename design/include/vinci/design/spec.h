@@ -9,20 +9,22 @@
 #include <vector>
 
 #include "vinci/sim/model/scene.h"
+#include "vinci/sim/simulator/options.h"
 #include "vinci/sim/types.h"
 
 namespace vinci::design {
 
 using Eigen::VectorXd;
 
-/// Where a named number is written: a scene parameter (sim::ParamTable), the pose of a static or
-/// prescribed body (`pose.<body>.x|y|theta`, planar), or an entry of the initial state
+/// Where a named number is written: a scene parameter (sim::ParamTable: friction, masses, sizes,
+/// motions, and the poses of static and prescribed bodies and of every shape within its body,
+/// `pose.<body>.<d>` and `pose.<body>.<shape>.<d>`), or an entry of the initial state
 /// (`initial.<body>.x|y|z|theta|vx|vy|vz|omega`, uncertain entries only).
-enum class TargetKind { kParam, kPose, kInitial };
+enum class TargetKind { kParam, kInitial };
 
-/// A resolved name. `index`: the ParamTable index (kParam); `body`: the body index (kPose,
-/// kInitial); `coord`: 0..2 = x, y, z/θ for poses; for kInitial the offset in State::q (0..2,
-/// position/θ) or State::v (3..5 = vx, vy, vz/ω) relative to the body's index.
+/// A resolved name. `index`: the ParamTable index (kParam); `body`: the body index (kInitial);
+/// `coord`: the offset in State::q (0..2, position/θ) or State::v (vx, vy, vz/ω) relative to the
+/// body's index.
 struct Target {
   TargetKind kind = TargetKind::kParam;
   int index = -1;
@@ -74,6 +76,28 @@ struct Objective {
   VectorXd target;     ///< distance: size 2 or 3
 };
 
+enum class StageType {
+  kGeometric,  ///< no overlap at the start (contact detection at t = 0), no simulation
+  kShort,      ///< a cheaper simulation: shorter, fewer samples and/or another formulation
+};
+
+/// A screening stage (hierarchical design, thesis §4.3): a cheap test every search candidate
+/// must pass before the next stage and, after the last, the full Monte Carlo evaluation. A
+/// candidate that fails is given the worst success rate (0) without running full dynamics.
+struct ScreeningStage {
+  StageType type = StageType::kGeometric;
+  int line = 0;  ///< in the spec file
+  /// kGeometric: the deepest penetration accepted between two bodies at the start (m).
+  double tolerance = 1e-4;
+  /// kGeometric: starts checked, samples [0, samples) of the search stream with their uncertain
+  /// numbers drawn; 0: the scene's own start (nothing drawn). kShort: samples per candidate.
+  int samples = 0;
+  double duration = 0.0;          ///< kShort: simulated time per sample (s)
+  double min_success = 0.0;       ///< kShort: the candidate passes iff its success rate ≥ this
+  Objective objective;            ///< kShort: success at the stage's horizon (default: the spec's)
+  sim::SimulatorOptions options;  ///< kShort: the scene's options, with `formulation` if given
+};
+
 /// The whole job. Names were checked against the scene.
 struct DesignSpec {
   std::string source;      ///< the spec file (for messages)
@@ -87,8 +111,9 @@ struct DesignSpec {
   std::uint64_t seed = 1;
   double duration = 1.0;
   Objective objective;
-  std::string optimizer;  ///< empty: the default for the objective (optimize.h)
-  int budget = 2000;      ///< simulations (rollouts), not evaluations
+  std::string optimizer;                  ///< empty: the default for the objective (optimize.h)
+  int budget = 2000;                      ///< simulations (rollouts), not evaluations
+  std::vector<ScreeningStage> screening;  ///< in order; empty: every candidate runs in full
 };
 
 /// Parses a spec from YAML text; `base_dir` resolves `scene:`. Throws std::invalid_argument
@@ -100,7 +125,7 @@ DesignSpec ParseDesignSpec(const std::string& yaml_text, const std::string& sour
 /// Reads and parses a spec file (its scene path is relative to the file's folder).
 DesignSpec LoadDesignSpec(const std::string& path);
 
-/// Resolves a design-parameter name against `scene` (ParamTable entry or `pose.<body>.<c>`).
+/// Resolves a design-parameter name against `scene` (a ParamTable entry, poses included).
 /// Returns false if unknown.
 bool ResolveDesignName(const sim::Scene& scene, const std::string& name, Target* target);
 
