@@ -195,5 +195,34 @@ TEST(DesignScreening, BadStagesAreRejected) {
   }
 }
 
+// A short stage with another formulation runs that formulation: quasistatically (no inertia) the
+// launched block does not move, so a stage asking for x ≥ 0.05 after 0.1 s rejects the design that
+// passes it with the scene's own (dynamic) formulation.
+TEST(DesignScreening, ShortStageRunsItsOwnFormulation) {
+  const std::string stage =
+      "  - {type: short, duration: 0.1, samples: 1, min_success: 1.0,\n"
+      "     objective: {type: success, body: block, region: {min: [0.05, -1], max: [1, 1]}}";
+  const DesignSpec dynamic =
+      Spec("0.2", "0.4", "{min: [0.2, -1], max: [0.3, 1]}", "screening:\n" + stage + "}\n");
+  const DesignSpec quasistatic =
+      Spec("0.2", "0.4", "{min: [0.2, -1], max: [0.3, 1]}",
+           "screening:\n" + stage + ",\n     formulation: quasistatic-dqc, dt: 0.01}\n");
+  const DesignProblem pd(dynamic), pq(quasistatic);
+  Screener sd(dynamic, pd, 1), sq(quasistatic, pq, 1);
+  EXPECT_EQ(sd.Screen(VectorXd::Constant(1, 0.3), dynamic.seed), -1);
+  EXPECT_EQ(sq.Screen(VectorXd::Constant(1, 0.3), quasistatic.seed), 0);
+  // Rejected because the block stays put, not because the quasistatic steps failed.
+  DesignSpec q = quasistatic;
+  q.scene.options = q.screening[0].options;
+  q.duration = 0.1;
+  q.objective = q.screening[0].objective;
+  q.screening.clear();
+  const DesignProblem problem(q);
+  ThreadEvaluator evaluator(problem, 1);
+  const Evaluation e = evaluator.Evaluate({{VectorXd::Constant(1, 0.3), q.seed, 1}})[0];
+  EXPECT_EQ(e.failures, 0) << e.first_failure;
+  EXPECT_EQ(e.successes, 0);
+}
+
 }  // namespace
 }  // namespace vinci::design
