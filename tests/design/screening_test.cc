@@ -37,9 +37,9 @@ const char* kStages =
     "  - {type: short, duration: 0.25, samples: 2, min_success: 1.0,\n"
     "     objective: {type: success, body: block, region: {min: [0.1, -1], max: [1, 1]}}}\n";
 
-// The geometric stage rejects a wall over the block's start (overlap 0 < x < 0.05 and the wall
-// 0.02 wide: −0.07 < wall.x < 0.05) without simulating; the short stage rejects a wall that stops
-// the block before x = 0.1 (wall.x < 0.15).
+// The geometric stage rejects a wall over the block's start without simulating (the block
+// spans −0.05 < x < 0.05, the wall is 0.02 wide: −0.07 < wall.x < 0.05); the short stage rejects
+// a wall that stops the block before x = 0.1 (wall.x < 0.15).
 TEST(DesignScreening, StagesRejectOverlapAndEarlyStops) {
   const DesignSpec spec = Spec("-0.1", "0.4", "{min: [0.2, -1], max: [0.3, 1]}", kStages);
   ASSERT_EQ(spec.screening.size(), 2u);
