@@ -1,0 +1,171 @@
+// Part transport with OMPL (docs/planning.md, `vinci plan`): the plan spec's errors, the state
+// space's OMPL sanity checks, the propagation's physics, approximate solutions never counted as
+// solved, and the success rate of seeded single-part plans.
+#include "vinci/planning/plan.h"
+
+#include <gtest/gtest.h>
+#include <ompl/util/Console.h>
+#include <ompl/util/RandomNumbers.h>
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+#include "vinci/planning/plan_ompl.h"
+#include "vinci/planning/plan_spec.h"
+
+namespace vinci::planning {
+namespace {
+
+const std::string kDir = VINCI_SOURCE_DIR "/examples/plan";
+
+// Conveyors along +x, -x, +y, -y (examples/plan/one_part.yaml).
+const std::string kPrimitives =
+    "primitives:\n"
+    "  - {name: +x, motion: {frequency: 30, x: {harmonics: [{order: 1, amplitude: 8.443e-4}]},\n"
+    "     z: {harmonics: [{order: 1, amplitude: 1.407e-4, phase: -1.5707963267948966}]}}}\n"
+    "  - {name: -x, motion: {frequency: 30, x: {harmonics: [{order: 1, amplitude: 8.443e-4}]},\n"
+    "     z: {harmonics: [{order: 1, amplitude: 1.407e-4, phase: 1.5707963267948966}]}}}\n"
+    "  - {name: +y, motion: {frequency: 30, y: {harmonics: [{order: 1, amplitude: 8.443e-4}]},\n"
+    "     z: {harmonics: [{order: 1, amplitude: 1.407e-4, phase: -1.5707963267948966}]}}}\n"
+    "  - {name: -y, motion: {frequency: 30, y: {harmonics: [{order: 1, amplitude: 8.443e-4}]},\n"
+    "     z: {harmonics: [{order: 1, amplitude: 1.407e-4, phase: 1.5707963267948966}]}}}\n";
+
+std::string Spec(const std::string& goal, const std::string& extra = "") {
+  return "scene: plate_one_part.yaml\n"
+         "plate_extent: {x: [-0.15, 0.15], y: [-0.15, 0.15]}\n" +
+         kPrimitives + "cycles: [1, 6]\ngoal: " + goal + "\n" + extra;
+}
+
+std::string Error(const std::string& text) {
+  try {
+    const PlanSpec spec = ParsePlanSpec(text, "bad.yaml", kDir);
+    PlanProblem problem(spec);
+  } catch (const std::invalid_argument& e) {
+    return e.what();
+  }
+  return "(accepted)";
+}
+
+TEST(PlanSpecTest, BadSpecsRejectedWithFileAndLine) {
+  const std::string good = Spec("{part: {position: [0.02, 0.0]}}");
+  EXPECT_EQ(Error(good), "(accepted)");
+  EXPECT_NE(Error(good + "colour: red\n").find("bad.yaml:14: colour: expected one of the keys"),
+            std::string::npos)
+      << Error(good + "colour: red\n");
+  EXPECT_NE(Error(Spec("{part: {position: [0.02, 0.0]}}", "planner: astar\n"))
+                .find("bad.yaml:14: planner: expected kpiece1, sst or rrt, got 'astar'"),
+            std::string::npos);
+  std::string cycles = good;
+  cycles.replace(cycles.find("cycles: [1, 6]"), 14, "cycles: [5, 2]");
+  EXPECT_NE(Error(cycles).find("bad.yaml:12: cycles: expected [min, max] with min <= max"),
+            std::string::npos)
+      << Error(cycles);
+  EXPECT_NE(Error(Spec("{widget: {position: [0.02, 0.0]}}")).find("bad.yaml:13: goal.widget"),
+            std::string::npos);
+  EXPECT_NE(Error(Spec("{part: {position: [0.5, 0.0]}}"))
+                .find("bad.yaml:13: goal.part.position: expected a point inside plate_extent"),
+            std::string::npos);
+  EXPECT_NE(Error(Spec("{part: {position: [0.02, 0.0], tolerance: -1}}"))
+                .find("goal.part.tolerance: expected a number > 0"),
+            std::string::npos);
+  // A motion the scene loader rejects: the spec's line, the primitive, the loader's reason.
+  std::string motion = good;
+  motion.replace(motion.find("order: 1, amplitude: 8.443e-4}]},\n     z"), 8, "order: 0");
+  const std::string e = Error(motion);
+  EXPECT_NE(e.find("bad.yaml:4: primitives[0].motion ('+x'): expected a valid plate motion"),
+            std::string::npos)
+      << e;
+  EXPECT_NE(Error("scene: plate_one_part.yaml\n").find("bad.yaml:1: plate_extent: expected"),
+            std::string::npos);
+}
+
+PlanProblem Problem(const std::string& goal, const std::string& extra = "") {
+  return PlanProblem(ParsePlanSpec(Spec(goal, extra), "test.yaml", kDir));
+}
+
+TEST(PlanTest, StateSpacePassesOmplSanityChecks) {
+  ompl::msg::setLogLevel(ompl::msg::LOG_WARN);
+  const PlanProblem problem = Problem("{part: {position: [0.02, 0.0]}}");
+  auto ss = MakeSimpleSetup(problem, problem.StartPoses(), PlannerType::kKpiece1);
+  ss->setup();
+  EXPECT_NO_THROW(ss->getSpaceInformation()->getStateSpace()->sanityChecks());
+  EXPECT_EQ(ss->getSpaceInformation()->getStateSpace()->getDefaultProjection()->getDimension(), 2u);
+  // Poses survive the round trip through an OMPL state (angle wrapped to (-π, π]).
+  ompl::base::ScopedState<> s(ss->getStateSpace());
+  PosesToState({{0.01, -0.02, 0.5 + 2 * 3.141592653589793}}, s.get());
+  const PartPoses p = PosesFromState(s.get(), 1);
+  EXPECT_DOUBLE_EQ(p[0].x, 0.01);
+  EXPECT_DOUBLE_EQ(p[0].y, -0.02);
+  EXPECT_NEAR(p[0].theta, 0.5, 1e-12);
+}
+
+TEST(PlanTest, ConveyorPrimitivesMoveThePartTheirWay) {
+  const PlanProblem problem = Problem("{part: {position: [0.02, 0.0]}}");
+  sim::Workspace ws;
+  const PartPoses start = {{0.0, 0.0, 0.0}};
+  const char* names[] = {"+x", "-x", "+y", "-y"};
+  const double dir[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
+  for (int i = 0; i < 4; ++i) {
+    const Propagation p = problem.Propagate(start, i, 4, &ws);
+    ASSERT_TRUE(p.valid) << names[i] << ": " << p.failure;
+    const double along = p.poses[0].x * dir[i][0] + p.poses[0].y * dir[i][1];
+    const double across = std::abs(p.poses[0].x * dir[i][1] - p.poses[0].y * dir[i][0]);
+    EXPECT_GT(along, 1e-3) << names[i];
+    EXPECT_LT(across, 0.05 * along) << names[i];
+  }
+  // More cycles, farther (the same direction).
+  const double d2 = problem.Propagate(start, 0, 2, &ws).poses[0].x;
+  const double d6 = problem.Propagate(start, 0, 6, &ws).poses[0].x;
+  EXPECT_GT(d6, 2.0 * d2);
+  // Off the plate: invalid.
+  const Propagation off = problem.Propagate({{0.149, 0.0, 0.0}}, 0, 6, &ws);
+  EXPECT_FALSE(off.valid);
+  EXPECT_TRUE(off.left_plate);
+}
+
+TEST(PlanTest, ApproximateSolutionIsNeverSolved) {
+  ompl::msg::setLogLevel(ompl::msg::LOG_ERROR);
+  ompl::RNG::setSeed(7);
+  // Only the +x conveyor: a goal at −x cannot be reached; the planner may return the closest
+  // state it found (approximate), which must not count.
+  std::string text = Spec("{part: {position: [-0.1, 0.0]}}", "time_limit: 0.5\n");
+  const std::size_t from = text.find("  - {name: -x");
+  text.erase(from, text.find("cycles:") - from);
+  const PlanProblem problem(ParsePlanSpec(text, "test.yaml", kDir));
+  PlanRunOptions o;
+  o.time_limit = 0.5;
+  o.replan = 1;
+  for (PlannerType t : {PlannerType::kKpiece1, PlannerType::kSst, PlannerType::kRrt}) {
+    o.planner = t;
+    const PlanResult r = RunPlan(problem, o);
+    EXPECT_FALSE(r.solved) << PlannerName(t);
+    EXPECT_FALSE(r.reached) << PlannerName(t);
+    ASSERT_FALSE(r.attempts.empty());
+    EXPECT_FALSE(r.attempts.front().exact) << PlannerName(t);
+  }
+}
+
+// A single part pose-to-pose (position only) on the conveyor plate: ≥ 90% of 20 seeded runs reach
+// the goal within 5 mm in the re-simulation (no re-plan).
+TEST(PlanTest, SinglePartReachesGoalInNinetyPercentOfSeededRuns) {
+  ompl::msg::setLogLevel(ompl::msg::LOG_ERROR);
+  ompl::RNG::setSeed(1);
+  const PlanProblem problem = Problem("{part: {position: [0.03, 0.025], tolerance: 0.005}}");
+  PlanRunOptions o;
+  o.time_limit = 5.0;
+  int reached = 0, solved_but_missed = 0;
+  for (int run = 0; run < 20; ++run) {
+    const PlanResult r = RunPlan(problem, o);
+    reached += r.solved ? 1 : 0;
+    if (r.solved) {
+      EXPECT_LE(r.final_position_errors[0], 0.005);
+    }
+    solved_but_missed += (r.solved && !r.reached) ? 1 : 0;
+  }
+  EXPECT_EQ(solved_but_missed, 0);
+  EXPECT_GE(reached, 18);
+}
+
+}  // namespace
+}  // namespace vinci::planning
