@@ -60,6 +60,9 @@ ExitCode RunPlanCommand(const PlanOptions& o) {
   if (o.time_limit > 0.0) spec.time_limit = o.time_limit;
   if (o.has_seed) spec.seed = static_cast<unsigned>(o.seed);
   if (o.replan >= 0) spec.replan = o.replan;
+  if (o.max_propagations < -1)
+    throw std::invalid_argument("--max-propagations: expected an integer >= 0");
+  if (o.max_propagations >= 0) spec.max_propagations = o.max_propagations;
   const planning::PlanProblem problem(spec);
   const std::string trajectory = o.trajectory.empty() ? DefaultTrajectory(o.out) : o.trajectory;
   {  // fail on an unwritable output before planning
@@ -73,6 +76,7 @@ ExitCode RunPlanCommand(const PlanOptions& o) {
   options.planner = spec.planner;
   options.time_limit = spec.time_limit;
   options.replan = spec.replan;
+  options.max_propagations = spec.max_propagations;
   int round = 0;
   options.on_attempt = [&](const planning::PlanAttempt& a, const planning::PartPoses& poses) {
     if (!o.quiet)
@@ -103,6 +107,7 @@ ExitCode RunPlanCommand(const PlanOptions& o) {
   j << "  \"ompl_version\": " << JsonString(planning::OmplVersion()) << ",\n";
   j << "  \"seed\": " << spec.seed << ",\n";
   j << "  \"time_limit\": " << Num(spec.time_limit) << ",\n";
+  j << "  \"max_propagations\": " << spec.max_propagations << ",\n";
   j << "  \"solve_time\": " << Num(r.solve_time_s) << ",\n";
   j << "  \"steps\": [";
   for (std::size_t k = 0; k < r.steps.size(); ++k) {
@@ -197,6 +202,10 @@ Command RegisterPlanCommand(CLI::App& app) {
   sub->add_option("--replan", options->replan,
                   "Re-plans from the re-simulated state while the goal is missed (default: the "
                   "spec's, else 0)")
+      ->type_name("N");
+  sub->add_option("--max-propagations", options->max_propagations,
+                  "Propagations per planner call, 0: no limit (default: the spec's); with it a "
+                  "seeded run does not depend on the machine's speed")
       ->type_name("N");
   sub->add_flag("--quiet,-q", options->quiet, "Print nothing but errors");
   sub->footer("Exit 3 if not solved (plan.json and the trajectory are still written).");

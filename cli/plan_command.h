@@ -18,7 +18,8 @@ struct PlanOptions {
   double time_limit = 0.0;  ///< s per planner call; 0: the spec's
   bool has_seed = false;
   long long seed = 0;
-  int replan = -1;  ///< -1: the spec's
+  int replan = -1;                  ///< -1: the spec's
+  long long max_propagations = -1;  ///< -1: the spec's
   bool quiet = false;
 };
 

@@ -387,7 +387,8 @@ PlanResult RunPlan(const PlanProblem& problem, const PlanRunOptions& options) {
   PartPoses start = problem.StartPoses();
   result.resimulation.states.push_back(problem.simulator().InitialState());
   for (int round = 0; round <= options.replan; ++round) {
-    PlanAttempt a = PlanOnce(problem, start, options.planner, options.time_limit);
+    PlanAttempt a =
+        PlanOnce(problem, start, options.planner, options.time_limit, options.max_propagations);
     for (PlanStep& s : a.steps) s.round = round;
     result.solve_time_s += a.solve_time_s;
     result.attempts.push_back(a);

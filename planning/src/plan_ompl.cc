@@ -166,8 +166,11 @@ void PosesToState(const PartPoses& poses, ob::State* state) {
 ob::PlannerPtr MakePlanner(const oc::SpaceInformationPtr& si, const PlanProblem& problem,
                            PlannerType type) {
   switch (type) {
-    case PlannerType::kKpiece1:
-      return std::make_shared<oc::KPIECE1>(si);
+    case PlannerType::kKpiece1: {
+      auto kpiece = std::make_shared<oc::KPIECE1>(si);
+      kpiece->setGoalBias(kKpieceGoalBias);
+      return kpiece;
+    }
     case PlannerType::kSst: {
       auto sst = std::make_shared<oc::SST>(si);
       const double L = PlateSize(problem.spec());
@@ -241,7 +244,7 @@ std::vector<PlanStep> StepsFromPath(const oc::PathControl& path) {
 }
 
 PlanAttempt PlanOnce(const PlanProblem& problem, const PartPoses& start, PlannerType planner,
-                     double time_limit) {
+                     double time_limit, long long max_propagations) {
   if (!(time_limit > 0.0))
     throw std::invalid_argument("PlanOnce: expected a time limit > 0 s, got " +
                                 std::to_string(time_limit));
@@ -250,7 +253,12 @@ PlanAttempt PlanOnce(const PlanProblem& problem, const PartPoses& start, Planner
   PlanAttempt a;
   a.start = start;
   ss->setup();
-  const ob::PlannerStatus status = ss->solve(time_limit);
+  ob::PlannerTerminationCondition ptc = ob::timedPlannerTerminationCondition(time_limit);
+  if (max_propagations > 0)
+    ptc = ob::plannerOrTerminationCondition(
+        ptc, ob::PlannerTerminationCondition(
+                 [count, max_propagations] { return count->load() >= max_propagations; }));
+  const ob::PlannerStatus status = ss->solve(ptc);
   a.solve_time_s = ss->getLastPlanComputationTime();
   a.propagations = count->load();
   a.planner_status = status.asString();

@@ -11,9 +11,9 @@
 namespace vinci::planning {
 namespace {
 
-const std::vector<std::string> kTopKeys = {"scene",  "plate",  "plate_extent", "primitives",
-                                           "cycles", "goal",   "planner",      "time_limit",
-                                           "seed",   "replan", "settle_cycles"};
+const std::vector<std::string> kTopKeys = {"scene",  "plate",  "plate_extent",  "primitives",
+                                           "cycles", "goal",   "planner",       "time_limit",
+                                           "seed",   "replan", "settle_cycles", "max_propagations"};
 
 std::string Join(const std::vector<std::string>& v) {
   std::string s;
@@ -252,6 +252,8 @@ PlanSpec ParsePlanSpec(const std::string& text, const std::string& source_name,
       r.Fail(p, "kpiece1, sst or rrt");
     }
   }
+  if (root["max_propagations"])
+    spec.max_propagations = r.Integer(r.Child(top, "max_propagations"), 0, 1000000000000LL);
   if (root["time_limit"]) spec.time_limit = r.Positive(r.Child(top, "time_limit"));
   if (root["seed"])
     spec.seed = static_cast<unsigned>(r.Integer(r.Child(top, "seed"), 0, 4294967295LL));

@@ -142,6 +142,7 @@ struct PlanRunOptions {
   PlannerType planner = PlannerType::kKpiece1;
   double time_limit = 10.0;  ///< s per planner call
   int replan = 0;            ///< re-plans allowed when the re-simulated error exceeds tolerance
+  long long max_propagations = 0;  ///< per planner call, 0: no limit (PlanOnce)
   /// Called after each planner call and its re-simulation (may be empty).
   std::function<void(const PlanAttempt&, const PartPoses& resimulated)> on_attempt;
 };

@@ -10,7 +10,8 @@
 // off the plate) writes a state outside the bounds, which the validity checker (bounds) rejects.
 // Goal: a GoalSampleableRegion with distanceGoal = PlanProblem::GoalDistance and threshold 1;
 // goal samples are uniform in each part's tolerance disc (and angle interval).
-// KPIECE1 projects on the part positions (2 per part), cells of kProjectionCells per plate side.
+// KPIECE1 projects on the part positions (2 per part), cells of kProjectionCells per plate side;
+// its goal bias (extend from the samples closest to the goal) is kKpieceGoalBias.
 // SST: selection radius kSstSelection·L and pruning radius kSstPruning·L, L the longer side of the
 // plate extent. RRT: goal bias 0.05 (OMPL's default).
 #pragma once
@@ -31,6 +32,7 @@ namespace vinci::planning {
 
 constexpr double kAngleWeight = 0.005;  ///< m per rad in the SE2 distance
 constexpr double kProjectionCells = 30.0;
+constexpr double kKpieceGoalBias = 0.3;  ///< KPIECE1: share of extensions from the closest samples
 constexpr double kSstSelection = 0.1;
 constexpr double kSstPruning = 0.03;
 
@@ -56,9 +58,11 @@ ompl::base::PlannerPtr MakePlanner(const ompl::control::SpaceInformationPtr& si,
 /// The steps of a control path (one per control; a duration of k steps repeats it k times).
 std::vector<PlanStep> StepsFromPath(const ompl::control::PathControl& path);
 
-/// One planner call from `start` within `time_limit` seconds (PlanAttempt: steps, exact or
-/// approximate, time, propagations).
+/// One planner call from `start`, stopped after `time_limit` seconds or (if max_propagations > 0)
+/// after that many propagations, whichever comes first (PlanAttempt: steps, exact or
+/// approximate, time, propagations). A propagation budget makes a seeded run independent of the
+/// machine's speed and load.
 PlanAttempt PlanOnce(const PlanProblem& problem, const PartPoses& start, PlannerType planner,
-                     double time_limit);
+                     double time_limit, long long max_propagations = 0);
 
 }  // namespace vinci::planning

@@ -58,9 +58,10 @@ struct PlanSpec {
   std::vector<PartGoal> goals;  ///< one per dynamic body, in spec order
   int goal_line = 0;
   PlannerType planner = PlannerType::kKpiece1;
-  double time_limit = 10.0;  ///< s of planning per attempt
-  unsigned seed = 1;         ///< ompl::RNG::setSeed
-  int replan = 0;            ///< re-plans after the first plan (closed loop), ≥ 0
+  double time_limit = 10.0;        ///< s of planning per attempt
+  long long max_propagations = 0;  ///< propagations per attempt, 0: no limit
+  unsigned seed = 1;               ///< ompl::RNG::setSeed
+  int replan = 0;                  ///< re-plans after the first plan (closed loop), ≥ 0
 };
 
 /// Reads a spec file. Throws std::invalid_argument ("file:line: field: expected ..., got ...").
