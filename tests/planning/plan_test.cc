@@ -161,6 +161,7 @@ TEST(PlanTest, SinglePartReachesGoalInNinetyPercentOfSeededRuns) {
   ASSERT_TRUE(kSeeded);
   const PlanProblem problem = Problem("{part: {position: [0.03, 0.025], tolerance: 0.005}}");
   PlanRunOptions o;
+  o.planner = PlannerType::kRrt;
   o.time_limit = 300.0;
   o.max_propagations = 1500;
   int reached = 0, solved_but_missed = 0;

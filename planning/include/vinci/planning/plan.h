@@ -139,7 +139,7 @@ void Resimulate(const PlanProblem& problem, const std::vector<PlanStep>& steps, 
 void WriteResimulationCsv(const PlanProblem& problem, const Resimulation& r, std::ostream& out);
 
 struct PlanRunOptions {
-  PlannerType planner = PlannerType::kKpiece1;
+  PlannerType planner = PlannerType::kRrt;
   double time_limit = 10.0;  ///< s per planner call
   int replan = 0;            ///< re-plans allowed when the re-simulated error exceeds tolerance
   long long max_propagations = 0;  ///< per planner call, 0: no limit (PlanOnce)

@@ -33,8 +33,8 @@ namespace vinci::planning {
 constexpr double kAngleWeight = 0.005;  ///< m per rad in the SE2 distance
 constexpr double kProjectionCells = 30.0;
 constexpr double kKpieceGoalBias = 0.3;  ///< KPIECE1: share of extensions from the closest samples
-constexpr double kSstSelection = 0.1;
-constexpr double kSstPruning = 0.03;
+constexpr double kSstSelection = 0.02;
+constexpr double kSstPruning = 0.01;
 
 /// The OMPL version the build links (CMake's OMPL_VERSION; Debian's headers leave the macro
 /// empty).

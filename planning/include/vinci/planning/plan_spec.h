@@ -57,7 +57,7 @@ struct PlanSpec {
   int settle_cycles = 2;
   std::vector<PartGoal> goals;  ///< one per dynamic body, in spec order
   int goal_line = 0;
-  PlannerType planner = PlannerType::kKpiece1;
+  PlannerType planner = PlannerType::kRrt;
   double time_limit = 10.0;        ///< s of planning per attempt
   long long max_propagations = 0;  ///< propagations per attempt, 0: no limit
   unsigned seed = 1;               ///< ompl::RNG::setSeed
