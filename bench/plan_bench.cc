@@ -93,7 +93,6 @@ int main(int argc, char** argv) {
     auto ss = MakeSimpleSetup(problem, problem.StartPoses(), PlannerType::kKpiece1);
     ompl::tools::Benchmark b(*ss, Stem(path));
     b.addExperimentParameter("ompl_version", "STRING", OmplVersion());
-    b.addExperimentParameter("seed", "INTEGER", std::to_string(seed));
     b.addExperimentParameter("parts", "INTEGER", std::to_string(problem.num_parts()));
     b.addExperimentParameter("primitives", "INTEGER", std::to_string(problem.num_primitives()));
     for (PlannerType t : planners) b.addPlanner(MakePlanner(ss->getSpaceInformation(), problem, t));

@@ -5,6 +5,7 @@
 file(REMOVE_RECURSE ${OUT})
 file(MAKE_DIRECTORY ${OUT})
 execute_process(COMMAND ${VINCI} plan ${SPEC} --out ${OUT}/plan.json --seed 3
+                        --max-propagations 3000 --time-limit 600
                 RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
 if(NOT rc EQUAL 0)
   message(FATAL_ERROR "plan exited ${rc}:\n${err}")
