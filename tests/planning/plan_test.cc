@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "vinci/planning/plan_ompl.h"
 #include "vinci/planning/plan_spec.h"
@@ -151,6 +152,47 @@ TEST(PlanTest, ApproximateSolutionIsNeverSolved) {
     ASSERT_FALSE(r.attempts.empty());
     EXPECT_FALSE(r.attempts.front().exact) << PlannerName(t);
   }
+}
+
+// The closed loop: every re-plan starts from the re-simulated poses of the steps before it (here
+// without settling, so the planner's rest-start model and the execution differ), its steps carry
+// their round, and the whole re-simulation is the steps of every round chained.
+TEST(PlanTest, ReplanStartsFromTheResimulatedState) {
+  ompl::msg::setLogLevel(ompl::msg::LOG_ERROR);
+  ASSERT_TRUE(kSeeded);
+  // Only +x: a goal above the start is never reached; each call ends with an approximate solution
+  // (the closest state) and the loop re-plans from where its steps ended.
+  std::string text = Spec("{part: {position: [0.0, 0.05]}}", "settle_cycles: 0\n");
+  const std::size_t from = text.find("  - {name: -x");
+  text.erase(from, text.find("cycles:") - from);
+  const PlanProblem problem(ParsePlanSpec(text, "test.yaml", kDir));
+  PlanRunOptions o;
+  o.planner = PlannerType::kRrt;
+  o.time_limit = 300.0;
+  o.max_propagations = 20;
+  o.replan = 2;
+  const PlanResult r = RunPlan(problem, o);
+  EXPECT_FALSE(r.solved);
+  ASSERT_GE(r.attempts.size(), 2u);
+  EXPECT_FALSE(r.attempts[0].exact);
+  EXPECT_TRUE(r.attempts[0].approximate);
+  std::vector<PlanStep> before;
+  for (std::size_t k = 0; k < r.attempts.size(); ++k) {
+    Resimulation resim;
+    Resimulate(problem, before, &resim);
+    const PartPoses expected = problem.PosesOf(resim.states.back());
+    EXPECT_DOUBLE_EQ(r.attempts[k].start[0].x, expected[0].x) << "round " << k;
+    EXPECT_DOUBLE_EQ(r.attempts[k].start[0].y, expected[0].y) << "round " << k;
+    for (const PlanStep& s : r.attempts[k].steps) {
+      EXPECT_EQ(s.round, static_cast<int>(k));
+      before.push_back(s);
+    }
+  }
+  ASSERT_EQ(before.size(), r.steps.size());
+  Resimulation all;
+  Resimulate(problem, before, &all);
+  EXPECT_EQ(all.states.size(), r.resimulation.states.size());
+  EXPECT_DOUBLE_EQ(problem.PosesOf(all.states.back())[0].x, r.final_poses[0].x);
 }
 
 // A single part pose-to-pose (position only) on the conveyor plate: ≥ 90% of 20 seeded runs reach
