@@ -37,6 +37,12 @@ void AppendNumber(double v, std::string* s) {
 }  // namespace
 
 PlanProblem::PlanProblem(const PlanSpec& spec) : spec_(spec) {
+  if (spec.primitives.empty() || spec.goals.empty() || spec.min_cycles < 1 ||
+      spec.min_cycles > spec.max_cycles || spec.settle_cycles < 0 || !(spec.x_min < spec.x_max) ||
+      !(spec.y_min < spec.y_max))
+    throw std::invalid_argument(spec.path +
+                                ": expected primitives, goals, 1 <= cycles min <= max, "
+                                "settle_cycles >= 0 and a plate extent with lo < hi");
   sim::Scene scene = sim::LoadSceneFile(spec.scene_path);
   if (scene.dim != sim::Dim::kSpatial)
     throw std::invalid_argument(
