@@ -7,6 +7,7 @@
 #include <ompl/util/Console.h>
 #include <ompl/util/RandomNumbers.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <stdexcept>
@@ -90,6 +91,22 @@ TEST(PlanSpecTest, BadSpecsRejectedWithFileAndLine) {
 
 PlanProblem Problem(const std::string& goal, const std::string& extra = "") {
   return PlanProblem(ParsePlanSpec(Spec(goal, extra), "test.yaml", kDir));
+}
+
+// d = max over parts of max(|p − g| / tol, |wrap(θ − θ_g)| / θ_tol): the goal is reached iff d ≤ 1.
+TEST(PlanTest, GoalDistanceClosedForm) {
+  const PlanProblem problem = Problem(
+      "{part: {position: [0.02, 0.01], tolerance: 0.004, angle: 3.0, angle_tolerance: 0.2}}");
+  EXPECT_DOUBLE_EQ(problem.GoalDistance({{0.02, 0.01, 3.0}}), 0.0);
+  EXPECT_NEAR(problem.GoalDistance({{0.023, 0.014, 3.0}}), 0.005 / 0.004, 1e-12);
+  // The angle wraps: 3.0 and −3.2 are 0.0832 rad apart.
+  const double wrapped = 2.0 * 3.141592653589793 - 6.2;
+  EXPECT_NEAR(problem.AngleErrors({{0.02, 0.01, -3.2}})[0], wrapped, 1e-12);
+  EXPECT_NEAR(problem.GoalDistance({{0.021, 0.01, -3.2}}), std::max(0.25, wrapped / 0.2), 1e-12);
+  EXPECT_NEAR(problem.GoalDistance({{0.02, 0.01, 2.7}}), 1.5, 1e-12);
+  // Without a goal angle the yaw is free.
+  const PlanProblem free = Problem("{part: {position: [0.02, 0.01], tolerance: 0.004}}");
+  EXPECT_DOUBLE_EQ(free.GoalDistance({{0.02, 0.01, 2.0}}), 0.0);
 }
 
 TEST(PlanTest, StateSpacePassesOmplSanityChecks) {
