@@ -9,6 +9,7 @@
 #include "estimate_command.h"
 #include "field_command.h"
 #include "field_design_command.h"
+#include "plan_command.h"
 #include "simulate_command.h"
 #include "solve_command.h"
 #include "view_command.h"
@@ -59,6 +60,7 @@ int main(int argc, char** argv) {
       vinci::cli::RegisterDesignCommand(app),
       vinci::cli::RegisterEstimateCommand(app),
       vinci::cli::RegisterFieldDesignCommand(app),
+      vinci::cli::RegisterPlanCommand(app),
   };
   // clang-format on
 

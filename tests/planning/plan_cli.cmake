@@ -1,0 +1,45 @@
+# `vinci plan` end to end on the one-part example: exit 0 (solved), plan.json with the documented
+# keys, `solved` true with the final error within the tolerance, the trajectory CSV with the
+# `vinci simulate` header and as many rows as re-simulated steps + 1. Then a bad spec exits 1
+# with a file:line message.
+file(REMOVE_RECURSE ${OUT})
+file(MAKE_DIRECTORY ${OUT})
+execute_process(COMMAND ${VINCI} plan ${SPEC} --out ${OUT}/plan.json --seed 3
+                        --max-propagations 3000 --time-limit 600
+                RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+if(NOT rc EQUAL 0)
+  message(FATAL_ERROR "plan exited ${rc}:\n${err}")
+endif()
+file(READ ${OUT}/plan.json json)
+foreach(key solved steps planner solve_time final_poses final_errors attempts trajectory)
+  if(NOT json MATCHES "\"${key}\"")
+    message(FATAL_ERROR "plan.json has no \"${key}\":\n${json}")
+  endif()
+endforeach()
+string(JSON solved GET "${json}" solved)
+if(NOT solved)
+  message(FATAL_ERROR "expected solved true:\n${json}")
+endif()
+string(JSON error GET "${json}" final_errors part position)
+string(JSON tol GET "${json}" goals part tolerance)
+if(error GREATER tol)
+  message(FATAL_ERROR "final error ${error} > tolerance ${tol}")
+endif()
+string(JSON nsteps GET "${json}" resimulation steps)
+file(STRINGS ${OUT}/plan.csv rows)
+list(LENGTH rows n)
+math(EXPR expected "${nsteps} + 2")
+if(NOT n EQUAL expected)
+  message(FATAL_ERROR "plan.csv: expected ${expected} lines (header, start, steps), got ${n}")
+endif()
+list(GET rows 0 header)
+if(NOT header MATCHES "^step,t,plate.x,plate.y,plate.z,plate.qw,.*,part.wz,contacts,solver_iterations,residual,min_gap,status$")
+  message(FATAL_ERROR "plan.csv header: ${header}")
+endif()
+# A bad spec: file:line, exit 1.
+file(WRITE ${OUT}/bad.yaml "scene: ${SCENE}\nplate_extent: {x: [-0.1, 0.1], y: [-0.1, 0.1]}\nprimitives: []\n")
+execute_process(COMMAND ${VINCI} plan ${OUT}/bad.yaml --out ${OUT}/bad.json
+                RESULT_VARIABLE rc ERROR_VARIABLE err)
+if(NOT rc EQUAL 1 OR NOT err MATCHES "bad.yaml:3: primitives: expected a non-empty list")
+  message(FATAL_ERROR "bad spec: exit ${rc}:\n${err}")
+endif()

@@ -1,0 +1,42 @@
+// `vinci plan` at the sample size (slow): a single part pose-to-pose on the conveyor plate
+// (examples/plan/one_part.yaml) reaches its goal within 5 mm in the re-simulation in ≥ 90% of 50
+// seeded runs. Each run has a budget of propagations (not of time), so the outcome does not
+// depend on the machine's load.
+#include <gtest/gtest.h>
+#include <ompl/util/Console.h>
+#include <ompl/util/RandomNumbers.h>
+
+#include <cstdio>
+#include <string>
+
+#include "vinci/planning/plan.h"
+#include "vinci/planning/plan_spec.h"
+
+namespace vinci::planning {
+namespace {
+
+TEST(PlanSlowTest, OnePartExampleReachesGoalInNinetyPercentOfFiftySeededRuns) {
+  ompl::msg::setLogLevel(ompl::msg::LOG_ERROR);
+  ompl::RNG::setSeed(11);
+  const PlanProblem problem(LoadPlanSpec(VINCI_SOURCE_DIR "/examples/plan/one_part.yaml"));
+  PlanRunOptions o;
+  o.planner = PlannerType::kRrt;
+  o.time_limit = 600.0;
+  o.max_propagations = 1500;
+  int solved = 0;
+  long long propagations = 0;
+  for (int run = 0; run < 50; ++run) {
+    const PlanResult r = RunPlan(problem, o);
+    propagations += r.attempts.front().propagations;
+    if (r.solved) {
+      ++solved;
+      EXPECT_TRUE(r.reached);
+      EXPECT_LE(r.final_position_errors[0], problem.spec().goals[0].tolerance);
+    }
+  }
+  std::printf("one part: %d / 50 solved, %lld propagations\n", solved, propagations);
+  EXPECT_GE(solved, 45);
+}
+
+}  // namespace
+}  // namespace vinci::planning
