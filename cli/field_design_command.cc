@@ -68,6 +68,8 @@ ExitCode RunFieldDesignCommand(const FieldDesignOptions& o) {
   options.budget = spec.budget;
   options.seed = spec.seed;
   options.threads = o.threads;
+  options.global_fraction = o.global_fraction;
+  if (!o.start.empty()) options.start = problem.ParametersFromScene(o.start);
   double best = HUGE_VAL;
   options.on_evaluation = [&](const planning::FieldEvaluation& e) {
     history << e.index << "," << e.phase << "," << Num(e.error) << "," << (e.feasible ? 1 : 0)
@@ -130,6 +132,8 @@ ExitCode RunFieldDesignCommand(const FieldDesignOptions& o) {
   j << "  \"evaluations\": " << r.evaluations << ",\n";
   j << "  \"budget\": " << spec.budget << ",\n";
   j << "  \"seed\": " << spec.seed << ",\n";
+  j << "  \"global_fraction\": " << Num(o.global_fraction) << ",\n";
+  j << "  \"start\": " << (o.start.empty() ? std::string("null") : JsonString(o.start)) << ",\n";
   j << "  \"threads\": " << o.threads << ",\n";
   j << "  \"time_s\": " << Num(r.time_s) << ",\n";
   j << "  \"errors\": [";
@@ -168,6 +172,16 @@ Command RegisterFieldDesignCommand(CLI::App& app) {
          },
          "Random seed (default: the spec's seed)")
       ->type_name("S");
+  sub->add_option("--global-fraction", options->global_fraction,
+                  "Share of the budget for the global phase (default 0.6; 0: local search from "
+                  "the start only)")
+      ->check(CLI::Range(0.0, 1.0))
+      ->type_name("F");
+  sub->add_option("--start", options->start,
+                  "Start from the plate motion of this scene (e.g. a previous DIR/best.yaml); "
+                  "with --budget 1 only that motion is evaluated")
+      ->check(CLI::ExistingFile)
+      ->type_name("SCENE");
   sub->add_flag("--quiet,-q", options->quiet, "Print nothing but errors");
   sub->footer("Exit 3 if an evaluation failed (the best so far is written).");
   return Command{sub, [options] { return RunFieldDesignCommand(*options); }};
