@@ -321,13 +321,22 @@ struct Search {
   bool stop = false;
   bool have_best = false;
 
-  // Variables are searched in the unit box; x = lower + u (upper − lower).
+  // Variables are searched in the unit box; x = lower + u (upper − lower). A phase whose range
+  // is the whole circle is periodic: u is taken modulo 1, so the local phase may step across its
+  // bounds (BOBYQA would otherwise move a start point closer than its initial step to a bound).
   VectorXd FromUnit(const double* u) const {
     const VectorXd& lo = problem->lower();
     VectorXd x = lo;
-    for (Eigen::Index k = 0; k < x.size(); ++k)
-      x[k] = lo[k] + std::clamp(u[k], 0.0, 1.0) * (problem->upper()[k] - lo[k]);
+    for (Eigen::Index k = 0; k < x.size(); ++k) {
+      const double uk = Periodic(k) ? u[k] - std::floor(u[k]) : std::clamp(u[k], 0.0, 1.0);
+      x[k] = lo[k] + uk * (problem->upper()[k] - lo[k]);
+    }
     return x;
+  }
+  bool Periodic(Eigen::Index k) const {
+    const std::string& name = problem->names()[k];
+    return name.size() > 6 && name.compare(name.size() - 6, 6, "phase0") == 0 &&
+           problem->upper()[k] - problem->lower()[k] >= 2.0 * kPi - 1e-6;
   }
 
   double Evaluate(const VectorXd& x) {
@@ -376,8 +385,15 @@ void RunPhase(nlopt::algorithm algorithm, const std::string& phase, int evals, c
   s->phase = phase;
   s->phase_left = std::min(evals, s->left);
   nlopt::opt opt(algorithm, n);
-  opt.set_lower_bounds(std::vector<double>(n, 0.0));
-  opt.set_upper_bounds(std::vector<double>(n, 1.0));
+  std::vector<double> lo(n, 0.0), hi(n, 1.0);
+  if (phase == "local")
+    for (unsigned k = 0; k < n; ++k)
+      if (s->Periodic(k)) {
+        lo[k] = -1.0;
+        hi[k] = 2.0;
+      }
+  opt.set_lower_bounds(lo);
+  opt.set_upper_bounds(hi);
   opt.set_maxeval(s->phase_left);
   opt.set_stopval(s->problem->spec().tolerance);
   if (phase == "local") {

@@ -246,6 +246,27 @@ TEST(FieldDesignProblem, ParametersFromAWrittenSceneRoundTrip) {
   EXPECT_THROW(DesignField(problem, options), std::invalid_argument);
 }
 
+// A full-circle phase is periodic in the local phase: a start near its bound is where the local
+// search begins (NLopt's BOBYQA moves a start closer than its initial step to a bound).
+TEST(DesignField, LocalSearchBeginsAtAStartNearAPhaseBound) {
+  FieldDesignSpec spec = ParseFieldDesignSpec(kSpec, "ok.yaml", kData);
+  spec.dofs[1].phase_lo = -kPi;
+  spec.dofs[1].phase_hi = kPi;
+  spec.tolerance = 1e-30;
+  const FieldDesignProblem problem(spec);
+  FieldDesignOptions options;
+  options.budget = 2;
+  options.global_fraction = 0.0;
+  options.start = VectorXd(2);
+  options.start << 8.443e-4, -3.1;  // 0.007 of the range from the lower bound
+  std::vector<VectorXd> xs;
+  options.on_evaluation = [&](const FieldEvaluation& e) { xs.push_back(e.x); };
+  DesignField(problem, options);
+  ASSERT_EQ(xs.size(), 2u);
+  EXPECT_NEAR(xs[1][1], -3.1, 1e-12);
+  EXPECT_NEAR(xs[1][0], 8.443e-4, 1e-15);
+}
+
 TEST(DesignField, AnExceptionInTheCallbackStopsTheSearchAndIsReported) {
   const FieldDesignProblem problem(ParseFieldDesignSpec(kSpec, "ok.yaml", kData));
   FieldDesignOptions options;
