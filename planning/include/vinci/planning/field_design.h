@@ -18,6 +18,7 @@
 //
 // Search: NLopt GN_CRS2_LM (global, seeded) over the box of the free variables for ~60% of the
 // budget, then LN_BOBYQA from the best point with the rest; both stop at the spec's tolerance.
+// Phases whose range is the whole circle are periodic in the local phase (no bound to stop at).
 // The reported error is always the simulated one. No exception leaves an NLopt callback.
 #pragma once
 
