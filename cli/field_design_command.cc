@@ -33,6 +33,43 @@ void WriteFile(const fs::path& path, const std::string& text) {
   if (!out) throw std::runtime_error("cannot write " + path.string());
 }
 
+// The target as JSON: its type and parameters (for the plot), or the CSV it was read from.
+std::string TargetJson(const planning::FieldTarget& t) {
+  using planning::TargetType;
+  const char* type = "csv";
+  switch (t.type) {
+    case TargetType::kSink:
+      type = "sink";
+      break;
+    case TargetType::kSource:
+      type = "source";
+      break;
+    case TargetType::kWhirlpool:
+      type = "whirlpool";
+      break;
+    case TargetType::kCircle:
+      type = "circle";
+      break;
+    case TargetType::kSaddle:
+      type = "saddle";
+      break;
+    case TargetType::kConveyor:
+      type = "conveyor";
+      break;
+    case TargetType::kCsv:
+      break;
+  }
+  std::ostringstream j;
+  j << "{\"type\": \"" << type << "\"";
+  if (t.type != TargetType::kCsv)
+    j << ", \"center\": [" << Num(t.center.x()) << ", " << Num(t.center.y())
+      << "], \"radius\": " << Num(t.radius) << ", \"direction\": [" << Num(t.direction.x()) << ", "
+      << Num(t.direction.y()) << "], \"speed\": " << Num(t.speed)
+      << ", \"clockwise\": " << (t.clockwise ? "true" : "false");
+  j << "}";
+  return j.str();
+}
+
 }  // namespace
 
 ExitCode RunFieldDesignCommand(const FieldDesignOptions& o) {
@@ -45,6 +82,7 @@ ExitCode RunFieldDesignCommand(const FieldDesignOptions& o) {
   planning::FieldDesignSpec spec = planning::LoadFieldDesignSpec(o.spec_path);
   if (o.budget > 0) spec.budget = o.budget;
   if (o.has_seed) spec.seed = static_cast<unsigned>(o.seed);
+  if (o.tolerance >= 0.0) spec.tolerance = o.tolerance;
   const planning::FieldDesignProblem problem(spec);
 
   const fs::path dir(o.out);
@@ -68,6 +106,8 @@ ExitCode RunFieldDesignCommand(const FieldDesignOptions& o) {
   options.budget = spec.budget;
   options.seed = spec.seed;
   options.threads = o.threads;
+  options.global_fraction = o.global_fraction;
+  if (!o.start.empty()) options.start = problem.ParametersFromScene(o.start);
   double best = HUGE_VAL;
   options.on_evaluation = [&](const planning::FieldEvaluation& e) {
     history << e.index << "," << e.phase << "," << Num(e.error) << "," << (e.feasible ? 1 : 0)
@@ -109,6 +149,7 @@ ExitCode RunFieldDesignCommand(const FieldDesignOptions& o) {
   j << "{\n";
   j << "  \"spec\": " << JsonString(o.spec_path) << ",\n";
   j << "  \"scene\": " << JsonString(spec.scene_path) << ",\n";
+  j << "  \"target\": " << TargetJson(spec.target) << ",\n";
   j << "  \"objective\": " << JsonString(spec.absolute ? "absolute" : "shape") << ",\n";
   j << "  \"field_error\": " << Num(r.best.error) << ",\n";
   j << "  \"tolerance\": " << Num(spec.tolerance) << ",\n";
@@ -130,6 +171,8 @@ ExitCode RunFieldDesignCommand(const FieldDesignOptions& o) {
   j << "  \"evaluations\": " << r.evaluations << ",\n";
   j << "  \"budget\": " << spec.budget << ",\n";
   j << "  \"seed\": " << spec.seed << ",\n";
+  j << "  \"global_fraction\": " << Num(o.global_fraction) << ",\n";
+  j << "  \"start\": " << (o.start.empty() ? std::string("null") : JsonString(o.start)) << ",\n";
   j << "  \"threads\": " << o.threads << ",\n";
   j << "  \"time_s\": " << Num(r.time_s) << ",\n";
   j << "  \"errors\": [";
@@ -168,6 +211,20 @@ Command RegisterFieldDesignCommand(CLI::App& app) {
          },
          "Random seed (default: the spec's seed)")
       ->type_name("S");
+  sub->add_option("--tolerance", options->tolerance,
+                  "Field error that stops the search (default: the spec's tolerance)")
+      ->check(CLI::NonNegativeNumber)
+      ->type_name("E");
+  sub->add_option("--global-fraction", options->global_fraction,
+                  "Share of the budget for the global phase (default 0.6; 0: local search from "
+                  "the start only)")
+      ->check(CLI::Range(0.0, 1.0))
+      ->type_name("F");
+  sub->add_option("--start", options->start,
+                  "Start from the plate motion of this scene (e.g. a previous DIR/best.yaml); "
+                  "with --budget 1 only that motion is evaluated")
+      ->check(CLI::ExistingFile)
+      ->type_name("SCENE");
   sub->add_flag("--quiet,-q", options->quiet, "Print nothing but errors");
   sub->footer("Exit 3 if an evaluation failed (the best so far is written).");
   return Command{sub, [options] { return RunFieldDesignCommand(*options); }};

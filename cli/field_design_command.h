@@ -18,6 +18,9 @@ struct FieldDesignOptions {
   bool has_seed = false;
   long long seed = 0;
   bool quiet = false;
+  double tolerance = -1.0;       ///< overrides the spec's tolerance if >= 0
+  double global_fraction = 0.6;  ///< share of the budget for the global phase
+  std::string start;  ///< a plate scene whose motion is the first point (empty: the box middle)
 };
 
 /// Adds the `field-design` subcommand to `app`.

@@ -7,7 +7,8 @@ usage: scripts/plot_field_design.py DIR [OUT.png]
 Reads DIR/field.csv, DIR/target.csv and DIR/result.json; writes OUT.png (default
 DIR/field_design.png). Arrows start at the grid points; each panel is scaled to its own RMS
 speed (the shape objective compares the fields that way). Points whose part left the plate are
-red crosses, failed points black crosses.
+red crosses, failed points black crosses. A circle target's circle is drawn dashed on both panels
+(result.json's `target`, absent in results of older versions).
 """
 import json
 import os
@@ -61,6 +62,11 @@ def main(argv):
     axes[0].plot(field["x"][failed], field["y"][failed], "kx")
     q = quiver(axes[1], target["x"], target["y"], target["vx"], target["vy"], "target")
     fig.colorbar(q, ax=axes[1], label="speed (target units)")
+    target_info = result.get("target", {})
+    if target_info.get("type") == "circle":
+        c, r = target_info["center"], target_info["radius"]
+        for ax in axes:
+            ax.add_patch(plt.Circle(c, r, fill=False, linestyle="--", color="0.4"))
     fig.suptitle("%s: %d evaluations, %.1f s" % (os.path.basename(result["spec"]),
                                                result["evaluations"], result["time_s"]))
     fig.tight_layout()

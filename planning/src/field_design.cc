@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <limits>
 #include <nlopt.hpp>
+#include <sstream>
 #include <stdexcept>
 
 #include "vinci/sim/model/scene_file.h"
@@ -205,6 +206,63 @@ std::vector<FieldDesignProblem::DofValue> FieldDesignProblem::DofValues(const Ve
   return out;
 }
 
+VectorXd FieldDesignProblem::ParametersFromScene(const std::string& path) const {
+  const sim::Scene scene = sim::LoadSceneFile(path);
+  const std::string& name = simulator_->scene().bodies[field_spec_.plate].name;
+  const std::string where = path + ": bodies." + name + ".motion: ";
+  int plate = -1;
+  for (std::size_t b = 0; b < scene.bodies.size(); ++b)
+    if (scene.bodies[b].name == name) plate = static_cast<int>(b);
+  if (plate < 0 || scene.bodies[plate].kind != sim::BodyKind::kPrescribed)
+    throw std::invalid_argument(path + ": expected a prescribed body '" + name +
+                                "' (the plate of " + spec_.path + "), got none");
+  const sim::PrescribedMotion& motion = scene.bodies[plate].motion;
+  if (!motion.tilt.IsZero())
+    throw std::invalid_argument(where + "expected no tilt (the spec has none), got one");
+  static const char* kDofs[] = {"x", "y", "z", "roll", "pitch", "yaw"};
+  VectorXd x(static_cast<Eigen::Index>(names_.size()));
+  Eigen::Index k = 0;
+  const auto check = [&](const std::string& what, double value, double lo, double hi) {
+    const double slack = 1e-12 * std::max({1.0, std::abs(lo), std::abs(hi)});
+    if (!(value >= lo - slack && value <= hi + slack)) {
+      std::ostringstream m;
+      m.precision(17);
+      m << where << what << ": expected ";
+      if (lo == hi)
+        m << lo << " (fixed by " << spec_.path << ")";
+      else
+        m << "a value in [" << lo << ", " << hi << "] (the bounds of " << spec_.path << ")";
+      m << ", got " << value;
+      throw std::invalid_argument(m.str());
+    }
+    if (lo < hi) x[k++] = std::clamp(value, lo, hi);
+  };
+  for (int d = 0; d < 6; ++d) {
+    const std::string dof = kDofs[d];
+    const sim::DofMotion none;
+    const sim::DofMotion& m = d < static_cast<int>(motion.dofs.size()) ? motion.dofs[d] : none;
+    const DofRange* range = nullptr;
+    for (const DofRange& r : spec_.dofs)
+      if (r.dof == dof) range = &r;
+    if (!range) {
+      bool zero = m.velocity == 0.0 && m.keyframes.empty();
+      for (const sim::Harmonic& h : m.harmonics) zero = zero && h.amplitude == 0.0;
+      if (!zero)
+        throw std::invalid_argument(where + dof + ": expected no motion (the spec does not move " +
+                                    dof + "), got one");
+      continue;
+    }
+    if (m.velocity != 0.0 || !m.keyframes.empty() || m.harmonics.size() != 1 ||
+        std::abs(m.harmonics[0].frequency - spec_.frequency) > 1e-12 * spec_.frequency)
+      throw std::invalid_argument(where + dof + ": expected one harmonic at the spec's " +
+                                  std::to_string(spec_.frequency) +
+                                  " Hz and no velocity or keyframes");
+    check(dof + ".amplitude", m.harmonics[0].amplitude, range->amplitude_lo, range->amplitude_hi);
+    check(dof + ".phase", m.harmonics[0].phase, range->phase_lo, range->phase_hi);
+  }
+  return x;
+}
+
 double FieldDesignProblem::PeakVerticalAcceleration(const VectorXd& x) const {
   const double w2 = std::pow(2.0 * kPi * spec_.frequency, 2);
   const double max_x = std::max(std::abs(spec_.x_min), std::abs(spec_.x_max));
@@ -263,13 +321,22 @@ struct Search {
   bool stop = false;
   bool have_best = false;
 
-  // Variables are searched in the unit box; x = lower + u (upper − lower).
+  // Variables are searched in the unit box; x = lower + u (upper − lower). A phase whose range
+  // is the whole circle is periodic: u is taken modulo 1, so the local phase may step across its
+  // bounds (BOBYQA would otherwise move a start point closer than its initial step to a bound).
   VectorXd FromUnit(const double* u) const {
     const VectorXd& lo = problem->lower();
     VectorXd x = lo;
-    for (Eigen::Index k = 0; k < x.size(); ++k)
-      x[k] = lo[k] + std::clamp(u[k], 0.0, 1.0) * (problem->upper()[k] - lo[k]);
+    for (Eigen::Index k = 0; k < x.size(); ++k) {
+      const double uk = Periodic(k) ? u[k] - std::floor(u[k]) : std::clamp(u[k], 0.0, 1.0);
+      x[k] = lo[k] + uk * (problem->upper()[k] - lo[k]);
+    }
     return x;
+  }
+  bool Periodic(Eigen::Index k) const {
+    const std::string& name = problem->names()[k];
+    return name.size() > 6 && name.compare(name.size() - 6, 6, "phase0") == 0 &&
+           problem->upper()[k] - problem->lower()[k] >= 2.0 * kPi - 1e-6;
   }
 
   double Evaluate(const VectorXd& x) {
@@ -318,8 +385,15 @@ void RunPhase(nlopt::algorithm algorithm, const std::string& phase, int evals, c
   s->phase = phase;
   s->phase_left = std::min(evals, s->left);
   nlopt::opt opt(algorithm, n);
-  opt.set_lower_bounds(std::vector<double>(n, 0.0));
-  opt.set_upper_bounds(std::vector<double>(n, 1.0));
+  std::vector<double> lo(n, 0.0), hi(n, 1.0);
+  if (phase == "local")
+    for (unsigned k = 0; k < n; ++k)
+      if (s->Periodic(k)) {
+        lo[k] = -1.0;
+        hi[k] = 2.0;
+      }
+  opt.set_lower_bounds(lo);
+  opt.set_upper_bounds(hi);
   opt.set_maxeval(s->phase_left);
   opt.set_stopval(s->problem->spec().tolerance);
   if (phase == "local") {
@@ -361,11 +435,17 @@ FieldDesignResult DesignField(const FieldDesignProblem& problem,
   s.result = &result;
   s.left = options.budget;
   const int n = static_cast<int>(problem.names().size());
-  // The start point: the middle of the box (the only point when nothing is free).
+  // The start point: options.start or the middle of the box (the only point when nothing is free).
+  const VectorXd x0 = options.start.size() ? options.start : problem.Start();
+  if (x0.size() != static_cast<Eigen::Index>(n) ||
+      !((x0.array() >= problem.lower().array()).all() &&
+        (x0.array() <= problem.upper().array()).all()))
+    throw std::invalid_argument("start: expected " + std::to_string(n) +
+                                " free variables within their bounds");
   s.phase = "start";
   s.phase_left = 1;
   try {
-    s.Evaluate(problem.Start());
+    s.Evaluate(x0);
   } catch (const std::exception& e) {
     result.errors.push_back(std::string("start: ") + e.what());
     s.stop = true;
@@ -373,9 +453,11 @@ FieldDesignResult DesignField(const FieldDesignProblem& problem,
   if (n > 0 && !s.stop) {
     nlopt::srand(options.seed);
     const int global = static_cast<int>(std::lround(options.global_fraction * (s.left)));
-    const VectorXd mid = VectorXd::Constant(n, 0.5);
-    RunPhase(nlopt::GN_CRS2_LM, "global", global, mid, &s);
-    VectorXd u_best = mid;
+    VectorXd u0(n);
+    for (int k = 0; k < n; ++k)
+      u0[k] = (x0[k] - problem.lower()[k]) / (problem.upper()[k] - problem.lower()[k]);
+    RunPhase(nlopt::GN_CRS2_LM, "global", global, u0, &s);
+    VectorXd u_best = u0;
     for (int k = 0; k < n; ++k) {
       const double range = problem.upper()[k] - problem.lower()[k];
       u_best[k] = (result.best.x[k] - problem.lower()[k]) / range;

@@ -196,6 +196,77 @@ TEST(DesignField, RecoversAFieldOfKnownParameters) {
   EXPECT_EQ(problem.Evaluate(r.best.x, 1).error, r.best.error);
 }
 
+// A written best scene gives back its free variables exactly, and the search started from them
+// evaluates that motion first (budget 1: only it), with the same error.
+TEST(FieldDesignProblem, ParametersFromAWrittenSceneRoundTrip) {
+  const FieldDesignProblem problem(ParseFieldDesignSpec(kSpec, "ok.yaml", kData));
+  VectorXd x(2);
+  x << 7.123456789e-4, -1.2345678901;
+  const std::string path = ::testing::TempDir() + "/field_design_start.yaml";
+  {
+    std::ofstream out(path);
+    out << problem.SceneYaml(x);
+  }
+  const VectorXd back = problem.ParametersFromScene(path);
+  ASSERT_EQ(back.size(), 2);
+  EXPECT_EQ(back[0], x[0]);
+  EXPECT_EQ(back[1], x[1]);
+  FieldDesignOptions options;
+  options.budget = 1;
+  options.start = back;
+  const FieldDesignResult r = DesignField(problem, options);
+  ASSERT_EQ(r.evaluations, 1);
+  EXPECT_EQ(r.best.x, x);
+  EXPECT_EQ(r.best.error, problem.Evaluate(x, 1).error);
+  // Outside the box, or a fixed value that differs from the spec's: rejected, naming it.
+  const auto rejected = [&](const VectorXd& y, const FieldDesignProblem& p) {
+    {
+      std::ofstream out(path);
+      out << problem.SceneYaml(y);
+    }
+    try {
+      p.ParametersFromScene(path);
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string("(accepted)");
+  };
+  VectorXd far = x;
+  far[0] = 2e-3;  // bounds [2e-4, 1.2e-3]
+  EXPECT_NE(rejected(far, problem).find("x.amplitude: expected a value in [0.0002"),
+            std::string::npos)
+      << rejected(far, problem);
+  FieldDesignSpec other = ParseFieldDesignSpec(kSpec, "ok.yaml", kData);
+  other.dofs[1].amplitude_lo = other.dofs[1].amplitude_hi = 1.0e-4;  // z amplitude fixed apart
+  const FieldDesignProblem fixed_apart(other);
+  EXPECT_NE(rejected(x, fixed_apart).find("z.amplitude: expected 0.0001 (fixed by ok.yaml)"),
+            std::string::npos)
+      << rejected(x, fixed_apart);
+  options.start = VectorXd::Constant(2, 5.0);
+  EXPECT_THROW(DesignField(problem, options), std::invalid_argument);
+}
+
+// A full-circle phase is periodic in the local phase: a start near its bound is where the local
+// search begins (NLopt's BOBYQA moves a start closer than its initial step to a bound).
+TEST(DesignField, LocalSearchBeginsAtAStartNearAPhaseBound) {
+  FieldDesignSpec spec = ParseFieldDesignSpec(kSpec, "ok.yaml", kData);
+  spec.dofs[1].phase_lo = -kPi;
+  spec.dofs[1].phase_hi = kPi;
+  spec.tolerance = 1e-30;
+  const FieldDesignProblem problem(spec);
+  FieldDesignOptions options;
+  options.budget = 2;
+  options.global_fraction = 0.0;
+  options.start = VectorXd(2);
+  options.start << 8.443e-4, -3.1;  // 0.007 of the range from the lower bound
+  std::vector<VectorXd> xs;
+  options.on_evaluation = [&](const FieldEvaluation& e) { xs.push_back(e.x); };
+  DesignField(problem, options);
+  ASSERT_EQ(xs.size(), 2u);
+  EXPECT_NEAR(xs[1][1], -3.1, 1e-12);
+  EXPECT_NEAR(xs[1][0], 8.443e-4, 1e-15);
+}
+
 TEST(DesignField, AnExceptionInTheCallbackStopsTheSearchAndIsReported) {
   const FieldDesignProblem problem(ParseFieldDesignSpec(kSpec, "ok.yaml", kData));
   FieldDesignOptions options;

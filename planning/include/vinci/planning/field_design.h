@@ -18,6 +18,7 @@
 //
 // Search: NLopt GN_CRS2_LM (global, seeded) over the box of the free variables for ~60% of the
 // budget, then LN_BOBYQA from the best point with the rest; both stop at the spec's tolerance.
+// Phases whose range is the whole circle are periodic in the local phase (no bound to stop at).
 // The reported error is always the simulated one. No exception leaves an NLopt callback.
 #pragma once
 
@@ -90,6 +91,12 @@ class FieldDesignProblem {
     double amplitude = 0.0, phase = 0.0;
   };
   std::vector<DofValue> DofValues(const VectorXd& x) const;
+  /// The free variables of the plate motion in the scene file `path` (e.g. a previous
+  /// DIR/best.yaml): its plate (the body of this problem's plate name) must move in the spec's
+  /// family — every spec DOF one sinusoid at the base frequency, no velocity, no other DOF, no
+  /// tilt — with the fixed amplitudes and phases equal to the spec's and the free ones within
+  /// their bounds. Throws std::invalid_argument naming the file and what differs.
+  VectorXd ParametersFromScene(const std::string& path) const;
 
  private:
   FieldDesignSpec spec_;
@@ -111,6 +118,9 @@ struct FieldDesignOptions {
   /// Called after every evaluation, on the calling thread. An exception from it stops the search
   /// (recorded in FieldDesignResult::errors).
   std::function<void(const FieldEvaluation&)> on_evaluation;
+  /// The first evaluated point, from which both phases start; empty: the middle of the box.
+  /// Must lie in the box (FieldDesignProblem::ParametersFromScene gives one).
+  VectorXd start;
 };
 
 struct FieldDesignResult {
@@ -121,8 +131,9 @@ struct FieldDesignResult {
   std::vector<std::string> errors;  ///< exceptions caught in the search (then it stopped)
 };
 
-/// Runs the search (see the file comment). The start point (middle of the box) is evaluated
-/// first. Deterministic for a given seed and budget, for any thread count.
+/// Runs the search (see the file comment). The start point (options.start, default the middle of
+/// the box) is evaluated first; with budget 1 only it is. Deterministic for a given seed and
+/// budget, for any thread count.
 FieldDesignResult DesignField(const FieldDesignProblem& problem, const FieldDesignOptions& options);
 
 }  // namespace vinci::planning
