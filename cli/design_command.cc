@@ -20,6 +20,7 @@
 #include "json.h"
 #include "vinci/design/best_scene.h"
 #include "vinci/design/optimize.h"
+#include "vinci/design/ranking.h"
 #include "vinci/design/spec.h"
 
 namespace vinci::cli {
@@ -29,6 +30,7 @@ namespace fs = std::filesystem;
 using design::Evaluation;
 
 constexpr double kTtyRedrawS = 0.2;
+constexpr int kRankingSize = 10;  // designs in result.json's and the summary's ranking
 
 // Shortest text that reads back as exactly v.
 std::string Num(double v) {
@@ -165,6 +167,19 @@ std::string DesignJson(const design::DesignSpec& spec, const design::VectorXd& x
   return s + "}";
 }
 
+std::string RankingJson(const design::DesignSpec& spec,
+                        const std::vector<design::RankedDesign>& ranking) {
+  std::string s = "[";
+  for (const design::RankedDesign& d : ranking) {
+    s += std::string(d.rank > 1 ? "," : "") + "\n    {\"rank\": " + std::to_string(d.rank) +
+         ", \"index\": " + std::to_string(d.index) + ", \"phase\": " + JsonString(d.phase) +
+         ", \"design\": " + DesignJson(spec, d.search.x) +
+         ", \"search\": " + EvaluationJson(spec, d.search, "") +
+         (d.fresh ? ", \"fresh\": " + EvaluationJson(spec, *d.fresh, "") : "") + "}";
+  }
+  return s + (ranking.empty() ? "]" : "\n  ]");
+}
+
 void WriteAtomically(const std::string& path, const std::string& text) {
   const std::string tmp = path + ".partial";
   {
@@ -231,7 +246,9 @@ ExitCode RunDesignCommand(const DesignOptions& o) {
   double last_print = -1e9;
   int last_decile = -1;
   const bool success_type = spec.objective.type == design::ObjectiveType::kSuccess;
+  std::vector<design::HistoryEntry> evaluated;  // for the ranking
   job.on_evaluation = [&](const design::HistoryEntry& h, const design::Progress& p) {
+    evaluated.push_back(h);
     // A resumed run repeats the interrupted one: its first rows are already in the file.
     if (h.index >= static_cast<int>(job.replay.size()))
       history << HistoryRow(h) << "\n" << std::flush;
@@ -264,6 +281,8 @@ ExitCode RunDesignCommand(const DesignOptions& o) {
   if (!o.quiet && tty) std::cerr << "\n";
   history.close();
 
+  const std::vector<design::RankedDesign> ranking =
+      design::RankDesigns(evaluated, spec.objective.type, kRankingSize);
   if (r.best.size() > 0) {
     WriteAtomically(o.out + "/best.yaml", design::BestSceneYaml(spec, r.best));
     std::ostringstream j;
@@ -299,6 +318,7 @@ ExitCode RunDesignCommand(const DesignOptions& o) {
     for (std::size_t k = 0; k < r.errors.size(); ++k)
       j << (k ? ", " : "") << JsonString(r.errors[k]);
     j << "],\n";
+    j << "  \"ranking\": " << RankingJson(spec, ranking) << ",\n";
     j << "  \"screening\": []\n}\n";
     WriteAtomically(o.out + "/result.json", j.str());
   }
@@ -329,6 +349,8 @@ ExitCode RunDesignCommand(const DesignOptions& o) {
     }
     s << "evaluations  " << r.evaluations << " (" << r.replayed << " not recomputed), "
       << r.simulations << " simulations, " << Duration(r.time_s) << "\n";
+    s << "ranking (search samples; fresh: re-evaluated on new samples)\n"
+      << design::RankingTable(spec, ranking);
     s << "results      " << o.out << "/{best.yaml,result.json,history.csv}\n";
     std::cout << s.str() << std::flush;
   }
