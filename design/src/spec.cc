@@ -461,7 +461,7 @@ DesignSpec ParseDesignSpec(const std::string& yaml_text, const std::string& sour
     }
     if (of.Has("grip")) ParseGrip(of["grip"], scene, o);
     if (!o.has_region && !o.has_angle && !o.has_grip)
-      of.FailMessage("expected region:, angle: and/or grip: (what success means)");
+      of.FailMessage("expected region: and/or angle: (what success means), or grip:");
     if (of.Has("until")) o.until = of["until"].Bool();
     if (of.Has("angle_scale")) o.angle_scale = of["angle_scale"].Positive();
   }
