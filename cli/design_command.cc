@@ -281,8 +281,18 @@ ExitCode RunDesignCommand(const DesignOptions& o) {
   if (!o.quiet && tty) std::cerr << "\n";
   history.close();
 
-  const std::vector<design::RankedDesign> ranking =
+  std::vector<design::RankedDesign> ranking =
       design::RankDesigns(evaluated, spec.objective.type, kRankingSize);
+  if (o.rank_fresh && !ranking.empty() && Interrupted() == 0) {
+    const design::DesignProblem problem(spec);
+    design::ThreadEvaluator evaluator(problem, o.threads);
+    const int samples = spec.validation_samples > 0 ? spec.validation_samples
+                        : o.samples > 0             ? o.samples
+                                                    : spec.samples;
+    design::ValidateRanking(
+        evaluator, design::FreshStream(o.has_seed ? static_cast<std::uint64_t>(o.seed) : spec.seed),
+        samples, spec.objective.type, &ranking);
+  }
   if (r.best.size() > 0) {
     WriteAtomically(o.out + "/best.yaml", design::BestSceneYaml(spec, r.best));
     std::ostringstream j;
@@ -318,6 +328,7 @@ ExitCode RunDesignCommand(const DesignOptions& o) {
     for (std::size_t k = 0; k < r.errors.size(); ++k)
       j << (k ? ", " : "") << JsonString(r.errors[k]);
     j << "],\n";
+    j << "  \"ranking_by\": \"" << (o.rank_fresh ? "fresh" : "search") << "\",\n";
     j << "  \"ranking\": " << RankingJson(spec, ranking) << ",\n";
     j << "  \"screening\": []\n}\n";
     WriteAtomically(o.out + "/result.json", j.str());
@@ -349,7 +360,8 @@ ExitCode RunDesignCommand(const DesignOptions& o) {
     }
     s << "evaluations  " << r.evaluations << " (" << r.replayed << " not recomputed), "
       << r.simulations << " simulations, " << Duration(r.time_s) << "\n";
-    s << "ranking (search samples; fresh: re-evaluated on new samples)\n"
+    s << (o.rank_fresh ? "ranking (by the fresh samples)\n"
+                       : "ranking (search samples; fresh: re-evaluated on new samples)\n")
       << design::RankingTable(spec, ranking);
     s << "results      " << o.out << "/{best.yaml,result.json,history.csv}\n";
     std::cout << s.str() << std::flush;
@@ -400,6 +412,9 @@ Command RegisterDesignCommand(CLI::App& app) {
       ->type_name("DIR");
   sub->add_flag("--resume", options->resume,
                 "Replay DIR/history.csv (an interrupted run) instead of recomputing it");
+  sub->add_flag("--rank-fresh", options->rank_fresh,
+                "Re-evaluate the ranked designs (top 10) on the fresh validation samples and "
+                "rank them by those rates");
   sub->add_flag("--quiet,-q", options->quiet, "Print nothing but errors");
   sub->footer("Optimizer names: " + names +
               ".\nExit 3 if an evaluation failed (results so far are written), 130 if "

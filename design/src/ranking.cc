@@ -66,6 +66,32 @@ std::vector<RankedDesign> RankDesigns(const std::vector<HistoryEntry>& history, 
   return ranked;
 }
 
+void ValidateRanking(Evaluator& evaluator, std::uint64_t stream, int samples, ObjectiveType type,
+                     std::vector<RankedDesign>* ranking) {
+  if (samples < 1)
+    throw std::invalid_argument("ValidateRanking: samples: expected >= 1, got " +
+                                std::to_string(samples));
+  std::vector<EvalRequest> requests;
+  std::vector<std::size_t> which;
+  for (std::size_t i = 0; i < ranking->size(); ++i) {
+    const RankedDesign& d = (*ranking)[i];
+    if (d.fresh && d.fresh->stream == stream && d.fresh->samples == samples) continue;
+    requests.push_back({d.search.x, stream, samples});
+    which.push_back(i);
+  }
+  if (!requests.empty()) {
+    const std::vector<Evaluation> fresh = evaluator.Evaluate(requests);
+    for (std::size_t k = 0; k < which.size(); ++k) (*ranking)[which[k]].fresh = fresh[k];
+  }
+  const bool by_rate = type != ObjectiveType::kDistance;
+  std::stable_sort(ranking->begin(), ranking->end(),
+                   [by_rate](const RankedDesign& a, const RankedDesign& b) {
+                     if (by_rate) return Rate(*a.fresh) > Rate(*b.fresh);
+                     return a.fresh->loss < b.fresh->loss;
+                   });
+  for (std::size_t i = 0; i < ranking->size(); ++i) (*ranking)[i].rank = static_cast<int>(i) + 1;
+}
+
 std::string RankingTable(const DesignSpec& spec, const std::vector<RankedDesign>& ranking) {
   const bool by_rate = spec.objective.type != ObjectiveType::kDistance;
   char buf[256];

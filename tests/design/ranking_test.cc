@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -79,6 +80,57 @@ TEST(DesignRanking, OnlyComparableEvaluationsAndLossForDistance) {
   spec.objective.type = ObjectiveType::kDistance;
   const std::string table = RankingTable(spec, r);
   EXPECT_NE(table.find("objective"), std::string::npos);
+}
+
+// A stand-in evaluator: a design x succeeds on a fraction x of the samples (deterministic), and
+// it records what it was asked.
+class FakeEvaluator : public Evaluator {
+ public:
+  std::vector<Evaluation> Evaluate(const std::vector<EvalRequest>& requests) override {
+    std::vector<Evaluation> out;
+    for (const EvalRequest& r : requests) {
+      asked.push_back(r);
+      Evaluation e;
+      e.x = r.x;
+      e.stream = r.stream;
+      e.samples = r.samples;
+      e.successes = static_cast<int>(std::lround(r.x[0] * r.samples));
+      e.objective = static_cast<double>(e.successes) / r.samples;
+      e.loss = 1.0 - e.objective;
+      WilsonInterval(e.successes, e.samples, &e.lower, &e.upper);
+      out.push_back(e);
+    }
+    return out;
+  }
+  std::vector<EvalRequest> asked;
+};
+
+// Designs tied on the search samples are separated by their fresh rates; an existing validation
+// on the same stream and sample count is reused, not recomputed.
+TEST(DesignRanking, ValidateRankingReordersByFreshRates) {
+  const std::vector<HistoryEntry> history = {
+      Entry(0, "start", 0.3, 20, 20), Entry(1, "global", 0.9, 20, 20),
+      Entry(2, "global", 0.6, 20, 20), Entry(3, "local", 0.2, 10, 20),
+      Entry(4, "validate-best", 0.3, 60, 200, 99)};
+  std::vector<RankedDesign> r = RankDesigns(history, ObjectiveType::kSuccess, 10);
+  ASSERT_EQ(r.size(), 4u);
+  EXPECT_EQ(r[0].search.x[0], 0.3);  // three tie at 20/20: the first found leads
+  FakeEvaluator evaluator;
+  ValidateRanking(evaluator, 99, 200, ObjectiveType::kSuccess, &r);
+  EXPECT_EQ(evaluator.asked.size(), 3u);  // 0.3 was validated already
+  for (const EvalRequest& q : evaluator.asked) {
+    EXPECT_EQ(q.stream, 99u);
+    EXPECT_EQ(q.samples, 200);
+    EXPECT_NE(q.x[0], 0.3);
+  }
+  const double order[] = {0.9, 0.6, 0.3, 0.2};
+  for (std::size_t k = 0; k < r.size(); ++k) {
+    EXPECT_EQ(r[k].rank, static_cast<int>(k) + 1);
+    EXPECT_EQ(r[k].search.x[0], order[k]) << k;
+    ASSERT_TRUE(r[k].fresh.has_value());
+    EXPECT_EQ(r[k].fresh->samples, 200);
+  }
+  EXPECT_EQ(r[2].fresh->successes, 60);  // the reused validation
 }
 
 }  // namespace

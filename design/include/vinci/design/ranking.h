@@ -36,6 +36,14 @@ struct RankedDesign {
 std::vector<RankedDesign> RankDesigns(const std::vector<HistoryEntry>& history, ObjectiveType type,
                                       int k);
 
+/// Judges every ranked design that has no fresh evaluation with `samples` samples on `samples`
+/// samples of `stream` (one batch through `evaluator`), so that each entry has an unbiased rate,
+/// then reorders the ranking by the fresh rate (ties: the search order) and renumbers it. With
+/// stream = FreshStream(seed) and samples = the validation count, the best and start designs'
+/// validations are reused. Distance objectives are reordered by the fresh loss.
+void ValidateRanking(Evaluator& evaluator, std::uint64_t stream, int samples, ObjectiveType type,
+                     std::vector<RankedDesign>* ranking);
+
 /// The ranking as a text table for the terminal: rank, success rate (distance objectives: the
 /// mean distance), its 95% Wilson interval and sample count, the fresh-sample rate of validated
 /// designs, then the design values (columns named by spec.parameters). One line per design.
