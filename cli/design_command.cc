@@ -20,6 +20,7 @@
 #include "json.h"
 #include "vinci/design/best_scene.h"
 #include "vinci/design/optimize.h"
+#include "vinci/design/ranking.h"
 #include "vinci/design/spec.h"
 
 namespace vinci::cli {
@@ -29,6 +30,7 @@ namespace fs = std::filesystem;
 using design::Evaluation;
 
 constexpr double kTtyRedrawS = 0.2;
+constexpr int kRankingSize = 10;  // designs in result.json's and the summary's ranking
 
 // Shortest text that reads back as exactly v.
 std::string Num(double v) {
@@ -165,6 +167,19 @@ std::string DesignJson(const design::DesignSpec& spec, const design::VectorXd& x
   return s + "}";
 }
 
+std::string RankingJson(const design::DesignSpec& spec,
+                        const std::vector<design::RankedDesign>& ranking) {
+  std::string s = "[";
+  for (const design::RankedDesign& d : ranking) {
+    s += std::string(d.rank > 1 ? "," : "") + "\n    {\"rank\": " + std::to_string(d.rank) +
+         ", \"index\": " + std::to_string(d.index) + ", \"phase\": " + JsonString(d.phase) +
+         ", \"design\": " + DesignJson(spec, d.search.x) +
+         ", \"search\": " + EvaluationJson(spec, d.search, "") +
+         (d.fresh ? ", \"fresh\": " + EvaluationJson(spec, *d.fresh, "") : "") + "}";
+  }
+  return s + (ranking.empty() ? "]" : "\n  ]");
+}
+
 void WriteAtomically(const std::string& path, const std::string& text) {
   const std::string tmp = path + ".partial";
   {
@@ -231,7 +246,9 @@ ExitCode RunDesignCommand(const DesignOptions& o) {
   double last_print = -1e9;
   int last_decile = -1;
   const bool success_type = spec.objective.type == design::ObjectiveType::kSuccess;
+  std::vector<design::HistoryEntry> evaluated;  // for the ranking
   job.on_evaluation = [&](const design::HistoryEntry& h, const design::Progress& p) {
+    evaluated.push_back(h);
     // A resumed run repeats the interrupted one: its first rows are already in the file.
     if (h.index >= static_cast<int>(job.replay.size()))
       history << HistoryRow(h) << "\n" << std::flush;
@@ -264,6 +281,18 @@ ExitCode RunDesignCommand(const DesignOptions& o) {
   if (!o.quiet && tty) std::cerr << "\n";
   history.close();
 
+  std::vector<design::RankedDesign> ranking =
+      design::RankDesigns(evaluated, spec.objective.type, kRankingSize);
+  if (o.rank_fresh && !ranking.empty() && Interrupted() == 0) {
+    const design::DesignProblem problem(spec);
+    design::ThreadEvaluator evaluator(problem, o.threads);
+    const int samples = spec.validation_samples > 0 ? spec.validation_samples
+                        : o.samples > 0             ? o.samples
+                                                    : spec.samples;
+    design::ValidateRanking(
+        evaluator, design::FreshStream(o.has_seed ? static_cast<std::uint64_t>(o.seed) : spec.seed),
+        samples, spec.objective.type, &ranking);
+  }
   if (r.best.size() > 0) {
     WriteAtomically(o.out + "/best.yaml", design::BestSceneYaml(spec, r.best));
     std::ostringstream j;
@@ -299,6 +328,8 @@ ExitCode RunDesignCommand(const DesignOptions& o) {
     for (std::size_t k = 0; k < r.errors.size(); ++k)
       j << (k ? ", " : "") << JsonString(r.errors[k]);
     j << "],\n";
+    j << "  \"ranking_by\": \"" << (o.rank_fresh ? "fresh" : "search") << "\",\n";
+    j << "  \"ranking\": " << RankingJson(spec, ranking) << ",\n";
     j << "  \"screening\": [";
     for (std::size_t k = 0; k < r.screening.size(); ++k) {
       const design::StageReport& st = r.screening[k];
@@ -346,6 +377,9 @@ ExitCode RunDesignCommand(const DesignOptions& o) {
           << st.time_s << " s\n"
           << std::defaultfloat << std::setprecision(6);
     }
+    s << (o.rank_fresh ? "ranking (by the fresh samples)\n"
+                       : "ranking (search samples; fresh: re-evaluated on new samples)\n")
+      << design::RankingTable(spec, ranking);
     s << "results      " << o.out << "/{best.yaml,result.json,history.csv}\n";
     std::cout << s.str() << std::flush;
   }
@@ -395,6 +429,9 @@ Command RegisterDesignCommand(CLI::App& app) {
       ->type_name("DIR");
   sub->add_flag("--resume", options->resume,
                 "Replay DIR/history.csv (an interrupted run) instead of recomputing it");
+  sub->add_flag("--rank-fresh", options->rank_fresh,
+                "Re-evaluate the ranked designs (top 10) on the fresh validation samples and "
+                "rank them by those rates");
   sub->add_flag("--quiet,-q", options->quiet, "Print nothing but errors");
   sub->footer("Optimizer names: " + names +
               ".\nExit 3 if an evaluation failed (results so far are written), 130 if "

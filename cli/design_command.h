@@ -16,6 +16,7 @@ struct DesignOptions {
   int samples = 0;             ///< per evaluation; 0: the spec's
   int validation_samples = 0;  ///< fresh samples of the final estimate; 0: the spec's
   int threads = 1;
+  bool rank_fresh = false;  ///< re-evaluate the ranked designs on fresh samples, rank by those
   bool has_seed = false;
   long long seed = 0;
   std::string out;  ///< output folder (required)

@@ -6,6 +6,7 @@
 #include <exception>
 #include <stdexcept>
 
+#include "vinci/design/grip.h"
 #include "vinci/sim/simulator/batch.h"
 
 namespace vinci::design {
@@ -203,6 +204,9 @@ SampleOutcome DesignProblem::RunSample(const sim::Simulator& simulator, const Ve
       in = in && e <= 0.0;
       margin = std::max(margin, o.angle_scale * e);
     }
+    if (o.has_grip)
+      in = in && IsGripped(o.grip, JawOverlaps(simulator.Resolve(params, ws), s, o.body_index,
+                                               o.grip.jaw_indices));
     *inside = in;
     return margin;
   };

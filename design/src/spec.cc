@@ -22,8 +22,9 @@ const std::vector<std::string> kTopKeys = {
     "duration", "objective",  "optimizer", "budget",  "screening"};
 const std::vector<std::string> kParameterKeys = {"name", "lower", "upper", "start"};
 const std::vector<std::string> kUncertainKeys = {"name", "uniform", "normal", "choice", "truncate"};
-const std::vector<std::string> kObjectiveKeys = {"type",  "body",   "region",     "angle",
-                                                 "until", "target", "angle_scale"};
+const std::vector<std::string> kObjectiveKeys = {"type",  "body",   "region",      "angle",
+                                                 "until", "target", "angle_scale", "grip"};
+const std::vector<std::string> kGripKeys = {"jaws", "min_overlap", "max_overlap"};
 const std::vector<std::string> kGeometricKeys = {"type", "tolerance", "samples"};
 const std::vector<std::string> kShortKeys = {"type",        "duration",    "samples", "objective",
                                              "min_success", "formulation", "dt"};
@@ -195,6 +196,36 @@ std::string ReadFile(const std::string& path, const std::string& what) {
   return s.str();
 }
 
+// objective.grip (success only): jaws (bodies other than the objective body) and the overlap
+// window (grip.h).
+void ParseGrip(const Field& g, const sim::Scene& scene, Objective& o) {
+  if (o.type != ObjectiveType::kSuccess) g.FailMessage("applies to type success only");
+  g.ExpectMap(kGripKeys);
+  const Field jf = g.Required("jaws");
+  jf.ExpectList();
+  if (jf.node().size() == 0) jf.Fail("a non-empty list of body names");
+  for (std::size_t i = 0; i < jf.node().size(); ++i) {
+    const Field f = jf.At(i);
+    const std::string name = f.String();
+    const int b = scene.FindBody(name);
+    if (b < 0) f.Fail("the name of a body of the scene");
+    if (b == o.body_index) f.Fail("a body other than the objective's body '" + o.body + "'");
+    if (IndexOf(o.grip.jaws, name) >= 0) f.FailMessage("jaw given twice");
+    o.grip.jaws.push_back(name);
+    o.grip.jaw_indices.push_back(b);
+  }
+  if (g.Has("min_overlap")) {
+    o.grip.min_overlap = g["min_overlap"].Number();
+    if (o.grip.min_overlap < 0.0) g["min_overlap"].Fail("a number >= 0");
+  }
+  if (g.Has("max_overlap")) {
+    o.grip.max_overlap = g["max_overlap"].Positive();
+    if (!(o.grip.max_overlap > o.grip.min_overlap))
+      g["max_overlap"].Fail("a number > min_overlap (" + std::to_string(o.grip.min_overlap) + ")");
+  }
+  o.has_grip = true;
+}
+
 // An objective map (the spec's `objective:` or a screening stage's).
 void ParseObjective(const Field& of, const sim::Scene& scene, Objective* out) {
   const bool planar = scene.dim == sim::Dim::kPlanar;
@@ -219,7 +250,7 @@ void ParseObjective(const Field& of, const sim::Scene& scene, Objective* out) {
     return Eigen::Map<const VectorXd>(v.data(), static_cast<Eigen::Index>(v.size()));
   };
   if (o.type == ObjectiveType::kDistance) {
-    for (const char* k : {"region", "angle", "until", "angle_scale"})
+    for (const char* k : {"region", "angle", "until", "angle_scale", "grip"})
       if (of.Has(k)) of[k].FailMessage("does not apply to type distance");
     o.target = vec(of.Required("target").Numbers(pos_size, pos_size));
   } else {
@@ -242,8 +273,9 @@ void ParseObjective(const Field& of, const sim::Scene& scene, Objective* out) {
       if (a.Has("symmetry")) o.angle_symmetry = a["symmetry"].Positive();
       o.has_angle = true;
     }
-    if (!o.has_region && !o.has_angle)
-      of.FailMessage("expected region: and/or angle: (what success means)");
+    if (of.Has("grip")) ParseGrip(of["grip"], scene, o);
+    if (!o.has_region && !o.has_angle && !o.has_grip)
+      of.FailMessage("expected region: and/or angle: (what success means), or grip:");
     if (of.Has("until")) o.until = of["until"].Bool();
     if (of.Has("angle_scale")) o.angle_scale = of["angle_scale"].Positive();
   }

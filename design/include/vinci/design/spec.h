@@ -61,6 +61,14 @@ enum class ObjectiveType {
   kMargin,    ///< minimize the mean signed distance to the success set (smooth surrogate)
 };
 
+/// `success` objective only: the body must be held between jaws (grip.h).
+struct Grip {
+  std::vector<std::string> jaws;  ///< body names (≥ 1; two for a parallel-jaw gripper)
+  std::vector<int> jaw_indices;   ///< their body indices
+  double min_overlap = 0.0;       ///< m: every jaw's overlap with the body is at least this
+  double max_overlap = 1e300;     ///< m: and none exceeds this
+};
+
 struct Objective {
   ObjectiveType type = ObjectiveType::kSuccess;
   std::string body;
@@ -72,8 +80,10 @@ struct Objective {
   double angle_symmetry = 0.0;  ///< > 0: angles equal modulo this (e.g. π for a 2-fold part)
   /// Metres per radian when the margin combines the region distance and the angle error.
   double angle_scale = 0.01;
-  bool until = false;  ///< success: reaching the set at any step counts (the rollout stops)
-  VectorXd target;     ///< distance: size 2 or 3
+  bool until = false;     ///< success: reaching the set at any step counts (the rollout stops)
+  VectorXd target;        ///< distance: size 2 or 3
+  bool has_grip = false;  ///< success: also require the grip condition (grip.h)
+  Grip grip;
 };
 
 enum class StageType {
