@@ -12,15 +12,19 @@
 #include <fstream>
 #include <iomanip>
 #include <iostream>
+#include <memory>
 #include <sstream>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
+#include "distributed.h"
 #include "json.h"
 #include "vinci/design/best_scene.h"
+#include "vinci/design/distributed_evaluator.h"
 #include "vinci/design/optimize.h"
 #include "vinci/design/spec.h"
+#include "vinci/parallel/mpi.h"
 
 namespace vinci::cli {
 namespace {
@@ -165,6 +169,14 @@ std::string DesignJson(const design::DesignSpec& spec, const design::VectorXd& x
   return s + "}";
 }
 
+// {"ranks": N, "samples_per_rank": [...]}: where the samples ran (`mpirun`).
+std::string MpiJson(const parallel::Distributor& ranks) {
+  std::string s = "{\"ranks\": " + std::to_string(ranks.size()) + ", \"samples_per_rank\": [";
+  const std::vector<long long> items = ranks.ItemsPerRank();
+  for (std::size_t k = 0; k < items.size(); ++k) s += (k ? ", " : "") + std::to_string(items[k]);
+  return s + "]}";
+}
+
 void WriteAtomically(const std::string& path, const std::string& text) {
   const std::string tmp = path + ".partial";
   {
@@ -180,6 +192,9 @@ void WriteAtomically(const std::string& path, const std::string& text) {
 }  // namespace
 
 ExitCode RunDesignCommand(const DesignOptions& o) {
+  // Under mpirun: rank 0 runs the search below, the other ranks run its samples (distributed.h).
+  const std::unique_ptr<parallel::Distributor> ranks = parallel::MakeDistributor();
+  if (!ranks->root()) return ServeDesign(o, *ranks);
   if (o.threads < 1) throw std::invalid_argument("--threads: expected an integer >= 1");
   if (o.budget < 0) throw std::invalid_argument("--budget: expected an integer >= 1");
   if (o.samples < 0) throw std::invalid_argument("--samples: expected an integer >= 1");
@@ -204,6 +219,13 @@ ExitCode RunDesignCommand(const DesignOptions& o) {
   job.has_seed = o.has_seed;
   job.seed = static_cast<std::uint64_t>(o.seed);
   if (o.resume && fs::exists(history_path)) job.replay = ReadHistory(history_path, spec);
+  std::unique_ptr<design::DesignProblem> mpi_problem;
+  std::unique_ptr<design::DistributedEvaluator> mpi_evaluator;
+  if (ranks->size() > 1) {
+    mpi_problem = std::make_unique<design::DesignProblem>(spec);
+    mpi_evaluator = std::make_unique<design::DistributedEvaluator>(*mpi_problem, *ranks, o.threads);
+    job.evaluator = mpi_evaluator.get();
+  }
 
   // Validate the optimizer name before touching the history.
   design::CheckOptimizer(!o.optimizer.empty()      ? o.optimizer
@@ -299,6 +321,7 @@ ExitCode RunDesignCommand(const DesignOptions& o) {
     for (std::size_t k = 0; k < r.errors.size(); ++k)
       j << (k ? ", " : "") << JsonString(r.errors[k]);
     j << "],\n";
+    if (ranks->size() > 1) j << "  \"mpi\": " << MpiJson(*ranks) << ",\n";
     j << "  \"screening\": []\n}\n";
     WriteAtomically(o.out + "/result.json", j.str());
   }
@@ -329,6 +352,7 @@ ExitCode RunDesignCommand(const DesignOptions& o) {
     }
     s << "evaluations  " << r.evaluations << " (" << r.replayed << " not recomputed), "
       << r.simulations << " simulations, " << Duration(r.time_s) << "\n";
+    if (ranks->size() > 1) s << "mpi          " << MpiJson(*ranks) << "\n";
     s << "results      " << o.out << "/{best.yaml,result.json,history.csv}\n";
     std::cout << s.str() << std::flush;
   }
