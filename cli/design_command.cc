@@ -405,7 +405,8 @@ Command RegisterDesignCommand(CLI::App& app) {
   sub->add_flag("--quiet,-q", options->quiet, "Print nothing but errors");
   sub->footer("Optimizer names: " + names +
               ".\nExit 3 if an evaluation failed (results so far are written), 130 if "
-              "interrupted (history.csv is kept: rerun with --resume).");
+              "interrupted (history.csv is kept: rerun with --resume).\n`mpirun -np N vinci "
+              "design ...` spreads the samples over N processes (the same results).");
   return Command{sub, [options] { return RunDesignCommand(*options); }};
 }
 

@@ -294,7 +294,9 @@ Command RegisterFieldCommand(CLI::App& app) {
       "CSV columns: x,y (start point, plate frame, m), vx,vy (average velocity over the last "
       "cycles, plate frame, m/s), omega (about the plate normal, rad/s), left_plate, failed "
       "(0/1), x_mean,y_mean (mean position over the averaging window).\n"
-      "Exit 3 if a step failed at some point (the CSV is written; those rows have failed = 1).");
+      "Exit 3 if a step failed at some point (the CSV is written; those rows have failed = 1).\n"
+      "`mpirun -np N vinci field ...` spreads the grid points over N processes (each on "
+      "--threads threads; the same CSV).");
   return Command{sub, [options] { return RunField(*options); }};
 }
 

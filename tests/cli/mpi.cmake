@@ -39,3 +39,13 @@ add_test(NAME cli_mpi_design_bad_spec
                  "-DSTDERR_MATCHES=bad_spec\\.yaml:4: parameters\\[0\\]\\.name: expected a scene parameter"
                  -P ${CMAKE_CURRENT_SOURCE_DIR}/run_vinci.cmake)
 set_tests_properties(cli_mpi_design_bad_spec PROPERTIES LABELS fast TIMEOUT 120 RUN_SERIAL ON)
+
+# Other commands do not share work: N copies would write the same files, so they refuse.
+add_test(NAME cli_mpi_simulate_refused
+         COMMAND ${CMAKE_COMMAND} -E env ${VINCI_MPI_ENV}
+                 ${CMAKE_COMMAND} -DVINCI=${VINCI_MPIRUN} -DEXPECT_EXIT=1
+                 "-DARGS=-np%%2%%--oversubscribe%%$<TARGET_FILE:vinci>%%simulate%%${VINCI_CLI_DATA}/disc_drop.yaml%%--out%%${VINCI_CLI_OUT}/mpi_simulate.csv"
+                 "-DSTDERR_MATCHES=mpirun: 'vinci simulate' runs in one process"
+                 -DCSV=${VINCI_CLI_OUT}/mpi_simulate.csv -DCSV_ABSENT=ON
+                 -P ${CMAKE_CURRENT_SOURCE_DIR}/run_vinci.cmake)
+set_tests_properties(cli_mpi_simulate_refused PROPERTIES LABELS fast TIMEOUT 120 RUN_SERIAL ON)
