@@ -4,7 +4,9 @@
 #include <exception>
 #include <iostream>
 #include <stdexcept>
+#include <string>
 
+#include "vinci/parallel/mpi.h"
 #include "vinci/sim/solvers/text_format.h"
 
 namespace vinci::cli {
@@ -17,6 +19,13 @@ void PrintError(const std::string& message) {
 
 ExitCode RunCommand(const Command& command) {
   try {
+    // Only design and field share their work among mpirun's processes (cli/distributed.h);
+    // N copies of another command would each write the same outputs.
+    const std::string name = command.app ? command.app->get_name() : std::string();
+    if (name != "design" && name != "field" && parallel::MpirunWorldSize() > 1)
+      throw std::invalid_argument("mpirun: 'vinci " + name +
+                                  "' runs in one process; only 'vinci design' and 'vinci field' "
+                                  "spread their work over mpirun's processes");
     return command.run();
   } catch (const std::invalid_argument& e) {
     PrintError(e.what());

@@ -12,16 +12,20 @@
 #include <fstream>
 #include <iomanip>
 #include <iostream>
+#include <memory>
 #include <sstream>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
+#include "distributed.h"
 #include "json.h"
 #include "vinci/design/best_scene.h"
+#include "vinci/design/distributed_evaluator.h"
 #include "vinci/design/optimize.h"
 #include "vinci/design/ranking.h"
 #include "vinci/design/spec.h"
+#include "vinci/parallel/mpi.h"
 
 namespace vinci::cli {
 namespace {
@@ -178,6 +182,12 @@ std::string RankingJson(const design::DesignSpec& spec,
          (d.fresh ? ", \"fresh\": " + EvaluationJson(spec, *d.fresh, "") : "") + "}";
   }
   return s + (ranking.empty() ? "]" : "\n  ]");
+// {"ranks": N, "samples_per_rank": [...]}: where the samples ran (`mpirun`).
+std::string MpiJson(const parallel::Distributor& ranks) {
+  std::string s = "{\"ranks\": " + std::to_string(ranks.size()) + ", \"samples_per_rank\": [";
+  const std::vector<long long> items = ranks.ItemsPerRank();
+  for (std::size_t k = 0; k < items.size(); ++k) s += (k ? ", " : "") + std::to_string(items[k]);
+  return s + "]}";
 }
 
 void WriteAtomically(const std::string& path, const std::string& text) {
@@ -195,6 +205,9 @@ void WriteAtomically(const std::string& path, const std::string& text) {
 }  // namespace
 
 ExitCode RunDesignCommand(const DesignOptions& o) {
+  // Under mpirun: rank 0 runs the search below, the other ranks run its samples (distributed.h).
+  const std::unique_ptr<parallel::Distributor> ranks = parallel::MakeDistributor();
+  if (!ranks->root()) return ServeDesign(o, *ranks);
   if (o.threads < 1) throw std::invalid_argument("--threads: expected an integer >= 1");
   if (o.budget < 0) throw std::invalid_argument("--budget: expected an integer >= 1");
   if (o.samples < 0) throw std::invalid_argument("--samples: expected an integer >= 1");
@@ -219,6 +232,13 @@ ExitCode RunDesignCommand(const DesignOptions& o) {
   job.has_seed = o.has_seed;
   job.seed = static_cast<std::uint64_t>(o.seed);
   if (o.resume && fs::exists(history_path)) job.replay = ReadHistory(history_path, spec);
+  std::unique_ptr<design::DesignProblem> mpi_problem;
+  std::unique_ptr<design::DistributedEvaluator> mpi_evaluator;
+  if (ranks->size() > 1) {
+    mpi_problem = std::make_unique<design::DesignProblem>(spec);
+    mpi_evaluator = std::make_unique<design::DistributedEvaluator>(*mpi_problem, *ranks, o.threads);
+    job.evaluator = mpi_evaluator.get();
+  }
 
   // Validate the optimizer name before touching the history.
   design::CheckOptimizer(!o.optimizer.empty()      ? o.optimizer
@@ -330,6 +350,7 @@ ExitCode RunDesignCommand(const DesignOptions& o) {
     j << "],\n";
     j << "  \"ranking_by\": \"" << (o.rank_fresh ? "fresh" : "search") << "\",\n";
     j << "  \"ranking\": " << RankingJson(spec, ranking) << ",\n";
+    if (ranks->size() > 1) j << "  \"mpi\": " << MpiJson(*ranks) << ",\n";
     j << "  \"screening\": [";
     for (std::size_t k = 0; k < r.screening.size(); ++k) {
       const design::StageReport& st = r.screening[k];
@@ -380,6 +401,7 @@ ExitCode RunDesignCommand(const DesignOptions& o) {
     s << (o.rank_fresh ? "ranking (by the fresh samples)\n"
                        : "ranking (search samples; fresh: re-evaluated on new samples)\n")
       << design::RankingTable(spec, ranking);
+    if (ranks->size() > 1) s << "mpi          " << MpiJson(*ranks) << "\n";
     s << "results      " << o.out << "/{best.yaml,result.json,history.csv}\n";
     std::cout << s.str() << std::flush;
   }
@@ -435,7 +457,8 @@ Command RegisterDesignCommand(CLI::App& app) {
   sub->add_flag("--quiet,-q", options->quiet, "Print nothing but errors");
   sub->footer("Optimizer names: " + names +
               ".\nExit 3 if an evaluation failed (results so far are written), 130 if "
-              "interrupted (history.csv is kept: rerun with --resume).");
+              "interrupted (history.csv is kept: rerun with --resume).\n`mpirun -np N vinci "
+              "design ...` spreads the samples over N processes (the same results).");
   return Command{sub, [options] { return RunDesignCommand(*options); }};
 }
 

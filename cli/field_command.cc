@@ -8,10 +8,13 @@
 #include <fstream>
 #include <iomanip>
 #include <iostream>
+#include <memory>
 #include <sstream>
 #include <stdexcept>
 #include <string>
 
+#include "distributed.h"
+#include "vinci/parallel/mpi.h"
 #include "vinci/sim/model/scene_file.h"
 #include "vinci/sim/plate/plate_theory.h"
 #include "vinci/sim/plate/velocity_field.h"
@@ -122,9 +125,8 @@ class TempFile {
   std::string path_;
 };
 
-}  // namespace
-
-ExitCode RunField(const FieldOptions& o) {
+// The simulator and field spec of a command line (every rank builds the same).
+FieldSetup PrepareField(const FieldOptions& o) {
   if (o.dt && !(std::isfinite(*o.dt) && *o.dt > 0.0))
     throw std::invalid_argument("--dt: expected a finite number > 0 (s)");
   if (o.threads < 1) throw std::invalid_argument("--threads: expected an integer >= 1");
@@ -135,8 +137,11 @@ ExitCode RunField(const FieldOptions& o) {
 
   sim::Scene scene = sim::LoadSceneFile(o.scene_path);
   if (o.dt) scene.options.dt = *o.dt;
-  const sim::Simulator simulator(std::move(scene));
-  sim::FieldSpec spec = sim::LoadFieldSpec(o.scene_path, simulator.scene());
+  FieldSetup setup;
+  setup.simulator = std::make_unique<sim::Simulator>(std::move(scene));
+  const sim::Simulator& simulator = *setup.simulator;
+  sim::FieldSpec& spec = setup.spec;
+  spec = sim::LoadFieldSpec(o.scene_path, simulator.scene());
   const bool planar = simulator.scene().dim == sim::Dim::kPlanar;
   if (o.grid) ParseGrid(*o.grid, planar, &spec.nx, &spec.ny);
   if (o.cycles) spec.cycles = *o.cycles;
@@ -146,6 +151,18 @@ ExitCode RunField(const FieldOptions& o) {
                                 std::to_string(spec.cycles) + "), got " +
                                 std::to_string(spec.average_cycles));
   spec.Validate(simulator.scene());
+  return setup;
+}
+
+}  // namespace
+
+ExitCode RunField(const FieldOptions& o) {
+  // Under mpirun: rank 0 runs the field below, the other ranks compute its grid points.
+  const std::unique_ptr<parallel::Distributor> ranks = parallel::MakeDistributor();
+  if (!ranks->root()) return ServeField([&o] { return PrepareField(o); }, o.threads, *ranks);
+  const FieldSetup setup = PrepareField(o);
+  const sim::Simulator& simulator = *setup.simulator;
+  const sim::FieldSpec& spec = setup.spec;
 
   // The result is written atomically: to a temporary file next to --out, renamed at the end.
   const std::string tmp = o.out + ".partial";
@@ -161,14 +178,19 @@ ExitCode RunField(const FieldOptions& o) {
     std::cerr << "field: " << spec.nx << "x" << spec.ny << " points, " << spec.cycles
               << " cycles of " << 1.0 / spec.frequency << " s (" << per_cycle
               << " steps each, dt = " << h << " s), averaging the last " << spec.average_cycles
-              << ", " << o.threads << (o.threads == 1 ? " thread\n" : " threads\n");
+              << ", " << o.threads << (o.threads == 1 ? " thread" : " threads")
+              << (ranks->size() > 1 ? " on each of " + std::to_string(ranks->size()) + " MPI ranks"
+                                    : std::string())
+              << "\n";
   Progress progress(!o.quiet, spec.nx);
   sim::FieldOptions fo;
   fo.threads = o.threads;
   fo.progress = [&progress](int done, int total) { progress.Update(done, total); };
   const Clock::time_point start = Clock::now();
   const sim::VelocityField field =
-      sim::ComputeVelocityField(simulator, simulator.DefaultParams(), spec, fo);
+      ranks->size() > 1
+          ? DistributedVelocityField(*ranks, simulator, simulator.DefaultParams(), spec, fo)
+          : sim::ComputeVelocityField(simulator, simulator.DefaultParams(), spec, fo);
   const double wall = Seconds(Clock::now() - start);
   {
     std::ofstream out(tmp);
@@ -210,6 +232,11 @@ ExitCode RunField(const FieldOptions& o) {
     s << "max speed   " << vmax << " m/s\n";
     s << "wall time   " << wall << " s ("
       << static_cast<double>(field.points.size()) * per_cycle * spec.cycles / wall << " steps/s)\n";
+    if (ranks->size() > 1) {
+      s << "mpi ranks   " << ranks->size() << " (points per rank:";
+      for (long long n : ranks->ItemsPerRank()) s << " " << n;
+      s << ")\n";
+    }
     s << "field       " << o.out << "\n";
     if (!o.theory.empty()) s << "theory      " << o.theory << "\n";
     std::cout << s.str() << std::flush;
@@ -267,7 +294,9 @@ Command RegisterFieldCommand(CLI::App& app) {
       "CSV columns: x,y (start point, plate frame, m), vx,vy (average velocity over the last "
       "cycles, plate frame, m/s), omega (about the plate normal, rad/s), left_plate, failed "
       "(0/1), x_mean,y_mean (mean position over the averaging window).\n"
-      "Exit 3 if a step failed at some point (the CSV is written; those rows have failed = 1).");
+      "Exit 3 if a step failed at some point (the CSV is written; those rows have failed = 1).\n"
+      "`mpirun -np N vinci field ...` spreads the grid points over N processes (each on "
+      "--threads threads; the same CSV).");
   return Command{sub, [options] { return RunField(*options); }};
 }
 

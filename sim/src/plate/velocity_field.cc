@@ -172,6 +172,14 @@ FieldPoint ComputeFieldPoint(const Simulator& sim, const Params& params, const F
   return out;
 }
 
+Vector2d FieldGridPoint(const FieldSpec& spec, int i) {
+  const auto coord = [](double lo, double hi, int n, int k) {
+    return n == 1 ? 0.5 * (lo + hi) : lo + (hi - lo) * k / (n - 1);
+  };
+  return Vector2d(coord(spec.x_min, spec.x_max, spec.nx, i % spec.nx),
+                  coord(spec.y_min, spec.y_max, spec.ny, i / spec.nx));
+}
+
 VelocityField ComputeVelocityField(const Simulator& sim, const Params& params,
                                    const FieldSpec& spec, const FieldOptions& options) {
   spec.Validate(sim.scene());
@@ -181,9 +189,6 @@ VelocityField ComputeVelocityField(const Simulator& sim, const Params& params,
   VelocityField field;
   field.spec = spec;
   const int total = spec.nx * spec.ny;
-  const auto coord = [](double lo, double hi, int n, int i) {
-    return n == 1 ? 0.5 * (lo + hi) : lo + (hi - lo) * i / (n - 1);
-  };
   BatchOptions batch;
   batch.threads = options.threads;
   batch.progress = options.progress;
@@ -193,9 +198,8 @@ VelocityField ComputeVelocityField(const Simulator& sim, const Params& params,
   auto results = BatchMap<Workspace>(
       total,
       [&](int i, Workspace& ws) {
-        const int ix = i % spec.nx, iy = i / spec.nx;
-        return ComputeFieldPoint(sim, params, spec, coord(spec.x_min, spec.x_max, spec.nx, ix),
-                                 coord(spec.y_min, spec.y_max, spec.ny, iy), &ws);
+        const Vector2d p = FieldGridPoint(spec, i);
+        return ComputeFieldPoint(sim, params, spec, p.x(), p.y(), &ws);
       },
       batch);
   RethrowFirstError(results);  // the lowest-index failure, as a single thread would report it

@@ -76,6 +76,10 @@ struct FieldOptions {
   std::function<void(int, int)> progress;
 };
 
+/// The start point (x, y) of grid point i (row by row: y outer, x inner; planar y = 0), plate
+/// frame (m): evenly spaced from min to max, the middle for a single point.
+Vector2d FieldGridPoint(const FieldSpec& spec, int i);
+
 /// Simulates the part from plate point (x, y). The average is over the last N cycles; if the
 /// part leaves the plate (or a step fails) before that window, over the last complete cycle
 /// before leaving, or over everything simulated if no cycle completed.
