@@ -374,23 +374,35 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o) {
     accept(run(Stage::kPolish, 0.0, {}, false), "nlp");
     if (!Solved(last)) stage_failure = std::string("nlp: ") + StatusText(last);
   } else if (o.method == ComplementarityMethod::kScholtes) {
-    int k = 0;
-    for (double eps = o.epsilon_start;; eps *= o.epsilon_factor, ++k) {
-      if (eps < o.epsilon_end * (1 - 1e-9)) break;
+    // A failed stage ends the homotopy at the last solved stage's iterate (the polish then
+    // starts from there).
+    for (double eps = o.epsilon_start; eps >= o.epsilon_end * (1 - 1e-9);
+         eps *= o.epsilon_factor) {
       std::ostringstream what;
       what << "scholtes eps " << eps;
-      accept(run(Stage::kScholtes, eps, {}, have_multipliers), what.str());
-      stage_failure = Solved(last) ? "" : what.str() + ": " + StatusText(last);
-      if (!Solved(last) && k == 0) break;
+      const bool first = !have_multipliers;
+      auto nlp = run(Stage::kScholtes, eps, {}, have_multipliers);
+      if (Solved(last) || first) accept(nlp, what.str());
+      if (!Solved(last)) {
+        stage_failure = what.str() + ": " + StatusText(last);
+        if (o.progress && !first) o.progress(stage_failure + ", stopped the homotopy");
+        break;
+      }
     }
   } else {
     for (double rho = o.penalty_start; rho <= o.penalty_max * (1 + 1e-9);
          rho *= o.penalty_factor) {
       std::ostringstream what;
       what << "penalty rho " << rho;
-      accept(run(Stage::kPenalty, rho, {}, have_multipliers), what.str());
-      stage_failure = Solved(last) ? "" : what.str() + ": " + StatusText(last);
-      if (Solved(last) && Violation(pairs, x) <= o.complementarity_tolerance) break;
+      const bool first = !have_multipliers;
+      auto nlp = run(Stage::kPenalty, rho, {}, have_multipliers);
+      if (Solved(last) || first) accept(nlp, what.str());
+      if (!Solved(last)) {
+        stage_failure = what.str() + ": " + StatusText(last);
+        if (o.progress && !first) o.progress(stage_failure + ", stopped the homotopy");
+        break;
+      }
+      if (Violation(pairs, x) <= o.complementarity_tolerance) break;
     }
   }
   for (std::size_t k = 0; k < pairs.size(); ++k)

@@ -1,8 +1,10 @@
 #include "vinci/estimation/mpec_estimator.h"
 
-#include <Eigen/SparseLU>
+#include <Eigen/SparseCholesky>
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
+#include <cstdlib>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -424,7 +426,7 @@ void MpecEstimationProblem::Impl::Build(const Log& log) {
         const State xg = guess[l];
         evals.push_back(blk.model->Evaluate(z, th, xg, u));
         std::normal_distribution<double> nd(0.0, 1.0);
-        for (int r = 0; r < 2; ++r) {
+        for (int r = 0; r < 4; ++r) {
           VectorXd zp = z;
           for (int i = 0; i < zp.size(); ++i) zp[i] += 0.1 * nd(rng);
           State xp = xg;
@@ -727,7 +729,9 @@ bool MpecEstimationProblem::JacobianValues(const VectorXd& x, VectorXd* values) 
         const long long key = I.Key(b, lr, lc);
         const auto it = std::lower_bound(b.keys.begin(), b.keys.end(), key);
         if (it == b.keys.end() || *it != key) {
-          if (std::abs(val) > 1e-8) ok[k] = 0;  // a new structural non-zero
+          // A new structural non-zero: fail, unless it is central-difference noise of the x_ℓ
+          // block (~1e-16 |row| / 1e-7).
+          if (std::abs(val) > 1e-6) ok[k] = 0;
           return;
         }
         (*values)[b.jac_offset + static_cast<int>(it - b.keys.begin())] = val;
@@ -865,12 +869,18 @@ bool MpecEstimationProblem::ParameterVariances(const VectorXd& x,
     fixed[first_at_zero[k] ? I.pairs[k].first : I.pairs[k].second] = 1;
   for (int i = 0; i < I.ntheta; ++i)
     if (x[i] <= I.x_l[i] + 1e-12 || x[i] >= I.x_u[i] - 1e-12) fixed[i] = 1;
+  VectorXd J;
+  if (!JacobianValues(x, &J)) return false;
+  // Unknowns that nothing depends on at x (no objective term, all Jacobian entries zero) are
+  // undetermined and irrelevant: left out.
+  std::vector<char> used(I.n, 0);
+  for (const Entry& h : I.hess) used[h.row] = used[h.col] = 1;
+  for (std::size_t e = 0; e < I.jac.size(); ++e)
+    if (J[static_cast<int>(e)] != 0.0) used[I.jac[e].col] = 1;
   std::vector<int> map(I.n, -1);
   int nf = 0;
   for (int i = 0; i < I.n; ++i)
-    if (!fixed[i]) map[i] = nf++;
-  VectorXd J;
-  if (!JacobianValues(x, &J)) return false;
+    if (!fixed[i] && used[i]) map[i] = nf++;
   std::vector<Eigen::Triplet<double>> tr;
   for (std::size_t e = 0; e < I.hess.size(); ++e) {
     const int r = map[I.hess[e].row], c = map[I.hess[e].col];
@@ -885,10 +895,17 @@ bool MpecEstimationProblem::ParameterVariances(const VectorXd& x,
     tr.emplace_back(nf + I.jac[e].row, c, J[static_cast<int>(e)]);
     tr.emplace_back(c, nf + I.jac[e].row, J[static_cast<int>(e)]);
   }
+  // Quasi-definite regularization [H + δ₁ I, J_Fᵀ; J_F, −δ₂ I] (H is only semi-definite: the
+  // impulses have no objective term) so that a sparse LDLᵀ exists for any ordering; δ₁ = 1e-9 of
+  // H's largest diagonal, δ₂ = 1e-12: the variances change by ~δ relative.
+  double hmax = 0.0;
+  for (const Eigen::Triplet<double>& t : tr)
+    if (t.row() == t.col() && t.row() < nf) hmax = std::max(hmax, std::abs(t.value()));
+  for (int i = 0; i < nf; ++i) tr.emplace_back(i, i, 1e-9 * std::max(hmax, 1.0));
+  for (int j = 0; j < I.m; ++j) tr.emplace_back(nf + j, nf + j, -1e-12);
   sim::SparseMatrixXd K(nf + I.m, nf + I.m);
   K.setFromTriplets(tr.begin(), tr.end());
-  K.makeCompressed();
-  Eigen::SparseLU<sim::SparseMatrixXd> lu;
+  Eigen::SimplicialLDLT<sim::SparseMatrixXd, Eigen::Lower> lu;
   lu.compute(K);
   if (lu.info() != Eigen::Success) return false;
   for (int i = 0; i < I.ntheta; ++i) {

@@ -90,7 +90,7 @@ struct MpecSolverOptions {
   double complementarity_tolerance = 1e-6;
   bool polish = true;           ///< the final NLP with the active set fixed
   bool limited_memory = false;  ///< Ipopt's L-BFGS Hessian instead of the problem's
-  double tolerance = 1e-10;     ///< Ipopt tol of each NLP
+  double tolerance = 1e-8;      ///< Ipopt tol of each NLP
   int max_iterations = 3000;    ///< Ipopt iterations per NLP
   int print_level = 0;          ///< Ipopt print_level (0 silent … 12)
   /// Called after each NLP with a one-line summary. May be empty. Must not throw.

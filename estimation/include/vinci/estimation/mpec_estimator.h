@@ -51,6 +51,13 @@
 
 namespace vinci::estimation {
 
+/// MpecSolverOptions with the homotopy start the estimator uses (epsilon_start = 1e-4).
+inline MpecSolverOptions EstimatorSolverDefaults() {
+  MpecSolverOptions o;
+  o.epsilon_start = 1e-4;
+  return o;
+}
+
 struct MpecOptions {
   std::vector<std::string> params;  ///< names in the scene's ParamTable, differentiable
   /// Measurement noise σ_R (m); 0: the fit is weighted with 1 mm and σ_R estimated afterwards.
@@ -63,7 +70,10 @@ struct MpecOptions {
   /// σ_R, else 1 mm). 0 with a log on the scene's dt grid freezes exactly the simulator's sets.
   double contact_margin = -1.0;
   int threads = 1;                  ///< threads evaluating the step equations
-  MpecSolverOptions solver;         ///< complementarity method, homotopy, Ipopt settings
+  /// Complementarity method, homotopy, Ipopt settings. The Scholtes homotopy starts at ε = 1e-4
+  /// here (the products are impulses per step, ~m g h ≈ 1e-2 N·s, times velocities: ε = 0.1
+  /// would relax complementarity away, and measured, took hundreds of iterations per stage).
+  MpecSolverOptions solver = EstimatorSolverDefaults();
   /// Progress lines (setup, each NLP). May be empty. Must not throw.
   std::function<void(const std::string&)> progress;
   /// Throws std::invalid_argument naming the first invalid field.
