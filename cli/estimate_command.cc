@@ -154,7 +154,8 @@ Command RegisterEstimateCommand(CLI::App& app) {
                   "mpec: scholtes (relaxation homotopy x∘y ≤ ε, ε → 1e-8) or penalty (ℓ1)")
       ->type_name("NAME");
   sub->add_option("--process-noise", options->process_noise,
-                  "mpec: process noise σ_Q of each generalized force (N, N·m; default 1)")
+                  "mpec: process noise σ_Q of each generalized force (N, N·m; default 1% of the "
+                  "lightest dynamic body's weight)")
       ->type_name("SIGMA");
   sub->add_option("--noise", options->noise,
                   "Measurement noise σ of the logged positions in m for the standard errors "

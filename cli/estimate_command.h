@@ -23,7 +23,7 @@ struct EstimateOptions {
   std::string out;
   bool quiet = false;
   std::string complementarity = "scholtes";  ///< mpec: scholtes | penalty
-  double process_noise = 1.0;                ///< mpec: σ_Q (N, N·m)
+  double process_noise = 0.0;                ///< mpec: σ_Q (N, N·m); 0: 1% of the weight
 };
 
 /// Adds the `estimate` subcommand to `app`.

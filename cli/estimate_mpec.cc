@@ -74,8 +74,8 @@ std::string MpecJson(const EstimateOptions& o, const estimation::MpecEstimateRes
 ExitCode RunEstimateMpec(const EstimateOptions& o) {
   if (o.noise < 0 || !std::isfinite(o.noise))
     throw std::invalid_argument("--noise: expected a finite σ ≥ 0 in m");
-  if (!(o.process_noise > 0) || !std::isfinite(o.process_noise))
-    throw std::invalid_argument("--process-noise: expected a finite σ_Q > 0 in N (N·m)");
+  if (!(o.process_noise >= 0) || !std::isfinite(o.process_noise))
+    throw std::invalid_argument("--process-noise: expected a finite σ_Q ≥ 0 in N (N·m)");
   if (o.fixed_initial_state)
     throw std::invalid_argument("--fixed-initial-state: only for --method lsq (mpec estimates "
                                 "all states)");

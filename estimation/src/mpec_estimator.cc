@@ -3,8 +3,6 @@
 #include <Eigen/SparseCholesky>
 #include <algorithm>
 #include <chrono>
-#include <cstdio>
-#include <cstdlib>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -89,8 +87,7 @@ void MpecOptions::Validate() const {
   };
   if (params.empty()) throw std::invalid_argument("mpec: no parameter to estimate");
   if (!(noise_sigma >= 0) || !std::isfinite(noise_sigma)) fail("noise", noise_sigma, "finite ≥ 0");
-  if (!(process_noise > 0) || !std::isfinite(process_noise))
-    fail("process_noise", process_noise, "finite > 0");
+  if (!std::isfinite(process_noise)) fail("process_noise", process_noise, "finite");
   if (!(orientation_length > 0) || !std::isfinite(orientation_length))
     fail("orientation_length", orientation_length, "finite > 0");
   if (threads < 1) fail("threads", threads, "≥ 1");
@@ -258,6 +255,13 @@ void MpecEstimationProblem::Impl::Build(const Log& log) {
   nv = scene.num_velocities();
   nx = nq + nv;
   sigma_q = opts.process_noise;
+  if (!(sigma_q > 0)) {
+    double m_min = std::numeric_limits<double>::infinity();
+    for (int b : scene.dynamic_bodies()) m_min = std::min(m_min, scene.bodies[b].mass);
+    if (!std::isfinite(m_min)) m_min = 1.0;
+    const double g = scene.gravity_W.norm();
+    sigma_q = 0.01 * m_min * (g > 0 ? g : 1.0);
+  }
   margin = opts.contact_margin >= 0 ? opts.contact_margin : 3 * sigma;
   num_episodes = static_cast<int>(log.episodes.size());
   const double dt = scene.options.dt;
@@ -632,6 +636,7 @@ MpecEstimationProblem::~MpecEstimationProblem() = default;
 
 int MpecEstimationProblem::num_variables() const { return impl_->n; }
 int MpecEstimationProblem::num_constraints() const { return impl_->m; }
+double MpecEstimationProblem::process_noise() const { return impl_->sigma_q; }
 int MpecEstimationProblem::num_steps() const { return static_cast<int>(impl_->steps.size()); }
 int MpecEstimationProblem::num_residuals() const {
   return static_cast<int>(impl_->residuals.size());
@@ -937,8 +942,8 @@ MpecEstimateResult EstimateMpec(const sim::Simulator& simulator, const Log& log,
   r.num_steps = problem.num_steps();
   r.num_unknowns = problem.num_variables();
   r.num_residuals = problem.num_residuals();
-  r.process_noise = options.process_noise;
   r.initial_cost = 0.5 * problem.SquaredResiduals(x0);
+  r.process_noise = problem.process_noise();
   if (options.progress) {
     std::ostringstream s;
     s << "mpec: " << r.num_steps << " steps, " << r.num_unknowns << " unknowns, "

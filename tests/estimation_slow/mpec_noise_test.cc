@@ -40,7 +40,9 @@ void CheckHonest(ComplementarityMethod method, bool state_noise) {
     const double z = (r.estimates[0] - kTrueMu) / r.std_errors[0];
     sum_z2 += z * z;
     within += std::abs(z) <= 3.0;
-    if (!state_noise) EXPECT_NEAR(r.sigma, sigma, 0.3 * sigma);
+    if (!state_noise) {
+      EXPECT_NEAR(r.sigma, sigma, 0.3 * sigma);
+    }
   }
   EXPECT_GE(converged, 18);
   EXPECT_GE(within, 18) << "mean z² = " << sum_z2 / trials;

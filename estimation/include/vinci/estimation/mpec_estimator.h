@@ -62,8 +62,10 @@ struct MpecOptions {
   std::vector<std::string> params;  ///< names in the scene's ParamTable, differentiable
   /// Measurement noise σ_R (m); 0: the fit is weighted with 1 mm and σ_R estimated afterwards.
   double noise_sigma = 0.0;
-  /// Process noise σ_Q of each generalized-force component (N, N·m); > 0.
-  double process_noise = 1.0;
+  /// Process noise σ_Q of each generalized-force component (N, N·m); ≤ 0: 1% of the weight
+  /// m |g| of the lightest dynamic body (m if g = 0). Too large a σ_Q lets w replace friction
+  /// (measured: σ_Q = 1 N on a 20 g part drove μ̂ to 0).
+  double process_noise = 0.0;
   double orientation_length = 0.1;  ///< m per rad for orientation residuals
   /// Added to the scene's envelope when the contact sets are frozen at the measured poses, so
   /// that noise lifting a resting part does not drop its contacts (m); < 0: 3 σ_R (the stated
@@ -125,6 +127,7 @@ class MpecEstimationProblem final : public MpecProblem {
 
   int num_steps() const;
   int num_residuals() const;
+  double process_noise() const;  ///< σ_Q used (N, N·m)
   /// The chosen parameters' values in x.
   sim::VectorXd Parameters(const sim::VectorXd& x) const;
   /// The state at an episode's first node.
