@@ -53,6 +53,7 @@ std::string MpecJson(const EstimateOptions& o, const estimation::MpecEstimateRes
     << "      \"noise_stated\": " << (o.noise > 0 ? "true" : "false") << ",\n"
     << "      \"process_noise\": " << Number(r.process_noise) << ",\n"
     << "      \"max_process_noise\": " << Number(r.max_process_noise) << ",\n"
+    << "      \"dropped_jacobian\": " << Number(r.dropped_jacobian) << ",\n"
     << "      \"initial_cost\": " << Number(r.initial_cost) << ",\n"
     << "      \"final_cost\": " << Number(r.final_cost) << ",\n"
     << "      \"num_residuals\": " << r.num_residuals << ",\n"

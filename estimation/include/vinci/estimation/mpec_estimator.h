@@ -93,6 +93,8 @@ struct MpecEstimateResult : EstimateResult {
   int num_constraints = 0, num_pairs = 0, num_steps = 0;
   double process_noise = 0.0;      ///< σ_Q used
   double max_process_noise = 0.0;  ///< max |w| at the solution (N, N·m)
+  /// Largest Jacobian entry dropped for falling outside the structure (0: none).
+  double dropped_jacobian = 0.0;
 };
 
 /// The MPEC of a log (for EstimateMpec, tests and tools). Not thread-safe (evaluation caches).
@@ -128,6 +130,10 @@ class MpecEstimationProblem final : public MpecProblem {
   int num_steps() const;
   int num_residuals() const;
   double process_noise() const;  ///< σ_Q used (N, N·m)
+  /// The largest |entry| of a step's Jacobian that fell outside the fixed structure (the union
+  /// of the entries at the guess and four perturbed points) and was dropped, over all
+  /// evaluations so far.
+  double dropped_jacobian() const;
   /// The chosen parameters' values in x.
   sim::VectorXd Parameters(const sim::VectorXd& x) const;
   /// The state at an episode's first node.
