@@ -48,9 +48,8 @@ std::string WriteLog(const sim::Simulator& s, const std::string& body, double mu
   f << "t," << body << ".x," << body << ".y," << body << ".theta\n";
   char buf[160];
   for (const sim::State& x : tr.states) {
-    std::snprintf(buf, sizeof buf, "%.17g,%.17g,%.17g,%.17g\n", x.t,
-                  x.q[qo] + sigma * n01(rng), x.q[qo + 1] + sigma * n01(rng),
-                  x.q[qo + 2] + sigma / 0.1 * n01(rng));
+    std::snprintf(buf, sizeof buf, "%.17g,%.17g,%.17g,%.17g\n", x.t, x.q[qo] + sigma * n01(rng),
+                  x.q[qo + 1] + sigma * n01(rng), x.q[qo + 2] + sigma / 0.1 * n01(rng));
     f << buf;
   }
   return path;
@@ -74,9 +73,10 @@ int main(int argc, char** argv) {
     double mu;
     double sigma;
   };
-  const std::vector<Case> cases = quick ? std::vector<Case>{{"block", kBlock, "block", 0.3, 0.0}}
-                                        : std::vector<Case>{{"block", kBlock, "block", 0.3, 0.0},
-                                                            {"block_noisy", kBlock, "block", 0.3, 1e-3}};
+  const std::vector<Case> cases =
+      quick ? std::vector<Case>{{"block", kBlock, "block", 0.3, 0.0}}
+            : std::vector<Case>{{"block", kBlock, "block", 0.3, 0.0},
+                                {"block_noisy", kBlock, "block", 0.3, 1e-3}};
   std::string table =
       "case,complementarity,threads,samples,steps,unknowns,constraints,pairs,iterations,stages,"
       "time_s,mu_hat,std_error,complementarity_violation,converged\n";
@@ -85,8 +85,8 @@ int main(int argc, char** argv) {
               "std_err", "compl", "conv");
   for (const Case& c : cases) {
     const sim::Simulator s(sim::ParseScene(c.scene, std::string(c.name) + ".yaml"));
-    const std::string path = WriteLog(s, c.body, c.mu, samples, c.sigma,
-                                      dir + "/mpec_bench_" + c.name + ".csv");
+    const std::string path =
+        WriteLog(s, c.body, c.mu, samples, c.sigma, dir + "/mpec_bench_" + c.name + ".csv");
     const estimation::Log log = estimation::ReadLog({path}, s.scene());
     for (const auto method : {estimation::ComplementarityMethod::kScholtes,
                               estimation::ComplementarityMethod::kPenalty}) {
@@ -99,11 +99,10 @@ int main(int argc, char** argv) {
         o.threads = threads;
         o.solver.method = method;
         const estimation::MpecEstimateResult r = estimation::EstimateMpec(s, log, o);
-        std::printf("%-12s %-9s %3d %7d %6d %8d %8d %6d %6d %8.3f %10.6f %10.2e %9.1e %s\n",
-                    c.name, estimation::ToString(method), threads, samples, r.num_steps,
-                    r.num_unknowns, r.num_constraints, r.iterations, r.stages, r.time_s,
-                    r.estimates[0], r.std_errors[0], r.complementarity_violation,
-                    r.converged ? "yes" : "no");
+        std::printf("%-12s %-9s %3d %7d %6d %8d %8d %6d %6d %8.3f %10.6f %10.2e %9.1e %s\n", c.name,
+                    estimation::ToString(method), threads, samples, r.num_steps, r.num_unknowns,
+                    r.num_constraints, r.iterations, r.stages, r.time_s, r.estimates[0],
+                    r.std_errors[0], r.complementarity_violation, r.converged ? "yes" : "no");
         std::fflush(stdout);
         char line[400];
         std::snprintf(line, sizeof line, "%s,%s,%d,%d,%d,%d,%d,%d,%d,%d,%.6g,%.9g,%.3g,%.3g,%d\n",

@@ -164,7 +164,8 @@ Command RegisterEstimateCommand(CLI::App& app) {
   sub->add_option("--threads,-j", options->threads, "Threads (episodes evaluated in parallel)")
       ->type_name("N")
       ->check(CLI::PositiveNumber);
-  sub->add_option("--max-iterations", options->max_iterations, "Solver iterations at most (mpec: Ipopt iterations per NLP)")
+  sub->add_option("--max-iterations", options->max_iterations,
+                  "Solver iterations at most (mpec: Ipopt iterations per NLP)")
       ->type_name("N")
       ->check(CLI::PositiveNumber);
   sub->add_flag("--fixed-initial-state", options->fixed_initial_state,

@@ -78,8 +78,9 @@ ExitCode RunEstimateMpec(const EstimateOptions& o) {
   if (!(o.process_noise >= 0) || !std::isfinite(o.process_noise))
     throw std::invalid_argument("--process-noise: expected a finite σ_Q ≥ 0 in N (N·m)");
   if (o.fixed_initial_state)
-    throw std::invalid_argument("--fixed-initial-state: only for --method lsq (mpec estimates "
-                                "all states)");
+    throw std::invalid_argument(
+        "--fixed-initial-state: only for --method lsq (mpec estimates "
+        "all states)");
   estimation::MpecOptions mo;
   mo.params = o.params;
   mo.noise_sigma = o.noise;

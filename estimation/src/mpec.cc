@@ -2,7 +2,6 @@
 
 #include <IpIpoptApplication.hpp>
 #include <IpTNLP.hpp>
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -25,8 +24,8 @@ enum class Stage { kScholtes, kPenalty, kPolish };
 class RelaxedNlp : public Ipopt::TNLP {
  public:
   RelaxedNlp(const MpecProblem& p, const std::vector<std::pair<int, int>>& pairs, Stage stage,
-             double param, const std::vector<bool>& first_at_zero, bool hessian,
-             const VectorXd& x0, const VectorXd* lambda0, const VectorXd* zl0, const VectorXd* zu0)
+             double param, const std::vector<bool>& first_at_zero, bool hessian, const VectorXd& x0,
+             const VectorXd* lambda0, const VectorXd* zl0, const VectorXd* zu0)
       : p_(p),
         pairs_(pairs),
         stage_(stage),
@@ -43,7 +42,9 @@ class RelaxedNlp : public Ipopt::TNLP {
     if (hessian_) hess_ = p.HessianStructure();
   }
 
-  int extra_rows() const { return stage_ == Stage::kScholtes ? static_cast<int>(pairs_.size()) : 0; }
+  int extra_rows() const {
+    return stage_ == Stage::kScholtes ? static_cast<int>(pairs_.size()) : 0;
+  }
 
   bool get_nlp_info(Index& n, Index& m, Index& nnz_jac, Index& nnz_h,
                     IndexStyleEnum& style) override {
@@ -136,8 +137,8 @@ class RelaxedNlp : public Ipopt::TNLP {
     return true;
   }
 
-  bool eval_jac_g(Index n, const Number* x, bool /*new_x*/, Index /*m*/, Index nele,
-                  Index* rows, Index* cols, Number* values) override {
+  bool eval_jac_g(Index n, const Number* x, bool /*new_x*/, Index /*m*/, Index nele, Index* rows,
+                  Index* cols, Number* values) override {
     const int nj = static_cast<int>(jac_.size());
     if (values == nullptr) {
       for (int e = 0; e < nj; ++e) {
@@ -165,8 +166,8 @@ class RelaxedNlp : public Ipopt::TNLP {
   }
 
   bool eval_h(Index n, const Number* x, bool /*new_x*/, Number obj_factor, Index /*m*/,
-              const Number* lambda, bool /*new_lambda*/, Index /*nele*/, Index* rows,
-              Index* cols, Number* values) override {
+              const Number* lambda, bool /*new_lambda*/, Index /*nele*/, Index* rows, Index* cols,
+              Number* values) override {
     if (!hessian_) return false;
     const int nh = static_cast<int>(hess_.size());
     if (values == nullptr) {
@@ -202,8 +203,8 @@ class RelaxedNlp : public Ipopt::TNLP {
   }
 
   void finalize_solution(Ipopt::SolverReturn status, Index n, const Number* x, const Number* z_L,
-                         const Number* z_U, Index /*m*/, const Number* /*g*/,
-                         const Number* lambda, Number obj_value, const Ipopt::IpoptData*,
+                         const Number* z_U, Index /*m*/, const Number* /*g*/, const Number* lambda,
+                         Number obj_value, const Ipopt::IpoptData*,
                          Ipopt::IpoptCalculatedQuantities*) override {
     status_ = status;
     x_ = Eigen::Map<const VectorXd>(x, n);
@@ -234,22 +235,38 @@ class RelaxedNlp : public Ipopt::TNLP {
 
 const char* StatusText(Ipopt::ApplicationReturnStatus s) {
   switch (s) {
-    case Ipopt::Solve_Succeeded: return "solved";
-    case Ipopt::Solved_To_Acceptable_Level: return "solved to acceptable level";
-    case Ipopt::Infeasible_Problem_Detected: return "infeasible problem detected";
-    case Ipopt::Search_Direction_Becomes_Too_Small: return "search direction too small";
-    case Ipopt::Diverging_Iterates: return "diverging iterates";
-    case Ipopt::User_Requested_Stop: return "user requested stop";
-    case Ipopt::Feasible_Point_Found: return "feasible point found";
-    case Ipopt::Maximum_Iterations_Exceeded: return "maximum iterations exceeded";
-    case Ipopt::Restoration_Failed: return "restoration failed";
-    case Ipopt::Error_In_Step_Computation: return "error in step computation";
-    case Ipopt::Maximum_CpuTime_Exceeded: return "maximum CPU time exceeded";
-    case Ipopt::Not_Enough_Degrees_Of_Freedom: return "not enough degrees of freedom";
-    case Ipopt::Invalid_Problem_Definition: return "invalid problem definition";
-    case Ipopt::Invalid_Option: return "invalid option";
-    case Ipopt::Invalid_Number_Detected: return "invalid number detected";
-    default: return "internal error";
+    case Ipopt::Solve_Succeeded:
+      return "solved";
+    case Ipopt::Solved_To_Acceptable_Level:
+      return "solved to acceptable level";
+    case Ipopt::Infeasible_Problem_Detected:
+      return "infeasible problem detected";
+    case Ipopt::Search_Direction_Becomes_Too_Small:
+      return "search direction too small";
+    case Ipopt::Diverging_Iterates:
+      return "diverging iterates";
+    case Ipopt::User_Requested_Stop:
+      return "user requested stop";
+    case Ipopt::Feasible_Point_Found:
+      return "feasible point found";
+    case Ipopt::Maximum_Iterations_Exceeded:
+      return "maximum iterations exceeded";
+    case Ipopt::Restoration_Failed:
+      return "restoration failed";
+    case Ipopt::Error_In_Step_Computation:
+      return "error in step computation";
+    case Ipopt::Maximum_CpuTime_Exceeded:
+      return "maximum CPU time exceeded";
+    case Ipopt::Not_Enough_Degrees_Of_Freedom:
+      return "not enough degrees of freedom";
+    case Ipopt::Invalid_Problem_Definition:
+      return "invalid problem definition";
+    case Ipopt::Invalid_Option:
+      return "invalid option";
+    case Ipopt::Invalid_Number_Detected:
+      return "invalid number detected";
+    default:
+      return "internal error";
   }
 }
 
@@ -294,7 +311,8 @@ void MpecSolverOptions::Validate() const {
     fail("penalty_factor", penalty_factor, "finite > 1");
   if (!(penalty_max >= penalty_start) || !std::isfinite(penalty_max))
     fail("penalty_max", penalty_max, "finite ≥ penalty_start");
-  if (!(complementarity_tolerance > 0)) fail("complementarity_tolerance", complementarity_tolerance, "> 0");
+  if (!(complementarity_tolerance > 0))
+    fail("complementarity_tolerance", complementarity_tolerance, "> 0");
   if (!(tolerance > 0)) fail("tolerance", tolerance, "> 0");
   if (max_iterations < 1) fail("max_iterations", max_iterations, "≥ 1");
   if (print_level < 0 || print_level > 12) fail("print_level", print_level, "in [0, 12]");
@@ -307,9 +325,9 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o) {
   const std::vector<std::pair<int, int>> pairs = problem.ComplementarityPairs();
   for (const auto& [a, b] : pairs) {
     if (a < 0 || b < 0 || a >= n || b >= n || a == b) {
-      throw std::invalid_argument("mpec: complementarity pair (" + std::to_string(a) + ", " +
-                                  std::to_string(b) + "): expected two different variables in [0, " +
-                                  std::to_string(n) + ")");
+      throw std::invalid_argument(
+          "mpec: complementarity pair (" + std::to_string(a) + ", " + std::to_string(b) +
+          "): expected two different variables in [0, " + std::to_string(n) + ")");
     }
   }
   if (!o.limited_memory && !problem.has_hessian())
@@ -376,8 +394,7 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o) {
   } else if (o.method == ComplementarityMethod::kScholtes) {
     // A failed stage ends the homotopy at the last solved stage's iterate (the polish then
     // starts from there).
-    for (double eps = o.epsilon_start; eps >= o.epsilon_end * (1 - 1e-9);
-         eps *= o.epsilon_factor) {
+    for (double eps = o.epsilon_start; eps >= o.epsilon_end * (1 - 1e-9); eps *= o.epsilon_factor) {
       std::ostringstream what;
       what << "scholtes eps " << eps;
       const bool first = !have_multipliers;
@@ -390,8 +407,7 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o) {
       }
     }
   } else {
-    for (double rho = o.penalty_start; rho <= o.penalty_max * (1 + 1e-9);
-         rho *= o.penalty_factor) {
+    for (double rho = o.penalty_start; rho <= o.penalty_max * (1 + 1e-9); rho *= o.penalty_factor) {
       std::ostringstream what;
       what << "penalty rho " << rho;
       const bool first = !have_multipliers;
@@ -420,7 +436,8 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o) {
       relaxed_ok = true;
       stage_failure.clear();
     } else {
-      if (o.progress) o.progress(std::string("polish: ") + StatusText(last) + ", kept the relaxed iterate");
+      if (o.progress)
+        o.progress(std::string("polish: ") + StatusText(last) + ", kept the relaxed iterate");
       x = x_relaxed;
       lambda = l_relaxed;
       zl = zl_relaxed;

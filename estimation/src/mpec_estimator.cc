@@ -42,9 +42,9 @@ struct StepBlock {
   int row = 0;  // first constraint row: equality rows, then slack rows
   // Per comp row: its complementarity variable, and the slack index (−1: the row is z itself).
   std::vector<int> a_var, b_var, a_slack, b_slack;
-  std::vector<int> theta_map;       // per param_columns() entry: chosen index or −1
-  std::vector<long long> keys;      // sorted local (row, col) keys of the model's entries
-  int jac_offset = 0;               // first global Jacobian entry (model entries, then slacks)
+  std::vector<int> theta_map;   // per param_columns() entry: chosen index or −1
+  std::vector<long long> keys;  // sorted local (row, col) keys of the model's entries
+  int jac_offset = 0;           // first global Jacobian entry (model entries, then slacks)
   VectorXd z_guess;
 };
 
@@ -186,9 +186,12 @@ struct MpecEstimationProblem::Impl {
       block(J.d_x, ox, false);
       block(J.d_u, ow, false);
     };
-    group(v.d_equality, [](int r) { return r; }, 1.0);
-    group(v.d_comp_a, [&](int r) { return b.a_slack[r] < 0 ? -1 : b.neq + b.a_slack[r]; }, -1.0);
-    group(v.d_comp_b, [&](int r) { return b.b_slack[r] < 0 ? -1 : b.neq + b.b_slack[r]; }, -1.0);
+    group(
+        v.d_equality, [](int r) { return r; }, 1.0);
+    group(
+        v.d_comp_a, [&](int r) { return b.a_slack[r] < 0 ? -1 : b.neq + b.a_slack[r]; }, -1.0);
+    group(
+        v.d_comp_b, [&](int r) { return b.b_slack[r] < 0 ? -1 : b.neq + b.b_slack[r]; }, -1.0);
   }
 
   int GlobalCol(const StepBlock& b, int lc) const {
@@ -321,8 +324,7 @@ void MpecEstimationProblem::Impl::Build(const Log& log) {
           X.translation() = (1 - a) * b.pose.row(i).head<3>().transpose() +
                             a * b.pose.row(j).head<3>().transpose();
           if (b.has_orientation) {
-            X.linear() =
-                LoggedQuaternion(b, i).slerp(a, LoggedQuaternion(b, j)).toRotationMatrix();
+            X.linear() = LoggedQuaternion(b, i).slerp(a, LoggedQuaternion(b, j)).toRotationMatrix();
           }
           sim::SetBodyPose(scene, b.body, X, &guess[l]);
         }
@@ -586,7 +588,8 @@ void MpecEstimationProblem::Impl::BuildStructure() {
     b.jac_offset = static_cast<int>(jac.size());
     const long long ncols = b.nz + ntheta + nx + nv;
     for (long long k : b.keys)
-      jac.push_back({b.row + static_cast<int>(k / ncols), GlobalCol(b, static_cast<int>(k % ncols))});
+      jac.push_back(
+          {b.row + static_cast<int>(k / ncols), GlobalCol(b, static_cast<int>(k % ncols))});
     for (std::size_t r = 0; r < b.a_slack.size(); ++r) {
       if (b.a_slack[r] >= 0) jac.push_back({b.row + b.neq + b.a_slack[r], b.a_var[r]});
       if (b.b_slack[r] >= 0) jac.push_back({b.row + b.neq + b.b_slack[r], b.b_var[r]});
@@ -680,8 +683,7 @@ bool MpecEstimationProblem::Gradient(const VectorXd& x, VectorXd* grad) const {
     for (int i = 0; i < r.n; ++i) v += r.coef[i] * x[r.col[i]];
     for (int i = 0; i < r.n; ++i) (*grad)[r.col[i]] += 2 * v * r.coef[i] / (I.sigma * I.sigma);
   }
-  for (int c : I.w_cols)
-    grad->segment(c, I.nv) += 2 * x.segment(c, I.nv) / (I.sigma_q * I.sigma_q);
+  for (int c : I.w_cols) grad->segment(c, I.nv) += 2 * x.segment(c, I.nv) / (I.sigma_q * I.sigma_q);
   return grad->allFinite();
 }
 
@@ -823,8 +825,8 @@ void MpecEstimationProblem::StepViolation(const VectorXd& x, double* equality,
     const sim::StepModelValues v = I.EvaluateStep(b, x, theta, false);
     if (v.equality.size() > 0) *equality = std::max(*equality, v.equality.cwiseAbs().maxCoeff());
     if (v.comp_a.size() > 0) {
-      *complementarity = std::max(
-          *complementarity, v.comp_a.cwiseMin(v.comp_b).cwiseAbs().maxCoeff());
+      *complementarity =
+          std::max(*complementarity, v.comp_a.cwiseMin(v.comp_b).cwiseAbs().maxCoeff());
     }
   }
   for (const auto& [row, col] : I.quat_rows)
@@ -975,8 +977,7 @@ MpecEstimateResult EstimateMpec(const sim::Simulator& simulator, const Log& log,
   int p = static_cast<int>(options.params.size());
   for (const Episode& ep : log.episodes)
     for (const BodyTrack& b : ep.bodies) p += b.dynamic ? (planar ? 6 : 12) : 0;
-  r.sigma = stated ? options.noise_sigma
-                   : std::sqrt(ss / std::max(1, r.num_residuals - p));
+  r.sigma = stated ? options.noise_sigma : std::sqrt(ss / std::max(1, r.num_residuals - p));
   VectorXd var;
   if (problem.ParameterVariances(sol.x, sol.first_at_zero, &var)) {
     const double scale = stated ? 1.0 : (r.sigma * r.sigma) / (sigma_w * sigma_w);
@@ -991,8 +992,7 @@ MpecEstimateResult EstimateMpec(const sim::Simulator& simulator, const Log& log,
     ee.file = log.episodes[e].file;
     ee.x0 = problem.InitialState(sol.x, e);
     int rows = 0;
-    for (const BodyTrack& b : log.episodes[e].bodies)
-      rows += b.dynamic ? 1 : 0;
+    for (const BodyTrack& b : log.episodes[e].bodies) rows += b.dynamic ? 1 : 0;
     const int per_sample = ResidualsPerSample(log.episodes[e], simulator.scene().dim);
     (void)rows;
     ee.rms_residual =

@@ -146,7 +146,8 @@ struct Toy {
 class MacMpecTest : public ::testing::TestWithParam<std::tuple<int, ComplementarityMethod, bool>> {
 };
 
-const Toy kToys[] = {{"scholtes3", Scholtes3, 0.5}, {"jr1", Jr1, 0.5}, {"scholtes5", Scholtes5, 1.0}};
+const Toy kToys[] = {
+    {"scholtes3", Scholtes3, 0.5}, {"jr1", Jr1, 0.5}, {"scholtes5", Scholtes5, 1.0}};
 
 TEST_P(MacMpecTest, ReachesKnownOptimum) {
   const auto [index, method, polish] = GetParam();
@@ -173,16 +174,16 @@ TEST_P(MacMpecTest, ReachesKnownOptimum) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(
-    Toys, MacMpecTest,
-    ::testing::Combine(::testing::Values(0, 1, 2),
-                       ::testing::Values(ComplementarityMethod::kScholtes,
-                                         ComplementarityMethod::kPenalty),
-                       ::testing::Bool()),
-    [](const auto& i) {
-      return kToys[std::get<0>(i.param)].name + "_" + ToString(std::get<1>(i.param)) +
-             (std::get<2>(i.param) ? "_polish" : "_relaxed");
-    });
+INSTANTIATE_TEST_SUITE_P(Toys, MacMpecTest,
+                         ::testing::Combine(::testing::Values(0, 1, 2),
+                                            ::testing::Values(ComplementarityMethod::kScholtes,
+                                                              ComplementarityMethod::kPenalty),
+                                            ::testing::Bool()),
+                         [](const auto& i) {
+                           return kToys[std::get<0>(i.param)].name + "_" +
+                                  ToString(std::get<1>(i.param)) +
+                                  (std::get<2>(i.param) ? "_polish" : "_relaxed");
+                         });
 
 TEST(MpecSolver, RejectsBadOptionsAndPairs) {
   const QuadraticMpec p = Scholtes3();
@@ -227,8 +228,8 @@ const char* kPlateBox =
 TEST(MpecEstimator, SimulatedTrajectorySatisfiesConstraints) {
   const sim::Simulator sim(sim::ParseScene(testing::kPlanarBlock, "block.yaml"));
   // Every step logged except every third gap of two steps (the grid splits those).
-  const std::string path = testing::SyntheticLog(sim, "block", kTrueMu, 0.6, 1, 0.0, 1,
-                                                 "mpec_constraints.csv");
+  const std::string path =
+      testing::SyntheticLog(sim, "block", kTrueMu, 0.6, 1, 0.0, 1, "mpec_constraints.csv");
   const Log log = ReadLog({path}, sim.scene());
   sim::Params p = sim.DefaultParams();
   p.values[sim.scene().param_table().Index("mu.default")] = kTrueMu;

@@ -26,9 +26,8 @@ void CheckHonest(ComplementarityMethod method, bool state_noise) {
   const int trials = 20;
   double sum_z2 = 0;
   for (int trial = 0; trial < trials; ++trial) {
-    const std::string path =
-        SyntheticLog(sim, "block", kTrueMu, 0.6, 5, sigma, 100 + trial,
-                     "mpec_noisy_" + std::to_string(trial) + ".csv", false);
+    const std::string path = SyntheticLog(sim, "block", kTrueMu, 0.6, 5, sigma, 100 + trial,
+                                          "mpec_noisy_" + std::to_string(trial) + ".csv", false);
     const Log log = ReadLog({path}, sim.scene());
     MpecOptions o;
     o.params = {"mu.default"};

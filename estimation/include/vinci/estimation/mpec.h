@@ -78,12 +78,12 @@ ComplementarityMethod ParseComplementarityMethod(const std::string& name);
 
 struct MpecSolverOptions {
   ComplementarityMethod method = ComplementarityMethod::kScholtes;
-  double epsilon_start = 1e-1;  ///< Scholtes: first ε
-  double epsilon_end = 1e-8;    ///< Scholtes: last ε
-  double epsilon_factor = 0.1;  ///< Scholtes: κ, ε ← κ ε; in (0, 1)
-  double penalty_start = 1.0;   ///< penalty: first ρ
+  double epsilon_start = 1e-1;   ///< Scholtes: first ε
+  double epsilon_end = 1e-8;     ///< Scholtes: last ε
+  double epsilon_factor = 0.1;   ///< Scholtes: κ, ε ← κ ε; in (0, 1)
+  double penalty_start = 1.0;    ///< penalty: first ρ
   double penalty_factor = 10.0;  ///< penalty: β, ρ ← β ρ; > 1
-  double penalty_max = 1e10;    ///< penalty: last ρ at most
+  double penalty_max = 1e10;     ///< penalty: last ρ at most
   /// Converged when the final iterate's complementarity violation max_pairs |min(x_a, x_b)| is
   /// at most this (and the last NLP solved). A relaxed iterate has min(x_a, x_b) ≤ ε / max(x_a,
   /// x_b) (plus Ipopt's bound relaxation, ~1e-8); a polished one is exactly complementary.

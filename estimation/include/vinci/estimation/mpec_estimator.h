@@ -24,11 +24,11 @@
 //
 // The contact set of every step is frozen at the initial guess (StepModel, Freeze): contacts
 // found at the measured poses, within the envelope plus contact_margin (3 σ_R by default), stay
-// candidate contacts (p_n may vanish) and no other contact can appear. The initial guess: measured poses (linear interpolation between samples; quaternions
-// slerped), velocities by backward differences (ν_ℓ+1 = (q_ℓ+1 − q_ℓ)/h, the step's kinematics),
-// impulses from one simulator step from each guessed state (then the next state overwritten by
-// the guess), w = 0, θ the scene's values. Unobserved dynamic bodies start at the scene's initial
-// state.
+// candidate contacts (p_n may vanish) and no other contact can appear. The initial guess: measured
+// poses (linear interpolation between samples; quaternions slerped), velocities by backward
+// differences (ν_ℓ+1 = (q_ℓ+1 − q_ℓ)/h, the step's kinematics), impulses from one simulator step
+// from each guessed state (then the next state overwritten by the guess), w = 0, θ the scene's
+// values. Unobserved dynamic bodies start at the scene's initial state.
 //
 // Standard errors: the Laplace approximation at the solution. With the active side of every
 // complementarity pair and θ at a bound fixed, the covariance of the free unknowns is the
@@ -71,7 +71,7 @@ struct MpecOptions {
   /// that noise lifting a resting part does not drop its contacts (m); < 0: 3 σ_R (the stated
   /// σ_R, else 1 mm). 0 with a log on the scene's dt grid freezes exactly the simulator's sets.
   double contact_margin = -1.0;
-  int threads = 1;                  ///< threads evaluating the step equations
+  int threads = 1;  ///< threads evaluating the step equations
   /// Complementarity method, homotopy, Ipopt settings. The Scholtes homotopy starts at ε = 1e-4
   /// here (the products are impulses per step, ~m g h ≈ 1e-2 N·s, times velocities: ε = 0.1
   /// would relax complementarity away, and measured, took hundreds of iterations per stage).
@@ -104,8 +104,8 @@ class MpecEstimationProblem final : public MpecProblem {
   /// objective. Throws std::invalid_argument for invalid options, an unknown or
   /// non-differentiable parameter, a formulation whose step unknowns do not start with the next
   /// state (GI), or too few samples.
-  MpecEstimationProblem(const sim::Simulator& simulator, const Log& log,
-                        const MpecOptions& options, double sigma);
+  MpecEstimationProblem(const sim::Simulator& simulator, const Log& log, const MpecOptions& options,
+                        double sigma);
   ~MpecEstimationProblem() override;
 
   int num_variables() const override;
