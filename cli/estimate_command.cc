@@ -65,15 +65,16 @@ std::string ResultJson(const EstimateOptions& o, const estimation::EstimateResul
 }  // namespace
 
 ExitCode RunEstimateCommand(const EstimateOptions& o) {
-  if (o.method == "mpec" || o.method == "filter") {
+  if (o.method == "mpec") return RunEstimateMpec(o);
+  if (o.method == "filter") {
     throw std::invalid_argument(
         "--method " + o.method +
-        ": not implemented yet (only lsq is; the MPEC estimator with Ipopt and the recursive "
-        "filter are planned, docs/estimation.md)");
+        ": not implemented yet (lsq and mpec are; the recursive filter is planned, "
+        "docs/estimation.md)");
   }
   if (o.method != "lsq") {
     throw std::invalid_argument("--method " + o.method +
-                                ": expected lsq (mpec and filter are not implemented yet)");
+                                ": expected lsq or mpec (filter is not implemented yet)");
   }
   if (o.noise < 0 || !std::isfinite(o.noise))
     throw std::invalid_argument("--noise: expected a finite σ ≥ 0 in m");
@@ -146,9 +147,16 @@ Command RegisterEstimateCommand(CLI::App& app) {
       ->required()
       ->type_name("NAME");
   sub->add_option("--method", options->method,
-                  "Estimator: lsq (least squares with the simulator in the loop, Ceres). mpec "
-                  "and filter are not implemented yet")
+                  "Estimator: lsq (least squares with the simulator in the loop, Ceres) or mpec "
+                  "(the MPEC non-recursive filter, Ipopt). filter is not implemented yet")
       ->type_name("NAME");
+  sub->add_option("--complementarity", options->complementarity,
+                  "mpec: scholtes (relaxation homotopy x∘y ≤ ε, ε → 1e-8) or penalty (ℓ1)")
+      ->type_name("NAME");
+  sub->add_option("--process-noise", options->process_noise,
+                  "mpec: process noise σ_Q of each generalized force (N, N·m; default 1% of the "
+                  "lightest dynamic body's weight)")
+      ->type_name("SIGMA");
   sub->add_option("--noise", options->noise,
                   "Measurement noise σ of the logged positions in m for the standard errors "
                   "(default: estimated from the residuals)")
@@ -156,7 +164,8 @@ Command RegisterEstimateCommand(CLI::App& app) {
   sub->add_option("--threads,-j", options->threads, "Threads (episodes evaluated in parallel)")
       ->type_name("N")
       ->check(CLI::PositiveNumber);
-  sub->add_option("--max-iterations", options->max_iterations, "Solver iterations at most")
+  sub->add_option("--max-iterations", options->max_iterations,
+                  "Solver iterations at most (mpec: Ipopt iterations per NLP)")
       ->type_name("N")
       ->check(CLI::PositiveNumber);
   sub->add_flag("--fixed-initial-state", options->fixed_initial_state,

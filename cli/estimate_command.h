@@ -22,6 +22,8 @@ struct EstimateOptions {
   bool fixed_initial_state = false;
   std::string out;
   bool quiet = false;
+  std::string complementarity = "scholtes";  ///< mpec: scholtes | penalty
+  double process_noise = 0.0;                ///< mpec: σ_Q (N, N·m); 0: 1% of the weight
 };
 
 /// Adds the `estimate` subcommand to `app`.
@@ -31,5 +33,8 @@ Command RegisterEstimateCommand(CLI::App& app);
 /// is not implemented). Returns kOk, or kSolveFailed if the estimator did not converge (the
 /// result is still written, with the reason).
 ExitCode RunEstimateCommand(const EstimateOptions& options);
+
+/// `--method mpec` (estimate_mpec.cc): same contract as RunEstimateCommand.
+ExitCode RunEstimateMpec(const EstimateOptions& options);
 
 }  // namespace vinci::cli

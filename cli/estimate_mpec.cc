@@ -1,0 +1,130 @@
+// `vinci estimate --method mpec`: the MPEC non-recursive filter (docs/estimation.md), run from
+// RunEstimateCommand.
+#include <charconv>
+#include <cmath>
+#include <fstream>
+#include <iostream>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+
+#include "estimate_command.h"
+#include "json.h"
+#include "vinci/estimation/log.h"
+#include "vinci/estimation/mpec_estimator.h"
+#include "vinci/sim/model/scene_file.h"
+
+namespace vinci::cli {
+namespace {
+
+// Shortest text that reads back as exactly v; null for NaN/inf (JSON has neither).
+std::string Number(double v) {
+  if (!std::isfinite(v)) return "null";
+  char buf[32];
+  const auto res = std::to_chars(buf, buf + sizeof(buf), v);
+  return std::string(buf, res.ptr);
+}
+
+std::string Named(const std::vector<std::string>& names, const sim::VectorXd& v) {
+  std::string o = "{";
+  for (size_t i = 0; i < names.size(); ++i)
+    o += (i ? ", " : "") + JsonString(names[i]) + ": " + Number(v[static_cast<Eigen::Index>(i)]);
+  return o + "}";
+}
+
+std::string MpecJson(const EstimateOptions& o, const estimation::MpecEstimateResult& r) {
+  std::ostringstream j;
+  j << "{\n  \"scene\": " << JsonString(o.scene_path) << ",\n  \"logs\": [";
+  for (size_t i = 0; i < o.logs.size(); ++i) j << (i ? ", " : "") << JsonString(o.logs[i]);
+  j << "],\n  \"methods\": {\n    \"mpec\": {\n"
+    << "      \"estimates\": " << Named(r.names, r.estimates) << ",\n"
+    << "      \"std_errors\": " << Named(r.names, r.std_errors) << ",\n"
+    << "      \"initial_values\": " << Named(r.names, r.initial_values) << ",\n"
+    << "      \"iterations\": " << r.iterations << ",\n"
+    << "      \"time_s\": " << Number(r.time_s) << ",\n"
+    << "      \"converged\": " << (r.converged ? "true" : "false") << ",\n"
+    << "      \"reason\": " << JsonString(r.reason) << ",\n"
+    << "      \"complementarity\": " << JsonString(r.complementarity) << ",\n"
+    << "      \"complementarity_violation\": " << Number(r.complementarity_violation) << ",\n"
+    << "      \"equality_violation\": " << Number(r.equality_violation) << ",\n"
+    << "      \"stages\": " << r.stages << ",\n"
+    << "      \"polished\": " << (r.polished ? "true" : "false") << ",\n"
+    << "      \"sigma\": " << Number(r.sigma) << ",\n"
+    << "      \"noise_stated\": " << (o.noise > 0 ? "true" : "false") << ",\n"
+    << "      \"process_noise\": " << Number(r.process_noise) << ",\n"
+    << "      \"max_process_noise\": " << Number(r.max_process_noise) << ",\n"
+    << "      \"dropped_jacobian\": " << Number(r.dropped_jacobian) << ",\n"
+    << "      \"initial_cost\": " << Number(r.initial_cost) << ",\n"
+    << "      \"final_cost\": " << Number(r.final_cost) << ",\n"
+    << "      \"num_residuals\": " << r.num_residuals << ",\n"
+    << "      \"num_unknowns\": " << r.num_unknowns << ",\n"
+    << "      \"num_constraints\": " << r.num_constraints << ",\n"
+    << "      \"num_complementarity_pairs\": " << r.num_pairs << ",\n"
+    << "      \"num_steps\": " << r.num_steps << ",\n"
+    << "      \"episodes\": [";
+  for (size_t e = 0; e < r.episodes.size(); ++e) {
+    j << (e ? ", " : "") << "{\"file\": " << JsonString(r.episodes[e].file)
+      << ", \"rms_residual\": " << Number(r.episodes[e].rms_residual) << "}";
+  }
+  j << "]\n    }\n  }\n}\n";
+  return j.str();
+}
+
+}  // namespace
+
+ExitCode RunEstimateMpec(const EstimateOptions& o) {
+  if (o.noise < 0 || !std::isfinite(o.noise))
+    throw std::invalid_argument("--noise: expected a finite σ ≥ 0 in m");
+  if (!(o.process_noise >= 0) || !std::isfinite(o.process_noise))
+    throw std::invalid_argument("--process-noise: expected a finite σ_Q ≥ 0 in N (N·m)");
+  if (o.fixed_initial_state)
+    throw std::invalid_argument(
+        "--fixed-initial-state: only for --method lsq (mpec estimates "
+        "all states)");
+  estimation::MpecOptions mo;
+  mo.params = o.params;
+  mo.noise_sigma = o.noise;
+  mo.process_noise = o.process_noise;
+  mo.threads = o.threads;
+  mo.solver.method = estimation::ParseComplementarityMethod(o.complementarity);
+  mo.solver.max_iterations = o.max_iterations;
+  mo.Validate();
+  {
+    std::ofstream test(o.out, std::ios::app);
+    if (!test) throw std::invalid_argument("--out: cannot open '" + o.out + "' for writing");
+  }
+  const sim::Simulator simulator(sim::LoadSceneFile(o.scene_path));
+  const estimation::Log log = estimation::ReadLog(o.logs, simulator.scene());
+  if (!o.quiet) {
+    mo.progress = [](const std::string& line) { std::cerr << line << "\n"; };
+    std::cerr << "vinci estimate: mpec (" << o.complementarity << "), " << log.episodes.size()
+              << " episode(s), " << o.params.size() << " parameter(s)" << std::endl;
+  }
+  const estimation::MpecEstimateResult r = estimation::EstimateMpec(simulator, log, mo);
+  std::ofstream out(o.out, std::ios::out | std::ios::trunc);
+  out << MpecJson(o, r);
+  out.close();
+  if (!out) throw std::invalid_argument("--out: writing '" + o.out + "' failed");
+  if (!o.quiet) {
+    std::ostringstream s;
+    s.precision(6);
+    for (size_t i = 0; i < r.names.size(); ++i) {
+      s << r.names[i] << " = " << r.estimates[static_cast<Eigen::Index>(i)] << " ± "
+        << r.std_errors[static_cast<Eigen::Index>(i)] << " (from "
+        << r.initial_values[static_cast<Eigen::Index>(i)] << ")\n";
+    }
+    s << "iterations " << r.iterations << " in " << r.stages << " NLPs, " << r.time_s
+      << " s, complementarity violation " << r.complementarity_violation << ", "
+      << (r.converged ? "converged" : "did not converge") << ": " << r.reason << "\n"
+      << "result      " << o.out << "\n";
+    std::cout << s.str() << std::flush;
+  }
+  if (!r.converged) {
+    PrintError("the MPEC estimator did not converge (" + r.reason + "); the result in '" + o.out +
+               "' is the last iterate");
+    return ExitCode::kSolveFailed;
+  }
+  return ExitCode::kOk;
+}
+
+}  // namespace vinci::cli

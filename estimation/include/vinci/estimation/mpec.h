@@ -1,0 +1,123 @@
+// Mathematical programs with equilibrium (complementarity) constraints, solved by Ipopt through
+// a relaxation or a penalty (docs/estimation.md, method mpec).
+//
+// An MpecProblem is a smooth NLP plus complementarity pairs between its variables:
+//
+//   min_x f(x)  s.t.  g_l ≤ g(x) ≤ g_u,  x_l ≤ x ≤ x_u,  0 ≤ x_a ⊥ x_b ≥ 0  for every pair (a, b)
+//
+// (a complementarity between functions is written with slack variables s = c(x), s ≥ 0).
+// SolveMpec replaces the pairs by a sequence of smooth NLPs, each warm-started from the last:
+//
+//   Scholtes relaxation:  x_a ≥ 0, x_b ≥ 0, x_a x_b ≤ ε,  ε = ε_0, ε_0 κ, ε_0 κ², … ≥ ε_end;
+//   ℓ1 penalty:           min f(x) + ρ Σ x_a x_b,  x_a, x_b ≥ 0,  ρ = ρ_0, ρ_0 β, … ≤ ρ_max
+//                         (Σ x_a x_b = Σ |x_a x_b| on the feasible set, an exact penalty),
+//
+// and, optionally, a final "polish" NLP with the active set of the last iterate fixed (for each
+// pair the smaller of x_a, x_b is fixed at 0, the other kept ≥ 0), which restores exact
+// complementarity when the relaxed solution identified the active set. Every NLP is solved by
+// Ipopt (sparse Jacobian; the problem's exact Lagrangian Hessian plus the relaxation's terms, or
+// Ipopt's limited-memory quasi-Newton approximation).
+#pragma once
+
+#include <functional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "vinci/sim/types.h"
+
+namespace vinci::estimation {
+
+/// A sparse matrix entry position (row, column), 0-based.
+struct Entry {
+  int row = 0, col = 0;
+};
+
+/// The smooth part of an MPEC and its complementarity pairs. Evaluation functions return false
+/// when they cannot evaluate at x (the solver then shortens its step); they must not throw.
+class MpecProblem {
+ public:
+  virtual ~MpecProblem() = default;
+  virtual int num_variables() const = 0;
+  virtual int num_constraints() const = 0;
+  /// Bounds (±1e19 or beyond = none). The solver raises the lower bound of every variable in a
+  /// complementarity pair to ≥ 0.
+  virtual void Bounds(sim::VectorXd* x_l, sim::VectorXd* x_u, sim::VectorXd* g_l,
+                      sim::VectorXd* g_u) const = 0;
+  virtual sim::VectorXd StartingPoint() const = 0;
+  /// 0 ≤ x[first] ⊥ x[second] ≥ 0; first ≠ second.
+  virtual std::vector<std::pair<int, int>> ComplementarityPairs() const = 0;
+  virtual bool Objective(const sim::VectorXd& x, double* f) const = 0;
+  virtual bool Gradient(const sim::VectorXd& x, sim::VectorXd* grad) const = 0;
+  virtual bool Constraints(const sim::VectorXd& x, sim::VectorXd* g) const = 0;
+  /// The positions of the constraint Jacobian's structural non-zeros (fixed).
+  virtual std::vector<Entry> JacobianStructure() const = 0;
+  /// Values in the order of JacobianStructure().
+  virtual bool JacobianValues(const sim::VectorXd& x, sim::VectorXd* values) const = 0;
+  /// Whether HessianStructure/HessianValues are provided (else only limited memory can be used).
+  virtual bool has_hessian() const { return false; }
+  /// Lower triangle (row ≥ col) of ∇²(σ f + Σ λ_i g_i).
+  virtual std::vector<Entry> HessianStructure() const { return {}; }
+  /// Values of ∇²(obj_factor f + Σ lambda_i g_i) in the order of HessianStructure(); may be an
+  /// approximation (then say so in the problem's documentation).
+  virtual bool HessianValues(const sim::VectorXd& /*x*/, double /*obj_factor*/,
+                             const sim::VectorXd& /*lambda*/, sim::VectorXd* /*values*/) const {
+    return false;
+  }
+};
+
+enum class ComplementarityMethod {
+  kScholtes,  ///< x_a x_b ≤ ε, ε driven to ε_end
+  kPenalty,   ///< ρ Σ x_a x_b added to the objective, ρ increased until complementary
+};
+
+/// "scholtes" or "penalty".
+const char* ToString(ComplementarityMethod method);
+/// Parses "scholtes" / "penalty"; throws std::invalid_argument naming the value otherwise.
+ComplementarityMethod ParseComplementarityMethod(const std::string& name);
+
+struct MpecSolverOptions {
+  ComplementarityMethod method = ComplementarityMethod::kScholtes;
+  double epsilon_start = 1e-1;   ///< Scholtes: first ε
+  double epsilon_end = 1e-8;     ///< Scholtes: last ε
+  double epsilon_factor = 0.1;   ///< Scholtes: κ, ε ← κ ε; in (0, 1)
+  double penalty_start = 1.0;    ///< penalty: first ρ
+  double penalty_factor = 10.0;  ///< penalty: β, ρ ← β ρ; > 1
+  double penalty_max = 1e10;     ///< penalty: last ρ at most
+  /// Converged when the final iterate's complementarity violation max_pairs |min(x_a, x_b)| is
+  /// at most this (and the last NLP solved). A relaxed iterate has min(x_a, x_b) ≤ ε / max(x_a,
+  /// x_b) (plus Ipopt's bound relaxation, ~1e-8); a polished one is exactly complementary.
+  double complementarity_tolerance = 1e-6;
+  bool polish = true;           ///< the final NLP with the active set fixed
+  bool limited_memory = false;  ///< Ipopt's L-BFGS Hessian instead of the problem's
+  double tolerance = 1e-8;      ///< Ipopt tol of each NLP
+  int max_iterations = 3000;    ///< Ipopt iterations per NLP
+  int print_level = 0;          ///< Ipopt print_level (0 silent … 12)
+  /// Called after each NLP with a one-line summary. May be empty. Must not throw.
+  std::function<void(const std::string&)> progress;
+  /// Throws std::invalid_argument naming the first invalid field.
+  void Validate() const;
+};
+
+struct MpecSolution {
+  sim::VectorXd x;       ///< the final iterate
+  sim::VectorXd lambda;  ///< multipliers of the problem's constraints g
+  double objective = 0.0;
+  /// max over pairs of |min(x_a, x_b)| (0 without pairs).
+  double complementarity_violation = 0.0;
+  /// Per pair: true if x_a is the side at zero (the polish stage fixes it), else x_b.
+  std::vector<bool> first_at_zero;
+  int iterations = 0;  ///< Ipopt iterations over all NLPs
+  int stages = 0;      ///< NLPs solved (relaxation / penalty stages + polish)
+  bool converged = false;
+  bool polished = false;  ///< the polish stage succeeded and gave the final iterate
+  std::string reason;     ///< how the last NLP ended, and why not converged
+  double time_s = 0.0;
+};
+
+/// Solves the MPEC from problem.StartingPoint(). Throws std::invalid_argument for invalid
+/// options, inconsistent sizes or a pair with equal or out-of-range indices, or an exact-Hessian
+/// run on a problem without one; numerical failure is reported in the result.
+MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& options);
+
+}  // namespace vinci::estimation

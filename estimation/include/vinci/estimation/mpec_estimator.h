@@ -1,0 +1,168 @@
+// The MPEC non-recursive filter (thesis chapter 7; docs/estimation.md, method mpec): scene
+// parameters, states, contact impulses and process noise estimated together from logged poses,
+// with the formulation's own step equations as constraints, solved by Ipopt (mpec.h).
+//
+// Time grid of an episode: its log times t_0 < … < t_n, each interval [t_i, t_i+1] divided
+// into n_i = max(1, round((t_i+1 − t_i)/dt)) steps of h_i = (t_i+1 − t_i)/n_i (dt the scene's;
+// h_i = dt exactly when |h_i − dt| ≤ 1e-9 dt, so a log written every k-th step of a simulation
+// has the simulator's own grid). Node ℓ has the state x_ℓ = (q_ℓ, ν_ℓ) of all dynamic bodies.
+//
+// Unknowns: θ (the chosen ParamTable entries: friction coefficients, support friction, masses,
+// within their table bounds), per episode x_0, and per step ℓ its step unknowns z_ℓ (the
+// formulation's StepLayout: q_ℓ+1, ν_ℓ+1 — so z_ℓ's head IS the next state — impulses, …), the
+// process noise w_ℓ (a generalized force, N / N·m, the step input u), and slacks s = c(·) ≥ 0 for
+// complementarity rows that are not a single unknown.
+//
+//   min  Σ_samples ‖y_i − h(q_ℓ(i))‖² / σ_R²  +  Σ_ℓ ‖w_ℓ‖² / σ_Q²
+//   s.t. for every step ℓ, the frozen step model (sim/formulations/step_model.h) at
+//        (z_ℓ, θ, x_ℓ, u = w_ℓ):  equality = 0,  0 ≤ comp_a ⊥ comp_b ≥ 0;
+//        spatial scenes: ‖quaternion of x_0‖ = 1 per dynamic body
+//
+// h(q): the observed dynamic bodies' positions and, where logged, orientations times
+// orientation_length (planar: θ − θ_y; spatial: 2 vec(q̄_y ⊗ q), the rotation vector to first
+// order, linear in q). All residuals are linear in the unknowns.
+//
+// The contact set of every step is frozen at the initial guess (StepModel, Freeze): contacts
+// found at the measured poses, within the envelope plus contact_margin (3 σ_R by default), stay
+// candidate contacts (p_n may vanish) and no other contact can appear. The initial guess: measured
+// poses (linear interpolation between samples; quaternions slerped), velocities by backward
+// differences (ν_ℓ+1 = (q_ℓ+1 − q_ℓ)/h, the step's kinematics), impulses from one simulator step
+// from each guessed state (then the next state overwritten by the guess), w = 0, θ the scene's
+// values. Unobserved dynamic bodies start at the scene's initial state.
+//
+// Standard errors: the Laplace approximation at the solution. With the active side of every
+// complementarity pair and θ at a bound fixed, the covariance of the free unknowns is the
+// upper-left block of the inverse KKT matrix [H J_Fᵀ; J_F 0], H = ½ ∇²(objective) (the Gauss–
+// Newton Hessian of the negative log-likelihood, the step equations' curvature neglected), J_F
+// the constraint Jacobian: the reduced-Hessian inverse Z (Zᵀ H Z)⁻¹ Zᵀ. Without a stated σ_R the
+// fit is weighted with 1 mm and σ_R estimated afterwards, σ̂² = Σ r² / (m − p) (p = parameters +
+// observed initial-state components), scaling the covariance by σ̂² / (1 mm)² (σ_Q scaled along).
+#pragma once
+
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "vinci/estimation/least_squares.h"
+#include "vinci/estimation/log.h"
+#include "vinci/estimation/mpec.h"
+#include "vinci/sim/simulator/simulator.h"
+
+namespace vinci::estimation {
+
+/// MpecSolverOptions with the homotopy start the estimator uses (epsilon_start = 1e-4).
+inline MpecSolverOptions EstimatorSolverDefaults() {
+  MpecSolverOptions o;
+  o.epsilon_start = 1e-4;
+  return o;
+}
+
+struct MpecOptions {
+  std::vector<std::string> params;  ///< names in the scene's ParamTable, differentiable
+  /// Measurement noise σ_R (m); 0: the fit is weighted with 1 mm and σ_R estimated afterwards.
+  double noise_sigma = 0.0;
+  /// Process noise σ_Q of each generalized-force component (N, N·m); ≤ 0: 1% of the weight
+  /// m |g| of the lightest dynamic body (m if g = 0). Too large a σ_Q lets w replace friction
+  /// (measured: σ_Q = 1 N on a 20 g part drove μ̂ to 0).
+  double process_noise = 0.0;
+  double orientation_length = 0.1;  ///< m per rad for orientation residuals
+  /// Added to the scene's envelope when the contact sets are frozen at the measured poses, so
+  /// that noise lifting a resting part does not drop its contacts (m); < 0: 3 σ_R (the stated
+  /// σ_R, else 1 mm). 0 with a log on the scene's dt grid freezes exactly the simulator's sets.
+  double contact_margin = -1.0;
+  int threads = 1;  ///< threads evaluating the step equations
+  /// Complementarity method, homotopy, Ipopt settings. The Scholtes homotopy starts at ε = 1e-4
+  /// here (the products are impulses per step, ~m g h ≈ 1e-2 N·s, times velocities: ε = 0.1
+  /// would relax complementarity away, and measured, took hundreds of iterations per stage).
+  MpecSolverOptions solver = EstimatorSolverDefaults();
+  /// Progress lines (setup, each NLP). May be empty. Must not throw.
+  std::function<void(const std::string&)> progress;
+  /// Throws std::invalid_argument naming the first invalid field.
+  void Validate() const;
+};
+
+/// EstimateResult (method "mpec") plus what the MPEC reports.
+struct MpecEstimateResult : EstimateResult {
+  std::string complementarity;  ///< "scholtes" or "penalty"
+  /// max over steps of |min(comp_a, comp_b)| of the step equations at the solution.
+  double complementarity_violation = 0.0;
+  double equality_violation = 0.0;  ///< max |equality rows| at the solution
+  int stages = 0;                   ///< NLPs solved
+  bool polished = false;            ///< the fixed-active-set NLP gave the result
+  int num_constraints = 0, num_pairs = 0, num_steps = 0;
+  double process_noise = 0.0;      ///< σ_Q used
+  double max_process_noise = 0.0;  ///< max |w| at the solution (N, N·m)
+  /// Largest Jacobian entry dropped for falling outside the structure (0: none).
+  double dropped_jacobian = 0.0;
+};
+
+/// The MPEC of a log (for EstimateMpec, tests and tools). Not thread-safe (evaluation caches).
+class MpecEstimationProblem final : public MpecProblem {
+ public:
+  /// Builds the grid, the frozen step models and the initial guess. `sigma` is σ_R used in the
+  /// objective. Throws std::invalid_argument for invalid options, an unknown or
+  /// non-differentiable parameter, a formulation whose step unknowns do not start with the next
+  /// state (GI), or too few samples.
+  MpecEstimationProblem(const sim::Simulator& simulator, const Log& log, const MpecOptions& options,
+                        double sigma);
+  ~MpecEstimationProblem() override;
+
+  int num_variables() const override;
+  int num_constraints() const override;
+  void Bounds(sim::VectorXd* x_l, sim::VectorXd* x_u, sim::VectorXd* g_l,
+              sim::VectorXd* g_u) const override;
+  sim::VectorXd StartingPoint() const override;
+  std::vector<std::pair<int, int>> ComplementarityPairs() const override;
+  bool Objective(const sim::VectorXd& x, double* f) const override;
+  bool Gradient(const sim::VectorXd& x, sim::VectorXd* grad) const override;
+  bool Constraints(const sim::VectorXd& x, sim::VectorXd* g) const override;
+  std::vector<Entry> JacobianStructure() const override;
+  bool JacobianValues(const sim::VectorXd& x, sim::VectorXd* values) const override;
+  bool has_hessian() const override { return true; }
+  /// The objective's Hessian (exact, constant) and the quaternion-norm rows'; the step
+  /// equations' curvature is neglected (Gauss–Newton: exact at a zero-residual solution, where
+  /// their multipliers vanish).
+  std::vector<Entry> HessianStructure() const override;
+  bool HessianValues(const sim::VectorXd& x, double obj_factor, const sim::VectorXd& lambda,
+                     sim::VectorXd* values) const override;
+
+  int num_steps() const;
+  int num_residuals() const;
+  double process_noise() const;  ///< σ_Q used (N, N·m)
+  /// The largest |entry| of a step's Jacobian that fell outside the fixed structure (the union
+  /// of the entries at the guess and four perturbed points) and was dropped, over all
+  /// evaluations so far.
+  double dropped_jacobian() const;
+  /// The chosen parameters' values in x.
+  sim::VectorXd Parameters(const sim::VectorXd& x) const;
+  /// The state at an episode's first node.
+  sim::State InitialState(const sim::VectorXd& x, int episode) const;
+  /// Σ r² (m²) of the measurement residuals and Σ per episode; max |w|.
+  double SquaredResiduals(const sim::VectorXd& x, std::vector<double>* per_episode = nullptr,
+                          double* max_w = nullptr) const;
+  /// max |equality| and max |min(comp_a, comp_b)| of all steps' frozen equations at x.
+  void StepViolation(const sim::VectorXd& x, double* equality, double* complementarity) const;
+  /// The unknowns of an exact solution: per episode a rollout whose states include every grid
+  /// node (matched by time to 1e-9 s), mapped by StepModel::UnknownsFromStep, w = 0, slacks =
+  /// their rows, θ = params' chosen entries. Throws std::invalid_argument if a node has no state.
+  sim::VectorXd VariablesFromRollouts(const std::vector<sim::Trajectory>& rollouts,
+                                      const sim::Params& params) const;
+  /// Variances of the chosen parameters at x (the Laplace approximation of the file comment,
+  /// in σ_R units of the objective): `first_at_zero` as MpecSolution's. false if the KKT matrix
+  /// is singular.
+  bool ParameterVariances(const sim::VectorXd& x, const std::vector<bool>& first_at_zero,
+                          sim::VectorXd* variances) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// Runs the MPEC estimator. Throws std::invalid_argument for bad input (as the problem's
+/// constructor); numerical trouble (Ipopt failure, complementarity not reached) is reported in
+/// the result (converged = false, reason).
+MpecEstimateResult EstimateMpec(const sim::Simulator& simulator, const Log& log,
+                                const MpecOptions& options);
+
+}  // namespace vinci::estimation

@@ -1,0 +1,467 @@
+#include "vinci/estimation/mpec.h"
+
+#include <IpIpoptApplication.hpp>
+#include <IpTNLP.hpp>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <sstream>
+#include <stdexcept>
+
+namespace vinci::estimation {
+namespace {
+
+using Ipopt::Index;
+using Ipopt::Number;
+using sim::VectorXd;
+
+constexpr double kInf = 1e19;
+
+enum class Stage { kScholtes, kPenalty, kPolish };
+
+// One smooth NLP of the sequence: the problem plus the stage's treatment of the pairs.
+class RelaxedNlp : public Ipopt::TNLP {
+ public:
+  RelaxedNlp(const MpecProblem& p, const std::vector<std::pair<int, int>>& pairs, Stage stage,
+             double param, const std::vector<bool>& first_at_zero, bool hessian, const VectorXd& x0,
+             const VectorXd* lambda0, const VectorXd* zl0, const VectorXd* zu0)
+      : p_(p),
+        pairs_(pairs),
+        stage_(stage),
+        param_(param),
+        first_at_zero_(first_at_zero),
+        hessian_(hessian),
+        x0_(x0),
+        lambda0_(lambda0),
+        zl0_(zl0),
+        zu0_(zu0) {
+    n_ = p.num_variables();
+    m_ = p.num_constraints();
+    jac_ = p.JacobianStructure();
+    if (hessian_) hess_ = p.HessianStructure();
+  }
+
+  int extra_rows() const {
+    return stage_ == Stage::kScholtes ? static_cast<int>(pairs_.size()) : 0;
+  }
+
+  bool get_nlp_info(Index& n, Index& m, Index& nnz_jac, Index& nnz_h,
+                    IndexStyleEnum& style) override {
+    n = n_;
+    m = m_ + extra_rows();
+    nnz_jac = static_cast<Index>(jac_.size()) + 2 * extra_rows();
+    nnz_h = hessian_ ? static_cast<Index>(hess_.size() + pairs_.size()) : 0;
+    style = C_STYLE;
+    return true;
+  }
+
+  bool get_bounds_info(Index n, Number* x_l, Number* x_u, Index m, Number* g_l,
+                       Number* g_u) override {
+    VectorXd xl, xu, gl, gu;
+    p_.Bounds(&xl, &xu, &gl, &gu);
+    for (int i = 0; i < n; ++i) {
+      x_l[i] = std::max(xl[i], -kInf);
+      x_u[i] = std::min(xu[i], kInf);
+    }
+    for (std::size_t k = 0; k < pairs_.size(); ++k) {
+      x_l[pairs_[k].first] = std::max(x_l[pairs_[k].first], 0.0);
+      x_l[pairs_[k].second] = std::max(x_l[pairs_[k].second], 0.0);
+    }
+    if (stage_ == Stage::kPolish) {
+      for (std::size_t k = 0; k < pairs_.size(); ++k) {
+        const int i = first_at_zero_[k] ? pairs_[k].first : pairs_[k].second;
+        x_l[i] = 0.0;
+        x_u[i] = 0.0;
+      }
+    }
+    for (int j = 0; j < m_; ++j) {
+      g_l[j] = std::max(gl[j], -kInf);
+      g_u[j] = std::min(gu[j], kInf);
+    }
+    for (int k = m_; k < m; ++k) {
+      g_l[k] = -kInf;
+      g_u[k] = param_;
+    }
+    return true;
+  }
+
+  bool get_starting_point(Index n, bool init_x, Number* x, bool init_z, Number* z_L, Number* z_U,
+                          Index m, bool init_lambda, Number* lambda) override {
+    if (init_x) {
+      for (int i = 0; i < n; ++i) x[i] = x0_[i];
+    }
+    if (init_z) {
+      for (int i = 0; i < n; ++i) {
+        z_L[i] = zl0_ ? (*zl0_)[i] : 1.0;
+        z_U[i] = zu0_ ? (*zu0_)[i] : 1.0;
+      }
+    }
+    if (init_lambda) {
+      for (int j = 0; j < m; ++j)
+        lambda[j] = lambda0_ && j < lambda0_->size() ? (*lambda0_)[j] : 0.0;
+    }
+    return true;
+  }
+
+  bool eval_f(Index n, const Number* x, bool /*new_x*/, Number& f) override {
+    const Eigen::Map<const VectorXd> xv(x, n);
+    xbuf_ = xv;
+    if (!p_.Objective(xbuf_, &f)) return false;
+    if (stage_ == Stage::kPenalty) {
+      for (const auto& [a, b] : pairs_) f += param_ * x[a] * x[b];
+    }
+    return std::isfinite(f);
+  }
+
+  bool eval_grad_f(Index n, const Number* x, bool /*new_x*/, Number* grad) override {
+    xbuf_ = Eigen::Map<const VectorXd>(x, n);
+    VectorXd g(n);
+    if (!p_.Gradient(xbuf_, &g)) return false;
+    if (stage_ == Stage::kPenalty) {
+      for (const auto& [a, b] : pairs_) {
+        g[a] += param_ * x[b];
+        g[b] += param_ * x[a];
+      }
+    }
+    for (int i = 0; i < n; ++i) grad[i] = g[i];
+    return true;
+  }
+
+  bool eval_g(Index n, const Number* x, bool /*new_x*/, Index /*m*/, Number* g) override {
+    xbuf_ = Eigen::Map<const VectorXd>(x, n);
+    VectorXd gv(m_);
+    if (!p_.Constraints(xbuf_, &gv)) return false;
+    for (int j = 0; j < m_; ++j) g[j] = gv[j];
+    for (int k = 0; k < extra_rows(); ++k) g[m_ + k] = x[pairs_[k].first] * x[pairs_[k].second];
+    return true;
+  }
+
+  bool eval_jac_g(Index n, const Number* x, bool /*new_x*/, Index /*m*/, Index nele, Index* rows,
+                  Index* cols, Number* values) override {
+    const int nj = static_cast<int>(jac_.size());
+    if (values == nullptr) {
+      for (int e = 0; e < nj; ++e) {
+        rows[e] = jac_[e].row;
+        cols[e] = jac_[e].col;
+      }
+      for (int k = 0; k < extra_rows(); ++k) {
+        rows[nj + 2 * k] = m_ + k;
+        cols[nj + 2 * k] = pairs_[k].first;
+        rows[nj + 2 * k + 1] = m_ + k;
+        cols[nj + 2 * k + 1] = pairs_[k].second;
+      }
+      return true;
+    }
+    xbuf_ = Eigen::Map<const VectorXd>(x, n);
+    VectorXd v(nj);
+    if (!p_.JacobianValues(xbuf_, &v)) return false;
+    for (int e = 0; e < nj; ++e) values[e] = v[e];
+    for (int k = 0; k < extra_rows(); ++k) {
+      values[nj + 2 * k] = x[pairs_[k].second];
+      values[nj + 2 * k + 1] = x[pairs_[k].first];
+    }
+    (void)nele;
+    return true;
+  }
+
+  bool eval_h(Index n, const Number* x, bool /*new_x*/, Number obj_factor, Index /*m*/,
+              const Number* lambda, bool /*new_lambda*/, Index /*nele*/, Index* rows, Index* cols,
+              Number* values) override {
+    if (!hessian_) return false;
+    const int nh = static_cast<int>(hess_.size());
+    if (values == nullptr) {
+      for (int e = 0; e < nh; ++e) {
+        rows[e] = hess_[e].row;
+        cols[e] = hess_[e].col;
+      }
+      for (std::size_t k = 0; k < pairs_.size(); ++k) {
+        rows[nh + k] = std::max(pairs_[k].first, pairs_[k].second);
+        cols[nh + k] = std::min(pairs_[k].first, pairs_[k].second);
+      }
+      return true;
+    }
+    xbuf_ = Eigen::Map<const VectorXd>(x, n);
+    const VectorXd lam = Eigen::Map<const VectorXd>(lambda, m_);
+    VectorXd v(nh);
+    if (!p_.HessianValues(xbuf_, obj_factor, lam, &v)) return false;
+    for (int e = 0; e < nh; ++e) values[e] = v[e];
+    for (std::size_t k = 0; k < pairs_.size(); ++k) {
+      double h = 0.0;
+      if (stage_ == Stage::kScholtes) h = lambda[m_ + k];
+      if (stage_ == Stage::kPenalty) h = obj_factor * param_;
+      values[nh + k] = h;
+    }
+    return true;
+  }
+
+  bool intermediate_callback(Ipopt::AlgorithmMode, Index iter, Number, Number, Number, Number,
+                             Number, Number, Number, Number, Index, const Ipopt::IpoptData*,
+                             Ipopt::IpoptCalculatedQuantities*) override {
+    iterations_ = iter;
+    return true;
+  }
+
+  void finalize_solution(Ipopt::SolverReturn status, Index n, const Number* x, const Number* z_L,
+                         const Number* z_U, Index /*m*/, const Number* /*g*/, const Number* lambda,
+                         Number obj_value, const Ipopt::IpoptData*,
+                         Ipopt::IpoptCalculatedQuantities*) override {
+    status_ = status;
+    x_ = Eigen::Map<const VectorXd>(x, n);
+    z_l_ = Eigen::Map<const VectorXd>(z_L, n);
+    z_u_ = Eigen::Map<const VectorXd>(z_U, n);
+    lambda_ = Eigen::Map<const VectorXd>(lambda, m_ + extra_rows());
+    objective_ = obj_value;
+  }
+
+  Ipopt::SolverReturn status_ = Ipopt::INTERNAL_ERROR;
+  VectorXd x_, z_l_, z_u_, lambda_;
+  double objective_ = 0.0;
+  int iterations_ = 0;
+
+ private:
+  const MpecProblem& p_;
+  const std::vector<std::pair<int, int>>& pairs_;
+  Stage stage_;
+  double param_;
+  std::vector<bool> first_at_zero_;
+  bool hessian_;
+  VectorXd x0_;
+  const VectorXd *lambda0_, *zl0_, *zu0_;
+  int n_ = 0, m_ = 0;
+  std::vector<Entry> jac_, hess_;
+  VectorXd xbuf_;
+};
+
+const char* StatusText(Ipopt::ApplicationReturnStatus s) {
+  switch (s) {
+    case Ipopt::Solve_Succeeded:
+      return "solved";
+    case Ipopt::Solved_To_Acceptable_Level:
+      return "solved to acceptable level";
+    case Ipopt::Infeasible_Problem_Detected:
+      return "infeasible problem detected";
+    case Ipopt::Search_Direction_Becomes_Too_Small:
+      return "search direction too small";
+    case Ipopt::Diverging_Iterates:
+      return "diverging iterates";
+    case Ipopt::User_Requested_Stop:
+      return "user requested stop";
+    case Ipopt::Feasible_Point_Found:
+      return "feasible point found";
+    case Ipopt::Maximum_Iterations_Exceeded:
+      return "maximum iterations exceeded";
+    case Ipopt::Restoration_Failed:
+      return "restoration failed";
+    case Ipopt::Error_In_Step_Computation:
+      return "error in step computation";
+    case Ipopt::Maximum_CpuTime_Exceeded:
+      return "maximum CPU time exceeded";
+    case Ipopt::Not_Enough_Degrees_Of_Freedom:
+      return "not enough degrees of freedom";
+    case Ipopt::Invalid_Problem_Definition:
+      return "invalid problem definition";
+    case Ipopt::Invalid_Option:
+      return "invalid option";
+    case Ipopt::Invalid_Number_Detected:
+      return "invalid number detected";
+    default:
+      return "internal error";
+  }
+}
+
+bool Solved(Ipopt::ApplicationReturnStatus s) {
+  return s == Ipopt::Solve_Succeeded || s == Ipopt::Solved_To_Acceptable_Level;
+}
+
+double Violation(const std::vector<std::pair<int, int>>& pairs, const VectorXd& x) {
+  double v = 0.0;
+  for (const auto& [a, b] : pairs) v = std::max(v, std::abs(std::min(x[a], x[b])));
+  return v;
+}
+
+}  // namespace
+
+const char* ToString(ComplementarityMethod method) {
+  return method == ComplementarityMethod::kScholtes ? "scholtes" : "penalty";
+}
+
+ComplementarityMethod ParseComplementarityMethod(const std::string& name) {
+  if (name == "scholtes") return ComplementarityMethod::kScholtes;
+  if (name == "penalty") return ComplementarityMethod::kPenalty;
+  throw std::invalid_argument("complementarity method '" + name +
+                              "': expected scholtes or penalty");
+}
+
+void MpecSolverOptions::Validate() const {
+  auto fail = [](const std::string& field, double v, const std::string& expected) {
+    std::ostringstream m;
+    m << "mpec solver: " << field << " = " << v << ", expected " << expected;
+    throw std::invalid_argument(m.str());
+  };
+  if (!(epsilon_start > 0) || !std::isfinite(epsilon_start))
+    fail("epsilon_start", epsilon_start, "finite > 0");
+  if (!(epsilon_end > 0) || !(epsilon_end <= epsilon_start))
+    fail("epsilon_end", epsilon_end, "in (0, epsilon_start]");
+  if (!(epsilon_factor > 0) || !(epsilon_factor < 1))
+    fail("epsilon_factor", epsilon_factor, "in (0, 1)");
+  if (!(penalty_start > 0) || !std::isfinite(penalty_start))
+    fail("penalty_start", penalty_start, "finite > 0");
+  if (!(penalty_factor > 1) || !std::isfinite(penalty_factor))
+    fail("penalty_factor", penalty_factor, "finite > 1");
+  if (!(penalty_max >= penalty_start) || !std::isfinite(penalty_max))
+    fail("penalty_max", penalty_max, "finite ≥ penalty_start");
+  if (!(complementarity_tolerance > 0))
+    fail("complementarity_tolerance", complementarity_tolerance, "> 0");
+  if (!(tolerance > 0)) fail("tolerance", tolerance, "> 0");
+  if (max_iterations < 1) fail("max_iterations", max_iterations, "≥ 1");
+  if (print_level < 0 || print_level > 12) fail("print_level", print_level, "in [0, 12]");
+}
+
+MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o) {
+  o.Validate();
+  const auto start = std::chrono::steady_clock::now();
+  const int n = problem.num_variables();
+  const std::vector<std::pair<int, int>> pairs = problem.ComplementarityPairs();
+  for (const auto& [a, b] : pairs) {
+    if (a < 0 || b < 0 || a >= n || b >= n || a == b) {
+      throw std::invalid_argument(
+          "mpec: complementarity pair (" + std::to_string(a) + ", " + std::to_string(b) +
+          "): expected two different variables in [0, " + std::to_string(n) + ")");
+    }
+  }
+  if (!o.limited_memory && !problem.has_hessian())
+    throw std::invalid_argument("mpec: the problem has no Hessian; use limited_memory");
+  VectorXd x = problem.StartingPoint();
+  if (x.size() != n) throw std::invalid_argument("mpec: starting point of the wrong size");
+
+  MpecSolution sol;
+  sol.first_at_zero.assign(pairs.size(), true);
+  VectorXd lambda, zl, zu;
+  bool have_multipliers = false;
+  Ipopt::ApplicationReturnStatus last = Ipopt::Internal_Error;
+
+  auto run = [&](Stage stage, double param, const std::vector<bool>& fixed,
+                 bool warm) -> Ipopt::SmartPtr<RelaxedNlp> {
+    Ipopt::SmartPtr<Ipopt::IpoptApplication> app = IpoptApplicationFactory();
+    auto& opt = *app->Options();
+    opt.SetIntegerValue("print_level", o.print_level);
+    opt.SetStringValue("sb", "yes");  // no banner
+    opt.SetNumericValue("tol", o.tolerance);
+    opt.SetNumericValue("acceptable_tol", std::max(o.tolerance * 1e3, 1e-8));
+    opt.SetIntegerValue("max_iter", o.max_iterations);
+    opt.SetStringValue("mu_strategy", "adaptive");
+    opt.SetStringValue("hessian_approximation", o.limited_memory ? "limited-memory" : "exact");
+    if (warm) {
+      opt.SetStringValue("warm_start_init_point", "yes");
+      opt.SetNumericValue("warm_start_bound_push", 1e-9);
+      opt.SetNumericValue("warm_start_bound_frac", 1e-9);
+      opt.SetNumericValue("warm_start_slack_bound_push", 1e-9);
+      opt.SetNumericValue("warm_start_slack_bound_frac", 1e-9);
+      opt.SetNumericValue("warm_start_mult_bound_push", 1e-9);
+      opt.SetNumericValue("mu_init", 1e-6);
+    }
+    Ipopt::SmartPtr<RelaxedNlp> nlp =
+        new RelaxedNlp(problem, pairs, stage, param, fixed, !o.limited_memory, x,
+                       warm ? &lambda : nullptr, warm ? &zl : nullptr, warm ? &zu : nullptr);
+    last = app->Initialize();
+    if (last == Ipopt::Solve_Succeeded) last = app->OptimizeTNLP(nlp);
+    sol.iterations += nlp->iterations_;
+    ++sol.stages;
+    return nlp;
+  };
+  auto accept = [&](const Ipopt::SmartPtr<RelaxedNlp>& nlp, const std::string& what) {
+    const bool ok = nlp->x_.size() == n && nlp->x_.allFinite();
+    if (ok) {
+      x = nlp->x_;
+      zl = nlp->z_l_;
+      zu = nlp->z_u_;
+      lambda = nlp->lambda_;
+      have_multipliers = true;
+      sol.objective = nlp->objective_;
+    }
+    std::ostringstream line;
+    line << what << ": " << StatusText(last) << ", " << nlp->iterations_
+         << " iterations, complementarity " << Violation(pairs, x);
+    if (o.progress) o.progress(line.str());
+    return ok;
+  };
+
+  std::string stage_failure;
+  if (pairs.empty()) {
+    accept(run(Stage::kPolish, 0.0, {}, false), "nlp");
+    if (!Solved(last)) stage_failure = std::string("nlp: ") + StatusText(last);
+  } else if (o.method == ComplementarityMethod::kScholtes) {
+    // A failed stage ends the homotopy at the last solved stage's iterate (the polish then
+    // starts from there).
+    for (double eps = o.epsilon_start; eps >= o.epsilon_end * (1 - 1e-9); eps *= o.epsilon_factor) {
+      std::ostringstream what;
+      what << "scholtes eps " << eps;
+      const bool first = !have_multipliers;
+      auto nlp = run(Stage::kScholtes, eps, {}, have_multipliers);
+      if (Solved(last) || first) accept(nlp, what.str());
+      if (!Solved(last)) {
+        stage_failure = what.str() + ": " + StatusText(last);
+        if (o.progress && !first) o.progress(stage_failure + ", stopped the homotopy");
+        break;
+      }
+    }
+  } else {
+    for (double rho = o.penalty_start; rho <= o.penalty_max * (1 + 1e-9); rho *= o.penalty_factor) {
+      std::ostringstream what;
+      what << "penalty rho " << rho;
+      const bool first = !have_multipliers;
+      auto nlp = run(Stage::kPenalty, rho, {}, have_multipliers);
+      if (Solved(last) || first) accept(nlp, what.str());
+      if (!Solved(last)) {
+        stage_failure = what.str() + ": " + StatusText(last);
+        if (o.progress && !first) o.progress(stage_failure + ", stopped the homotopy");
+        break;
+      }
+      if (Violation(pairs, x) <= o.complementarity_tolerance) break;
+    }
+  }
+  for (std::size_t k = 0; k < pairs.size(); ++k)
+    sol.first_at_zero[k] = x[pairs[k].first] <= x[pairs[k].second];
+  bool relaxed_ok = stage_failure.empty();
+  if (o.polish && !pairs.empty()) {
+    const VectorXd x_relaxed = x, l_relaxed = lambda, zl_relaxed = zl, zu_relaxed = zu;
+    const double f_relaxed = sol.objective;
+    // The Scholtes rows' multipliers are dropped: lambda keeps the problem's rows.
+    lambda.conservativeResize(problem.num_constraints());
+    Ipopt::SmartPtr<RelaxedNlp> nlp = run(Stage::kPolish, 0.0, sol.first_at_zero, true);
+    if (Solved(last) && nlp->x_.allFinite()) {
+      accept(nlp, "polish");
+      sol.polished = true;
+      relaxed_ok = true;
+      stage_failure.clear();
+    } else {
+      if (o.progress)
+        o.progress(std::string("polish: ") + StatusText(last) + ", kept the relaxed iterate");
+      x = x_relaxed;
+      lambda = l_relaxed;
+      zl = zl_relaxed;
+      zu = zu_relaxed;
+      sol.objective = f_relaxed;
+    }
+  }
+  sol.x = x;
+  sol.lambda = lambda.size() >= problem.num_constraints()
+                   ? VectorXd(lambda.head(problem.num_constraints()))
+                   : VectorXd::Zero(problem.num_constraints());
+  sol.complementarity_violation = Violation(pairs, x);
+  double f = 0.0;
+  if (problem.Objective(x, &f)) sol.objective = f;  // without penalty terms
+  sol.converged = relaxed_ok && sol.complementarity_violation <= o.complementarity_tolerance;
+  std::ostringstream reason;
+  reason << (sol.polished ? "polished: " : "") << StatusText(last) << ", complementarity violation "
+         << sol.complementarity_violation;
+  if (!stage_failure.empty()) reason << "; " << stage_failure;
+  if (!sol.converged && relaxed_ok)
+    reason << "; above the tolerance " << o.complementarity_tolerance;
+  sol.reason = reason.str();
+  sol.time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return sol;
+}
+
+}  // namespace vinci::estimation

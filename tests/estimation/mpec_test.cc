@@ -1,0 +1,341 @@
+// The MPEC layer (mpec.h) on MacMPEC toy problems with known optima, and the MPEC estimator
+// (mpec_estimator.h): a simulated trajectory satisfies its constraints, and noise-free logs give
+// the true friction coefficient.
+#include "vinci/estimation/mpec.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "estimation_test_util.h"
+#include "vinci/estimation/mpec_estimator.h"
+#include "vinci/sim/model/scene_file.h"
+
+namespace vinci::estimation {
+namespace {
+
+using sim::VectorXd;
+
+// A small MPEC with a quadratic objective ½ xᵀ P x + cᵀ x + f0 and linear constraints
+// A x (bounds g_l, g_u), written out densely.
+class QuadraticMpec : public MpecProblem {
+ public:
+  sim::MatrixXd P, A;
+  VectorXd c, x_l, x_u, g_l, g_u, x0;
+  double f0 = 0.0;
+  std::vector<std::pair<int, int>> pairs;
+
+  int num_variables() const override { return static_cast<int>(c.size()); }
+  int num_constraints() const override { return static_cast<int>(A.rows()); }
+  void Bounds(VectorXd* xl, VectorXd* xu, VectorXd* gl, VectorXd* gu) const override {
+    *xl = x_l;
+    *xu = x_u;
+    *gl = g_l;
+    *gu = g_u;
+  }
+  VectorXd StartingPoint() const override { return x0; }
+  std::vector<std::pair<int, int>> ComplementarityPairs() const override { return pairs; }
+  bool Objective(const VectorXd& x, double* f) const override {
+    *f = 0.5 * x.dot(P * x) + c.dot(x) + f0;
+    return true;
+  }
+  bool Gradient(const VectorXd& x, VectorXd* g) const override {
+    *g = P * x + c;
+    return true;
+  }
+  bool Constraints(const VectorXd& x, VectorXd* g) const override {
+    *g = A * x;
+    return true;
+  }
+  std::vector<Entry> JacobianStructure() const override {
+    std::vector<Entry> e;
+    for (int i = 0; i < A.rows(); ++i)
+      for (int j = 0; j < A.cols(); ++j) e.push_back({i, j});
+    return e;
+  }
+  bool JacobianValues(const VectorXd&, VectorXd* v) const override {
+    v->resize(A.size());
+    int k = 0;
+    for (int i = 0; i < A.rows(); ++i)
+      for (int j = 0; j < A.cols(); ++j) (*v)[k++] = A(i, j);
+    return true;
+  }
+  bool has_hessian() const override { return true; }
+  std::vector<Entry> HessianStructure() const override {
+    std::vector<Entry> e;
+    for (int i = 0; i < P.rows(); ++i)
+      for (int j = 0; j <= i; ++j) e.push_back({i, j});
+    return e;
+  }
+  bool HessianValues(const VectorXd&, double s, const VectorXd&, VectorXd* v) const override {
+    v->resize(P.rows() * (P.rows() + 1) / 2);
+    int k = 0;
+    for (int i = 0; i < P.rows(); ++i)
+      for (int j = 0; j <= i; ++j) (*v)[k++] = s * P(i, j);
+    return true;
+  }
+};
+
+constexpr double kBig = 1e20;
+
+// scholtes3: min ½((x1 − 1)² + (x2 − 1)²), 0 ≤ x1 ⊥ x2 ≥ 0, from (1e-4, 1e-4); optimum 0.5
+// at (1, 0) or (0, 1).
+QuadraticMpec Scholtes3() {
+  QuadraticMpec p;
+  p.P = sim::MatrixXd::Identity(2, 2);
+  p.c = VectorXd::Constant(2, -1.0);
+  p.f0 = 1.0;
+  p.A.resize(0, 2);
+  p.x_l = VectorXd::Zero(2);
+  p.x_u = VectorXd::Constant(2, kBig);
+  p.g_l.resize(0);
+  p.g_u.resize(0);
+  p.x0 = VectorXd::Constant(2, 1e-4);
+  p.pairs = {{0, 1}};
+  return p;
+}
+
+// jr1: min (z1 − 1)² + z2², 0 ≤ z2 ⊥ z2 − z1 ≥ 0 (slack s = z2 − z1); optimum 0.5 at
+// z = (0.5, 0.5).
+QuadraticMpec Jr1() {
+  QuadraticMpec p;
+  p.P = sim::MatrixXd::Zero(3, 3);
+  p.P(0, 0) = 2;
+  p.P(1, 1) = 2;
+  p.c = VectorXd::Zero(3);
+  p.c[0] = -2;
+  p.f0 = 1.0;
+  p.A.resize(1, 3);
+  p.A << -1, 1, -1;  // z2 − z1 − s = 0
+  p.g_l = VectorXd::Zero(1);
+  p.g_u = VectorXd::Zero(1);
+  p.x_l = VectorXd::Constant(3, -kBig);
+  p.x_u = VectorXd::Constant(3, kBig);
+  p.x0 = VectorXd::Zero(3);
+  p.pairs = {{1, 2}};
+  return p;
+}
+
+// scholtes5: min (z1 − 1)² + (z2 − 2)² + (z3 + 1)², 0 ≤ z1 ⊥ z3 ≥ 0, 0 ≤ z2 ⊥ z3 ≥ 0, from
+// (1, 1, 1); optimum 1 at (1, 2, 0).
+QuadraticMpec Scholtes5() {
+  QuadraticMpec p;
+  p.P = 2 * sim::MatrixXd::Identity(3, 3);
+  p.c = VectorXd(3);
+  p.c << -2, -4, 2;
+  p.f0 = 1 + 4 + 1;
+  p.A.resize(0, 3);
+  p.g_l.resize(0);
+  p.g_u.resize(0);
+  p.x_l = VectorXd::Zero(3);
+  p.x_u = VectorXd::Constant(3, kBig);
+  p.x0 = VectorXd::Ones(3);
+  p.pairs = {{0, 2}, {1, 2}};
+  return p;
+}
+
+struct Toy {
+  std::string name;
+  std::function<QuadraticMpec()> make;
+  double optimum;
+};
+
+class MacMpecTest : public ::testing::TestWithParam<std::tuple<int, ComplementarityMethod, bool>> {
+};
+
+const Toy kToys[] = {
+    {"scholtes3", Scholtes3, 0.5}, {"jr1", Jr1, 0.5}, {"scholtes5", Scholtes5, 1.0}};
+
+TEST_P(MacMpecTest, ReachesKnownOptimum) {
+  const auto [index, method, polish] = GetParam();
+  const Toy& toy = kToys[index];
+  const QuadraticMpec p = toy.make();
+  MpecSolverOptions o;
+  o.method = method;
+  o.polish = polish;
+  const MpecSolution s = SolveMpec(p, o);
+  EXPECT_TRUE(s.converged) << toy.name << ": " << s.reason;
+  EXPECT_NEAR(s.objective, toy.optimum, 1e-6) << toy.name << ": " << s.reason;
+  // Relaxed: x_a x_b ≤ ε_end = 1e-8 up to Ipopt's bound relaxation (1e-8), x_a ≈ 1.
+  EXPECT_LE(s.complementarity_violation, polish ? 1e-8 : 3e-8) << toy.name;
+  EXPECT_EQ(s.polished, polish) << toy.name;
+  EXPECT_GT(s.iterations, 0);
+  if (toy.name == "jr1") {
+    EXPECT_NEAR(s.x[0], 0.5, 1e-6);
+    EXPECT_NEAR(s.x[1], 0.5, 1e-6);
+  }
+  if (toy.name == "scholtes5") {
+    EXPECT_NEAR(s.x[0], 1.0, 1e-6);
+    EXPECT_NEAR(s.x[1], 2.0, 1e-6);
+    EXPECT_NEAR(s.x[2], 0.0, 1e-6);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Toys, MacMpecTest,
+                         ::testing::Combine(::testing::Values(0, 1, 2),
+                                            ::testing::Values(ComplementarityMethod::kScholtes,
+                                                              ComplementarityMethod::kPenalty),
+                                            ::testing::Bool()),
+                         [](const auto& i) {
+                           return kToys[std::get<0>(i.param)].name + "_" +
+                                  ToString(std::get<1>(i.param)) +
+                                  (std::get<2>(i.param) ? "_polish" : "_relaxed");
+                         });
+
+TEST(MpecSolver, RejectsBadOptionsAndPairs) {
+  const QuadraticMpec p = Scholtes3();
+  MpecSolverOptions o;
+  o.epsilon_factor = 1.5;
+  EXPECT_THROW(SolveMpec(p, o), std::invalid_argument);
+  QuadraticMpec q = Scholtes3();
+  q.pairs = {{0, 0}};
+  EXPECT_THROW(SolveMpec(q, MpecSolverOptions{}), std::invalid_argument);
+  EXPECT_THROW(ParseComplementarityMethod("fischer"), std::invalid_argument);
+  EXPECT_EQ(ParseComplementarityMethod("penalty"), ComplementarityMethod::kPenalty);
+}
+
+// --- the estimator -------------------------------------------------------------------------
+
+constexpr double kTrueMu = 0.3;
+
+// A small box (4 cm × 1 cm, 20 g) on a plate vibrating at 20 Hz (horizontal acceleration
+// 20 m/s², vertical 5 m/s², less than g: it stays on the plate, starting on its surface at the
+// plate's top position) and slides back and forth; true μ = 0.2, the scene says 0.5.
+const char* kPlateBox =
+    "dimension: 2\n"
+    "gravity: [0, -9.81]\n"
+    "stepper: {dt: 1.0e-3, duration: 0.2, envelope: 0.002, prescribed_velocity: exact}\n"
+    "friction: {default: 0.5}\n"
+    "bodies:\n"
+    "  - name: plate\n"
+    "    kind: prescribed\n"
+    "    shapes: [{type: halfplane}]\n"
+    "    motion:\n"
+    "      frequency: 20\n"
+    "      x: {harmonics: [{order: 1, amplitude: 1.2665e-3, phase: 0}]}\n"
+    "      y: {harmonics: [{order: 1, amplitude: 3.166e-4, phase: 1.5707963267948966}]}\n"
+    "  - name: box\n"
+    "    mass: 0.02\n"
+    "    pose: {position: [0.0, 0.0053166]}\n"
+    "    shapes: [{type: polygon, vertices: [[-0.02, -0.005], [0.02, -0.005], [0.02, 0.005], "
+    "[-0.02, 0.005]]}]\n";
+
+// A simulated trajectory of the sliding block satisfies the MPEC's constraints (the frozen step
+// equations, slack rows) and complementarity to 1e-9 at the unknowns mapped from the rollout.
+TEST(MpecEstimator, SimulatedTrajectorySatisfiesConstraints) {
+  const sim::Simulator sim(sim::ParseScene(testing::kPlanarBlock, "block.yaml"));
+  // Every step logged except every third gap of two steps (the grid splits those).
+  const std::string path =
+      testing::SyntheticLog(sim, "block", kTrueMu, 0.6, 1, 0.0, 1, "mpec_constraints.csv");
+  const Log log = ReadLog({path}, sim.scene());
+  sim::Params p = sim.DefaultParams();
+  p.values[sim.scene().param_table().Index("mu.default")] = kTrueMu;
+  const sim::Trajectory tr = sim.Rollout(p, sim.InitialState(), 300);
+  ASSERT_TRUE(tr.ok);
+  MpecOptions o;
+  o.params = {"mu.default"};
+  o.contact_margin = 0.0;  // the simulator's own contact sets
+  const MpecEstimationProblem problem(sim, log, o, 1e-3);
+  EXPECT_EQ(problem.num_steps(), 300);
+  const VectorXd x = problem.VariablesFromRollouts({tr}, p);
+  VectorXd g;
+  ASSERT_TRUE(problem.Constraints(x, &g));
+  EXPECT_LE(g.cwiseAbs().maxCoeff(), 1e-9);
+  double worst_pair = 0.0;
+  for (const auto& [a, b] : problem.ComplementarityPairs()) {
+    EXPECT_GE(x[a], -1e-9);
+    EXPECT_GE(x[b], -1e-9);
+    worst_pair = std::max(worst_pair, std::abs(std::min(x[a], x[b])));
+  }
+  EXPECT_LE(worst_pair, 1e-9);
+  double eq = 0, comp = 0;
+  problem.StepViolation(x, &eq, &comp);
+  EXPECT_LE(eq, 1e-9);
+  EXPECT_LE(comp, 1e-9);
+  // And the measurement residuals vanish there (noise-free log).
+  EXPECT_LE(problem.SquaredResiduals(x), 1e-20);
+  // The Jacobian's structure holds all the entries at that point.
+  VectorXd jv;
+  EXPECT_TRUE(problem.JacobianValues(x, &jv));
+  // Changing μ breaks the sliding steps' friction rows.
+  sim::Params p2 = p;
+  p2.values[sim.scene().param_table().Index("mu.default")] = 0.4;
+  VectorXd x2 = x;
+  x2[0] = 0.4;
+  ASSERT_TRUE(problem.Constraints(x2, &g));
+  EXPECT_GT(g.cwiseAbs().maxCoeff(), 1e-3);
+}
+
+// The same on the vibrating plate (a prescribed body: the step model evaluates its motion at the
+// grid times).
+TEST(MpecEstimator, SimulatedPlateTrajectorySatisfiesConstraints) {
+  const sim::Simulator sim(sim::ParseScene(kPlateBox, "plate.yaml"));
+  const std::string path =
+      testing::SyntheticLog(sim, "box", 0.2, 0.1, 1, 0.0, 1, "mpec_plate_constraints.csv");
+  const Log log = ReadLog({path}, sim.scene());
+  sim::Params p = sim.DefaultParams();
+  p.values[sim.scene().param_table().Index("mu.default")] = 0.2;
+  const sim::Trajectory tr = sim.Rollout(p, sim.InitialState(), 100);
+  ASSERT_TRUE(tr.ok);
+  MpecOptions o;
+  o.params = {"mu.default"};
+  o.contact_margin = 0.0;
+  const MpecEstimationProblem problem(sim, log, o, 1e-4);
+  const VectorXd x = problem.VariablesFromRollouts({tr}, p);
+  VectorXd g;
+  ASSERT_TRUE(problem.Constraints(x, &g));
+  EXPECT_LE(g.cwiseAbs().maxCoeff(), 1e-9);
+  double eq = 0, comp = 0;
+  problem.StepViolation(x, &eq, &comp);
+  EXPECT_LE(eq, 1e-9);
+  EXPECT_LE(comp, 1e-9);
+  EXPECT_LE(problem.SquaredResiduals(x), 1e-20);
+  double f = 0;
+  ASSERT_TRUE(problem.Objective(x, &f));
+  EXPECT_LE(f, 1e-12);
+}
+
+TEST(MpecEstimator, PlanarBlockNoiseFreeRecoversMu) {
+  const sim::Simulator sim(sim::ParseScene(testing::kPlanarBlock, "block.yaml"));
+  const std::string path =
+      testing::SyntheticLog(sim, "block", kTrueMu, 0.6, 5, 0.0, 1, "mpec_block_exact.csv");
+  const Log log = ReadLog({path}, sim.scene());
+  for (const ComplementarityMethod method :
+       {ComplementarityMethod::kScholtes, ComplementarityMethod::kPenalty}) {
+    MpecOptions o;
+    o.params = {"mu.default"};
+    o.noise_sigma = 1e-3;
+    o.solver.method = method;
+    const MpecEstimateResult r = EstimateMpec(sim, log, o);
+    EXPECT_TRUE(r.converged) << ToString(method) << ": " << r.reason;
+    ASSERT_EQ(r.estimates.size(), 1);
+    EXPECT_EQ(r.initial_values[0], 0.5);
+    EXPECT_NEAR(r.estimates[0], kTrueMu, 1e-4) << ToString(method) << ": " << r.reason;
+    EXPECT_LE(r.complementarity_violation, 1e-8) << ToString(method);
+    EXPECT_LE(r.equality_violation, 1e-8) << ToString(method);
+    EXPECT_LT(r.episodes[0].rms_residual, 1e-6);
+    EXPECT_TRUE(std::isfinite(r.std_errors[0]));
+    // One step of dt per grid interval from the first to the last logged time.
+    EXPECT_EQ(r.num_steps, std::lround((log.episodes[0].t.back() - log.episodes[0].t[0]) / 0.002));
+  }
+}
+
+TEST(MpecEstimator, RejectsBadInput) {
+  const sim::Simulator sim(sim::ParseScene(testing::kPlanarBlock, "block.yaml"));
+  const std::string path =
+      testing::SyntheticLog(sim, "block", kTrueMu, 0.1, 5, 0.0, 1, "mpec_bad.csv");
+  const Log log = ReadLog({path}, sim.scene());
+  MpecOptions o;
+  o.params = {"mu.default"};
+  o.process_noise = std::nan("");
+  EXPECT_THROW(EstimateMpec(sim, log, o), std::invalid_argument);
+  o.process_noise = 0.0;
+  o.params = {"mu.nothing"};
+  EXPECT_THROW(EstimateMpec(sim, log, o), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace vinci::estimation
