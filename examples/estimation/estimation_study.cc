@@ -2,7 +2,8 @@
 // of μ̂ over seeded trials of synthetic logs, per method, noise level and window length.
 //
 //   estimation_study STUDY [--trials N] [--noise S1,S2,..] [--windows W1,W2,..]
-//                    [--particles N1,N2,..] [--methods lsq,lsq_ms,filter] [--out FILE.csv]
+//                    [--particles N1,N2,..] [--methods lsq,lsq_ms,filter] [--guess MU]
+//                    [--out FILE.csv]
 //
 // STUDY:
 //   plate      a particle on a vibrating plate (planar, true μ = 0.2), windows in samples
@@ -200,14 +201,14 @@ int main(int argc, char** argv) {
   std::vector<double> noise, windows, particles = {1};
   if (which == "plate" || which == "particles") {
     st.true_mu = 0.2;
-    st.guess_mu = 0.35;
+    st.guess_mu = 0.3;
     st.warmup = 0.2;
     st.every = 2;  // 500 Hz
     st.scene = PlateScene;
     noise = {1e-5, 1e-4};
-    windows = {50, 125};
+    windows = {50, 100};
     if (which == "particles") {
-      particles = {1, 2, 4, 8};
+      particles = {1, 2, 4};
       windows = {50};
       noise = {1e-4};
     }
@@ -246,6 +247,8 @@ int main(int argc, char** argv) {
       particles = ParseList(value);
     } else if (flag == "--methods") {
       method_names = ParseNames(value);
+    } else if (flag == "--guess") {
+      st.guess_mu = std::stod(value);
     } else if (flag == "--out") {
       out = value;
     } else {
