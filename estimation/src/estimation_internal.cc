@@ -108,7 +108,8 @@ VectorXd VectorFromState(const sim::Simulator& sim, const Episode& ep, const Sta
 // The log's initial state (InitialStateFromLog) and, in the layout of the state unknowns
 // (StateFromVector), the standard error of each velocity component estimated from the samples
 // (0 for poses and for logged velocities or when the fit has no spare samples).
-State GuessInitialState(const sim::Simulator& simulator, const Episode& ep, VectorXd* velocity_se) {
+State GuessInitialState(const sim::Simulator& simulator, const Episode& ep, VectorXd* velocity_se,
+                        bool follow_quadratic) {
   const sim::Scene& scene = simulator.scene();
   const bool planar = Planar(simulator);
   State x = simulator.InitialState();
@@ -117,12 +118,13 @@ State GuessInitialState(const sim::Simulator& simulator, const Episode& ep, Vect
   velocity_se->setZero(ObservedDynamic(ep) * StateBlockSize(planar));
   const int n = ep.num_samples();
   const int k = std::min(n - 1, kVelocityFitSamples - 1);
-  // Velocity of a logged series at the first sample from a least-squares quadratic
-  // c0 + c1 τ + c2 τ² through the first samples (a line through two if there are only two),
-  // and its standard error from the fit's residuals. The simulator's steps update positions
-  // with the new velocity (q_k+1 = q_k + dt v_k+1), so under a constant acceleration a its
-  // positions from v0 are x0 + (v0 − a dt / 2) τ + a τ² / 2: the initial velocity whose
-  // rollout follows the quadratic is c1 − c2 dt, not the slope c1.
+  // Velocity of a logged series at the first sample: the slope c1 at t0 of a least-squares
+  // quadratic c0 + c1 τ + c2 τ² through the first samples (a line through two if there are
+  // only two), and its standard error from the fit's residuals. The simulator's steps update
+  // positions with the new velocity, so under a constant acceleration its rollout from c1 lags
+  // the quadratic by c2 dt τ; with `follow_quadratic` the guess is c1 − c2 dt, which follows it
+  // exactly (multiple shooting uses it; for single shooting it made one of 20 seeded noisy fits
+  // stall, so the slope stays there).
   const double dt = scene.options.dt;
   auto slope = [&](const std::vector<double>& y, double* se) {
     *se = 0.0;
@@ -143,7 +145,7 @@ State GuessInitialState(const sim::Simulator& simulator, const Episode& ep, Vect
       const Eigen::MatrixXd cov = (A.transpose() * A).inverse() * s2;
       *se = std::sqrt(std::max(0.0, cov(1, 1)));
     }
-    return A.cols() == 3 ? c[1] - c[2] * dt : c[1];
+    return follow_quadratic && A.cols() == 3 ? c[1] - c[2] * dt : c[1];
   };
   auto column = [&](const BodyTrack& b, int col) {
     std::vector<double> y(k + 1);

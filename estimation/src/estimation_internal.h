@@ -34,8 +34,10 @@ sim::VectorXd VectorFromState(const sim::Simulator& sim, const Episode& ep, cons
 /// pose and the logged velocity or the slope at t0 of a least-squares quadratic through the
 /// first samples) and, in the layout of the state unknowns, the standard error of each
 /// velocity component from the fit (0 for poses, logged velocities, or no spare samples).
+/// With follow_quadratic the velocity is c1 − c2 dt (quadratic c0 + c1 τ + c2 τ²), which the
+/// simulator's position update (q += dt v_next) turns into a rollout following the quadratic.
 sim::State GuessInitialState(const sim::Simulator& simulator, const Episode& ep,
-                             sim::VectorXd* velocity_se);
+                             sim::VectorXd* velocity_se, bool follow_quadratic = false);
 
 /// The samples first..last (inclusive) of an episode as an episode of their own.
 Episode Slice(const Episode& ep, int first, int last);

@@ -298,7 +298,7 @@ EstimateResult EstimateLeastSquares(const sim::Simulator& simulator, const Log& 
       s.first = starts[j];
       s.last = j + 1 < starts.size() ? starts[j + 1] : ep.num_samples() - 1;
       const Episode slice = Slice(ep, s.first, ep.num_samples() - 1);
-      s.ref = GuessInitialState(simulator, slice, &s.se);
+      s.ref = GuessInitialState(simulator, slice, &s.se, options.shooting == Shooting::kMultiple);
       states.push_back(VectorFromState(simulator, slice, s.ref));
       episode_segments[e].push_back(static_cast<int>(segments.size()));
       segments.push_back(std::move(s));
