@@ -3,6 +3,7 @@
 #include <charconv>
 #include <cmath>
 #include <fstream>
+#include <functional>
 #include <iostream>
 #include <memory>
 #include <sstream>
@@ -11,6 +12,8 @@
 #include <vector>
 
 #include "json.h"
+#include "vinci/estimation/filter.h"
+#include "vinci/estimation/holdout.h"
 #include "vinci/estimation/least_squares.h"
 #include "vinci/estimation/log.h"
 #include "vinci/sim/model/scene_file.h"
@@ -33,7 +36,17 @@ std::string NamedValues(const std::vector<std::string>& names, const sim::Vector
   return o + "}";
 }
 
-std::string ResultJson(const EstimateOptions& o, const estimation::EstimateResult& r) {
+std::string ErrorJson(const estimation::RolloutError& e) {
+  std::ostringstream j;
+  j << "{\"position_m\": " << Num(e.position_m)
+    << ", \"position_percent\": " << Num(e.position_percent)
+    << ", \"orientation_deg\": " << Num(e.orientation_deg) << ", \"samples\": " << e.samples
+    << ", \"failed_rollouts\": " << e.failed_rollouts << "}";
+  return j.str();
+}
+
+std::string ResultJson(const EstimateOptions& o, const estimation::EstimateResult& r,
+                       const estimation::HoldoutResult* holdout) {
   std::ostringstream j;
   j << "{\n  \"scene\": " << JsonString(o.scene_path) << ",\n  \"logs\": [";
   for (size_t i = 0; i < o.logs.size(); ++i) j << (i ? ", " : "") << JsonString(o.logs[i]);
@@ -50,10 +63,24 @@ std::string ResultJson(const EstimateOptions& o, const estimation::EstimateResul
     << "      \"initial_cost\": " << Num(r.initial_cost) << ",\n"
     << "      \"final_cost\": " << Num(r.final_cost) << ",\n"
     << "      \"num_residuals\": " << r.num_residuals << ",\n"
-    << "      \"num_unknowns\": " << r.num_unknowns << ",\n"
-    << "      \"initial_state_estimated\": " << (o.fixed_initial_state ? "false" : "true")
-    << ",\n      \"frozen_state_components\": " << r.frozen_state_components
-    << ",\n      \"episodes\": [";
+    << "      \"num_unknowns\": " << r.num_unknowns << ",\n";
+  if (r.method == "lsq") {
+    j << "      \"shooting\": " << JsonString(o.shooting) << ",\n"
+      << "      \"num_segments\": " << r.num_segments << ",\n"
+      << "      \"num_continuity_residuals\": " << r.num_continuity_residuals << ",\n"
+      << "      \"continuity_defect\": " << Num(r.continuity_defect) << ",\n"
+      << "      \"initial_state_estimated\": " << (o.fixed_initial_state ? "false" : "true")
+      << ",\n      \"frozen_state_components\": " << r.frozen_state_components << ",\n";
+  }
+  if (holdout) {
+    j << "      \"holdout_error\": {\"k\": " << o.holdout << ", \"episodes\": [";
+    for (size_t e = 0; e < holdout->files.size(); ++e)
+      j << (e ? ", " : "") << JsonString(holdout->files[e]);
+    j << "],\n        \"fitted\": " << ErrorJson(holdout->fitted)
+      << ",\n        \"stationary\": " << ErrorJson(holdout->stationary)
+      << ",\n        \"initial_guess\": " << ErrorJson(holdout->initial_guess) << "},\n";
+  }
+  j << "      \"episodes\": [";
   for (size_t e = 0; e < r.episodes.size(); ++e) {
     j << (e ? ", " : "") << "{\"file\": " << JsonString(r.episodes[e].file)
       << ", \"rms_residual\": " << Num(r.episodes[e].rms_residual) << "}";
@@ -62,50 +89,95 @@ std::string ResultJson(const EstimateOptions& o, const estimation::EstimateResul
   return j.str();
 }
 
-}  // namespace
+// Prints one line per iteration / update to stderr.
+std::function<void(int, double, const sim::VectorXd&)> ProgressPrinter(const EstimateOptions& o) {
+  if (o.quiet) return {};
+  return [&o](int iteration, double cost, const sim::VectorXd& p) {
+    std::ostringstream line;
+    line.precision(8);
+    line << "iteration " << iteration;
+    if (std::isfinite(cost)) line << "  cost " << cost;
+    for (size_t i = 0; i < o.params.size(); ++i)
+      line << "  " << o.params[i] << " " << p[static_cast<Eigen::Index>(i)];
+    std::cerr << line.str() << "\n";
+  };
+}
 
-ExitCode RunEstimateCommand(const EstimateOptions& o) {
-  if (o.method == "mpec") return RunEstimateMpec(o);
-  if (o.method == "filter") {
-    throw std::invalid_argument(
-        "--method " + o.method +
-        ": not implemented yet (lsq and mpec are; the recursive filter is planned, "
-        "docs/estimation.md)");
-  }
-  if (o.method != "lsq") {
-    throw std::invalid_argument("--method " + o.method +
-                                ": expected lsq or mpec (filter is not implemented yet)");
-  }
-  if (o.noise < 0 || !std::isfinite(o.noise))
-    throw std::invalid_argument("--noise: expected a finite σ ≥ 0 in m");
-  // Check that the output can be written before the work.
-  {
-    std::ofstream test(o.out, std::ios::app);
-    if (!test) throw std::invalid_argument("--out: cannot open '" + o.out + "' for writing");
-  }
-  const sim::Simulator simulator(sim::LoadSceneFile(o.scene_path));
-  const estimation::Log log = estimation::ReadLog(o.logs, simulator.scene());
+// --method lsq: least squares with the simulator in the loop (Ceres).
+estimation::EstimateResult RunLeastSquares(const EstimateOptions& o,
+                                           const sim::Simulator& simulator,
+                                           const estimation::Log& log) {
   estimation::LeastSquaresOptions lo;
   lo.params = o.params;
   lo.noise_sigma = o.noise;
   lo.threads = o.threads;
   lo.max_iterations = o.max_iterations;
   lo.estimate_initial_state = !o.fixed_initial_state;
-  if (!o.quiet) {
-    lo.progress = [&o](int iteration, double cost, const sim::VectorXd& p) {
-      std::ostringstream line;
-      line.precision(8);
-      line << "iteration " << iteration << "  cost " << cost;
-      for (size_t i = 0; i < o.params.size(); ++i)
-        line << "  " << o.params[i] << " " << p[static_cast<Eigen::Index>(i)];
-      std::cerr << line.str() << "\n";
+  if (o.shooting == "multiple")
+    lo.shooting = estimation::Shooting::kMultiple;
+  else if (o.shooting != "single")
+    throw std::invalid_argument("--shooting " + o.shooting + ": expected single or multiple");
+  lo.segment_samples = o.segment_samples;
+  lo.progress = ProgressPrinter(o);
+  return estimation::EstimateLeastSquares(simulator, log, lo);
+}
+
+// --method filter: the augmented-state unscented Kalman filter.
+estimation::EstimateResult RunFilter(const EstimateOptions& o, const sim::Simulator& simulator,
+                                     const estimation::Log& log) {
+  if (o.fixed_initial_state || o.shooting != "single")
+    throw std::invalid_argument(
+        "--method filter: --fixed-initial-state and --shooting apply to lsq only");
+  estimation::FilterOptions fo;
+  fo.params = o.params;
+  fo.noise_sigma = o.noise;
+  const auto print = ProgressPrinter(o);
+  if (print) {
+    fo.progress = [print](int sample, const sim::VectorXd& p) {
+      if (sample % 50 == 0) print(sample, std::nan(""), p);
     };
-    std::cerr << "vinci estimate: lsq, " << log.episodes.size() << " episode(s), "
-              << o.params.size() << " parameter(s)" << std::endl;
   }
-  const estimation::EstimateResult r = estimation::EstimateLeastSquares(simulator, log, lo);
+  return estimation::EstimateFilter(simulator, log, fo);
+}
+
+}  // namespace
+
+ExitCode RunEstimateCommand(const EstimateOptions& o) {
+  if (o.method == "mpec") {
+    if (o.holdout > 0)
+      throw std::invalid_argument("--holdout: not implemented for --method mpec (lsq, filter)");
+    return RunEstimateMpec(o);
+  }
+  if (o.method != "lsq" && o.method != "filter")
+    throw std::invalid_argument("--method " + o.method + ": expected lsq, mpec or filter");
+  if (o.noise < 0 || !std::isfinite(o.noise))
+    throw std::invalid_argument("--noise: expected a finite σ ≥ 0 in m");
+  if (o.holdout < 0) throw std::invalid_argument("--holdout: expected K ≥ 2");
+  // Check that the output can be written before the work.
+  {
+    std::ofstream test(o.out, std::ios::app);
+    if (!test) throw std::invalid_argument("--out: cannot open '" + o.out + "' for writing");
+  }
+  const sim::Simulator simulator(sim::LoadSceneFile(o.scene_path));
+  const estimation::Log all = estimation::ReadLog(o.logs, simulator.scene());
+  estimation::Log log = all, held_out;
+  if (o.holdout > 0) estimation::SplitHoldout(all, o.holdout, &log, &held_out);
+  if (!o.quiet) {
+    std::cerr << "vinci estimate: " << o.method << ", " << log.episodes.size()
+              << " episode(s) fitted";
+    if (o.holdout > 0) std::cerr << ", " << held_out.episodes.size() << " held out";
+    std::cerr << ", " << o.params.size() << " parameter(s)" << std::endl;
+  }
+  const estimation::EstimateResult r =
+      o.method == "filter" ? RunFilter(o, simulator, log) : RunLeastSquares(o, simulator, log);
+  std::unique_ptr<estimation::HoldoutResult> holdout;
+  if (o.holdout > 0) {
+    const sim::ParamSelection sel(simulator.scene().param_table(), r.names);
+    holdout = std::make_unique<estimation::HoldoutResult>(estimation::EvaluateHoldout(
+        simulator, sel.Set(simulator.DefaultParams(), r.estimates), held_out));
+  }
   std::ofstream out(o.out, std::ios::out | std::ios::trunc);
-  out << ResultJson(o, r);
+  out << ResultJson(o, r, holdout.get());
   out.close();
   if (!out) throw std::invalid_argument("--out: writing '" + o.out + "' failed");
   if (!o.quiet) {
@@ -117,8 +189,14 @@ ExitCode RunEstimateCommand(const EstimateOptions& o) {
         << r.initial_values[static_cast<Eigen::Index>(i)] << ")\n";
     }
     s << "iterations " << r.iterations << ", " << r.time_s << " s, "
-      << (r.converged ? "converged" : "did not converge") << ": " << r.reason << "\n"
-      << "result      " << o.out << "\n";
+      << (r.converged ? "converged" : "did not converge") << ": " << r.reason << "\n";
+    if (holdout) {
+      s << "hold-out rollout error (" << holdout->files.size() << " episodes): fitted "
+        << holdout->fitted.position_m << " m (" << holdout->fitted.position_percent
+        << " %), stationary " << holdout->stationary.position_m << " m, initial guess "
+        << holdout->initial_guess.position_m << " m\n";
+    }
+    s << "result      " << o.out << "\n";
     std::cout << s.str() << std::flush;
   }
   if (!r.converged) {
@@ -147,8 +225,9 @@ Command RegisterEstimateCommand(CLI::App& app) {
       ->required()
       ->type_name("NAME");
   sub->add_option("--method", options->method,
-                  "Estimator: lsq (least squares with the simulator in the loop, Ceres) or mpec "
-                  "(the MPEC non-recursive filter, Ipopt). filter is not implemented yet")
+                  "Estimator: lsq (least squares with the simulator in the loop, Ceres; "
+                  "default), mpec (the MPEC non-recursive filter, Ipopt) or filter "
+                  "(augmented-state unscented Kalman filter)")
       ->type_name("NAME");
   sub->add_option("--complementarity", options->complementarity,
                   "mpec: scholtes (relaxation homotopy x∘y ≤ ε, ε → 1e-8) or penalty (ℓ1)")
@@ -157,6 +236,19 @@ Command RegisterEstimateCommand(CLI::App& app) {
                   "mpec: process noise σ_Q of each generalized force (N, N·m; default 1% of the "
                   "lightest dynamic body's weight)")
       ->type_name("SIGMA");
+  sub->add_option("--shooting", options->shooting,
+                  "lsq: single (one rollout per episode; default) or multiple (segments of "
+                  "--segment-samples samples from their own start states, with continuity)")
+      ->type_name("single|multiple");
+  sub->add_option("--segment-samples", options->segment_samples,
+                  "lsq --shooting multiple: logged samples per segment (default 20)")
+      ->type_name("N")
+      ->check(CLI::Range(2, 1000000));
+  sub->add_option("--holdout", options->holdout,
+                  "Keep every K-th log file out of the fit and report the fitted model's "
+                  "rollout error on them next to two baselines (holdout_error)")
+      ->type_name("K")
+      ->check(CLI::Range(2, 1000000));
   sub->add_option("--noise", options->noise,
                   "Measurement noise σ of the logged positions in m for the standard errors "
                   "(default: estimated from the residuals)")
@@ -174,8 +266,9 @@ Command RegisterEstimateCommand(CLI::App& app) {
   sub->add_option("--out,-o", options->out, "Result file (JSON)")->required()->type_name("FILE");
   sub->add_flag("--quiet,-q", options->quiet, "Print nothing but errors");
   sub->footer(
-      "result.json: {scene, logs, methods: {lsq: {estimates, std_errors, initial_values, "
-      "iterations, time_s, converged, reason, sigma, ...}}}.\nExit 0 converged, 1 bad input, 3 "
+      "result.json: {scene, logs, methods: {lsq|filter: {estimates, std_errors, "
+      "initial_values, iterations, time_s, converged, reason, sigma, holdout_error, ...}}}.\nExit "
+      "0 converged, 1 bad input, 3 "
       "did not converge (the result is still written).");
   return Command{sub, [options] { return RunEstimateCommand(*options); }};
 }

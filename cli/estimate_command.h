@@ -20,6 +20,9 @@ struct EstimateOptions {
   int threads = 1;
   int max_iterations = 100;
   bool fixed_initial_state = false;
+  std::string shooting = "single";  ///< lsq: single | multiple
+  int segment_samples = 20;         ///< lsq multiple shooting: samples per segment
+  int holdout = 0;                  ///< K: every K-th episode held out of the fit (0: none)
   std::string out;
   bool quiet = false;
   std::string complementarity = "scholtes";  ///< mpec: scholtes | penalty

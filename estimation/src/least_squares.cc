@@ -11,104 +11,16 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "estimation_internal.h"
 #include "vinci/sim/model/state_util.h"
 
 namespace vinci::estimation {
-namespace {
 
 using sim::Dim;
 using sim::Params;
 using sim::State;
 using sim::VectorXd;
-
-// Samples of the quadratic fit that gives a log's initial velocity.
-constexpr int kVelocityFitSamples = 8;
-
-bool Planar(const sim::Simulator& s) { return s.scene().dim == Dim::kPlanar; }
-int StateBlockSize(bool planar) { return planar ? 6 : 12; }
-
-int ObservedDynamic(const Episode& ep) {
-  int n = 0;
-  for (const BodyTrack& b : ep.bodies) n += b.dynamic;
-  return n;
-}
-
-Eigen::Quaterniond LoggedQuaternion(const BodyTrack& b, int i) {
-  return Eigen::Quaterniond(b.pose(i, 3), b.pose(i, 4), b.pose(i, 5), b.pose(i, 6)).normalized();
-}
-
-Eigen::Matrix3d Exp(const Eigen::Vector3d& w) {
-  const double a = w.norm();
-  if (a < 1e-300) return Eigen::Matrix3d::Identity();
-  return Eigen::AngleAxisd(a, w / a).toRotationMatrix();
-}
-
-Eigen::Vector3d RotationLog(const Eigen::Quaterniond& q_in) {
-  Eigen::Quaterniond q = q_in.normalized();
-  if (q.w() < 0) q.coeffs() = -q.coeffs();
-  const double s = q.vec().norm();
-  if (s < 1e-300) return Eigen::Vector3d::Zero();
-  return 2.0 * std::atan2(s, q.w()) * q.vec() / s;
-}
-
-// The state with the observed dynamic bodies set from the unknown vector s (blocks of
-// StateBlockSize per observed dynamic body, in track order).
-State StateFromVector(const sim::Simulator& sim, const Episode& ep, const State& ref,
-                      const double* s) {
-  const sim::Scene& scene = sim.scene();
-  const bool planar = Planar(sim);
-  State x = ref;
-  int o = 0;
-  for (const BodyTrack& b : ep.bodies) {
-    if (!b.dynamic) continue;
-    if (planar) {
-      sim::SetPlanarBodyPose(scene, b.body, s[o], s[o + 1], s[o + 2], &x);
-      sim::SetBodyVelocity(scene, b.body, Eigen::Vector3d(s[o + 3], s[o + 4], 0),
-                           Eigen::Vector3d(0, 0, s[o + 5]), &x);
-    } else {
-      const Eigen::Matrix3d R_ref = b.has_orientation
-                                        ? LoggedQuaternion(b, 0).toRotationMatrix()
-                                        : sim::GetBodyKinematics(scene, ref, b.body).X_WB.linear();
-      Eigen::Isometry3d X = Eigen::Isometry3d::Identity();
-      X.translation() = Eigen::Vector3d(s[o], s[o + 1], s[o + 2]);
-      X.linear() = Exp(Eigen::Vector3d(s[o + 3], s[o + 4], s[o + 5])) * R_ref;
-      sim::SetBodyPose(scene, b.body, X, &x);
-      sim::SetBodyVelocity(scene, b.body, Eigen::Vector3d(s[o + 6], s[o + 7], s[o + 8]),
-                           Eigen::Vector3d(s[o + 9], s[o + 10], s[o + 11]), &x);
-    }
-    o += StateBlockSize(planar);
-  }
-  return x;
-}
-
-// The unknown vector of a state (inverse of StateFromVector, rotation relative to the first
-// logged orientation).
-VectorXd VectorFromState(const sim::Simulator& sim, const Episode& ep, const State& x) {
-  const sim::Scene& scene = sim.scene();
-  const bool planar = Planar(sim);
-  VectorXd s(ObservedDynamic(ep) * StateBlockSize(planar));
-  int o = 0;
-  for (const BodyTrack& b : ep.bodies) {
-    if (!b.dynamic) continue;
-    const sim::BodyKinematics k = sim::GetBodyKinematics(scene, x, b.body);
-    if (planar) {
-      const int qo = scene.index(b.body_index).q;
-      s.segment(o, 6) << x.q[qo], x.q[qo + 1], x.q[qo + 2], k.v_WB.x(), k.v_WB.y(), k.w_WB.z();
-    } else {
-      const Eigen::Quaterniond q(k.X_WB.linear());
-      const Eigen::Quaterniond q_ref =
-          b.has_orientation ? LoggedQuaternion(b, 0) : Eigen::Quaterniond(k.X_WB.linear());
-      s.segment(o, 3) = k.X_WB.translation();
-      s.segment(o + 3, 3) = RotationLog(q * q_ref.conjugate());
-      s.segment(o + 6, 3) = k.v_WB;
-      s.segment(o + 9, 3) = k.w_WB;
-    }
-    o += StateBlockSize(planar);
-  }
-  return s;
-}
-
-}  // namespace
+using namespace internal;  // NOLINT(google-build-using-namespace): this file's own helpers
 
 void LeastSquaresOptions::Validate() const {
   auto fail = [](const std::string& field, double v, const std::string& expected) {
@@ -122,98 +34,16 @@ void LeastSquaresOptions::Validate() const {
     fail("orientation_length", orientation_length, "finite > 0");
   if (threads < 1) fail("threads", threads, "≥ 1");
   if (max_iterations < 1) fail("max_iterations", max_iterations, "≥ 1");
+  if (segment_samples < 2) fail("segment_samples", segment_samples, "≥ 2");
+  if (!(continuity_weight > 0) || !std::isfinite(continuity_weight))
+    fail("continuity_weight", continuity_weight, "finite > 0");
+  if (shooting == Shooting::kMultiple && !estimate_initial_state)
+    throw std::invalid_argument(
+        "least squares: multiple shooting estimates the segments' start states; it cannot be "
+        "combined with a fixed initial state");
   if (!(fd_relative_step > 0) || !(fd_relative_step < 1e-2))
     fail("fd_relative_step", fd_relative_step, "in (0, 1e-2)");
 }
-
-namespace {
-
-// The log's initial state (InitialStateFromLog) and, in the layout of the state unknowns
-// (StateFromVector), the standard error of each velocity component estimated from the samples
-// (0 for poses and for logged velocities or when the fit has no spare samples).
-State GuessInitialState(const sim::Simulator& simulator, const Episode& ep, VectorXd* velocity_se) {
-  const sim::Scene& scene = simulator.scene();
-  const bool planar = Planar(simulator);
-  State x = simulator.InitialState();
-  x.t = ep.t.front();
-  x.warm_start.resize(0);
-  velocity_se->setZero(ObservedDynamic(ep) * StateBlockSize(planar));
-  const int n = ep.num_samples();
-  const int k = std::min(n - 1, kVelocityFitSamples - 1);
-  // Velocity of a logged series at the first sample: the slope at t0 of a least-squares
-  // quadratic through the first samples (a line through two if there are only two), and its
-  // standard error from the fit's residuals.
-  auto slope = [&](const std::vector<double>& y, double* se) {
-    *se = 0.0;
-    if (k == 0) return 0.0;
-    const int m = k + 1;
-    Eigen::MatrixXd A(m, m >= 3 ? 3 : 2);
-    VectorXd yv(m);
-    for (int i = 0; i < m; ++i) {
-      const double tau = ep.t[i] - ep.t[0];
-      A(i, 0) = 1.0;
-      A(i, 1) = tau;
-      if (A.cols() == 3) A(i, 2) = tau * tau;
-      yv[i] = y[i];
-    }
-    const VectorXd c = A.colPivHouseholderQr().solve(yv);
-    if (m > A.cols()) {
-      const double s2 = (A * c - yv).squaredNorm() / (m - A.cols());
-      const Eigen::MatrixXd cov = (A.transpose() * A).inverse() * s2;
-      *se = std::sqrt(std::max(0.0, cov(1, 1)));
-    }
-    return c[1];
-  };
-  auto column = [&](const BodyTrack& b, int col) {
-    std::vector<double> y(k + 1);
-    for (int i = 0; i <= k; ++i) y[i] = b.pose(i, col);
-    return y;
-  };
-  int o = 0;
-  for (const BodyTrack& b : ep.bodies) {
-    if (!b.dynamic) continue;
-    Eigen::Vector3d v = Eigen::Vector3d::Zero(), w = Eigen::Vector3d::Zero();
-    double* se = velocity_se->data() + o;
-    if (planar) {
-      const Eigen::Matrix3d R = sim::GetBodyKinematics(scene, x, b.body).X_WB.linear();
-      const double th = b.has_orientation ? b.pose(0, 2) : std::atan2(R(1, 0), R(0, 0));
-      sim::SetPlanarBodyPose(scene, b.body, b.pose(0, 0), b.pose(0, 1), th, &x);
-      if (b.velocity.rows() > 0) {
-        v << b.velocity(0, 0), b.velocity(0, 1), 0;
-        w << 0, 0, b.velocity(0, 2);
-      } else {
-        v << slope(column(b, 0), se + 3), slope(column(b, 1), se + 4), 0;
-        if (b.has_orientation) w.z() = slope(column(b, 2), se + 5);
-      }
-    } else {
-      Eigen::Isometry3d X = sim::GetBodyKinematics(scene, x, b.body).X_WB;
-      X.translation() = b.pose.row(0).head<3>().transpose();
-      if (b.has_orientation) X.linear() = LoggedQuaternion(b, 0).toRotationMatrix();
-      sim::SetBodyPose(scene, b.body, X, &x);
-      if (b.velocity.rows() > 0) {
-        v = b.velocity.row(0).head<3>().transpose();
-        w = b.velocity.row(0).tail<3>().transpose();
-      } else {
-        for (int j = 0; j < 3; ++j) v[j] = slope(column(b, j), se + 6 + j);
-        if (b.has_orientation) {
-          // World-frame rotation vectors from the first orientation: their slope is w_W.
-          std::vector<std::vector<double>> rv(3, std::vector<double>(k + 1));
-          for (int i = 0; i <= k; ++i) {
-            const Eigen::Vector3d r =
-                RotationLog(LoggedQuaternion(b, i) * LoggedQuaternion(b, 0).conjugate());
-            for (int j = 0; j < 3; ++j) rv[j][i] = r[j];
-          }
-          for (int j = 0; j < 3; ++j) w[j] = slope(rv[j], se + 9 + j);
-        }
-      }
-    }
-    sim::SetBodyVelocity(scene, b.body, v, w, &x);
-    o += StateBlockSize(planar);
-  }
-  return x;
-}
-
-}  // namespace
 
 State InitialStateFromLog(const sim::Simulator& simulator, const Episode& ep) {
   VectorXd se;
@@ -223,95 +53,51 @@ State InitialStateFromLog(const sim::Simulator& simulator, const Episode& ep) {
 bool EpisodeResiduals(const sim::Simulator& simulator, const Params& params, const Episode& ep,
                       const State& x0, double orientation_length, VectorXd* residuals,
                       std::string* failure) {
-  const sim::Scene& scene = simulator.scene();
-  const bool planar = Planar(simulator);
-  const double dt = scene.options.dt;
-  const double t0 = ep.t.front();
-  const int steps = std::max(0, static_cast<int>(std::ceil((ep.t.back() - t0) / dt - 1e-9)));
-  sim::RolloutOptions ro;
-  ro.warm_start = sim::WarmStartPolicy::kCold;  // a function of (params, t, q, v) only
-  std::vector<sim::StepInput> inputs(steps);
-  const sim::Trajectory tr = simulator.Rollout(params, x0, inputs, ro);
-  if (!tr.ok || static_cast<int>(tr.states.size()) != steps + 1) {
-    if (failure) *failure = "rollout failed: " + tr.failure;
-    return false;
-  }
-  const int per = ResidualsPerSample(ep, scene.dim);
-  residuals->resize(static_cast<Eigen::Index>(ep.num_samples()) * per);
-  for (int i = 0; i < ep.num_samples(); ++i) {
-    const double ti = ep.t[i];
-    int k = steps == 0 ? 0 : std::min(steps - 1, static_cast<int>(std::floor((ti - t0) / dt)));
-    k = std::max(k, 0);
-    const State& a = tr.states[k];
-    const State& b = tr.states[std::min(k + 1, steps)];
-    const double span = b.t - a.t;
-    const double al = span > 0 ? std::clamp((ti - a.t) / span, 0.0, 1.0) : 0.0;
-    int r = i * per;
-    for (const BodyTrack& tb : ep.bodies) {
-      if (!tb.dynamic) continue;
-      const int qo = scene.index(tb.body_index).q;
-      const int np = planar ? 2 : 3;
-      for (int j = 0; j < np; ++j)
-        (*residuals)[r++] = tb.pose(i, j) - ((1 - al) * a.q[qo + j] + al * b.q[qo + j]);
-      if (!tb.has_orientation) continue;
-      if (planar) {
-        const double th = (1 - al) * a.q[qo + 2] + al * b.q[qo + 2];
-        (*residuals)[r++] = orientation_length * (tb.pose(i, 2) - th);
-      } else {
-        Eigen::Quaterniond qa(a.q[qo + 3], a.q[qo + 4], a.q[qo + 5], a.q[qo + 6]);
-        Eigen::Quaterniond qb(b.q[qo + 3], b.q[qo + 4], b.q[qo + 5], b.q[qo + 6]);
-        const Eigen::Quaterniond q = qa.slerp(al, qb);
-        const Eigen::Vector3d e = RotationLog(LoggedQuaternion(tb, i) * q.conjugate());
-        for (int j = 0; j < 3; ++j) (*residuals)[r++] = orientation_length * e[j];
-      }
-    }
-  }
-  return true;
+  return RolloutResiduals(simulator, params, ep, x0, orientation_length, residuals, failure,
+                          nullptr);
 }
 
 namespace {
 
-// Records the first failure seen inside a Ceres callback (thread-safe).
-class FailureLog {
+// One shooting segment: the samples of an episode from the segment's start state s_j (at its
+// first sample) up to the next segment's first sample. Residuals: the logged samples of the
+// segment (all of them for the episode's last segment, all but the next segment's first
+// otherwise) and, if there is a next segment, the continuity defect
+// c ⊙ (x(t_next; θ, s_j) − s_{j+1}) in the next segment's state coordinates. Parameter blocks:
+// θ, then (if estimated) s_j, then (if there is a next segment) s_{j+1}. Jacobians for θ and
+// s_j by central differences of rollouts (one-sided at a parameter bound); for s_{j+1} −c.
+class SegmentCost : public ceres::CostFunction {
  public:
-  void Record(const std::string& what) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    ++count_;
-    if (first_.empty()) first_ = what;
-  }
-  std::string Summary() const {
-    std::lock_guard<std::mutex> lock(mutex_);
-    if (count_ == 0) return "";
-    return std::to_string(count_) + " evaluation(s) failed, first: " + first_;
-  }
-
- private:
-  mutable std::mutex mutex_;
-  int count_ = 0;
-  std::string first_;
-};
-
-// One episode's residuals; parameter blocks: the selected parameters and (optionally) the
-// episode's initial-state vector. Jacobians by central differences of rollouts.
-class EpisodeCost : public ceres::CostFunction {
- public:
-  EpisodeCost(const sim::Simulator& sim, const sim::ParamSelection& sel, const Params& base,
-              const Episode& ep, const State& ref, bool with_state, const VectorXd& fixed_state,
+  SegmentCost(const sim::Simulator& sim, const sim::ParamSelection& sel, const Params& base,
+              Episode segment, int measured_samples, const State& ref, bool with_state,
+              const VectorXd& fixed_state, std::unique_ptr<Episode> next,
+              const VectorXd& continuity_scale, const double* weight,
               const LeastSquaresOptions& opt, FailureLog* failures)
       : sim_(sim),
         sel_(sel),
         base_(base),
-        ep_(ep),
+        ep_(std::move(segment)),
         ref_(ref),
         with_state_(with_state),
         fixed_state_(fixed_state),
+        next_(std::move(next)),
+        scale_(continuity_scale),
+        weight_(weight),
         opt_(opt),
         failures_(failures) {
-    set_num_residuals(ep.num_samples() * ResidualsPerSample(ep, sim.scene().dim));
+    measured_rows_ = measured_samples * ResidualsPerSample(ep_, sim.scene().dim);
+    continuity_rows_ = next_ ? static_cast<int>(scale_.size()) : 0;
+    set_num_residuals(measured_rows_ + continuity_rows_);
     mutable_parameter_block_sizes()->push_back(sel.size());
     if (with_state)
       mutable_parameter_block_sizes()->push_back(static_cast<int>(fixed_state.size()));
+    if (next_) mutable_parameter_block_sizes()->push_back(continuity_rows_);
   }
+
+  int measured_rows() const { return measured_rows_; }
+  int continuity_rows() const { return continuity_rows_; }
+  const Episode& segment() const { return ep_; }
+  const State& ref() const { return ref_; }
 
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override {
@@ -324,13 +110,25 @@ class EpisodeCost : public ceres::CostFunction {
   }
 
  private:
-  bool Residuals(const VectorXd& theta, const VectorXd& s, VectorXd* r) const {
+  bool Residuals(const VectorXd& theta, const VectorXd& s, const double* s_next,
+                 VectorXd* r) const {
     const Params p = sel_.Set(base_, theta);
     const State x0 = StateFromVector(sim_, ep_, ref_, s.data());
     std::string failure;
-    if (!EpisodeResiduals(sim_, p, ep_, x0, opt_.orientation_length, r, &failure)) {
-      failures_->Record(ep_.file + ": " + failure);
+    VectorXd measured;
+    sim::Trajectory tr;
+    if (!RolloutResiduals(sim_, p, ep_, x0, opt_.orientation_length, &measured, &failure,
+                          next_ ? &tr : nullptr)) {
+      failures_->Record(ep_.file + " (t = " + std::to_string(ep_.t.front()) + "): " + failure);
       return false;
+    }
+    r->resize(num_residuals());
+    r->head(measured_rows_) = measured.head(measured_rows_);
+    if (next_) {
+      const VectorXd end = VectorAt(sim_, *next_, tr, next_->t.front());
+      r->tail(continuity_rows_) =
+          *weight_ *
+          scale_.cwiseProduct(end - Eigen::Map<const VectorXd>(s_next, continuity_rows_));
     }
     return true;
   }
@@ -342,18 +140,25 @@ class EpisodeCost : public ceres::CostFunction {
     VectorXd s = with_state_
                      ? VectorXd(Eigen::Map<const VectorXd>(parameters[1], fixed_state_.size()))
                      : fixed_state_;
+    const int next_block = with_state_ ? 2 : 1;
+    const double* s_next = next_ ? parameters[next_block] : nullptr;
     VectorXd r;
-    if (!Residuals(theta, s, &r)) return false;
+    if (!Residuals(theta, s, s_next, &r)) return false;
     const int m = num_residuals();
     Eigen::Map<VectorXd>(residuals, m) = r;
     if (!jacobians) return true;
+    using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+    if (next_ && jacobians[next_block]) {
+      Eigen::Map<RowMajor> J(jacobians[next_block], m, continuity_rows_);
+      J.setZero();
+      J.bottomRows(continuity_rows_).diagonal() = -*weight_ * scale_;
+    }
     const VectorXd lo = sel_.lower(), hi = sel_.upper();
     for (int block = 0; block < (with_state_ ? 2 : 1); ++block) {
       if (!jacobians[block]) continue;
       VectorXd& x = block == 0 ? theta : s;
       const int n = static_cast<int>(x.size());
-      Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> J(
-          jacobians[block], m, n);
+      Eigen::Map<RowMajor> J(jacobians[block], m, n);
       for (int j = 0; j < n; ++j) {
         const double xj = x[j];
         const double h = opt_.fd_relative_step * std::max(1.0, std::abs(xj));
@@ -363,14 +168,14 @@ class EpisodeCost : public ceres::CostFunction {
         double width = 0.0;
         if (up_ok) {
           x[j] = xj + h;
-          if (!Residuals(theta, s, &rp)) return false;
+          if (!Residuals(theta, s, s_next, &rp)) return false;
           width += h;
         } else {
           rp = r;
         }
         if (down_ok) {
           x[j] = xj - h;
-          if (!Residuals(theta, s, &rm)) return false;
+          if (!Residuals(theta, s, s_next, &rm)) return false;
           width += h;
         } else {
           rm = r;
@@ -386,12 +191,16 @@ class EpisodeCost : public ceres::CostFunction {
   const sim::Simulator& sim_;
   const sim::ParamSelection& sel_;
   const Params& base_;
-  const Episode& ep_;
+  const Episode ep_;
   const State ref_;
   const bool with_state_;
   const VectorXd fixed_state_;
+  const std::unique_ptr<Episode> next_;
+  const VectorXd scale_;
+  const double* weight_;  // the continuity weight w of the current stage
   const LeastSquaresOptions& opt_;
   FailureLog* failures_;
+  int measured_rows_ = 0, continuity_rows_ = 0;
 };
 
 // Forwards Ceres' iteration summaries to LeastSquaresOptions::progress.
@@ -414,7 +223,36 @@ class ProgressCallback : public ceres::IterationCallback {
   const VectorXd& theta_;
 };
 
+// First samples of the shooting segments of an episode with n samples: every
+// `segment_samples`, the last segment merged into the one before if it would have fewer than
+// half as many samples. Single shooting: {0}.
+std::vector<int> SegmentStarts(int n, const LeastSquaresOptions& o) {
+  std::vector<int> starts = {0};
+  if (o.shooting != Shooting::kMultiple) return starts;
+  for (int b = o.segment_samples; b < n - 1; b += o.segment_samples) starts.push_back(b);
+  if (starts.size() > 1 && (n - 1) - starts.back() < o.segment_samples / 2) starts.pop_back();
+  return starts;
+}
+
+// Scale of the continuity residuals: positions 1, angles orientation_length, velocities the
+// segment's duration (so every entry is in metres).
+VectorXd ContinuityScale(bool planar, int bodies, double duration, const LeastSquaresOptions& o) {
+  const int nb = StateBlockSize(planar);
+  VectorXd c(bodies * nb);
+  for (int b = 0; b < bodies; ++b) {
+    if (planar)
+      c.segment(b * nb, nb) << 1, 1, o.orientation_length, duration, duration,
+          o.orientation_length * duration;
+    else
+      c.segment(b * nb, nb) << 1, 1, 1, VectorXd::Constant(3, o.orientation_length),
+          VectorXd::Constant(3, duration), VectorXd::Constant(3, o.orientation_length * duration);
+  }
+  return c;
+}
+
 }  // namespace
+
+const char* ToString(Shooting s) { return s == Shooting::kMultiple ? "multiple" : "single"; }
 
 EstimateResult EstimateLeastSquares(const sim::Simulator& simulator, const Log& log,
                                     const LeastSquaresOptions& options) {
@@ -422,16 +260,7 @@ EstimateResult EstimateLeastSquares(const sim::Simulator& simulator, const Log& 
   const auto start = std::chrono::steady_clock::now();
   const sim::Scene& scene = simulator.scene();
   const sim::ParamTable& table = scene.param_table();
-  for (const std::string& name : options.params) {
-    const sim::ParamInfo& info = table.info(table.Index(name));
-    if (!info.differentiable) {
-      std::string names;
-      for (const std::string& d : table.DifferentiableNames())
-        names += (names.empty() ? "" : ", ") + d;
-      throw std::invalid_argument("--param " + name +
-                                  ": not a differentiable parameter; estimable here: " + names);
-    }
-  }
+  CheckDifferentiable(scene, options.params);
   if (log.episodes.empty()) throw std::invalid_argument("no log episode");
   const sim::ParamSelection sel(table, options.params);
   const bool planar = Planar(simulator);
@@ -439,19 +268,50 @@ EstimateResult EstimateLeastSquares(const sim::Simulator& simulator, const Log& 
   for (const Episode& ep : log.episodes)
     own.push_back(options.estimate_initial_state ? ObservedDynamic(ep) * StateBlockSize(planar)
                                                  : 0);
+  // Multiple shooting adds as many continuity residuals as segment-state unknowns: the same
+  // count suffices.
   CheckEnoughSamples(log, scene.dim, sel.size(), own);
 
   const Params base = simulator.DefaultParams();
   EstimateResult result;
+  result.method = "lsq";
   result.names = options.params;
   result.initial_values = sel.Get(base);
   VectorXd theta = result.initial_values;
-  std::vector<State> refs;
-  std::vector<VectorXd> states, velocity_se;
-  for (const Episode& ep : log.episodes) {
-    velocity_se.emplace_back();
-    refs.push_back(GuessInitialState(simulator, ep, &velocity_se.back()));
-    states.push_back(VectorFromState(simulator, ep, refs.back()));
+
+  // Segments, their starting guesses (the log's pose and quadratic-fit velocity at the
+  // segment's first sample) and the velocity standard errors of those guesses.
+  struct Segment {
+    int episode = 0, first = 0, last = 0;  // samples first..last of the rollout
+    State ref;
+    VectorXd se;
+  };
+  std::vector<Segment> segments;
+  std::vector<std::vector<int>> episode_segments(log.episodes.size());
+  std::vector<VectorXd> states;  // one per segment; stable addresses after this loop
+  for (size_t e = 0; e < log.episodes.size(); ++e) {
+    const Episode& ep = log.episodes[e];
+    const std::vector<int> starts = SegmentStarts(ep.num_samples(), options);
+    for (size_t j = 0; j < starts.size(); ++j) {
+      Segment s;
+      s.episode = static_cast<int>(e);
+      s.first = starts[j];
+      s.last = j + 1 < starts.size() ? starts[j + 1] : ep.num_samples() - 1;
+      const Episode slice = Slice(ep, s.first, ep.num_samples() - 1);
+      s.ref = GuessInitialState(simulator, slice, &s.se, options.shooting == Shooting::kMultiple);
+      states.push_back(VectorFromState(simulator, slice, s.ref));
+      episode_segments[e].push_back(static_cast<int>(segments.size()));
+      segments.push_back(std::move(s));
+    }
+  }
+  result.num_segments = static_cast<int>(segments.size());
+  // Later segments: velocity components the samples do not distinguish from zero start at zero
+  // (see below for the first segment).
+  for (size_t k = 0; k < segments.size(); ++k) {
+    if (segments[k].first == 0) continue;
+    for (Eigen::Index j = 0; j < states[k].size(); ++j)
+      if (segments[k].se[j] > 0 && std::abs(states[k][j]) <= 3.0 * segments[k].se[j])
+        states[k][j] = 0.0;
   }
 
   FailureLog failures;
@@ -463,54 +323,73 @@ EstimateResult EstimateLeastSquares(const sim::Simulator& simulator, const Log& 
     if (sel.lower()[i] > -1e299) problem.SetParameterLowerBound(theta.data(), i, sel.lower()[i]);
     if (sel.upper()[i] < 1e299) problem.SetParameterUpperBound(theta.data(), i, sel.upper()[i]);
   }
-  int m = 0;
-  std::vector<const EpisodeCost*> costs;
-  for (size_t e = 0; e < log.episodes.size(); ++e) {
-    auto* cost = new EpisodeCost(simulator, sel, base, log.episodes[e], refs[e],
-                                 options.estimate_initial_state, states[e], options, &failures);
-    m += cost->num_residuals();
+  std::vector<const SegmentCost*> costs;
+  int continuity_rows = 0;
+  // Continuity weight: a homotopy from min(10, w) up to w by factors of 10, each stage warm
+  // started (a stiff penalty from the start makes Levenberg–Marquardt crawl along the
+  // constraint manifold).
+  double weight = std::min(10.0, options.continuity_weight);
+  for (size_t k = 0; k < segments.size(); ++k) {
+    const Segment& s = segments[k];
+    const Episode& ep = log.episodes[s.episode];
+    const bool has_next = s.last < ep.num_samples() - 1;
+    std::unique_ptr<Episode> next;
+    if (has_next) next = std::make_unique<Episode>(Slice(ep, s.last, ep.num_samples() - 1));
+    const int measured = has_next ? s.last - s.first : s.last - s.first + 1;
+    const VectorXd scale =
+        ContinuityScale(planar, ObservedDynamic(ep), ep.t[s.last] - ep.t[s.first], options);
+    auto* cost = new SegmentCost(simulator, sel, base, Slice(ep, s.first, s.last), measured, s.ref,
+                                 options.estimate_initial_state, states[k], std::move(next), scale,
+                                 &weight, options, &failures);
+    result.num_residuals += cost->measured_rows();
+    continuity_rows += cost->continuity_rows();
     costs.push_back(cost);
-    if (options.estimate_initial_state)
-      problem.AddResidualBlock(cost, nullptr, theta.data(), states[e].data());
-    else
-      problem.AddResidualBlock(cost, nullptr, theta.data());
+    std::vector<double*> blocks = {theta.data()};
+    if (options.estimate_initial_state) blocks.push_back(states[k].data());
+    if (has_next) blocks.push_back(states[k + 1].data());
+    problem.AddResidualBlock(cost, nullptr, blocks);
   }
-  result.num_residuals = m;
+  result.num_continuity_residuals = continuity_rows;
 
   // Initial-state components the residuals do not see at the start have a zero Jacobian column
   // and are held fixed, so that the problem stays well-posed. The typical case is a velocity
   // into a resting contact, which the contact removes in the first step: its guess from noisy
   // samples is small but not zero, and can even lift the body off. So velocity components that
   // the samples do not distinguish from zero (|v| ≤ 3 standard errors of the fit) are tested at
-  // zero, and held at zero if the rollout does not depend on them there.
+  // zero, and held at zero if the rollout does not depend on them there. (Later segments' start
+  // states are tied by the continuity residuals of the segment before.)
   if (options.estimate_initial_state) {
     for (size_t e = 0; e < log.episodes.size(); ++e) {
-      const int ns = static_cast<int>(states[e].size());
-      VectorXd s0 = states[e];
+      const int k = episode_segments[e].front();
+      VectorXd& state = states[k];
+      const int ns = static_cast<int>(state.size());
+      VectorXd s0 = state;
       std::vector<bool> candidate(ns, false);
       for (int j = 0; j < ns; ++j) {
-        candidate[j] = velocity_se[e][j] > 0 && std::abs(s0[j]) <= 3.0 * velocity_se[e][j];
+        candidate[j] = segments[k].se[j] > 0 && std::abs(s0[j]) <= 3.0 * segments[k].se[j];
         if (candidate[j]) s0[j] = 0.0;
       }
-      const ceres::CostFunction* cost = costs[e];
+      const SegmentCost* cost = costs[k];
+      const int has_next = cost->continuity_rows() > 0;
       VectorXd r(cost->num_residuals());
       Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> J(
           cost->num_residuals(), ns);
-      const double* params[2] = {theta.data(), s0.data()};
-      double* jac[2] = {nullptr, J.data()};
+      const double* params[3] = {theta.data(), s0.data(),
+                                 has_next ? states[k + 1].data() : nullptr};
+      double* jac[3] = {nullptr, J.data(), nullptr};
       if (!cost->Evaluate(params, r.data(), jac)) continue;  // the solver will report it
       const double tol = 1e-9 * std::sqrt(static_cast<double>(std::max<Eigen::Index>(1, J.rows())));
       std::vector<int> frozen;
       for (int j = 0; j < ns; ++j) {
         if (J.col(j).norm() > tol) continue;
         frozen.push_back(j);
-        if (candidate[j]) states[e][j] = 0.0;
+        if (candidate[j]) state[j] = 0.0;
       }
       result.frozen_state_components += static_cast<int>(frozen.size());
       if (static_cast<int>(frozen.size()) == ns)
-        problem.SetParameterBlockConstant(states[e].data());
+        problem.SetParameterBlockConstant(state.data());
       else if (!frozen.empty())
-        problem.SetManifold(states[e].data(), new ceres::SubsetManifold(ns, frozen));
+        problem.SetManifold(state.data(), new ceres::SubsetManifold(ns, frozen));
     }
   }
   result.num_unknowns = problem.NumParameters() - result.frozen_state_components;
@@ -518,9 +397,15 @@ EstimateResult EstimateLeastSquares(const sim::Simulator& simulator, const Log& 
   ceres::Solver::Options so;
   so.minimizer_type = ceres::TRUST_REGION;
   so.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
-  so.linear_solver_type = (options.estimate_initial_state && log.episodes.size() > 1)
-                              ? ceres::DENSE_SCHUR
-                              : ceres::DENSE_QR;
+  so.linear_solver_type = ceres::DENSE_QR;
+  if (options.estimate_initial_state && segments.size() > 1) {
+    so.linear_solver_type = ceres::DENSE_SCHUR;
+    if (result.num_unknowns > 600 &&
+        ceres::IsSparseLinearAlgebraLibraryTypeAvailable(ceres::SUITE_SPARSE)) {
+      so.linear_solver_type = ceres::SPARSE_SCHUR;
+      so.sparse_linear_algebra_library_type = ceres::SUITE_SPARSE;
+    }
+  }
   so.max_num_iterations = options.max_iterations;
   so.function_tolerance = options.function_tolerance;
   so.parameter_tolerance = options.parameter_tolerance;
@@ -533,21 +418,53 @@ EstimateResult EstimateLeastSquares(const sim::Simulator& simulator, const Log& 
   if (options.progress) so.callbacks.push_back(&callback);
   ceres::Solver::Summary summary;
   ceres::Solve(so, &problem, &summary);
-
-  result.estimates = theta;
   result.iterations = summary.num_successful_steps + summary.num_unsuccessful_steps;
   result.initial_cost = summary.initial_cost;
+  while (continuity_rows > 0 && weight < options.continuity_weight && summary.IsSolutionUsable()) {
+    weight = std::min(10.0 * weight, options.continuity_weight);
+    ceres::Solve(so, &problem, &summary);
+    result.iterations += summary.num_successful_steps + summary.num_unsuccessful_steps;
+  }
+
+  result.estimates = theta;
   result.final_cost = summary.final_cost;
   result.converged = summary.termination_type == ceres::CONVERGENCE;
   result.reason = summary.message;
+
+  // Measured residuals per episode (and the continuity defect) at the solution.
+  std::vector<double> episode_ss(log.episodes.size(), 0.0);
+  std::vector<int> episode_rows(log.episodes.size(), 0);
+  bool all_evaluated = true;
+  for (size_t k = 0; k < segments.size(); ++k) {
+    const SegmentCost* cost = costs[k];
+    VectorXd r(cost->num_residuals());
+    const double* params[3] = {theta.data(), states[k].data(),
+                               cost->continuity_rows() > 0 ? states[k + 1].data() : nullptr};
+    if (!options.estimate_initial_state) params[1] = params[2];
+    if (!cost->Evaluate(params, r.data(), nullptr)) {
+      all_evaluated = false;
+      continue;
+    }
+    const int e = segments[k].episode;
+    episode_ss[e] += r.head(cost->measured_rows()).squaredNorm();
+    episode_rows[e] += cost->measured_rows();
+    if (cost->continuity_rows() > 0) {
+      const VectorXd defect = r.tail(cost->continuity_rows()) / weight;
+      result.continuity_defect =
+          std::max(result.continuity_defect, defect.lpNorm<Eigen::Infinity>());
+    }
+  }
   const std::string fail = failures.Summary();
   if (!fail.empty()) result.reason += "; " + fail;
 
-  // Standard errors.
-  const int dof = result.num_residuals - result.num_unknowns;
-  result.sigma = options.noise_sigma > 0 ? options.noise_sigma
-                                         : (dof > 0 ? std::sqrt(2.0 * summary.final_cost / dof)
-                                                    : std::numeric_limits<double>::quiet_NaN());
+  // Standard errors. Each continuity residual is a constraint: it removes one degree of freedom
+  // less than the unknown it ties.
+  double measured_ss = 0.0;
+  for (double ss : episode_ss) measured_ss += ss;
+  const int dof = result.num_residuals + continuity_rows - result.num_unknowns;
+  result.sigma = options.noise_sigma > 0      ? options.noise_sigma
+                 : (dof > 0 && all_evaluated) ? std::sqrt(measured_ss / dof)
+                                              : std::numeric_limits<double>::quiet_NaN();
   result.std_errors = VectorXd::Constant(sel.size(), std::numeric_limits<double>::quiet_NaN());
   if (summary.IsSolutionUsable()) {
     ceres::Covariance::Options co;
@@ -568,18 +485,14 @@ EstimateResult EstimateLeastSquares(const sim::Simulator& simulator, const Log& 
     }
   }
 
-  const Params fitted = sel.Set(base, theta);
   for (size_t e = 0; e < log.episodes.size(); ++e) {
+    const int k = episode_segments[e].front();
     EpisodeEstimate ee;
     ee.file = log.episodes[e].file;
-    ee.x0 = StateFromVector(simulator, log.episodes[e], refs[e], states[e].data());
-    VectorXd r;
-    if (EpisodeResiduals(simulator, fitted, log.episodes[e], ee.x0, options.orientation_length, &r,
-                         nullptr) &&
-        r.size() > 0)
-      ee.rms_residual = std::sqrt(r.squaredNorm() / r.size());
-    else
-      ee.rms_residual = std::numeric_limits<double>::quiet_NaN();
+    ee.x0 = StateFromVector(simulator, log.episodes[e], segments[k].ref, states[k].data());
+    ee.rms_residual = episode_rows[e] > 0 && all_evaluated
+                          ? std::sqrt(episode_ss[e] / episode_rows[e])
+                          : std::numeric_limits<double>::quiet_NaN();
     result.episodes.push_back(ee);
   }
   result.time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

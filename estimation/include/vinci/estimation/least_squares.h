@@ -12,7 +12,13 @@
 // scene's dt, linearly interpolated between steps at the logged times t_ei (any sampling), and
 // h returns the positions of the observed dynamic bodies plus, where the log has them, their
 // orientations as angle errors times `orientation_length` (so every residual is in metres).
-// Single shooting: one rollout per episode over its whole log (no multiple shooting yet).
+// Single shooting: one rollout per episode over its whole log. Multiple shooting: each episode
+// is cut into segments of `segment_samples` samples, each simulated from its own start state
+// s_ej (unknowns too, guessed from the log at the segment's first sample), with the continuity
+// defects w c ⊙ (x(t_e,j+1; θ, s_ej) − s_e,j+1) as extra residuals (c: 1 for positions,
+// orientation_length for angles, the segment's duration for velocities, so they are in metres;
+// w = continuity_weight ≫ 1, a penalty that makes them constraints to O(1/w²)). Rollouts are
+// short and start near the data, so the fit is much less prone to local minima.
 // Jacobians by central finite differences of rollouts. Standard errors from the Gauss–Newton
 // covariance (JᵀJ)⁺ σ² (ceres::Covariance, pseudo-inverse), σ the stated noise or, if none is
 // stated, the residual estimate σ̂² = Σ r² / (m − n). Initial-state components with a zero
@@ -31,12 +37,21 @@
 
 namespace vinci::estimation {
 
+/// Single shooting (one rollout per episode) or multiple shooting (segments with continuity).
+enum class Shooting { kSingle, kMultiple };
+/// "single" / "multiple".
+const char* ToString(Shooting s);
+
 struct LeastSquaresOptions {
   std::vector<std::string> params;  ///< names in the scene's ParamTable, differentiable
   /// Estimate each episode's initial state (else it is taken from the log's first sample, with
   /// the logged velocity or, without velocity columns, a finite difference of the first samples).
   bool estimate_initial_state = true;
-  double noise_sigma = 0.0;         ///< measurement noise σ (m); 0: estimated from residuals
+  double noise_sigma = 0.0;  ///< measurement noise σ (m); 0: estimated from residuals
+  Shooting shooting = Shooting::kSingle;
+  int segment_samples = 20;  ///< multiple shooting: logged samples per segment (≥ 2)
+  /// Multiple shooting: weight w of the continuity residuals relative to the measurements.
+  double continuity_weight = 1e3;
   double orientation_length = 0.1;  ///< m per rad for orientation residuals
   int threads = 1;                  ///< Ceres evaluation threads (episodes in parallel)
   int max_iterations = 100;
@@ -59,7 +74,7 @@ struct EpisodeEstimate {
 };
 
 struct EstimateResult {
-  std::string method = "lsq";
+  std::string method = "lsq";  ///< "lsq", "filter"
   std::vector<std::string> names;
   sim::VectorXd estimates, std_errors;  ///< std_errors NaN where the covariance failed
   sim::VectorXd initial_values;
@@ -69,6 +84,10 @@ struct EstimateResult {
   std::string reason;  ///< the solver's termination message (and any rollout failure)
   double initial_cost = 0.0, final_cost = 0.0;  ///< ½ Σ r² (m²)
   int num_residuals = 0, num_unknowns = 0;      ///< unknowns: parameters + free state components
+  int num_segments = 0;  ///< shooting segments over all episodes (= episodes for single shooting)
+  int num_continuity_residuals = 0;  ///< multiple shooting: continuity rows (not in num_residuals)
+  /// Multiple shooting: largest continuity defect |x(t_j+1) − s_j+1| ⊙ c at the solution (m).
+  double continuity_defect = 0.0;
   /// Initial-state components held at the log's values because no residual depends on them at
   /// the start (zero Jacobian column: e.g. a velocity into a resting contact, removed by the
   /// first step).
