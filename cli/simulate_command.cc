@@ -12,6 +12,7 @@
 #include <initializer_list>
 #include <iomanip>
 #include <iostream>
+#include <limits>
 #include <memory>
 #include <sstream>
 #include <stdexcept>
@@ -24,6 +25,7 @@
 #include "vinci/sim/model/scene.h"
 #include "vinci/sim/model/scene_file.h"
 #include "vinci/sim/model/state.h"
+#include "vinci/sim/simulator/sensitivity.h"
 #include "vinci/sim/simulator/simulator.h"
 #include "vinci/sim/solvers/lcp.h"
 #include "vinci/sim/solvers/text_format.h"
@@ -92,17 +94,21 @@ class BodyColumns {
 
   int per_body() const { return scene_.dim == Dim::kPlanar ? 6 : 13; }
 
-  std::string Header() const {
+  // "<body>.<column>" of every body, body after body (per_body() each).
+  std::vector<std::string> Names() const {
     static const char* const kPlanar[] = {"x", "y", "theta", "vx", "vy", "omega"};
     static const char* const kSpatial[] = {"x",  "y",  "z",  "qw", "qx", "qy", "qz",
                                            "vx", "vy", "vz", "wx", "wy", "wz"};
+    std::vector<std::string> names;
+    for (const sim::Body& b : scene_.bodies)
+      for (int i = 0; i < per_body(); ++i)
+        names.push_back(b.name + "." + (scene_.dim == Dim::kPlanar ? kPlanar[i] : kSpatial[i]));
+    return names;
+  }
+
+  std::string Header() const {
     std::string h;
-    for (const sim::Body& b : scene_.bodies) {
-      for (int i = 0; i < per_body(); ++i) {
-        h += ',';
-        h += CsvField(b.name + "." + (scene_.dim == Dim::kPlanar ? kPlanar[i] : kSpatial[i]));
-      }
-    }
+    for (const std::string& n : Names()) h += ',' + CsvField(n);
     return h;
   }
 
@@ -229,6 +235,103 @@ class Progress {
   Clock::time_point last_draw_ = start_;  // first drawn after kTtyRedrawS: short runs stay quiet
   bool drawn_ = false;
   int last_decile_ = 0;
+};
+
+// The sensitivity columns (--sensitivity): forward-mode S = ∂x/∂θ (sensitivity.h) and, for each
+// parameter, the derivative of every dynamic body's columns along its S column, by a central
+// difference of the column map (smooth in the state; O(h²) with h = 1e-6 of the state's scale).
+class SensitivityColumns {
+ public:
+  SensitivityColumns(const sim::Simulator& sim, const std::vector<std::string>& names)
+      : sim_(sim), names_(names), selection_(MakeSelection(sim, names)) {
+    const int nx = sim.scene().num_positions() + sim.scene().num_velocities();
+    S_ = sim::MatrixXd::Zero(nx, selection_.size());
+  }
+
+  std::string Header(const BodyColumns& columns) const {
+    const std::vector<std::string> all = columns.Names();
+    std::string out;
+    for (const std::string& name : names_)
+      for (int bi : sim_.scene().dynamic_bodies())
+        for (int c = 0; c < columns.per_body(); ++c)
+          out += "," + CsvField("d(" + all[static_cast<std::size_t>(bi) * columns.per_body() + c] +
+                                ")/d(" + name + ")");
+    return out + ",sensitivity_status";
+  }
+
+  // Advances S over the step x → next and returns its status.
+  sim::SensitivityStatus Step(const sim::Params& params, const sim::State& x,
+                              const sim::StepInput& u, const sim::State& next) {
+    sim::MatrixXd S1;
+    const sim::StepSensitivity st =
+        sim::PropagateStep(sim_, params, selection_, x, u, next, S_, &S1);
+    S_ = std::move(S1);
+    return st.status;
+  }
+
+  // The derivative columns at x (after Step, or the zeros of the initial state).
+  void Append(const sim::State& x, const char* status, std::string* row) const {
+    const sim::Scene& scene = sim_.scene();
+    const int nq = scene.num_positions();
+    for (int j = 0; j < S_.cols(); ++j) {
+      const sim::VectorXd s = S_.col(j);
+      std::vector<double> d;
+      const double sn = s.cwiseAbs().maxCoeff();
+      if (!std::isfinite(sn)) {
+        d.assign(Width(), std::numeric_limits<double>::quiet_NaN());
+      } else if (sn == 0.0) {
+        d.assign(Width(), 0.0);
+      } else {
+        const double xn = std::max(
+            {1.0, x.q.cwiseAbs().maxCoeff(), x.v.size() ? x.v.cwiseAbs().maxCoeff() : 0.0});
+        const double h = 1e-6 * xn / sn;
+        sim::State xp = x, xm = x;
+        xp.q += h * s.head(nq);
+        xm.q -= h * s.head(nq);
+        xp.v += h * s.tail(s.size() - nq);
+        xm.v -= h * s.tail(s.size() - nq);
+        BodyColumns cp(scene), cm(scene);
+        const std::vector<double> vp = cp.Evaluate(xp), vm = cm.Evaluate(xm);
+        for (int bi : scene.dynamic_bodies())
+          for (int c = 0; c < cp.per_body(); ++c) {
+            const std::size_t k = static_cast<std::size_t>(bi) * cp.per_body() + c;
+            d.push_back((vp[k] - vm[k]) / (2 * h));
+          }
+      }
+      for (double v : d) {
+        *row += ',';
+        AppendNumber(v, row);
+      }
+    }
+    *row += ',';
+    *row += status;
+  }
+
+ private:
+  static sim::ParamSelection MakeSelection(const sim::Simulator& sim,
+                                           const std::vector<std::string>& names) {
+    const std::vector<std::string> allowed =
+        sim::SensitivityParameterNames(sim.scene().param_table());
+    for (const std::string& n : names)
+      if (std::find(allowed.begin(), allowed.end(), n) == allowed.end()) {
+        std::string list;
+        for (const std::string& a : allowed) list += (list.empty() ? "" : ", ") + a;
+        throw std::invalid_argument("--sensitivity: '" + sim::EscapeText(n) +
+                                    "' is not a parameter the step can be differentiated by; "
+                                    "expected one of: " +
+                                    (list.empty() ? std::string("(none in this scene)") : list));
+      }
+    return sim::ParamSelection(sim.scene().param_table(), names);
+  }
+  std::size_t Width() const {
+    return sim_.scene().dynamic_bodies().size() *
+           static_cast<std::size_t>(sim_.scene().dim == Dim::kPlanar ? 6 : 13);
+  }
+
+  const sim::Simulator& sim_;
+  std::vector<std::string> names_;
+  sim::ParamSelection selection_;
+  sim::MatrixXd S_;
 };
 
 // Aggregates of the successful steps.
@@ -399,6 +502,11 @@ ExitCode RunSimulate(const SimulateOptions& o) {
   const sim::Params params = simulator.DefaultParams();
   BodyColumns columns(simulator.scene());
 
+  std::unique_ptr<SensitivityColumns> sens;
+  if (!o.sensitivity.empty()) {
+    if (o.out.empty()) throw std::invalid_argument("--sensitivity: needs --out FILE");
+    sens = std::make_unique<SensitivityColumns>(simulator, o.sensitivity);
+  }
   std::unique_ptr<CsvWriter> csv;
   if (!o.out.empty()) csv = std::make_unique<CsvWriter>(o.out);
 
@@ -407,8 +515,15 @@ ExitCode RunSimulate(const SimulateOptions& o) {
   const sim::StepInput no_input;
   sim::State x = simulator.InitialState(), next;
   if (csv) {
-    csv->Write("step,t" + columns.Header() + ",contacts,solver_iterations,residual,min_gap,status");
-    csv->Write(FormatRow(0, x, columns.Evaluate(x), nullptr));
+    std::string header =
+        "step,t" + columns.Header() + ",contacts,solver_iterations,residual,min_gap,status";
+    std::string row0 = FormatRow(0, x, columns.Evaluate(x), nullptr);
+    if (sens) {
+      header += sens->Header(columns);
+      sens->Append(x, "initial", &row0);
+    }
+    csv->Write(header);
+    csv->Write(row0);
     csv->Flush();  // the header and the initial state exist whatever happens next
   }
 
@@ -427,9 +542,15 @@ ExitCode RunSimulate(const SimulateOptions& o) {
       failed_step = k;
       break;
     }
+    const char* sens_status = nullptr;
+    if (sens) sens_status = sim::SensitivityStatusName(sens->Step(params, x, no_input, next));
     std::swap(x, next);
     stats.Add(info);
-    if (csv) csv->Write(FormatRow(k + 1, x, columns.Evaluate(x), &info));
+    if (csv) {
+      std::string row = FormatRow(k + 1, x, columns.Evaluate(x), &info);
+      if (sens) sens->Append(x, sens_status, &row);
+      csv->Write(row);
+    }
     progress.Update(k + 1, x.t);
   }
   progress.Finish();
@@ -489,6 +610,14 @@ Command RegisterSimulateCommand(CLI::App& app) {
          "--solver", [options](const std::string& v) { options->solver = v; },
          "Complementarity solver by name (default: the scene's stepper.solver). " + SolverHelp())
       ->type_name("NAME");
+  sub->add_option("--sensitivity", options->sensitivity,
+                  "Differentiate the trajectory by these parameters (comma-separated; friction "
+                  "mu.*, support_mu.*, mass.*, and motion.* of prescribed bodies): adds the "
+                  "columns d(<column>)/d(<NAME>) of every dynamic body and sensitivity_status "
+                  "(exact, degenerate, mode_change, failed) per step (docs/sensitivity.md). Needs "
+                  "--out")
+      ->delimiter(',')
+      ->type_name("NAME[,NAME...]");
   sub->add_flag("--quiet,-q", options->quiet, "Print nothing but errors (no progress, no summary)");
   sub->footer(
       "CSV columns: step,t, then per body (all bodies, scene order) planar "

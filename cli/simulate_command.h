@@ -4,6 +4,7 @@
 #include <CLI/CLI.hpp>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "command.h"
 
@@ -19,6 +20,9 @@ struct SimulateOptions {
   bool quiet = false;                 ///< no progress, no summary (errors are still printed)
   /// Overrides stepper.formulation: a name from sim::FormulationNames().
   std::optional<std::string> formulation;
+  /// Parameters to differentiate the trajectory by (sim/simulator/sensitivity.h): adds the
+  /// columns d(<column>)/d(<name>) of every dynamic body and sensitivity_status.
+  std::vector<std::string> sensitivity;
 };
 
 /// Adds the `simulate` subcommand to `app`.

@@ -1,0 +1,645 @@
+#include "vinci/sim/simulator/sensitivity.h"
+
+#include <Eigen/QR>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "vinci/sim/formulations/step_model.h"
+#include "vinci/sim/solvers/lemke.h"
+
+namespace vinci::sim {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+bool IsMotionKind(ParamKind k) {
+  switch (k) {
+    case ParamKind::kMotionVelocity:
+    case ParamKind::kMotionAmplitude:
+    case ParamKind::kMotionFrequency:
+    case ParamKind::kMotionPhase:
+    case ParamKind::kTiltAmplitude:
+    case ParamKind::kTiltFrequency:
+    case ParamKind::kTiltPhase:
+    case ParamKind::kTiltDepth:
+      return true;
+    default:
+      return false;
+  }
+}
+
+std::string JoinNames(const std::vector<std::string>& names) {
+  std::string s;
+  for (const std::string& n : names) s += (s.empty() ? "" : ", ") + n;
+  return s.empty() ? "(none)" : s;
+}
+
+// The residual derivative of one column: ∂(equality, comp_a, comp_b)/∂(column).
+struct ResidualColumn {
+  VectorXd eq, a, b;
+  bool contact_set_changed = false;
+};
+
+// The step's active equations at the linearization point and their factorization.
+class Linearization {
+ public:
+  // `vals` holds the step equations and their z Jacobians at the linearization point; `nx`
+  // rows of dz are the end state (q_ℓ+1, ν_ℓ+1) unless the model writes it otherwise.
+  Linearization(const StepModelValues& vals, const SensitivityOptions& options, bool smoothed) {
+    const MatrixXd E = MatrixXd(vals.d_equality.d_z);
+    A_ = MatrixXd(vals.d_comp_a.d_z);
+    B_ = MatrixXd(vals.d_comp_b.d_z);
+    nz_ = static_cast<int>(E.cols());
+    const int ne = static_cast<int>(E.rows()), np = static_cast<int>(A_.rows());
+    if (ne + np != nz_) {
+      message_ = "the step equations are not square (" + std::to_string(ne) + " equalities + " +
+                 std::to_string(np) + " pairs for " + std::to_string(nz_) + " unknowns)";
+      return;
+    }
+    const VectorXd& a = vals.comp_a;
+    const VectorXd& b = vals.comp_b;
+    const double scale = std::max(a.size() ? a.cwiseAbs().maxCoeff() : 0.0,
+                                  b.size() ? b.cwiseAbs().maxCoeff() : 0.0);
+    const double tol = options.active_tol * scale + 10.0 * vals.Violation();
+    side_.assign(np, 'a');
+    weight_a_ = VectorXd::Zero(np);
+    weight_b_ = VectorXd::Zero(np);
+    for (int i = 0; i < np; ++i) {
+      const bool a0 = a[i] <= tol, b0 = b[i] <= tol;
+      if (a0 && b0) {
+        ++degenerate_;
+        switch (options.degenerate) {
+          case DegenerateRule::kDirectional:
+            side_[i] = 'd';
+            deg_.push_back(i);
+            break;
+          case DegenerateRule::kHoldA:
+            side_[i] = 'a';
+            break;
+          case DegenerateRule::kHoldB:
+            side_[i] = 'b';
+            break;
+        }
+      } else {
+        side_[i] = a[i] <= b[i] ? 'a' : 'b';
+      }
+    }
+    K_.resize(nz_, nz_);
+    K_.topRows(ne) = E;
+    for (int i = 0; i < np; ++i) {
+      if (smoothed) {
+        // ∂φ_ε = (1 − a/r) da + (1 − b/r) db,  r = √(a² + b² + 2ε) > 0.
+        const double r = std::sqrt(a[i] * a[i] + b[i] * b[i] + 2.0 * options.smoothing);
+        weight_a_[i] = 1.0 - a[i] / r;
+        weight_b_[i] = 1.0 - b[i] / r;
+      } else if (side_[i] == 'b') {
+        weight_b_[i] = 1.0;
+      } else {
+        weight_a_[i] = 1.0;  // held a, or a degenerate pair's λ = da row
+      }
+      K_.row(ne + i) = weight_a_[i] * A_.row(i) + weight_b_[i] * B_.row(i);
+    }
+    if (smoothed) deg_.clear();
+    cod_.setThreshold(1e-12);
+    cod_.compute(K_);
+    k_norm_ = K_.cwiseAbs().maxCoeff();
+    if (!deg_.empty()) {
+      const int nd = static_cast<int>(deg_.size());
+      MatrixXd ED = MatrixXd::Zero(nz_, nd);
+      for (int j = 0; j < nd; ++j) ED(ne + deg_[j], j) = 1.0;
+      W_ = cod_.solve(ED);
+      BD_.resize(nd, nz_);
+      for (int j = 0; j < nd; ++j) BD_.row(j) = B_.row(deg_[j]);
+      lcp_.M = BD_ * W_;
+    }
+    ne_ = ne;
+    ok_ = true;
+  }
+
+  bool ok() const { return ok_; }
+  const std::string& message() const { return message_; }
+  int degenerate() const { return degenerate_; }
+  int nz() const { return nz_; }
+
+  // dz for one residual column (the derivative of the residuals along the column). Returns
+  // false if the active system is inconsistent along it; *unsolved is set if the sensitivity
+  // LCP could not be solved (the λ = 0 branch is returned).
+  bool Solve(const ResidualColumn& r, VectorXd* dz, bool* unsolved) const {
+    *unsolved = false;
+    VectorXd rhs(nz_);
+    rhs.head(ne_) = r.eq;
+    rhs.tail(nz_ - ne_) = weight_a_.cwiseProduct(r.a) + weight_b_.cwiseProduct(r.b);
+    *dz = cod_.solve(-rhs);
+    const double resid = (K_ * *dz + rhs).cwiseAbs().maxCoeff();
+    const double ref = rhs.cwiseAbs().maxCoeff() + k_norm_ * dz->cwiseAbs().maxCoeff();
+    if (!std::isfinite(resid) || resid > 1e-6 * ref + 1e-300) return false;
+    if (deg_.empty()) return true;
+    const int nd = static_cast<int>(deg_.size());
+    LcpProblem p;
+    p.M = lcp_.M;
+    p.q.resize(nd);
+    for (int j = 0; j < nd; ++j) p.q[j] = B_.row(deg_[j]).dot(*dz) + r.b[deg_[j]];
+    const double qscale = std::max(1e-300, p.q.cwiseAbs().maxCoeff());
+    if (p.q.minCoeff() >= -1e-12 * qscale) return true;  // λ = 0 is the solution
+    VectorXd lambda;
+    const SolverReport rep = LemkeSolver().Solve(p, nullptr, &lambda);
+    if (rep.status != SolverStatus::kSolved) {
+      *unsolved = true;
+      return true;
+    }
+    *dz += W_ * lambda;
+    return true;
+  }
+
+ private:
+  bool ok_ = false;
+  std::string message_;
+  int nz_ = 0, ne_ = 0, degenerate_ = 0;
+  MatrixXd A_, B_, K_, W_, BD_;
+  VectorXd weight_a_, weight_b_;
+  std::vector<char> side_;
+  std::vector<int> deg_;
+  Eigen::CompleteOrthogonalDecomposition<MatrixXd> cod_;
+  double k_norm_ = 0.0;
+  LcpProblem lcp_;
+};
+
+// The smoothed step's solution: Newton on [equality; φ_ε(a, b)] = 0 from z*.
+bool SmoothedSolution(const StepModel& model, const Params& theta, const State& x,
+                      const StepInput& u, double eps, VectorXd* z) {
+  StepModelOptions jac;
+  jac.state_jacobian = false;
+  const auto residual = [&](const StepModelValues& v) {
+    VectorXd g(v.equality.size() + v.comp_a.size());
+    g.head(v.equality.size()) = v.equality;
+    for (int i = 0; i < v.comp_a.size(); ++i) {
+      const double a = v.comp_a[i], b = v.comp_b[i];
+      g[v.equality.size() + i] = a + b - std::sqrt(a * a + b * b + 2.0 * eps);
+    }
+    return g;
+  };
+  StepModelValues v = model.Evaluate(*z, theta, x, u, jac);
+  VectorXd g = residual(v);
+  const double tol = 1e-13 * std::max(1.0, z->cwiseAbs().maxCoeff()) + 1e-3 * std::sqrt(eps) * 1e-9;
+  for (int it = 0; it < 50; ++it) {
+    if (g.cwiseAbs().maxCoeff() <= tol) return true;
+    const MatrixXd E = MatrixXd(v.d_equality.d_z), A = MatrixXd(v.d_comp_a.d_z),
+                   B = MatrixXd(v.d_comp_b.d_z);
+    MatrixXd J(g.size(), z->size());
+    J.topRows(E.rows()) = E;
+    for (int i = 0; i < A.rows(); ++i) {
+      const double a = v.comp_a[i], b = v.comp_b[i];
+      const double r = std::sqrt(a * a + b * b + 2.0 * eps);
+      J.row(E.rows() + i) = (1.0 - a / r) * A.row(i) + (1.0 - b / r) * B.row(i);
+    }
+    const VectorXd step = J.completeOrthogonalDecomposition().solve(-g);
+    if (!step.allFinite()) return false;
+    double t = 1.0;
+    const double g0 = g.norm();
+    for (; t > 1e-8; t *= 0.5) {
+      const VectorXd trial = *z + t * step;
+      StepModelValues vt = model.Evaluate(trial, theta, x, u, jac);
+      const VectorXd gt = residual(vt);
+      if (gt.norm() <= (1.0 - 1e-4 * t) * g0) {
+        *z = trial;
+        v = std::move(vt);
+        g = gt;
+        break;
+      }
+    }
+    if (t <= 1e-8) return g.cwiseAbs().maxCoeff() <= 1e3 * tol;
+  }
+  return g.cwiseAbs().maxCoeff() <= 1e3 * tol;
+}
+
+// Everything one step's derivative needs, built once per step.
+class StepDifferentiator {
+ public:
+  StepDifferentiator(const Simulator& sim, const Params& params, const ParamSelection& selection,
+                     const State& x, const StepInput& u, const State& next,
+                     const SensitivityOptions& options, bool full_state)
+      : sim_(sim), params_(params), selection_(selection), x_(x), u_(u), options_(options) {
+    const Scene& model = sim.ResolveWithInputs(params, u, &ws_);
+    frozen_ = Freeze(sim.formulation(), model, params, x, u);
+    z_ = frozen_->UnknownsFromStep(next);
+    if (options.smoothing > 0.0) {
+      if (!SmoothedSolution(*frozen_, params, x, u, options.smoothing, &z_)) {
+        message_ = "the smoothed step's Newton iteration did not converge";
+        return;
+      }
+    }
+    StepModelOptions o;
+    o.state_jacobian = full_state;
+    o.state_step = options.state_step;
+    vals_ = frozen_->Evaluate(z_, params, x, u, o);
+    lin_ = std::make_unique<Linearization>(vals_, options, options.smoothing > 0.0);
+    if (!lin_->ok()) {
+      message_ = lin_->message();
+      return;
+    }
+    // A mode change within the step: the contact set found at the end differs.
+    const StepLayout end = sim.formulation().Layout(model, next);
+    const StepLayout& l = frozen_->layout();
+    contact_set_changed_ = end.nc != l.nc || end.nk != l.nk || end.ns != l.ns;
+    ok_ = true;
+  }
+
+  bool ok() const { return ok_; }
+  const std::string& message() const { return message_; }
+  int degenerate() const { return lin_ ? lin_->degenerate() : 0; }
+  bool contact_set_changed() const { return contact_set_changed_; }
+  int nx() const { return static_cast<int>(x_.q.size() + x_.v.size()); }
+
+  // The residual column of selection entry j.
+  ResidualColumn ParamColumn(int j) {
+    const int index = selection_.indices()[j];
+    const ParamInfo& info = sim_.scene().param_table().info(index);
+    ResidualColumn r;
+    if (info.differentiable) {
+      const std::vector<int>& cols = frozen_->param_columns();
+      const auto it = std::find(cols.begin(), cols.end(), index);
+      const int c = static_cast<int>(it - cols.begin());
+      if (it == cols.end()) {
+        r = ZeroColumn();
+      } else {
+        r.eq = VectorXd(vals_.d_equality.d_theta.col(c));
+        r.a = VectorXd(vals_.d_comp_a.d_theta.col(c));
+        r.b = VectorXd(vals_.d_comp_b.d_theta.col(c));
+      }
+      return r;
+    }
+    // Motion parameters: the equations re-evaluated with the contact set re-detected at x_ℓ.
+    const double v = params_.values[index];
+    const double h = options_.motion_step * std::max(1.0, std::abs(v));
+    const auto eval = [&](double value, StepResiduals* out) {
+      Params p = params_;
+      p.values[index] = value;
+      Workspace ws;
+      const Scene& m = sim_.ResolveWithInputs(p, u_, &ws);
+      *out = sim_.formulation().Evaluate(m, p, x_, u_, z_);
+      const StepLayout& l = frozen_->layout();
+      return out->layout.size() == l.size() && out->layout.nc == l.nc;
+    };
+    StepResiduals rp, rm;
+    const bool same = eval(v + h, &rp) && eval(v - h, &rm);
+    if (!same) {
+      r.contact_set_changed = true;
+      r.eq = VectorXd::Constant(vals_.equality.size(), kNaN);
+      r.a = VectorXd::Constant(vals_.comp_a.size(), kNaN);
+      r.b = VectorXd::Constant(vals_.comp_b.size(), kNaN);
+      return r;
+    }
+    r.eq = (rp.equality - rm.equality) / (2 * h);
+    r.a = (rp.comp_a - rm.comp_a) / (2 * h);
+    r.b = (rp.comp_b - rm.comp_b) / (2 * h);
+    return r;
+  }
+
+  ResidualColumn ZeroColumn() const {
+    ResidualColumn r;
+    r.eq = VectorXd::Zero(vals_.equality.size());
+    r.a = VectorXd::Zero(vals_.comp_a.size());
+    r.b = VectorXd::Zero(vals_.comp_b.size());
+    return r;
+  }
+
+  // The residual column of state entry i (needs full_state).
+  ResidualColumn StateColumn(int i) const {
+    ResidualColumn r;
+    r.eq = VectorXd(vals_.d_equality.d_x.col(i));
+    r.a = VectorXd(vals_.d_comp_a.d_x.col(i));
+    r.b = VectorXd(vals_.d_comp_b.d_x.col(i));
+    return r;
+  }
+
+  // ∂r/∂x_ℓ · s by central differences of the frozen equations along s.
+  ResidualColumn StateDirection(const VectorXd& s) const {
+    ResidualColumn r;
+    const double sn = s.cwiseAbs().maxCoeff();
+    if (!(sn > 0.0)) return ZeroColumn();
+    const int nq = static_cast<int>(x_.q.size());
+    double xn = std::max(x_.q.size() ? x_.q.cwiseAbs().maxCoeff() : 0.0,
+                         x_.v.size() ? x_.v.cwiseAbs().maxCoeff() : 0.0);
+    const double h = options_.state_step * std::max(1.0, xn) / sn;
+    State xp = x_, xm = x_;
+    xp.q += h * s.head(nq);
+    xm.q -= h * s.head(nq);
+    xp.v += h * s.tail(s.size() - nq);
+    xm.v -= h * s.tail(s.size() - nq);
+    StepModelOptions none;
+    none.jacobians = false;
+    const StepModelValues p = frozen_->Evaluate(z_, params_, xp, u_, none);
+    const StepModelValues m = frozen_->Evaluate(z_, params_, xm, u_, none);
+    r.eq = (p.equality - m.equality) / (2 * h);
+    r.a = (p.comp_a - m.comp_a) / (2 * h);
+    r.b = (p.comp_b - m.comp_b) / (2 * h);
+    return r;
+  }
+
+  static ResidualColumn Add(ResidualColumn a, const ResidualColumn& b) {
+    a.eq += b.eq;
+    a.a += b.a;
+    a.b += b.b;
+    a.contact_set_changed = a.contact_set_changed || b.contact_set_changed;
+    return a;
+  }
+
+  // ∂x_ℓ+1 along a residual column; NaN if the system is inconsistent along it.
+  VectorXd EndStateDerivative(const ResidualColumn& r, bool* unsolved, bool* failed) const {
+    *failed = false;
+    VectorXd dz;
+    if (!r.eq.allFinite() || !r.a.allFinite() || !r.b.allFinite() ||
+        !lin_->Solve(r, &dz, unsolved)) {
+      *failed = true;
+      return VectorXd::Constant(nx(), kNaN);
+    }
+    // The end state as the model writes it from z (linear in z for every formulation but GI;
+    // a central difference along dz is exact for a linear map and O(h²) otherwise).
+    const double zn = std::max(1.0, z_.cwiseAbs().maxCoeff());
+    const double dn = dz.cwiseAbs().maxCoeff();
+    if (!(dn > 0.0)) return VectorXd::Zero(nx());
+    const double h = 1e-6 * zn / dn;
+    const State p = frozen_->StateFromUnknowns(z_ + h * dz);
+    const State m = frozen_->StateFromUnknowns(z_ - h * dz);
+    VectorXd d(nx());
+    d << (p.q - m.q) / (2 * h), (p.v - m.v) / (2 * h);
+    return d;
+  }
+
+ private:
+  const Simulator& sim_;
+  const Params& params_;
+  const ParamSelection& selection_;
+  const State& x_;
+  const StepInput& u_;
+  SensitivityOptions options_;
+  Workspace ws_;
+  std::unique_ptr<StepModel> frozen_;
+  VectorXd z_;
+  StepModelValues vals_;
+  std::unique_ptr<Linearization> lin_;
+  bool ok_ = false, contact_set_changed_ = false;
+  std::string message_;
+};
+
+void CheckSelection(const Simulator& sim, const ParamSelection& selection) {
+  const ParamTable& table = sim.scene().param_table();
+  for (int index : selection.indices()) {
+    if (index < 0 || index >= table.size())
+      throw std::invalid_argument("sensitivity: parameter index out of range");
+    const ParamInfo& info = table.info(index);
+    if (!info.differentiable && !IsMotionKind(info.kind))
+      throw std::invalid_argument("sensitivity: parameter '" + info.name +
+                                  "' is neither differentiable nor a motion parameter (sizes and "
+                                  "poses move the contact set); expected one of: " +
+                                  JoinNames(SensitivityParameterNames(table)));
+  }
+}
+
+SensitivityStatus Classify(bool failed, bool changed, int degenerate) {
+  if (failed) return SensitivityStatus::kFailed;
+  if (changed) return SensitivityStatus::kModeChange;
+  if (degenerate > 0) return SensitivityStatus::kDegenerate;
+  return SensitivityStatus::kExact;
+}
+
+void Count(SensitivityStatus s, int* exact, int* degenerate, int* mode_change, int* failed) {
+  switch (s) {
+    case SensitivityStatus::kExact:
+      ++*exact;
+      break;
+    case SensitivityStatus::kDegenerate:
+      ++*degenerate;
+      break;
+    case SensitivityStatus::kModeChange:
+      ++*mode_change;
+      break;
+    case SensitivityStatus::kFailed:
+      ++*failed;
+      break;
+  }
+}
+
+std::string Describe(const StepDifferentiator& d, int unsolved) {
+  std::string m;
+  if (d.degenerate() > 0)
+    m += std::to_string(d.degenerate()) + " degenerate pair(s) (one-sided derivative)";
+  if (d.contact_set_changed()) m += std::string(m.empty() ? "" : "; ") + "contact set changed";
+  if (unsolved > 0)
+    m += std::string(m.empty() ? "" : "; ") + std::to_string(unsolved) +
+         " column(s) with an unsolved sensitivity LCP";
+  return m;
+}
+
+}  // namespace
+
+const char* SensitivityStatusName(SensitivityStatus status) {
+  switch (status) {
+    case SensitivityStatus::kExact:
+      return "exact";
+    case SensitivityStatus::kDegenerate:
+      return "degenerate";
+    case SensitivityStatus::kModeChange:
+      return "mode_change";
+    case SensitivityStatus::kFailed:
+      return "failed";
+  }
+  return "unknown";
+}
+
+std::vector<std::string> SensitivityParameterNames(const ParamTable& table) {
+  std::vector<std::string> names;
+  for (int i = 0; i < table.size(); ++i) {
+    const ParamInfo& info = table.info(i);
+    if (info.differentiable || IsMotionKind(info.kind)) names.push_back(info.name);
+  }
+  return names;
+}
+
+StepSensitivity StepDerivatives(const Simulator& sim, const Params& params,
+                                const ParamSelection& selection, const State& x, const StepInput& u,
+                                const State& next, bool with_state,
+                                const SensitivityOptions& options) {
+  CheckSelection(sim, selection);
+  const int nx = static_cast<int>(x.q.size() + x.v.size());
+  StepSensitivity out;
+  StepDifferentiator d(sim, params, selection, x, u, next, options, with_state);
+  if (!d.ok()) {
+    out.status = SensitivityStatus::kFailed;
+    out.message = d.message();
+    out.d_theta = MatrixXd::Constant(nx, selection.size(), kNaN);
+    if (with_state) out.d_x = MatrixXd::Constant(nx, nx, kNaN);
+    return out;
+  }
+  bool failed = false, changed = d.contact_set_changed();
+  int unsolved = 0;
+  out.d_theta.resize(nx, selection.size());
+  for (int j = 0; j < selection.size(); ++j) {
+    const ResidualColumn r = d.ParamColumn(j);
+    changed = changed || r.contact_set_changed;
+    bool uns = false, f = false;
+    out.d_theta.col(j) = d.EndStateDerivative(r, &uns, &f);
+    unsolved += uns;
+    failed = failed || (f && !r.contact_set_changed);
+  }
+  if (with_state) {
+    out.d_x.resize(nx, nx);
+    for (int i = 0; i < nx; ++i) {
+      bool uns = false, f = false;
+      out.d_x.col(i) = d.EndStateDerivative(d.StateColumn(i), &uns, &f);
+      unsolved += uns;
+      failed = failed || f;
+    }
+  }
+  out.degenerate_pairs = d.degenerate();
+  out.unsolved_columns = unsolved;
+  out.contact_set_changed = changed;
+  out.status = Classify(failed, changed, d.degenerate());
+  out.message =
+      failed ? "the active system is inconsistent along some column (NaN)" : Describe(d, unsolved);
+  return out;
+}
+
+StepSensitivity PropagateStep(const Simulator& sim, const Params& params,
+                              const ParamSelection& selection, const State& x, const StepInput& u,
+                              const State& next, const MatrixXd& S, MatrixXd* S_next,
+                              const SensitivityOptions& options) {
+  CheckSelection(sim, selection);
+  const int nx = static_cast<int>(x.q.size() + x.v.size());
+  const int p = selection.size(), ncols = static_cast<int>(S.cols());
+  if (S.rows() != nx || ncols < p)
+    throw std::invalid_argument("PropagateStep: S is " + std::to_string(S.rows()) + " × " +
+                                std::to_string(ncols) + "; expected " + std::to_string(nx) +
+                                " rows and at least " + std::to_string(p) + " columns");
+  // Many columns: one full state Jacobian is cheaper than a directional difference per column.
+  const bool full_state = ncols > nx;
+  StepSensitivity st;
+  StepDifferentiator d(sim, params, selection, x, u, next, options, full_state);
+  *S_next = MatrixXd::Constant(nx, ncols, kNaN);
+  if (!d.ok()) {
+    st.status = SensitivityStatus::kFailed;
+    st.message = d.message();
+    return st;
+  }
+  bool failed = false, changed = d.contact_set_changed();
+  int unsolved = 0;
+  for (int c = 0; c < ncols; ++c) {
+    ResidualColumn r;
+    if (full_state) {
+      r = c < p ? d.ParamColumn(c) : d.ZeroColumn();
+      for (int i = 0; i < nx; ++i) {
+        const double s = S(i, c);
+        if (s == 0.0) continue;
+        const ResidualColumn ri = d.StateColumn(i);
+        r.eq += s * ri.eq;
+        r.a += s * ri.a;
+        r.b += s * ri.b;
+      }
+    } else {
+      r = d.StateDirection(S.col(c));
+      if (c < p) r = StepDifferentiator::Add(std::move(r), d.ParamColumn(c));
+    }
+    changed = changed || r.contact_set_changed;
+    bool uns = false, f = false;
+    S_next->col(c) = d.EndStateDerivative(r, &uns, &f);
+    unsolved += uns;
+    failed = failed || (f && !r.contact_set_changed);
+  }
+  st.degenerate_pairs = d.degenerate();
+  st.unsolved_columns = unsolved;
+  st.contact_set_changed = changed;
+  st.status = Classify(failed, changed, d.degenerate());
+  st.message =
+      failed ? "the active system is inconsistent along some column (NaN)" : Describe(d, unsolved);
+  return st;
+}
+
+RolloutSensitivity RolloutForward(const Simulator& sim, const Params& params,
+                                  const ParamSelection& selection, const State& x0,
+                                  const std::vector<StepInput>& inputs, bool initial_state,
+                                  const SensitivityOptions& options) {
+  CheckSelection(sim, selection);
+  const int nx = static_cast<int>(x0.q.size() + x0.v.size());
+  const int ncols = selection.size() + (initial_state ? nx : 0);
+  RolloutSensitivity out;
+  MatrixXd S = MatrixXd::Zero(nx, ncols), S1;
+  if (initial_state) S.rightCols(nx).setIdentity();
+  out.d_state.push_back(S);
+  out.trajectory.states.push_back(x0);
+  Workspace ws;
+  State x = x0, next;
+  for (std::size_t k = 0; k < inputs.size(); ++k) {
+    StepInfo info = sim.Step(params, x, inputs[k], &ws, &next);
+    const bool ok = info.ok;
+    out.trajectory.steps.push_back(std::move(info));
+    if (!ok) {
+      out.trajectory.ok = false;
+      out.trajectory.failure =
+          "step " + std::to_string(k) + ": " + out.trajectory.steps.back().failure;
+      break;
+    }
+    StepSensitivity st = PropagateStep(sim, params, selection, x, inputs[k], next, S, &S1, options);
+    Count(st.status, &out.exact_steps, &out.degenerate_steps, &out.mode_change_steps,
+          &out.failed_steps);
+    out.steps.push_back(std::move(st));
+    S = S1;
+    out.d_state.push_back(S);
+    out.trajectory.states.push_back(next);
+    std::swap(x, next);
+  }
+  return out;
+}
+
+RolloutGradient RolloutReverse(const Simulator& sim, const Params& params,
+                               const ParamSelection& selection, const State& x0,
+                               const std::vector<StepInput>& inputs,
+                               const TerminalObjective& objective,
+                               const SensitivityOptions& options) {
+  CheckSelection(sim, selection);
+  if (!objective) throw std::invalid_argument("RolloutReverse: null objective");
+  const int nx = static_cast<int>(x0.q.size() + x0.v.size());
+  RolloutGradient out;
+  std::vector<MatrixXd> dx, dtheta;
+  dx.reserve(inputs.size());
+  dtheta.reserve(inputs.size());
+  Workspace ws;
+  State x = x0, next;
+  bool failed = false;
+  for (std::size_t k = 0; k < inputs.size(); ++k) {
+    const StepInfo info = sim.Step(params, x, inputs[k], &ws, &next);
+    if (!info.ok) {
+      out.failure = "step " + std::to_string(k) + ": " + info.failure;
+      return out;
+    }
+    StepSensitivity st = StepDerivatives(sim, params, selection, x, inputs[k], next, true, options);
+    Count(st.status, &out.exact_steps, &out.degenerate_steps, &out.mode_change_steps,
+          &out.failed_steps);
+    failed = failed || st.status == SensitivityStatus::kFailed;
+    dx.push_back(std::move(st.d_x));
+    dtheta.push_back(std::move(st.d_theta));
+    std::swap(x, next);
+  }
+  VectorXd lambda = VectorXd::Zero(nx);
+  out.value = objective(x, &lambda);
+  if (lambda.size() != nx)
+    throw std::invalid_argument("RolloutReverse: the objective's gradient has " +
+                                std::to_string(lambda.size()) + " entries; expected " +
+                                std::to_string(nx));
+  out.d_theta = VectorXd::Zero(selection.size());
+  for (std::size_t k = dx.size(); k-- > 0;) {
+    out.d_theta += dtheta[k].transpose() * lambda;
+    lambda = dx[k].transpose() * lambda;
+  }
+  out.d_x0 = lambda;
+  out.ok = !failed;
+  if (failed) out.failure = "a step's derivative failed (NaN columns)";
+  return out;
+}
+
+}  // namespace vinci::sim
