@@ -182,6 +182,8 @@ std::string RankingJson(const design::DesignSpec& spec,
          (d.fresh ? ", \"fresh\": " + EvaluationJson(spec, *d.fresh, "") : "") + "}";
   }
   return s + (ranking.empty() ? "]" : "\n  ]");
+}
+
 // {"ranks": N, "samples_per_rank": [...]}: where the samples ran (`mpirun`).
 std::string MpiJson(const parallel::Distributor& ranks) {
   std::string s = "{\"ranks\": " + std::to_string(ranks.size()) + ", \"samples_per_rank\": [";
