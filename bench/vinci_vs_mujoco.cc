@@ -1,7 +1,10 @@
-// vinci vs MuJoCo on the same two scenes: a box resting on a plane and a box at rest on a
-// 0.3 rad incline with μ = 1.05 tan θ. Prints a table and optionally writes it as CSV.
+// vinci vs MuJoCo on the same scenes: a box resting on a plane, a box at rest on a 0.3 rad
+// incline with μ = 1.05 tan θ, resting stacks of k 0.2 m cubes and a pile of 100 cubes. Prints
+// two tables (single boxes with creep; stacks with the fitted exponent of time per step vs k)
+// and optionally writes the first as CSV.
 //
 //   vinci_vs_mujoco [--quick] [--steps N] [--creep-steps N] [--mu-factor F] [--csv FILE]
+//                   [--stacks LIST] [--stack-steps N]
 //
 // The MuJoCo models are generated as MJCF from the vinci scene files (dt, gravity, box size,
 // mass, poses, μ), so both simulators see the same numbers. What cannot be matched — MuJoCo's
@@ -101,6 +104,11 @@ class VinciRun {
     if (box_ < 0) throw std::runtime_error(spec.file + ": no body '" + spec.box_body + "'");
     Reset();
   }
+  // A scene given as YAML text (the stacks); the position reported is body 1's.
+  explicit VinciRun(const vinci::sim::Scene& scene)
+      : sim_(scene), params_(sim_.DefaultParams()), box_(1) {
+    Reset();
+  }
 
   const vinci::sim::Scene& scene() const { return sim_.scene(); }
   void Reset() { x_ = sim_.InitialState(); }
@@ -193,6 +201,74 @@ std::string MakeMjcf(const SceneSpec& spec, const vinci::sim::Scene& scene,
     << "    </body>\n"
     << "  </worldbody>\n"
     << "</mujoco>\n";
+  return s.str();
+}
+
+// MJCF of a scene of dynamic boxes on a static halfspace (the stacks and the pile): every box a
+// free body with the same pose, size and mass; friction μ on every geom. The contact buffer is
+// sized for the scene (MuJoCo 2.2's default nconmax overflows on the 40-box stack).
+std::string MakeMjcfBoxes(const std::string& label, const vinci::sim::Scene& scene, double mu) {
+  std::ostringstream s;
+  const std::string friction = Num(mu) + " 0.005 0.0001";
+  int boxes = 0;
+  for (const vinci::sim::Body& b : scene.bodies) boxes += b.kind == vinci::sim::BodyKind::kDynamic;
+  const int ncon = 8 * 5 * boxes + 64;  // ≤ 8 contacts per touching pair, ≤ 5 pairs per box
+  s << "<mujoco model=\"" << label << "\">\n"
+    << "  <compiler angle=\"radian\"/>\n"
+    << "  <size nconmax=\"" << ncon << "\" njmax=\"" << 4 * ncon << "\"/>\n"
+    << "  <option timestep=\"" << Num(scene.options.dt) << "\" gravity=\"" << Vec(scene.gravity_W)
+    << "\" cone=\"pyramidal\"/>\n"
+    << "  <worldbody>\n";
+  for (const vinci::sim::Body& b : scene.bodies) {
+    if (b.shapes.size() != 1) throw std::runtime_error(label + ": expected one shape per body");
+    const vinci::sim::Shape& sh = b.shapes[0];
+    if (b.kind == vinci::sim::BodyKind::kStatic && sh.type == vinci::sim::ShapeType::kHalfSpace) {
+      const Isometry3d X_WF = b.X_WB0 * sh.X_BS;
+      s << "    <geom type=\"plane\" size=\"0 0 1\" pos=\"" << Vec(X_WF.translation())
+        << "\" quat=\"" << Quat(X_WF) << "\" friction=\"" << friction << "\"/>\n";
+    } else if (b.kind == vinci::sim::BodyKind::kDynamic && sh.type == vinci::sim::ShapeType::kBox) {
+      s << "    <body pos=\"" << Vec(b.X_WB0.translation()) << "\" quat=\"" << Quat(b.X_WB0)
+        << "\">\n      <freejoint/>\n      <geom type=\"box\" size=\"" << Vec(sh.half_extents)
+        << "\" mass=\"" << Num(b.mass) << "\" friction=\"" << friction << "\"/>\n    </body>\n";
+    } else {
+      throw std::runtime_error(label + ": expected a static halfspace and dynamic boxes");
+    }
+  }
+  s << "  </worldbody>\n</mujoco>\n";
+  return s.str();
+}
+
+// YAML of a resting stack of k 0.2 m cubes (1 kg) on a floor, as box_stack.yaml (μ = 0.6,
+// n_d = 4, dt = 1 ms, envelope 2 mm).
+std::string StackYaml(int k) {
+  std::ostringstream s;
+  s << "name: stack" << k << "\ndimension: 3\n"
+    << "stepper: {dt: 0.001, duration: 2.0, friction_directions: 4, envelope: 0.002}\n"
+    << "friction: {default: 0.6}\nbodies:\n"
+    << "  - {name: floor, kind: static, shapes: [{type: halfspace}]}\n";
+  for (int i = 0; i < k; ++i)
+    s << "  - {name: box" << i << ", mass: 1.0, pose: {position: [0, 0, " << Num(0.1 + 0.2 * i)
+      << "]}, shapes: [{type: box, half_extents: [0.1, 0.1, 0.1]}]}\n";
+  return s.str();
+}
+
+// YAML of a pile of 100 cubes: four layers of 5 × 5 cubes 5 mm apart (no side contacts), odd
+// layers shifted by (5, 5) cm, so each cube rests on one to four cubes below.
+std::string PileYaml() {
+  std::ostringstream s;
+  s << "name: pile100\ndimension: 3\n"
+    << "stepper: {dt: 0.001, duration: 2.0, friction_directions: 4, envelope: 0.002}\n"
+    << "friction: {default: 0.6}\nbodies:\n"
+    << "  - {name: floor, kind: static, shapes: [{type: halfspace}]}\n";
+  for (int layer = 0; layer < 4; ++layer)
+    for (int i = 0; i < 5; ++i)
+      for (int j = 0; j < 5; ++j) {
+        const double shift = layer % 2 ? 0.05 : 0.0;
+        s << "  - {name: b" << layer << "_" << i << "_" << j << ", mass: 1.0, pose: {position: ["
+          << Num(0.205 * i + shift) << ", " << Num(0.205 * j + shift) << ", "
+          << Num(0.1 + 0.2 * layer)
+          << "]}, shapes: [{type: box, half_extents: [0.1, 0.1, 0.1]}]}\n";
+      }
   return s.str();
 }
 
@@ -404,6 +480,48 @@ void WriteCsv(const std::vector<Row>& rows, const std::string& path) {
     throw std::runtime_error("cannot rename '" + tmp + "' to '" + path + "'");
 }
 
+struct StackRow {
+  std::string label;
+  int k = 0, steps = 0;
+  Rate vinci, mujoco;
+  double vinci_contacts = 0.0, mujoco_contacts = 0.0;
+  double vinci_penetration = 0.0, mujoco_penetration = 0.0;
+  std::string mujoco_warnings;
+};
+
+// Least-squares slope of log(time per step) against log k over the stacks with 5 ≤ k ≤ 40.
+double FitExponent(const std::vector<StackRow>& rows, bool vinci) {
+  double sx = 0, sy = 0, sxx = 0, sxy = 0;
+  int n = 0;
+  for (const StackRow& r : rows) {
+    if (r.label.find("stack") == std::string::npos || r.k < 5 || r.k > 40) continue;
+    const double x = std::log(r.k), y = -std::log(vinci ? r.vinci.cpu : r.mujoco.cpu);
+    sx += x, sy += y, sxx += x * x, sxy += x * y, ++n;
+  }
+  if (n < 2) return kNaN;
+  return (n * sxy - sx * sy) / (n * sxx - sx * sx);
+}
+
+void PrintStacks(const std::vector<StackRow>& rows, std::ostream& out) {
+  out << "\nResting stacks and the 100-box pile (MuJoCo pyramidal, its default; contact buffer "
+         "sized for the scene):\n"
+      << "| scene | timed steps | vinci steps/s | MuJoCo steps/s | ratio v/M | ratio v/M (CPU) | "
+         "vinci us/step (CPU) | contacts v/M | penetration v/M (m) |\n"
+      << "|---|---:|---:|---:|---:|---:|---:|---|---|\n";
+  for (const StackRow& r : rows)
+    out << "| " << r.label << " | " << r.steps << " | " << Fixed(r.vinci.wall, 0) << " | "
+        << Fixed(r.mujoco.wall, 0) << " | " << Fixed(r.vinci.wall / r.mujoco.wall, 2) << " | "
+        << Fixed(r.vinci.cpu / r.mujoco.cpu, 2) << " | " << Fixed(1e6 / r.vinci.cpu, 1) << " | "
+        << Fixed(r.vinci_contacts, 1) << " / " << Fixed(r.mujoco_contacts, 1) << " | "
+        << Sci(r.vinci_penetration) << " / " << Sci(r.mujoco_penetration) << " |\n";
+  out << "fitted exponent of CPU time per step vs k (stacks, 5 <= k <= 40): vinci "
+      << Fixed(FitExponent(rows, true), 2) << ", MuJoCo " << Fixed(FitExponent(rows, false), 2)
+      << "\n";
+  for (const StackRow& r : rows)
+    if (!r.mujoco_warnings.empty())
+      out << "MuJoCo " << r.label << ": " << r.mujoco_warnings << "\n";
+}
+
 void Usage(std::ostream& out) {
   out << "usage: vinci_vs_mujoco [--quick] [--steps N] [--creep-steps N] [--mu-factor F] [--csv "
          "FILE]\n"
@@ -411,7 +529,10 @@ void Usage(std::ostream& out) {
          "  --steps N   timed steps per repeat (default 10000)\n"
          "  --creep-steps N  steps of the creep run after settling (default 10000)\n"
          "  --mu-factor F  incline friction mu = F tan(theta) (default 1.05; F < 1 slides)\n"
-         "  --csv FILE  also write the table as CSV\n";
+         "  --csv FILE  also write the table as CSV\n"
+         "  --stacks LIST  comma-separated stack sizes and/or 'pile' (default "
+         "1,5,10,20,40,pile; --quick: 1,5; 'none' skips)\n"
+         "  --stack-steps N  timed steps of a k-box stack: max(100, N / k) (default 40000)\n";
 }
 
 }  // namespace
@@ -422,6 +543,8 @@ int main(int argc, char** argv) {
   bool quick = false;
   double mu_factor = kDefaultMuFactor;
   int timing_steps = 0, creep_steps = 0;  // 0: default of the mode
+  std::string stacks_arg;
+  long stack_steps = 40000;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--quick") {
@@ -441,6 +564,15 @@ int main(int argc, char** argv) {
       mu_factor = std::strtod(argv[++i], &end);
       if (*end != '\0' || !(mu_factor >= 0.0 && mu_factor < 100.0)) {
         std::cerr << "--mu-factor: expected a number in [0, 100), got '" << argv[i] << "'\n";
+        return 2;
+      }
+    } else if (a == "--stacks" && i + 1 < argc) {
+      stacks_arg = argv[++i];
+    } else if (a == "--stack-steps" && i + 1 < argc) {
+      char* end = nullptr;
+      stack_steps = std::strtol(argv[++i], &end, 10);
+      if (*end != '\0' || stack_steps <= 0 || stack_steps > 100000000) {
+        std::cerr << a << ": expected a positive integer, got '" << argv[i] << "'\n";
         return 2;
       }
     } else if (a == "--help" || a == "-h") {
@@ -514,6 +646,54 @@ int main(int argc, char** argv) {
                "steps/s and ratio v/M from wall time (vinci / MuJoCo); ratio v/M (CPU) from "
                "thread CPU time. Single thread each.\n";
   if (quick) std::cout << "(--quick: run lengths too short for meaningful numbers)\n";
+
+  // Stacks and the pile: the pyramidal-cone MuJoCo (its default) against vinci.
+  if (stacks_arg.empty()) stacks_arg = quick ? "1,5" : "1,5,10,20,40,pile";
+  std::vector<int> sizes;  // k; 0 = the 100-box pile
+  if (stacks_arg != "none") {
+    std::stringstream list(stacks_arg);
+    for (std::string item; std::getline(list, item, ',');) {
+      char* end = nullptr;
+      const long k = std::strtol(item.c_str(), &end, 10);
+      if (item == "pile") {
+        sizes.push_back(0);
+      } else if (*end == '\0' && k >= 1 && k <= 1000) {
+        sizes.push_back(static_cast<int>(k));
+      } else {
+        std::cerr << "--stacks: expected sizes 1..1000 or 'pile', got '" << item << "'\n";
+        return 2;
+      }
+    }
+  }
+  std::vector<StackRow> stack_rows;
+  try {
+    for (int k : sizes) {
+      StackRow row;
+      row.k = k == 0 ? 100 : k;
+      row.label = k == 0 ? "pile of 100" : std::to_string(k) + "-box stack";
+      const vinci::sim::Scene scene =
+          vinci::sim::ParseScene(k == 0 ? PileYaml() : StackYaml(k), row.label);
+      RunConfig sc = cfg;
+      sc.warmup_steps = quick ? 20 : 300;
+      sc.timing_steps = static_cast<int>(std::max(100L, stack_steps / row.k));
+      if (quick) sc.timing_steps = 50;
+      VinciRun vinci(scene);
+      row.vinci = StepsPerSecond(vinci, sc);
+      row.vinci_contacts = vinci.ContactsPerStep();
+      row.vinci_penetration = vinci.Penetration();
+      MujocoRun mujoco(MakeMjcfBoxes(row.label, scene, 0.6));
+      row.mujoco = StepsPerSecond(mujoco, sc);
+      row.mujoco_contacts = mujoco.ContactsPerStep();
+      row.mujoco_penetration = mujoco.Penetration();
+      row.mujoco_warnings = mujoco.Warnings();
+      row.steps = sc.timing_steps;
+      stack_rows.push_back(row);
+    }
+  } catch (const std::exception& e) {
+    std::cerr << "error: " << e.what() << "\n";
+    return 1;
+  }
+  if (!stack_rows.empty()) PrintStacks(stack_rows, std::cout);
 
   if (!csv_path.empty()) {
     try {

@@ -16,6 +16,7 @@
 #include "vinci/sim/geometry/shape.h"
 #include "vinci/sim/model/scene_file.h"
 #include "vinci/sim/plate/velocity_field.h"
+#include "vinci/sim/simulator/simulator.h"
 #include "vinci/sim/solvers/input_file.h"
 #include "vinci/sim/solvers/text_format.h"
 
@@ -200,7 +201,44 @@ TEST(InputRobustnessTest, BodyCountIsBounded) {
   for (int i = 0; i <= SceneLimits::kMaxBodies; ++i)
     bodies += "  - {name: b" + std::to_string(i) + ", kind: static}\n";
   EXPECT_THAT(SceneError(SpatialScene("", bodies)),
-              HasSubstr("t.yaml:3: bodies: expected at most 1000 bodies, got 1001 bodies"));
+              HasSubstr("t.yaml:3: bodies: expected at most 10000 bodies, got 10001 bodies"));
+}
+
+// 10,000 separated spheres: the mass matrix was dense nv × nv (60,000² doubles, bad_alloc);
+// block diagonal and with a sweep-and-prune broad phase a step is O(bodies).
+TEST(InputRobustnessTest, TenThousandSeparatedSpheresStep) {
+  std::string bodies;
+  for (int i = 0; i < SceneLimits::kMaxBodies; ++i)
+    bodies += "  - {name: s" + std::to_string(i) + ", mass: 1, pose: {position: [" +
+              std::to_string(3 * (i % 100)) + ", " + std::to_string(3 * (i / 100)) +
+              ", 0]}, shapes: [{type: sphere, radius: 1}]}\n";
+  const Scene scene = ParseScene(SpatialScene("", bodies), "t.yaml");
+  Simulator sim(scene);
+  State x = sim.InitialState(), next;
+  Workspace ws;
+  const StepInfo info = sim.Step(sim.DefaultParams(), x, StepInput{}, &ws, &next);
+  ASSERT_TRUE(info.ok) << info.failure;
+  EXPECT_EQ(info.contacts, 0);
+  // Free fall: every sphere moved down by g h² (semi-implicit Euler), nothing else changed.
+  const double h = scene.options.dt, g = -scene.gravity_W.z();
+  for (int i : {0, 4321, SceneLimits::kMaxBodies - 1})
+    EXPECT_NEAR(next.q[scene.index(i).q + 2], -g * h * h, 1e-12) << i;
+}
+
+// The Newton steppers stay dense in ν: more than kMaxDenseBodies bodies is rejected by name.
+TEST(InputRobustnessTest, DenseFormulationsKeepTheirBodyLimit) {
+  std::string bodies;
+  for (int i = 0; i <= SceneLimits::kMaxDenseBodies; ++i)
+    bodies += "  - {name: s" + std::to_string(i) + ", mass: 1, pose: {position: [" +
+              std::to_string(3 * i) + ", 0, 0]}, shapes: [{type: sphere, radius: 1}]}\n";
+  Scene scene = ParseScene(SpatialScene("stepper: {formulation: gi}\n", bodies), "t.yaml");
+  try {
+    Simulator sim(scene);
+    FAIL() << "expected std::invalid_argument";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("formulation gi takes at most 1000 bodies"));
+    EXPECT_THAT(e.what(), HasSubstr("got 1001"));
+  }
 }
 
 TEST(InputRobustnessTest, VertexCountsAreBounded) {

@@ -1,6 +1,9 @@
 #include "vinci/sim/formulations/capabilities.h"
 
 #include <stdexcept>
+#include <string>
+
+#include "vinci/sim/model/scene_file.h"
 
 namespace vinci::sim {
 
@@ -150,6 +153,17 @@ void CheckSceneSupported(const Scene& scene, FormulationType type,
                FormulationKeyword(type) + " does not support " + use.feature + " (" + use.where +
                "); formulations that do: " + (others.empty() ? "none" : others);
   }
+  // Steppers whose Newton systems are dense in ν (SceneLimits::kMaxDenseBodies).
+  const bool dense =
+      type == FormulationType::kGeometricallyImplicit || type == FormulationType::kQuasistaticDlc ||
+      type == FormulationType::kQuasistaticDqc || type == FormulationType::kDynamicDqc;
+  const int bodies = static_cast<int>(scene.bodies.size());
+  if (dense && bodies > SceneLimits::kMaxDenseBodies)
+    message += std::string(message.empty() ? "" : "; ") + "formulation " +
+               FormulationKeyword(type) + " takes at most " +
+               std::to_string(SceneLimits::kMaxDenseBodies) + " bodies (its Newton system is " +
+               "dense in the velocities), got " + std::to_string(bodies) +
+               "; the LCP formulations take up to " + std::to_string(SceneLimits::kMaxBodies);
   if (!message.empty())
     throw std::invalid_argument((scene.name.empty() ? "scene: " : "scene '" + scene.name + "': ") +
                                 message);

@@ -1,6 +1,8 @@
 #include "vinci/sim/formulations/contact.h"
 
+#include <algorithm>
 #include <iterator>
+#include <utility>
 
 namespace vinci::sim {
 
@@ -53,11 +55,41 @@ void FindContacts(const Scene& scene, const std::vector<BodyKinematics>& bodies,
       boxes[i].push_back(ComputeAabb(s, poses[i].back()));
     }
   }
-  for (int ia = 0; ia < n; ++ia) {
+  // Candidate body pairs: sweep and prune along x on each body's box (the union of its shapes'),
+  // O(n log n + pairs) instead of all n² pairs, then in index order (ia < ib) as the contact
+  // order requires. A shape-pair overlap implies a body-box overlap, so no contact is lost.
+  std::vector<Aabb> body_box(n);
+  std::vector<int> order;
+  order.reserve(n);
+  for (int i = 0; i < n; ++i) {
+    if (boxes[i].empty()) continue;
+    Aabb box = boxes[i][0];
+    for (const Aabb& s : boxes[i]) {
+      box.lo = box.lo.cwiseMin(s.lo);
+      box.hi = box.hi.cwiseMax(s.hi);
+    }
+    if (box.lo.hasNaN() || box.hi.hasNaN()) continue;  // overlaps nothing (as before)
+    body_box[i] = box;
+    order.push_back(i);
+  }
+  std::stable_sort(order.begin(), order.end(),
+                   [&](int i, int j) { return body_box[i].lo.x() < body_box[j].lo.x(); });
+  std::vector<std::pair<int, int>> pairs;
+  for (std::size_t p = 0; p < order.size(); ++p) {
+    const int i = order[p];
+    for (std::size_t q = p + 1; q < order.size(); ++q) {
+      const int j = order[q];
+      if (body_box[j].lo.x() - envelope > body_box[i].hi.x()) break;  // and every later body
+      if (scene.bodies[i].kind != BodyKind::kDynamic && scene.bodies[j].kind != BodyKind::kDynamic)
+        continue;
+      if (!body_box[i].Overlaps(body_box[j], envelope)) continue;
+      pairs.emplace_back(std::min(i, j), std::max(i, j));
+    }
+  }
+  std::sort(pairs.begin(), pairs.end());
+  for (const auto& [ia, ib] : pairs) {
     const Body& A = scene.bodies[ia];
-    for (int ib = ia + 1; ib < n; ++ib) {
-      const Body& B = scene.bodies[ib];
-      if (A.kind != BodyKind::kDynamic && B.kind != BodyKind::kDynamic) continue;
+    {
       if (BodiesJointed(scene, ia, ib)) continue;
       // Orient each pair so the dynamic body (or the first dynamic body) is A.
       const bool swap = A.kind != BodyKind::kDynamic;

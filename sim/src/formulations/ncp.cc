@@ -458,7 +458,7 @@ StepResiduals NcpStepper::EvaluateAssembly(const Scene& model, const Params& par
     const int et = ne + 2 * c, eo = et + 1;
     const double ut = a.G_f.col(c * nd).dot(v1) + a.dpsi_f[c * nd];
     r.equality[et] = et2 * mu * pn * ut + pt * s;
-    r.d_equality.block(et, l.v1(), 1, nv) = et2 * mu * pn * a.G_f.col(c * nd).transpose();
+    r.d_equality.block(et, l.v1(), 1, nv) = et2 * mu * pn * a.G_f.col(c * nd).toDense().transpose();
     r.d_equality(et, l.pn() + c) = et2 * mu * ut;
     r.d_equality(et, l.pf() + 2 * c) = s;
     r.d_equality(et, l.sigma() + c) = pt;
@@ -469,7 +469,8 @@ StepResiduals NcpStepper::EvaluateAssembly(const Scene& model, const Params& par
     } else {
       const double uo = a.G_f.col(c * nd + 1).dot(v1) + a.dpsi_f[c * nd + 1];
       r.equality[eo] = eo2 * mu * pn * uo + po * s;
-      r.d_equality.block(eo, l.v1(), 1, nv) = eo2 * mu * pn * a.G_f.col(c * nd + 1).transpose();
+      r.d_equality.block(eo, l.v1(), 1, nv) =
+          eo2 * mu * pn * a.G_f.col(c * nd + 1).toDense().transpose();
       r.d_equality(eo, l.pn() + c) = eo2 * mu * uo;
       r.d_equality(eo, l.pf() + 2 * c + 1) = s;
       r.d_equality(eo, l.sigma() + c) = po;

@@ -137,7 +137,7 @@ McpProblem MakeStepMcp(const Scene& model, const State& x, const StepperOptions&
   l->nb = static_cast<int>(d->a.psi_b.size());
   l->ns = d->a.support.points();
   l->nps = d->a.support.columns();
-  d->eps_M = dynamic ? d->a.M : MatrixXd(kQuasistaticRegularization * d->a.M);
+  d->eps_M = dynamic ? d->a.M.ToDense() : MatrixXd(kQuasistaticRegularization * d->a.M.ToDense());
   d->v0 = dynamic ? x.v : VectorXd::Zero(l->nv);
   d->h = options.dt;
   d->quadratic = quadratic;
@@ -425,7 +425,7 @@ StepResiduals Quasistatic::EvaluateAssembly(const Scene& model, const Params& pa
     const double scale = dynamic_ ? 1.0 : kQuasistaticRegularization;
     const VectorXd dv =
         y.segment(ov, 3) - (dynamic_ ? VectorXd(x.v.segment(ov, 3)) : VectorXd::Zero(3));
-    VectorXd dm = scale * a.M.block(ov, ov, 3, 3) * dv / b.mass;
+    VectorXd dm = scale * a.M.BlockAt(ov).topLeftCorner(3, 3) * dv / b.mass;
     if (b.gravity) dm.head(2) -= h * model.gravity_W.head(2);
     r.d_equality.block(ov, column_of[i], 3, 1) = dm;
     if (!b.support.static_distribution) continue;

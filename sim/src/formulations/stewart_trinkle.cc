@@ -38,16 +38,42 @@ void FrictionDirections(Dim dim, const Vector3d& n, int nd, std::vector<Vector3d
 }
 
 // Adds `row` (the body's point-velocity row) into column `col` of G at the body's ν block,
-// or, for a non-dynamic body, adds its contribution row·ν_body to *dpsi.
+// or, for a non-dynamic body, adds its contribution row·ν_body to *dpsi. G's columns have
+// room reserved for two body blocks (StartJacobian).
 void Scatter(const Scene& model, int body, const BodyKinematics& k, const Vector3d& p,
-             const Vector3d& d, double sign, MatrixXd* G, int col, double* dpsi) {
+             const Vector3d& d, double sign, SparseMatrixd* G, int col, double* dpsi) {
   if (model.bodies[body].kind == BodyKind::kDynamic) {
-    const int nvb = VelocitySize(model.dim);
-    G->block(model.index(body).v, col, nvb, 1) +=
-        sign * PointVelocityRow(model.dim, k.X_WB, p, d).transpose();
+    const int nvb = VelocitySize(model.dim), o = model.index(body).v;
+    const auto row = PointVelocityRow(model.dim, k.X_WB, p, d);
+    for (int i = 0; i < nvb; ++i) G->coeffRef(o + i, col) += sign * row[i];
   } else {
     *dpsi += sign * d.dot(PointVelocity(k, p));
   }
+}
+
+// The same contribution to the predicted gap rate: sign·row·ν_body (dynamic body, ν = v) into
+// *gv, or into *dpsi for a non-dynamic body.
+void ScatterDot(const Scene& model, int body, const BodyKinematics& k, const Vector3d& p,
+                const Vector3d& d, double sign, const VectorXd& v, double* gv, double* dpsi) {
+  if (model.bodies[body].kind == BodyKind::kDynamic) {
+    const int nvb = VelocitySize(model.dim), o = model.index(body).v;
+    *gv += sign * PointVelocityRow(model.dim, k.X_WB, p, d).dot(v.segment(o, nvb));
+  } else {
+    *dpsi += sign * d.dot(PointVelocity(k, p));
+  }
+}
+
+// An empty nv × cols Jacobian with room for `per_column` entries in every column.
+void StartJacobian(int nv, int cols, int per_column, SparseMatrixd* G) {
+  G->resize(nv, cols);
+  G->reserve(Eigen::VectorXi::Constant(cols, per_column));
+}
+
+// The entries of column `col` of G in rows [o, o + n) into out[0..n) (zeros elsewhere).
+void GatherColumn(const SparseMatrixd& G, int col, int o, int n, double* out) {
+  std::fill(out, out + n, 0.0);
+  for (SparseMatrixd::InnerIterator it(G, col); it; ++it)
+    if (it.row() >= o && it.row() < o + n) out[it.row() - o] = it.value();
 }
 
 // Pose of a prescribed body at t under its PoseRule (exact, or integrated with the step h).
@@ -173,9 +199,9 @@ StewartTrinkle::Assembly StewartTrinkle::AssembleAt(const Scene& model, const St
   a.nd = dim == Dim::kPlanar ? 2 : options_.friction_directions;
   const int nd = a.nd;
 
-  // Mass matrix and external impulses.
-  a.M = MatrixXd::Zero(nv, nv);
-  a.M_inv = MatrixXd::Zero(nv, nv);
+  // Mass matrix (block diagonal, one block per dynamic body) and external impulses.
+  a.M.Resize(nv, nvb);
+  a.M_inv.Resize(nv, nvb);
   a.p_ext = VectorXd::Zero(nv);
   for (int bi : model.dynamic_bodies()) {
     const Body& b = model.bodies[bi];
@@ -183,16 +209,14 @@ StewartTrinkle::Assembly StewartTrinkle::AssembleAt(const Scene& model, const St
     const Vector3d f =
         b.applied_force_W + (b.gravity ? Vector3d(b.mass * model.gravity_W) : Vector3d::Zero());
     if (dim == Dim::kPlanar) {
-      a.M(o, o) = a.M(o + 1, o + 1) = b.mass;
-      a.M(o + 2, o + 2) = b.inertia(2, 2);
-      a.M_inv(o, o) = a.M_inv(o + 1, o + 1) = 1.0 / b.mass;
-      a.M_inv(o + 2, o + 2) = 1.0 / b.inertia(2, 2);
+      a.M.BlockAt(o).diagonal() = Vector3d(b.mass, b.mass, b.inertia(2, 2));
+      a.M_inv.BlockAt(o).diagonal() = Vector3d(1.0 / b.mass, 1.0 / b.mass, 1.0 / b.inertia(2, 2));
       a.p_ext.segment<3>(o) = h * Vector3d(f.x(), f.y(), b.applied_torque_W.z());
     } else {
-      a.M.block<3, 3>(o, o) = b.mass * Matrix3d::Identity();
-      a.M.block<3, 3>(o + 3, o + 3) = b.inertia;
-      a.M_inv.block<3, 3>(o, o) = Matrix3d::Identity() / b.mass;
-      a.M_inv.block<3, 3>(o + 3, o + 3) = b.inertia.inverse();
+      a.M.BlockAt(o).topLeftCorner<3, 3>() = b.mass * Matrix3d::Identity();
+      a.M.BlockAt(o).bottomRightCorner<3, 3>() = b.inertia;
+      a.M_inv.BlockAt(o).topLeftCorner<3, 3>() = Matrix3d::Identity() / b.mass;
+      a.M_inv.BlockAt(o).bottomRightCorner<3, 3>() = b.inertia.inverse();
       const Matrix3d& R = kin[bi].X_WB.linear();
       const Vector3d w_B = x.v.segment<3>(o + 3);
       a.p_ext.segment<3>(o) = h * f;
@@ -207,8 +231,8 @@ StewartTrinkle::Assembly StewartTrinkle::AssembleAt(const Scene& model, const St
     for (int bi : model.dynamic_bodies()) {
       const Body& b = model.bodies[bi];
       const int o = model.index(bi).v;
-      a.M.block(o, o, nvb, nvb) = h * b.damping;
-      a.M_inv.block(o, o, nvb, nvb) = (h * b.damping).inverse();
+      a.M.BlockAt(o) = h * b.damping;
+      a.M_inv.BlockAt(o) = (h * b.damping).inverse();
       if (dim == Dim::kSpatial) {
         const Vector3d w_B = x.v.segment<3>(o + 3);
         a.p_ext.segment<3>(o + 3) += h * w_B.cross(b.inertia * w_B);
@@ -221,19 +245,18 @@ StewartTrinkle::Assembly StewartTrinkle::AssembleAt(const Scene& model, const St
   // exactly at the corner) go to the edge with the smaller |ψ_i|, the edge it slides along.
   {
     const VectorXd v_pred = first_order_ ? VectorXd::Zero(nv) : x.v;
-    MatrixXd g = MatrixXd::Zero(nv, 2);
     for (int c = 0; c < nc; ++c) {
       ContactPoint& p = a.contacts[c].point;
       if (!p.corner) continue;
       const Contact& ct = a.contacts[c];
-      g.setZero();
-      double dpsi[2] = {0.0, 0.0};
-      Scatter(model, ct.body_a, kin[ct.body_a], p.p_A_W, p.n_W, 1.0, &g, 0, &dpsi[0]);
-      Scatter(model, ct.body_b, kin[ct.body_b], p.p_B_W, p.n_W, -1.0, &g, 0, &dpsi[0]);
-      Scatter(model, ct.body_a, kin[ct.body_a], p.p2_A_W, p.n2_W, 1.0, &g, 1, &dpsi[1]);
-      Scatter(model, ct.body_b, kin[ct.body_b], p.p2_B_W, p.n2_W, -1.0, &g, 1, &dpsi[1]);
-      const double pred1 = p.gap + h * (g.col(0).dot(v_pred) + dpsi[0]);
-      const double pred2 = p.gap2 + h * (g.col(1).dot(v_pred) + dpsi[1]);
+      double gv[2] = {0.0, 0.0}, dpsi[2] = {0.0, 0.0};
+      const BodyKinematics &ka = kin[ct.body_a], &kb = kin[ct.body_b];
+      ScatterDot(model, ct.body_a, ka, p.p_A_W, p.n_W, 1.0, v_pred, &gv[0], &dpsi[0]);
+      ScatterDot(model, ct.body_b, kb, p.p_B_W, p.n_W, -1.0, v_pred, &gv[0], &dpsi[0]);
+      ScatterDot(model, ct.body_a, ka, p.p2_A_W, p.n2_W, 1.0, v_pred, &gv[1], &dpsi[1]);
+      ScatterDot(model, ct.body_b, kb, p.p2_B_W, p.n2_W, -1.0, v_pred, &gv[1], &dpsi[1]);
+      const double pred1 = p.gap + h * (gv[0] + dpsi[0]);
+      const double pred2 = p.gap2 + h * (gv[1] + dpsi[1]);
       const double tie = kCornerTieTol * (std::abs(p.gap) + std::abs(p.gap2) +
                                           h * (std::abs(pred1 - p.gap) + std::abs(pred2 - p.gap2)));
       const bool second =
@@ -248,7 +271,7 @@ StewartTrinkle::Assembly StewartTrinkle::AssembleAt(const Scene& model, const St
       a.corner_contact.push_back(c);
     }
     const int nk = static_cast<int>(a.corner_contact.size());
-    a.G_1 = MatrixXd::Zero(nv, nk);
+    StartJacobian(nv, nk, 2 * nvb, &a.G_1);
     a.psi_1.resize(nk);
     a.dpsi_1 = VectorXd::Zero(nk);
     for (int k = 0; k < nk; ++k) {
@@ -261,8 +284,8 @@ StewartTrinkle::Assembly StewartTrinkle::AssembleAt(const Scene& model, const St
   }
 
   // Contacts.
-  a.G_n = MatrixXd::Zero(nv, nc);
-  a.G_f = MatrixXd::Zero(nv, nc * nd);
+  StartJacobian(nv, nc, 2 * nvb, &a.G_n);
+  StartJacobian(nv, nc * nd, 2 * nvb, &a.G_f);
   a.psi_n.resize(nc);
   a.dpsi_n = VectorXd::Zero(nc);
   a.dpsi_f = VectorXd::Zero(nc * nd);
@@ -291,7 +314,7 @@ StewartTrinkle::Assembly StewartTrinkle::AssembleAt(const Scene& model, const St
   // Joints.
   int nb = 0;
   for (const Joint& j : model.joints) nb += JointRowCount(j.type, dim);
-  a.G_b = MatrixXd::Zero(nv, nb);
+  StartJacobian(nv, nb, 2 * nvb, &a.G_b);
   a.psi_b.resize(nb);
   a.dpsi_b = VectorXd::Zero(nb);
   JointRows rows;
@@ -305,15 +328,23 @@ StewartTrinkle::Assembly StewartTrinkle::AssembleAt(const Scene& model, const St
     a.psi_b.segment(r, m) = rows.psi;
     const auto add = [&](int body, const BodyKinematics& k, const MatrixXd& J) {
       if (body < 0) return;  // the world does not move
-      if (model.bodies[body].kind == BodyKind::kDynamic)
-        a.G_b.block(model.index(body).v, r, nvb, m) += J.transpose();
-      else
+      if (model.bodies[body].kind == BodyKind::kDynamic) {
+        const int o = model.index(body).v;
+        for (int i = 0; i < m; ++i)
+          for (int e = 0; e < nvb; ++e) a.G_b.coeffRef(o + e, r + i) += J(i, e);
+      } else {
         a.dpsi_b.segment(r, m) += J * BodyVelocity(dim, k);
+      }
     };
     add(j.body_a, ka, rows.J_a);
     add(j.body_b, kb, rows.J_b);
     r += m;
   }
+
+  a.G_1.makeCompressed();
+  a.G_n.makeCompressed();
+  a.G_f.makeCompressed();
+  a.G_b.makeCompressed();
 
   // 2.5D support friction (support.h): empty without support points.
   a.support = AssembleSupport(model, x, h, /*quadratic=*/false);
@@ -414,11 +445,15 @@ LcpProblem StewartTrinkle::BuildLcp(const Scene& model, const Assembly& a, const
     if (cols.empty()) continue;
     const int o = model.index(body).v, k = static_cast<int>(cols.size());
     Gb_cols.resize(nvb, k);
-    for (int i = 0; i < k; ++i)
-      Gb_cols.col(i) = cols[i] < nc        ? a.G_n.block(o, cols[i], nvb, 1)
-                       : cols[i] < nc + nf ? a.G_f.block(o, cols[i] - nc, nvb, 1)
-                                           : sup.G_s.block(o, cols[i] - s0, nvb, 1);
-    MinvG.noalias() = a.M_inv.block(o, o, nvb, nvb) * Gb_cols;
+    for (int i = 0; i < k; ++i) {
+      if (cols[i] < nc)
+        GatherColumn(a.G_n, cols[i], o, nvb, Gb_cols.col(i).data());
+      else if (cols[i] < nc + nf)
+        GatherColumn(a.G_f, cols[i] - nc, o, nvb, Gb_cols.col(i).data());
+      else
+        Gb_cols.col(i) = sup.G_s.block(o, cols[i] - s0, nvb, 1);
+    }
+    MinvG.noalias() = a.M_inv.BlockAt(o) * Gb_cols;
     const MatrixXd block = Gb_cols.transpose() * MinvG;
     for (int i = 0; i < k; ++i)
       for (int j = 0; j < k; ++j) lcp.M(cols[i], cols[j]) += block(i, j);
@@ -428,7 +463,7 @@ LcpProblem StewartTrinkle::BuildLcp(const Scene& model, const Assembly& a, const
     // Eliminate p_b with S = G_bᵀ M⁻¹ G_b:
     //   S p_b = −(G_bᵀ ν* + ψ_b/h + ∂ψ_b/∂t + G_bᵀ M⁻¹ G_c p_c),
     // which subtracts (G_bᵀM⁻¹G_c)ᵀ S⁻¹ (G_bᵀM⁻¹G_c) from the contact block.
-    joints->MinvGb = a.M_inv * a.G_b;
+    joints->MinvGb = a.M_inv * MatrixXd(a.G_b);
     joints->S.compute(a.G_b.transpose() * joints->MinvGb);
     VectorXd rhs = a.G_b.transpose() * *v_star + a.dpsi_b;
     if (options_.joint_stabilization) rhs += a.psi_b / h;
@@ -478,19 +513,16 @@ LcpProblem StewartTrinkle::BuildLcp(const Scene& model, const Assembly& a, const
     VectorXd e(nk);
     for (int k = 0; k < nk; ++k) {
       const int c = a.corner_contact[k];
-      D.col(k) = a.G_1.col(k) - a.G_n.col(c);
+      D.col(k) = a.G_1.col(k).toDense() - a.G_n.col(c).toDense();
       e[k] = (a.psi_1[k] - a.psi_n[c]) / h + a.dpsi_1[k] - a.dpsi_n[c];
     }
-    MatrixXd Gc(a.G_n.rows(), nc + nf);
-    Gc << a.G_n, a.G_f;
-    MatrixXd WGc = a.M_inv * Gc;
-    if (nb > 0) WGc -= joints->MinvGb * joints->S.solve(joints->MinvGb.transpose() * Gc);
-    lcp.M.block(o, 0, nk, nc + nf) = -D.transpose() * WGc;
-    if (nps > 0) {  // ν also depends on the support impulses p_s
-      MatrixXd WGs = a.M_inv * sup.G_s;
-      if (nb > 0) WGs -= joints->MinvGb * joints->S.solve(joints->MinvGb.transpose() * sup.G_s);
-      lcp.M.block(o, s0, nk, nps) = -D.transpose() * WGs;
-    }
+    // Dᵀ W G = (W D)ᵀ G (W symmetric): W D is dense nv × nk, G stays sparse.
+    MatrixXd WD = a.M_inv * D;
+    if (nb > 0) WD -= joints->MinvGb * joints->S.solve(joints->MinvGb.transpose() * D);
+    lcp.M.block(o, 0, nk, nc) = -(a.G_n.transpose() * WD).transpose();
+    lcp.M.block(o, nc, nk, nf) = -(a.G_f.transpose() * WD).transpose();
+    if (nps > 0)  // ν also depends on the support impulses p_s
+      lcp.M.block(o, s0, nk, nps) = -WD.transpose() * sup.G_s;
     for (int k = 0; k < nk; ++k) {
       lcp.M(o + k, o + k) = 1.0;
       lcp.M(a.corner_contact[k], o + k) = 1.0;
@@ -637,7 +669,7 @@ StepResiduals StewartTrinkle::EvaluateAssembly(const Scene& model, const Params&
   r.d_equality = MatrixXd::Zero(nv + nq + nb, ncol);
   const VectorXd v_l = first_order_ ? VectorXd::Zero(nv) : x.v;  // first order: no ν_ℓ
   r.equality.head(nv) = a.M * (v1 - v_l) - a.G_n * pn - a.G_f * pf - a.G_b * pb - a.p_ext;
-  r.d_equality.block(0, l.v1(), nv, nv) = a.M;
+  r.d_equality.block(0, l.v1(), nv, nv) = a.M.ToDense();
   r.d_equality.block(0, l.pn(), nv, nc) = -a.G_n;
   r.d_equality.block(0, l.pf(), nv, nf) = -a.G_f;
   r.d_equality.block(0, l.pb(), nv, nb) = -a.G_b;
@@ -653,8 +685,8 @@ StepResiduals StewartTrinkle::EvaluateAssembly(const Scene& model, const Params&
     const int o = model.index(info.a).v, nvb = VelocitySize(model.dim);
     const VectorXd dv = v1.segment(o, nvb) - x.v.segment(o, nvb);
     // First order: h C does not scale with the mass, only the weight does.
-    VectorXd d = first_order_ ? VectorXd(VectorXd::Zero(nvb))
-                              : VectorXd(a.M.block(o, o, nvb, nvb) * dv / b.mass);
+    VectorXd d =
+        first_order_ ? VectorXd(VectorXd::Zero(nvb)) : VectorXd(a.M.BlockAt(o) * dv / b.mass);
     if (b.gravity) {
       d.head(model.dim == Dim::kPlanar ? 2 : 3) -=
           h * model.gravity_W.head(model.dim == Dim::kPlanar ? 2 : 3);
@@ -740,7 +772,7 @@ StepResiduals StewartTrinkle::EvaluateAssembly(const Scene& model, const Params&
   // normal row of its contact.
   for (int k = 0; k < nk; ++k) {
     const int c = a.corner_contact[k], row = ncomp - nk + k;  // corner pairs last
-    const VectorXd D = a.G_1.col(k) - a.G_n.col(c);
+    const VectorXd D = a.G_1.col(k).toDense() - a.G_n.col(c).toDense();
     r.comp_b[row] = cc[k] - ((a.psi_1[k] - a.psi_n[c]) / h + D.dot(v1) + a.dpsi_1[k] - a.dpsi_n[c]);
     r.d_comp_b(row, l.corner() + k) = 1.0;
     r.d_comp_b.block(row, l.v1(), 1, nv) = -D.transpose();

@@ -189,35 +189,22 @@ struct PivotMatrix {
 };
 
 // One pass over M: false if M has a NaN or ±inf (or a row sum overflows); ‖M‖∞ = max_i Σ_j |M_ij|
-// in *m_norm and the row and column maxima of |M| in ws->row_max, ws->col_max (the first sweep of
-// SymmetricScaling for ε = 0).
+// in *m_norm. (The row and column maxima of |M| for the equilibration are left to
+// SymmetricScaling, which only the cold path needs: a warm-started step reads M once here.)
 bool ScanMatrix(const MatrixXd& M, Workspace* ws, double* m_norm) {
   const Eigen::Index n = M.rows();
-  ws->row_max.setZero(n);
-  ws->col_max.resize(n);
   // Row sums of |M| in the order of Eigen 3.4's vectorized M.cwiseAbs().rowwise().sum() (the
   // previous ‖M‖∞): column 0, then groups of four columns summed pairwise, then one by one.
   VectorXd& sum = ws->tmp;
   sum.setZero(n);
-  auto maxima = [&](Eigen::Index j) {
-    ws->col_max(j) = M.col(j).cwiseAbs().maxCoeff();
-    ws->row_max = ws->row_max.cwiseMax(M.col(j).cwiseAbs());
-  };
-  if (n > 0) {
-    sum = M.col(0).cwiseAbs();
-    maxima(0);
-  }
+  if (n > 0) sum = M.col(0).cwiseAbs();
   const Eigen::Index size4 = (n - 1) & ~Eigen::Index{3};
   Eigen::Index j = 1;
   for (; j < size4; j += 4) {
     sum += (M.col(j).cwiseAbs() + M.col(j + 1).cwiseAbs()) +
            (M.col(j + 2).cwiseAbs() + M.col(j + 3).cwiseAbs());
-    for (Eigen::Index k = j; k < j + 4; ++k) maxima(k);
   }
-  for (; j < n; ++j) {
-    sum += M.col(j).cwiseAbs();
-    maxima(j);
-  }
+  for (; j < n; ++j) sum += M.col(j).cwiseAbs();
   *m_norm = n > 0 ? sum.maxCoeff() : 0.0;
   // A NaN or ±inf entry makes its row sum NaN or +inf (the terms are ≥ 0).
   return sum.allFinite();
@@ -258,10 +245,9 @@ double PowerOfTwo(int k) {
 // Power-of-two diagonal D (in ws->scale) such that D A D, A = M + εI, has each row and column
 // max-abs within a factor of about 4 of 1 (where A has a nonzero there). Symmetric, so
 // copositivity / PSD of A and with it Lemke's termination guarantee are preserved; powers of
-// two make the scaling exact. With have_maxima, ws->row_max / ws->col_max already hold the
-// row and column maxima of |A| (ScanMatrix, ε = 0). Each sweep reads A once: the maxima of
-// |A_ij| d_i d_j, exact in floating point since d is a power of two.
-void SymmetricScaling(const MatrixXd& M, double epsilon, bool have_maxima, Workspace* ws) {
+// two make the scaling exact. Each sweep reads A once: the maxima of |A_ij| d_i d_j, exact in
+// floating point since d is a power of two.
+void SymmetricScaling(const MatrixXd& M, double epsilon, Workspace* ws) {
   const Eigen::Index n = M.rows();
   VectorXd& d = ws->scale;
   VectorXd& s = ws->step;
@@ -270,7 +256,7 @@ void SymmetricScaling(const MatrixXd& M, double epsilon, bool have_maxima, Works
   ws->row_max.resize(n);
   ws->col_max.resize(n);
   for (int sweep = 0; sweep < kScalingSweeps; ++sweep) {
-    if (sweep > 0 || !have_maxima) {
+    {
       // Row and column maxima in one column-major pass.
       ws->row_max.setZero();
       for (Eigen::Index j = 0; j < n; ++j) {
@@ -638,16 +624,15 @@ struct Attempt {
 };
 
 // One Lemke run on M + εI (scaled if asked), z and residual reported on the original problem.
-// `have_maxima`: ws holds the row and column maxima of |M| (ScanMatrix), used for ε = 0.
 Attempt RunAttempt(const LcpProblem& problem, double epsilon, const LemkeOptions& options,
-                   const Acceptance& acceptance, bool have_maxima, Workspace* ws) {
+                   const Acceptance& acceptance, Workspace* ws) {
   PivotMatrix m;
   m.M = &problem.M;
   m.epsilon = epsilon;
   // Scaled only if some factor differs from 1 (a well-scaled M skips the multiplications).
   bool scaled = false;
   if (options.scale) {
-    SymmetricScaling(problem.M, epsilon, have_maxima && epsilon == 0.0, ws);
+    SymmetricScaling(problem.M, epsilon, ws);
     scaled = (ws->scale.array() != 1.0).any();
   }
   const VectorXd& scale = ws->scale;
@@ -707,8 +692,43 @@ bool Passes(const Attempt& a) {
 // nonsingular M_BB this is the same z_B, and for a singular one (degenerate contact LCPs: a
 // sliding-speed λ_i whose contact carries no force is not determined by the B rows) the
 // undetermined components keep the guessed values instead of being set to zero.
+// w = M z + q over the columns with z_j ≠ 0 only (M is finite: ScanMatrix checked it, so the
+// skipped terms are exact zeros): O(n · nnz(z)) instead of O(n²) for a warm-start candidate.
+void MultiplySkippingZeros(const LcpProblem& problem, const VectorXd& z, VectorXd* w) {
+  *w = problem.q;
+  for (Eigen::Index j = 0; j < z.size(); ++j)
+    if (z(j) != 0.0) w->noalias() += z(j) * problem.M.col(j);
+}
+
+// LcpResidual (lcp.h) from a given w = M z + q.
+double ResidualOf(const VectorXd& z, const VectorXd& w) {
+  double residual = 0.0;
+  for (Eigen::Index i = 0; i < z.size(); ++i) {
+    if (std::isnan(w(i)) || std::isnan(z(i))) return std::numeric_limits<double>::quiet_NaN();
+    residual = std::max(residual, std::abs(std::min(z(i), w(i))));
+  }
+  return residual;
+}
+
+// LcpScaledResidual (lcp_acceptance.h) from a given w = M z + q and ‖M‖∞ (ScanMatrix's).
+double ScaledResidualOf(const LcpProblem& problem, const VectorXd& z, const VectorXd& w,
+                        double m_norm) {
+  if (z.size() == 0) return 0.0;
+  if (!z.allFinite()) return kInf;
+  const double q_norm = problem.q.lpNorm<Eigen::Infinity>();
+  const double z_norm = z.lpNorm<Eigen::Infinity>();
+  const double s_w = std::max(q_norm, m_norm * z_norm);
+  const double s_z = std::max(z_norm, m_norm > 0.0 ? q_norm / m_norm : 0.0);
+  if (!w.allFinite() || !std::isfinite(s_w) || !std::isfinite(s_z)) return kInf;
+  const auto ratio = [](double x, double s) { return s > 0.0 ? x / s : 0.0; };
+  double r = 0.0;
+  for (Eigen::Index i = 0; i < z.size(); ++i)
+    r = std::max(r, std::abs(std::min(ratio(z(i), s_z), ratio(w(i), s_w))));
+  return r;
+}
+
 bool TryBasis(const LcpProblem& problem, const std::vector<bool>& in_basis, const VectorXd& guess,
-              const Acceptance& acceptance, VectorXd* z) {
+              const Acceptance& acceptance, VectorXd* z, double* residual) {
   const Eigen::Index n = problem.q.size();
   std::vector<Eigen::Index> active;
   for (Eigen::Index i = 0; i < n; ++i) {
@@ -725,23 +745,31 @@ bool TryBasis(const LcpProblem& problem, const std::vector<bool>& in_basis, cons
   if (z_b.minCoeff() < -tolerance) return false;
   VectorXd candidate = VectorXd::Zero(n);
   candidate(active) = z_b;
-  const VectorXd w = problem.M * candidate + problem.q;
+  VectorXd w;
+  MultiplySkippingZeros(problem, candidate, &w);
   for (Eigen::Index i = 0; i < n; ++i) {
     if (!in_basis[i] && w(i) < -tolerance) return false;
   }
-  candidate = candidate.cwiseMax(0.0);
-  if (!(LcpResidual(problem, candidate) <= acceptance.For(candidate))) return false;
-  if (!CheckLcpSolution(problem, candidate).empty()) return false;  // lcp_acceptance.h
+  if (candidate.minCoeff() < 0.0) {
+    candidate = candidate.cwiseMax(0.0);
+    MultiplySkippingZeros(problem, candidate, &w);
+  }
+  // LcpResidual and CheckLcpSolution (lcp_acceptance.h) of the candidate, from this w.
+  const double r = ResidualOf(candidate, w);
+  if (!(r <= acceptance.For(candidate))) return false;
+  if (!(ScaledResidualOf(problem, candidate, w, acceptance.m_norm) <= kLcpAcceptanceTolerance))
+    return false;
   *z = std::move(candidate);
+  *residual = r;
   return true;
 }
 
 // Warm start: the guessed basis is B = {i : warm_i > 0}.
 bool TryWarmStart(const LcpProblem& problem, const VectorXd& warm, const Acceptance& acceptance,
-                  VectorXd* z) {
+                  VectorXd* z, double* residual) {
   std::vector<bool> in_basis(warm.size());
   for (Eigen::Index i = 0; i < warm.size(); ++i) in_basis[i] = warm(i) > 0.0;
-  return TryBasis(problem, in_basis, warm, acceptance, z);
+  return TryBasis(problem, in_basis, warm, acceptance, z, residual);
 }
 
 // Polish of a terminated Lemke iterate that misses the tolerance by roundoff (a basic w_i left
@@ -796,7 +824,7 @@ SolverReport LemkeSolver::Solve(const LcpProblem& problem, const VectorXd* warm_
   const Eigen::Index n = problem.q.size();
   WorkspaceLease lease;
   Workspace& ws = lease.get();
-  // One pass over M for its finiteness, ‖M‖∞ and the first equilibration sweep.
+  // One pass over M for its finiteness and ‖M‖∞.
   double m_norm = 0.0;
   const bool square = problem.M.rows() == n && problem.M.cols() == n;
   const bool finite = square && ScanMatrix(problem.M, &ws, &m_norm) && problem.q.allFinite();
@@ -823,17 +851,18 @@ SolverReport LemkeSolver::Solve(const LcpProblem& problem, const VectorXd* warm_
   acceptance.m_norm = m_norm;
 
   // 2. Warm start from a guessed basis.
+  double warm_residual = kInf;
   if (warm_start != nullptr && warm_start->size() == n &&
-      TryWarmStart(problem, *warm_start, acceptance, z)) {
+      TryWarmStart(problem, *warm_start, acceptance, z, &warm_residual)) {
     report.status = SolverStatus::kSolved;
-    report.residual = LcpResidual(problem, *z);
+    report.residual = warm_residual;
     report.tolerance = acceptance.For(*z);
     report.message = "accepted the warm-start basis";
     return finish();
   }
 
   // 3. Cold Lemke, then 4. regularized retries if that fails.
-  Attempt first = RunAttempt(problem, 0.0, options_, acceptance, true, &ws);
+  Attempt first = RunAttempt(problem, 0.0, options_, acceptance, &ws);
   int total_pivots = first.pivots;
   // 3a. A terminated run that misses the tolerance by roundoff: polish its basis (reported).
   std::string polish_note;
@@ -863,7 +892,7 @@ SolverReport LemkeSolver::Solve(const LcpProblem& problem, const VectorXd* warm_
       (first.terminated || first.status == SolverStatus::kSecondaryRay)) {
     LemkeOptions plain = options_;
     plain.scale = false;
-    Attempt u = RunAttempt(problem, 0.0, plain, acceptance, false, &ws);
+    Attempt u = RunAttempt(problem, 0.0, plain, acceptance, &ws);
     total_pivots += u.pivots;
     if (Passes(u)) {
       unscaled_note =
@@ -879,8 +908,7 @@ SolverReport LemkeSolver::Solve(const LcpProblem& problem, const VectorXd* warm_
   std::string retry_log;
   if (!Passes(first) && options_.regularization > 0.0) {
     for (double factor : kRegularizationFactors) {
-      Attempt a =
-          RunAttempt(problem, factor * options_.regularization, options_, acceptance, false, &ws);
+      Attempt a = RunAttempt(problem, factor * options_.regularization, options_, acceptance, &ws);
       total_pivots += a.pivots;
       retry_log += (retry_log.empty() ? "" : ", ") + std::string("eps=") + FormatDouble(a.epsilon) +
                    ": " +

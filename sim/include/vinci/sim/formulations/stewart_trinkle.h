@@ -34,6 +34,7 @@
 #include <Eigen/Cholesky>
 #include <memory>
 
+#include "vinci/sim/formulations/block_diagonal.h"
 #include "vinci/sim/formulations/formulation.h"
 #include "vinci/sim/formulations/support_rows.h"
 
@@ -56,13 +57,14 @@ class StewartTrinkle final : public Formulation {
   struct Assembly {
     std::vector<Contact> contacts;
     int nd = 0;
-    MatrixXd M, M_inv;       ///< nv × nv
-    MatrixXd G_n, G_f, G_b;  ///< nv × nc, nv × nc·nd, nv × nb
-    VectorXd psi_n, dpsi_n;  ///< ψ_n, ∂ψ_n/∂t (nc)
-    VectorXd dpsi_f;         ///< ∂ψ_f/∂t (nc·nd)
-    VectorXd psi_b, dpsi_b;  ///< ψ_b, ∂ψ_b/∂t (nb)
-    VectorXd mu;             ///< μ per contact
-    VectorXd p_ext;          ///< h (forces) + p_vp (nv)
+    /// M and M⁻¹ (nv × nv), one block per dynamic body (first order: h C and (h C)⁻¹).
+    BlockDiagonal M, M_inv;
+    SparseMatrixd G_n, G_f, G_b;  ///< nv × nc, nv × nc·nd, nv × nb (≤ 2 body blocks a column)
+    VectorXd psi_n, dpsi_n;       ///< ψ_n, ∂ψ_n/∂t (nc)
+    VectorXd dpsi_f;              ///< ∂ψ_f/∂t (nc·nd)
+    VectorXd psi_b, dpsi_b;       ///< ψ_b, ∂ψ_b/∂t (nb)
+    VectorXd mu;                  ///< μ per contact
+    VectorXd p_ext;               ///< h (forces) + p_vp (nv)
     /// Per contact: the pair's linearized quasi-rigid law (compliance.h); compliant == false for
     /// rigid pairs, whose rows are unchanged. A compliant normal row is
     /// G_nᵀν + ∂ψ_n/∂t + vel_psi ψ_n + vel_diagonal p_n + vel_constant (both formulations).
@@ -70,7 +72,7 @@ class StewartTrinkle final : public Formulation {
     /// Corner contacts: contacts[corner_contact[k]] is corner k; its G_n, G_f columns and ψ_n
     /// are edge 2 (the force edge), G_1 and ψ_1 edge 1.
     std::vector<int> corner_contact;  ///< nk
-    MatrixXd G_1;                     ///< nv × nk
+    SparseMatrixd G_1;                ///< nv × nk
     VectorXd psi_1, dpsi_1;           ///< ψ_1, ∂ψ_1/∂t (nk)
     SupportRows support;  ///< 2.5D support friction, linearized (empty without supports)
   };

@@ -15,9 +15,14 @@ struct SceneLimits {
   /// have: the lower bound of those entries in the parameter table (Scene::Finalize), so that
   /// a scene the loader accepts also passes Scene::ApplyParams.
   static constexpr double kMinSize = 1e-12;
-  /// Bodies per scene: the mass matrix is still dense nv × nv (nv = 6 per spatial body), so
-  /// 1000 bodies take ~0.3 GB for it and its inverse.
-  static constexpr int kMaxBodies = 1000;
+  /// Bodies per scene. The LCP steppers (Stewart–Trinkle, Anitescu–Potra, first-order, NCP)
+  /// keep the mass matrix block diagonal and find contact pairs by sweep and prune, so memory
+  /// and work per step grow with the bodies and the contacts, not with the bodies squared.
+  static constexpr int kMaxBodies = 10000;
+  /// Bodies per scene for the steppers whose Newton systems are dense in ν (geometrically
+  /// implicit, quasistatic-dlc/dqc, dynamic-dqc: nv × nv matrices, ~0.3 GB at 1000 bodies);
+  /// checked when the simulator is built (CheckSceneSupported).
+  static constexpr int kMaxDenseBodies = 1000;
   /// stepper.friction_directions (n_d, even): each contact adds n_d + 2 LCP rows.
   static constexpr int kMaxFrictionDirections = 64;
   /// support.directions of a 2.5D support (limit-surface linearization).
