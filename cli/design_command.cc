@@ -36,8 +36,8 @@ using design::Evaluation;
 constexpr double kTtyRedrawS = 0.2;
 constexpr int kRankingSize = 10;  // designs in result.json's and the summary's ranking
 
-// Shortest text that reads back as exactly v.
-std::string Num(double v) {
+// A history.csv number: the shortest text that reads back as exactly v ("nan", "inf" as such).
+std::string CsvNumber(double v) {
   char buf[32];
   const auto res = std::to_chars(buf, buf + sizeof(buf), v);
   return std::string(buf, res.ptr);
@@ -62,10 +62,11 @@ std::string HistoryHeader(const design::DesignSpec& spec) {
 std::string HistoryRow(const design::HistoryEntry& e) {
   std::string r = std::to_string(e.index) + "," + e.phase + "," + std::to_string(e.eval.stream) +
                   "," + std::to_string(e.eval.samples);
-  for (Eigen::Index k = 0; k < e.eval.x.size(); ++k) r += "," + Num(e.eval.x[k]);
-  r += "," + Num(e.eval.objective) + "," + Num(e.eval.loss) + "," +
-       std::to_string(e.eval.successes) + "," + Num(e.eval.lower) + "," + Num(e.eval.upper) + "," +
-       std::to_string(e.eval.failures) + "," + Num(e.eval.time_s);
+  for (Eigen::Index k = 0; k < e.eval.x.size(); ++k) r += "," + CsvNumber(e.eval.x[k]);
+  r += "," + CsvNumber(e.eval.objective) + "," + CsvNumber(e.eval.loss) + "," +
+       std::to_string(e.eval.successes) + "," + CsvNumber(e.eval.lower) + "," +
+       CsvNumber(e.eval.upper) + "," + std::to_string(e.eval.failures) + "," +
+       CsvNumber(e.eval.time_s);
   return r;
 }
 
@@ -155,10 +156,11 @@ std::vector<Evaluation> ReadHistory(const std::string& path, const design::Desig
 std::string EvaluationJson(const design::DesignSpec& spec, const Evaluation& e,
                            const std::string& indent) {
   std::ostringstream o;
-  o << "{\"samples\": " << e.samples << ", \"objective\": " << Num(e.objective);
+  o << "{\"samples\": " << e.samples << ", \"objective\": " << JsonNumber(e.objective);
   if (spec.objective.type != design::ObjectiveType::kDistance)
-    o << ", \"success_rate\": " << Num(static_cast<double>(e.successes) / std::max(1, e.samples))
-      << ", \"interval\": [" << Num(e.lower) << ", " << Num(e.upper) << "]";
+    o << ", \"success_rate\": "
+      << JsonNumber(static_cast<double>(e.successes) / std::max(1, e.samples))
+      << ", \"interval\": [" << JsonNumber(e.lower) << ", " << JsonNumber(e.upper) << "]";
   o << ", \"failed_samples\": " << e.failures << "}";
   (void)indent;
   return o.str();
@@ -167,7 +169,7 @@ std::string EvaluationJson(const design::DesignSpec& spec, const Evaluation& e,
 std::string DesignJson(const design::DesignSpec& spec, const design::VectorXd& x) {
   std::string s = "{";
   for (std::size_t k = 0; k < spec.parameters.size(); ++k)
-    s += (k ? ", " : "") + JsonString(spec.parameters[k].name) + ": " + Num(x[k]);
+    s += (k ? ", " : "") + JsonString(spec.parameters[k].name) + ": " + JsonNumber(x[k]);
   return s + "}";
 }
 
@@ -328,11 +330,13 @@ ExitCode RunDesignCommand(const DesignOptions& o) {
       << "\",\n";
     j << "  \"best\": " << DesignJson(spec, r.best) << ",\n";
     const Evaluation& reported = r.validated ? r.best_fresh : r.best_search;
-    j << "  \"objective\": " << Num(reported.objective) << ",\n";
+    j << "  \"objective\": " << JsonNumber(reported.objective) << ",\n";
     if (spec.objective.type != design::ObjectiveType::kDistance) {
       j << "  \"success_rate\": "
-        << Num(static_cast<double>(reported.successes) / std::max(1, reported.samples)) << ",\n";
-      j << "  \"interval\": [" << Num(reported.lower) << ", " << Num(reported.upper) << "],\n";
+        << JsonNumber(static_cast<double>(reported.successes) / std::max(1, reported.samples))
+        << ",\n";
+      j << "  \"interval\": [" << JsonNumber(reported.lower) << ", " << JsonNumber(reported.upper)
+        << "],\n";
     }
     j << "  \"fresh_samples\": " << (r.validated ? "true" : "false") << ",\n";
     j << "  \"best_search\": " << EvaluationJson(spec, r.best_search, "  ") << ",\n";
@@ -344,7 +348,7 @@ ExitCode RunDesignCommand(const DesignOptions& o) {
     j << "  \"evaluations\": " << r.evaluations << ",\n";
     j << "  \"replayed\": " << r.replayed << ",\n";
     j << "  \"simulations\": " << r.simulations << ",\n";
-    j << "  \"time_s\": " << Num(r.time_s) << ",\n";
+    j << "  \"time_s\": " << JsonNumber(r.time_s) << ",\n";
     j << "  \"cancelled\": " << (r.cancelled ? "true" : "false") << ",\n";
     j << "  \"errors\": [";
     for (std::size_t k = 0; k < r.errors.size(); ++k)
@@ -359,7 +363,7 @@ ExitCode RunDesignCommand(const DesignOptions& o) {
       j << (k ? ",\n    " : "\n    ") << "{\"stage\": " << JsonString(st.stage)
         << ", \"candidates_in\": " << st.candidates_in
         << ", \"candidates_out\": " << st.candidates_out << ", \"simulations\": " << st.simulations
-        << ", \"time_s\": " << Num(st.time_s) << "}";
+        << ", \"time_s\": " << JsonNumber(st.time_s) << "}";
     }
     j << (r.screening.empty() ? "]\n}\n" : "\n  ]\n}\n");
     WriteAtomically(o.out + "/result.json", j.str());

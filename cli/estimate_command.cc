@@ -21,26 +21,11 @@
 namespace vinci::cli {
 namespace {
 
-// Shortest text that reads back as exactly v; null for NaN/inf (JSON has neither).
-std::string Num(double v) {
-  if (!std::isfinite(v)) return "null";
-  char buf[32];
-  const auto res = std::to_chars(buf, buf + sizeof(buf), v);
-  return std::string(buf, res.ptr);
-}
-
-std::string NamedValues(const std::vector<std::string>& names, const sim::VectorXd& v) {
-  std::string o = "{";
-  for (size_t i = 0; i < names.size(); ++i)
-    o += (i ? ", " : "") + JsonString(names[i]) + ": " + Num(v[static_cast<Eigen::Index>(i)]);
-  return o + "}";
-}
-
 std::string ErrorJson(const estimation::RolloutError& e) {
   std::ostringstream j;
-  j << "{\"position_m\": " << Num(e.position_m)
-    << ", \"position_percent\": " << Num(e.position_percent)
-    << ", \"orientation_deg\": " << Num(e.orientation_deg) << ", \"samples\": " << e.samples
+  j << "{\"position_m\": " << JsonNumber(e.position_m)
+    << ", \"position_percent\": " << JsonNumber(e.position_percent)
+    << ", \"orientation_deg\": " << JsonNumber(e.orientation_deg) << ", \"samples\": " << e.samples
     << ", \"failed_rollouts\": " << e.failed_rollouts << "}";
   return j.str();
 }
@@ -51,24 +36,24 @@ std::string ResultJson(const EstimateOptions& o, const estimation::EstimateResul
   j << "{\n  \"scene\": " << JsonString(o.scene_path) << ",\n  \"logs\": [";
   for (size_t i = 0; i < o.logs.size(); ++i) j << (i ? ", " : "") << JsonString(o.logs[i]);
   j << "],\n  \"methods\": {\n    " << JsonString(r.method) << ": {\n"
-    << "      \"estimates\": " << NamedValues(r.names, r.estimates) << ",\n"
-    << "      \"std_errors\": " << NamedValues(r.names, r.std_errors) << ",\n"
-    << "      \"initial_values\": " << NamedValues(r.names, r.initial_values) << ",\n"
+    << "      \"estimates\": " << JsonNamedNumbers(r.names, r.estimates) << ",\n"
+    << "      \"std_errors\": " << JsonNamedNumbers(r.names, r.std_errors) << ",\n"
+    << "      \"initial_values\": " << JsonNamedNumbers(r.names, r.initial_values) << ",\n"
     << "      \"iterations\": " << r.iterations << ",\n"
-    << "      \"time_s\": " << Num(r.time_s) << ",\n"
+    << "      \"time_s\": " << JsonNumber(r.time_s) << ",\n"
     << "      \"converged\": " << (r.converged ? "true" : "false") << ",\n"
     << "      \"reason\": " << JsonString(r.reason) << ",\n"
-    << "      \"sigma\": " << Num(r.sigma) << ",\n"
+    << "      \"sigma\": " << JsonNumber(r.sigma) << ",\n"
     << "      \"noise_stated\": " << (o.noise > 0 ? "true" : "false") << ",\n"
-    << "      \"initial_cost\": " << Num(r.initial_cost) << ",\n"
-    << "      \"final_cost\": " << Num(r.final_cost) << ",\n"
+    << "      \"initial_cost\": " << JsonNumber(r.initial_cost) << ",\n"
+    << "      \"final_cost\": " << JsonNumber(r.final_cost) << ",\n"
     << "      \"num_residuals\": " << r.num_residuals << ",\n"
     << "      \"num_unknowns\": " << r.num_unknowns << ",\n";
   if (r.method == "lsq") {
     j << "      \"shooting\": " << JsonString(o.shooting) << ",\n"
       << "      \"num_segments\": " << r.num_segments << ",\n"
       << "      \"num_continuity_residuals\": " << r.num_continuity_residuals << ",\n"
-      << "      \"continuity_defect\": " << Num(r.continuity_defect) << ",\n"
+      << "      \"continuity_defect\": " << JsonNumber(r.continuity_defect) << ",\n"
       << "      \"initial_state_estimated\": " << (o.fixed_initial_state ? "false" : "true")
       << ",\n      \"frozen_state_components\": " << r.frozen_state_components << ",\n";
   }
@@ -83,7 +68,7 @@ std::string ResultJson(const EstimateOptions& o, const estimation::EstimateResul
   j << "      \"episodes\": [";
   for (size_t e = 0; e < r.episodes.size(); ++e) {
     j << (e ? ", " : "") << "{\"file\": " << JsonString(r.episodes[e].file)
-      << ", \"rms_residual\": " << Num(r.episodes[e].rms_residual) << "}";
+      << ", \"rms_residual\": " << JsonNumber(r.episodes[e].rms_residual) << "}";
   }
   j << "]\n    }\n  }\n}\n";
   return j.str();

@@ -17,45 +17,30 @@
 namespace vinci::cli {
 namespace {
 
-// Shortest text that reads back as exactly v; null for NaN/inf (JSON has neither).
-std::string Number(double v) {
-  if (!std::isfinite(v)) return "null";
-  char buf[32];
-  const auto res = std::to_chars(buf, buf + sizeof(buf), v);
-  return std::string(buf, res.ptr);
-}
-
-std::string Named(const std::vector<std::string>& names, const sim::VectorXd& v) {
-  std::string o = "{";
-  for (size_t i = 0; i < names.size(); ++i)
-    o += (i ? ", " : "") + JsonString(names[i]) + ": " + Number(v[static_cast<Eigen::Index>(i)]);
-  return o + "}";
-}
-
 std::string MpecJson(const EstimateOptions& o, const estimation::MpecEstimateResult& r) {
   std::ostringstream j;
   j << "{\n  \"scene\": " << JsonString(o.scene_path) << ",\n  \"logs\": [";
   for (size_t i = 0; i < o.logs.size(); ++i) j << (i ? ", " : "") << JsonString(o.logs[i]);
   j << "],\n  \"methods\": {\n    \"mpec\": {\n"
-    << "      \"estimates\": " << Named(r.names, r.estimates) << ",\n"
-    << "      \"std_errors\": " << Named(r.names, r.std_errors) << ",\n"
-    << "      \"initial_values\": " << Named(r.names, r.initial_values) << ",\n"
+    << "      \"estimates\": " << JsonNamedNumbers(r.names, r.estimates) << ",\n"
+    << "      \"std_errors\": " << JsonNamedNumbers(r.names, r.std_errors) << ",\n"
+    << "      \"initial_values\": " << JsonNamedNumbers(r.names, r.initial_values) << ",\n"
     << "      \"iterations\": " << r.iterations << ",\n"
-    << "      \"time_s\": " << Number(r.time_s) << ",\n"
+    << "      \"time_s\": " << JsonNumber(r.time_s) << ",\n"
     << "      \"converged\": " << (r.converged ? "true" : "false") << ",\n"
     << "      \"reason\": " << JsonString(r.reason) << ",\n"
     << "      \"complementarity\": " << JsonString(r.complementarity) << ",\n"
-    << "      \"complementarity_violation\": " << Number(r.complementarity_violation) << ",\n"
-    << "      \"equality_violation\": " << Number(r.equality_violation) << ",\n"
+    << "      \"complementarity_violation\": " << JsonNumber(r.complementarity_violation) << ",\n"
+    << "      \"equality_violation\": " << JsonNumber(r.equality_violation) << ",\n"
     << "      \"stages\": " << r.stages << ",\n"
     << "      \"polished\": " << (r.polished ? "true" : "false") << ",\n"
-    << "      \"sigma\": " << Number(r.sigma) << ",\n"
+    << "      \"sigma\": " << JsonNumber(r.sigma) << ",\n"
     << "      \"noise_stated\": " << (o.noise > 0 ? "true" : "false") << ",\n"
-    << "      \"process_noise\": " << Number(r.process_noise) << ",\n"
-    << "      \"max_process_noise\": " << Number(r.max_process_noise) << ",\n"
-    << "      \"dropped_jacobian\": " << Number(r.dropped_jacobian) << ",\n"
-    << "      \"initial_cost\": " << Number(r.initial_cost) << ",\n"
-    << "      \"final_cost\": " << Number(r.final_cost) << ",\n"
+    << "      \"process_noise\": " << JsonNumber(r.process_noise) << ",\n"
+    << "      \"max_process_noise\": " << JsonNumber(r.max_process_noise) << ",\n"
+    << "      \"dropped_jacobian\": " << JsonNumber(r.dropped_jacobian) << ",\n"
+    << "      \"initial_cost\": " << JsonNumber(r.initial_cost) << ",\n"
+    << "      \"final_cost\": " << JsonNumber(r.final_cost) << ",\n"
     << "      \"num_residuals\": " << r.num_residuals << ",\n"
     << "      \"num_unknowns\": " << r.num_unknowns << ",\n"
     << "      \"num_constraints\": " << r.num_constraints << ",\n"
@@ -64,7 +49,7 @@ std::string MpecJson(const EstimateOptions& o, const estimation::MpecEstimateRes
     << "      \"episodes\": [";
   for (size_t e = 0; e < r.episodes.size(); ++e) {
     j << (e ? ", " : "") << "{\"file\": " << JsonString(r.episodes[e].file)
-      << ", \"rms_residual\": " << Number(r.episodes[e].rms_residual) << "}";
+      << ", \"rms_residual\": " << JsonNumber(r.episodes[e].rms_residual) << "}";
   }
   j << "]\n    }\n  }\n}\n";
   return j.str();

@@ -1,5 +1,8 @@
 #include "json.h"
 
+#include <charconv>
+#include <cmath>
+
 namespace vinci::cli {
 
 std::string JsonString(const std::string& text) {
@@ -41,6 +44,21 @@ std::string JsonString(const std::string& text) {
     }
   }
   return out + '"';
+}
+
+std::string JsonNumber(double v) {
+  if (!std::isfinite(v)) return "null";
+  char buf[32];
+  const auto res = std::to_chars(buf, buf + sizeof(buf), v);
+  return std::string(buf, res.ptr);
+}
+
+std::string JsonNamedNumbers(const std::vector<std::string>& names, const Eigen::VectorXd& values) {
+  std::string o = "{";
+  for (std::size_t i = 0; i < names.size(); ++i)
+    o += (i ? ", " : "") + JsonString(names[i]) + ": " +
+         JsonNumber(values[static_cast<Eigen::Index>(i)]);
+  return o + "}";
 }
 
 }  // namespace vinci::cli

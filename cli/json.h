@@ -1,7 +1,9 @@
 // Small JSON writing helpers shared by the subcommands that write result files.
 #pragma once
 
+#include <Eigen/Core>
 #include <string>
+#include <vector>
 
 namespace vinci::cli {
 
@@ -9,5 +11,12 @@ namespace vinci::cli {
 /// '<', '>', '&' written as \u escapes so the text is also safe inside an HTML <script> element
 /// (`vinci view`); other bytes pass through (names and messages are expected to be UTF-8).
 std::string JsonString(const std::string& text);
+
+/// A JSON number: the shortest text that reads back as exactly `v`; null for NaN and ±inf (JSON
+/// has neither).
+std::string JsonNumber(double v);
+
+/// {"name": number, ...} for names[i] and values[i].
+std::string JsonNamedNumbers(const std::vector<std::string>& names, const Eigen::VectorXd& values);
 
 }  // namespace vinci::cli
