@@ -8,7 +8,6 @@
 #include <string>
 
 #include "vinci/parallel/wire.h"
-#include "vinci/sim/simulator/batch.h"
 
 namespace vinci::design {
 namespace {
@@ -68,10 +67,7 @@ parallel::Buffer DistributedEvaluator::RunChunk(const parallel::Buffer& job, int
     sims_.assign(requests_.size(), nullptr);
   }
   // (design, sample) pair t → request r(t), sample i(t), as in ThreadEvaluator.
-  struct Task {
-    int request, sample;
-  };
-  std::vector<Task> tasks;
+  std::vector<SampleTask> tasks;
   tasks.reserve(static_cast<std::size_t>(std::max(0, end - begin)));
   int first = 0;
   for (std::size_t r = 0; r < requests_.size() && first < end; ++r) {
@@ -83,32 +79,15 @@ parallel::Buffer DistributedEvaluator::RunChunk(const parallel::Buffer& job, int
   if (static_cast<int>(tasks.size()) != end - begin)
     throw std::logic_error("DistributedEvaluator: chunk [" + std::to_string(begin) + ", " +
                            std::to_string(end) + ") outside the job");
-  for (const Task& t : tasks) {
+  for (const SampleTask& t : tasks) {
     auto& s = sims_[static_cast<std::size_t>(t.request)];
     if (!s) s = problem_->SimulatorFor(requests_[static_cast<std::size_t>(t.request)].x);
   }
-  struct ThreadWorkspace {
-    sim::Workspace ws;
-    const sim::Simulator* last = nullptr;
-  };
-  sim::BatchOptions options;
-  options.threads = threads_;
-  options.stop_on_error = true;
-  const auto results = sim::BatchMap<ThreadWorkspace>(
-      static_cast<int>(tasks.size()),
-      [&](int k, ThreadWorkspace& tw) {
-        const Task& t = tasks[static_cast<std::size_t>(k)];
-        const EvalRequest& q = requests_[static_cast<std::size_t>(t.request)];
-        const sim::Simulator* s = sims_[static_cast<std::size_t>(t.request)].get();
-        if (s != tw.last) tw.ws = sim::Workspace{};
-        tw.last = s;
-        return problem_->RunSample(*s, q.x, q.stream, t.sample, &tw.ws);
-      },
-      options);
-  sim::RethrowFirstError(results);
+  const std::vector<SampleOutcome> results =
+      RunSampleTasks(*problem_, requests_, sims_, tasks, threads_);
   parallel::Buffer out;
   parallel::Writer w(&out);
-  for (const auto& r : results) PutOutcome(&w, r.value);
+  for (const SampleOutcome& r : results) PutOutcome(&w, r);
   return out;
 }
 

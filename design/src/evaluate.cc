@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <exception>
+#include <iterator>
 #include <stdexcept>
 
 #include "vinci/design/grip.h"
@@ -291,55 +292,68 @@ Evaluation DesignProblem::Summarize(const VectorXd& x, std::uint64_t stream,
   return e;
 }
 
+std::vector<SampleOutcome> RunSampleTasks(
+    const DesignProblem& problem, const std::vector<EvalRequest>& requests,
+    const std::vector<std::shared_ptr<const sim::Simulator>>& sims,
+    const std::vector<SampleTask>& tasks, int threads) {
+  // One sim::Workspace per thread (sim/simulator/batch.h), reset when the thread moves on to
+  // another design's Simulator (a workspace caches the resolved scene of one simulator).
+  struct ThreadWorkspace {
+    sim::Workspace ws;
+    const sim::Simulator* last = nullptr;
+  };
+  sim::BatchOptions options;
+  options.threads = std::max(1, threads);
+  options.stop_on_error = true;
+  auto results = sim::BatchMap<ThreadWorkspace>(
+      static_cast<int>(tasks.size()),
+      [&](int k, ThreadWorkspace& tw) {
+        const SampleTask& t = tasks[static_cast<std::size_t>(k)];
+        const EvalRequest& q = requests.at(static_cast<std::size_t>(t.request));
+        const sim::Simulator* s = sims.at(static_cast<std::size_t>(t.request)).get();
+        if (s != tw.last) tw.ws = sim::Workspace{};
+        tw.last = s;
+        return problem.RunSample(*s, q.x, q.stream, t.sample, &tw.ws);
+      },
+      options);
+  sim::RethrowFirstError(results);  // the lowest-index failure, as a single thread would report it
+  std::vector<SampleOutcome> out;
+  out.reserve(results.size());
+  for (auto& r : results) out.push_back(std::move(r.value));
+  return out;
+}
+
 ThreadEvaluator::ThreadEvaluator(const DesignProblem& problem, int threads)
     : problem_(&problem), threads_(std::max(1, threads)) {}
 
 std::vector<Evaluation> ThreadEvaluator::Evaluate(const std::vector<EvalRequest>& requests) {
   using Clock = std::chrono::steady_clock;
   const Clock::time_point start = Clock::now();
-  struct Task {
-    int request, sample;
-  };
-  std::vector<Task> tasks;
+  std::vector<SampleTask> tasks;
   std::vector<std::shared_ptr<const sim::Simulator>> sims;
-  std::vector<std::vector<SampleOutcome>> outcomes(requests.size());
   for (std::size_t r = 0; r < requests.size(); ++r) {
     if (requests[r].x.size() != problem_->size())
       throw std::invalid_argument("ThreadEvaluator: design vector of size " +
                                   std::to_string(requests[r].x.size()) + ", expected " +
                                   std::to_string(problem_->size()));
+    if (requests[r].samples < 0)
+      throw std::invalid_argument("ThreadEvaluator: samples must be >= 0, got " +
+                                  std::to_string(requests[r].samples));
     sims.push_back(problem_->SimulatorFor(requests[r].x));
-    outcomes[r].resize(requests[r].samples);
     for (int i = 0; i < requests[r].samples; ++i) tasks.push_back({static_cast<int>(r), i});
   }
-  // One sim::Workspace per thread (sim/simulator/batch.h), reset when the thread moves on to
-  // another design's Simulator; stop at the first error (the lowest-index one is rethrown).
-  struct ThreadWorkspace {
-    sim::Workspace ws;
-    const sim::Simulator* last = nullptr;
-  };
-  sim::BatchOptions options;
-  options.threads = threads_;
-  options.stop_on_error = true;
-  const auto results = sim::BatchMap<ThreadWorkspace>(
-      static_cast<int>(tasks.size()),
-      [&](int t, ThreadWorkspace& tw) {
-        const Task& task = tasks[static_cast<std::size_t>(t)];
-        const sim::Simulator* s = sims[task.request].get();
-        if (s != tw.last) tw.ws = sim::Workspace{};
-        tw.last = s;
-        return problem_->RunSample(*s, requests[task.request].x, requests[task.request].stream,
-                                   task.sample, &tw.ws);
-      },
-      options);
-  sim::RethrowFirstError(results);
-  for (std::size_t t = 0; t < tasks.size(); ++t)
-    outcomes[tasks[t].request][tasks[t].sample] = results[t].value;
+  std::vector<SampleOutcome> outcomes = RunSampleTasks(*problem_, requests, sims, tasks, threads_);
   const double per = std::chrono::duration<double>(Clock::now() - start).count() /
                      std::max<std::size_t>(1, requests.size());
   std::vector<Evaluation> result;
-  for (std::size_t r = 0; r < requests.size(); ++r)
-    result.push_back(problem_->Summarize(requests[r].x, requests[r].stream, outcomes[r], per));
+  result.reserve(requests.size());
+  auto next = outcomes.begin();  // tasks are in request order, samples 0, 1, ... within each
+  for (const EvalRequest& r : requests) {
+    const std::vector<SampleOutcome> mine(std::make_move_iterator(next),
+                                          std::make_move_iterator(next + r.samples));
+    next += r.samples;
+    result.push_back(problem_->Summarize(r.x, r.stream, mine, per));
+  }
   return result;
 }
 

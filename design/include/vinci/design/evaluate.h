@@ -109,6 +109,22 @@ struct EvalRequest {
   int samples = 0;
 };
 
+/// One (design, sample) pair of a batch: sample `sample` of requests[request].
+struct SampleTask {
+  int request = 0;
+  int sample = 0;
+};
+
+/// Runs `tasks` on `threads` threads (sim::BatchMap: dynamic, in index order; one Workspace per
+/// thread, reset when the thread moves on to another design's simulator) and returns their
+/// outcomes in task order, bit-identical for any thread count. sims[r] is the simulator of
+/// requests[r] (DesignProblem::SimulatorFor). Stops at the first task that throws and rethrows
+/// the lowest-index task's exception. The core of ThreadEvaluator and DistributedEvaluator.
+std::vector<SampleOutcome> RunSampleTasks(
+    const DesignProblem& problem, const std::vector<EvalRequest>& requests,
+    const std::vector<std::shared_ptr<const sim::Simulator>>& sims,
+    const std::vector<SampleTask>& tasks, int threads);
+
 /// What the optimizers see. Implementations return one Evaluation per request, in input order,
 /// identical for any degree of parallelism (the MPI driver implements the same interface).
 class Evaluator {
