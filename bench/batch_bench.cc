@@ -55,8 +55,7 @@ using sim::VectorXd;
 std::string SourcePath(const std::string& rel) { return std::string(VINCI_SOURCE_DIR "/") + rel; }
 
 double Now() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch())
-      .count();
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
 
 double CpuSeconds(clockid_t clock) {
@@ -272,8 +271,8 @@ Workload Rollouts(int n) {
   options.step_reports = false;
   Workload w;
   w.name = "rollouts";
-  w.what = std::to_string(n) + " rollouts of block_sliding.yaml x " + std::to_string(kSteps) +
-           " steps";
+  w.what =
+      std::to_string(n) + " rollouts of block_sliding.yaml x " + std::to_string(kSteps) + " steps";
   w.tasks = n;
   w.steps = static_cast<long long>(n) * kSteps;
   w.run = [sim, tasks, options](int threads) {
@@ -322,11 +321,10 @@ std::vector<int> ParseList(const std::string& text) {
 }
 
 void Usage() {
-  std::cerr
-      << "usage: batch_bench [--quick] [--reps N] [--threads 1,2] [--only NAME,...]\n"
-         "                   [--designs D] [--validation V] [--field-grid NXxNY]\n"
-         "                   [--field-cycles K] [--rollouts N] [--csv FILE]\n"
-         "workloads: feeder-search feeder-validation field rollouts (bench/README.md)\n";
+  std::cerr << "usage: batch_bench [--quick] [--reps N] [--threads 1,2] [--only NAME,...]\n"
+               "                   [--designs D] [--validation V] [--field-grid NXxNY]\n"
+               "                   [--field-cycles K] [--rollouts N] [--csv FILE]\n"
+               "workloads: feeder-search feeder-validation field rollouts (bench/README.md)\n";
 }
 
 int Main(int argc, char** argv) {
@@ -391,9 +389,8 @@ int Main(int argc, char** argv) {
   if (getloadavg(load, 3) < 0) load[0] = -1;
   std::printf("batch_bench: %d repetition(s), best wall and best CPU of each; load average %.2f\n",
               reps, load[0]);
-  std::printf(
-      "%-18s %6s %9s %3s %10s %10s %8s %8s %9s %8s %s\n", "workload", "tasks", "steps", "T",
-      "wall (s)", "CPU (s)", "speedup", "CPU T/1", "sched.bnd", "µs/step", "identical");
+  std::printf("%-18s %6s %9s %3s %10s %10s %8s %8s %9s %8s %s\n", "workload", "tasks", "steps", "T",
+              "wall (s)", "CPU (s)", "speedup", "CPU T/1", "sched.bnd", "µs/step", "identical");
   std::ofstream csv_out;
   if (!csv.empty()) {
     csv_out.open(csv);

@@ -4,7 +4,11 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
+#include <memory>
+#include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "vinci/design/spec.h"
 
@@ -90,6 +94,49 @@ TEST(DesignEvaluate, ThreadCountDoesNotChangeResults) {
   // point for μ ≥ 0.4, d ≤ v²/(2 μ g) = 0.29 m): the mean margin grows with μ.
   EXPECT_LT(a[0].objective, a[1].objective);
   EXPECT_LT(a[1].objective, a[2].objective);
+}
+
+// RunSampleTasks (the batch under both evaluators): outcome k is RunSample of task k with a
+// fresh workspace, bit for bit, for any thread count and any interleaving of designs (a thread
+// moving between designs resets its workspace); a sample that throws is rethrown.
+TEST(DesignEvaluate, RunSampleTasksMatchesSerialSamplesForAnyThreadCount) {
+  const DesignSpec spec = ParseDesignSpec(
+      "scene: block_slide.yaml\n"
+      "parameters: [{name: mu.default, lower: 0.1, upper: 1}]\n"
+      "uncertain: [{name: initial.block.vx, uniform: [0.5, 1.5]}]\n"
+      "samples: 4\nduration: 0.2\n"
+      "objective: {type: margin, body: block, region: {min: [0.2, 0], max: [0.4, 0.1]}}\n",
+      "test.yaml", kData);
+  const DesignProblem problem(spec);
+  const std::vector<EvalRequest> requests = {{VectorXd::Constant(1, 0.2), 5, 4},
+                                             {VectorXd::Constant(1, 0.7), 9, 4}};
+  std::vector<std::shared_ptr<const sim::Simulator>> sims;
+  for (const EvalRequest& r : requests) sims.push_back(problem.SimulatorFor(r.x));
+  // Designs interleaved task by task, samples out of order.
+  const std::vector<SampleTask> tasks = {{0, 3}, {1, 0}, {0, 0}, {1, 2}, {1, 1},
+                                         {0, 1}, {1, 3}, {0, 2}, {0, 3}};
+  std::vector<SampleOutcome> serial;
+  for (const SampleTask& t : tasks) {
+    sim::Workspace ws;
+    const EvalRequest& q = requests[static_cast<std::size_t>(t.request)];
+    serial.push_back(problem.RunSample(*sims[static_cast<std::size_t>(t.request)], q.x, q.stream,
+                                       t.sample, &ws));
+  }
+  // The two designs end at different places: a mix-up of designs would show.
+  EXPECT_NE(serial[0].value, serial[1].value);
+  for (int threads : {1, 2, 3, 16}) {
+    const std::vector<SampleOutcome> out = RunSampleTasks(problem, requests, sims, tasks, threads);
+    ASSERT_EQ(out.size(), tasks.size()) << threads;
+    for (std::size_t k = 0; k < tasks.size(); ++k) {
+      EXPECT_EQ(out[k].ok, serial[k].ok) << threads << " " << k;
+      EXPECT_EQ(out[k].success, serial[k].success) << threads << " " << k;
+      EXPECT_EQ(std::memcmp(&out[k].value, &serial[k].value, sizeof(double)), 0)
+          << threads << " " << k << ": " << out[k].value << " vs " << serial[k].value;
+    }
+  }
+  EXPECT_TRUE(RunSampleTasks(problem, requests, sims, {}, 2).empty());
+  // A task naming a request that does not exist throws (std::out_of_range from the lookup).
+  EXPECT_THROW(RunSampleTasks(problem, requests, sims, {{0, 0}, {2, 0}}, 2), std::out_of_range);
 }
 
 }  // namespace

@@ -102,6 +102,7 @@ FieldPoint ComputeFieldPoint(const Simulator& sim, const Params& params, const F
   const Body& plate = scene.bodies[spec.plate];
   const Body& part = scene.bodies[spec.part];
   const Isometry3d& X_WP = plate.X_WB0;  // the plate's initial frame P
+  const Isometry3d X_PW = X_WP.inverse();
   const Matrix3d R_PW = X_WP.linear().transpose();
   const Vector3d n_P = planar ? Vector3d::UnitY() : Vector3d::UnitZ();
   const double h = scene.options.dt;
@@ -113,7 +114,7 @@ FieldPoint ComputeFieldPoint(const Simulator& sim, const Params& params, const F
   out.x = x;
   out.y = planar ? 0.0 : y;
   // Place the part: keep its pose relative to the plate except the in-plane position.
-  Isometry3d X_PB = X_WP.inverse() * part.X_WB0;
+  Isometry3d X_PB = X_PW * part.X_WB0;
   X_PB.translation().x() = x;
   if (!planar) X_PB.translation().y() = y;
   State s = sim.InitialState();
@@ -135,7 +136,7 @@ FieldPoint ComputeFieldPoint(const Simulator& sim, const Params& params, const F
     const BodyKinematics kin = KinematicsFromQV(scene.dim, s.q.data() + idx.q, s.v.data() + idx.v);
     const Vector3d v_P = R_PW * kin.v_WB;
     const double w_n = (R_PW * kin.w_WB).dot(n_P);
-    const Vector3d p_P = X_WP.inverse() * kin.X_WB.translation();
+    const Vector3d p_P = X_PW * kin.X_WB.translation();
     if (k >= window_start) window.Add(v_P, p_P, w_n);
     cycle.Add(v_P, p_P, w_n);
     if (cycle.n == per_cycle) {

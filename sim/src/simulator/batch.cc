@@ -69,8 +69,10 @@ std::vector<TaskOutcome> RunBatch(int n, const std::function<void(int task, int 
     return out;
   }
 
-  // Workers take the next index under the mutex (tasks start in index order) and report each
-  // finished task; the calling thread waits, reports progress, and joins.
+  // Workers take the next index under the mutex (tasks start in index order, each worker takes
+  // the next one when it is free: dynamic scheduling, whatever the tasks' lengths) and count each
+  // finished task; the calling thread waits, reports progress, and joins. Without a progress
+  // callback the calling thread is woken only when the last worker stops, not once per task.
   std::mutex mutex;
   std::condition_variable changed;
   int next = 0, done = 0, running = threads;
@@ -89,7 +91,7 @@ std::vector<TaskOutcome> RunBatch(int n, const std::function<void(int task, int 
         ++done;
         if (options.stop_on_error && out[i].status == TaskStatus::kError) stop = true;
       }
-      changed.notify_one();
+      if (options.progress) changed.notify_one();
     }
     {
       std::lock_guard<std::mutex> lock(mutex);
