@@ -5,6 +5,8 @@
 //   feeder-search      the feeder design search's unit of work (examples/design/feeder.yaml):
 //                      ThreadEvaluator::Evaluate of one design on the spec's 20 samples, for D
 //                      designs one call after the other (NLopt asks for one design at a time)
+//   feeder-screening   the same designs through the spec's short screening stage (5 samples of
+//                      0.4 s, `until`): the search's smallest batches
 //   feeder-validation  one Evaluate call of the start design on V samples (the final fresh-sample
 //                      re-evaluation: many tasks in one batch)
 //   field              ComputeVelocityField of plate_whirlpool.yaml, NX x NY points, K cycles
@@ -115,6 +117,25 @@ struct Feeder {
   std::vector<VectorXd> designs;  // the start design, then points spread over the design box
 };
 
+// The spec's short screening stage as the search runs it (design::Screener's ShortStage): the
+// stage's horizon, samples, success set and options.
+std::shared_ptr<Feeder> ScreeningStage(const Feeder& full) {
+  auto f = std::make_shared<Feeder>();
+  f->spec = full.spec;
+  f->spec.screening.clear();
+  for (const design::ScreeningStage& st : full.spec.screening) {
+    if (st.type != design::StageType::kShort) continue;
+    f->spec.duration = st.duration;
+    f->spec.samples = st.samples;
+    f->spec.objective = st.objective;
+    f->spec.scene.options = st.options;
+    f->problem = std::make_unique<design::DesignProblem>(f->spec);
+    f->designs = full.designs;
+    return f;
+  }
+  throw std::runtime_error("feeder.yaml has no short screening stage");
+}
+
 std::shared_ptr<Feeder> MakeFeeder(int designs) {
   auto f = std::make_shared<Feeder>();
   f->spec = design::LoadDesignSpec(SourcePath("examples/design/feeder.yaml"));
@@ -165,10 +186,11 @@ long long FeederSteps(const Feeder& f) {
   return std::max(1L, std::lround(f.spec.duration / f.spec.scene.options.dt));
 }
 
-Workload FeederSearch(int designs) {
-  const std::shared_ptr<Feeder> f = MakeFeeder(designs);
+Workload FeederSearch(int designs, bool screening) {
+  std::shared_ptr<Feeder> f = MakeFeeder(designs);
+  if (screening) f = ScreeningStage(*f);
   Workload w;
-  w.name = "feeder-search";
+  w.name = screening ? "feeder-screening" : "feeder-search";
   const int samples = f->spec.samples;
   w.what = std::to_string(designs) + " designs x " + std::to_string(samples) +
            " samples, one Evaluate call per design";
@@ -324,7 +346,8 @@ void Usage() {
   std::cerr << "usage: batch_bench [--quick] [--reps N] [--threads 1,2] [--only NAME,...]\n"
                "                   [--designs D] [--validation V] [--field-grid NXxNY]\n"
                "                   [--field-cycles K] [--rollouts N] [--csv FILE]\n"
-               "workloads: feeder-search feeder-validation field rollouts (bench/README.md)\n";
+               "workloads: feeder-search feeder-screening feeder-validation field rollouts\n"
+               "(bench/README.md)\n";
 }
 
 int Main(int argc, char** argv) {
@@ -376,7 +399,8 @@ int Main(int argc, char** argv) {
     return only.empty() || std::find(only.begin(), only.end(), name) != only.end();
   };
   std::vector<std::function<Workload()>> makers;
-  if (wanted("feeder-search")) makers.push_back([&] { return FeederSearch(designs); });
+  if (wanted("feeder-search")) makers.push_back([&] { return FeederSearch(designs, false); });
+  if (wanted("feeder-screening")) makers.push_back([&] { return FeederSearch(designs, true); });
   if (wanted("feeder-validation")) makers.push_back([&] { return FeederValidation(validation); });
   if (wanted("field")) makers.push_back([&] { return Field(nx, ny, cycles); });
   if (wanted("rollouts")) makers.push_back([&] { return Rollouts(rollouts); });
