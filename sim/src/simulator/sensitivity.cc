@@ -359,16 +359,17 @@ class StepDifferentiator {
       *failed = true;
       return VectorXd::Constant(nx(), kNaN);
     }
-    // The end state as the model writes it from z (linear in z for every formulation but GI;
-    // a central difference along dz is exact for a linear map and O(h²) otherwise).
-    const double zn = std::max(1.0, z_.cwiseAbs().maxCoeff());
+    // The end state as the model writes it from z: linear in z for every formulation but GI
+    // (a central difference along the unit direction dz/‖dz‖ is exact for a linear map, O(h²)
+    // otherwise; scaled back by ‖dz‖ so tiny or huge columns neither under- nor overflow).
     const double dn = dz.cwiseAbs().maxCoeff();
     if (!(dn > 0.0)) return VectorXd::Zero(nx());
-    const double h = 1e-6 * zn / dn;
-    const State p = frozen_->StateFromUnknowns(z_ + h * dz);
-    const State m = frozen_->StateFromUnknowns(z_ - h * dz);
+    const VectorXd unit = dz / dn;
+    const double h = 1e-6 * std::max(1.0, z_.cwiseAbs().maxCoeff());
+    const State p = frozen_->StateFromUnknowns(z_ + h * unit);
+    const State m = frozen_->StateFromUnknowns(z_ - h * unit);
     VectorXd d(nx());
-    d << (p.q - m.q) / (2 * h), (p.v - m.v) / (2 * h);
+    d << (p.q - m.q) * (dn / (2 * h)), (p.v - m.v) * (dn / (2 * h));
     return d;
   }
 
