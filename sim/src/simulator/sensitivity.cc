@@ -10,6 +10,7 @@
 #include <utility>
 #include <vector>
 
+#include "vinci/sim/formulations/geometrically_implicit.h"
 #include "vinci/sim/formulations/step_model.h"
 #include "vinci/sim/solvers/lemke.h"
 
@@ -390,6 +391,13 @@ class StepDifferentiator {
 };
 
 void CheckSelection(const Simulator& sim, const ParamSelection& selection) {
+  // GI writes q_ℓ+1 from its unknowns and x_ℓ (geometrically_implicit.h): ∂x_ℓ+1/∂x_ℓ would miss
+  // that explicit term, so its derivatives are refused rather than returned wrong.
+  if (dynamic_cast<const GeometricallyImplicit*>(&sim.formulation()) != nullptr)
+    throw std::invalid_argument(
+        "sensitivity: formulation 'geometrically-implicit' is not supported (its end state is "
+        "written from the step unknowns and x_l); expected stewart-trinkle, anitescu-potra, "
+        "first-order, ncp or quasistatic, or finite differences (finite_difference.h)");
   const ParamTable& table = sim.scene().param_table();
   for (int index : selection.indices()) {
     if (index < 0 || index >= table.size())
