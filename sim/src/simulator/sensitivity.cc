@@ -146,8 +146,9 @@ class Linearization {
     p.M = lcp_.M;
     p.q.resize(nd);
     for (int j = 0; j < nd; ++j) p.q[j] = B_.row(deg_[j]).dot(*dz) + r.b[deg_[j]];
-    const double qscale = std::max(1e-300, p.q.cwiseAbs().maxCoeff());
-    if (p.q.minCoeff() >= -1e-12 * qscale) return true;  // λ = 0 is the solution
+    // λ = 0 is the solution unless some q_j is negative beyond the round-off of its terms.
+    const double qscale = (BD_.cwiseAbs() * dz->cwiseAbs()).maxCoeff() + r.b.cwiseAbs().maxCoeff();
+    if (p.q.minCoeff() >= -1e-10 * qscale) return true;
     VectorXd lambda;
     const SolverReport rep = LemkeSolver().Solve(p, nullptr, &lambda);
     if (rep.status != SolverStatus::kSolved) {
@@ -187,7 +188,9 @@ bool SmoothedSolution(const StepModel& model, const Params& theta, const State& 
   };
   StepModelValues v = model.Evaluate(*z, theta, x, u, jac);
   VectorXd g = residual(v);
-  const double tol = 1e-13 * std::max(1.0, z->cwiseAbs().maxCoeff()) + 1e-3 * std::sqrt(eps) * 1e-9;
+  // Converged at the round-off level of z: far below the smoothing's own O(√ε) bias, so the
+  // derivative returned is that of the smoothed step itself (docs/sensitivity.md).
+  const double tol = 1e-13 * std::max(1.0, z->cwiseAbs().maxCoeff());
   for (int it = 0; it < 50; ++it) {
     if (g.cwiseAbs().maxCoeff() <= tol) return true;
     const MatrixXd E = MatrixXd(v.d_equality.d_z), A = MatrixXd(v.d_comp_a.d_z),
