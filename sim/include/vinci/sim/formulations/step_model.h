@@ -17,9 +17,10 @@
 // with body B — for corner contacts and where no such contact is found), and its gap becomes
 //   ψ(x) = ψ_ℓ + n(x)·(p_A(x) − p_B(x)) − n_ℓ·(p_A,ℓ − p_B,ℓ),
 // which has the exact first derivative of the signed distance for any contact whose features
-// stay active. The contact Jacobians G(x) then have the derivatives of the re-detected ones. GI: the pairs, their
-// closest points at the freeze (tangent reference, compliant law constant) and the solver
-// form's tie-breaker reference stay fixed; the contact points are GI unknowns anyway.
+// stay active. The contact Jacobians G(x) then have the derivatives of the re-detected ones.
+// GI: the pairs, their closest points at the freeze (tangent reference, compliant law constant)
+// and the solver form's tie-breaker reference stay fixed; the contact points are GI unknowns
+// anyway.
 //
 // Jacobian columns (all sparse, Eigen column-major): z (layout().size()), θ (the differentiable
 // parameters param_columns(): friction coefficients, support friction μ_s, masses; analytic, as
