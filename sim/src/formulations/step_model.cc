@@ -3,6 +3,7 @@
 #include <Eigen/QR>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -21,11 +22,59 @@ bool SamePose(const State& a, const State& b) {
   return a.t == b.t && a.q.size() == b.q.size() && (a.q.array() == b.q.array()).all();
 }
 
-// The frozen contacts moved to x (header comment): witness points rigidly with their bodies,
-// normals with body B, gaps by the change of n·(p_A − p_B); μ from `model`. At the freeze pose
-// the contacts are returned unchanged.
+// Body poses as the contact detection of the Stewart–Trinkle assembly sees them: dynamic bodies
+// from q, prescribed ones from their motion at x.t (an integrated pose with step h).
+std::vector<BodyKinematics> DetectionKinematics(const Scene& model, const State& x, double h) {
+  std::vector<BodyKinematics> k = ComputeBodyKinematics(model, x);
+  for (std::size_t i = 0; i < k.size(); ++i) {
+    const Body& b = model.bodies[i];
+    if (b.kind == BodyKind::kPrescribed && b.motion.pose == PoseRule::kIntegrated)
+      k[i] = EvaluateMotion(b.motion, b.X_WB0, model.dim == Dim::kPlanar, x.t, h);
+  }
+  return k;
+}
+
+// The contact of shapes (c.shape_a, c.shape_b) at poses `k` nearest the rigidly moved `moved`
+// (header comment): the collision routine re-run, so witness points slide over smooth surfaces
+// (a rolling disc's contact stays at its bottom) and normals follow the face that carries them.
+// False if no candidate is within 10× the witness points' rigid displacement `disp` (another
+// feature would be taken): the rigid motion is kept then.
+bool Recollide(const Scene& model, const std::vector<BodyKinematics>& k, const Contact& c,
+               const ContactPoint& moved, double disp, ContactPoint* out) {
+  const Shape& sa = model.bodies[c.body_a].shapes[c.shape_a];
+  const Shape& sb = model.bodies[c.body_b].shapes[c.shape_b];
+  const double envelope = model.options.envelope + std::max(0.0, moved.gap) + disp;
+  std::vector<ContactPoint> points;
+  CollideShapes(sa, k[c.body_a].X_WB * sa.X_BS, sb, k[c.body_b].X_WB * sb.X_BS, envelope, &points);
+  const std::size_t n = points.size();
+  for (std::size_t i = 0; i < n; ++i) {  // both edges of a corner, as FindContacts splits them
+    if (!points[i].corner) continue;
+    ContactPoint second;
+    second.p_A_W = points[i].p2_A_W;
+    second.p_B_W = points[i].p2_B_W;
+    second.n_W = points[i].n2_W;
+    second.gap = points[i].gap2;
+    points[i].corner = false;
+    points.push_back(second);
+  }
+  double best = std::numeric_limits<double>::infinity();
+  for (const ContactPoint& p : points) {
+    const double d = (p.p_A_W - moved.p_A_W).norm() + (p.p_B_W - moved.p_B_W).norm();
+    if (d < best && p.n_W.dot(moved.n_W) > 0.9) {
+      best = d;
+      *out = p;
+    }
+  }
+  const double scale = moved.p_A_W.norm() + moved.p_B_W.norm();
+  return best <= 10.0 * disp + 1e-12 * scale;
+}
+
+// The frozen contacts moved to x (header comment): witness points and normals as the collision
+// routine finds them for the same features at x (Recollide; rigidly with the bodies where it
+// finds none, and for corner contacts), gaps by the change of n·(p_A − p_B); μ from `model`. At
+// the freeze pose the contacts are returned unchanged.
 std::vector<Contact> MoveContacts(const Scene& model, const std::vector<Contact>& frozen,
-                                  const State& x0, const State& x) {
+                                  const State& x0, const State& x, double h) {
   std::vector<Contact> out = frozen;
   for (Contact& c : out)
     c.mu = model.Mu(model.bodies[c.body_a].shapes[c.shape_a].material,
@@ -33,6 +82,7 @@ std::vector<Contact> MoveContacts(const Scene& model, const std::vector<Contact>
   if (SamePose(x0, x)) return out;
   const std::vector<BodyKinematics> k0 = ComputeBodyKinematics(model, x0);
   const std::vector<BodyKinematics> k1 = ComputeBodyKinematics(model, x);
+  const std::vector<BodyKinematics> detect = DetectionKinematics(model, x, h);
   std::vector<Isometry3d> T(model.bodies.size(), Isometry3d::Identity());
   for (int bi : model.dynamic_bodies()) T[bi] = k1[bi].X_WB * k0[bi].X_WB.inverse();
   const auto move = [](const Isometry3d& Ta, const Isometry3d& Tb, Vector3d* pa, Vector3d* pb,
@@ -47,8 +97,21 @@ std::vector<Contact> MoveContacts(const Scene& model, const std::vector<Contact>
     ContactPoint& p = c.point;
     const Isometry3d& Ta = T[c.body_a];
     const Isometry3d& Tb = T[c.body_b];
+    if (p.corner) {
+      move(Ta, Tb, &p.p_A_W, &p.p_B_W, &p.n_W, &p.gap);
+      move(Ta, Tb, &p.p2_A_W, &p.p2_B_W, &p.n2_W, &p.gap2);
+      continue;
+    }
+    const ContactPoint before = p;
     move(Ta, Tb, &p.p_A_W, &p.p_B_W, &p.n_W, &p.gap);
-    if (p.corner) move(Ta, Tb, &p.p2_A_W, &p.p2_B_W, &p.n2_W, &p.gap2);
+    const double disp = (p.p_A_W - before.p_A_W).norm() + (p.p_B_W - before.p_B_W).norm();
+    ContactPoint found;
+    if (!Recollide(model, detect, c, p, disp, &found)) continue;
+    p.p_A_W = found.p_A_W;
+    p.p_B_W = found.p_B_W;
+    p.n_W = found.n_W;
+    p.gap = before.gap + found.n_W.dot(found.p_A_W - found.p_B_W) -
+            before.n_W.dot(before.p_A_W - before.p_B_W);
   }
   return out;
 }
@@ -115,7 +178,7 @@ class StewartTrinkleModel final : public StepModel {
  private:
   StewartTrinkle::Assembly AssembleAt(const Scene& model, const State& x,
                                       const StepInput& u) const {
-    return st_.AssembleAt(model, x, u, MoveContacts(model, contacts_, x_, x),
+    return st_.AssembleAt(model, x, u, MoveContacts(model, contacts_, x_, x, dt_),
                           /*select_corner_edges=*/false);
   }
   const StewartTrinkle& st_;
@@ -165,7 +228,7 @@ class NcpModel final : public StepModel {
  private:
   StewartTrinkle::Assembly AssembleAt(const Scene& model, const State& x,
                                       const StepInput& u) const {
-    return ncp_.assembler().AssembleAt(model, x, u, MoveContacts(model, contacts_, x_, x),
+    return ncp_.assembler().AssembleAt(model, x, u, MoveContacts(model, contacts_, x_, x, dt_),
                                        /*select_corner_edges=*/false);
   }
   const NcpStepper& ncp_;
@@ -190,7 +253,8 @@ class QuasistaticModel final : public StepModel {
   StepResiduals Residuals(const Scene& model, const Params& theta, const State& x,
                           const StepInput& u, const VectorXd& z) const override {
     return qs_.EvaluateAssembly(
-        model, theta, qs_.AssembleAt(model, x, u, MoveContacts(model, contacts_, x_, x)), x, z);
+        model, theta, qs_.AssembleAt(model, x, u, MoveContacts(model, contacts_, x_, x, dt_)), x,
+        z);
   }
   // The MCP unknowns y = z without q_ℓ+1.
   VectorXd Unknowns(const State& next) const override {

@@ -10,6 +10,7 @@
 #include <utility>
 #include <vector>
 
+#include "vinci/sim/formulations/geometrically_implicit.h"
 #include "vinci/sim/formulations/step_model.h"
 #include "vinci/sim/solvers/lemke.h"
 
@@ -145,8 +146,9 @@ class Linearization {
     p.M = lcp_.M;
     p.q.resize(nd);
     for (int j = 0; j < nd; ++j) p.q[j] = B_.row(deg_[j]).dot(*dz) + r.b[deg_[j]];
-    const double qscale = std::max(1e-300, p.q.cwiseAbs().maxCoeff());
-    if (p.q.minCoeff() >= -1e-12 * qscale) return true;  // λ = 0 is the solution
+    // λ = 0 is the solution unless some q_j is negative beyond the round-off of its terms.
+    const double qscale = (BD_.cwiseAbs() * dz->cwiseAbs()).maxCoeff() + r.b.cwiseAbs().maxCoeff();
+    if (p.q.minCoeff() >= -1e-10 * qscale) return true;
     VectorXd lambda;
     const SolverReport rep = LemkeSolver().Solve(p, nullptr, &lambda);
     if (rep.status != SolverStatus::kSolved) {
@@ -186,7 +188,9 @@ bool SmoothedSolution(const StepModel& model, const Params& theta, const State& 
   };
   StepModelValues v = model.Evaluate(*z, theta, x, u, jac);
   VectorXd g = residual(v);
-  const double tol = 1e-13 * std::max(1.0, z->cwiseAbs().maxCoeff()) + 1e-3 * std::sqrt(eps) * 1e-9;
+  // Converged at the round-off level of z: far below the smoothing's own O(√ε) bias, so the
+  // derivative returned is that of the smoothed step itself (docs/sensitivity.md).
+  const double tol = 1e-13 * std::max(1.0, z->cwiseAbs().maxCoeff());
   for (int it = 0; it < 50; ++it) {
     if (g.cwiseAbs().maxCoeff() <= tol) return true;
     const MatrixXd E = MatrixXd(v.d_equality.d_z), A = MatrixXd(v.d_comp_a.d_z),
@@ -359,16 +363,17 @@ class StepDifferentiator {
       *failed = true;
       return VectorXd::Constant(nx(), kNaN);
     }
-    // The end state as the model writes it from z (linear in z for every formulation but GI;
-    // a central difference along dz is exact for a linear map and O(h²) otherwise).
-    const double zn = std::max(1.0, z_.cwiseAbs().maxCoeff());
+    // The end state as the model writes it from z: linear in z for every formulation but GI
+    // (a central difference along the unit direction dz/‖dz‖ is exact for a linear map, O(h²)
+    // otherwise; scaled back by ‖dz‖ so tiny or huge columns neither under- nor overflow).
     const double dn = dz.cwiseAbs().maxCoeff();
     if (!(dn > 0.0)) return VectorXd::Zero(nx());
-    const double h = 1e-6 * zn / dn;
-    const State p = frozen_->StateFromUnknowns(z_ + h * dz);
-    const State m = frozen_->StateFromUnknowns(z_ - h * dz);
+    const VectorXd unit = dz / dn;
+    const double h = 1e-6 * std::max(1.0, z_.cwiseAbs().maxCoeff());
+    const State p = frozen_->StateFromUnknowns(z_ + h * unit);
+    const State m = frozen_->StateFromUnknowns(z_ - h * unit);
     VectorXd d(nx());
-    d << (p.q - m.q) / (2 * h), (p.v - m.v) / (2 * h);
+    d << (p.q - m.q) * (dn / (2 * h)), (p.v - m.v) * (dn / (2 * h));
     return d;
   }
 
@@ -389,6 +394,13 @@ class StepDifferentiator {
 };
 
 void CheckSelection(const Simulator& sim, const ParamSelection& selection) {
+  // GI writes q_ℓ+1 from its unknowns and x_ℓ (geometrically_implicit.h): ∂x_ℓ+1/∂x_ℓ would miss
+  // that explicit term, so its derivatives are refused rather than returned wrong.
+  if (dynamic_cast<const GeometricallyImplicit*>(&sim.formulation()) != nullptr)
+    throw std::invalid_argument(
+        "sensitivity: formulation 'geometrically-implicit' is not supported (its end state is "
+        "written from the step unknowns and x_l); expected stewart-trinkle, anitescu-potra, "
+        "first-order, ncp or quasistatic, or finite differences (finite_difference.h)");
   const ParamTable& table = sim.scene().param_table();
   for (int index : selection.indices()) {
     if (index < 0 || index >= table.size())

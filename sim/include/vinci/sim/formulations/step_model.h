@@ -11,12 +11,16 @@
 //
 // Moving x_ℓ with the contact set fixed (Stewart–Trinkle, Anitescu–Potra, first order, NCP,
 // quasistatic): each contact keeps its bodies, shapes and (corner) edge choice; its witness
-// points move rigidly with their bodies, its normal(s) with body B, and its gap becomes
+// points and normal are those the collision routine finds at x for the same pair of shapes,
+// nearest the rigidly moved ones (so a rolling disc's contact point stays at its bottom and a
+// normal follows the face that carries it; rigidly moved — points with their bodies, normal(s)
+// with body B — for corner contacts and where no such contact is found), and its gap becomes
 //   ψ(x) = ψ_ℓ + n(x)·(p_A(x) − p_B(x)) − n_ℓ·(p_A,ℓ − p_B,ℓ),
 // which has the exact first derivative of the signed distance for any contact whose features
-// stay active (∂ψ = n·(δp_A − δp_B), the witness points' rigid motion). GI: the pairs, their
-// closest points at the freeze (tangent reference, compliant law constant) and the solver
-// form's tie-breaker reference stay fixed; the contact points are GI unknowns anyway.
+// stay active. The contact Jacobians G(x) then have the derivatives of the re-detected ones.
+// GI: the pairs, their closest points at the freeze (tangent reference, compliant law constant)
+// and the solver form's tie-breaker reference stay fixed; the contact points are GI unknowns
+// anyway.
 //
 // Jacobian columns (all sparse, Eigen column-major): z (layout().size()), θ (the differentiable
 // parameters param_columns(): friction coefficients, support friction μ_s, masses; analytic, as

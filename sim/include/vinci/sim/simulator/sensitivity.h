@@ -27,7 +27,9 @@
 // equations re-evaluated with the contact set re-detected at x_ℓ (exact up to O(h²) as long as
 // the contact set does not change, which is flagged). Sizes and poses are rejected: they move
 // the contact set itself. The state columns [q_ℓ; ν_ℓ] are raw coordinates (a spatial body's
-// quaternion entries as they are), as in finite_difference.h.
+// quaternion entries as they are), as in finite_difference.h. Formulations: Stewart–Trinkle,
+// Anitescu–Potra, first order, NCP, quasistatic; the geometrically implicit stepper is rejected
+// (std::invalid_argument: its end state depends on x_ℓ explicitly, which is not differentiated).
 #pragma once
 
 #include <functional>
@@ -96,7 +98,8 @@ std::vector<std::string> SensitivityParameterNames(const ParamTable& table);
 /// The derivatives of the step sim.Step(params, x, u) → next (`next` as that step returned it;
 /// it must have succeeded). `with_state`: also ∂x_ℓ+1/∂x_ℓ (2 (nq + nv) extra evaluations of the
 /// frozen equations). Throws std::invalid_argument for a selection entry that is neither
-/// differentiable nor a motion parameter, or mismatched sizes.
+/// differentiable nor a motion parameter, mismatched sizes, or the geometrically implicit
+/// stepper.
 StepSensitivity StepDerivatives(const Simulator& sim, const Params& params,
                                 const ParamSelection& selection, const State& x, const StepInput& u,
                                 const State& next, bool with_state,

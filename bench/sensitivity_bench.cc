@@ -1,0 +1,136 @@
+// sensitivity_bench: the cost of exact step sensitivities (simulator/sensitivity.h, issue 17
+// item 6), in process CPU time, on the example scenes:
+//  1. per step: one forward-mode step derivative for ONE parameter (PropagateStep with one
+//     column: the parameter's own column plus ∂x_ℓ+1/∂x_ℓ along the carried sensitivity), and
+//     StepDerivatives with the full state Jacobian, each relative to Simulator::Step;
+//  2. per rollout of N steps (default 1000): the reverse-mode gradient of a terminal objective
+//     with respect to p parameters (RolloutReverse) against the 2p + 1 rollouts of central
+//     differences.
+// Prints a table. --steps N sets N; --quick runs 50 steps of one scene (the ctest smoke run).
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <ctime>
+#include <string>
+#include <vector>
+
+#include "vinci/sim/model/scene_file.h"
+#include "vinci/sim/simulator/sensitivity.h"
+
+namespace {
+
+using namespace vinci::sim;
+
+double CpuSeconds() { return static_cast<double>(std::clock()) / CLOCKS_PER_SEC; }
+
+struct Case {
+  const char* scene;
+  std::vector<std::string> params;
+  int warmup;  // steps simulated before the measured ones
+};
+
+void Run(const Case& c, int steps) {
+  const Simulator sim(LoadSceneFile(std::string(VINCI_SOURCE_DIR) + "/examples/scenes/" + c.scene));
+  const Params p = sim.DefaultParams();
+  const ParamSelection sel(sim.scene().param_table(), c.params);
+  const ParamSelection one(sim.scene().param_table(), {c.params.front()});
+  const State x0 = sim.Rollout(p, sim.InitialState(), c.warmup).states.back();
+  const std::vector<StepInput> inputs(steps);
+  const Trajectory tr = sim.Rollout(p, x0, inputs);
+  if (!tr.ok) {
+    std::printf("%-26s rollout failed: %s\n", c.scene, tr.failure.c_str());
+    return;
+  }
+  const int nx = static_cast<int>(x0.q.size() + x0.v.size());
+
+  // 1. Per step, over the same states (repeated until ≥ 0.2 s of CPU per measurement).
+  const auto per_step = [&](auto&& fn) {
+    int reps = 0;
+    const double t0 = CpuSeconds();
+    double t = t0;
+    do {
+      Workspace ws;
+      for (int k = 0; k < steps; ++k) fn(k, &ws);
+      ++reps;
+      t = CpuSeconds();
+    } while (t - t0 < 0.2);
+    return (t - t0) / (static_cast<double>(reps) * steps);
+  };
+  const double t_step = per_step([&](int k, Workspace* ws) {
+    State next;
+    sim.Step(p, tr.states[k], inputs[k], ws, &next);
+  });
+  MatrixXd S = MatrixXd::Zero(nx, 1), S_next;
+  S(0, 0) = 1.0;  // a generic carried sensitivity
+  const double t_fwd = per_step([&](int k, Workspace*) {
+    PropagateStep(sim, p, one, tr.states[k], inputs[k], tr.states[k + 1], S, &S_next);
+  });
+  const double t_full = per_step([&](int k, Workspace*) {
+    StepDerivatives(sim, p, sel, tr.states[k], inputs[k], tr.states[k + 1], true);
+  });
+
+  // 2. Rollout gradient: reverse mode vs 2p + 1 rollouts.
+  const TerminalObjective g = [&](const State& xN, VectorXd* grad) {
+    grad->setZero(nx);
+    (*grad)[0] = 1.0;
+    return xN.q[0];
+  };
+  double t0 = CpuSeconds();
+  const RolloutGradient rev = RolloutReverse(sim, p, sel, x0, inputs, g);
+  const double t_rev = CpuSeconds() - t0;
+  t0 = CpuSeconds();
+  double sink = sim.Rollout(p, x0, inputs).states.back().q[0];
+  for (int j = 0; j < sel.size(); ++j)
+    for (double s : {1.0, -1.0}) {
+      VectorXd v = sel.Get(p);
+      v[j] += s * 1e-6 * std::max(1.0, std::abs(v[j]));
+      sink += sim.Rollout(sel.Set(p, v), x0, inputs).states.back().q[0];
+    }
+  const double t_fd = CpuSeconds() - t0;
+  std::printf("%-26s %2d %5d | %9.1f %9.1f %5.2f | %9.1f %6.2f | %8.3f %8.3f %6.2f | %s%s\n",
+              c.scene, sel.size(), steps, 1e6 * t_step, 1e6 * t_fwd, t_fwd / t_step, 1e6 * t_full,
+              t_full / t_step, t_rev, t_fd, t_rev / t_fd, rev.ok ? "ok" : "FAILED",
+              std::isfinite(sink) ? "" : " (nan)");
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  int steps = 1000;
+  bool quick = false;
+  for (int i = 1; i < argc; ++i) {
+    if (std::strcmp(argv[i], "--quick") == 0) {
+      quick = true;
+      steps = 50;
+    } else if (std::strcmp(argv[i], "--steps") == 0 && i + 1 < argc) {
+      steps = std::atoi(argv[++i]);
+    } else {
+      std::fprintf(stderr, "usage: sensitivity_bench [--steps N] [--quick]\n");
+      return 2;
+    }
+  }
+  if (steps < 1) {
+    std::fprintf(stderr, "sensitivity_bench: --steps must be ≥ 1\n");
+    return 2;
+  }
+  const std::vector<Case> cases = {
+      {"block_sliding.yaml", {"mu.default", "mass.block"}, 10},
+      {"plate_disc_planar.yaml",
+       {"mu.default", "motion.plate.x.amplitude0", "motion.plate.y.amplitude0",
+        "motion.plate.x.phase0", "motion.plate.y.phase0", "mass.disc"},
+       0},
+      {"sphere_on_incline.yaml", {"mu.default", "mass.ball"}, 50},
+      {"box_on_plane.yaml", {"mu.default", "mass.box"}, 100},
+  };
+  std::printf(
+      "CPU time. step: Simulator::Step; fwd1: one-parameter forward step derivative "
+      "(PropagateStep, 1 column); full: StepDerivatives with the state Jacobian; rev: "
+      "RolloutReverse gradient; fd: 2p+1 rollouts\n");
+  std::printf("%-26s %2s %5s | %9s %9s %5s | %9s %6s | %8s %8s %6s |\n", "scene", "p", "N",
+              "step(us)", "fwd1(us)", "ratio", "full(us)", "ratio", "rev(s)", "fd(s)", "ratio");
+  for (const Case& c : cases) {
+    Run(c, steps);
+    if (quick) break;
+  }
+  return 0;
+}
