@@ -53,6 +53,12 @@ std::string TargetJson(const planning::FieldTarget& t) {
     case TargetType::kSaddle:
       type = "saddle";
       break;
+    case TargetType::kLineSink:
+      type = "line_sink";
+      break;
+    case TargetType::kShear:
+      type = "shear";
+      break;
     case TargetType::kConveyor:
       type = "conveyor";
       break;

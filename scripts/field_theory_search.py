@@ -3,7 +3,7 @@
 from 0.1"): how well can any motion of the field-design family match a target, if the simulated
 field were the cycle-averaged theory of docs/field.md?
 
-usage: scripts/field_theory_search.py TARGET [--radius R] [--harmonics 1|2] [--generations N]
+usage: scripts/field_theory_search.py TARGET [--radius R] [--harmonics 1|2|3] [--generations N]
        TARGET: circle | whirlpool | saddle | sink
 
 The theory (an independent numpy implementation of the force balance of docs/field.md, not
@@ -79,7 +79,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("target")
     ap.add_argument("--radius", type=float, default=0.05)
-    ap.add_argument("--harmonics", type=int, default=1, choices=[1, 2])
+    ap.add_argument("--harmonics", type=int, default=1, choices=[1, 2, 3])
     ap.add_argument("--generations", type=int, default=40)
     a = ap.parse_args()
     tg = target(a.target, a.radius)

@@ -41,7 +41,9 @@ void ReadTarget(const Reader& r, const Field& t, const std::string& base_dir, Fi
       r.Fail(r.Child(t, "speed"), "no speed with csv: (its velocities are absolute)");
     return;
   }
-  const Field type = r.Require(t, "type", "sink, source, whirlpool, circle, saddle or conveyor");
+  const Field type = r.Require(t, "type",
+                               "sink, source, whirlpool, circle, saddle, line_sink, shear or "
+                               "conveyor");
   const std::string name = r.String(type);
   struct Known {
     const char* name;
@@ -53,11 +55,16 @@ void ReadTarget(const Reader& r, const Field& t, const std::string& base_dir, Fi
                          {"whirlpool", TargetType::kWhirlpool, true, true, false, true},
                          {"circle", TargetType::kCircle, true, true, false, true},
                          {"saddle", TargetType::kSaddle, true, true, true, false},
+                         {"line_sink", TargetType::kLineSink, true, true, true, false},
+                         {"line sink", TargetType::kLineSink, true, true, true, false},
+                         {"shear", TargetType::kShear, true, true, true, false},
                          {"conveyor", TargetType::kConveyor, false, false, true, false}};
   const Known* k = nullptr;
   for (const Known& c : known)
     if (name == c.name) k = &c;
-  if (!k) r.Fail(type, "sink, source, whirlpool, circle, saddle, conveyor (or csv: FILE)");
+  if (!k)
+    r.Fail(type,
+           "sink, source, whirlpool, circle, saddle, line_sink, shear, conveyor (or csv: FILE)");
   g.type = k->type;
   const auto reject = [&](const char* key, bool allowed) {
     if (!allowed && t.node[key])
@@ -151,6 +158,12 @@ Vector2d FieldTarget::At(const Vector2d& p) const {
       const Vector2d n = perp(direction);
       return speed * (r.dot(direction) * direction - r.dot(n) * n) / radius;
     }
+    case TargetType::kLineSink: {
+      const Vector2d n = perp(direction);
+      return -speed * r.dot(n) * n / radius;
+    }
+    case TargetType::kShear:
+      return speed * r.dot(perp(direction)) * direction / radius;
     case TargetType::kConveyor:
       return speed * direction;
     case TargetType::kCsv:

@@ -105,6 +105,42 @@ TEST(FieldDesignSpec, TargetFormulas) {
   t.type = TargetType::kSaddle;  // repelling along d = x, attracting along y
   EXPECT_GT(t.At(Vector2d(0.15, 0.0)).x(), 0.0);
   EXPECT_LT(t.At(Vector2d(0.1, 0.05)).y(), 0.0);
+  t.direction = Vector2d(0.0, 1.0);  // the line x = 0.1; n = ẑ × d = −x̂
+  t.type = TargetType::kLineSink;    // drawn onto the line, nothing along it
+  EXPECT_TRUE(t.At(Vector2d(0.15, 0.3)).isApprox(Vector2d(-2.0, 0.0)));
+  EXPECT_TRUE(t.At(Vector2d(0.05, -0.2)).isApprox(Vector2d(2.0, 0.0)));
+  EXPECT_EQ(t.At(Vector2d(0.1, 0.7)), Vector2d::Zero());
+  t.type = TargetType::kShear;  // along d, with the signed distance r·n from the line
+  EXPECT_TRUE(t.At(Vector2d(0.15, 0.3)).isApprox(Vector2d(0.0, -2.0)));
+  EXPECT_TRUE(t.At(Vector2d(0.05, -0.2)).isApprox(Vector2d(0.0, 2.0)));
+  EXPECT_EQ(t.At(Vector2d(0.1, 0.7)), Vector2d::Zero());
+}
+
+TEST(FieldDesignSpec, AcceptsEveryTargetTypeOfTheIssue) {
+  // Each type with the keys it takes (docs/planning.md).
+  const std::pair<const char*, TargetType> types[] = {
+      {"{type: sink, center: [0, 0], radius: 0.1}", TargetType::kSink},
+      {"{type: source, radius: 0.1}", TargetType::kSource},
+      {"{type: whirlpool, clockwise: true}", TargetType::kWhirlpool},
+      {"{type: circle, radius: 0.05, clockwise: false}", TargetType::kCircle},
+      {"{type: saddle, direction: [1, 0]}", TargetType::kSaddle},
+      {"{type: line_sink, center: [0, 0.01], direction: [1, 1]}", TargetType::kLineSink},
+      {"{type: line sink, direction: [0, 1]}", TargetType::kLineSink},
+      {"{type: shear, radius: 0.1, direction: [1, 0]}", TargetType::kShear},
+      {"{type: conveyor, direction: [1, 0]}", TargetType::kConveyor}};
+  const std::string line = "{type: conveyor, direction: [-1, 0], speed: 0.05}";
+  for (const auto& [target, type] : types) {
+    std::string s = kSpec;
+    s.replace(s.find(line), line.size(), target);
+    SCOPED_TRACE(target);
+    EXPECT_EQ(ParseFieldDesignSpec(s, "ok.yaml", kData).target.type, type);
+  }
+  std::string clockwise = kSpec;  // a key the type does not take is rejected at its line
+  clockwise.replace(clockwise.find(line), line.size(), "{type: shear, clockwise: true}");
+  EXPECT_NE(Error(clockwise).find("bad.yaml:2: target.clockwise: expected no 'clockwise' for a "
+                                  "shear target"),
+            std::string::npos)
+      << Error(clockwise);
 }
 
 TEST(FieldError, ZeroForTheSameFieldAndClosedFormsUnderPerturbations) {

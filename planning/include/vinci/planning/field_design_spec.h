@@ -22,9 +22,21 @@ using Eigen::VectorXd;
 ///   whirlpool v = s ẑ × r / R  (counter-clockwise; `clockwise: true` flips it)
 ///   circle    v = s (t̂ + (R − ρ)/R r̂), t̂ = ẑ × r̂: around the circle of radius R, drawn onto it
 ///   saddle    v = s ((r·d) d − (r·n) n) / R: repelling along d, attracting along n
+///   line_sink v = −s (r·n) n / R: drawn onto the line through the centre along d
+///   shear     v = s (r·n) d / R: along d, growing with the signed distance from that line
 ///   conveyor  v = s d (uniform)
 ///   csv       the velocities of a CSV file, one row per grid point.
-enum class TargetType { kSink, kSource, kWhirlpool, kCircle, kSaddle, kConveyor, kCsv };
+enum class TargetType {
+  kSink,
+  kSource,
+  kWhirlpool,
+  kCircle,
+  kSaddle,
+  kLineSink,
+  kShear,
+  kConveyor,
+  kCsv
+};
 
 struct FieldTarget {
   TargetType type = TargetType::kConveyor;
