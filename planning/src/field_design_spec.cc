@@ -104,22 +104,46 @@ void ReadMotion(const Reader& r, const Field& m, FieldDesignSpec* spec) {
   for (const std::string& name : kDofs) {  // the scene file's order
     if (!dofs.node[name]) continue;
     const Field d = r.Child(dofs, name);
-    r.Map(d, {"amplitude", "phase"}, "a map {amplitude: [lo, hi], phase: [lo, hi]}");
-    DofRange range;
-    range.dof = name;
-    const Field a = r.Require(d, "amplitude", "[lo, hi] (m or rad), or a number (fixed)");
-    if (a.node.IsScalar())
-      range.amplitude_lo = range.amplitude_hi = r.Number(a);
-    else
-      std::tie(range.amplitude_lo, range.amplitude_hi) = r.Range(a);
-    if (d.node["phase"]) {
-      const Field p = r.Child(d, "phase");
-      if (p.node.IsScalar())
-        range.phase_lo = range.phase_hi = r.Number(p);
-      else
-        std::tie(range.phase_lo, range.phase_hi) = r.Range(p);
+    // One harmonic (a map) or several (a list of maps with strictly increasing orders).
+    std::vector<Field> items;
+    if (d.node.IsSequence()) {
+      if (d.node.size() == 0) r.Fail(d, "a non-empty list of harmonics {order, amplitude, phase}");
+      for (std::size_t i = 0; i < d.node.size(); ++i) items.push_back(r.Item(d, i));
+    } else {
+      items.push_back(d);
     }
-    spec->dofs.push_back(range);
+    int last_order = 0;
+    for (const Field& h : items) {
+      r.Map(h, {"order", "amplitude", "phase"},
+            "a map {order: k, amplitude: [lo, hi], phase: [lo, hi]} or a list of them");
+      DofRange range;
+      range.dof = name;
+      if (h.node["order"]) {
+        const Field o = r.Child(h, "order");
+        range.order = static_cast<int>(r.Integer(o, 1, 100));
+        if (range.order <= last_order)
+          r.Fail(o,
+                 "harmonic orders strictly increasing within a DOF (> " +
+                     std::to_string(last_order) + ")",
+                 std::to_string(range.order));
+      } else if (last_order >= 1) {
+        r.Fail(h, "an 'order' (> " + std::to_string(last_order) + ") for a DOF's second harmonic");
+      }
+      last_order = range.order;
+      const Field a = r.Require(h, "amplitude", "[lo, hi] (m or rad), or a number (fixed)");
+      if (a.node.IsScalar())
+        range.amplitude_lo = range.amplitude_hi = r.Number(a);
+      else
+        std::tie(range.amplitude_lo, range.amplitude_hi) = r.Range(a);
+      if (h.node["phase"]) {
+        const Field p = r.Child(h, "phase");
+        if (p.node.IsScalar())
+          range.phase_lo = range.phase_hi = r.Number(p);
+        else
+          std::tie(range.phase_lo, range.phase_hi) = r.Range(p);
+      }
+      spec->dofs.push_back(range);
+    }
   }
 }
 

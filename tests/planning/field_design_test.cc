@@ -10,6 +10,7 @@
 #include <string>
 
 #include "vinci/planning/field_design_spec.h"
+#include "vinci/sim/model/scene_file.h"
 
 namespace vinci::planning {
 namespace {
@@ -280,6 +281,73 @@ TEST(FieldDesignProblem, ParametersFromAWrittenSceneRoundTrip) {
       << rejected(x, fixed_apart);
   options.start = VectorXd::Constant(2, 5.0);
   EXPECT_THROW(DesignField(problem, options), std::invalid_argument);
+}
+
+// Several harmonics per DOF: the k-th harmonic of a DOF runs at k f in the written scene, its
+// parameters are amplitude<i>/phase<i> (i its index in the DOF), the actuator bound weighs it by
+// k², and a written scene gives its free variables back; a wrong family is rejected.
+TEST(FieldDesignProblem, SeveralHarmonicsPerDof) {
+  std::string text = kSpec;
+  const std::string x_line = "    x: {amplitude: [2.0e-4, 1.2e-3], phase: 0}\n";
+  const std::string z_line = "    z: {amplitude: 1.407e-4, phase: [-3.14159, 3.14159]}\n";
+  text.replace(text.find(x_line), x_line.size(),
+               "    x:\n"
+               "      - {order: 1, amplitude: [2.0e-4, 1.2e-3], phase: 0}\n"
+               "      - {order: 3, amplitude: [-2.0e-4, 2.0e-4], phase: [-3.14159, 3.14159]}\n");
+  text.replace(text.find(z_line), z_line.size(),
+               "    z: [{amplitude: 5.0e-5, phase: 1.0}, {order: 2, amplitude: [0, 2.0e-5]}]\n");
+  const FieldDesignSpec spec = ParseFieldDesignSpec(text, "ok.yaml", kData);
+  ASSERT_EQ(spec.dofs.size(), 4u);
+  EXPECT_EQ(spec.dofs[1].dof, "x");
+  EXPECT_EQ(spec.dofs[1].order, 3);
+  EXPECT_EQ(spec.dofs[3].order, 2);
+  const FieldDesignProblem problem(spec);
+  const std::vector<std::string> names = {"motion.plate.x.amplitude0", "motion.plate.x.amplitude1",
+                                          "motion.plate.x.phase1", "motion.plate.z.amplitude1"};
+  EXPECT_EQ(problem.names(), names);
+  VectorXd x(4);
+  x << 7.5e-4, -1.5e-4, 0.75, 1.25e-5;
+  const double w = 2 * kPi * 30;
+  EXPECT_NEAR(problem.PeakVerticalAcceleration(x), w * w * 5.0e-5 + 4 * w * w * 1.25e-5, 1e-12);
+  const std::string path = ::testing::TempDir() + "/field_design_harmonics.yaml";
+  {
+    std::ofstream out(path);
+    out << problem.SceneYaml(x);
+  }
+  const sim::Scene scene = sim::LoadSceneFile(path);
+  const sim::DofMotion& mx = scene.bodies[0].motion.dofs[0];
+  ASSERT_EQ(mx.harmonics.size(), 2u);
+  EXPECT_DOUBLE_EQ(mx.harmonics[0].frequency, 30.0);
+  EXPECT_DOUBLE_EQ(mx.harmonics[1].frequency, 90.0);
+  EXPECT_EQ(mx.harmonics[1].amplitude, -1.5e-4);
+  EXPECT_EQ(mx.harmonics[1].phase, 0.75);
+  const sim::DofMotion& mz = scene.bodies[0].motion.dofs[2];
+  ASSERT_EQ(mz.harmonics.size(), 2u);
+  EXPECT_DOUBLE_EQ(mz.harmonics[1].frequency, 60.0);
+  EXPECT_EQ(mz.harmonics[0].phase, 1.0);
+  EXPECT_EQ(problem.ParametersFromScene(path), x);
+  // The one-harmonic spec's problem rejects that scene (x has two harmonics), naming the DOF.
+  const FieldDesignProblem one(ParseFieldDesignSpec(kSpec, "ok.yaml", kData));
+  try {
+    one.ParametersFromScene(path);
+    ADD_FAILURE() << "accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("x: expected 1 harmonic(s) at the spec's 30 Hz"),
+              std::string::npos)
+        << e.what();
+  }
+  // Orders must increase within a DOF; a second harmonic needs its order.
+  std::string bad = text;
+  bad.replace(bad.find("order: 3"), 8, "order: 1");
+  EXPECT_NE(Error(bad).find("bad.yaml:8: motion.dofs.x[1].order: expected harmonic orders "
+                            "strictly increasing within a DOF (> 1), got 1"),
+            std::string::npos)
+      << Error(bad);
+  bad = text;
+  bad.replace(bad.find("{order: 2, "), 11, "{");
+  EXPECT_NE(Error(bad).find("bad.yaml:9: motion.dofs.z[1]: expected an 'order' (> 1)"),
+            std::string::npos)
+      << Error(bad);
 }
 
 // A full-circle phase is periodic in the local phase: a start near its bound is where the local

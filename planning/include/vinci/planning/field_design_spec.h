@@ -1,6 +1,7 @@
 // The field-design spec (docs/planning.md): a plate scene, a target velocity field on a grid, the
-// plate-motion parametrization searched (one sinusoid per DOF at the base frequency, amplitude and
-// phase bounds) and its actuator limit, the simulation length and the search budget.
+// plate-motion parametrization searched (per DOF one sinusoid at the base frequency, or several
+// harmonics of it, amplitude and phase bounds) and its actuator limit, the simulation length and
+// the search budget.
 //
 // Errors are std::invalid_argument as "file:line: field: expected ..., got ...".
 #pragma once
@@ -51,10 +52,13 @@ struct FieldTarget {
   Vector2d At(const Vector2d& p) const;
 };
 
-/// One searched plate DOF: A sin(2π f t + φ), A ∈ [amplitude_lo, amplitude_hi] (m or rad),
-/// φ ∈ [phase_lo, phase_hi] (rad). A bound with lo == hi fixes that value (not searched).
+/// One searched harmonic of a plate DOF: A sin(2π k f t + φ), k = order, A ∈ [amplitude_lo,
+/// amplitude_hi] (m or rad), φ ∈ [phase_lo, phase_hi] (rad). A bound with lo == hi fixes that
+/// value (not searched). A DOF with several harmonics has one DofRange per harmonic, consecutive,
+/// orders strictly increasing.
 struct DofRange {
   std::string dof;  ///< x, y, z, roll, pitch, yaw
+  int order = 1;    ///< k ≥ 1: the harmonic of the base frequency
   double amplitude_lo = 0.0, amplitude_hi = 0.0;
   double phase_lo = 0.0, phase_hi = 0.0;
 };
@@ -64,9 +68,10 @@ struct FieldDesignSpec {
   std::string scene_path;  ///< the plate scene (relative paths: from the spec's folder)
   FieldTarget target;
   double frequency = 0.0;      ///< base frequency f (Hz)
-  std::vector<DofRange> dofs;  ///< in the scene file's DOF order
-  /// Actuator limit (m/s²): the peak normal acceleration of the plate over the grid,
-  /// (2πf)² (|A_z| + |A_roll| max|y| + |A_pitch| max|x|), must stay below it. ∞: no limit.
+  std::vector<DofRange> dofs;  ///< in the scene file's DOF order, then by order
+  /// Actuator limit (m/s²): the peak normal acceleration of the plate over the grid, bounded by
+  /// Σ_harmonics (2πkf)² (|A_z| + |A_roll| max|y| + |A_pitch| max|x|), must stay below it.
+  /// ∞: no limit.
   double max_vertical_acceleration = std::numeric_limits<double>::infinity();
   double x_min = 0.0, x_max = 0.0, y_min = 0.0, y_max = 0.0;  ///< grid extent (m)
   int nx = 11, ny = 11;
