@@ -163,6 +163,8 @@ ExitCode RunFieldDesignCommand(const FieldDesignOptions& o) {
   j << "  \"feasible\": " << (r.best.feasible ? "true" : "false") << ",\n";
   j << "  \"bad_points\": " << r.best.bad_points << ",\n";
   j << "  \"peak_vertical_acceleration\": " << Num(r.best.peak_vertical_acceleration) << ",\n";
+  j << "  \"peak_linear_acceleration\": " << Num(r.best.peak_linear_acceleration) << ",\n";
+  j << "  \"peak_angular_acceleration\": " << Num(r.best.peak_angular_acceleration) << ",\n";
   j << "  \"parameters\": {";
   for (std::size_t k = 0; k < problem.names().size(); ++k)
     j << (k ? ", " : "") << JsonString(problem.names()[k]) << ": " << Num(r.best.x[k]);

@@ -292,15 +292,50 @@ double FieldDesignProblem::PeakVerticalAcceleration(const VectorXd& x) const {
   return w2 * a;
 }
 
+namespace {
+
+// max over `dofs` of Σ over that DOF's harmonics (2πkf)² |A|.
+double PeakDofAcceleration(const std::vector<FieldDesignProblem::DofValue>& values,
+                           std::initializer_list<const char*> dofs, double frequency) {
+  double peak = 0.0;
+  for (const char* dof : dofs) {
+    double a = 0.0;
+    for (const FieldDesignProblem::DofValue& d : values)
+      if (d.dof == dof) a += std::pow(2.0 * kPi * d.order * frequency, 2) * std::abs(d.amplitude);
+    peak = std::max(peak, a);
+  }
+  return peak;
+}
+
+}  // namespace
+
+double FieldDesignProblem::PeakLinearAcceleration(const VectorXd& x) const {
+  return PeakDofAcceleration(DofValues(x), {"x", "y"}, spec_.frequency);
+}
+
+double FieldDesignProblem::PeakAngularAcceleration(const VectorXd& x) const {
+  return PeakDofAcceleration(DofValues(x), {"roll", "pitch", "yaw"}, spec_.frequency);
+}
+
 FieldEvaluation FieldDesignProblem::Evaluate(const VectorXd& x, int threads) const {
   const Clock::time_point start = Clock::now();
   FieldEvaluation e;
   e.x = x;
   e.peak_vertical_acceleration = PeakVerticalAcceleration(x);
-  const double limit = spec_.max_vertical_acceleration;
-  if (e.peak_vertical_acceleration > limit) {
-    e.feasible = false;
-    e.error = kInfeasibleError + (e.peak_vertical_acceleration - limit) / limit;
+  e.peak_linear_acceleration = PeakLinearAcceleration(x);
+  e.peak_angular_acceleration = PeakAngularAcceleration(x);
+  double excess = 0.0;  // the largest relative excess over a limit
+  const std::pair<double, double> limits[] = {
+      {e.peak_vertical_acceleration, spec_.max_vertical_acceleration},
+      {e.peak_linear_acceleration, spec_.max_linear_acceleration},
+      {e.peak_angular_acceleration, spec_.max_angular_acceleration}};
+  for (const auto& [peak, limit] : limits)
+    if (peak > limit) {
+      e.feasible = false;
+      excess = std::max(excess, (peak - limit) / limit);
+    }
+  if (!e.feasible) {
+    e.error = kInfeasibleError + excess;
   } else {
     sim::FieldOptions options;
     options.threads = threads;

@@ -93,11 +93,18 @@ void ReadTarget(const Reader& r, const Field& t, const std::string& base_dir, Fi
 }
 
 void ReadMotion(const Reader& r, const Field& m, FieldDesignSpec* spec) {
-  r.Map(m, {"frequency", "dofs", "max_vertical_acceleration"},
-        "a map {frequency: Hz, dofs: {...}, max_vertical_acceleration: m/s^2}");
+  r.Map(m,
+        {"frequency", "dofs", "max_vertical_acceleration", "max_linear_acceleration",
+         "max_angular_acceleration"},
+        "a map {frequency: Hz, dofs: {...}, max_vertical_acceleration: m/s^2, "
+        "max_linear_acceleration: m/s^2, max_angular_acceleration: rad/s^2}");
   spec->frequency = r.Positive(r.Require(m, "frequency", "the base frequency (Hz) > 0"));
   if (m.node["max_vertical_acceleration"])
     spec->max_vertical_acceleration = r.Positive(r.Child(m, "max_vertical_acceleration"));
+  if (m.node["max_linear_acceleration"])
+    spec->max_linear_acceleration = r.Positive(r.Child(m, "max_linear_acceleration"));
+  if (m.node["max_angular_acceleration"])
+    spec->max_angular_acceleration = r.Positive(r.Child(m, "max_angular_acceleration"));
   const Field dofs = r.Require(m, "dofs", "a map of plate DOFs (" + Join(kDofs) + ")");
   r.Map(dofs, kDofs, "a non-empty map of plate DOFs (" + Join(kDofs) + ")");
   if (dofs.node.size() == 0) r.Fail(dofs, "at least one DOF (" + Join(kDofs) + ")");

@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -199,6 +200,19 @@ TEST(FieldDesignProblem, ActuatorLimitIsNotSimulated) {
   EXPECT_FALSE(e.feasible);
   EXPECT_TRUE(e.field.points.empty());
   EXPECT_GT(e.error, kInfeasibleError);
+  // The horizontal limit: x's peak (2π 30)² 8.443e-4 = 30.0 m/s² over 20 m/s² is not simulated,
+  // its error is 10 + the relative excess 0.5.
+  spec.max_vertical_acceleration = 9.0;
+  spec.max_linear_acceleration = 20.0;
+  const FieldDesignProblem linear(spec);
+  EXPECT_NEAR(linear.PeakLinearAcceleration(x), std::pow(2 * kPi * 30, 2) * 8.443e-4, 1e-12);
+  const FieldEvaluation l = linear.Evaluate(x, 1);
+  EXPECT_FALSE(l.feasible);
+  EXPECT_NEAR(l.error, kInfeasibleError + (l.peak_linear_acceleration - 20.0) / 20.0, 1e-12);
+  spec.max_linear_acceleration = 31.0;  // within: simulated
+  EXPECT_TRUE(FieldDesignProblem(spec).Evaluate(x, 1).feasible);
+  EXPECT_EQ(ParseFieldDesignSpec(kSpec, "ok.yaml", kData).max_angular_acceleration,
+            std::numeric_limits<double>::infinity());
 }
 
 // Recovery: the field of known parameters (x amplitude, z phase) is the target (absolute
@@ -309,6 +323,8 @@ TEST(FieldDesignProblem, SeveralHarmonicsPerDof) {
   x << 7.5e-4, -1.5e-4, 0.75, 1.25e-5;
   const double w = 2 * kPi * 30;
   EXPECT_NEAR(problem.PeakVerticalAcceleration(x), w * w * 5.0e-5 + 4 * w * w * 1.25e-5, 1e-12);
+  EXPECT_NEAR(problem.PeakLinearAcceleration(x), w * w * 7.5e-4 + 9 * w * w * 1.5e-4, 1e-12);
+  EXPECT_EQ(problem.PeakAngularAcceleration(x), 0.0);
   const std::string path = ::testing::TempDir() + "/field_design_harmonics.yaml";
   {
     std::ofstream out(path);

@@ -13,9 +13,10 @@
 //                     a field with s_v = 0 has e = 1.
 //   absolute:         e = √( (1/M) Σ_i |v_i − t_i|² ) / s_t.
 // A point whose part left the plate or whose step failed contributes a mismatch of
-// kBadPointMismatch (its velocity is excluded from s_v) and is counted. A motion over the
-// actuator limit (FieldDesignSpec::max_vertical_acceleration) is not simulated: its error is
-// kInfeasibleError plus the relative excess, so the search is pushed back inside.
+// kBadPointMismatch (its velocity is excluded from s_v) and is counted. A motion over an
+// actuator limit (FieldDesignSpec::max_vertical_acceleration, max_linear_acceleration,
+// max_angular_acceleration) is not simulated: its error is kInfeasibleError plus the largest
+// relative excess, so the search is pushed back inside.
 //
 // Search: NLopt GN_CRS2_LM (global, seeded) over the box of the free variables for ~60% of the
 // budget, then LN_BOBYQA from the best point with the rest; both stop at the spec's tolerance.
@@ -54,6 +55,8 @@ struct FieldEvaluation {
   double error = 0.0;    ///< field error (see the file comment)
   bool feasible = true;  ///< within the actuator limit (else not simulated)
   double peak_vertical_acceleration = 0.0;  ///< m/s², the actuator-limit estimate
+  double peak_linear_acceleration = 0.0;    ///< m/s², largest of x, y (PeakLinearAcceleration)
+  double peak_angular_acceleration = 0.0;   ///< rad/s², largest of roll, pitch, yaw
   int bad_points = 0;                       ///< points that left the plate or failed
   double time_s = 0.0;                      ///< wall time of this evaluation
   sim::VelocityField field;                 ///< empty if not feasible
@@ -82,6 +85,11 @@ class FieldDesignProblem {
   /// Σ over the harmonics (2πkf)² (|A_z| + |A_roll| max|y| + |A_pitch| max|x|) over the grid
   /// (m/s²): a bound on the plate's peak normal acceleration there.
   double PeakVerticalAcceleration(const VectorXd& x) const;
+  /// max over x, y of Σ over its harmonics (2πkf)² |A| (m/s²): a bound on the peak horizontal
+  /// acceleration of each translation.
+  double PeakLinearAcceleration(const VectorXd& x) const;
+  /// max over roll, pitch, yaw of Σ over its harmonics (2πkf)² |A| (rad/s²).
+  double PeakAngularAcceleration(const VectorXd& x) const;
   /// Simulates the field of x (if feasible) and scores it. index/phase are left to the caller.
   FieldEvaluation Evaluate(const VectorXd& x, int threads) const;
   /// The rewritten scene file with x's amplitudes and phases written in (17 digits): a plate

@@ -73,6 +73,11 @@ struct FieldDesignSpec {
   /// Σ_harmonics (2πkf)² (|A_z| + |A_roll| max|y| + |A_pitch| max|x|), must stay below it.
   /// ∞: no limit.
   double max_vertical_acceleration = std::numeric_limits<double>::infinity();
+  /// Actuator limits of the horizontal translations (m/s²) and of the rotations (rad/s²): for each
+  /// of x, y (linear) and roll, pitch, yaw (angular) the bound Σ_harmonics (2πkf)² |A| of its
+  /// peak acceleration must stay below it. ∞: no limit.
+  double max_linear_acceleration = std::numeric_limits<double>::infinity();
+  double max_angular_acceleration = std::numeric_limits<double>::infinity();
   double x_min = 0.0, x_max = 0.0, y_min = 0.0, y_max = 0.0;  ///< grid extent (m)
   int nx = 11, ny = 11;
   int cycles = 20;         ///< simulated cycles per grid point
