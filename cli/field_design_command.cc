@@ -53,6 +53,12 @@ std::string TargetJson(const planning::FieldTarget& t) {
     case TargetType::kSaddle:
       type = "saddle";
       break;
+    case TargetType::kLineSink:
+      type = "line_sink";
+      break;
+    case TargetType::kShear:
+      type = "shear";
+      break;
     case TargetType::kConveyor:
       type = "conveyor";
       break;
@@ -157,14 +163,29 @@ ExitCode RunFieldDesignCommand(const FieldDesignOptions& o) {
   j << "  \"feasible\": " << (r.best.feasible ? "true" : "false") << ",\n";
   j << "  \"bad_points\": " << r.best.bad_points << ",\n";
   j << "  \"peak_vertical_acceleration\": " << Num(r.best.peak_vertical_acceleration) << ",\n";
+  j << "  \"peak_linear_acceleration\": " << Num(r.best.peak_linear_acceleration) << ",\n";
+  j << "  \"peak_angular_acceleration\": " << Num(r.best.peak_angular_acceleration) << ",\n";
   j << "  \"parameters\": {";
   for (std::size_t k = 0; k < problem.names().size(); ++k)
     j << (k ? ", " : "") << JsonString(problem.names()[k]) << ": " << Num(r.best.x[k]);
   j << "},\n";
   j << "  \"motion\": {\"frequency\": " << Num(spec.frequency);
-  for (const auto& d : problem.DofValues(r.best.x))
-    j << ", " << JsonString(d.dof) << ": {\"amplitude\": " << Num(d.amplitude)
-      << ", \"phase\": " << Num(d.phase) << "}";
+  // A DOF of one order-1 harmonic: {"amplitude", "phase"}; else a list of {"order", ...}.
+  const auto values = problem.DofValues(r.best.x);
+  for (std::size_t k = 0; k < values.size(); ++k) {
+    const auto& d = values[k];
+    const bool single = (k == 0 || values[k - 1].dof != d.dof) &&
+                        (k + 1 == values.size() || values[k + 1].dof != d.dof);
+    const std::string h =
+        "{\"amplitude\": " + Num(d.amplitude) + ", \"phase\": " + Num(d.phase) + "}";
+    if (single && d.order == 1) {
+      j << ", " << JsonString(d.dof) << ": " << h;
+      continue;
+    }
+    if (d.index == 0) j << ", " << JsonString(d.dof) << ": [";
+    j << (d.index ? ", " : "") << "{\"order\": " << d.order << ", " << h.substr(1);
+    if (k + 1 == values.size() || values[k + 1].dof != d.dof) j << "]";
+  }
   j << "},\n";
   j << "  \"grid\": [" << spec.nx << ", " << spec.ny << "],\n";
   j << "  \"cycles\": " << spec.cycles << ",\n";

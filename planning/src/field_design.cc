@@ -36,9 +36,9 @@ YAML::Node FlowPair(double a, double b) {
   return n;
 }
 
-// The harmonic node of `dof` in the plate body's motion.
-YAML::Node Harmonic(YAML::Node plate, const std::string& dof) {
-  return plate["motion"][dof]["harmonics"][0];
+// The harmonic node `index` of `dof` in the plate body's motion.
+YAML::Node Harmonic(YAML::Node plate, const std::string& dof, int index) {
+  return plate["motion"][dof]["harmonics"][index];
 }
 
 }  // namespace
@@ -105,13 +105,14 @@ FieldDesignProblem::FieldDesignProblem(const FieldDesignSpec& spec) : spec_(spec
   motion["frequency"] = Number(spec.frequency);
   for (const DofRange& d : spec.dofs) {
     YAML::Node h(YAML::NodeType::Map);
-    h["order"] = 1;
+    h["order"] = d.order;
     h["amplitude"] = Number(0.5 * (d.amplitude_lo + d.amplitude_hi));
     h["phase"] = Number(0.5 * (d.phase_lo + d.phase_hi));
     h.SetStyle(YAML::EmitterStyle::Flow);
-    YAML::Node list(YAML::NodeType::Sequence);
+    if (!motion[d.dof]) motion[d.dof]["harmonics"] = YAML::Node(YAML::NodeType::Sequence);
+    YAML::Node list = motion[d.dof]["harmonics"];
+    harmonic_index_.push_back(static_cast<int>(list.size()));
     list.push_back(h);
-    motion[d.dof]["harmonics"] = list;
   }
   bodies[plate]["motion"] = motion;
   YAML::Node field = root["field"];
@@ -166,15 +167,17 @@ FieldDesignProblem::FieldDesignProblem(const FieldDesignSpec& spec) : spec_(spec
   defaults_ = table.Defaults();
   std::vector<double> lo, hi;
   const std::string& name = scene.bodies[plate].name;
-  for (const DofRange& d : spec.dofs) {
+  for (std::size_t r = 0; r < spec.dofs.size(); ++r) {
+    const DofRange& d = spec.dofs[r];
     const std::string pre = "motion." + name + "." + d.dof + ".";
+    const std::string k = std::to_string(harmonic_index_[r]);
     if (d.amplitude_lo < d.amplitude_hi) {
-      names_.push_back(pre + "amplitude0");
+      names_.push_back(pre + "amplitude" + k);
       lo.push_back(d.amplitude_lo);
       hi.push_back(d.amplitude_hi);
     }
     if (d.phase_lo < d.phase_hi) {
-      names_.push_back(pre + "phase0");
+      names_.push_back(pre + "phase" + k);
       lo.push_back(d.phase_lo);
       hi.push_back(d.phase_hi);
     }
@@ -198,10 +201,12 @@ std::vector<FieldDesignProblem::DofValue> FieldDesignProblem::DofValues(const Ve
   const sim::ParamTable& table = simulator_->scene().param_table();
   const std::string& name = simulator_->scene().bodies[field_spec_.plate].name;
   std::vector<DofValue> out;
-  for (const DofRange& d : spec_.dofs) {
+  for (std::size_t r = 0; r < spec_.dofs.size(); ++r) {
+    const DofRange& d = spec_.dofs[r];
     const std::string pre = "motion." + name + "." + d.dof + ".";
-    out.push_back(
-        {d.dof, p.values[table.Index(pre + "amplitude0")], p.values[table.Index(pre + "phase0")]});
+    const std::string k = std::to_string(harmonic_index_[r]);
+    out.push_back({d.dof, d.order, harmonic_index_[r], p.values[table.Index(pre + "amplitude" + k)],
+                   p.values[table.Index(pre + "phase" + k)]});
   }
   return out;
 }
@@ -241,10 +246,10 @@ VectorXd FieldDesignProblem::ParametersFromScene(const std::string& path) const 
     const std::string dof = kDofs[d];
     const sim::DofMotion none;
     const sim::DofMotion& m = d < static_cast<int>(motion.dofs.size()) ? motion.dofs[d] : none;
-    const DofRange* range = nullptr;
+    std::vector<const DofRange*> ranges;
     for (const DofRange& r : spec_.dofs)
-      if (r.dof == dof) range = &r;
-    if (!range) {
+      if (r.dof == dof) ranges.push_back(&r);
+    if (ranges.empty()) {
       bool zero = m.velocity == 0.0 && m.keyframes.empty();
       for (const sim::Harmonic& h : m.harmonics) zero = zero && h.amplitude == 0.0;
       if (!zero)
@@ -252,13 +257,23 @@ VectorXd FieldDesignProblem::ParametersFromScene(const std::string& path) const 
                                     dof + "), got one");
       continue;
     }
-    if (m.velocity != 0.0 || !m.keyframes.empty() || m.harmonics.size() != 1 ||
-        std::abs(m.harmonics[0].frequency - spec_.frequency) > 1e-12 * spec_.frequency)
-      throw std::invalid_argument(where + dof + ": expected one harmonic at the spec's " +
-                                  std::to_string(spec_.frequency) +
-                                  " Hz and no velocity or keyframes");
-    check(dof + ".amplitude", m.harmonics[0].amplitude, range->amplitude_lo, range->amplitude_hi);
-    check(dof + ".phase", m.harmonics[0].phase, range->phase_lo, range->phase_hi);
+    std::ostringstream orders;
+    for (std::size_t i = 0; i < ranges.size(); ++i)
+      orders << (i ? ", " : "") << ranges[i]->order * spec_.frequency;
+    bool family = m.velocity == 0.0 && m.keyframes.empty() && m.harmonics.size() == ranges.size();
+    for (std::size_t i = 0; family && i < ranges.size(); ++i)
+      family = std::abs(m.harmonics[i].frequency - ranges[i]->order * spec_.frequency) <=
+               1e-12 * ranges[i]->order * spec_.frequency;
+    if (!family)
+      throw std::invalid_argument(where + dof + ": expected " + std::to_string(ranges.size()) +
+                                  " harmonic(s) at the spec's " + orders.str() +
+                                  " Hz in that order and no velocity or keyframes");
+    for (std::size_t i = 0; i < ranges.size(); ++i) {
+      const std::string h = ranges.size() > 1 ? "[" + std::to_string(i) + "]" : "";
+      check(dof + h + ".amplitude", m.harmonics[i].amplitude, ranges[i]->amplitude_lo,
+            ranges[i]->amplitude_hi);
+      check(dof + h + ".phase", m.harmonics[i].phase, ranges[i]->phase_lo, ranges[i]->phase_hi);
+    }
   }
   return x;
 }
@@ -269,11 +284,37 @@ double FieldDesignProblem::PeakVerticalAcceleration(const VectorXd& x) const {
   const double max_y = std::max(std::abs(spec_.y_min), std::abs(spec_.y_max));
   double a = 0.0;
   for (const DofValue& d : DofValues(x)) {
-    if (d.dof == "z") a += std::abs(d.amplitude);
-    if (d.dof == "roll") a += std::abs(d.amplitude) * max_y;
-    if (d.dof == "pitch") a += std::abs(d.amplitude) * max_x;
+    const double k2 = static_cast<double>(d.order) * d.order;  // (2πkf)² for the k-th harmonic
+    if (d.dof == "z") a += k2 * std::abs(d.amplitude);
+    if (d.dof == "roll") a += k2 * std::abs(d.amplitude) * max_y;
+    if (d.dof == "pitch") a += k2 * std::abs(d.amplitude) * max_x;
   }
   return w2 * a;
+}
+
+namespace {
+
+// max over `dofs` of Σ over that DOF's harmonics (2πkf)² |A|.
+double PeakDofAcceleration(const std::vector<FieldDesignProblem::DofValue>& values,
+                           std::initializer_list<const char*> dofs, double frequency) {
+  double peak = 0.0;
+  for (const char* dof : dofs) {
+    double a = 0.0;
+    for (const FieldDesignProblem::DofValue& d : values)
+      if (d.dof == dof) a += std::pow(2.0 * kPi * d.order * frequency, 2) * std::abs(d.amplitude);
+    peak = std::max(peak, a);
+  }
+  return peak;
+}
+
+}  // namespace
+
+double FieldDesignProblem::PeakLinearAcceleration(const VectorXd& x) const {
+  return PeakDofAcceleration(DofValues(x), {"x", "y"}, spec_.frequency);
+}
+
+double FieldDesignProblem::PeakAngularAcceleration(const VectorXd& x) const {
+  return PeakDofAcceleration(DofValues(x), {"roll", "pitch", "yaw"}, spec_.frequency);
 }
 
 FieldEvaluation FieldDesignProblem::Evaluate(const VectorXd& x, int threads) const {
@@ -281,10 +322,20 @@ FieldEvaluation FieldDesignProblem::Evaluate(const VectorXd& x, int threads) con
   FieldEvaluation e;
   e.x = x;
   e.peak_vertical_acceleration = PeakVerticalAcceleration(x);
-  const double limit = spec_.max_vertical_acceleration;
-  if (e.peak_vertical_acceleration > limit) {
-    e.feasible = false;
-    e.error = kInfeasibleError + (e.peak_vertical_acceleration - limit) / limit;
+  e.peak_linear_acceleration = PeakLinearAcceleration(x);
+  e.peak_angular_acceleration = PeakAngularAcceleration(x);
+  double excess = 0.0;  // the largest relative excess over a limit
+  const std::pair<double, double> limits[] = {
+      {e.peak_vertical_acceleration, spec_.max_vertical_acceleration},
+      {e.peak_linear_acceleration, spec_.max_linear_acceleration},
+      {e.peak_angular_acceleration, spec_.max_angular_acceleration}};
+  for (const auto& [peak, limit] : limits)
+    if (peak > limit) {
+      e.feasible = false;
+      excess = std::max(excess, (peak - limit) / limit);
+    }
+  if (!e.feasible) {
+    e.error = kInfeasibleError + excess;
   } else {
     sim::FieldOptions options;
     options.threads = threads;
@@ -299,7 +350,7 @@ std::string FieldDesignProblem::SceneYaml(const VectorXd& x) const {
   YAML::Node root = YAML::Load(scene_yaml_);
   YAML::Node plate = root["bodies"][field_spec_.plate];
   for (const DofValue& d : DofValues(x)) {
-    YAML::Node h = Harmonic(plate, d.dof);
+    YAML::Node h = Harmonic(plate, d.dof, d.index);
     h["amplitude"] = Number(d.amplitude);
     h["phase"] = Number(d.phase);
   }

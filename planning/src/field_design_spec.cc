@@ -41,7 +41,9 @@ void ReadTarget(const Reader& r, const Field& t, const std::string& base_dir, Fi
       r.Fail(r.Child(t, "speed"), "no speed with csv: (its velocities are absolute)");
     return;
   }
-  const Field type = r.Require(t, "type", "sink, source, whirlpool, circle, saddle or conveyor");
+  const Field type = r.Require(t, "type",
+                               "sink, source, whirlpool, circle, saddle, line_sink, shear or "
+                               "conveyor");
   const std::string name = r.String(type);
   struct Known {
     const char* name;
@@ -53,11 +55,16 @@ void ReadTarget(const Reader& r, const Field& t, const std::string& base_dir, Fi
                          {"whirlpool", TargetType::kWhirlpool, true, true, false, true},
                          {"circle", TargetType::kCircle, true, true, false, true},
                          {"saddle", TargetType::kSaddle, true, true, true, false},
+                         {"line_sink", TargetType::kLineSink, true, true, true, false},
+                         {"line sink", TargetType::kLineSink, true, true, true, false},
+                         {"shear", TargetType::kShear, true, true, true, false},
                          {"conveyor", TargetType::kConveyor, false, false, true, false}};
   const Known* k = nullptr;
   for (const Known& c : known)
     if (name == c.name) k = &c;
-  if (!k) r.Fail(type, "sink, source, whirlpool, circle, saddle, conveyor (or csv: FILE)");
+  if (!k)
+    r.Fail(type,
+           "sink, source, whirlpool, circle, saddle, line_sink, shear, conveyor (or csv: FILE)");
   g.type = k->type;
   const auto reject = [&](const char* key, bool allowed) {
     if (!allowed && t.node[key])
@@ -86,33 +93,64 @@ void ReadTarget(const Reader& r, const Field& t, const std::string& base_dir, Fi
 }
 
 void ReadMotion(const Reader& r, const Field& m, FieldDesignSpec* spec) {
-  r.Map(m, {"frequency", "dofs", "max_vertical_acceleration"},
-        "a map {frequency: Hz, dofs: {...}, max_vertical_acceleration: m/s^2}");
+  r.Map(m,
+        {"frequency", "dofs", "max_vertical_acceleration", "max_linear_acceleration",
+         "max_angular_acceleration"},
+        "a map {frequency: Hz, dofs: {...}, max_vertical_acceleration: m/s^2, "
+        "max_linear_acceleration: m/s^2, max_angular_acceleration: rad/s^2}");
   spec->frequency = r.Positive(r.Require(m, "frequency", "the base frequency (Hz) > 0"));
   if (m.node["max_vertical_acceleration"])
     spec->max_vertical_acceleration = r.Positive(r.Child(m, "max_vertical_acceleration"));
+  if (m.node["max_linear_acceleration"])
+    spec->max_linear_acceleration = r.Positive(r.Child(m, "max_linear_acceleration"));
+  if (m.node["max_angular_acceleration"])
+    spec->max_angular_acceleration = r.Positive(r.Child(m, "max_angular_acceleration"));
   const Field dofs = r.Require(m, "dofs", "a map of plate DOFs (" + Join(kDofs) + ")");
   r.Map(dofs, kDofs, "a non-empty map of plate DOFs (" + Join(kDofs) + ")");
   if (dofs.node.size() == 0) r.Fail(dofs, "at least one DOF (" + Join(kDofs) + ")");
   for (const std::string& name : kDofs) {  // the scene file's order
     if (!dofs.node[name]) continue;
     const Field d = r.Child(dofs, name);
-    r.Map(d, {"amplitude", "phase"}, "a map {amplitude: [lo, hi], phase: [lo, hi]}");
-    DofRange range;
-    range.dof = name;
-    const Field a = r.Require(d, "amplitude", "[lo, hi] (m or rad), or a number (fixed)");
-    if (a.node.IsScalar())
-      range.amplitude_lo = range.amplitude_hi = r.Number(a);
-    else
-      std::tie(range.amplitude_lo, range.amplitude_hi) = r.Range(a);
-    if (d.node["phase"]) {
-      const Field p = r.Child(d, "phase");
-      if (p.node.IsScalar())
-        range.phase_lo = range.phase_hi = r.Number(p);
-      else
-        std::tie(range.phase_lo, range.phase_hi) = r.Range(p);
+    // One harmonic (a map) or several (a list of maps with strictly increasing orders).
+    std::vector<Field> items;
+    if (d.node.IsSequence()) {
+      if (d.node.size() == 0) r.Fail(d, "a non-empty list of harmonics {order, amplitude, phase}");
+      for (std::size_t i = 0; i < d.node.size(); ++i) items.push_back(r.Item(d, i));
+    } else {
+      items.push_back(d);
     }
-    spec->dofs.push_back(range);
+    int last_order = 0;
+    for (const Field& h : items) {
+      r.Map(h, {"order", "amplitude", "phase"},
+            "a map {order: k, amplitude: [lo, hi], phase: [lo, hi]} or a list of them");
+      DofRange range;
+      range.dof = name;
+      if (h.node["order"]) {
+        const Field o = r.Child(h, "order");
+        range.order = static_cast<int>(r.Integer(o, 1, 100));
+        if (range.order <= last_order)
+          r.Fail(o,
+                 "harmonic orders strictly increasing within a DOF (> " +
+                     std::to_string(last_order) + ")",
+                 std::to_string(range.order));
+      } else if (last_order >= 1) {
+        r.Fail(h, "an 'order' (> " + std::to_string(last_order) + ") for a DOF's second harmonic");
+      }
+      last_order = range.order;
+      const Field a = r.Require(h, "amplitude", "[lo, hi] (m or rad), or a number (fixed)");
+      if (a.node.IsScalar())
+        range.amplitude_lo = range.amplitude_hi = r.Number(a);
+      else
+        std::tie(range.amplitude_lo, range.amplitude_hi) = r.Range(a);
+      if (h.node["phase"]) {
+        const Field p = r.Child(h, "phase");
+        if (p.node.IsScalar())
+          range.phase_lo = range.phase_hi = r.Number(p);
+        else
+          std::tie(range.phase_lo, range.phase_hi) = r.Range(p);
+      }
+      spec->dofs.push_back(range);
+    }
   }
 }
 
@@ -151,6 +189,12 @@ Vector2d FieldTarget::At(const Vector2d& p) const {
       const Vector2d n = perp(direction);
       return speed * (r.dot(direction) * direction - r.dot(n) * n) / radius;
     }
+    case TargetType::kLineSink: {
+      const Vector2d n = perp(direction);
+      return -speed * r.dot(n) * n / radius;
+    }
+    case TargetType::kShear:
+      return speed * r.dot(perp(direction)) * direction / radius;
     case TargetType::kConveyor:
       return speed * direction;
     case TargetType::kCsv:

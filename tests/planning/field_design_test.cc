@@ -6,10 +6,12 @@
 
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
 #include "vinci/planning/field_design_spec.h"
+#include "vinci/sim/model/scene_file.h"
 
 namespace vinci::planning {
 namespace {
@@ -105,6 +107,42 @@ TEST(FieldDesignSpec, TargetFormulas) {
   t.type = TargetType::kSaddle;  // repelling along d = x, attracting along y
   EXPECT_GT(t.At(Vector2d(0.15, 0.0)).x(), 0.0);
   EXPECT_LT(t.At(Vector2d(0.1, 0.05)).y(), 0.0);
+  t.direction = Vector2d(0.0, 1.0);  // the line x = 0.1; n = ẑ × d = −x̂
+  t.type = TargetType::kLineSink;    // drawn onto the line, nothing along it
+  EXPECT_TRUE(t.At(Vector2d(0.15, 0.3)).isApprox(Vector2d(-2.0, 0.0)));
+  EXPECT_TRUE(t.At(Vector2d(0.05, -0.2)).isApprox(Vector2d(2.0, 0.0)));
+  EXPECT_EQ(t.At(Vector2d(0.1, 0.7)), Vector2d::Zero());
+  t.type = TargetType::kShear;  // along d, with the signed distance r·n from the line
+  EXPECT_TRUE(t.At(Vector2d(0.15, 0.3)).isApprox(Vector2d(0.0, -2.0)));
+  EXPECT_TRUE(t.At(Vector2d(0.05, -0.2)).isApprox(Vector2d(0.0, 2.0)));
+  EXPECT_EQ(t.At(Vector2d(0.1, 0.7)), Vector2d::Zero());
+}
+
+TEST(FieldDesignSpec, AcceptsEveryTargetTypeOfTheIssue) {
+  // Each type with the keys it takes (docs/planning.md).
+  const std::pair<const char*, TargetType> types[] = {
+      {"{type: sink, center: [0, 0], radius: 0.1}", TargetType::kSink},
+      {"{type: source, radius: 0.1}", TargetType::kSource},
+      {"{type: whirlpool, clockwise: true}", TargetType::kWhirlpool},
+      {"{type: circle, radius: 0.05, clockwise: false}", TargetType::kCircle},
+      {"{type: saddle, direction: [1, 0]}", TargetType::kSaddle},
+      {"{type: line_sink, center: [0, 0.01], direction: [1, 1]}", TargetType::kLineSink},
+      {"{type: line sink, direction: [0, 1]}", TargetType::kLineSink},
+      {"{type: shear, radius: 0.1, direction: [1, 0]}", TargetType::kShear},
+      {"{type: conveyor, direction: [1, 0]}", TargetType::kConveyor}};
+  const std::string line = "{type: conveyor, direction: [-1, 0], speed: 0.05}";
+  for (const auto& [target, type] : types) {
+    std::string s = kSpec;
+    s.replace(s.find(line), line.size(), target);
+    SCOPED_TRACE(target);
+    EXPECT_EQ(ParseFieldDesignSpec(s, "ok.yaml", kData).target.type, type);
+  }
+  std::string clockwise = kSpec;  // a key the type does not take is rejected at its line
+  clockwise.replace(clockwise.find(line), line.size(), "{type: shear, clockwise: true}");
+  EXPECT_NE(Error(clockwise).find("bad.yaml:2: target.clockwise: expected no 'clockwise' for a "
+                                  "shear target"),
+            std::string::npos)
+      << Error(clockwise);
 }
 
 TEST(FieldError, ZeroForTheSameFieldAndClosedFormsUnderPerturbations) {
@@ -162,6 +200,19 @@ TEST(FieldDesignProblem, ActuatorLimitIsNotSimulated) {
   EXPECT_FALSE(e.feasible);
   EXPECT_TRUE(e.field.points.empty());
   EXPECT_GT(e.error, kInfeasibleError);
+  // The horizontal limit: x's peak (2π 30)² 8.443e-4 = 30.0 m/s² over 20 m/s² is not simulated,
+  // its error is 10 + the relative excess 0.5.
+  spec.max_vertical_acceleration = 9.0;
+  spec.max_linear_acceleration = 20.0;
+  const FieldDesignProblem linear(spec);
+  EXPECT_NEAR(linear.PeakLinearAcceleration(x), std::pow(2 * kPi * 30, 2) * 8.443e-4, 1e-12);
+  const FieldEvaluation l = linear.Evaluate(x, 1);
+  EXPECT_FALSE(l.feasible);
+  EXPECT_NEAR(l.error, kInfeasibleError + (l.peak_linear_acceleration - 20.0) / 20.0, 1e-12);
+  spec.max_linear_acceleration = 31.0;  // within: simulated
+  EXPECT_TRUE(FieldDesignProblem(spec).Evaluate(x, 1).feasible);
+  EXPECT_EQ(ParseFieldDesignSpec(kSpec, "ok.yaml", kData).max_angular_acceleration,
+            std::numeric_limits<double>::infinity());
 }
 
 // Recovery: the field of known parameters (x amplitude, z phase) is the target (absolute
@@ -244,6 +295,75 @@ TEST(FieldDesignProblem, ParametersFromAWrittenSceneRoundTrip) {
       << rejected(x, fixed_apart);
   options.start = VectorXd::Constant(2, 5.0);
   EXPECT_THROW(DesignField(problem, options), std::invalid_argument);
+}
+
+// Several harmonics per DOF: the k-th harmonic of a DOF runs at k f in the written scene, its
+// parameters are amplitude<i>/phase<i> (i its index in the DOF), the actuator bound weighs it by
+// k², and a written scene gives its free variables back; a wrong family is rejected.
+TEST(FieldDesignProblem, SeveralHarmonicsPerDof) {
+  std::string text = kSpec;
+  const std::string x_line = "    x: {amplitude: [2.0e-4, 1.2e-3], phase: 0}\n";
+  const std::string z_line = "    z: {amplitude: 1.407e-4, phase: [-3.14159, 3.14159]}\n";
+  text.replace(text.find(x_line), x_line.size(),
+               "    x:\n"
+               "      - {order: 1, amplitude: [2.0e-4, 1.2e-3], phase: 0}\n"
+               "      - {order: 3, amplitude: [-2.0e-4, 2.0e-4], phase: [-3.14159, 3.14159]}\n");
+  text.replace(text.find(z_line), z_line.size(),
+               "    z: [{amplitude: 5.0e-5, phase: 1.0}, {order: 2, amplitude: [0, 2.0e-5]}]\n");
+  const FieldDesignSpec spec = ParseFieldDesignSpec(text, "ok.yaml", kData);
+  ASSERT_EQ(spec.dofs.size(), 4u);
+  EXPECT_EQ(spec.dofs[1].dof, "x");
+  EXPECT_EQ(spec.dofs[1].order, 3);
+  EXPECT_EQ(spec.dofs[3].order, 2);
+  const FieldDesignProblem problem(spec);
+  const std::vector<std::string> names = {"motion.plate.x.amplitude0", "motion.plate.x.amplitude1",
+                                          "motion.plate.x.phase1", "motion.plate.z.amplitude1"};
+  EXPECT_EQ(problem.names(), names);
+  VectorXd x(4);
+  x << 7.5e-4, -1.5e-4, 0.75, 1.25e-5;
+  const double w = 2 * kPi * 30;
+  EXPECT_NEAR(problem.PeakVerticalAcceleration(x), w * w * 5.0e-5 + 4 * w * w * 1.25e-5, 1e-12);
+  EXPECT_NEAR(problem.PeakLinearAcceleration(x), w * w * 7.5e-4 + 9 * w * w * 1.5e-4, 1e-12);
+  EXPECT_EQ(problem.PeakAngularAcceleration(x), 0.0);
+  const std::string path = ::testing::TempDir() + "/field_design_harmonics.yaml";
+  {
+    std::ofstream out(path);
+    out << problem.SceneYaml(x);
+  }
+  const sim::Scene scene = sim::LoadSceneFile(path);
+  const sim::DofMotion& mx = scene.bodies[0].motion.dofs[0];
+  ASSERT_EQ(mx.harmonics.size(), 2u);
+  EXPECT_DOUBLE_EQ(mx.harmonics[0].frequency, 30.0);
+  EXPECT_DOUBLE_EQ(mx.harmonics[1].frequency, 90.0);
+  EXPECT_EQ(mx.harmonics[1].amplitude, -1.5e-4);
+  EXPECT_EQ(mx.harmonics[1].phase, 0.75);
+  const sim::DofMotion& mz = scene.bodies[0].motion.dofs[2];
+  ASSERT_EQ(mz.harmonics.size(), 2u);
+  EXPECT_DOUBLE_EQ(mz.harmonics[1].frequency, 60.0);
+  EXPECT_EQ(mz.harmonics[0].phase, 1.0);
+  EXPECT_EQ(problem.ParametersFromScene(path), x);
+  // The one-harmonic spec's problem rejects that scene (x has two harmonics), naming the DOF.
+  const FieldDesignProblem one(ParseFieldDesignSpec(kSpec, "ok.yaml", kData));
+  try {
+    one.ParametersFromScene(path);
+    ADD_FAILURE() << "accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("x: expected 1 harmonic(s) at the spec's 30 Hz"),
+              std::string::npos)
+        << e.what();
+  }
+  // Orders must increase within a DOF; a second harmonic needs its order.
+  std::string bad = text;
+  bad.replace(bad.find("order: 3"), 8, "order: 1");
+  EXPECT_NE(Error(bad).find("bad.yaml:8: motion.dofs.x[1].order: expected harmonic orders "
+                            "strictly increasing within a DOF (> 1), got 1"),
+            std::string::npos)
+      << Error(bad);
+  bad = text;
+  bad.replace(bad.find("{order: 2, "), 11, "{");
+  EXPECT_NE(Error(bad).find("bad.yaml:9: motion.dofs.z[1]: expected an 'order' (> 1)"),
+            std::string::npos)
+      << Error(bad);
 }
 
 // A full-circle phase is periodic in the local phase: a start near its bound is where the local

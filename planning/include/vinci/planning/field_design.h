@@ -2,9 +2,10 @@
 // field best matches a target field on a grid.
 //
 // Parametrization: every DOF named in the spec moves as one sinusoid A sin(2π f t + φ) of the
-// base frequency f (the plate's scene motion is replaced by these DOFs); the free variables are
-// the amplitudes and phases with lo < hi, i.e. the scene parameters
-// motion.<plate>.<dof>.amplitude0 / phase0 (model/params.h) of the rewritten scene.
+// base frequency f, or as a sum of harmonics A_k sin(2π k f t + φ_k) of the orders the spec lists
+// (the plate's scene motion is replaced by these DOFs); the free variables are the amplitudes and
+// phases with lo < hi, i.e. the scene parameters motion.<plate>.<dof>.amplitude<i> / phase<i>
+// (model/params.h; i the harmonic's index within its DOF) of the rewritten scene.
 //
 // Objective (the field error) over the M grid points, v_i simulated, t_i target:
 //   shape (default):  e = √( (1/M) Σ_i |v_i/s_v − t_i/s_t|² ),  s_· = √((1/M) Σ |·_i|²)
@@ -12,9 +13,10 @@
 //                     a field with s_v = 0 has e = 1.
 //   absolute:         e = √( (1/M) Σ_i |v_i − t_i|² ) / s_t.
 // A point whose part left the plate or whose step failed contributes a mismatch of
-// kBadPointMismatch (its velocity is excluded from s_v) and is counted. A motion over the
-// actuator limit (FieldDesignSpec::max_vertical_acceleration) is not simulated: its error is
-// kInfeasibleError plus the relative excess, so the search is pushed back inside.
+// kBadPointMismatch (its velocity is excluded from s_v) and is counted. A motion over an
+// actuator limit (FieldDesignSpec::max_vertical_acceleration, max_linear_acceleration,
+// max_angular_acceleration) is not simulated: its error is kInfeasibleError plus the largest
+// relative excess, so the search is pushed back inside.
 //
 // Search: NLopt GN_CRS2_LM (global, seeded) over the box of the free variables for ~60% of the
 // budget, then LN_BOBYQA from the best point with the rest; both stop at the spec's tolerance.
@@ -53,6 +55,8 @@ struct FieldEvaluation {
   double error = 0.0;    ///< field error (see the file comment)
   bool feasible = true;  ///< within the actuator limit (else not simulated)
   double peak_vertical_acceleration = 0.0;  ///< m/s², the actuator-limit estimate
+  double peak_linear_acceleration = 0.0;    ///< m/s², largest of x, y (PeakLinearAcceleration)
+  double peak_angular_acceleration = 0.0;   ///< rad/s², largest of roll, pitch, yaw
   int bad_points = 0;                       ///< points that left the plate or failed
   double time_s = 0.0;                      ///< wall time of this evaluation
   sim::VelocityField field;                 ///< empty if not feasible
@@ -70,7 +74,7 @@ class FieldDesignProblem {
   const sim::Simulator& simulator() const { return *simulator_; }
   const sim::FieldSpec& field_spec() const { return field_spec_; }
   const std::vector<Vector2d>& target() const { return target_; }
-  /// Free variables: parameter names (motion.<plate>.<dof>.amplitude0 | phase0) and bounds.
+  /// Free variables: parameter names (motion.<plate>.<dof>.amplitude<i> | phase<i>) and bounds.
   const std::vector<std::string>& names() const { return names_; }
   const VectorXd& lower() const { return lower_; }
   const VectorXd& upper() const { return upper_; }
@@ -78,23 +82,31 @@ class FieldDesignProblem {
   VectorXd Start() const { return 0.5 * (lower_ + upper_); }
   /// The scene parameters for free variables x.
   sim::Params ParamsFor(const VectorXd& x) const;
-  /// (2πf)² (|A_z| + |A_roll| max|y| + |A_pitch| max|x|) over the grid (m/s²).
+  /// Σ over the harmonics (2πkf)² (|A_z| + |A_roll| max|y| + |A_pitch| max|x|) over the grid
+  /// (m/s²): a bound on the plate's peak normal acceleration there.
   double PeakVerticalAcceleration(const VectorXd& x) const;
+  /// max over x, y of Σ over its harmonics (2πkf)² |A| (m/s²): a bound on the peak horizontal
+  /// acceleration of each translation.
+  double PeakLinearAcceleration(const VectorXd& x) const;
+  /// max over roll, pitch, yaw of Σ over its harmonics (2πkf)² |A| (rad/s²).
+  double PeakAngularAcceleration(const VectorXd& x) const;
   /// Simulates the field of x (if feasible) and scores it. index/phase are left to the caller.
   FieldEvaluation Evaluate(const VectorXd& x, int threads) const;
   /// The rewritten scene file with x's amplitudes and phases written in (17 digits): a plate
   /// scene that `vinci field` and `vinci simulate` run as is.
   std::string SceneYaml(const VectorXd& x) const;
-  /// Amplitude and phase of every spec DOF (fixed ones included) for x: {dof, A, φ}.
+  /// Amplitude and phase of every spec harmonic (fixed ones included) for x, in the spec's order:
+  /// {dof, order k, index within the DOF's harmonics, A, φ}.
   struct DofValue {
     std::string dof;
+    int order = 1, index = 0;
     double amplitude = 0.0, phase = 0.0;
   };
   std::vector<DofValue> DofValues(const VectorXd& x) const;
   /// The free variables of the plate motion in the scene file `path` (e.g. a previous
   /// DIR/best.yaml): its plate (the body of this problem's plate name) must move in the spec's
-  /// family — every spec DOF one sinusoid at the base frequency, no velocity, no other DOF, no
-  /// tilt — with the fixed amplitudes and phases equal to the spec's and the free ones within
+  /// family — every spec DOF the spec's harmonics (orders, in order), no velocity, no other DOF,
+  /// no tilt — with the fixed amplitudes and phases equal to the spec's and the free ones within
   /// their bounds. Throws std::invalid_argument naming the file and what differs.
   VectorXd ParametersFromScene(const std::string& path) const;
 
@@ -105,7 +117,8 @@ class FieldDesignProblem {
   sim::FieldSpec field_spec_;
   std::vector<Vector2d> target_;
   std::vector<std::string> names_;
-  std::vector<int> indices_;  ///< into the scene's ParamTable
+  std::vector<int> indices_;         ///< into the scene's ParamTable
+  std::vector<int> harmonic_index_;  ///< per spec.dofs entry: its index in the DOF's harmonics
   VectorXd lower_, upper_;
   sim::Params defaults_;
 };

@@ -1,6 +1,7 @@
 // The field-design spec (docs/planning.md): a plate scene, a target velocity field on a grid, the
-// plate-motion parametrization searched (one sinusoid per DOF at the base frequency, amplitude and
-// phase bounds) and its actuator limit, the simulation length and the search budget.
+// plate-motion parametrization searched (per DOF one sinusoid at the base frequency, or several
+// harmonics of it, amplitude and phase bounds) and its actuator limit, the simulation length and
+// the search budget.
 //
 // Errors are std::invalid_argument as "file:line: field: expected ..., got ...".
 #pragma once
@@ -22,9 +23,21 @@ using Eigen::VectorXd;
 ///   whirlpool v = s ẑ × r / R  (counter-clockwise; `clockwise: true` flips it)
 ///   circle    v = s (t̂ + (R − ρ)/R r̂), t̂ = ẑ × r̂: around the circle of radius R, drawn onto it
 ///   saddle    v = s ((r·d) d − (r·n) n) / R: repelling along d, attracting along n
+///   line_sink v = −s (r·n) n / R: drawn onto the line through the centre along d
+///   shear     v = s (r·n) d / R: along d, growing with the signed distance from that line
 ///   conveyor  v = s d (uniform)
 ///   csv       the velocities of a CSV file, one row per grid point.
-enum class TargetType { kSink, kSource, kWhirlpool, kCircle, kSaddle, kConveyor, kCsv };
+enum class TargetType {
+  kSink,
+  kSource,
+  kWhirlpool,
+  kCircle,
+  kSaddle,
+  kLineSink,
+  kShear,
+  kConveyor,
+  kCsv
+};
 
 struct FieldTarget {
   TargetType type = TargetType::kConveyor;
@@ -39,10 +52,13 @@ struct FieldTarget {
   Vector2d At(const Vector2d& p) const;
 };
 
-/// One searched plate DOF: A sin(2π f t + φ), A ∈ [amplitude_lo, amplitude_hi] (m or rad),
-/// φ ∈ [phase_lo, phase_hi] (rad). A bound with lo == hi fixes that value (not searched).
+/// One searched harmonic of a plate DOF: A sin(2π k f t + φ), k = order, A ∈ [amplitude_lo,
+/// amplitude_hi] (m or rad), φ ∈ [phase_lo, phase_hi] (rad). A bound with lo == hi fixes that
+/// value (not searched). A DOF with several harmonics has one DofRange per harmonic, consecutive,
+/// orders strictly increasing.
 struct DofRange {
   std::string dof;  ///< x, y, z, roll, pitch, yaw
+  int order = 1;    ///< k ≥ 1: the harmonic of the base frequency
   double amplitude_lo = 0.0, amplitude_hi = 0.0;
   double phase_lo = 0.0, phase_hi = 0.0;
 };
@@ -52,10 +68,16 @@ struct FieldDesignSpec {
   std::string scene_path;  ///< the plate scene (relative paths: from the spec's folder)
   FieldTarget target;
   double frequency = 0.0;      ///< base frequency f (Hz)
-  std::vector<DofRange> dofs;  ///< in the scene file's DOF order
-  /// Actuator limit (m/s²): the peak normal acceleration of the plate over the grid,
-  /// (2πf)² (|A_z| + |A_roll| max|y| + |A_pitch| max|x|), must stay below it. ∞: no limit.
+  std::vector<DofRange> dofs;  ///< in the scene file's DOF order, then by order
+  /// Actuator limit (m/s²): the peak normal acceleration of the plate over the grid, bounded by
+  /// Σ_harmonics (2πkf)² (|A_z| + |A_roll| max|y| + |A_pitch| max|x|), must stay below it.
+  /// ∞: no limit.
   double max_vertical_acceleration = std::numeric_limits<double>::infinity();
+  /// Actuator limits of the horizontal translations (m/s²) and of the rotations (rad/s²): for each
+  /// of x, y (linear) and roll, pitch, yaw (angular) the bound Σ_harmonics (2πkf)² |A| of its
+  /// peak acceleration must stay below it. ∞: no limit.
+  double max_linear_acceleration = std::numeric_limits<double>::infinity();
+  double max_angular_acceleration = std::numeric_limits<double>::infinity();
   double x_min = 0.0, x_max = 0.0, y_min = 0.0, y_max = 0.0;  ///< grid extent (m)
   int nx = 11, ny = 11;
   int cycles = 20;         ///< simulated cycles per grid point
