@@ -1,7 +1,8 @@
 // A plain driver for profilers (perf, callgrind): a resting k-box stack (or the 100-box pile of
 // vinci_vs_mujoco), settled, then N timed steps; prints CPU µs per step, contacts, LCP size and
 // Lemke pivots per step and operator-new allocations per step (Eigen's own malloc calls are not
-// counted: callgrind's call counts of malloc have those). No benchmark framework, so a profile shows only the simulator.
+// counted: callgrind's call counts of malloc have those). No benchmark framework, so a profile
+// shows only the simulator.
 //
 //   step_profile [--k K | --pile] [--settle N] [--steps N]
 //   valgrind --tool=callgrind --toggle-collect='vinci::sim::StewartTrinkle::Step*'
