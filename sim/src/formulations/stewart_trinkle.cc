@@ -579,8 +579,9 @@ void StewartTrinkle::Step(const Scene& model, const State& x, const StepInput& u
   JointElimination joints;
   const VectorXd v_l = first_order_ ? VectorXd::Zero(x.v.size()) : x.v;  // first order: no ν_ℓ
   VectorXd z;
-  // Warm-started Lemke on plain contacts: first the warm basis on the sparse LCP (warm_basis.h);
-  // the dense LCP is built only if that basis is not accepted (LemkeSolver repeats the test).
+  // Warm-started Lemke on plain contacts: first the guessed basis on the structured LCP operator
+  // (sparse_lcp.h, warm_basis.h); the dense LCP is built only if that basis is refused
+  // (LemkeSolver then repeats the test and pivots).
   bool solved = false;
   const auto* lemke = dynamic_cast<const LemkeSolver*>(solver_.get());
   const int m_plain = nc * (a.nd + 2);
