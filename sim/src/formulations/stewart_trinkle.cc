@@ -7,9 +7,11 @@
 #include <utility>
 #include <vector>
 
+#include "sparse_lcp.h"
 #include "step_util.h"
 #include "vinci/sim/formulations/joint.h"
 #include "vinci/sim/model/kinematics.h"
+#include "vinci/sim/solvers/lemke.h"
 
 namespace vinci::sim {
 namespace {
@@ -576,17 +578,36 @@ void StewartTrinkle::Step(const Scene& model, const State& x, const StepInput& u
   VectorXd v_star;
   JointElimination joints;
   const VectorXd v_l = first_order_ ? VectorXd::Zero(x.v.size()) : x.v;  // first order: no ν_ℓ
-  const LcpProblem lcp = BuildLcp(model, a, v_l, &v_star, &joints);
-  VectorXd z = VectorXd::Zero(lcp.size());
-  if (lcp.size() > 0) {
-    const VectorXd* warm = x.warm_start.size() == lcp.size() ? &x.warm_start : nullptr;
-    info->solver = solver_->Solve(lcp, warm, &z);
-    if (!info->solver.ok()) {
-      internal::SolverFailed("LCP solver '" + std::string(solver_->name()) + "'", info);
-      return;
+  VectorXd z;
+  // Warm-started Lemke on plain contacts: first the guessed basis on the structured LCP operator
+  // (sparse_lcp.h, warm_basis.h); the dense LCP is built only if that basis is refused
+  // (LemkeSolver then repeats the test and pivots).
+  bool solved = false;
+  const auto* lemke = dynamic_cast<const LemkeSolver*>(solver_.get());
+  const int m_plain = nc * (a.nd + 2);
+  if (lemke != nullptr && nc > 0 && x.warm_start.size() == m_plain) {
+    internal::StepScratchLease lease;
+    internal::StepScratch& s = lease.get();
+    if (s.lcp.Build(model, a, v_l, h, velocity_level_) &&
+        SolveOnWarmBasis(s.lcp, s.lcp.q(), x.warm_start, lemke->options(), &s.basis, &z,
+                         &info->solver)) {
+      v_star = s.lcp.v_star();
+      solved = true;
     }
-  } else {
-    info->solver.status = SolverStatus::kSolved;
+  }
+  if (!solved) {
+    const LcpProblem lcp = BuildLcp(model, a, v_l, &v_star, &joints);
+    z = VectorXd::Zero(lcp.size());
+    if (lcp.size() > 0) {
+      const VectorXd* warm = x.warm_start.size() == lcp.size() ? &x.warm_start : nullptr;
+      info->solver = solver_->Solve(lcp, warm, &z);
+      if (!info->solver.ok()) {
+        internal::SolverFailed("LCP solver '" + std::string(solver_->name()) + "'", info);
+        return;
+      }
+    } else {
+      info->solver.status = SolverStatus::kSolved;
+    }
   }
 
   const VectorXd v1 = VelocityAfter(a, v_star, z, joints);

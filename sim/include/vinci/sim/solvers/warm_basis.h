@@ -1,0 +1,76 @@
+// Lemke's warm-start test on a sparse LCP matrix: the step of a warm-started simulation whose
+// active set did not change costs one sparse solve with the guessed basis block, not a dense
+// m × m matrix and a scan of it.
+#pragma once
+
+#include <Eigen/SparseCore>
+#include <vector>
+
+#include "vinci/sim/solvers/lemke.h"
+
+namespace vinci::sim {
+
+/// An LCP matrix M (n × n) given by what the warm-start test needs: products, entries of
+/// principal blocks and ‖M‖∞. Lets a caller with structure (the contact LCP: M = Gᵀ W G with a
+/// block-diagonal W, plus unit entries) skip forming M.
+class LcpMatrixOperator {
+ public:
+  virtual ~LcpMatrixOperator() = default;
+  virtual int size() const = 0;
+  /// ‖M‖∞ = max_i Σ_j |M_ij| (+inf or NaN if M has a non-finite entry).
+  virtual double NormInf() const = 0;
+  /// *w = M z + q (w sized by the caller's vector; may reallocate).
+  virtual void MultiplyAdd(const Eigen::VectorXd& z, const Eigen::VectorXd& q,
+                           Eigen::VectorXd* w) const = 0;
+  /// *out = M(index, index) (|index| × |index|, dense).
+  virtual void PrincipalBlock(const std::vector<int>& index, Eigen::MatrixXd* out) const = 0;
+};
+
+/// An LcpMatrixOperator over an Eigen sparse matrix (column major); for tests and callers that
+/// have M as a sparse matrix.
+class SparseLcpMatrix final : public LcpMatrixOperator {
+ public:
+  explicit SparseLcpMatrix(const Eigen::SparseMatrix<double>& M) : M_(M) {}
+  int size() const override { return static_cast<int>(M_.rows()); }
+  double NormInf() const override;
+  void MultiplyAdd(const Eigen::VectorXd& z, const Eigen::VectorXd& q,
+                   Eigen::VectorXd* w) const override;
+  void PrincipalBlock(const std::vector<int>& index, Eigen::MatrixXd* out) const override;
+
+ private:
+  const Eigen::SparseMatrix<double>& M_;
+};
+
+/// Reusable buffers of SolveOnWarmBasis (one per thread or per rollout; they hold no state that
+/// changes a result, only allocations kept between calls).
+struct WarmBasisScratch {
+  std::vector<int> active;
+  std::vector<char> in_basis;
+  Eigen::VectorXd guess_b, rhs, z_b, w, candidate;
+  Eigen::MatrixXd m_bb;
+};
+
+/// Bases with at most this many members are solved densely, by the column-pivoted QR that
+/// LemkeSolver's warm start uses (same bits for the same M_BB); larger ones by a sparse
+/// rank-revealing QR (Eigen::SparseQR, COLAMD ordering) of M_BB.
+inline constexpr int kDenseWarmBasisMax = 32;
+
+/// LemkeSolver's first two stages (lemke.h) on LCP(M, q) with M given as an operator: the
+/// trivial solution z = 0 if q ≥ 0, else the warm start from `guess`: B = {i : guess_i > 0},
+/// z_B = guess_B + δ with M_BB δ = −(M_BB guess_B + q_B) (anchored at the guess, so a singular
+/// M_BB keeps the guessed values in its null space), accepted iff z_B ≥ −τ, w_N ≥ −τ,
+/// LcpResidual ≤ τ(z) and the scale-aware residual (lcp_acceptance.h) ≤
+/// kLcpAcceptanceTolerance, with τ(z) of `options` (lemke.h) and M's ‖M‖∞. Work: one
+/// NormInf, two products, the |B| × |B| block and its QR (dense up to kDenseWarmBasisMax,
+/// sparse above) — no pass over a dense n × n matrix.
+///
+/// Returns true with *z and *report (kSolved, 0 iterations, residual, tolerance, message as
+/// LemkeSolver's) if z = 0 or the guessed basis is accepted; false otherwise (then *z and
+/// *report are unspecified, and the caller solves the full LCP with LemkeSolver, which repeats
+/// the test and goes on to pivot). Also false if q or guess has the wrong size or a
+/// non-finite entry. Thread-safe with one scratch per thread.
+bool SolveOnWarmBasis(const LcpMatrixOperator& M, const Eigen::VectorXd& q,
+                      const Eigen::VectorXd& guess, const LemkeOptions& options,
+                      WarmBasisScratch* scratch, Eigen::VectorXd* z, SolverReport* report);
+
+}  // namespace vinci::sim

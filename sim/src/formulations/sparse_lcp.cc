@@ -1,0 +1,212 @@
+#include "sparse_lcp.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace vinci::sim {
+
+namespace internal {
+
+// One scratch per thread, leased for the duration of a step (a nested step on the same thread,
+// if any, gets its own): reused allocations only, so results do not depend on the thread.
+StepScratchLease::StepScratchLease() {
+  thread_local StepScratch per_thread;
+  thread_local bool in_use = false;
+  if (!in_use) {
+    in_use = true;
+    in_use_ = &in_use;
+    scratch_ = &per_thread;
+  } else {
+    own_ = std::make_unique<StepScratch>();
+    scratch_ = own_.get();
+  }
+}
+
+StepScratchLease::~StepScratchLease() {
+  if (in_use_) *in_use_ = false;
+}
+
+bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembly& a,
+                               const VectorXd& v, double h, bool velocity_level) {
+  if (a.psi_b.size() > 0 || !a.corner_contact.empty() || a.support.columns() > 0 ||
+      a.support.points() > 0)
+    return false;
+  a_ = &a;
+  model_ = &model;
+  nc_ = static_cast<int>(a.contacts.size());
+  nd_ = a.nd;
+  nf_ = nc_ * nd_;
+  m_ = nc_ + nf_ + nc_;
+  const int nc = nc_, nd = nd_, nf = nf_;
+  const int nvb = VelocitySize(model.dim);
+
+  v_star_ = v;
+  for (int o = 0; o < a.M_inv.rows(); o += nvb)
+    v_star_.segment(o, nvb).noalias() += a.M_inv.BlockAt(o) * a.p_ext.segment(o, nvb);
+
+  // The impulse columns touching each dynamic body, and each contact's position in them.
+  const std::size_t nbody = model.bodies.size();
+  columns_.resize(nbody);
+  blocks_.resize(nbody);
+  for (std::vector<int>& cols : columns_) cols.clear();
+  first_.assign(2 * static_cast<std::size_t>(nc), -1);
+  for (int c = 0; c < nc; ++c) {
+    const int bodies[2] = {a.contacts[c].body_a, a.contacts[c].body_b};
+    for (int side = 0; side < 2; ++side) {
+      if (model.bodies[bodies[side]].kind != BodyKind::kDynamic) continue;
+      std::vector<int>& cols = columns_[bodies[side]];
+      first_[2 * c + side] = static_cast<int>(cols.size());
+      cols.push_back(c);
+      for (int j = 0; j < nd; ++j) cols.push_back(nc + c * nd + j);
+    }
+  }
+  // G_bᵀ W_b G_b per body.
+  for (int body : model.dynamic_bodies()) {
+    const std::vector<int>& cols = columns_[body];
+    if (cols.empty()) continue;
+    const int o = model.index(body).v, k = static_cast<int>(cols.size());
+    Gb_.setZero(nvb, k);
+    for (int i = 0; i < k; ++i) {
+      const SparseMatrixd& G = cols[i] < nc ? a.G_n : a.G_f;
+      const int col = cols[i] < nc ? cols[i] : cols[i] - nc;
+      for (SparseMatrixd::InnerIterator it(G, col); it; ++it)
+        if (it.row() >= o && it.row() < o + nvb) Gb_(it.row() - o, i) = it.value();
+    }
+    WG_.noalias() = a.M_inv.BlockAt(o) * Gb_;
+    MatrixXd& B = blocks_[body];
+    B.resize(k, k);
+    // W_b is symmetric, so is the block: the lower triangle, mirrored.
+    if (nvb == 6) {
+      for (int j = 0; j < k; ++j) {
+        const Eigen::Map<const Eigen::Matrix<double, 6, 1>> wg(WG_.col(j).data());
+        for (int i = j; i < k; ++i)
+          B(j, i) = B(i, j) =
+              Eigen::Map<const Eigen::Matrix<double, 6, 1>>(Gb_.col(i).data()).dot(wg);
+      }
+    } else {
+      for (int j = 0; j < k; ++j)
+        for (int i = j; i < k; ++i) B(j, i) = B(i, j) = Gb_.col(i).dot(WG_.col(j));
+    }
+  }
+
+  // ‖M‖∞: impulse rows from the body blocks (an entry shared by two dynamic bodies — two
+  // contacts between the same pair — summed before its absolute value), plus E, U, −Eᵀ. The
+  // columns of body b come in groups of 1 + n_d (one contact's normal and friction columns).
+  const int group = 1 + nd;
+  norm_inf_ = 0.0;
+  for (int r = 0; r < nc + nf; ++r) {
+    const int c = ContactOf(r);
+    const int bodies[2] = {a.contacts[c].body_a, a.contacts[c].body_b};
+    double sum = r >= nc ? 1.0 : 0.0;  // E
+    for (int side = 0; side < 2; ++side) {
+      if (first_[2 * c + side] < 0) continue;
+      const int b = bodies[side], other = first_[2 * c + 1 - side] >= 0 ? bodies[1 - side] : -1;
+      const int p = PositionIn(r, b), p_other = other >= 0 ? PositionIn(r, other) : -1;
+      const std::vector<int>& cols = columns_[b];
+      const MatrixXd& B = blocks_[b];
+      const int groups = static_cast<int>(cols.size()) / group;
+      for (int g = 0; g < groups; ++g) {
+        const Contact& cj = a.contacts[cols[g * group]];
+        // Position of contact cj's group in the other body's columns, if it touches it.
+        int shared = -1;
+        if (other >= 0) {
+          if (cj.body_a == other) shared = first_[2 * cols[g * group] + 0];
+          if (cj.body_b == other) shared = first_[2 * cols[g * group] + 1];
+        }
+        if (shared >= 0 && side == 1) continue;  // summed at side 0
+        for (int t = 0; t < group; ++t) {
+          const int jj = g * group + t;
+          double value = B(p, jj);
+          if (shared >= 0) value += blocks_[other](p_other, shared + t);
+          if (cols[jj] == r && r < nc && a.compliance[r].compliant)
+            value += a.compliance[r].vel_diagonal;
+          sum += std::abs(value);
+        }
+      }
+    }
+    norm_inf_ = std::max(norm_inf_, sum);
+    if (std::isnan(sum)) norm_inf_ = sum;
+  }
+  for (int c = 0; c < nc; ++c) norm_inf_ = std::max(norm_inf_, std::abs(a.mu[c]) + nd);  // σ rows
+
+  // q as BuildLcp.
+  q_.setZero(m_);
+  q_.head(nc).noalias() = a.G_n.transpose() * v_star_;
+  q_.head(nc) += a.dpsi_n;
+  if (!velocity_level) q_.head(nc) += a.psi_n / h;
+  for (int c = 0; c < nc; ++c) {
+    const CompliantNormalRow& law = a.compliance[c];
+    if (!law.compliant) continue;
+    q_[c] = a.G_n.col(c).dot(v_star_) + a.dpsi_n[c] + law.vel_psi * a.psi_n[c] + law.vel_constant;
+  }
+  q_.segment(nc, nf).noalias() = a.G_f.transpose() * v_star_;
+  q_.segment(nc, nf) += a.dpsi_f;
+  return true;
+}
+
+int ContactLcpOperator::PositionIn(int col, int body) const {
+  const int c = ContactOf(col);
+  const Contact& ct = a_->contacts[c];
+  const int side = ct.body_a == body ? 0 : (ct.body_b == body ? 1 : -1);
+  if (side < 0 || first_[2 * c + side] < 0) return -1;
+  return first_[2 * c + side] + (col < nc_ ? 0 : 1 + (col - nc_) % nd_);
+}
+
+double ContactLcpOperator::ImpulseEntry(int i, int j) const {
+  const int c = ContactOf(i);
+  const Contact& ct = a_->contacts[c];
+  double value = 0.0;
+  for (int body : {ct.body_a, ct.body_b}) {
+    const int pi = PositionIn(i, body);
+    if (pi < 0) continue;
+    const int pj = PositionIn(j, body);
+    if (pj >= 0) value += blocks_[body](pi, pj);
+  }
+  if (i == j && i < nc_ && a_->compliance[i].compliant) value += a_->compliance[i].vel_diagonal;
+  return value;
+}
+
+double ContactLcpOperator::Entry(int i, int j) const {
+  const int s0 = nc_ + nf_;  // first σ row
+  if (i < s0 && j < s0) return ImpulseEntry(i, j);
+  if (i < s0) {  // column σ_c: E in the friction rows of contact c
+    return i >= nc_ && (i - nc_) / nd_ == j - s0 ? 1.0 : 0.0;
+  }
+  const int c = i - s0;  // row σ_c: U and −Eᵀ
+  if (j == c) return a_->mu[c];
+  if (j >= nc_ && j < s0 && (j - nc_) / nd_ == c) return -1.0;
+  return 0.0;
+}
+
+void ContactLcpOperator::MultiplyAdd(const VectorXd& z, const VectorXd& q, VectorXd* w) const {
+  const StewartTrinkle::Assembly& a = *a_;
+  const int nc = nc_, nd = nd_, nf = nf_, s0 = nc + nf;
+  const int nvb = a.M_inv.block_size();
+  impulse_.noalias() = a.G_n * z.head(nc);
+  impulse_.noalias() += a.G_f * z.segment(nc, nf);
+  dv_.resize(impulse_.size());
+  for (int o = 0; o < a.M_inv.rows(); o += nvb)
+    dv_.segment(o, nvb).noalias() = a.M_inv.BlockAt(o) * impulse_.segment(o, nvb);
+  *w = q;
+  w->head(nc).noalias() += a.G_n.transpose() * dv_;
+  w->segment(nc, nf).noalias() += a.G_f.transpose() * dv_;
+  for (int c = 0; c < nc; ++c) {
+    if (a.compliance[c].compliant) (*w)[c] += a.compliance[c].vel_diagonal * z[c];
+    double sum_f = 0.0;
+    for (int j = 0; j < nd; ++j) {
+      (*w)[nc + c * nd + j] += z[s0 + c];
+      sum_f += z[nc + c * nd + j];
+    }
+    (*w)[s0 + c] += a.mu[c] * z[c] - sum_f;
+  }
+}
+
+void ContactLcpOperator::PrincipalBlock(const std::vector<int>& index, MatrixXd* out) const {
+  const int k = static_cast<int>(index.size());
+  out->resize(k, k);
+  for (int b = 0; b < k; ++b)
+    for (int r = 0; r < k; ++r) (*out)(r, b) = Entry(index[r], index[b]);
+}
+
+}  // namespace internal
+}  // namespace vinci::sim

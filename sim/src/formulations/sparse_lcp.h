@@ -1,0 +1,79 @@
+// The Stewart–Trinkle step LCP as a structured operator (internal header): for warm-started
+// steps whose guessed basis is accepted (solvers/warm_basis.h), so that a step whose active set
+// did not change never forms the dense m × m LCP matrix. Work O(Σ_b k_b²) (k_b: LCP impulse
+// columns touching body b) instead of O(m²).
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include "vinci/sim/formulations/formulation.h"
+#include "vinci/sim/formulations/stewart_trinkle.h"
+#include "vinci/sim/solvers/warm_basis.h"
+
+namespace vinci::sim::internal {
+
+/// StewartTrinkle::BuildLcp's M for an assembly without joints, corner contacts or support
+/// points, z = [p_n; p_f; σ]:
+///
+///   M = [G_nᵀ W G_n + D_c, G_nᵀ W G_f, 0; G_fᵀ W G_n, G_fᵀ W G_f, E; U, −Eᵀ, 0],
+///
+/// W = M⁻¹ (block diagonal), D_c the compliant pairs' diagonals (compliance.h). Kept as the
+/// Jacobians and one dense block G_bᵀ W_b G_b per body over the impulse columns touching it.
+class ContactLcpOperator final : public LcpMatrixOperator {
+ public:
+  /// Builds M, q and ν* = v + W p_ext. Returns false (nothing built) for an assembly with
+  /// joints, corner contacts or support points. h and velocity_level as the stepper's
+  /// (Anitescu–Potra: no ψ_n/h in q). `a` must outlive the operator's use.
+  bool Build(const Scene& model, const StewartTrinkle::Assembly& a, const VectorXd& v, double h,
+             bool velocity_level);
+  const VectorXd& q() const { return q_; }
+  const VectorXd& v_star() const { return v_star_; }
+
+  int size() const override { return m_; }
+  double NormInf() const override { return norm_inf_; }
+  void MultiplyAdd(const VectorXd& z, const VectorXd& q, VectorXd* w) const override;
+  void PrincipalBlock(const std::vector<int>& index, MatrixXd* out) const override;
+  /// M_ij.
+  double Entry(int i, int j) const;
+
+ private:
+  int ContactOf(int col) const { return col < nc_ ? col : (col - nc_) / nd_; }
+  // Position of impulse column `col` in body's column list, −1 if it does not touch `body`.
+  int PositionIn(int col, int body) const;
+  double ImpulseEntry(int i, int j) const;
+
+  const StewartTrinkle::Assembly* a_ = nullptr;
+  const Scene* model_ = nullptr;
+  int nc_ = 0, nd_ = 0, nf_ = 0, m_ = 0;
+  double norm_inf_ = 0.0;
+  VectorXd q_, v_star_;
+  std::vector<std::vector<int>> columns_;  // per body: the impulse columns touching it
+  std::vector<MatrixXd> blocks_;           // per body: G_bᵀ W_b G_b over columns_[body]
+  std::vector<int> first_;                 // per contact and side: its normal's position
+  MatrixXd Gb_, WG_;
+  mutable VectorXd impulse_, dv_;
+};
+
+/// Buffers kept between steps.
+struct StepScratch {
+  ContactLcpOperator lcp;
+  WarmBasisScratch basis;
+};
+
+/// The calling thread's StepScratch for the lifetime of the lease.
+class StepScratchLease {
+ public:
+  StepScratchLease();
+  ~StepScratchLease();
+  StepScratchLease(const StepScratchLease&) = delete;
+  StepScratchLease& operator=(const StepScratchLease&) = delete;
+  StepScratch& get() { return *scratch_; }
+
+ private:
+  StepScratch* scratch_ = nullptr;
+  bool* in_use_ = nullptr;
+  std::unique_ptr<StepScratch> own_;
+};
+
+}  // namespace vinci::sim::internal

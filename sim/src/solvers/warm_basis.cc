@@ -1,0 +1,142 @@
+#include "vinci/sim/solvers/warm_basis.h"
+
+#include <Eigen/OrderingMethods>
+#include <Eigen/QR>
+#include <Eigen/SparseQR>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+#include "vinci/sim/solvers/lcp_acceptance.h"
+
+namespace vinci::sim {
+namespace {
+
+// As lemke.cc: the cap of the ‖M‖∞‖z‖∞ term of the acceptance scale, relative to max(1, ‖q‖∞).
+constexpr double kMaxAcceptanceGrowth = 1e3;
+
+double Tolerance(double rtol, double q_norm, double m_norm, const Eigen::VectorXd& z) {
+  const double z_norm = z.size() > 0 ? z.lpNorm<Eigen::Infinity>() : 0.0;
+  const double base = std::max(1.0, q_norm);
+  return rtol * std::max(base, std::min(m_norm * z_norm, kMaxAcceptanceGrowth * base));
+}
+
+}  // namespace
+
+double SparseLcpMatrix::NormInf() const {
+  Eigen::VectorXd row_sum = Eigen::VectorXd::Zero(M_.rows());
+  for (Eigen::Index j = 0; j < M_.outerSize(); ++j)
+    for (Eigen::SparseMatrix<double>::InnerIterator it(M_, j); it; ++it)
+      row_sum(it.row()) += std::abs(it.value());
+  return M_.rows() > 0 ? row_sum.maxCoeff() : 0.0;
+}
+
+void SparseLcpMatrix::MultiplyAdd(const Eigen::VectorXd& z, const Eigen::VectorXd& q,
+                                  Eigen::VectorXd* w) const {
+  *w = q;
+  for (Eigen::Index j = 0; j < z.size(); ++j) {
+    const double zj = z(j);
+    if (zj == 0.0) continue;
+    for (Eigen::SparseMatrix<double>::InnerIterator it(M_, j); it; ++it)
+      (*w)(it.row()) += zj * it.value();
+  }
+}
+
+void SparseLcpMatrix::PrincipalBlock(const std::vector<int>& index, Eigen::MatrixXd* out) const {
+  const int k = static_cast<int>(index.size());
+  std::vector<int> position(M_.rows(), -1);
+  for (int a = 0; a < k; ++a) position[index[a]] = a;
+  out->setZero(k, k);
+  for (int a = 0; a < k; ++a)
+    for (Eigen::SparseMatrix<double>::InnerIterator it(M_, index[a]); it; ++it)
+      if (const int r = position[it.row()]; r >= 0) (*out)(r, a) = it.value();
+}
+
+bool SolveOnWarmBasis(const LcpMatrixOperator& M, const Eigen::VectorXd& q,
+                      const Eigen::VectorXd& guess, const LemkeOptions& options,
+                      WarmBasisScratch* s, Eigen::VectorXd* z, SolverReport* report) {
+  const auto start = std::chrono::steady_clock::now();
+  const Eigen::Index n = q.size();
+  if (M.size() != n || guess.size() != n || !q.allFinite() || !guess.allFinite()) return false;
+  auto solved = [&](double residual, double tolerance, const char* message) {
+    *report = SolverReport{};
+    report->status = SolverStatus::kSolved;
+    report->residual = residual;
+    report->tolerance = tolerance;
+    report->message = message;
+    report->time_s =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return true;
+  };
+  const double m_norm = M.NormInf();
+  if (!std::isfinite(m_norm)) return false;  // the dense solver reports it
+  if (n == 0 || q.minCoeff() >= 0.0) {       // LemkeSolver's trivial solution
+    z->setZero(n);
+    return solved(0.0, options.residual_tolerance, "");
+  }
+  const double q_norm = q.lpNorm<Eigen::Infinity>();
+
+  // The guessed basis and M_BB.
+  s->active.clear();
+  s->in_basis.assign(n, 0);
+  for (Eigen::Index i = 0; i < n; ++i)
+    if (guess(i) > 0.0) {
+      s->in_basis[i] = 1;
+      s->active.push_back(static_cast<int>(i));
+    }
+  const int nb = static_cast<int>(s->active.size());
+  if (nb == 0) return false;
+  s->guess_b.resize(nb);
+  s->rhs.resize(nb);
+  for (int a = 0; a < nb; ++a) {
+    s->guess_b(a) = guess(s->active[a]);
+    s->rhs(a) = q(s->active[a]);
+  }
+  M.PrincipalBlock(s->active, &s->m_bb);
+  s->rhs = -(s->m_bb * s->guess_b + s->rhs);
+  if (nb <= kDenseWarmBasisMax) {
+    // As LemkeSolver: column-pivoted Householder QR of the dense M_BB.
+    const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(s->m_bb);
+    s->z_b = s->guess_b + qr.solve(s->rhs);
+  } else {
+    const Eigen::SparseMatrix<double> s_bb = s->m_bb.sparseView();
+    Eigen::SparseQR<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>> qr;
+    qr.compute(s_bb);
+    if (qr.info() != Eigen::Success) return false;
+    s->z_b = qr.solve(s->rhs);
+    if (qr.info() != Eigen::Success) return false;
+    s->z_b += s->guess_b;
+  }
+  if (!s->z_b.allFinite()) return false;
+  const double tolerance = Tolerance(options.residual_tolerance, q_norm, m_norm, s->z_b);
+  if (s->z_b.minCoeff() < -tolerance) return false;
+  s->candidate.setZero(n);
+  for (int a = 0; a < nb; ++a) s->candidate(s->active[a]) = s->z_b(a);
+  M.MultiplyAdd(s->candidate, q, &s->w);
+  for (Eigen::Index i = 0; i < n; ++i)
+    if (!s->in_basis[i] && s->w(i) < -tolerance) return false;
+  if (s->candidate.minCoeff() < 0.0) {
+    s->candidate = s->candidate.cwiseMax(0.0);
+    M.MultiplyAdd(s->candidate, q, &s->w);
+  }
+  // LcpResidual and the scale-aware residual (lcp_acceptance.h), from this w.
+  double residual = 0.0;
+  for (Eigen::Index i = 0; i < n; ++i)
+    residual = std::max(residual, std::abs(std::min(s->candidate(i), s->w(i))));
+  const double tau = Tolerance(options.residual_tolerance, q_norm, m_norm, s->candidate);
+  if (!(residual <= tau) || !s->w.allFinite()) return false;
+  const double z_norm = s->candidate.lpNorm<Eigen::Infinity>();
+  const double s_w = std::max(q_norm, m_norm * z_norm);
+  const double s_z = std::max(z_norm, m_norm > 0.0 ? q_norm / m_norm : 0.0);
+  if (!std::isfinite(s_w) || !std::isfinite(s_z)) return false;
+  const auto ratio = [](double x, double scale) { return scale > 0.0 ? x / scale : 0.0; };
+  double scaled = 0.0;
+  for (Eigen::Index i = 0; i < n; ++i)
+    scaled = std::max(scaled, std::abs(std::min(ratio(s->candidate(i), s_z), ratio(s->w(i), s_w))));
+  if (!(scaled <= kLcpAcceptanceTolerance)) return false;
+  z->swap(s->candidate);
+  return solved(residual, tau, "accepted the warm-start basis");
+}
+
+}  // namespace vinci::sim

@@ -1,0 +1,191 @@
+// The sparse warm-basis solve (solvers/warm_basis.h) against LemkeSolver's own warm start, and
+// the Stewart–Trinkle step's structured fast path against the dense LCP (issue 16).
+#include "vinci/sim/solvers/warm_basis.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <memory>
+#include <random>
+#include <string>
+#include <utility>
+
+#include "test_util.h"
+#include "vinci/sim/formulations/stewart_trinkle.h"
+#include "vinci/sim/model/scene_file.h"
+#include "vinci/sim/simulator/simulator.h"
+#include "vinci/sim/solvers/lemke.h"
+
+namespace vinci::sim {
+namespace {
+
+using testing::LoadExample;
+
+// A random contact-like LCP: M = [AᵀA, E; −Eᵀ-ish] is replaced by a PSD-plus-skew matrix with a
+// sparse pattern (the warm-start test does not need M's origin).
+LcpProblem RandomLcp(int n, std::mt19937* rng) {
+  std::normal_distribution<double> g;
+  MatrixXd A = MatrixXd::Zero(n, n);
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j)
+      if (std::abs(i - j) <= 2) A(i, j) = g(*rng);
+  MatrixXd S = MatrixXd::Zero(n, n);
+  for (int i = 0; i + 1 < n; ++i) {
+    const double s = g(*rng);
+    S(i, i + 1) = s;
+    S(i + 1, i) = -s;
+  }
+  LcpProblem p;
+  p.M = A.transpose() * A + S + 0.1 * MatrixXd::Identity(n, n);
+  p.q = VectorXd::NullaryExpr(n, [&]() { return g(*rng); });
+  return p;
+}
+
+// Sizes below and above kDenseWarmBasisMax: the solution that Lemke found cold is accepted
+// from the sparse operator with the same z as LemkeSolver's own warm start (0 pivots).
+TEST(WarmBasisTest, AcceptsLemkeSolutionAsLemkeWarmStartDoes) {
+  std::mt19937 rng(7);
+  const LemkeSolver lemke;
+  int checked = 0, above_dense = 0;
+  for (int n : {6, 20, 60, 120}) {
+    for (int trial = 0; trial < 5; ++trial) {
+      const LcpProblem p = RandomLcp(n, &rng);
+      VectorXd z_cold;
+      ASSERT_TRUE(lemke.Solve(p, nullptr, &z_cold).ok());
+      VectorXd z_lemke;
+      const SolverReport warm = lemke.Solve(p, &z_cold, &z_lemke);
+      ASSERT_TRUE(warm.ok());
+      ASSERT_EQ(warm.iterations, 0);
+      const Eigen::SparseMatrix<double> Ms = p.M.sparseView();
+      const SparseLcpMatrix op(Ms);
+      WarmBasisScratch scratch;
+      VectorXd z;
+      SolverReport report;
+      ASSERT_TRUE(SolveOnWarmBasis(op, p.q, z_cold, lemke.options(), &scratch, &z, &report))
+          << "n = " << n << " trial " << trial;
+      EXPECT_EQ(report.status, SolverStatus::kSolved);
+      EXPECT_EQ(report.iterations, 0);
+      EXPECT_LE(report.residual, report.tolerance);
+      EXPECT_LE(LcpResidual(p, z), warm.tolerance);
+      // Same basis, same z up to the solve's roundoff.
+      EXPECT_LE((z - z_lemke).lpNorm<Eigen::Infinity>(), 1e-10 * (1.0 + z_lemke.norm()));
+      if ((z_cold.array() > 0.0).count() > kDenseWarmBasisMax) ++above_dense;
+      ++checked;
+    }
+  }
+  EXPECT_EQ(checked, 20);
+  EXPECT_GT(above_dense, 0);  // the sparse QR branch ran
+}
+
+// A guess whose basis is not feasible for the problem is refused (the caller then pivots), and
+// q ≥ 0 gives z = 0 as Lemke's trivial stage does.
+TEST(WarmBasisTest, RefusesInfeasibleBasisAndSolvesTrivialProblem) {
+  // M = I, q = (−1, 1): the solution is z = (1, 0). Guess basis {1} gives z_1 = −1 < 0.
+  MatrixXd M = MatrixXd::Identity(2, 2);
+  const Eigen::SparseMatrix<double> Ms = M.sparseView();
+  const SparseLcpMatrix op(Ms);
+  WarmBasisScratch scratch;
+  VectorXd z;
+  SolverReport report;
+  const LemkeOptions options;
+  EXPECT_FALSE(SolveOnWarmBasis(op, Eigen::Vector2d(-1.0, 1.0), Eigen::Vector2d(0.0, 1.0), options,
+                                &scratch, &z, &report));
+  // Basis {0} (w_1 = 1 ≥ 0): accepted, z = (1, 0).
+  ASSERT_TRUE(SolveOnWarmBasis(op, Eigen::Vector2d(-1.0, 1.0), Eigen::Vector2d(0.5, 0.0), options,
+                               &scratch, &z, &report));
+  EXPECT_DOUBLE_EQ(z[0], 1.0);
+  EXPECT_EQ(z[1], 0.0);
+  // An empty guess and q ≥ 0: z = 0.
+  ASSERT_TRUE(SolveOnWarmBasis(op, Eigen::Vector2d(2.0, 1.0), Eigen::Vector2d(0.0, 0.0), options,
+                               &scratch, &z, &report));
+  EXPECT_EQ(z, Eigen::Vector2d::Zero());
+  // Wrong sizes or a non-finite guess: refused.
+  EXPECT_FALSE(SolveOnWarmBasis(op, Eigen::Vector3d(-1.0, 1.0, 0.0), Eigen::Vector3d(1, 0, 0),
+                                options, &scratch, &z, &report));
+  EXPECT_FALSE(SolveOnWarmBasis(op, Eigen::Vector2d(-1.0, 1.0), Eigen::Vector2d(std::nan(""), 0.0),
+                                options, &scratch, &z, &report));
+}
+
+// An LCP solver that forwards to Lemke under another type: the Stewart–Trinkle step then
+// always builds the dense LCP (its structured path is for LemkeSolver only).
+class DenseLemke final : public LcpSolver {
+ public:
+  std::string_view name() const override { return "lemke"; }
+  SolverReport Solve(const LcpProblem& problem, const VectorXd* warm_start,
+                     VectorXd* z) const override {
+    return lemke_.Solve(problem, warm_start, z);
+  }
+
+ private:
+  LemkeSolver lemke_;
+};
+
+// The example scene with its default parameters applied (what Simulator::Step hands a
+// formulation).
+Scene Resolved(const std::string& file) {
+  const Scene scene = LoadExample(file);
+  return scene.ApplyParams(scene.DefaultParams());
+}
+
+// Runs `steps` steps of `model` with the structured path (LemkeSolver) and with the dense LCP
+// (DenseLemke) side by side from the same state each step; returns the largest velocity
+// difference and counts the steps the structured path took with zero pivots.
+double CompareStructuredWithDense(const Scene& model, StepperOptions options, int steps,
+                                  int* zero_pivot_steps) {
+  const StewartTrinkle fast(options, std::make_shared<LemkeSolver>());
+  const StewartTrinkle dense(options, std::make_shared<DenseLemke>());
+  State x = Simulator(model).InitialState();
+  Workspace ws_fast, ws_dense;
+  double worst = 0.0;
+  *zero_pivot_steps = 0;
+  for (int k = 0; k < steps; ++k) {
+    State a, b;
+    StepInfo ia, ib;
+    fast.Step(model, x, StepInput{}, &ws_fast, &a, &ia);
+    dense.Step(model, x, StepInput{}, &ws_dense, &b, &ib);
+    EXPECT_TRUE(ia.ok) << ia.failure;
+    EXPECT_TRUE(ib.ok) << ib.failure;
+    if (!ia.ok || !ib.ok) return 1e300;
+    worst = std::max(worst, (a.v - b.v).lpNorm<Eigen::Infinity>());
+    EXPECT_EQ(a.warm_start.size(), b.warm_start.size());
+    if (ia.solver.iterations == 0) ++*zero_pivot_steps;
+    x = std::move(b);  // continue from the dense trajectory
+  }
+  return worst;
+}
+
+// The 10-box stack (40 contacts, 4 directions) settling and resting: the structured path gives
+// the dense LCP's velocities to solver tolerance, and the resting steps take no pivots.
+TEST(StructuredStepTest, BoxStackMatchesDenseLcp) {
+  const Scene model = Resolved("box_stack.yaml");
+  int zero = 0;
+  const double worst = CompareStructuredWithDense(model, model.options, 300, &zero);
+  EXPECT_LT(worst, 1e-9);
+  EXPECT_GT(zero, 250);
+}
+
+// Sliding (σ and friction columns basic, the E and U entries), Anitescu–Potra, first order and
+// a compliant pair (the compliance diagonal).
+TEST(StructuredStepTest, SlidingVariantsAndComplianceMatchDenseLcp) {
+  struct Case {
+    std::string file;
+    FormulationType formulation;
+    int steps;
+  };
+  for (const Case& c :
+       {Case{"block_sliding.yaml", FormulationType::kStewartTrinkle, 400},
+        Case{"block_sliding.yaml", FormulationType::kAnitescuPotra, 400},
+        Case{"first_order_push.yaml", FormulationType::kFirstOrder, 200},
+        Case{"disc_on_compliant_plane.yaml", FormulationType::kStewartTrinkle, 2000}}) {
+    const Scene model = Resolved(c.file);
+    StepperOptions options = model.options;
+    options.formulation = c.formulation;
+    int zero = 0;
+    const double worst = CompareStructuredWithDense(model, options, c.steps, &zero);
+    EXPECT_LT(worst, 1e-9) << c.file;
+    EXPECT_GT(zero, c.steps / 2) << c.file;
+  }
+}
+
+}  // namespace
+}  // namespace vinci::sim
