@@ -149,6 +149,33 @@ TEST(PlanTest, ConveyorPrimitivesMoveThePartTheirWay) {
   EXPECT_TRUE(off.left_plate);
 }
 
+// The tripod part of the angle example (examples/plan/angle.yaml): three contacts give the
+// friction a moment about the vertical, so in the whirlpool (tangential velocity ∝ r, a rigid
+// rotation field about the plate centre) the part turns with the field — its yaw changes by about
+// the angle its position turns about the centre, with the whirlpool's sense — while a conveyor
+// (uniform field) translates it without turning it.
+TEST(PlanTest, TripodTurnsWithTheWhirlpoolNotOnAConveyor) {
+  const PlanProblem problem(LoadPlanSpec(kDir + "/angle.yaml"));
+  ASSERT_EQ(problem.num_primitives(), 6);
+  sim::Workspace ws;
+  const PartPoses start = {{0.04, 0.0, 0.3}};
+  for (int i = 0; i < 4; ++i) {
+    const Propagation p = problem.Propagate(start, i, 4, &ws);
+    ASSERT_TRUE(p.valid) << i << ": " << p.failure;
+    EXPECT_GT(std::hypot(p.poses[0].x - 0.04, p.poses[0].y), 2e-3) << i;
+    EXPECT_NEAR(p.poses[0].theta, 0.3, 1e-3) << i;
+  }
+  for (int i : {4, 5}) {  // ccw, cw
+    const Propagation p = problem.Propagate(start, i, 6, &ws);
+    ASSERT_TRUE(p.valid) << i << ": " << p.failure;
+    const double turned = p.poses[0].theta - 0.3;
+    const double orbit = std::atan2(p.poses[0].y, p.poses[0].x);
+    EXPECT_GT(std::abs(orbit), 0.1) << i;
+    EXPECT_EQ(orbit > 0, i == 4) << i;
+    EXPECT_NEAR(turned, orbit, 0.2 * std::abs(orbit)) << i;
+  }
+}
+
 TEST(PlanTest, ApproximateSolutionIsNeverSolved) {
   ompl::msg::setLogLevel(ompl::msg::LOG_ERROR);
   ASSERT_TRUE(kSeeded);
