@@ -176,6 +176,29 @@ TEST(PlanTest, TripodTurnsWithTheWhirlpoolNotOnAConveyor) {
   }
 }
 
+// An angle goal end to end (examples/plan/angle.yaml): the part must turn by 0.6 rad, which only
+// the whirlpools do, so a solved plan uses one, and its re-simulation ends within both the
+// position and the angle tolerance (the 20-run rate is in tests/planning_slow).
+TEST(PlanTest, AngleGoalPlanTurnsThePartIntoItsTolerance) {
+  ompl::msg::setLogLevel(ompl::msg::LOG_ERROR);
+  ASSERT_TRUE(kSeeded);
+  const PlanProblem problem(LoadPlanSpec(kDir + "/angle.yaml"));
+  const PartGoal& goal = problem.spec().goals[0];
+  ASSERT_TRUE(goal.has_angle);
+  PlanRunOptions o;
+  o.planner = PlannerType::kRrt;
+  o.time_limit = 300.0;
+  o.max_propagations = 3000;
+  const PlanResult r = RunPlan(problem, o);
+  ASSERT_TRUE(r.solved) << r.attempts.front().planner_status;
+  EXPECT_LE(r.final_position_errors[0], goal.tolerance);
+  EXPECT_LE(r.final_angle_errors[0], goal.angle_tolerance);
+  EXPECT_GT(std::abs(problem.StartPoses()[0].theta - goal.angle), 5 * goal.angle_tolerance);
+  bool turned = false;
+  for (const PlanStep& s : r.steps) turned = turned || s.primitive >= 4;  // ccw, cw
+  EXPECT_TRUE(turned);
+}
+
 TEST(PlanTest, ApproximateSolutionIsNeverSolved) {
   ompl::msg::setLogLevel(ompl::msg::LOG_ERROR);
   ASSERT_TRUE(kSeeded);
