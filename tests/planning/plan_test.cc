@@ -87,6 +87,15 @@ TEST(PlanSpecTest, BadSpecsRejectedWithFileAndLine) {
       << e;
   EXPECT_NE(Error("scene: plate_one_part.yaml\n").find("bad.yaml:1: plate_extent: expected"),
             std::string::npos);
+  // Not YAML at all: the line of the syntax error.
+  EXPECT_NE(Error(good + "seed: [1,\n").find("bad.yaml:15: (document): expected YAML"),
+            std::string::npos)
+      << Error(good + "seed: [1,\n");
+  // An angle tolerance without an angle.
+  EXPECT_NE(Error(Spec("{part: {position: [0.02, 0.0], angle_tolerance: 0.1}}"))
+                .find("bad.yaml:13: goal.part.angle_tolerance: expected an angle_tolerance only "
+                      "with an angle"),
+            std::string::npos);
 }
 
 PlanProblem Problem(const std::string& goal, const std::string& extra = "") {
