@@ -166,7 +166,15 @@ ExitCode RunPlanCommand(const PlanOptions& o) {
               << " steps, " << r.attempts.size() << " planner calls, " << r.solve_time_s
               << " s); final position errors";
     for (double e : r.final_position_errors) std::cerr << " " << e;
-    std::cerr << " m; wrote " << o.out << " and " << trajectory << "\n";
+    std::cerr << " m";
+    bool angles = false;
+    for (const planning::PartGoal& g : spec.goals) angles = angles || g.has_angle;
+    if (angles) {
+      std::cerr << ", angle errors";
+      for (double e : r.final_angle_errors) std::cerr << " " << e;
+      std::cerr << " rad";
+    }
+    std::cerr << "; wrote " << o.out << " and " << trajectory << "\n";
   }
   return r.solved ? ExitCode::kOk : ExitCode::kSolveFailed;
 }

@@ -20,6 +20,7 @@ const std::vector<std::string> kDofs = {"x", "y", "z", "roll", "pitch", "yaw"};
 
 using internal::Field;
 using internal::Join;
+using internal::LoadDocument;
 using internal::Reader;
 using internal::Resolve;
 
@@ -214,13 +215,7 @@ Vector2d GridPoint(const FieldDesignSpec& spec, int k) {
 
 FieldDesignSpec ParseFieldDesignSpec(const std::string& text, const std::string& source_name,
                                      const std::string& base_dir) {
-  YAML::Node root;
-  try {
-    root = YAML::Load(text);
-  } catch (const YAML::Exception& e) {
-    throw std::invalid_argument(source_name + ":" + std::to_string(e.mark.line + 1) +
-                                ": (document): expected YAML, got " + e.msg);
-  }
+  const YAML::Node root = LoadDocument(text, source_name);
   const Reader r(source_name);
   const Field top{root, "", 1};
   if (!root || root.IsNull()) r.Fail({root, "(document)", 1}, "a field-design spec (a map)");

@@ -193,43 +193,35 @@ Propagation PlanProblem::Propagate(const PartPoses& from, int primitive, int cyc
                                 std::to_string(num_primitives() - 1) + "] and cycles >= 0, got " +
                                 std::to_string(primitive) + ", " + std::to_string(cycles));
   Propagation r;
-  sim::State x = StateAt(from), next;
-  const sim::StepInput& u = inputs_[primitive];
-  const long long n = static_cast<long long>(cycles) * steps_per_cycle_[primitive];
   r.poses = from;
-  for (long long k = 0; k < n; ++k) {
-    const sim::StepInfo info = simulator_->Step(params_, x, u, ws, &next);
-    if (!info.ok) {
-      r.failure = info.failure;
-      return r;
+  sim::State x = StateAt(from), next;
+  // Steps x n times with input v, the poses after each step into r; false at a failed step or a
+  // part leaving the plate.
+  const auto advance = [&](const sim::StepInput& v, long long n) {
+    for (long long k = 0; k < n; ++k) {
+      const sim::StepInfo info = simulator_->Step(params_, x, v, ws, &next);
+      if (!info.ok) {
+        r.failure = info.failure;
+        return false;
+      }
+      std::swap(x, next);
+      PartPoses poses = PosesOf(x);
+      if (!OnPlate(poses)) {
+        r.left_plate = true;
+        return false;
+      }
+      r.poses = std::move(poses);
     }
-    std::swap(x, next);
-    PartPoses poses = PosesOf(x);
-    if (!OnPlate(poses)) {
-      r.left_plate = true;
-      return r;
-    }
-    r.poses = std::move(poses);
-  }
+    return true;
+  };
+  const sim::StepInput& u = inputs_[primitive];
+  if (!advance(u, static_cast<long long>(cycles) * steps_per_cycle_[primitive])) return r;
   // The plate rests at its pose while the parts come to rest.
   sim::StepInput rest;
   rest.motions.push_back({plate_, sim::PrescribedMotion{},
                           sim::PrescribedKinematicsAt(simulator_->scene(), plate_, u, x.t).X_WB});
-  const long long m = static_cast<long long>(spec_.settle_cycles) * steps_per_cycle_[primitive];
-  for (long long k = 0; k < m; ++k) {
-    const sim::StepInfo info = simulator_->Step(params_, x, rest, ws, &next);
-    if (!info.ok) {
-      r.failure = info.failure;
-      return r;
-    }
-    std::swap(x, next);
-    PartPoses poses = PosesOf(x);
-    if (!OnPlate(poses)) {
-      r.left_plate = true;
-      return r;
-    }
-    r.poses = std::move(poses);
-  }
+  if (!advance(rest, static_cast<long long>(spec_.settle_cycles) * steps_per_cycle_[primitive]))
+    return r;
   r.valid = true;
   return r;
 }

@@ -5,6 +5,7 @@
 #include <ompl/base/objectives/PathLengthOptimizationObjective.h>
 #include <ompl/base/spaces/SE2StateSpace.h>
 #include <ompl/control/PathControl.h>
+#include <ompl/control/SimpleSetup.h>
 #include <ompl/control/planners/kpiece/KPIECE1.h>
 #include <ompl/control/planners/rrt/RRT.h>
 #include <ompl/control/planners/sst/SST.h>
@@ -32,6 +33,13 @@ namespace oc = ompl::control;
 constexpr double kPi = 3.14159265358979323846;
 
 double PlateSize(const PlanSpec& s) { return std::max(s.x_max - s.x_min, s.y_max - s.y_min); }
+
+// The SO2 weight (m/rad) of a part's SE2 distance: the goal's tolerance ratio when it has an
+// angle (so that the distance weighs angle and position errors as the goal does), else
+// kAngleWeight.
+double AngleWeight(const PartGoal& g) {
+  return g.has_angle ? g.tolerance / g.angle_tolerance : kAngleWeight;
+}
 
 // One workspace per calling thread (the planner's; a benchmark may use others).
 class ThreadWorkspaces {
@@ -178,8 +186,11 @@ ob::PlannerPtr MakePlanner(const oc::SpaceInformationPtr& si, const PlanProblem&
       sst->setPruningRadius(kSstPruning * L);
       return sst;
     }
-    case PlannerType::kRrt:
-      return std::make_shared<oc::RRT>(si);
+    case PlannerType::kRrt: {
+      auto rrt = std::make_shared<oc::RRT>(si);
+      rrt->setGoalBias(kRrtGoalBias);
+      return rrt;
+    }
   }
   throw std::invalid_argument("MakePlanner: unknown planner");
 }
@@ -197,7 +208,7 @@ std::shared_ptr<oc::SimpleSetup> MakeSimpleSetup(const PlanProblem& problem, con
     b.setLow(1, spec.y_min);
     b.setHigh(1, spec.y_max);
     se2->setBounds(b);
-    se2->setSubspaceWeight(1, kAngleWeight);
+    se2->setSubspaceWeight(1, AngleWeight(spec.goals[static_cast<std::size_t>(i)]));
     se2->setName(spec.goals[static_cast<std::size_t>(i)].part);
     space->addSubspace(se2, 1.0);
   }

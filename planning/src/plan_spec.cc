@@ -19,6 +19,7 @@ const std::vector<std::string> kTopKeys = {"scene",  "plate",  "plate_extent",  
 
 using internal::Field;
 using internal::Join;
+using internal::LoadDocument;
 using internal::Reader;
 using internal::Resolve;
 
@@ -91,13 +92,7 @@ PlannerType ParsePlannerName(const std::string& name, const std::string& where) 
 
 PlanSpec ParsePlanSpec(const std::string& text, const std::string& source_name,
                        const std::string& base_dir) {
-  YAML::Node root;
-  try {
-    root = YAML::Load(text);
-  } catch (const YAML::Exception& e) {
-    throw std::invalid_argument(source_name + ":" + std::to_string(e.mark.line + 1) +
-                                ": invalid YAML: " + e.msg);
-  }
+  const YAML::Node root = LoadDocument(text, source_name);
   const Reader r(source_name);
   const Field top{root, "", 1};
   r.Map(top, kTopKeys, "a plan spec (a map of " + Join(kTopKeys) + ")");

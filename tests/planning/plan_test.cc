@@ -87,6 +87,15 @@ TEST(PlanSpecTest, BadSpecsRejectedWithFileAndLine) {
       << e;
   EXPECT_NE(Error("scene: plate_one_part.yaml\n").find("bad.yaml:1: plate_extent: expected"),
             std::string::npos);
+  // Not YAML at all: the line of the syntax error.
+  EXPECT_NE(Error(good + "seed: [1,\n").find("bad.yaml:15: (document): expected YAML"),
+            std::string::npos)
+      << Error(good + "seed: [1,\n");
+  // An angle tolerance without an angle.
+  EXPECT_NE(Error(Spec("{part: {position: [0.02, 0.0], angle_tolerance: 0.1}}"))
+                .find("bad.yaml:13: goal.part.angle_tolerance: expected an angle_tolerance only "
+                      "with an angle"),
+            std::string::npos);
 }
 
 PlanProblem Problem(const std::string& goal, const std::string& extra = "") {
@@ -147,6 +156,56 @@ TEST(PlanTest, ConveyorPrimitivesMoveThePartTheirWay) {
   const Propagation off = problem.Propagate({{0.149, 0.0, 0.0}}, 0, 6, &ws);
   EXPECT_FALSE(off.valid);
   EXPECT_TRUE(off.left_plate);
+}
+
+// The tripod part of the angle example (examples/plan/angle.yaml): three contacts give the
+// friction a moment about the vertical, so in the whirlpool (tangential velocity ∝ r, a rigid
+// rotation field about the plate centre) the part turns with the field — its yaw changes by about
+// the angle its position turns about the centre, with the whirlpool's sense — while a conveyor
+// (uniform field) translates it without turning it.
+TEST(PlanTest, TripodTurnsWithTheWhirlpoolNotOnAConveyor) {
+  const PlanProblem problem(LoadPlanSpec(kDir + "/angle.yaml"));
+  ASSERT_EQ(problem.num_primitives(), 6);
+  sim::Workspace ws;
+  const PartPoses start = {{0.04, 0.0, 0.3}};
+  for (int i = 0; i < 4; ++i) {
+    const Propagation p = problem.Propagate(start, i, 4, &ws);
+    ASSERT_TRUE(p.valid) << i << ": " << p.failure;
+    EXPECT_GT(std::hypot(p.poses[0].x - 0.04, p.poses[0].y), 2e-3) << i;
+    EXPECT_NEAR(p.poses[0].theta, 0.3, 1e-3) << i;
+  }
+  for (int i : {4, 5}) {  // ccw, cw
+    const Propagation p = problem.Propagate(start, i, 6, &ws);
+    ASSERT_TRUE(p.valid) << i << ": " << p.failure;
+    const double turned = p.poses[0].theta - 0.3;
+    const double orbit = std::atan2(p.poses[0].y, p.poses[0].x);
+    EXPECT_GT(std::abs(orbit), 0.1) << i;
+    EXPECT_EQ(orbit > 0, i == 4) << i;
+    EXPECT_NEAR(turned, orbit, 0.2 * std::abs(orbit)) << i;
+  }
+}
+
+// An angle goal end to end (examples/plan/angle.yaml): the part must turn by 0.6 rad, which only
+// the whirlpools do, so a solved plan uses one, and its re-simulation ends within both the
+// position and the angle tolerance (the 20-run rate is in tests/planning_slow).
+TEST(PlanTest, AngleGoalPlanTurnsThePartIntoItsTolerance) {
+  ompl::msg::setLogLevel(ompl::msg::LOG_ERROR);
+  ASSERT_TRUE(kSeeded);
+  const PlanProblem problem(LoadPlanSpec(kDir + "/angle.yaml"));
+  const PartGoal& goal = problem.spec().goals[0];
+  ASSERT_TRUE(goal.has_angle);
+  PlanRunOptions o;
+  o.planner = PlannerType::kRrt;
+  o.time_limit = 300.0;
+  o.max_propagations = 3000;
+  const PlanResult r = RunPlan(problem, o);
+  ASSERT_TRUE(r.solved) << r.attempts.front().planner_status;
+  EXPECT_LE(r.final_position_errors[0], goal.tolerance);
+  EXPECT_LE(r.final_angle_errors[0], goal.angle_tolerance);
+  EXPECT_GT(std::abs(problem.StartPoses()[0].theta - goal.angle), 5 * goal.angle_tolerance);
+  bool turned = false;
+  for (const PlanStep& s : r.steps) turned = turned || s.primitive >= 4;  // ccw, cw
+  EXPECT_TRUE(turned);
 }
 
 TEST(PlanTest, ApproximateSolutionIsNeverSolved) {

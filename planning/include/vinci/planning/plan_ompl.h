@@ -2,8 +2,10 @@
 // propagator, goal region and planners.
 //
 // State space: a compound of one SE2 space per part (named after the part), position bounds the
-// plate extent; the SO2 component weighs kAngleWeight m/rad in distances, so that a full turn
-// counts like a few centimetres and positions dominate nearest-neighbour queries.
+// plate extent; the SO2 component weighs tolerance / angle_tolerance m/rad in distances for a
+// part whose goal has an angle (angle and position errors then weigh as in the goal distance),
+// else kAngleWeight, so that a full turn counts like a few centimetres and positions dominate
+// nearest-neighbour queries.
 // Control space: a compound of two discrete spaces, the primitive index [0, n − 1] and the cycle
 // count [min, max]. Propagation step size 1 and control duration exactly 1 step: one control is
 // one primitive application (PlanProblem::Propagate). An invalid propagation (failed step, part
@@ -13,7 +15,7 @@
 // KPIECE1 projects on the part positions (2 per part), cells of kProjectionCells per plate side;
 // its goal bias (extend from the samples closest to the goal) is kKpieceGoalBias.
 // SST: selection radius kSstSelection·L and pruning radius kSstPruning·L, L the longer side of the
-// plate extent. RRT: goal bias 0.05 (OMPL's default).
+// plate extent. RRT: goal bias kRrtGoalBias (a share of its extensions head for a goal sample).
 #pragma once
 
 #include <ompl/base/Planner.h>
@@ -35,6 +37,7 @@ constexpr double kProjectionCells = 30.0;
 constexpr double kKpieceGoalBias = 0.3;  ///< KPIECE1: share of extensions from the closest samples
 constexpr double kSstSelection = 0.02;
 constexpr double kSstPruning = 0.01;
+constexpr double kRrtGoalBias = 0.4;  ///< RRT: share of samples drawn from the goal region
 
 /// The OMPL version the build links (CMake's OMPL_VERSION; Debian's headers leave the macro
 /// empty).
