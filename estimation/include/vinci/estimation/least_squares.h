@@ -92,7 +92,12 @@ struct EstimateResult {
   /// the start (zero Jacobian column: e.g. a velocity into a resting contact, removed by the
   /// first step).
   int frozen_state_components = 0;
-  double sigma = 0.0;  ///< σ used for the standard errors (stated or estimated)
+  /// σ used for the standard errors: the larger of the stated noise and sigma_residual (the
+  /// residual estimate alone if no noise is stated).
+  double sigma = 0.0;
+  /// σ̂ = √(Σ r² / (m − n)) over the measured residuals (n: parameters and free initial-state
+  /// components; segment start states are tied by the continuity constraints). NaN if m ≤ n.
+  double sigma_residual = 0.0;
   std::vector<EpisodeEstimate> episodes;
 };
 
