@@ -73,26 +73,31 @@ def main():
               f"  {v['iterations']:5.1f}  {v['time']:.3f}")
     for study in sorted({k[0] for k in s}):
         keys = [k for k in s if k[0] == study]
-        fig, ax = plt.subplots(figsize=(6, 4))
+        fig, (ax, cx) = plt.subplots(1, 2, figsize=(11, 4))
         methods = sorted({k[1] for k in keys})
-        if study == "particles":
-            for m in methods:
-                pts = sorted((k[4], s[k]["rms"]) for k in keys if k[1] == m)
-                ax.plot([p[0] for p in pts], [p[1] for p in pts], "o-", label=m)
-            ax.set_xlabel("number of particles")
-        else:
-            for m in methods:
-                for w in sorted({k[3] for k in keys}):
-                    pts = sorted((k[2], s[k]["rms"]) for k in keys if k[1] == m and k[3] == w)
-                    ax.plot([p[0] for p in pts], [p[1] for p in pts], "o-",
-                            label=f"{m}, {w} samples")
-            ax.set_xlabel("position noise σ (m)")
-            ax.set_xscale("log")
+        for metric, axis in (("rms", ax), ("coverage", cx)):
+            if study == "particles":
+                for m in methods:
+                    pts = sorted((k[4], s[k][metric]) for k in keys if k[1] == m)
+                    axis.plot([p[0] for p in pts], [p[1] for p in pts], "o-", label=m)
+                axis.set_xlabel("number of particles")
+            else:
+                for m in methods:
+                    for w in sorted({k[3] for k in keys}):
+                        pts = sorted((k[2], s[k][metric]) for k in keys if k[1] == m and k[3] == w)
+                        axis.plot([p[0] for p in pts], [p[1] for p in pts], "o-",
+                                  label=f"{m}, {w} samples")
+                axis.set_xlabel("position noise σ (m)")
+                axis.set_xscale("log")
+            axis.grid(True, which="both", alpha=0.3)
+            axis.legend(fontsize=8)
         ax.set_yscale("log")
         ax.set_ylabel("RMS error of μ̂")
         ax.set_title(f"friction estimation: {study}")
-        ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=8)
+        cx.set_ylabel("fraction of trials with |μ̂ − μ| ≤ 3 s.e.")
+        cx.set_ylim(0, 1.05)
+        cx.axhline(0.9, color="k", lw=0.8, ls="--")
+        cx.set_title("coverage of the reported standard errors")
         fig.tight_layout()
         fig.savefig(f"{prefix}_{study}.png", dpi=120)
         print(f"wrote {prefix}_{study}.png")
