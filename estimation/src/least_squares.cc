@@ -573,6 +573,19 @@ EstimateResult EstimateLeastSquares(const sim::Simulator& simulator, const Log& 
   result.sigma = options.noise_sigma > 0 && !(result.sigma_residual > options.noise_sigma)
                      ? options.noise_sigma
                      : result.sigma_residual;
+  // A stated σ the residuals contradict (Σ r² / σ² beyond its χ²_dof mean by 4 standard
+  // deviations, p < 1e-4): the fit stalled in a local minimum (another stick–slip pattern that
+  // fits almost as well) or the model does not match; the standard errors cannot cover that.
+  if (options.noise_sigma > 0 && dof > 0 && all_evaluated &&
+      measured_ss / (options.noise_sigma * options.noise_sigma) >
+          dof + 4.0 * std::sqrt(2.0 * dof)) {
+    result.converged = false;
+    std::ostringstream m;
+    m << "; the residuals contradict the stated noise (σ̂ = " << result.sigma_residual
+      << " m for --noise " << options.noise_sigma
+      << " m): a local minimum or a model mismatch; the standard errors use σ̂";
+    result.reason += m.str();
+  }
   result.std_errors = VectorXd::Constant(sel.size(), std::numeric_limits<double>::quiet_NaN());
   if (summary.IsSolutionUsable() && all_evaluated) {
     sim::MatrixXd information = sim::MatrixXd::Zero(sel.size(), sel.size());

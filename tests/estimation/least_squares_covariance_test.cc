@@ -59,7 +59,7 @@ TEST(LeastSquaresCovariance, MultipleShootingRecoversThePlateNoiseFree) {
 }
 
 // A stated noise smaller than the residuals show does not shrink the standard errors: σ is the
-// residual estimate then, and the standard error scales with it.
+// residual estimate then, the standard error scales with it, and the fit is flagged.
 TEST(LeastSquaresCovariance, UnderstatedNoiseUsesTheResidualEstimate) {
   const sim::Simulator sim(sim::ParseScene(testing::kPlanarBlock, "block.yaml"));
   const double sigma = 1e-3;
@@ -74,6 +74,11 @@ TEST(LeastSquaresCovariance, UnderstatedNoiseUsesTheResidualEstimate) {
   const EstimateResult understated = EstimateLeastSquares(sim, log, o);
   ASSERT_TRUE(std::isfinite(honest.std_errors[0])) << honest.reason;
   EXPECT_NEAR(understated.sigma, understated.sigma_residual, 1e-15);
+  // ... and the fit is not reported as converged: its residuals contradict the stated σ.
+  EXPECT_TRUE(honest.converged) << honest.reason;
+  EXPECT_FALSE(understated.converged);
+  EXPECT_NE(understated.reason.find("contradict the stated noise"), std::string::npos)
+      << understated.reason;
   EXPECT_NEAR(understated.sigma_residual, sigma, 0.3 * sigma);
   EXPECT_NEAR(understated.std_errors[0] / honest.std_errors[0], understated.sigma / honest.sigma,
               1e-6);

@@ -28,11 +28,12 @@
 // shooting report the same standard error at the same solution. σ = max(stated σ, σ̂), σ̂² =
 // Σ r² / (m − n) over the measured residuals (n: parameters + free initial-state components):
 // a fit that does not reach the noise level (a stall at a stick–slip kink, model mismatch)
-// widens its standard errors instead of reporting the stated noise's. Initial-state components
-// with a zero Jacobian column at the start (a velocity into a resting contact, which the first
-// step removes) are held at the log's values. The log's initial velocity (the starting guess, or the value
-// used without estimate_initial_state and without velocity columns) is the slope at t0 of a
-// least-squares quadratic through the first 8 samples.
+// widens its standard errors instead of reporting the stated noise's; if Σ r² / σ² exceeds
+// its χ² mean (m − n) by 4 standard deviations the result is not `converged` (reason says so).
+// Initial-state components with a zero Jacobian column at the start (a velocity into a resting
+// contact, which the first step removes) are held at the log's values. The log's initial velocity
+// (the starting guess, or the value used without estimate_initial_state and without velocity
+// columns) is the slope at t0 of a least-squares quadratic through the first 8 samples.
 #pragma once
 
 #include <functional>
