@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <sstream>
 #include <stdexcept>
 
 #include "vinci/sim/model/state_util.h"
@@ -288,6 +289,13 @@ VectorXd VectorAt(const sim::Simulator& sim, const Episode& ep, const sim::Traje
   Bracket(tr.states, t, &k, &al);
   return (1 - al) * VectorFromState(sim, ep, tr.states[k]) +
          al * VectorFromState(sim, ep, tr.states[k + 1]);
+}
+
+void FailOption(const std::string& method, const std::string& field, double value,
+                const std::string& expected) {
+  std::ostringstream m;
+  m << method << ": " << field << " = " << value << ", expected " << expected;
+  throw std::invalid_argument(m.str());
 }
 
 void CheckDifferentiable(const sim::Scene& scene, const std::vector<std::string>& params) {

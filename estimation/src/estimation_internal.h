@@ -67,6 +67,11 @@ void Bracket(const std::vector<sim::State>& states, double t, int* k, double* al
 sim::VectorXd VectorAt(const sim::Simulator& sim, const Episode& ep, const sim::Trajectory& tr,
                        double t);
 
+/// Throws std::invalid_argument "<method>: <field> = <value>, expected <expected>" (the options'
+/// Validate()).
+[[noreturn]] void FailOption(const std::string& method, const std::string& field, double value,
+                             const std::string& expected);
+
 /// Throws std::invalid_argument for an unknown or non-differentiable parameter name.
 void CheckDifferentiable(const sim::Scene& scene, const std::vector<std::string>& params);
 

@@ -19,9 +19,7 @@ using namespace internal;  // NOLINT(google-build-using-namespace): this layer's
 
 void FilterOptions::Validate() const {
   auto fail = [](const std::string& field, double v, const std::string& expected) {
-    std::ostringstream m;
-    m << "filter: " << field << " = " << v << ", expected " << expected;
-    throw std::invalid_argument(m.str());
+    FailOption("filter", field, v, expected);
   };
   if (params.empty()) throw std::invalid_argument("filter: no parameter to estimate");
   if (!(noise_sigma >= 0) || !std::isfinite(noise_sigma)) fail("noise", noise_sigma, "finite ≥ 0");

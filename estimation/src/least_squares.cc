@@ -24,9 +24,7 @@ using namespace internal;  // NOLINT(google-build-using-namespace): this file's 
 
 void LeastSquaresOptions::Validate() const {
   auto fail = [](const std::string& field, double v, const std::string& expected) {
-    std::ostringstream m;
-    m << "least squares: " << field << " = " << v << ", expected " << expected;
-    throw std::invalid_argument(m.str());
+    FailOption("least squares", field, v, expected);
   };
   if (params.empty()) throw std::invalid_argument("least squares: no parameter to estimate");
   if (!(noise_sigma >= 0) || !std::isfinite(noise_sigma)) fail("noise", noise_sigma, "finite ≥ 0");
@@ -58,6 +56,78 @@ bool EpisodeResiduals(const sim::Simulator& simulator, const Params& params, con
 }
 
 namespace {
+
+using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+// Derivatives of one shooting segment's rollout: its measured residuals and its end state (the
+// next segment's start state coordinates) with respect to θ and its own start state s_j.
+struct SegmentJacobian {
+  sim::MatrixXd measured_theta, measured_state;  // measured rows × θ, × s_j
+  sim::MatrixXd end_theta, end_state;            // empty for an episode's last segment
+};
+
+// The information about θ of one episode, JθᵀJθ − JθᵀJs (JsᵀJs)⁺ JsᵀJθ (the Schur complement
+// that profiles out the episode's free initial-state components), with J the Jacobian of all the
+// episode's measured residuals with respect to θ and its free initial-state components s_0,F.
+// Later segments' start states are functions of (θ, s_0) through the continuity constraints,
+// treated as exact: ds_j+1 = ∂x_end/∂θ dθ + ∂x_end/∂s_j ds_j (chain rule through the
+// segments), so single and multiple shooting give the same covariance at a continuous
+// solution. Frozen initial-state components (is_free false) are known.
+sim::MatrixXd EpisodeInformation(const std::vector<SegmentJacobian>& chain,
+                                 const std::vector<bool>& is_free) {
+  const int np = static_cast<int>(chain.front().measured_theta.cols());
+  const int ns = static_cast<int>(is_free.size());
+  std::vector<int> free;
+  for (int j = 0; j < ns; ++j)
+    if (is_free[j]) free.push_back(j);
+  const int nf = static_cast<int>(free.size());
+  int rows = 0;
+  for (const SegmentJacobian& c : chain) rows += static_cast<int>(c.measured_theta.rows());
+  // D = ds_j / d(θ, s_0,F), J = d(measured) / d(θ, s_0,F).
+  sim::MatrixXd D = sim::MatrixXd::Zero(ns, np + nf);
+  for (int f = 0; f < nf; ++f) D(free[f], np + f) = 1.0;
+  sim::MatrixXd J(rows, np + nf);
+  int row = 0;
+  for (const SegmentJacobian& c : chain) {
+    const int m = static_cast<int>(c.measured_theta.rows());
+    J.middleRows(row, m) = c.measured_state * D;
+    J.block(row, 0, m, np) += c.measured_theta;
+    row += m;
+    if (c.end_theta.size() == 0) continue;
+    sim::MatrixXd next = c.end_state * D;
+    next.leftCols(np) += c.end_theta;
+    D = std::move(next);
+  }
+  const sim::MatrixXd Jt = J.leftCols(np);
+  if (nf == 0) return Jt.transpose() * Jt;
+  // Jθ's part orthogonal to the columns of Js (scaled to unit norm; columns the data do not
+  // see are dropped), by a rank-revealing least-squares fit.
+  sim::MatrixXd Js = J.rightCols(nf);
+  for (int f = 0; f < nf; ++f) {
+    const double n = Js.col(f).norm();
+    Js.col(f) = n > 0 ? sim::MatrixXd(Js.col(f) / n) : sim::MatrixXd::Zero(rows, 1);
+  }
+  Eigen::CompleteOrthogonalDecomposition<sim::MatrixXd> cod;
+  cod.setThreshold(1e-10);
+  cod.compute(Js);
+  const sim::MatrixXd residual = Jt - Js * cod.solve(Jt);
+  return residual.transpose() * residual;
+}
+
+// The diagonal of the inverse of a parameter information matrix; false if it is singular (a
+// parameter the data do not determine), judged on its correlation form.
+bool ParameterVariances(const sim::MatrixXd& information, VectorXd* variances) {
+  const VectorXd d = information.diagonal();
+  if (!(d.minCoeff() > 0) || !d.allFinite()) return false;
+  const VectorXd s = d.cwiseSqrt().cwiseInverse();
+  const sim::MatrixXd corr = s.asDiagonal() * information * s.asDiagonal();
+  Eigen::SelfAdjointEigenSolver<sim::MatrixXd> eig(corr);
+  if (eig.info() != Eigen::Success || !(eig.eigenvalues().minCoeff() > 1e-12)) return false;
+  const sim::MatrixXd inv = eig.eigenvectors() * eig.eigenvalues().cwiseInverse().asDiagonal() *
+                            eig.eigenvectors().transpose();
+  *variances = s.cwiseProduct(s).cwiseProduct(inv.diagonal());
+  return true;
+}
 
 // One shooting segment: the samples of an episode from the segment's start state s_j (at its
 // first sample) up to the next segment's first sample. Residuals: the logged samples of the
@@ -95,6 +165,36 @@ class SegmentCost : public ceres::CostFunction {
   }
 
   int measured_rows() const { return measured_rows_; }
+
+  /// The Jacobians of this segment at (θ, s, s_next) (s_next ignored without a next segment),
+  /// split into the measured rows and the rollout's end state (the continuity rows divided by
+  /// w c). False if a rollout failed.
+  bool Jacobians(const VectorXd& theta, const VectorXd& s, const double* s_next,
+                 SegmentJacobian* out) const {
+    const int m = num_residuals(), np = sel_.size(), ns = static_cast<int>(fixed_state_.size());
+    RowMajor j_theta(m, np), j_state(m, ns), j_next(m, std::max(1, continuity_rows_));
+    std::vector<const double*> params = {theta.data()};
+    std::vector<double*> jac = {j_theta.data()};
+    if (with_state_) {
+      params.push_back(s.data());
+      jac.push_back(j_state.data());
+    }
+    if (next_) {
+      params.push_back(s_next);
+      jac.push_back(j_next.data());
+    }
+    VectorXd r(m);
+    if (!Evaluate(params.data(), r.data(), jac.data())) return false;
+    out->measured_theta = j_theta.topRows(measured_rows_);
+    out->measured_state = with_state_ ? sim::MatrixXd(j_state.topRows(measured_rows_))
+                                      : sim::MatrixXd::Zero(measured_rows_, ns);
+    if (next_) {
+      const VectorXd inv = (*weight_ * scale_).cwiseInverse();
+      out->end_theta = inv.asDiagonal() * j_theta.bottomRows(continuity_rows_);
+      out->end_state = inv.asDiagonal() * j_state.bottomRows(continuity_rows_);
+    }
+    return true;
+  }
   int continuity_rows() const { return continuity_rows_; }
   const Episode& segment() const { return ep_; }
   const State& ref() const { return ref_; }
@@ -147,7 +247,6 @@ class SegmentCost : public ceres::CostFunction {
     const int m = num_residuals();
     Eigen::Map<VectorXd>(residuals, m) = r;
     if (!jacobians) return true;
-    using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
     if (next_ && jacobians[next_block]) {
       Eigen::Map<RowMajor> J(jacobians[next_block], m, continuity_rows_);
       J.setZero();
@@ -358,6 +457,7 @@ EstimateResult EstimateLeastSquares(const sim::Simulator& simulator, const Log& 
   // the samples do not distinguish from zero (|v| ≤ 3 standard errors of the fit) are tested at
   // zero, and held at zero if the rollout does not depend on them there. (Later segments' start
   // states are tied by the continuity residuals of the segment before.)
+  std::vector<std::vector<int>> frozen_components(log.episodes.size());
   if (options.estimate_initial_state) {
     for (size_t e = 0; e < log.episodes.size(); ++e) {
       const int k = episode_segments[e].front();
@@ -386,6 +486,7 @@ EstimateResult EstimateLeastSquares(const sim::Simulator& simulator, const Log& 
         if (candidate[j]) state[j] = 0.0;
       }
       result.frozen_state_components += static_cast<int>(frozen.size());
+      frozen_components[e] = frozen;
       if (static_cast<int>(frozen.size()) == ns)
         problem.SetParameterBlockConstant(state.data());
       else if (!frozen.empty())
@@ -457,31 +558,62 @@ EstimateResult EstimateLeastSquares(const sim::Simulator& simulator, const Log& 
   const std::string fail = failures.Summary();
   if (!fail.empty()) result.reason += "; " + fail;
 
-  // Standard errors. Each continuity residual is a constraint: it removes one degree of freedom
-  // less than the unknown it ties.
+  // Standard errors: σ² times the parameter block of the constrained Gauss–Newton covariance
+  // (ParameterCovariance), σ the larger of the stated noise and the residual estimate.
   double measured_ss = 0.0;
   for (double ss : episode_ss) measured_ss += ss;
-  const int dof = result.num_residuals + continuity_rows - result.num_unknowns;
-  result.sigma = options.noise_sigma > 0      ? options.noise_sigma
-                 : (dof > 0 && all_evaluated) ? std::sqrt(measured_ss / dof)
-                                              : std::numeric_limits<double>::quiet_NaN();
+  int free_state = 0;
+  for (size_t e = 0; e < log.episodes.size(); ++e)
+    if (options.estimate_initial_state)
+      free_state += static_cast<int>(states[episode_segments[e].front()].size() -
+                                     frozen_components[e].size());
+  const int dof = result.num_residuals - sel.size() - free_state;
+  result.sigma_residual = dof > 0 && all_evaluated ? std::sqrt(measured_ss / dof)
+                                                   : std::numeric_limits<double>::quiet_NaN();
+  result.sigma = options.noise_sigma > 0 && !(result.sigma_residual > options.noise_sigma)
+                     ? options.noise_sigma
+                     : result.sigma_residual;
+  // A stated σ the residuals contradict (Σ r² / σ² beyond its χ²_dof mean by 4 standard
+  // deviations, p < 1e-4): the fit stalled in a local minimum (another stick–slip pattern that
+  // fits almost as well) or the model does not match; the standard errors cannot cover that.
+  if (options.noise_sigma > 0 && dof > 0 && all_evaluated &&
+      measured_ss / (options.noise_sigma * options.noise_sigma) >
+          dof + 4.0 * std::sqrt(2.0 * dof)) {
+    result.converged = false;
+    std::ostringstream m;
+    m << "; the residuals contradict the stated noise (σ̂ = " << result.sigma_residual
+      << " m for --noise " << options.noise_sigma
+      << " m): a local minimum or a model mismatch; the standard errors use σ̂";
+    result.reason += m.str();
+  }
   result.std_errors = VectorXd::Constant(sel.size(), std::numeric_limits<double>::quiet_NaN());
-  if (summary.IsSolutionUsable()) {
-    ceres::Covariance::Options co;
-    co.algorithm_type = result.num_unknowns <= 1000 ? ceres::DENSE_SVD : ceres::SPARSE_QR;
-    co.num_threads = options.threads;
-    co.null_space_rank = -1;  // pseudo-inverse: directions the data do not determine are dropped
-    ceres::Covariance cov(co);
-    std::vector<std::pair<const double*, const double*>> blocks = {{theta.data(), theta.data()}};
-    if (cov.Compute(blocks, &problem)) {
-      Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> C(sel.size(),
-                                                                               sel.size());
-      if (cov.GetCovarianceBlock(theta.data(), theta.data(), C.data())) {
-        for (int i = 0; i < sel.size(); ++i)
-          result.std_errors[i] = result.sigma * std::sqrt(std::max(0.0, C(i, i)));
+  if (summary.IsSolutionUsable() && all_evaluated) {
+    sim::MatrixXd information = sim::MatrixXd::Zero(sel.size(), sel.size());
+    bool ok = true;
+    for (size_t e = 0; e < log.episodes.size() && ok; ++e) {
+      std::vector<SegmentJacobian> chain;
+      for (int k : episode_segments[e]) {
+        SegmentJacobian sj;
+        const double* next = costs[k]->continuity_rows() > 0 ? states[k + 1].data() : nullptr;
+        ok = ok && costs[k]->Jacobians(theta, states[k], next, &sj);
+        chain.push_back(std::move(sj));
       }
+      if (!ok) break;
+      std::vector<bool> is_free(states[episode_segments[e].front()].size(),
+                                options.estimate_initial_state);
+      for (int j : frozen_components[e]) is_free[j] = false;
+      information += EpisodeInformation(chain, is_free);
+    }
+    VectorXd variances;
+    if (!ok) {
+      result.reason += "; standard errors not computed (a rollout failed)";
+    } else if (!ParameterVariances(information, &variances)) {
+      result.reason +=
+          "; standard errors not computed (the parameters are not determined by the "
+          "data: singular information matrix)";
     } else {
-      result.reason += "; covariance not computed (rank-deficient Jacobian?)";
+      for (int i = 0; i < sel.size(); ++i)
+        result.std_errors[i] = result.sigma * std::sqrt(variances[i]);
     }
   }
 

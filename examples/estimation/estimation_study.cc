@@ -2,8 +2,8 @@
 // of μ̂ over seeded trials of synthetic logs, per method, noise level and window length.
 //
 //   estimation_study STUDY [--trials N] [--noise S1,S2,..] [--windows W1,W2,..]
-//                    [--particles N1,N2,..] [--methods lsq,lsq_ms,filter] [--guess MU]
-//                    [--out FILE.csv]
+//                    [--particles N1,N2,..] [--episodes N] [--methods lsq,lsq_ms,filter,mpec]
+//                    [--guess MU] [--first-trial K] [--out FILE.csv]
 //
 // STUDY:
 //   plate      a particle on a vibrating plate (planar, true μ = 0.2), windows in samples
@@ -12,13 +12,20 @@
 //   cube       a cube tossed onto a table (spatial, 8 corners, 150 Hz, 30 µm noise)
 //
 // Every trial simulates the truth, samples the observed positions with seeded Gaussian noise
-// and runs each method from the scene's μ (the initial guess). One CSV row per trial and
-// method: study, method, noise_m, window, particles, trial, true_mu, mu_hat, std_error,
-// converged, iterations, time_s. Plots: scripts/plot_estimation_study.py FILE.csv.
+// and runs each method from the scene's μ (the initial guess). With --episodes N (default 1) a
+// trial is N episodes estimated together (shared μ, per-episode initial states); the cube's
+// episodes are different tosses (seeded launch velocities around the scene's), the planar
+// studies' differ only in their noise. One CSV row per trial and method: study, method,
+// noise_m, window, particles, episodes, trial, true_mu, mu_hat, std_error, converged,
+// iterations, time_s, samples. Methods: lsq (single shooting), lsq_ms (multiple shooting,
+// 25-sample segments), filter (the UKF with μ in the state), mpec (Ipopt). The defaults are
+// the full study (20 trials); --trials and --methods cut it down (scripts/estimation_studies.sh
+// runs all four studies). Plots: scripts/plot_estimation_study.py FILE.csv.
 //
 // To add a method, add one line to Methods() below.
 #include <cstdio>
 #include <cstdlib>
+#include <exception>
 #include <fstream>
 #include <functional>
 #include <iostream>
@@ -30,7 +37,9 @@
 #include "vinci/estimation/filter.h"
 #include "vinci/estimation/least_squares.h"
 #include "vinci/estimation/log.h"
+#include "vinci/estimation/mpec_estimator.h"
 #include "vinci/sim/model/scene_file.h"
+#include "vinci/sim/model/state_util.h"
 #include "vinci/sim/simulator/simulator.h"
 
 namespace {
@@ -65,8 +74,23 @@ std::vector<std::pair<std::string, Estimator>> Methods() {
          o.noise_sigma = sigma;
          return est::EstimateFilter(s, log, o);
        }},
-      // {"mpec", [](const sim::Simulator& s, const Log& log, double sigma) { ... }},
+      {"mpec",
+       [](const sim::Simulator& s, const Log& log, double sigma) -> EstimateResult {
+         est::MpecOptions o;
+         o.params = {"mu.default"};
+         o.noise_sigma = sigma;
+         return est::EstimateMpec(s, log, o);
+       }},
   };
+}
+
+// The scene file's lines before the bodies' entries.
+std::string Header(int dim, const std::string& stepper, double mu) {
+  std::ostringstream y;
+  y << "dimension: " << dim << "\n"
+    << (dim == 2 ? "gravity: [0, -9.81]\n" : "") << "stepper: {" << stepper << "}\n"
+    << "friction: {default: " << mu << "}\nbodies:\n";
+  return y.str();
 }
 
 // A planar plate vibrating at 20 Hz (x acceleration 20 m/s², y 5 m/s², y a quarter cycle
@@ -74,9 +98,7 @@ std::vector<std::pair<std::string, Estimator>> Methods() {
 // like particles), friction `mu`.
 std::string PlateScene(int particles, double mu) {
   std::ostringstream y;
-  y << "dimension: 2\ngravity: [0, -9.81]\n"
-    << "stepper: {dt: 0.001, duration: 1, envelope: 0.001, prescribed_velocity: exact}\n"
-    << "friction: {default: " << mu << "}\nbodies:\n"
+  y << Header(2, "dt: 0.001, duration: 1, envelope: 0.001, prescribed_velocity: exact", mu)
     << "  - name: plate\n    kind: prescribed\n    shapes: [{type: halfplane}]\n"
     << "    motion:\n      frequency: 20\n"
     << "      x: {harmonics: [{order: 1, amplitude: 1.2665e-3, phase: 0}]}\n"
@@ -92,8 +114,7 @@ std::string PlateScene(int particles, double mu) {
 // The planar block of the estimation tests: 0.4 × 0.2 m, 1 kg, launched at 1.5 m/s.
 std::string BlockScene(double mu) {
   std::ostringstream y;
-  y << "dimension: 2\ngravity: [0, -9.81]\nstepper: {dt: 0.002, duration: 1, envelope: 0.002}\n"
-    << "friction: {default: " << mu << "}\nbodies:\n"
+  y << Header(2, "dt: 0.002, duration: 1, envelope: 0.002", mu)
     << "  - {name: floor, kind: static, shapes: [{type: halfplane}]}\n"
     << "  - name: block\n    mass: 1.0\n    pose: {position: [0, 0.1]}\n"
     << "    velocity: {linear: [1.5, 0]}\n"
@@ -105,8 +126,7 @@ std::string BlockScene(double mu) {
 // A 5 cm cube (0.1 kg) tossed onto a table: 12 cm up, 0.8 m/s sideways, spinning.
 std::string CubeScene(double mu) {
   std::ostringstream y;
-  y << "dimension: 3\nstepper: {dt: 0.001, duration: 1, friction_directions: 8, envelope: 0.002}\n"
-    << "friction: {default: " << mu << "}\nbodies:\n"
+  y << Header(3, "dt: 0.001, duration: 1, friction_directions: 8, envelope: 0.002", mu)
     << "  - {name: table, kind: static, shapes: [{type: halfspace}]}\n"
     << "  - name: cube\n    mass: 0.1\n"
     << "    pose: {position: [0, 0, 0.12], rotation: {axis: [1, 1, 0], angle: 0.4}}\n"
@@ -121,53 +141,75 @@ struct Study {
   double warmup = 0.0;  // s simulated before the log starts
   int every = 2;        // steps per logged sample
   bool orientation = false;
+  bool vary_launch = false;  // each episode a different seeded launch (the cube's tosses)
   std::function<std::string(int particles, double mu)> scene;
 };
 
 // Simulates the truth and samples the dynamic bodies' poses every `every` steps from `warmup`
-// for `window` samples with Gaussian noise σ (angles σ / 0.1 m).
-Log MakeLog(const sim::Simulator& truth, const Study& st, int window, double sigma, unsigned seed) {
+// for `window` samples with Gaussian noise σ (angles σ / 0.1 m), `episodes` times. With
+// st.vary_launch each episode starts with a seeded launch velocity: the scene's plus N(0, 0.2
+// m/s) per horizontal component and N(0, 2 rad/s) per angular one.
+Log MakeLog(const sim::Simulator& truth, const Study& st, int window, int episodes, double sigma,
+            unsigned seed) {
   const sim::Scene& scene = truth.scene();
   const bool planar = scene.dim == sim::Dim::kPlanar;
   const int warm = static_cast<int>(std::lround(st.warmup / scene.options.dt));
-  const sim::Trajectory tr =
-      truth.Rollout(truth.DefaultParams(), truth.InitialState(), warm + window * st.every);
-  if (!tr.ok) throw std::runtime_error("the true rollout failed: " + tr.failure);
   std::mt19937 rng(seed);
   std::normal_distribution<double> n01(0.0, 1.0);
-  est::Episode ep;
-  ep.file = st.name + "_" + std::to_string(seed);
-  for (int i = 0; i < window; ++i) {
-    ep.t.push_back(tr.states[warm + i * st.every].t);
-    ep.lines.push_back(i + 2);
-  }
-  for (int b = 0; b < static_cast<int>(scene.bodies.size()); ++b) {
-    if (scene.bodies[b].kind != sim::BodyKind::kDynamic) continue;
-    est::BodyTrack track;
-    track.body = scene.bodies[b].name;
-    track.body_index = b;
-    track.dynamic = true;
-    track.has_orientation = st.orientation;
-    const int qo = scene.index(b).q;
-    track.pose = sim::MatrixXd::Zero(window, planar ? 3 : 7);
-    for (int i = 0; i < window; ++i) {
-      const sim::State& x = tr.states[warm + i * st.every];
-      for (int j = 0; j < (planar ? 2 : 3); ++j) track.pose(i, j) = x.q[qo + j] + sigma * n01(rng);
-      if (!st.orientation) continue;
-      if (planar) {
-        track.pose(i, 2) = x.q[qo + 2] + sigma / 0.1 * n01(rng);
-      } else {
-        Eigen::Quaterniond q(x.q[qo + 3], x.q[qo + 4], x.q[qo + 5], x.q[qo + 6]);
-        const Eigen::Vector3d d(n01(rng), n01(rng), n01(rng));
-        if (sigma > 0)
-          q = Eigen::Quaterniond(Eigen::AngleAxisd(sigma / 0.1 * d.norm(), d.normalized())) * q;
-        track.pose.row(i).tail(4) << q.w(), q.x(), q.y(), q.z();
+  Log log;
+  for (int e = 0; e < episodes; ++e) {
+    sim::State x0 = truth.InitialState();
+    if (st.vary_launch) {
+      for (const sim::Body& body : scene.bodies) {
+        if (body.kind != sim::BodyKind::kDynamic) continue;
+        const sim::BodyKinematics k = sim::GetBodyKinematics(scene, x0, body.name);
+        Eigen::Vector3d v = k.v_WB, w = k.w_WB;
+        v.x() += 0.2 * n01(rng);
+        v.y() += 0.2 * n01(rng);
+        if (planar) {
+          w.z() += 2.0 * n01(rng);
+        } else {
+          for (int j = 0; j < 3; ++j) w[j] += 2.0 * n01(rng);
+        }
+        sim::SetBodyVelocity(scene, body.name, v, w, &x0);
       }
     }
-    ep.bodies.push_back(std::move(track));
+    const sim::Trajectory tr = truth.Rollout(truth.DefaultParams(), x0, warm + window * st.every);
+    if (!tr.ok) throw std::runtime_error("the true rollout failed: " + tr.failure);
+    est::Episode ep;
+    ep.file = st.name + "_" + std::to_string(seed) + "_" + std::to_string(e);
+    for (int i = 0; i < window; ++i) {
+      ep.t.push_back(tr.states[warm + i * st.every].t);
+      ep.lines.push_back(i + 2);
+    }
+    for (int b = 0; b < static_cast<int>(scene.bodies.size()); ++b) {
+      if (scene.bodies[b].kind != sim::BodyKind::kDynamic) continue;
+      est::BodyTrack track;
+      track.body = scene.bodies[b].name;
+      track.body_index = b;
+      track.dynamic = true;
+      track.has_orientation = st.orientation;
+      const int qo = scene.index(b).q;
+      track.pose = sim::MatrixXd::Zero(window, planar ? 3 : 7);
+      for (int i = 0; i < window; ++i) {
+        const sim::State& x = tr.states[warm + i * st.every];
+        for (int j = 0; j < (planar ? 2 : 3); ++j)
+          track.pose(i, j) = x.q[qo + j] + sigma * n01(rng);
+        if (!st.orientation) continue;
+        if (planar) {
+          track.pose(i, 2) = x.q[qo + 2] + sigma / 0.1 * n01(rng);
+        } else {
+          Eigen::Quaterniond q(x.q[qo + 3], x.q[qo + 4], x.q[qo + 5], x.q[qo + 6]);
+          const Eigen::Vector3d d(n01(rng), n01(rng), n01(rng));
+          if (sigma > 0)
+            q = Eigen::Quaterniond(Eigen::AngleAxisd(sigma / 0.1 * d.norm(), d.normalized())) * q;
+          track.pose.row(i).tail(4) << q.w(), q.x(), q.y(), q.z();
+        }
+      }
+      ep.bodies.push_back(std::move(track));
+    }
+    log.episodes.push_back(std::move(ep));
   }
-  Log log;
-  log.episodes.push_back(std::move(ep));
   return log;
 }
 
@@ -187,13 +229,15 @@ std::vector<std::string> ParseNames(const std::string& s) {
   return v;
 }
 
-}  // namespace
+constexpr const char* kUsage =
+    "usage: estimation_study plate|particles|block|cube [--trials N] [--first-trial K]\n"
+    "         [--noise S1,S2] [--windows W1,W2] [--particles N1,N2] [--episodes N]\n"
+    "         [--methods lsq,lsq_ms,filter,mpec] [--guess MU] [--out F.csv]\n";
 
-int main(int argc, char** argv) {
-  if (argc < 2) {
-    std::cerr << "usage: estimation_study plate|particles|block|cube [--trials N] [--noise "
-                 "S1,S2] [--windows W1,W2] [--particles N1,N2] [--methods a,b] [--out F.csv]\n";
-    return 1;
+int Run(int argc, char** argv) {
+  if (argc < 2 || std::string(argv[1]) == "--help") {
+    std::cerr << kUsage;
+    return argc < 2 ? 1 : 0;
   }
   const std::string which = argv[1];
   Study st;
@@ -208,7 +252,7 @@ int main(int argc, char** argv) {
     noise = {1e-5, 1e-4};
     windows = {50, 100};
     if (which == "particles") {
-      particles = {1, 2, 4};
+      particles = {1, 2, 4, 8};
       windows = {50};
       noise = {1e-4};
     }
@@ -224,21 +268,31 @@ int main(int argc, char** argv) {
     st.guess_mu = 0.6;
     st.every = 7;  // ≈ 143 Hz
     st.orientation = true;
+    st.vary_launch = true;
     st.scene = [](int, double mu) { return CubeScene(mu); };
     noise = {3e-5};
     windows = {100};
   } else {
-    std::cerr << "unknown study '" << which << "'\n";
+    std::cerr << "unknown study '" << which << "'\n" << kUsage;
     return 1;
   }
-  int trials = 20;
+  int trials = 20, first_trial = 0, episodes = 1;
   std::string out = "estimation_study_" + which + ".csv";
   std::vector<std::string> method_names;
   for (const auto& m : Methods()) method_names.push_back(m.first);
-  for (int i = 2; i + 1 < argc; i += 2) {
-    const std::string flag = argv[i], value = argv[i + 1];
+  for (int i = 2; i < argc; i += 2) {
+    const std::string flag = argv[i];
+    if (i + 1 >= argc) {
+      std::cerr << flag << ": missing value\n" << kUsage;
+      return 1;
+    }
+    const std::string value = argv[i + 1];
     if (flag == "--trials") {
       trials = std::stoi(value);
+    } else if (flag == "--first-trial") {
+      first_trial = std::stoi(value);
+    } else if (flag == "--episodes") {
+      episodes = std::stoi(value);
     } else if (flag == "--noise") {
       noise = ParseList(value);
     } else if (flag == "--windows") {
@@ -252,13 +306,29 @@ int main(int argc, char** argv) {
     } else if (flag == "--out") {
       out = value;
     } else {
-      std::cerr << "unknown option " << flag << "\n";
+      std::cerr << "unknown option " << flag << "\n" << kUsage;
       return 1;
     }
   }
+  for (const std::string& m : method_names) {
+    bool known = false;
+    for (const auto& k : Methods()) known |= k.first == m;
+    if (!known) {
+      std::cerr << "--methods: unknown method '" << m << "' (lsq, lsq_ms, filter, mpec)\n";
+      return 1;
+    }
+  }
+  if (trials < 1 || episodes < 1 || first_trial < 0) {
+    std::cerr << "--trials and --episodes must be ≥ 1, --first-trial ≥ 0\n";
+    return 1;
+  }
   std::ofstream csv(out);
-  csv << "study,method,noise_m,window,particles,trial,true_mu,mu_hat,std_error,converged,"
-         "iterations,time_s\n";
+  if (!csv) {
+    std::cerr << "cannot write " << out << "\n";
+    return 1;
+  }
+  csv << "study,method,noise_m,window,particles,episodes,trial,true_mu,mu_hat,std_error,"
+         "converged,iterations,time_s,samples\n";
   csv.precision(10);
   for (double np : particles) {
     const int n_particles = static_cast<int>(np);
@@ -266,9 +336,9 @@ int main(int argc, char** argv) {
     const sim::Simulator model(sim::ParseScene(st.scene(n_particles, st.guess_mu), "model.yaml"));
     for (double sigma : noise) {
       for (double w : windows) {
-        for (int trial = 0; trial < trials; ++trial) {
+        for (int trial = first_trial; trial < first_trial + trials; ++trial) {
           const unsigned seed = 1000u * static_cast<unsigned>(w) + static_cast<unsigned>(trial);
-          const Log log = MakeLog(truth, st, static_cast<int>(w), sigma, seed);
+          const Log log = MakeLog(truth, st, static_cast<int>(w), episodes, sigma, seed);
           for (const auto& [name, estimator] : Methods()) {
             bool wanted = false;
             for (const std::string& m : method_names) wanted |= m == name;
@@ -281,11 +351,13 @@ int main(int argc, char** argv) {
               continue;
             }
             csv << which << "," << name << "," << sigma << "," << w << "," << n_particles << ","
-                << trial << "," << st.true_mu << "," << r.estimates[0] << "," << r.std_errors[0]
-                << "," << (r.converged ? 1 : 0) << "," << r.iterations << "," << r.time_s << "\n";
-            std::fprintf(stderr, "%s %-7s σ=%g w=%g n=%d trial %2d: μ̂ = %.5f ± %.5f %s %.2f s\n",
-                         which.c_str(), name.c_str(), sigma, w, n_particles, trial, r.estimates[0],
-                         r.std_errors[0], r.converged ? "" : "(not converged)", r.time_s);
+                << episodes << "," << trial << "," << st.true_mu << "," << r.estimates[0] << ","
+                << r.std_errors[0] << "," << (r.converged ? 1 : 0) << "," << r.iterations << ","
+                << r.time_s << "," << static_cast<int>(w) * episodes << std::endl;
+            std::fprintf(
+                stderr, "%s %-7s σ=%g w=%g n=%d e=%d trial %2d: μ̂ = %.5f ± %.5f %s %d it %.2f s\n",
+                which.c_str(), name.c_str(), sigma, w, n_particles, episodes, trial, r.estimates[0],
+                r.std_errors[0], r.converged ? "" : "(not converged)", r.iterations, r.time_s);
           }
         }
       }
@@ -293,4 +365,15 @@ int main(int argc, char** argv) {
   }
   std::cerr << "wrote " << out << "\n";
   return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    return Run(argc, argv);
+  } catch (const std::exception& e) {
+    std::cerr << "estimation_study: " << e.what() << "\n";
+    return 1;
+  }
 }

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "vinci/estimation/log.h"
 #include "vinci/sim/model/scene_file.h"
 #include "vinci/sim/simulator/simulator.h"
 
@@ -109,6 +110,64 @@ inline std::string SyntheticLog(const sim::Simulator& sim, const std::string& bo
     k += every + (++gap % 3 == 0 ? 1 : 0);
   }
   return WriteFile(name, text);
+}
+
+// A particle (2 mm disc, 10 g, huge inertia: it slides without rolling) on a planar plate
+// vibrating at 20 Hz (x acceleration amplitude 20 m/s², y 5 m/s² a quarter cycle ahead): the
+// thesis' single-particle study (chapter 7). The scene's μ = 0.3.
+inline const char* kVibratingPlate = R"(dimension: 2
+gravity: [0, -9.81]
+stepper: {dt: 0.001, duration: 1, envelope: 0.001, prescribed_velocity: exact}
+friction: {default: 0.3}
+bodies:
+  - name: plate
+    kind: prescribed
+    shapes: [{type: halfplane}]
+    motion:
+      frequency: 20
+      x: {harmonics: [{order: 1, amplitude: 1.2665e-3, phase: 0}]}
+      y: {harmonics: [{order: 1, amplitude: 3.166e-4, phase: 1.5707963267948966}]}
+  - name: p0
+    mass: 0.01
+    inertia: 1.0
+    pose: {position: [0, 0.0023]}
+    shapes: [{type: disc, radius: 0.002}]
+)";
+
+// An in-memory log of every dynamic body's position: the scene simulated with mu.default = mu
+// from its initial state, sampled every `every` steps after `warmup` steps, `samples` samples,
+// Gaussian noise σ.
+inline Log SampledLog(const sim::Simulator& sim, double mu, int warmup, int every, int samples,
+                      double sigma, unsigned seed) {
+  sim::Params p = sim.DefaultParams();
+  p.values[sim.scene().param_table().Index("mu.default")] = mu;
+  const sim::Trajectory tr = sim.Rollout(p, sim.InitialState(), warmup + every * samples);
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> n01(0.0, 1.0);
+  const sim::Scene& scene = sim.scene();
+  const int np = scene.dim == sim::Dim::kPlanar ? 2 : 3;
+  Episode ep;
+  ep.file = "sampled_" + std::to_string(seed);
+  for (int i = 0; i < samples; ++i) {
+    ep.t.push_back(tr.states[warmup + i * every].t);
+    ep.lines.push_back(i + 2);
+  }
+  for (int b = 0; b < static_cast<int>(scene.bodies.size()); ++b) {
+    if (scene.bodies[b].kind != sim::BodyKind::kDynamic) continue;
+    BodyTrack track;
+    track.body = scene.bodies[b].name;
+    track.body_index = b;
+    track.dynamic = true;
+    track.pose = sim::MatrixXd::Zero(samples, np == 2 ? 3 : 7);
+    const int qo = scene.index(b).q;
+    for (int i = 0; i < samples; ++i)
+      for (int j = 0; j < np; ++j)
+        track.pose(i, j) = tr.states[warmup + i * every].q[qo + j] + sigma * n01(rng);
+    ep.bodies.push_back(std::move(track));
+  }
+  Log log;
+  log.episodes.push_back(std::move(ep));
+  return log;
 }
 
 }  // namespace vinci::estimation::testing

@@ -69,5 +69,36 @@ TEST(Holdout, RolloutErrorsOrderTrueGuessStationary) {
   EXPECT_LT(h.initial_guess.position_m, h.stationary.position_m);
 }
 
+// Spatial logs: the orientation error is in degrees and the position error in % of the body's
+// size. A noise-free log of the sliding box (which does not turn) with the orientations of the
+// samples from the 9th on turned by 5° about the vertical (the first 8 give the rollout's
+// initial velocity, so it stays that of the slide): the mean angle is 5° (n − 8) / n both for
+// the stationary baseline and for the true parameters' rollout.
+TEST(Holdout, SpatialOrientationErrorInDegrees) {
+  const sim::Simulator sim(sim::ParseScene(testing::kSpatialBox, "box.yaml"));
+  const std::string path = SyntheticLog(sim, "box", 0.3, 0.4, 5, 0.0, 1, "holdout_box.csv");
+  Log log = ReadLog({path}, sim.scene());
+  BodyTrack& b = log.episodes[0].bodies[0];
+  const int n = log.episodes[0].num_samples();
+  const Eigen::Quaterniond turn(Eigen::AngleAxisd(5.0 * M_PI / 180.0, Eigen::Vector3d::UnitZ()));
+  for (int i = 8; i < n; ++i) {
+    const Eigen::Quaterniond q =
+        turn * Eigen::Quaterniond(b.pose(i, 3), b.pose(i, 4), b.pose(i, 5), b.pose(i, 6));
+    b.pose.row(i).tail(4) << q.w(), q.x(), q.y(), q.z();
+  }
+  sim::Params truth = sim.DefaultParams();
+  truth.values[sim.scene().param_table().Index("mu.default")] = 0.3;
+  const HoldoutResult h = EvaluateHoldout(sim, truth, log);
+  EXPECT_NEAR(h.stationary.orientation_deg, 5.0 * (n - 8) / n, 1e-6);
+  EXPECT_NEAR(h.fitted.orientation_deg, 5.0 * (n - 8) / n, 1e-3);
+  const double size = std::sqrt(0.2 * 0.2 + 0.2 * 0.2 + 0.1 * 0.1);
+  EXPECT_NEAR(h.fitted.position_percent, 100 * h.fitted.position_m / size, 1e-9);
+  EXPECT_NEAR(h.stationary.position_percent, 100 * h.stationary.position_m / size, 1e-9);
+  // The true μ reproduces the slide far better than staying put or the scene's μ = 0.5.
+  EXPECT_LT(h.fitted.position_m, 0.1 * h.stationary.position_m);
+  EXPECT_LT(h.fitted.position_m, h.initial_guess.position_m);
+  EXPECT_EQ(h.fitted.failed_rollouts, 0);
+}
+
 }  // namespace
 }  // namespace vinci::estimation

@@ -19,13 +19,21 @@
 // orientation_length for angles, the segment's duration for velocities, so they are in metres;
 // w = continuity_weight ≫ 1, a penalty that makes them constraints to O(1/w²)). Rollouts are
 // short and start near the data, so the fit is much less prone to local minima.
-// Jacobians by central finite differences of rollouts. Standard errors from the Gauss–Newton
-// covariance (JᵀJ)⁺ σ² (ceres::Covariance, pseudo-inverse), σ the stated noise or, if none is
-// stated, the residual estimate σ̂² = Σ r² / (m − n). Initial-state components with a zero
-// Jacobian column at the start (a velocity into a resting contact, which the first step removes)
-// are held at the log's values. The log's initial velocity (the starting guess, or the value
-// used without estimate_initial_state and without velocity columns) is the slope at t0 of a
-// least-squares quadratic through the first 8 samples.
+// Jacobians by central finite differences of rollouts. Standard errors: σ √diag(I⁻¹), I the
+// Gauss–Newton information about θ with each episode's free initial-state components profiled
+// out, I = Σ_e Jθᵀ (1 − P_s) Jθ (P_s the projector on the columns of J_s), J the Jacobian of the
+// episode's measured residuals with respect to (θ, s_e,0); for multiple shooting J chains the
+// segments through the continuity constraints as exact (ds_j+1 = ∂x_end/∂θ dθ + ∂x_end/∂s_j
+// ds_j, the end-state derivatives being the continuity rows' over w c), so single and multiple
+// shooting report the same standard error at the same solution. σ = max(stated σ, σ̂), σ̂² =
+// Σ r² / (m − n) over the measured residuals (n: parameters + free initial-state components):
+// a fit that does not reach the noise level (a stall at a stick–slip kink, model mismatch)
+// widens its standard errors instead of reporting the stated noise's; if Σ r² / σ² exceeds
+// its χ² mean (m − n) by 4 standard deviations the result is not `converged` (reason says so).
+// Initial-state components with a zero Jacobian column at the start (a velocity into a resting
+// contact, which the first step removes) are held at the log's values. The log's initial velocity
+// (the starting guess, or the value used without estimate_initial_state and without velocity
+// columns) is the slope at t0 of a least-squares quadratic through the first 8 samples.
 #pragma once
 
 #include <functional>
@@ -92,7 +100,12 @@ struct EstimateResult {
   /// the start (zero Jacobian column: e.g. a velocity into a resting contact, removed by the
   /// first step).
   int frozen_state_components = 0;
-  double sigma = 0.0;  ///< σ used for the standard errors (stated or estimated)
+  /// σ used for the standard errors: the larger of the stated noise and sigma_residual (the
+  /// residual estimate alone if no noise is stated).
+  double sigma = 0.0;
+  /// σ̂ = √(Σ r² / (m − n)) over the measured residuals (n: parameters and free initial-state
+  /// components; segment start states are tied by the continuity constraints). NaN if m ≤ n.
+  double sigma_residual = 0.0;
   std::vector<EpisodeEstimate> episodes;
 };
 

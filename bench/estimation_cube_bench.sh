@@ -1,0 +1,31 @@
+#!/bin/sh
+# Friction estimation, time and iterations per method on 50 tossed-cube episodes (issue 15
+# item 9; bench/README.md): a 5 cm cube tossed onto a table 50 times (seeded launch velocities),
+# 100 samples per toss at ≈ 143 Hz with 30 µm position noise (5000 samples, orientations
+# logged), estimated together (shared μ, per-episode initial states) by each method in turn.
+#
+#   bench/estimation_cube_bench.sh [BUILD_DIR] [METHODS] [EPISODES]
+#
+# BUILD_DIR defaults to build (estimation_study must be built there: cmake --build BUILD_DIR
+# --target estimation_study); METHODS a comma list of lsq,lsq_ms,filter,mpec (default all);
+# EPISODES default 50. Writes estimation_cube_bench.csv in the current directory and prints a
+# table. Run it on an idle machine; one method at a time is fine (the CSV is per run).
+set -eu
+BUILD=${1:-build}
+METHODS=${2:-lsq,lsq_ms,filter,mpec}
+EPISODES=${3:-50}
+STUDY="$BUILD/examples/estimation_study"
+[ -x "$STUDY" ] || { echo "no $STUDY: build the estimation_study target first" >&2; exit 1; }
+OUT=estimation_cube_bench.csv
+echo "# $(date -u +%FT%TZ) $(git rev-parse --short HEAD 2>/dev/null || echo '?') load: $(cut -d' ' -f1-3 /proc/loadavg)" >&2
+"$STUDY" cube --trials 1 --episodes "$EPISODES" --methods "$METHODS" --out "$OUT"
+/usr/bin/python3 - "$OUT" <<'PY'
+import csv, sys
+rows = list(csv.DictReader(open(sys.argv[1])))
+print("| method | episodes | samples | mu_hat (true 0.4) | std. error | iterations | time (s) | converged |")
+print("|---|---|---|---|---|---|---|---|")
+for r in rows:
+    print(f"| {r['method']} | {r['episodes']} | {r['samples']} | {float(r['mu_hat']):.5f} | "
+          f"{float(r['std_error']):.2e} | {r['iterations']} | {float(r['time_s']):.1f} | "
+          f"{'yes' if r['converged'] == '1' else 'no'} |")
+PY
