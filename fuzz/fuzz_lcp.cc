@@ -4,9 +4,8 @@
 // A malformed file must end in std::invalid_argument; a solver must return a status (never
 // throw), and whenever it says "solved" its z must pass the check below, written here without
 // the solvers' code: z and w = Mz + q finite, their negative parts and min(z_i, w_i) small
-// relative to the problem's own scale: z against s_z = max(‖z‖∞, ‖q‖∞ / ‖M‖∞), each w_i against
-// its own row, s_i = max(|q_i| + Σ_j |M_ij||z_j|, s_z Σ_j |M_ij|) (so that scaling a row does not
-// change the verdict). A violation aborts, which libFuzzer and the replay test report.
+// relative to the problem's own scale (s_w = max(‖q‖∞, max_i Σ_j |M_ij||z_j|), s_z = max(‖z‖∞,
+// ‖q‖∞ / ‖M‖∞)). A violation aborts, which libFuzzer and the replay test report.
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
@@ -35,24 +34,24 @@ void CheckSolved(const vinci::sim::LcpProblem& p, const Eigen::VectorXd& z,
   const Eigen::Index n = p.q.size();
   if (z.size() != n) Finding(solver, "z has the wrong size");
   if (!z.allFinite()) Finding(solver, "z is not finite");
-  double q_norm = 0.0, m_norm = 0.0, z_norm = 0.0;
+  double q_norm = 0.0, m_norm = 0.0, z_norm = 0.0, s_w = 0.0;
   for (Eigen::Index i = 0; i < n; ++i) {
     q_norm = std::max(q_norm, std::abs(p.q(i)));
     z_norm = std::max(z_norm, std::abs(z(i)));
-    double row = 0.0;
-    for (Eigen::Index j = 0; j < n; ++j) row += std::abs(p.M(i, j));
+    double row = 0.0, row_z = 0.0;
+    for (Eigen::Index j = 0; j < n; ++j) {
+      row += std::abs(p.M(i, j));
+      row_z += std::abs(p.M(i, j) * z(j));
+    }
     m_norm = std::max(m_norm, row);
+    s_w = std::max(s_w, row_z);
   }
+  s_w = std::max(s_w, q_norm);
   const double s_z = std::max(z_norm, m_norm > 0.0 ? q_norm / m_norm : 0.0);
   for (Eigen::Index i = 0; i < n; ++i) {
-    double w = p.q(i), terms = std::abs(p.q(i)), row = 0.0;
-    for (Eigen::Index j = 0; j < n; ++j) {
-      w += p.M(i, j) * z(j);
-      terms += std::abs(p.M(i, j) * z(j));
-      row += std::abs(p.M(i, j));
-    }
+    double w = p.q(i);
+    for (Eigen::Index j = 0; j < n; ++j) w += p.M(i, j) * z(j);
     if (!std::isfinite(w)) Finding(solver, "w is not finite");
-    const double s_w = std::max(terms, s_z * row);
     const double zr = s_z > 0.0 ? z(i) / s_z : 0.0, wr = s_w > 0.0 ? w / s_w : 0.0;
     if (zr < -kSignTolerance || wr < -kSignTolerance)
       Finding(solver, "z or w is negative at " + std::to_string(i));

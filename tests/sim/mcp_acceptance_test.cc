@@ -86,9 +86,8 @@ TEST(McpAcceptanceTest, UpperBoundRowsAreJudgedAtTheirScale) {
   EXPECT_NEAR(z(0), 2.0, 1e-9);
 }
 
-// On an LCP written as an MCP (F = Mz + q, l = 0, u = ∞) the two measures agree, and both are
-// invariant to scaling a row of (M, q).
-TEST(McpAcceptanceTest, AgreesWithTheLcpMeasureAndIsRowScaleInvariant) {
+// On an LCP written as an MCP (F = Mz + q, l = 0, u = ∞) the two measures agree.
+TEST(McpAcceptanceTest, AgreesWithTheLcpMeasure) {
   std::mt19937 rng(7);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   const int n = 5;
@@ -101,14 +100,6 @@ TEST(McpAcceptanceTest, AgreesWithTheLcpMeasureAndIsRowScaleInvariant) {
     const McpProblem p =
         Affine(lcp.M, lcp.q, VectorXd::Zero(n), VectorXd::Constant(n, kInf), trial % 2 == 0);
     EXPECT_NEAR(McpScaledResidual(p, z), r, 1e-12 * (1.0 + r));
-    const int row = trial % n;
-    const double d = trial % 3 == 0 ? 1e-9 : 1e7;
-    LcpProblem scaled = lcp;
-    scaled.M.row(row) *= d;
-    scaled.q(row) *= d;
-    const McpProblem ps =
-        Affine(scaled.M, scaled.q, VectorXd::Zero(n), VectorXd::Constant(n, kInf), false);
-    EXPECT_NEAR(McpScaledResidual(ps, z), r, 1e-12 * (1.0 + r));
   }
 }
 

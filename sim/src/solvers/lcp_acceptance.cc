@@ -24,11 +24,14 @@ double ScaledNaturalResidual(const VectorXd& z, const VectorXd& F, const VectorX
   double s_z = std::max(z.lpNorm<Eigen::Infinity>(), j_norm > 0.0 ? c_norm / j_norm : 0.0);
   if (!std::isfinite(s_z)) return kInf;
   if (!(s_z > 0.0)) s_z = 1.0;  // z = 0 and c = 0: F = 0
+  // One scale for every row (the largest row's): a per-row scale s_i = max(row_terms_i,
+  // s_z row_norms_i) would be invariant to row scaling but changes Lemke's answers on degenerate
+  // contact LCPs (fuzz/open/README.md).
+  const double s_w = std::max(row_terms.maxCoeff(), s_z * j_norm);
+  if (!std::isfinite(s_w)) return kInf;
   double r = 0.0;
   for (Eigen::Index i = 0; i < n; ++i) {
-    const double s_i = std::max(row_terms(i), s_z * row_norms(i));
-    if (!std::isfinite(s_i)) return kInf;
-    const double f = s_i > 0.0 ? F(i) / s_i : 0.0;
+    const double f = s_w > 0.0 ? F(i) / s_w : 0.0;
     const double zi = z(i) / s_z;
     const double l = lower != nullptr ? (*lower)(i) / s_z : 0.0;
     const double u = upper != nullptr ? (*upper)(i) / s_z : kInf;

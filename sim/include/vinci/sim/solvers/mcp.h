@@ -32,13 +32,13 @@ double McpResidual(const McpProblem& problem, const VectorXd& z);
 
 /// The scale-aware residual of z (the MCP form of LcpScaledResidual, lcp_acceptance.h), with
 /// F linearized at z, F(z) = J z + c (J = ∂F/∂z, c = F(z) − J z; for an LCP J = M, c = q):
-///   r = max_i |ẑ_i − mid(l_i / s_z, u_i / s_z, ẑ_i − F_i(z) / s_i)|,   ẑ = z / s_z,
-///   s_z = max(‖z‖∞, ‖c‖∞ / ‖J‖∞),   s_i = max(|c_i| + Σ_j |J_ij z_j|, s_z Σ_j |J_ij|).
-/// Like the LCP's, it bounds how far z leaves the box and F_i has the wrong sign relative to the
-/// problem's own scale, row by row (invariant to scaling a row of F, to scaling F as a whole,
-/// and to the units of z). An MCP in small units, e.g. F(z) = 1e-12 (z − 1) on z ≥ 0, has a tiny
-/// natural residual at z = 0 (1e-12) but r = 1 there. Uses sparse_jacobian if set, else the
-/// dense Jacobian of evaluate. Infinity if anything is not finite. Throws as McpResidual.
+///   r = max_i |ẑ_i − mid(l_i / s_z, u_i / s_z, ẑ_i − F_i(z) / s_w)|,   ẑ = z / s_z,
+///   s_z = max(‖z‖∞, ‖c‖∞ / ‖J‖∞),   s_i = s_w = max(max_k (|c_k| + Σ_j |J_kj z_j|), s_z ‖J‖∞).
+/// Like the LCP's, it bounds how far z leaves the box and how far F_i has the wrong sign,
+/// relative to the problem's own scale (invariant to scaling F as a whole and to the units of
+/// z). An MCP in small units, e.g. F(z) = 1e-12 (z − 1) on z ≥ 0, has a tiny natural residual at
+/// z = 0 (1e-12) but r = 1 there. Uses sparse_jacobian if set, else the dense Jacobian of
+/// evaluate. Infinity if anything is not finite. Throws as McpResidual.
 double McpScaledResidual(const McpProblem& problem, const VectorXd& z);
 
 /// The penalized Fischer–Burmeister reformulation Φ(z) = 0 of MCP(F, l, u) that McpSolver
