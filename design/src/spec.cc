@@ -12,7 +12,9 @@
 #include <stdexcept>
 
 #include "vinci/sim/model/scene_file.h"
+#include "vinci/sim/model/yaml_documents.h"
 #include "vinci/sim/simulator/simulator.h"
+#include "vinci/sim/solvers/input_file.h"
 
 namespace vinci::design {
 namespace {
@@ -123,19 +125,20 @@ class Field {
     if (!(v > 0.0)) Fail("a finite number > 0");
     return v;
   }
-  long long Integer(long long min) const {
-    const std::string what = "an integer >= " + std::to_string(min);
+  // An integer in [min, max] written as [-]digits (no sign inside, no fraction, no exponent).
+  long long Integer(long long min, long long max = std::numeric_limits<long long>::max()) const {
+    const std::string what =
+        max == std::numeric_limits<long long>::max()
+            ? "an integer >= " + std::to_string(min)
+            : "an integer in [" + std::to_string(min) + ", " + std::to_string(max) + "]";
     if (!node_.IsScalar() || node_.Tag() != "?") Fail(what);
     const std::string& s = node_.Scalar();
-    if (s.empty() || s.size() > 18 || s.find_first_not_of("0123456789-") != std::string::npos)
+    const std::size_t digits = !s.empty() && s[0] == '-' ? 1 : 0;
+    if (s.size() <= digits || s.size() > 18 ||
+        s.find_first_not_of("0123456789", digits) != std::string::npos)
       Fail(what);
-    long long v = 0;
-    try {
-      v = std::stoll(s);
-    } catch (const std::exception&) {
-      Fail(what);
-    }
-    if (v < min) Fail(what);
+    const long long v = std::stoll(s);
+    if (v < min || v > max) Fail(what);
     return v;
   }
   bool Bool() const {
@@ -188,12 +191,20 @@ int IndexOf(const std::vector<std::string>& list, const std::string& s) {
   return -1;
 }
 
+// The whole file, bounded (sim::ReadInputFile: no directories or devices, at most 64 MiB).
 std::string ReadFile(const std::string& path, const std::string& what) {
-  std::ifstream in(path);
-  if (!in) throw std::invalid_argument(path + ": cannot open " + what);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
+  return sim::ReadInputFile(path, what);
+}
+
+// A rollout of `duration` s at step `dt` must have at most kMaxRolloutSteps steps.
+void CheckRolloutSteps(const Field& f, double duration, double dt) {
+  const double steps = duration / dt;
+  if (!(steps <= DesignLimits::kMaxRolloutSteps)) {
+    std::ostringstream s;
+    s << "expected duration / dt <= " << DesignLimits::kMaxRolloutSteps
+      << " steps per rollout, got " << duration << " / " << dt << " = " << steps;
+    f.FailMessage(s.str());
+  }
 }
 
 // objective.grip (success only): jaws (bodies other than the objective body) and the overlap
@@ -288,6 +299,8 @@ void ParseScreening(const Field& list, DesignSpec* spec) {
     list.FailMessage(
         "applies to objectives of type success only (a rejected design gets the "
         "worst success rate, 0)");
+  if (list.node().size() > static_cast<std::size_t>(DesignLimits::kMaxScreeningStages))
+    list.Fail("at most " + std::to_string(DesignLimits::kMaxScreeningStages) + " stages");
   for (std::size_t i = 0; i < list.node().size(); ++i) {
     const Field f = list.At(i);
     if (!f.node().IsMap()) f.Fail("a map with a type (geometric or short)");
@@ -302,14 +315,15 @@ void ParseScreening(const Field& list, DesignSpec* spec) {
         st.tolerance = f["tolerance"].Number();
         if (st.tolerance < 0.0) f["tolerance"].Fail("a number >= 0 (m)");
       }
-      if (f.Has("samples")) st.samples = static_cast<int>(f["samples"].Integer(0));
+      if (f.Has("samples"))
+        st.samples = static_cast<int>(f["samples"].Integer(0, DesignLimits::kMaxSamples));
     } else if (type == "short") {
       f.ExpectMap(kShortKeys);
       st.type = StageType::kShort;
       st.duration = f.Required("duration").Positive();
       st.samples = spec->samples;
-      if (f.Has("samples")) st.samples = static_cast<int>(f["samples"].Integer(1));
-      if (st.samples > 10000000) f["samples"].Fail("an integer <= 10000000");
+      if (f.Has("samples"))
+        st.samples = static_cast<int>(f["samples"].Integer(1, DesignLimits::kMaxSamples));
       st.min_success = f.Required("min_success").Number();
       if (st.min_success < 0.0 || st.min_success > 1.0)
         f["min_success"].Fail("a number in [0, 1] (a success rate)");
@@ -330,6 +344,7 @@ void ParseScreening(const Field& list, DesignSpec* spec) {
           ff.FailMessage(e.what());
         }
       }
+      CheckRolloutSteps(f.Has("dt") ? f["dt"] : f["duration"], st.duration, st.options.dt);
       // The stage's simulator must take the scene: build it once here.
       if (f.Has("formulation") || f.Has("dt")) {
         try {
@@ -375,13 +390,7 @@ DesignSpec ParseDesignSpec(const std::string& yaml_text, const std::string& sour
                            const std::string& base_dir) {
   DesignSpec spec;
   spec.source = source_name;
-  YAML::Node root;
-  try {
-    root = YAML::Load(yaml_text);
-  } catch (const YAML::ParserException& e) {
-    throw std::invalid_argument(source_name + ":" + std::to_string(e.mark.line + 1) +
-                                ": YAML syntax error: " + e.msg);
-  }
+  const YAML::Node root = sim::LoadYamlDocument(yaml_text, source_name);
   const Field top(&spec.source, root, "", 1);
   top.ExpectMap(kTopKeys);
 
@@ -390,11 +399,12 @@ DesignSpec ParseDesignSpec(const std::string& yaml_text, const std::string& sour
   const std::string scene_name = scene_field.String();
   spec.scene_path =
       (scene_name.front() == '/' || base_dir.empty()) ? scene_name : base_dir + "/" + scene_name;
-  {
-    std::ifstream in(spec.scene_path);
-    if (!in) scene_field.Fail("a readable scene file (resolved to '" + spec.scene_path + "')");
+  try {
+    spec.scene_text = ReadFile(spec.scene_path, "scene file");
+  } catch (const std::invalid_argument& e) {
+    scene_field.Fail("a readable scene file (resolved to '" + spec.scene_path + "': " + e.what() +
+                     ")");
   }
-  spec.scene_text = ReadFile(spec.scene_path, "scene file");
   spec.scene = sim::ParseScene(spec.scene_text, spec.scene_path);
   const sim::Scene& scene = spec.scene;
   const bool planar = scene.dim == sim::Dim::kPlanar;
@@ -483,7 +493,7 @@ DesignSpec ParseDesignSpec(const std::string& yaml_text, const std::string& sour
       } else {
         const Field c = f["choice"];
         if (!c.node().IsSequence() || c.node().size() < 1) c.Fail("a non-empty list of numbers");
-        u.choices = c.Numbers(1, c.node().size());
+        u.choices = c.Numbers(1, DesignLimits::kMaxChoices);
         u.type = DistributionType::kChoice;
       }
       if (f.Has("truncate")) {
@@ -522,14 +532,17 @@ DesignSpec ParseDesignSpec(const std::string& yaml_text, const std::string& sour
     }
   }
 
-  if (top.Has("samples")) spec.samples = static_cast<int>(top["samples"].Integer(1));
-  if (spec.samples > 10000000) top["samples"].Fail("an integer <= 10000000");
+  if (top.Has("samples"))
+    spec.samples = static_cast<int>(top["samples"].Integer(1, DesignLimits::kMaxSamples));
   if (top.Has("validation_samples"))
-    spec.validation_samples = static_cast<int>(top["validation_samples"].Integer(1));
+    spec.validation_samples =
+        static_cast<int>(top["validation_samples"].Integer(1, DesignLimits::kMaxSamples));
   if (top.Has("seed")) spec.seed = static_cast<std::uint64_t>(top["seed"].Integer(0));
   spec.duration = top.Required("duration").Positive();
+  CheckRolloutSteps(top["duration"], spec.duration, scene.options.dt);
   if (top.Has("optimizer")) spec.optimizer = top["optimizer"].String();
-  if (top.Has("budget")) spec.budget = static_cast<int>(top["budget"].Integer(1));
+  if (top.Has("budget"))
+    spec.budget = static_cast<int>(top["budget"].Integer(1, DesignLimits::kMaxBudget));
 
   ParseObjective(top.Required("objective"), scene, &spec.objective);
   if (top.Has("screening")) ParseScreening(top["screening"], &spec);

@@ -2,11 +2,12 @@
 
 #include <cmath>
 #include <cstdlib>
-#include <fstream>
 #include <map>
 #include <set>
 #include <sstream>
 #include <stdexcept>
+
+#include "vinci/sim/solvers/input_file.h"
 
 namespace vinci::estimation {
 namespace {
@@ -76,8 +77,11 @@ int ResidualsPerSample(const Episode& episode, Dim dim) {
 }
 
 Episode ReadEpisode(const std::string& path, const sim::Scene& scene) {
-  std::ifstream in(path);
-  if (!in) throw std::invalid_argument(path + ": cannot open the log file for reading");
+  return ParseEpisode(sim::ReadInputFile(path, "the log file"), path, scene);
+}
+
+Episode ParseEpisode(const std::string& text, const std::string& path, const sim::Scene& scene) {
+  std::istringstream in(text);
   const Dim dim = scene.dim;
   const bool planar = dim == Dim::kPlanar;
   const auto& components = Components(dim);

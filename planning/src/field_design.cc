@@ -145,7 +145,11 @@ FieldDesignProblem::FieldDesignProblem(const FieldDesignSpec& spec) : spec_(spec
   field_spec_.ny = spec.ny;
   field_spec_.cycles = spec.cycles;
   field_spec_.average_cycles = spec.average_cycles;
-  field_spec_.Validate(scene);
+  try {
+    field_spec_.Validate(scene);  // grid points, steps per cycle and per point (limits)
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(spec.path + ": motion.frequency, grid, cycles: " + e.what());
+  }
 
   const int m = spec.nx * spec.ny;
   if (spec.target.type == TargetType::kCsv) {

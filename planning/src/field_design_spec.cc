@@ -9,6 +9,8 @@
 #include <stdexcept>
 
 #include "spec_reader.h"
+#include "vinci/sim/model/yaml_documents.h"
+#include "vinci/sim/solvers/input_file.h"
 
 namespace vinci::planning {
 namespace {
@@ -20,7 +22,6 @@ const std::vector<std::string> kDofs = {"x", "y", "z", "roll", "pitch", "yaw"};
 
 using internal::Field;
 using internal::Join;
-using internal::LoadDocument;
 using internal::Reader;
 using internal::Resolve;
 
@@ -215,7 +216,7 @@ Vector2d GridPoint(const FieldDesignSpec& spec, int k) {
 
 FieldDesignSpec ParseFieldDesignSpec(const std::string& text, const std::string& source_name,
                                      const std::string& base_dir) {
-  const YAML::Node root = LoadDocument(text, source_name);
+  const YAML::Node root = sim::LoadYamlDocument(text, source_name);
   const Reader r(source_name);
   const Field top{root, "", 1};
   if (!root || root.IsNull()) r.Fail({root, "(document)", 1}, "a field-design spec (a map)");
@@ -258,18 +259,13 @@ FieldDesignSpec ParseFieldDesignSpec(const std::string& text, const std::string&
 }
 
 FieldDesignSpec LoadFieldDesignSpec(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw std::invalid_argument(path + ": cannot open the field-design spec");
-  std::stringstream s;
-  s << in.rdbuf();
+  const std::string text = sim::ReadInputFile(path, "the field-design spec");
   const std::size_t slash = path.find_last_of('/');
-  return ParseFieldDesignSpec(s.str(), path,
-                              slash == std::string::npos ? "." : path.substr(0, slash));
+  return ParseFieldDesignSpec(text, path, slash == std::string::npos ? "." : path.substr(0, slash));
 }
 
 std::vector<Vector2d> ReadTargetCsv(const std::string& path, const FieldDesignSpec& spec) {
-  std::ifstream in(path);
-  if (!in) throw std::invalid_argument(path + ": cannot open the target CSV");
+  std::istringstream in(sim::ReadInputFile(path, "the target CSV"));
   const auto split = [](const std::string& line) {
     std::vector<std::string> cells;
     std::stringstream s(line);

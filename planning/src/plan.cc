@@ -140,6 +140,14 @@ PlanProblem::PlanProblem(const PlanSpec& spec) : spec_(spec) {
     } catch (const std::exception& e) {
       throw std::invalid_argument(where + e.what());
     }
+    const long long spc = static_cast<long long>(seg.inputs.size());
+    const long long cycles = std::max(spec.max_cycles, spec.settle_cycles);
+    if (cycles * spc > PlanLimits::kMaxStepsPerApplication)
+      throw std::invalid_argument(
+          where + "expected at most " + std::to_string(PlanLimits::kMaxStepsPerApplication) +
+          " time steps per application (max(cycles max, settle_cycles) × steps per cycle), got " +
+          std::to_string(cycles) + " × " + std::to_string(spc) + " (the motion's frequency is " +
+          "too low for the scene's dt)");
     motions_.push_back(motion);
     steps_per_cycle_.push_back(static_cast<int>(seg.inputs.size()));
     inputs_.push_back(seg.inputs.front());

@@ -256,8 +256,8 @@ std::vector<PlanStep> StepsFromPath(const oc::PathControl& path) {
 
 PlanAttempt PlanOnce(const PlanProblem& problem, const PartPoses& start, PlannerType planner,
                      double time_limit, long long max_propagations) {
-  if (!(time_limit > 0.0))
-    throw std::invalid_argument("PlanOnce: expected a time limit > 0 s, got " +
+  if (!(time_limit > 0.0 && time_limit <= PlanLimits::kMaxTimeLimit))
+    throw std::invalid_argument("PlanOnce: expected a time limit in (0, 1e6] s, got " +
                                 std::to_string(time_limit));
   auto count = std::make_shared<std::atomic<long long>>(0);
   std::shared_ptr<oc::SimpleSetup> ss = MakeSimpleSetup(problem, start, planner, count);

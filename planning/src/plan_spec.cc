@@ -9,6 +9,8 @@
 #include <stdexcept>
 
 #include "spec_reader.h"
+#include "vinci/sim/model/yaml_documents.h"
+#include "vinci/sim/solvers/input_file.h"
 
 namespace vinci::planning {
 namespace {
@@ -19,13 +21,14 @@ const std::vector<std::string> kTopKeys = {"scene",  "plate",  "plate_extent",  
 
 using internal::Field;
 using internal::Join;
-using internal::LoadDocument;
 using internal::Reader;
 using internal::Resolve;
 
 void ReadPrimitives(const Reader& r, const Field& f, PlanSpec* spec) {
   if (!f.node.IsSequence() || f.node.size() == 0)
     r.Fail(f, "a non-empty list of {name: ..., motion: {...}}");
+  if (f.node.size() > static_cast<std::size_t>(PlanLimits::kMaxPrimitives))
+    r.Fail(f, "at most " + std::to_string(PlanLimits::kMaxPrimitives) + " primitives");
   std::set<std::string> names;
   for (std::size_t i = 0; i < f.node.size(); ++i) {
     const Field p = r.Item(f, i);
@@ -92,7 +95,7 @@ PlannerType ParsePlannerName(const std::string& name, const std::string& where) 
 
 PlanSpec ParsePlanSpec(const std::string& text, const std::string& source_name,
                        const std::string& base_dir) {
-  const YAML::Node root = LoadDocument(text, source_name);
+  const YAML::Node root = sim::LoadYamlDocument(text, source_name);
   const Reader r(source_name);
   const Field top{root, "", 1};
   r.Map(top, kTopKeys, "a plan spec (a map of " + Join(kTopKeys) + ")");
@@ -112,14 +115,15 @@ PlanSpec ParsePlanSpec(const std::string& text, const std::string& source_name,
   if (root["cycles"]) {
     const Field c = r.Child(top, "cycles");
     if (!c.node.IsSequence() || c.node.size() != 2) r.Fail(c, "[min, max] (integers)");
-    spec.min_cycles = static_cast<int>(r.Integer(r.Item(c, 0), 1, 100000));
-    spec.max_cycles = static_cast<int>(r.Integer(r.Item(c, 1), 1, 100000));
+    spec.min_cycles = static_cast<int>(r.Integer(r.Item(c, 0), 1, PlanLimits::kMaxCycles));
+    spec.max_cycles = static_cast<int>(r.Integer(r.Item(c, 1), 1, PlanLimits::kMaxCycles));
     if (spec.min_cycles > spec.max_cycles)
       r.Fail(c, "[min, max] with min <= max",
              "[" + c.node[0].Scalar() + ", " + c.node[1].Scalar() + "]");
   }
   if (root["settle_cycles"])
-    spec.settle_cycles = static_cast<int>(r.Integer(r.Child(top, "settle_cycles"), 0, 100000));
+    spec.settle_cycles =
+        static_cast<int>(r.Integer(r.Child(top, "settle_cycles"), 0, PlanLimits::kMaxCycles));
   ReadGoal(r, r.Require(top, "goal", "a map {PART: {position: [x, y], ...}}"), &spec);
   for (const PartGoal& g : spec.goals) {
     const bool inside = g.position.x() >= spec.x_min && g.position.x() <= spec.x_max &&
@@ -142,20 +146,22 @@ PlanSpec ParsePlanSpec(const std::string& text, const std::string& source_name,
   }
   if (root["max_propagations"])
     spec.max_propagations = r.Integer(r.Child(top, "max_propagations"), 0, 1000000000000LL);
-  if (root["time_limit"]) spec.time_limit = r.Positive(r.Child(top, "time_limit"));
+  if (root["time_limit"]) {
+    const Field f = r.Child(top, "time_limit");
+    spec.time_limit = r.Positive(f);
+    if (spec.time_limit > PlanLimits::kMaxTimeLimit) r.Fail(f, "a number of seconds in (0, 1e6]");
+  }
   if (root["seed"])
     spec.seed = static_cast<unsigned>(r.Integer(r.Child(top, "seed"), 0, 4294967295LL));
-  if (root["replan"]) spec.replan = static_cast<int>(r.Integer(r.Child(top, "replan"), 0, 1000));
+  if (root["replan"])
+    spec.replan = static_cast<int>(r.Integer(r.Child(top, "replan"), 0, PlanLimits::kMaxReplan));
   return spec;
 }
 
 PlanSpec LoadPlanSpec(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw std::invalid_argument(path + ": cannot read the plan spec");
-  std::stringstream s;
-  s << in.rdbuf();
+  const std::string text = sim::ReadInputFile(path, "the plan spec");
   const std::size_t slash = path.find_last_of('/');
-  return ParsePlanSpec(s.str(), path, slash == std::string::npos ? "" : path.substr(0, slash));
+  return ParsePlanSpec(text, path, slash == std::string::npos ? "" : path.substr(0, slash));
 }
 
 }  // namespace vinci::planning

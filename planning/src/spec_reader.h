@@ -131,17 +131,6 @@ class Reader {
   std::string source_;
 };
 
-// The YAML document `text`; a syntax error is "<source>:<line>: (document): expected YAML, got
-// <yaml-cpp's message>".
-inline YAML::Node LoadDocument(const std::string& text, const std::string& source_name) {
-  try {
-    return YAML::Load(text);
-  } catch (const YAML::Exception& e) {
-    throw std::invalid_argument(source_name + ":" + std::to_string(e.mark.line + 1) +
-                                ": (document): expected YAML, got " + e.msg);
-  }
-}
-
 inline std::string Resolve(const std::string& base_dir, const std::string& p) {
   if (p.empty() || p[0] == '/' || base_dir.empty()) return p;
   return base_dir + "/" + p;

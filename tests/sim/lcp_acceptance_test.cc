@@ -11,6 +11,7 @@
 #include <string>
 
 #include "vinci/sim/solvers/lcp.h"
+#include "vinci/sim/solvers/lcp_file.h"
 #include "vinci/sim/solvers/text_format.h"
 
 namespace vinci::sim {
@@ -82,6 +83,21 @@ TEST(LcpAcceptanceTest, OverflowingProblemGivesAStatusNotAnException) {
         EXPECT_FALSE(r.message.empty());
       }
     }
+  }
+}
+
+// Lemke's answers on recorded simulator LCPs (those it solves) pass the acceptance check.
+TEST(LcpAcceptanceTest, RecordedSimulatorProblemsStillPass) {
+  for (const char* file : {"box_pile_step0", "box_pile_tilted_step216", "box_pile_tilted_step233",
+                           "box_pile_tilted_cold_step232", "box_stack_cold_step425",
+                           "box_stack_cold_step7724", "incline_sliding_step9744"}) {
+    const LcpProblem p =
+        ReadLcpFile(std::string(VINCI_SOURCE_DIR "/tests/data/lcp/") + file + ".lcp");
+    SCOPED_TRACE(file);
+    VectorXd z;
+    const SolverReport r = MakeLcpSolver("lemke")->Solve(p, nullptr, &z);
+    ASSERT_TRUE(r.ok()) << r.message;
+    EXPECT_LE(LcpScaledResidual(p, z), kLcpAcceptanceTolerance);
   }
 }
 

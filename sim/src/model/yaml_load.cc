@@ -1,13 +1,14 @@
-// YAML documents with the yaml-cpp 0.7 no-progress guard (yaml_load.h).
-#include "yaml_load.h"
-
+// YAML documents with the yaml-cpp 0.7 no-progress guard (vinci/sim/model/yaml_documents.h).
 #include <yaml-cpp/eventhandler.h>
+#include <yaml-cpp/yaml.h>
 
 #include <cstdio>
 #include <sstream>
 #include <stdexcept>
 
-namespace vinci::sim::internal {
+#include "vinci/sim/model/yaml_documents.h"
+
+namespace vinci::sim {
 namespace {
 
 // Records where each document starts; ignores the content.
@@ -65,4 +66,9 @@ std::vector<YAML::Node> LoadYamlDocuments(const std::string& text, const std::st
   }
 }
 
-}  // namespace vinci::sim::internal
+YAML::Node LoadYamlDocument(const std::string& text, const std::string& source) {
+  std::vector<YAML::Node> docs = LoadYamlDocuments(text, source);
+  return docs.empty() ? YAML::Node() : docs.front();
+}
+
+}  // namespace vinci::sim

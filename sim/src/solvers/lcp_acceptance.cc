@@ -9,25 +9,62 @@
 
 namespace vinci::sim {
 
+namespace internal {
+
+double ScaledNaturalResidual(const VectorXd& z, const VectorXd& F, const VectorXd* lower,
+                             const VectorXd* upper, const VectorXd& row_terms,
+                             const VectorXd& row_norms, double c_norm) {
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  const Eigen::Index n = z.size();
+  if (n == 0) return 0.0;
+  if (!z.allFinite() || !F.allFinite() || !row_terms.allFinite() || !row_norms.allFinite() ||
+      !std::isfinite(c_norm))
+    return kInf;
+  const double j_norm = row_norms.maxCoeff();
+  double s_z = std::max(z.lpNorm<Eigen::Infinity>(), j_norm > 0.0 ? c_norm / j_norm : 0.0);
+  if (!std::isfinite(s_z)) return kInf;
+  if (!(s_z > 0.0)) s_z = 1.0;  // z = 0 and c = 0: F = 0
+  // One scale for every row (the largest row's): a per-row scale s_i = max(row_terms_i,
+  // s_z row_norms_i) would be invariant to row scaling but changes Lemke's answers on degenerate
+  // contact LCPs (fuzz/open/README.md).
+  const double s_w = std::max(row_terms.maxCoeff(), s_z * j_norm);
+  if (!std::isfinite(s_w)) return kInf;
+  double r = 0.0;
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const double f = s_w > 0.0 ? F(i) / s_w : 0.0;
+    const double zi = z(i) / s_z;
+    const double l = lower != nullptr ? (*lower)(i) / s_z : 0.0;
+    const double u = upper != nullptr ? (*upper)(i) / s_z : kInf;
+    const double mid = std::min(std::max(zi - f, l), u);
+    const double ri = std::abs(zi - mid);
+    if (std::isnan(ri)) return kInf;
+    r = std::max(r, ri);
+  }
+  return r;
+}
+
+}  // namespace internal
+
 double LcpScaledResidual(const LcpProblem& problem, const VectorXd& z) {
   const Eigen::Index n = problem.q.size();
   if (problem.M.rows() != n || problem.M.cols() != n || z.size() != n)
     return std::numeric_limits<double>::quiet_NaN();
   if (n == 0) return 0.0;
-  constexpr double kInf = std::numeric_limits<double>::infinity();
-  if (!z.allFinite()) return kInf;
-  const double m_norm = problem.M.cwiseAbs().rowwise().sum().maxCoeff();
-  const double q_norm = problem.q.lpNorm<Eigen::Infinity>();
-  const double z_norm = z.lpNorm<Eigen::Infinity>();
+  if (!z.allFinite()) return std::numeric_limits<double>::infinity();
   const VectorXd w = problem.M * z + problem.q;
-  const double s_w = std::max(q_norm, m_norm * z_norm);
-  const double s_z = std::max(z_norm, m_norm > 0.0 ? q_norm / m_norm : 0.0);
-  if (!w.allFinite() || !std::isfinite(s_w) || !std::isfinite(s_z)) return kInf;
-  const auto ratio = [](double x, double s) { return s > 0.0 ? x / s : 0.0; };
-  double r = 0.0;
-  for (Eigen::Index i = 0; i < n; ++i)
-    r = std::max(r, std::abs(std::min(ratio(z(i), s_z), ratio(w(i), s_w))));
-  return r;
+  // Column by column (M is column-major): |q_i| + Σ_j |M_ij z_j| and Σ_j |M_ij|.
+  VectorXd terms = problem.q.cwiseAbs();
+  VectorXd norms = VectorXd::Zero(n);
+  for (Eigen::Index j = 0; j < n; ++j) {
+    const double zj = std::abs(z(j));
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const double m = std::abs(problem.M(i, j));
+      norms(i) += m;
+      terms(i) += m * zj;
+    }
+  }
+  return internal::ScaledNaturalResidual(z, w, nullptr, nullptr, terms, norms,
+                                         problem.q.lpNorm<Eigen::Infinity>());
 }
 
 std::string CheckLcpSolution(const LcpProblem& problem, const VectorXd& z) {

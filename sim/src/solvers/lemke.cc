@@ -710,23 +710,6 @@ double ResidualOf(const VectorXd& z, const VectorXd& w) {
   return residual;
 }
 
-// LcpScaledResidual (lcp_acceptance.h) from a given w = M z + q and ‖M‖∞ (ScanMatrix's).
-double ScaledResidualOf(const LcpProblem& problem, const VectorXd& z, const VectorXd& w,
-                        double m_norm) {
-  if (z.size() == 0) return 0.0;
-  if (!z.allFinite()) return kInf;
-  const double q_norm = problem.q.lpNorm<Eigen::Infinity>();
-  const double z_norm = z.lpNorm<Eigen::Infinity>();
-  const double s_w = std::max(q_norm, m_norm * z_norm);
-  const double s_z = std::max(z_norm, m_norm > 0.0 ? q_norm / m_norm : 0.0);
-  if (!w.allFinite() || !std::isfinite(s_w) || !std::isfinite(s_z)) return kInf;
-  const auto ratio = [](double x, double s) { return s > 0.0 ? x / s : 0.0; };
-  double r = 0.0;
-  for (Eigen::Index i = 0; i < z.size(); ++i)
-    r = std::max(r, std::abs(std::min(ratio(z(i), s_z), ratio(w(i), s_w))));
-  return r;
-}
-
 bool TryBasis(const LcpProblem& problem, const std::vector<bool>& in_basis, const VectorXd& guess,
               const Acceptance& acceptance, VectorXd* z, double* residual) {
   const Eigen::Index n = problem.q.size();
@@ -754,11 +737,10 @@ bool TryBasis(const LcpProblem& problem, const std::vector<bool>& in_basis, cons
     candidate = candidate.cwiseMax(0.0);
     MultiplySkippingZeros(problem, candidate, &w);
   }
-  // LcpResidual and CheckLcpSolution (lcp_acceptance.h) of the candidate, from this w.
+  // LcpResidual (from this w) and the scale-aware check (lcp_acceptance.h) of the candidate.
   const double r = ResidualOf(candidate, w);
   if (!(r <= acceptance.For(candidate))) return false;
-  if (!(ScaledResidualOf(problem, candidate, w, acceptance.m_norm) <= kLcpAcceptanceTolerance))
-    return false;
+  if (!(LcpScaledResidual(problem, candidate) <= kLcpAcceptanceTolerance)) return false;
   *z = std::move(candidate);
   *residual = r;
   return true;

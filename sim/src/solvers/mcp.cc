@@ -19,6 +19,9 @@
 #include <string>
 #include <vector>
 
+#include "solver_util.h"
+#include "vinci/sim/solvers/lcp_acceptance.h"
+
 namespace vinci::sim {
 namespace {
 
@@ -148,6 +151,29 @@ void ProjectInPlace(const VectorXd& l, const VectorXd& u, VectorXd* z) {
   *z = z->cwiseMax(l).cwiseMin(u);
 }
 
+// McpScaledResidual (mcp.h) from F and the dense or sparse Jacobian at z: c = F − J z,
+// row terms |c_i| + Σ_j |J_ij z_j|, row norms Σ_j |J_ij|.
+double ScaledResidual(const VectorXd& z, const VectorXd& F, const VectorXd& l, const VectorXd& u,
+                      const MatrixXd* J, const SparseMatrixd* Js) {
+  const Eigen::Index n = z.size();
+  VectorXd jz = VectorXd::Zero(n), terms = VectorXd::Zero(n), norms = VectorXd::Zero(n);
+  const auto add = [&](Eigen::Index i, Eigen::Index j, double v) {
+    jz(i) += v * z(j);
+    terms(i) += std::abs(v * z(j));
+    norms(i) += std::abs(v);
+  };
+  if (Js != nullptr) {
+    for (Eigen::Index j = 0; j < Js->outerSize(); ++j)
+      for (SparseMatrixd::InnerIterator it(*Js, j); it; ++it) add(it.row(), it.col(), it.value());
+  } else {
+    for (Eigen::Index j = 0; j < n; ++j)
+      for (Eigen::Index i = 0; i < n; ++i) add(i, j, (*J)(i, j));
+  }
+  const VectorXd c = F - jz;
+  terms += c.cwiseAbs();
+  return internal::ScaledNaturalResidual(z, F, &l, &u, terms, norms, c.lpNorm<Eigen::Infinity>());
+}
+
 void CheckProblem(const McpProblem& p, const char* who) {
   if (p.upper.size() != p.lower.size()) {
     throw std::invalid_argument(std::string(who) + ": upper has size " +
@@ -242,6 +268,11 @@ class SemismoothNewton {
                   bool* threw);
   void RestartPoint(int attempt, const VectorXd& z0, const VectorXd& F0, const VectorXd& best,
                     VectorXd* z);
+  // McpScaledResidual at x from F and the Jacobian last evaluated (at x).
+  double ScaledAt(const VectorXd& x, const VectorXd& F) const {
+    return sparse_ ? ScaledResidual(x, F, p_.lower, p_.upper, nullptr, &jfs_)
+                   : ScaledResidual(x, F, p_.lower, p_.upper, &jf_, nullptr);
+  }
 
   const McpProblem& p_;
   const McpOptions& o_;
@@ -477,6 +508,9 @@ SolverReport SemismoothNewton::Run(VectorXd* z, McpSolveStats* stats_out) {
 
   enum class End { kSolved, kBudget, kStalled, kFailure } end = End::kStalled;
   int iterations = 0;
+  bool converged = false;     // the last accepted point passes both tests
+  bool solved = false;        // `best` passes both tests
+  double last_scaled = kNaN;  // scale-aware residual of the last point that passed only the first
 
   // Evaluates F, J, Φ, H at zc (into F_, phi_, ...) and updates the best point. Returns false
   // (with end/message set) on a numerical failure. `evaluated`: F and J at zc are already in
@@ -492,10 +526,19 @@ SolverReport SemismoothNewton::Run(VectorXd* z, McpSolveStats* stats_out) {
     }
     Reformulate(zc, F_, &phi_, true);
     const double residual = NaturalResidual(zc, F_, l, u);
-    if (residual < best_residual) {
+    // Converged: the absolute stopping test and the scale-aware acceptance test (a problem in
+    // small units passes the first long before it is solved).
+    converged = residual <= o_.tolerance;
+    if (converged) {
+      const double scaled = ScaledAt(zc, F_);
+      converged = scaled <= kLcpAcceptanceTolerance;
+      if (!converged) last_scaled = scaled;
+    }
+    if (converged || (!solved && residual < best_residual)) {
       best_residual = residual;
       best_merit = 0.5 * phi_.squaredNorm();
       best = zc;
+      solved = converged;
     }
     return true;
   };
@@ -516,7 +559,7 @@ SolverReport SemismoothNewton::Run(VectorXd* z, McpSolveStats* stats_out) {
       int since_progress = 0;
       bool stalled = false;
       while (true) {
-        if (NaturalResidual(zc, F_, l, u) <= o_.tolerance) {
+        if (converged) {
           end = End::kSolved;
           break;
         }
@@ -595,7 +638,7 @@ SolverReport SemismoothNewton::Run(VectorXd* z, McpSolveStats* stats_out) {
   if (!(best_residual < kInf)) {
     report.residual = kNaN;  // no point was ever evaluated successfully
   }
-  if (best_residual <= o_.tolerance) {
+  if (solved) {
     report.status = SolverStatus::kSolved;
     if (stats_.restarts > 0) {
       message_ = "solved after " + std::to_string(stats_.restarts) + " restart(s)";
@@ -617,6 +660,10 @@ SolverReport SemismoothNewton::Run(VectorXd* z, McpSolveStats* stats_out) {
                  " restart(s)";
     }
   }
+  if (!solved && best_residual <= o_.tolerance)
+    message_ += "; the natural residual passed the tolerance but not the scale-aware check (" +
+                internal::FormatDouble(last_scaled) + " > " +
+                internal::FormatDouble(kLcpAcceptanceTolerance) + ")";
   report.message = message_;
   report.restarts = stats_.restarts;
   stats_.merit = std::isfinite(best_merit) ? best_merit : kNaN;
@@ -641,6 +688,29 @@ double McpResidual(const McpProblem& problem, const VectorXd& z) {
                                 std::to_string(F.size()) + "; expected " + std::to_string(n));
   }
   return NaturalResidual(z, F, problem.lower, problem.upper);
+}
+
+double McpScaledResidual(const McpProblem& problem, const VectorXd& z) {
+  CheckProblem(problem, "McpScaledResidual");
+  const Eigen::Index n = problem.lower.size();
+  if (z.size() != n) {
+    throw std::invalid_argument("McpScaledResidual: z has size " + std::to_string(z.size()) +
+                                " but the problem has size " + std::to_string(n));
+  }
+  VectorXd F = VectorXd::Zero(n);
+  if (problem.sparse_jacobian) {
+    SparseMatrixd Js(n, n);
+    problem.evaluate(z, &F, nullptr);
+    problem.sparse_jacobian(z, &Js);
+    if (F.size() != n || Js.rows() != n || Js.cols() != n)
+      throw std::invalid_argument("McpScaledResidual: evaluate returned F/J of the wrong size");
+    return ScaledResidual(z, F, problem.lower, problem.upper, nullptr, &Js);
+  }
+  MatrixXd J = MatrixXd::Zero(n, n);
+  problem.evaluate(z, &F, &J);
+  if (F.size() != n || J.rows() != n || J.cols() != n)
+    throw std::invalid_argument("McpScaledResidual: evaluate returned F/J of the wrong size");
+  return ScaledResidual(z, F, problem.lower, problem.upper, &J, nullptr);
 }
 
 VectorXd McpFischerBurmeister(const McpProblem& problem, const VectorXd& z, double lambda,

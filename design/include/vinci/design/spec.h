@@ -3,6 +3,7 @@
 // Monte Carlo samples judge a design, and what success means.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -106,6 +107,17 @@ struct ScreeningStage {
   double min_success = 0.0;       ///< kShort: the candidate passes iff its success rate ≥ this
   Objective objective;            ///< kShort: success at the stage's horizon (default: the spec's)
   sim::SimulatorOptions options;  ///< kShort: the scene's options, with `formulation` if given
+};
+
+/// Limits every spec is checked against (docs/scene-format.md, "Limits"), each with a file:line
+/// message: they keep sample counts and budgets within int and a rollout's step count
+/// (duration / dt) finite and bounded, so that a typo cannot start a job of years.
+struct DesignLimits {
+  static constexpr long long kMaxSamples = 10000000;   ///< samples, validation and stage samples
+  static constexpr long long kMaxBudget = 1000000000;  ///< simulations of the search
+  static constexpr double kMaxRolloutSteps = 1e8;      ///< duration / dt of one rollout
+  static constexpr int kMaxScreeningStages = 100;      ///< each may build a simulator
+  static constexpr std::size_t kMaxChoices = 1000000;  ///< values of one `choice` distribution
 };
 
 /// The whole job. Names were checked against the scene.

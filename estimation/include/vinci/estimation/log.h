@@ -59,6 +59,10 @@ constexpr double kQuaternionNormTolerance = 1e-3;
 /// kQuaternionNormTolerance, no sample, or no dynamic body observed.
 Episode ReadEpisode(const std::string& path, const sim::Scene& scene);
 
+/// As ReadEpisode, from the log's text; `path` names it in messages and in Episode::file. The
+/// file itself is limited to sim::kMaxInputFileBytes (solvers/input_file.h).
+Episode ParseEpisode(const std::string& text, const std::string& path, const sim::Scene& scene);
+
 /// Reads every file as one episode (ReadEpisode).
 Log ReadLog(const std::vector<std::string>& paths, const sim::Scene& scene);
 

@@ -41,6 +41,17 @@ const char* PlannerName(PlannerType t);
 /// The planner named `name` (as PlannerName); throws std::invalid_argument otherwise.
 PlannerType ParsePlannerName(const std::string& name, const std::string& where);
 
+/// Limits of a plan spec (docs/scene-format.md, "Limits"), each checked with a file:line message.
+struct PlanLimits {
+  static constexpr int kMaxPrimitives = 1000;  ///< each is checked through the scene loader
+  static constexpr int kMaxCycles = 100000;    ///< cycles, settle_cycles
+  static constexpr int kMaxReplan = 1000;
+  static constexpr double kMaxTimeLimit = 1e6;  ///< s per planner call (OMPL's clock overflows)
+  /// Time steps of one primitive application (max cycles × steps per cycle) and of one settle
+  /// phase (settle_cycles × steps per cycle): checked by PlanProblem against the scene's dt.
+  static constexpr long long kMaxStepsPerApplication = 1000000000;
+};
+
 struct PlanSpec {
   std::string path;        ///< the spec file ("<string>" when parsed from text)
   std::string scene_path;  ///< plate + parts (relative paths: from the spec's folder)

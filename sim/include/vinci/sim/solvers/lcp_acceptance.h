@@ -20,13 +20,17 @@ constexpr double kLcpAcceptanceTolerance = 1e-6;
 /// The scale-aware residual of z for LCP(M, q), w = Mz + q:
 ///
 ///   r = max_i |min(z_i / s_z, w_i / s_w)|,
-///   s_w = max(‖q‖∞, ‖M‖∞ ‖z‖∞)   (the size of the terms whose sum is w),
-///   s_z = max(‖z‖∞, ‖q‖∞ / ‖M‖∞) (the size of z, or of the z that q and M imply),
+///   s_z = max(‖z‖∞, ‖q‖∞ / ‖M‖∞)   (the size of z, or of the z that q and M imply),
+///   s_w = max(max_i (|q_i| + Σ_j |M_ij z_j|), s_z ‖M‖∞)   (the size of the terms whose sum is w),
 ///
 /// with ‖M‖∞ the largest absolute row sum, and x / 0 read as 0 (s_w = 0 only if w ≡ 0, s_z = 0
-/// only if z = 0). A negative z_i or w_i contributes its relative size, so r bounds the negative
-/// parts of both; r is invariant to scaling q and M together, and to scaling M against q (units
-/// of z). Infinity if z, w or a scale is not finite (overflow), NaN if z has the wrong size.
+/// only if z = 0 and q = 0). A negative z_i or w_i contributes its relative size, so r bounds
+/// the negative parts of both; r is invariant to scaling q and M together, and to scaling M
+/// against q (units of z). It is not invariant to scaling one row of (M, q): a row written in
+/// much smaller units than the others is judged against the largest row's scale (the open case
+/// fuzz/open/lemke_fb_row_scaled.lcp; a per-row scale changes Lemke's answers on degenerate
+/// contact LCPs, fuzz/open/README.md). Infinity if z, w or a scale is not finite (overflow), NaN
+/// if z has the wrong size.
 /// Example: M = 1e-12·I, q = −1e-12·(1, 1): z = 0 has r = 1 (w = q < 0); z = (1, 1) has r = 0.
 double LcpScaledResidual(const LcpProblem& problem, const VectorXd& z);
 

@@ -30,6 +30,17 @@ struct McpProblem {
 /// evaluate; exceptions thrown by evaluate propagate.
 double McpResidual(const McpProblem& problem, const VectorXd& z);
 
+/// The scale-aware residual of z (the MCP form of LcpScaledResidual, lcp_acceptance.h), with
+/// F linearized at z, F(z) = J z + c (J = ∂F/∂z, c = F(z) − J z; for an LCP J = M, c = q):
+///   r = max_i |ẑ_i − mid(l_i / s_z, u_i / s_z, ẑ_i − F_i(z) / s_w)|,   ẑ = z / s_z,
+///   s_z = max(‖z‖∞, ‖c‖∞ / ‖J‖∞),   s_i = s_w = max(max_k (|c_k| + Σ_j |J_kj z_j|), s_z ‖J‖∞).
+/// Like the LCP's, it bounds how far z leaves the box and how far F_i has the wrong sign,
+/// relative to the problem's own scale (invariant to scaling F as a whole and to the units of
+/// z). An MCP in small units, e.g. F(z) = 1e-12 (z − 1) on z ≥ 0, has a tiny natural residual at
+/// z = 0 (1e-12) but r = 1 there. Uses sparse_jacobian if set, else the dense Jacobian of
+/// evaluate. Infinity if anything is not finite. Throws as McpResidual.
+double McpScaledResidual(const McpProblem& problem, const VectorXd& z);
+
 /// The penalized Fischer–Burmeister reformulation Φ(z) = 0 of MCP(F, l, u) that McpSolver
 /// drives to zero (exposed for tests and callers that want the merit ½‖Φ‖²). With
 /// φ(a, b) = λ(√(a² + b²) − a − b) − (1 − λ) a₊ b₊ (zero iff a ≥ 0, b ≥ 0, ab = 0), row i is
@@ -95,16 +106,21 @@ class McpSolver {
   ///   solutions (singular values of H far below ‖Φ‖/‖d‖: the Newton step is rejected by the
   ///   descent test and the gradient crawls), e.g. the redundant corner contacts of a box in the
   ///   NCP stepper (bench/README.md); where Newton works the iterates are unchanged.
-  /// - Stopping test: McpResidual ≤ tolerance. A starting point that passes takes 0
+  /// - Stopping test: convergence (McpResidual ≤ tolerance and the acceptance test below). A
+  ///   starting point that passes takes 0
   ///   iterations. `iterations` counts Newton/gradient iterations over all restarts and is
   ///   bounded by max_iterations in total.
   /// - Restart when an attempt stalls (both line searches fail, a stationary point of Ψ on the
   ///   box, or no progress within stall_iterations): restart 1 from the crash point
   ///   P[z₀ − F(z₀)] (the projected start shifted toward the bounds F points at), later ones
   ///   from deterministic perturbations of the best point so far.
-  /// - *z receives the iterate with the smallest natural residual; `residual` is its
-  ///   McpResidual. kSolved iff residual ≤ tolerance; kMaxIterations if the budget ran out;
-  ///   kStalled if every attempt (the first and max_restarts restarts) stalled;
+  /// - Acceptance: a point is converged iff McpResidual ≤ tolerance and McpScaledResidual ≤
+  ///   kLcpAcceptanceTolerance (lcp_acceptance.h; the gate every LCP solver passes too): the
+  ///   absolute tolerance alone would accept z = 0 on a problem in small units. A point that
+  ///   passes only the first is iterated on.
+  /// - *z receives the first converged point, else the iterate with the smallest natural
+  ///   residual; `residual` is its McpResidual. kSolved iff it is converged; kMaxIterations if the
+  ///   budget ran out; kStalled if every attempt (the first and max_restarts restarts) stalled;
   ///   kNumericalFailure if evaluate threw (message contains what()) or returned a non-finite
   ///   F/J at an accepted point (a non-finite trial point is backtracked).
   /// - SolverReport::restarts = McpSolveStats::restarts: the restarts used, on success too.
