@@ -34,6 +34,27 @@ const char* kBlock =
     "    shapes: [{type: polygon, vertices: [[-0.2, -0.1], [0.2, -0.1], [0.2, 0.1], "
     "[-0.2, 0.1]]}]\n";
 
+// A 20 g box (4 × 1 cm) on a plate vibrating at 20 Hz (x 20 m/s², y 5 m/s²), sticking and
+// slipping twice per cycle; μ = 0.2 (the scene says 0.5).
+const char* kPlate =
+    "dimension: 2\n"
+    "gravity: [0, -9.81]\n"
+    "stepper: {dt: 1.0e-3, envelope: 0.002, prescribed_velocity: exact}\n"
+    "friction: {default: 0.5}\n"
+    "bodies:\n"
+    "  - name: plate\n"
+    "    kind: prescribed\n"
+    "    shapes: [{type: halfplane}]\n"
+    "    motion:\n"
+    "      frequency: 20\n"
+    "      x: {harmonics: [{order: 1, amplitude: 1.2665e-3, phase: 0}]}\n"
+    "      y: {harmonics: [{order: 1, amplitude: 3.166e-4, phase: 1.5707963267948966}]}\n"
+    "  - name: box\n"
+    "    mass: 0.02\n"
+    "    pose: {position: [0.0, 0.0053166]}\n"
+    "    shapes: [{type: polygon, vertices: [[-0.02, -0.005], [0.02, -0.005], [0.02, 0.005], "
+    "[-0.02, 0.005]]}]\n";
+
 // Simulates with mu.default = mu and writes `samples` samples (every step) of the body's x, y,
 // θ with N(0, sigma²) position noise (angles sigma / 0.1 m).
 std::string WriteLog(const sim::Simulator& s, const std::string& body, double mu, int samples,

@@ -116,7 +116,9 @@ struct MpecEstimationProblem::Impl {
   std::vector<std::pair<int, int>> quat_rows;
   int quat_jac_offset = 0;
   std::vector<std::pair<int, int>> pairs;
-  VectorXd x_l, x_u, start;
+  VectorXd x_l, x_u, start;  // in the solver's (scaled) variables
+  // Per unknown its typical magnitude: the solver's variables are y = x / scale (x physical).
+  VectorXd scale;
   // Constant objective Hessian (lower triangle) and quaternion-row diagonal positions.
   std::vector<Entry> hess;
   VectorXd hess_obj;
@@ -136,6 +138,8 @@ struct MpecEstimationProblem::Impl {
 
   Impl(const sim::Simulator& s, const MpecOptions& o)
       : sim(s), scene(s.scene()), opts(o), sel(s.scene().param_table(), o.params) {}
+
+  VectorXd Physical(const VectorXd& y) const { return y.cwiseProduct(scale); }
 
   Params Theta(const VectorXd& x) const {
     VectorXd th = x.head(ntheta);
@@ -272,20 +276,30 @@ void MpecEstimationProblem::Impl::Build(const Log& log) {
   const double L = opts.orientation_length;
 
   n = ntheta;
-  std::vector<double> xl(ntheta), xu(ntheta), x0(ntheta);
+  std::vector<double> xl(ntheta), xu(ntheta), x0(ntheta), sc(ntheta, 1.0);
   for (int i = 0; i < ntheta; ++i) {
     xl[i] = sel.lower()[i];
     xu[i] = sel.upper()[i];
     x0[i] = sel.Get(base)[i];
   }
-  auto add_vars = [&](int count, double lo, double hi) {
+  auto add_vars = [&](int count, double lo, double hi, double var_scale = 1.0) {
     const int c = n;
     n += count;
     xl.resize(n, lo);
     xu.resize(n, hi);
     x0.resize(n, 0.0);
+    sc.resize(n, var_scale);
     return c;
   };
+  // Scales of the unknowns (the solver works on x / scale, so that the Scholtes products
+  // x_a x_b ≤ ε and the polish's choice of the zero side compare like with like): impulses of
+  // a step of h: m_min max(|g|, 1 m/s²) h, the weight impulse of the lightest body; process
+  // noise: σ_Q; states, velocities, sliding speeds: 1; slacks: the magnitude of their row,
+  // max_j |∂c/∂z_j| scale_j over the step unknowns at the guess.
+  double m_min = std::numeric_limits<double>::infinity();
+  for (int b : scene.dynamic_bodies()) m_min = std::min(m_min, scene.bodies[b].mass);
+  if (!std::isfinite(m_min)) m_min = 1.0;
+  const double g_ref = std::max(scene.gravity_W.norm(), 1.0);
   std::mt19937 rng(12345);
   for (int e = 0; e < num_episodes; ++e) {
     const Episode& ep = log.episodes[e];
@@ -394,7 +408,13 @@ void MpecEstimationProblem::Impl::Build(const Log& log) {
       blk.x_col = node_col.back().back();
       blk.z_col = add_vars(blk.nz, -kInf, kInf);
       node_col.back().push_back(blk.z_col);
-      blk.w_col = add_vars(nv, -kInf, kInf);
+      blk.w_col = add_vars(nv, -kInf, kInf, sigma_q);
+      {
+        const sim::StepLayout& lay = blk.model->layout();
+        const double impulse = m_min * g_ref * step_h[l];
+        for (int i = lay.pn(); i < lay.sigma(); ++i) sc[blk.z_col + i] = impulse;
+        for (int i = lay.pb(); i < lay.sigma_s(); ++i) sc[blk.z_col + i] = impulse;
+      }
       w_cols.push_back(blk.w_col);
       // Guess of z: a simulator step from the guessed state, next state from the guess.
       VectorXd z = VectorXd::Zero(blk.nz);
@@ -496,6 +516,15 @@ void MpecEstimationProblem::Impl::Build(const Log& log) {
         }
       }
       blk.s_col = add_vars(blk.ns, 0.0, kInf);
+      {
+        std::vector<double> row_scale(blk.ns, 0.0);
+        ForEachEntry(blk, v0, [&](int lr, int lc, double val) {
+          if (lr < blk.neq || lc >= blk.nz) return;  // slack rows, z columns
+          double& rs = row_scale[lr - blk.neq];
+          rs = std::max(rs, std::abs(val) * sc[blk.z_col + lc]);
+        });
+        for (int k = 0; k < blk.ns; ++k) sc[blk.s_col + k] = row_scale[k] > 0 ? row_scale[k] : 1.0;
+      }
       for (int r = 0; r < np; ++r) {
         if (blk.a_slack[r] >= 0) {
           blk.a_var[r] = blk.s_col + blk.a_slack[r];
@@ -576,9 +605,10 @@ void MpecEstimationProblem::Impl::Build(const Log& log) {
       }
     }
   }
-  x_l = Eigen::Map<VectorXd>(xl.data(), n);
-  x_u = Eigen::Map<VectorXd>(xu.data(), n);
-  start = Eigen::Map<VectorXd>(x0.data(), n);
+  scale = Eigen::Map<VectorXd>(sc.data(), n);
+  x_l = Eigen::Map<VectorXd>(xl.data(), n).cwiseQuotient(scale);
+  x_u = Eigen::Map<VectorXd>(xu.data(), n).cwiseQuotient(scale);
+  start = Eigen::Map<VectorXd>(x0.data(), n).cwiseQuotient(scale);
   BuildStructure();
 }
 
@@ -617,7 +647,7 @@ void MpecEstimationProblem::Impl::BuildStructure() {
   for (int c = 0; c < H.outerSize(); ++c) {
     for (sim::SparseMatrixXd::InnerIterator it(H, c); it; ++it) {
       where[{static_cast<int>(it.row()), c}] = static_cast<int>(hess.size());
-      hess_obj[static_cast<int>(hess.size())] = it.value();
+      hess_obj[static_cast<int>(hess.size())] = it.value() * scale[it.row()] * scale[c];
       hess.push_back({static_cast<int>(it.row()), c});
     }
   }
@@ -661,8 +691,9 @@ std::vector<std::pair<int, int>> MpecEstimationProblem::ComplementarityPairs() c
   return impl_->pairs;
 }
 
-bool MpecEstimationProblem::Objective(const VectorXd& x, double* f) const {
+bool MpecEstimationProblem::Objective(const VectorXd& y, double* f) const {
   const Impl& I = *impl_;
+  const VectorXd x = I.Physical(y);
   double s = 0.0;
   for (const ResidualRow& r : I.residuals) {
     double v = -r.y;
@@ -675,8 +706,9 @@ bool MpecEstimationProblem::Objective(const VectorXd& x, double* f) const {
   return std::isfinite(*f);
 }
 
-bool MpecEstimationProblem::Gradient(const VectorXd& x, VectorXd* grad) const {
+bool MpecEstimationProblem::Gradient(const VectorXd& y, VectorXd* grad) const {
   const Impl& I = *impl_;
+  const VectorXd x = I.Physical(y);
   grad->setZero(I.n);
   for (const ResidualRow& r : I.residuals) {
     double v = -r.y;
@@ -684,15 +716,17 @@ bool MpecEstimationProblem::Gradient(const VectorXd& x, VectorXd* grad) const {
     for (int i = 0; i < r.n; ++i) (*grad)[r.col[i]] += 2 * v * r.coef[i] / (I.sigma * I.sigma);
   }
   for (int c : I.w_cols) grad->segment(c, I.nv) += 2 * x.segment(c, I.nv) / (I.sigma_q * I.sigma_q);
+  *grad = grad->cwiseProduct(I.scale);
   return grad->allFinite();
 }
 
-bool MpecEstimationProblem::Constraints(const VectorXd& x, VectorXd* g) const {
+bool MpecEstimationProblem::Constraints(const VectorXd& y, VectorXd* g) const {
   const Impl& I = *impl_;
-  if (I.cache_g_ok && I.cache_g_x.size() == x.size() && I.cache_g_x == x) {
+  if (I.cache_g_ok && I.cache_g_x.size() == y.size() && I.cache_g_x == y) {
     *g = I.cache_g;
     return true;
   }
+  const VectorXd x = I.Physical(y);
   g->setZero(I.m);
   const Params theta = I.Theta(x);
   std::vector<char> ok(I.steps.size(), 1);
@@ -712,7 +746,7 @@ bool MpecEstimationProblem::Constraints(const VectorXd& x, VectorXd* g) const {
   for (const auto& [row, col] : I.quat_rows) (*g)[row] = x.segment(col, 4).squaredNorm() - 1.0;
   const bool all = std::all_of(ok.begin(), ok.end(), [](char c) { return c != 0; });
   if (!all || !g->allFinite()) return false;
-  I.cache_g_x = x;
+  I.cache_g_x = y;
   I.cache_g = *g;
   I.cache_g_ok = true;
   return true;
@@ -720,12 +754,13 @@ bool MpecEstimationProblem::Constraints(const VectorXd& x, VectorXd* g) const {
 
 std::vector<Entry> MpecEstimationProblem::JacobianStructure() const { return impl_->jac; }
 
-bool MpecEstimationProblem::JacobianValues(const VectorXd& x, VectorXd* values) const {
+bool MpecEstimationProblem::JacobianValues(const VectorXd& y, VectorXd* values) const {
   const Impl& I = *impl_;
-  if (I.cache_j_ok && I.cache_j_x.size() == x.size() && I.cache_j_x == x) {
+  if (I.cache_j_ok && I.cache_j_x.size() == y.size() && I.cache_j_x == y) {
     *values = I.cache_j;
     return true;
   }
+  const VectorXd x = I.Physical(y);
   values->setZero(static_cast<int>(I.jac.size()));
   const Params theta = I.Theta(x);
   std::vector<char> ok(I.steps.size(), 1);
@@ -768,11 +803,13 @@ bool MpecEstimationProblem::JacobianValues(const VectorXd& x, VectorXd* values) 
   }
   const bool all = std::all_of(ok.begin(), ok.end(), [](char c) { return c != 0; });
   if (!all || !values->allFinite()) return false;
+  for (std::size_t k = 0; k < I.jac.size(); ++k)
+    (*values)[static_cast<int>(k)] *= I.scale[I.jac[k].col];
   for (double d : dropped) I.max_dropped = std::max(I.max_dropped, d);
-  I.cache_j_x = x;
+  I.cache_j_x = y;
   I.cache_j = *values;
   I.cache_j_ok = true;
-  I.cache_g_x = x;
+  I.cache_g_x = y;
   I.cache_g = g;
   I.cache_g_ok = true;
   return true;
@@ -784,22 +821,24 @@ bool MpecEstimationProblem::HessianValues(const VectorXd& /*x*/, double obj_fact
                                           const VectorXd& lambda, VectorXd* values) const {
   const Impl& I = *impl_;
   *values = obj_factor * I.hess_obj;
+  // (quaternion unknowns have scale 1)
   for (const auto& [entry, row] : I.hess_quat) (*values)[entry] += 2 * lambda[row];
   return true;
 }
 
-VectorXd MpecEstimationProblem::Parameters(const VectorXd& x) const {
-  return x.head(impl_->ntheta);
+VectorXd MpecEstimationProblem::Parameters(const VectorXd& y) const {
+  return impl_->Physical(y).head(impl_->ntheta);
 }
 
-State MpecEstimationProblem::InitialState(const VectorXd& x, int episode) const {
+State MpecEstimationProblem::InitialState(const VectorXd& y, int episode) const {
   const Impl& I = *impl_;
-  return I.NodeState(x, I.x0_col.at(episode), I.node_t.at(episode).front());
+  return I.NodeState(I.Physical(y), I.x0_col.at(episode), I.node_t.at(episode).front());
 }
 
-double MpecEstimationProblem::SquaredResiduals(const VectorXd& x, std::vector<double>* per_episode,
+double MpecEstimationProblem::SquaredResiduals(const VectorXd& y, std::vector<double>* per_episode,
                                                double* max_w) const {
   const Impl& I = *impl_;
+  const VectorXd x = I.Physical(y);
   if (per_episode) per_episode->assign(I.num_episodes, 0.0);
   double s = 0.0;
   for (const ResidualRow& r : I.residuals) {
@@ -815,9 +854,10 @@ double MpecEstimationProblem::SquaredResiduals(const VectorXd& x, std::vector<do
   return s;
 }
 
-void MpecEstimationProblem::StepViolation(const VectorXd& x, double* equality,
+void MpecEstimationProblem::StepViolation(const VectorXd& y, double* equality,
                                           double* complementarity) const {
   const Impl& I = *impl_;
+  const VectorXd x = I.Physical(y);
   const Params theta = I.Theta(x);
   *equality = 0.0;
   *complementarity = 0.0;
@@ -838,7 +878,7 @@ VectorXd MpecEstimationProblem::VariablesFromRollouts(const std::vector<sim::Tra
   const Impl& I = *impl_;
   if (static_cast<int>(rollouts.size()) != I.num_episodes)
     throw std::invalid_argument("mpec: one rollout per episode expected");
-  VectorXd x = I.start;
+  VectorXd x = I.Physical(I.start);
   x.head(I.ntheta) = I.sel.Get(params);
   auto find = [&](int e, double t) -> const State& {
     for (const State& s : rollouts[e].states)
@@ -868,7 +908,7 @@ VectorXd MpecEstimationProblem::VariablesFromRollouts(const std::vector<sim::Tra
       if (b.b_slack[r] >= 0) x[b.b_var[r]] = v.comp_b[r];
     }
   }
-  return x;
+  return x.cwiseQuotient(I.scale);
 }
 
 bool MpecEstimationProblem::ParameterVariances(const VectorXd& x,
