@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <limits>
 #include <sstream>
 #include <stdexcept>
@@ -351,6 +352,9 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o) {
     opt.SetNumericValue("acceptable_tol", std::max(o.tolerance * 1e3, 1e-8));
     opt.SetIntegerValue("max_iter", o.max_iterations);
     opt.SetStringValue("mu_strategy", "adaptive");
+    if (std::getenv("VINCI_IPOPT_TIMING")) opt.SetStringValue("print_timing_statistics", "yes");
+    if (std::getenv("VINCI_IPOPT_LEVEL"))
+      opt.SetIntegerValue("print_level", std::atoi(std::getenv("VINCI_IPOPT_LEVEL")));
     opt.SetStringValue("hessian_approximation", o.limited_memory ? "limited-memory" : "exact");
     if (warm) {
       opt.SetStringValue("warm_start_init_point", "yes");

@@ -342,6 +342,30 @@ TEST(MpecEstimator, PlanarBlockNoiseFreeRecoversMu) {
   }
 }
 
+// The step equations are evaluated on any number of threads into disjoint slots and every
+// reduction is ordered, and the linear algebra runs on one thread: the result is bitwise the
+// same for 1 and 3 threads, run after run.
+TEST(MpecEstimator, BitIdenticalForAnyThreadCount) {
+  const sim::Simulator sim(sim::ParseScene(kPlateBox, "plate.yaml"));
+  const std::string path =
+      testing::SyntheticLog(sim, "box", 0.2, 0.05, 1, 1e-5, 3, "mpec_threads.csv");
+  const Log log = ReadLog({path}, sim.scene());
+  std::vector<MpecEstimateResult> runs;
+  for (int threads : {1, 3, 1}) {
+    MpecOptions o;
+    o.params = {"mu.default"};
+    o.noise_sigma = 1e-5;
+    o.threads = threads;
+    runs.push_back(EstimateMpec(sim, log, o));
+  }
+  for (std::size_t k = 1; k < runs.size(); ++k) {
+    EXPECT_EQ(runs[k].iterations, runs[0].iterations);
+    EXPECT_EQ(runs[k].estimates[0], runs[0].estimates[0]);  // bitwise
+    EXPECT_EQ(runs[k].std_errors[0], runs[0].std_errors[0]);
+    EXPECT_EQ(runs[k].final_cost, runs[0].final_cost);
+  }
+}
+
 TEST(MpecEstimator, RejectsBadInput) {
   const sim::Simulator sim(sim::ParseScene(testing::kPlanarBlock, "block.yaml"));
   const std::string path =
