@@ -86,11 +86,16 @@ int main(int argc, char** argv) {
   bool quick = false;
   std::string csv, only, only_method;
   std::vector<int> thread_counts{1, 2};
+  double epsilon_start = 0.0, epsilon_factor = 0.0;  // 0: the estimator's defaults
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--quick")) quick = true;
     if (!std::strcmp(argv[i], "--csv") && i + 1 < argc) csv = argv[++i];
     if (!std::strcmp(argv[i], "--case") && i + 1 < argc) only = argv[++i];
     if (!std::strcmp(argv[i], "--method") && i + 1 < argc) only_method = argv[++i];
+    if (!std::strcmp(argv[i], "--epsilon") && i + 2 < argc) {
+      epsilon_start = std::atof(argv[++i]);
+      epsilon_factor = std::atof(argv[++i]);
+    }
     if (!std::strcmp(argv[i], "--threads") && i + 1 < argc) {
       thread_counts.clear();
       for (const char* p = argv[++i]; *p;) {
@@ -141,6 +146,8 @@ int main(int argc, char** argv) {
         o.noise_sigma = c.sigma > 0 ? c.sigma : (c.scene == kPlate ? 1e-4 : 1e-3);
         o.threads = threads;
         o.solver.method = method;
+        if (epsilon_start > 0) o.solver.epsilon_start = epsilon_start;
+        if (epsilon_factor > 0) o.solver.epsilon_factor = epsilon_factor;
         const std::clock_t cpu0 = std::clock();
         const estimation::MpecEstimateResult r = estimation::EstimateMpec(s, log, o);
         const double cpu_s = static_cast<double>(std::clock() - cpu0) / CLOCKS_PER_SEC;

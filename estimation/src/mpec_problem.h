@@ -18,6 +18,8 @@ namespace mpec_internal {
 
 constexpr double kDefaultSigma = 1e-3;  // m, weighting when no noise is stated
 constexpr double kInf = 1e20;
+// Below this, an entry of a step's x_ℓ Jacobian block (central differences) is rounding noise.
+constexpr double kStateJacobianNoise = 1e-7;
 
 // A measurement residual r = Σ coef_k x[col_k] − y (m).
 struct ResidualRow {
@@ -171,6 +173,9 @@ struct MpecEstimationProblem::Impl {
         v.d_comp_b, [&](int r) { return b.b_slack[r] < 0 ? -1 : b.neq + b.b_slack[r]; }, -1.0);
   }
 
+  bool IsStateColumn(const StepBlock& b, int lc) const {
+    return lc >= b.nz + ntheta && lc < b.nz + ntheta + nx;
+  }
   int GlobalCol(const StepBlock& b, int lc) const {
     if (lc < b.nz) return b.z_col + lc;
     lc -= b.nz;

@@ -37,6 +37,7 @@ void MpecOptions::Validate() const {
   if (!(orientation_length > 0) || !std::isfinite(orientation_length))
     fail("orientation_length", orientation_length, "finite > 0");
   if (threads < 1) fail("threads", threads, "≥ 1");
+  if (bootstrap < 0) fail("bootstrap", bootstrap, "≥ 0");
   if (!std::isfinite(contact_margin)) fail("contact_margin", contact_margin, "finite");
   solver.Validate();
 }
@@ -344,17 +345,20 @@ void MpecEstimationProblem::Impl::Build(const Log& log) {
         }
         pairs.emplace_back(blk.a_var[r], blk.b_var[r]);
       }
-      // Structure: every row × the x_ℓ and θ columns (the x_ℓ block is a central difference of
-      // the frozen equations and θ enters through the parameters: both dense by construction,
-      // and small), plus the z and u entries of the five evaluations at random points
-      // (z, θ, x_ℓ, u all perturbed: an entry of the formulation's dense z / u block that
-      // vanishes at all of them is a structural zero of its assembly).
-      for (const sim::StepModelValues& v : evals)
-        ForEachEntry(blk, v, [&](int lr, int lc, double) { blk.keys.push_back(Key(blk, lr, lc)); });
-      for (int lr = 0; lr < blk.neq + blk.ns; ++lr) {
-        for (int k = 0; k < ntheta; ++k) blk.keys.push_back(Key(blk, lr, blk.nz + k));
-        for (int j = 0; j < nx; ++j) blk.keys.push_back(Key(blk, lr, blk.nz + ntheta + j));
+      // Structure: every row × the θ columns (dense: θ enters through the parameters), plus
+      // the entries of the five evaluations at random points (z, θ, x_ℓ, u all perturbed: an
+      // entry of the formulation's dense z / u block that vanishes at all of them is a
+      // structural zero of its assembly). The x_ℓ block is a central difference of the frozen
+      // equations: its structural zeros come out as rounding noise ~1e-16 |row| / 1e-7, so an
+      // x_ℓ entry counts when above kStateJacobianNoise at some point (Jacobian test).
+      for (const sim::StepModelValues& v : evals) {
+        ForEachEntry(blk, v, [&](int lr, int lc, double val) {
+          if (IsStateColumn(blk, lc) && std::abs(val) <= mpec_internal::kStateJacobianNoise) return;
+          blk.keys.push_back(Key(blk, lr, lc));
+        });
       }
+      for (int lr = 0; lr < blk.neq + blk.ns; ++lr)
+        for (int k = 0; k < ntheta; ++k) blk.keys.push_back(Key(blk, lr, blk.nz + k));
       std::sort(blk.keys.begin(), blk.keys.end());
       blk.keys.erase(std::unique(blk.keys.begin(), blk.keys.end()), blk.keys.end());
       blk.row = m;
