@@ -1,10 +1,14 @@
 // mpec_bench: time and Ipopt iterations of the MPEC estimator (docs/estimation.md) on
-// synthetic logs of 500 samples — a block sliding to rest (μ = 0.3), without and with 1 mm noise —
-// for both complementarity treatments and 1 / 2 threads. Prints a table (and
-// writes it as CSV with --csv FILE). --quick: 50 samples, one configuration (the ctest smoke run).
+// synthetic logs of 500 samples — a block sliding to rest (μ = 0.3) and a box on a vibrating
+// plate (μ = 0.2), without and with noise — for both complementarity treatments and 1 / 2
+// threads (checking that the two give bit-identical estimates). Prints a table (and writes it as
+// CSV with --csv FILE). --quick: 50 samples, one configuration (the ctest smoke run);
+// --case NAME: only that case (block, block_noisy, plate, plate_noisy).
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
+#include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <random>
@@ -34,6 +38,27 @@ const char* kBlock =
     "    shapes: [{type: polygon, vertices: [[-0.2, -0.1], [0.2, -0.1], [0.2, 0.1], "
     "[-0.2, 0.1]]}]\n";
 
+// A 20 g box (4 × 1 cm) on a plate vibrating at 20 Hz (x 20 m/s², y 5 m/s²), sticking and
+// slipping twice per cycle; μ = 0.2 (the scene says 0.5).
+const char* kPlate =
+    "dimension: 2\n"
+    "gravity: [0, -9.81]\n"
+    "stepper: {dt: 1.0e-3, envelope: 0.002, prescribed_velocity: exact}\n"
+    "friction: {default: 0.5}\n"
+    "bodies:\n"
+    "  - name: plate\n"
+    "    kind: prescribed\n"
+    "    shapes: [{type: halfplane}]\n"
+    "    motion:\n"
+    "      frequency: 20\n"
+    "      x: {harmonics: [{order: 1, amplitude: 1.2665e-3, phase: 0}]}\n"
+    "      y: {harmonics: [{order: 1, amplitude: 3.166e-4, phase: 1.5707963267948966}]}\n"
+    "  - name: box\n"
+    "    mass: 0.02\n"
+    "    pose: {position: [0.0, 0.0053166]}\n"
+    "    shapes: [{type: polygon, vertices: [[-0.02, -0.005], [0.02, -0.005], [0.02, 0.005], "
+    "[-0.02, 0.005]]}]\n";
+
 // Simulates with mu.default = mu and writes `samples` samples (every step) of the body's x, y,
 // θ with N(0, sigma²) position noise (angles sigma / 0.1 m).
 std::string WriteLog(const sim::Simulator& s, const std::string& body, double mu, int samples,
@@ -59,10 +84,27 @@ std::string WriteLog(const sim::Simulator& s, const std::string& body, double mu
 
 int main(int argc, char** argv) {
   bool quick = false;
-  std::string csv;
+  std::string csv, only, only_method;
+  std::vector<int> thread_counts{1, 2};
+  double epsilon_start = 0.0, epsilon_factor = 0.0;  // 0: the estimator's defaults
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--quick")) quick = true;
     if (!std::strcmp(argv[i], "--csv") && i + 1 < argc) csv = argv[++i];
+    if (!std::strcmp(argv[i], "--case") && i + 1 < argc) only = argv[++i];
+    if (!std::strcmp(argv[i], "--method") && i + 1 < argc) only_method = argv[++i];
+    if (!std::strcmp(argv[i], "--epsilon") && i + 2 < argc) {
+      epsilon_start = std::atof(argv[++i]);
+      epsilon_factor = std::atof(argv[++i]);
+    }
+    if (!std::strcmp(argv[i], "--threads") && i + 1 < argc) {
+      thread_counts.clear();
+      for (const char* p = argv[++i]; *p;) {
+        char* end = nullptr;
+        thread_counts.push_back(static_cast<int>(std::strtol(p, &end, 10)));
+        p = *end == ',' ? end + 1 : end;
+        if (end == p && *p) break;
+      }
+    }
   }
   const int samples = quick ? 50 : 500;
   const std::string dir = std::filesystem::temp_directory_path().string();
@@ -76,45 +118,62 @@ int main(int argc, char** argv) {
   const std::vector<Case> cases =
       quick ? std::vector<Case>{{"block", kBlock, "block", 0.3, 0.0}}
             : std::vector<Case>{{"block", kBlock, "block", 0.3, 0.0},
-                                {"block_noisy", kBlock, "block", 0.3, 1e-3}};
+                                {"block_noisy", kBlock, "block", 0.3, 1e-3},
+                                {"plate", kPlate, "box", 0.2, 0.0},
+                                {"plate_noisy", kPlate, "box", 0.2, 1e-5}};
+  int mismatches = 0;
   std::string table =
       "case,complementarity,threads,samples,steps,unknowns,constraints,pairs,iterations,stages,"
-      "time_s,mu_hat,std_error,complementarity_violation,converged\n";
-  std::printf("%-12s %-9s %3s %7s %6s %8s %8s %6s %6s %8s %10s %10s %9s %s\n", "case", "method",
-              "thr", "samples", "steps", "unknowns", "constr", "iters", "NLPs", "time_s", "mu_hat",
-              "std_err", "compl", "conv");
+      "time_s,cpu_s,mu_hat,std_error,complementarity_violation,converged\n";
+  std::printf("%-12s %-9s %3s %7s %6s %8s %8s %6s %6s %8s %8s %10s %10s %9s %s\n", "case", "method",
+              "thr", "samples", "steps", "unknowns", "constr", "iters", "NLPs", "time_s", "cpu_s",
+              "mu_hat", "std_err", "compl", "conv");
   for (const Case& c : cases) {
+    if (!only.empty() && only != c.name) continue;
     const sim::Simulator s(sim::ParseScene(c.scene, std::string(c.name) + ".yaml"));
     const std::string path =
         WriteLog(s, c.body, c.mu, samples, c.sigma, dir + "/mpec_bench_" + c.name + ".csv");
     const estimation::Log log = estimation::ReadLog({path}, s.scene());
     for (const auto method : {estimation::ComplementarityMethod::kScholtes,
                               estimation::ComplementarityMethod::kPenalty}) {
-      for (int threads : {1, 2}) {
-        if (quick && (threads == 2 || method != estimation::ComplementarityMethod::kScholtes))
-          continue;
+      if (!only_method.empty() && only_method != estimation::ToString(method)) continue;
+      double mu_first = 0.0;
+      for (std::size_t ti = 0; ti < thread_counts.size(); ++ti) {
+        const int threads = thread_counts[ti];
+        if (quick && (ti > 0 || method != estimation::ComplementarityMethod::kScholtes)) continue;
         estimation::MpecOptions o;
         o.params = {"mu.default"};
-        o.noise_sigma = c.sigma > 0 ? c.sigma : 1e-3;
+        o.noise_sigma = c.sigma > 0 ? c.sigma : (c.scene == kPlate ? 1e-4 : 1e-3);
         o.threads = threads;
         o.solver.method = method;
+        if (epsilon_start > 0) o.solver.epsilon_start = epsilon_start;
+        if (epsilon_factor > 0) o.solver.epsilon_factor = epsilon_factor;
+        const std::clock_t cpu0 = std::clock();
         const estimation::MpecEstimateResult r = estimation::EstimateMpec(s, log, o);
-        std::printf("%-12s %-9s %3d %7d %6d %8d %8d %6d %6d %8.3f %10.6f %10.2e %9.1e %s\n", c.name,
-                    estimation::ToString(method), threads, samples, r.num_steps, r.num_unknowns,
-                    r.num_constraints, r.iterations, r.stages, r.time_s, r.estimates[0],
-                    r.std_errors[0], r.complementarity_violation, r.converged ? "yes" : "no");
+        const double cpu_s = static_cast<double>(std::clock() - cpu0) / CLOCKS_PER_SEC;
+        std::printf("%-12s %-9s %3d %7d %6d %8d %8d %6d %6d %8.3f %8.3f %10.6f %10.2e %9.1e %s\n",
+                    c.name, estimation::ToString(method), threads, samples, r.num_steps,
+                    r.num_unknowns, r.num_constraints, r.iterations, r.stages, r.time_s, cpu_s,
+                    r.estimates[0], r.std_errors[0], r.complementarity_violation,
+                    r.converged ? "yes" : "no");
         std::fflush(stdout);
         char line[400];
-        std::snprintf(line, sizeof line, "%s,%s,%d,%d,%d,%d,%d,%d,%d,%d,%.6g,%.9g,%.3g,%.3g,%d\n",
-                      c.name, estimation::ToString(method), threads, samples, r.num_steps,
-                      r.num_unknowns, r.num_constraints, r.num_pairs, r.iterations, r.stages,
-                      r.time_s, r.estimates[0], r.std_errors[0], r.complementarity_violation,
-                      r.converged ? 1 : 0);
+        std::snprintf(
+            line, sizeof line, "%s,%s,%d,%d,%d,%d,%d,%d,%d,%d,%.6g,%.6g,%.9g,%.3g,%.3g,%d\n",
+            c.name, estimation::ToString(method), threads, samples, r.num_steps, r.num_unknowns,
+            r.num_constraints, r.num_pairs, r.iterations, r.stages, r.time_s, cpu_s, r.estimates[0],
+            r.std_errors[0], r.complementarity_violation, r.converged ? 1 : 0);
         table += line;
         if (quick && !r.converged) return 1;
+        if (ti == 0) mu_first = r.estimates[0];
+        if (ti > 0 && r.estimates[0] != mu_first) {
+          std::printf("  %d threads differ from the first run: %.17g vs %.17g\n", threads,
+                      r.estimates[0], mu_first);
+          ++mismatches;
+        }
       }
     }
   }
   if (!csv.empty()) std::ofstream(csv) << table;
-  return 0;
+  return mismatches == 0 ? 0 : 1;
 }

@@ -351,7 +351,11 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o) {
     opt.SetNumericValue("acceptable_tol", std::max(o.tolerance * 1e3, 1e-8));
     opt.SetIntegerValue("max_iter", o.max_iterations);
     opt.SetStringValue("mu_strategy", "adaptive");
-    opt.SetStringValue("hessian_approximation", o.limited_memory ? "limited-memory" : "exact");
+    // MUMPS' automatic ordering picks SCOTCH on large KKT systems, whose random generator
+    // continues from call to call within a process: the same problem solved twice in one
+    // process can differ in the last digits. Approximate minimum degree is deterministic but
+    // took more iterations here (bench/README.md).
+    if (o.deterministic_ordering) opt.SetIntegerValue("mumps_pivot_order", 0);
     if (warm) {
       opt.SetStringValue("warm_start_init_point", "yes");
       opt.SetNumericValue("warm_start_bound_push", 1e-9);

@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <string>
+#include <vector>
 
 #include "../estimation/estimation_test_util.h"
 #include "vinci/estimation/mpec_estimator.h"
@@ -55,6 +56,57 @@ TEST(MpecNoise, PenaltyStandardErrorsAreHonest) {
 }
 TEST(MpecNoise, EstimatedSigmaStandardErrorsAreHonest) {
   CheckHonest(ComplementarityMethod::kScholtes, false);
+}
+
+const char* kPlateBox =
+    "dimension: 2\n"
+    "gravity: [0, -9.81]\n"
+    "stepper: {dt: 1.0e-3, duration: 0.2, envelope: 0.002, prescribed_velocity: exact}\n"
+    "friction: {default: 0.5}\n"
+    "bodies:\n"
+    "  - name: plate\n"
+    "    kind: prescribed\n"
+    "    shapes: [{type: halfplane}]\n"
+    "    motion:\n"
+    "      frequency: 20\n"
+    "      x: {harmonics: [{order: 1, amplitude: 1.2665e-3, phase: 0}]}\n"
+    "      y: {harmonics: [{order: 1, amplitude: 3.166e-4, phase: 1.5707963267948966}]}\n"
+    "  - name: box\n"
+    "    mass: 0.02\n"
+    "    pose: {position: [0.0, 0.0053166]}\n"
+    "    shapes: [{type: polygon, vertices: [[-0.02, -0.005], [0.02, -0.005], [0.02, 0.005], "
+    "[-0.02, 0.005]]}]\n";
+
+// Bootstrap over episodes: identical episodes make every resample the same data, so (the
+// solver being deterministic) the bootstrap standard error is exactly 0; episodes with
+// independent noise give a positive one of the order of the Laplace approximation.
+TEST(MpecNoise, BootstrapOverEpisodes) {
+  const sim::Simulator sim(sim::ParseScene(kPlateBox, "plate.yaml"));
+  std::vector<std::string> same, noisy;
+  for (int k = 0; k < 3; ++k) {
+    same.push_back(SyntheticLog(sim, "box", 0.2, 0.03, 1, 1e-5, 11,
+                                "mpec_boot_same_" + std::to_string(k) + ".csv"));
+    noisy.push_back(SyntheticLog(sim, "box", 0.2, 0.03, 1, 1e-5, 20 + k,
+                                 "mpec_boot_noisy_" + std::to_string(k) + ".csv"));
+  }
+  MpecOptions o;
+  o.params = {"mu.default"};
+  o.noise_sigma = 1e-5;
+  o.bootstrap = 4;
+  const MpecEstimateResult a = EstimateMpec(sim, ReadLog(same, sim.scene()), o);
+  EXPECT_EQ(a.std_error_method, "bootstrap");
+  EXPECT_EQ(a.bootstrap_converged, 4);
+  EXPECT_EQ(a.std_errors[0], 0.0);
+  const MpecEstimateResult b = EstimateMpec(sim, ReadLog(noisy, sim.scene()), o);
+  o.bootstrap = 0;
+  const MpecEstimateResult laplace = EstimateMpec(sim, ReadLog(noisy, sim.scene()), o);
+  EXPECT_EQ(laplace.std_error_method, "laplace");
+  EXPECT_EQ(b.estimates[0], laplace.estimates[0]);
+  EXPECT_GT(b.std_errors[0], 0.0);
+  EXPECT_LT(b.std_errors[0], 10 * laplace.std_errors[0]);
+  EXPECT_GT(b.std_errors[0], 0.1 * laplace.std_errors[0]);
+  o.bootstrap = -1;
+  EXPECT_THROW(EstimateMpec(sim, ReadLog(noisy, sim.scene()), o), std::invalid_argument);
 }
 
 }  // namespace

@@ -71,7 +71,13 @@ struct MpecOptions {
   /// that noise lifting a resting part does not drop its contacts (m); < 0: 3 σ_R (the stated
   /// σ_R, else 1 mm). 0 with a log on the scene's dt grid freezes exactly the simulator's sets.
   double contact_margin = -1.0;
-  int threads = 1;  ///< threads evaluating the step equations
+  int threads = 1;  ///< threads evaluating the step equations (the result is bitwise the same)
+  /// Bootstrap over episodes: with B > 0 and at least two episodes, the estimation is repeated
+  /// on B resamples of the episodes (drawn with replacement, seeded by bootstrap_seed), each
+  /// from the scene's values, and the standard errors are the resamples' standard deviation
+  /// (std_error_method "bootstrap") instead of the Laplace approximation. 0: off.
+  int bootstrap = 0;
+  unsigned bootstrap_seed = 1;
   /// Complementarity method, homotopy, Ipopt settings. The Scholtes homotopy starts at ε = 1e-4
   /// here (the products are impulses per step, ~m g h ≈ 1e-2 N·s, times velocities: ε = 0.1
   /// would relax complementarity away, and measured, took hundreds of iterations per stage).
@@ -95,6 +101,9 @@ struct MpecEstimateResult : EstimateResult {
   double max_process_noise = 0.0;  ///< max |w| at the solution (N, N·m)
   /// Largest Jacobian entry dropped for falling outside the structure (0: none).
   double dropped_jacobian = 0.0;
+  /// "laplace" (reduced Hessian) or "bootstrap" (MpecOptions::bootstrap).
+  std::string std_error_method = "laplace";
+  int bootstrap_converged = 0;  ///< resamples whose estimation converged (bootstrap only)
 };
 
 /// The MPEC of a log (for EstimateMpec, tests and tools). Not thread-safe (evaluation caches).

@@ -1,0 +1,214 @@
+// Private to the MPEC estimator (mpec_estimator.h): the problem's data (grid, step blocks,
+// residual rows, scales, structure) shared by its assembly (mpec_problem_build.cc), evaluation
+// (mpec_problem_eval.cc), covariance (mpec_covariance.cc) and driver (mpec_estimator.cc).
+#pragma once
+
+#include <algorithm>
+#include <map>
+#include <memory>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "vinci/estimation/mpec_estimator.h"
+#include "vinci/sim/formulations/step_model.h"
+
+namespace vinci::estimation {
+namespace mpec_internal {
+
+constexpr double kDefaultSigma = 1e-3;  // m, weighting when no noise is stated
+constexpr double kInf = 1e20;
+// Below this, an entry of a step's x_ℓ Jacobian block (central differences) is rounding noise.
+constexpr double kStateJacobianNoise = 1e-7;
+
+// A measurement residual r = Σ coef_k x[col_k] − y (m).
+struct ResidualRow {
+  int episode = 0;
+  int n = 0;
+  int col[4] = {0, 0, 0, 0};
+  double coef[4] = {0, 0, 0, 0};
+  double y = 0.0;
+};
+
+struct StepBlock {
+  int episode = 0;
+  double t = 0.0;
+  std::unique_ptr<sim::StepModel> model;
+  int nz = 0, neq = 0, ns = 0;
+  int x_col = 0, z_col = 0, w_col = 0, s_col = 0;
+  int row = 0;  // first constraint row: equality rows, then slack rows
+  // Per comp row: its complementarity variable, and the slack index (−1: the row is z itself).
+  std::vector<int> a_var, b_var, a_slack, b_slack;
+  std::vector<int> theta_map;   // per param_columns() entry: chosen index or −1
+  std::vector<long long> keys;  // sorted local (row, col) keys of the model's entries
+  int jac_offset = 0;           // first global Jacobian entry (model entries, then slacks)
+  sim::VectorXd z_guess;
+};
+
+// Runs f(i) for i in [0, n) on `threads` threads.
+template <class F>
+void ParallelFor(int n, int threads, const F& f) {
+  threads = std::max(1, std::min(threads, n));
+  if (threads == 1) {
+    for (int i = 0; i < n; ++i) f(i);
+    return;
+  }
+  std::vector<std::thread> pool;
+  for (int t = 0; t < threads; ++t) {
+    pool.emplace_back([&, t] {
+      for (int i = t; i < n; i += threads) f(i);
+    });
+  }
+  for (std::thread& th : pool) th.join();
+}
+
+}  // namespace mpec_internal
+
+struct MpecEstimationProblem::Impl {
+  using ResidualRow = mpec_internal::ResidualRow;
+  using StepBlock = mpec_internal::StepBlock;
+  using Params = sim::Params;
+  using State = sim::State;
+  using VectorXd = sim::VectorXd;
+
+  const sim::Simulator& sim;
+  const sim::Scene& scene;
+  MpecOptions opts;
+  double sigma = mpec_internal::kDefaultSigma, sigma_q = 1.0;
+  double margin = 0.0;  // added to the envelope for the frozen contact sets
+  sim::ParamSelection sel;
+  Params base;
+  int ntheta = 0, nq = 0, nv = 0, nx = 0;
+  int n = 0, m = 0;
+  int num_episodes = 0;
+  std::vector<int> x0_col;                  // per episode
+  std::vector<std::vector<double>> node_t;  // per episode, node times
+  std::vector<std::vector<int>> node_col;   // per episode, node state columns
+  std::vector<StepBlock> steps;
+  std::vector<ResidualRow> residuals;
+  std::vector<int> w_cols;  // first column of every w block
+  // Quaternion-norm rows: (row, first column of the 4 quaternion entries).
+  std::vector<std::pair<int, int>> quat_rows;
+  int quat_jac_offset = 0;
+  std::vector<std::pair<int, int>> pairs;
+  VectorXd x_l, x_u, start;  // in the solver's (scaled) variables
+  // Per unknown its typical magnitude: the solver's variables are y = x / scale (x physical).
+  VectorXd scale;
+  // Constant objective Hessian (lower triangle) and quaternion-row diagonal positions.
+  std::vector<Entry> hess;
+  VectorXd hess_obj;
+  std::vector<std::pair<int, int>> hess_quat;  // (entry, constraint row)
+  std::vector<Entry> jac;
+  // Per-formulation cache for steps whose h differs from the scene's dt.
+  struct Stepper {
+    std::unique_ptr<sim::Formulation> formulation;
+    std::shared_ptr<sim::Scene> model;
+  };
+  std::map<double, Stepper> steppers;
+  sim::Scene model_dt;  // the scene with base params (dt steps)
+  // Evaluation caches.
+  mutable VectorXd cache_g_x, cache_g, cache_j_x, cache_j;
+  mutable bool cache_g_ok = false, cache_j_ok = false;
+  mutable double max_dropped = 0.0;  // largest Jacobian entry outside the structure
+
+  Impl(const sim::Simulator& s, const MpecOptions& o)
+      : sim(s), scene(s.scene()), opts(o), sel(s.scene().param_table(), o.params) {}
+
+  VectorXd Physical(const VectorXd& y) const { return y.cwiseProduct(scale); }
+
+  Params Theta(const VectorXd& x) const {
+    VectorXd th = x.head(ntheta);
+    for (int i = 0; i < ntheta; ++i) th[i] = std::clamp(th[i], sel.lower()[i], sel.upper()[i]);
+    return sel.Set(base, th);
+  }
+
+  State NodeState(const VectorXd& x, int col, double t) const {
+    State st;
+    st.t = t;
+    st.q = x.segment(col, nq);
+    st.v = x.segment(col + nq, nv);
+    return st;
+  }
+
+  sim::StepModelValues EvaluateStep(const StepBlock& b, const VectorXd& x, const Params& theta,
+                                    bool jacobians) const {
+    sim::StepInput u;
+    u.generalized_force = x.segment(b.w_col, nv);
+    sim::StepModelOptions so;
+    so.jacobians = jacobians;
+    so.state_jacobian = jacobians;
+    return b.model->Evaluate(x.segment(b.z_col, b.nz), theta, NodeState(x, b.x_col, b.t), u, so);
+  }
+
+  // Visits the model's Jacobian entries of one step as (local row, local col, value); comp rows
+  // that are pure variables are skipped. Local columns: z | θ (chosen) | x | w.
+  template <class F>
+  void ForEachEntry(const StepBlock& b, const sim::StepModelValues& v, const F& f) const {
+    const int oz = 0, ot = b.nz, ox = b.nz + ntheta, ow = b.nz + ntheta + nx;
+    auto group = [&](const sim::StepModelJacobian& J, auto row_of, double sign) {
+      auto block = [&](const sim::SparseMatrixXd& M, int off, bool theta) {
+        for (int c = 0; c < M.outerSize(); ++c) {
+          int lc = off + c;
+          if (theta) {
+            const int k = b.theta_map[c];
+            if (k < 0) continue;
+            lc = ot + k;
+          }
+          for (sim::SparseMatrixXd::InnerIterator it(M, c); it; ++it) {
+            const int lr = row_of(static_cast<int>(it.row()));
+            if (lr >= 0) f(lr, lc, sign * it.value());
+          }
+        }
+      };
+      block(J.d_z, oz, false);
+      block(J.d_theta, 0, true);
+      block(J.d_x, ox, false);
+      block(J.d_u, ow, false);
+    };
+    group(
+        v.d_equality, [](int r) { return r; }, 1.0);
+    group(
+        v.d_comp_a, [&](int r) { return b.a_slack[r] < 0 ? -1 : b.neq + b.a_slack[r]; }, -1.0);
+    group(
+        v.d_comp_b, [&](int r) { return b.b_slack[r] < 0 ? -1 : b.neq + b.b_slack[r]; }, -1.0);
+  }
+
+  bool IsStateColumn(const StepBlock& b, int lc) const {
+    return lc >= b.nz + ntheta && lc < b.nz + ntheta + nx;
+  }
+  int GlobalCol(const StepBlock& b, int lc) const {
+    if (lc < b.nz) return b.z_col + lc;
+    lc -= b.nz;
+    if (lc < ntheta) return lc;
+    lc -= ntheta;
+    if (lc < nx) return b.x_col + lc;
+    return b.w_col + (lc - nx);
+  }
+  long long Key(const StepBlock& b, int lr, int lc) const {
+    return static_cast<long long>(lr) * (b.nz + ntheta + nx + nv) + lc;
+  }
+
+  const sim::Formulation& FormulationFor(double h, const sim::Scene** model) {
+    if (h == scene.options.dt && margin == 0.0) {
+      *model = &model_dt;
+      return sim.formulation();
+    }
+    auto it = steppers.find(h);
+    if (it == steppers.end()) {
+      sim::Scene s = scene;
+      s.options.dt = h;
+      s.options.envelope += margin;
+      Stepper st;
+      st.formulation = sim::MakeFormulation(s.options);
+      st.model = std::make_shared<sim::Scene>(s.ApplyParams(base));
+      it = steppers.emplace(h, std::move(st)).first;
+    }
+    *model = it->second.model.get();
+    return *it->second.formulation;
+  }
+
+  void Build(const Log& log);
+  void BuildStructure();
+};
+
+}  // namespace vinci::estimation
