@@ -43,17 +43,7 @@ void MpecOptions::Validate() const {
 }
 
 void MpecEstimationProblem::Impl::Build(const Log& log) {
-  const sim::ParamTable& table = scene.param_table();
-  for (const std::string& name : opts.params) {
-    const sim::ParamInfo& info = table.info(table.Index(name));
-    if (!info.differentiable) {
-      std::string names;
-      for (const std::string& d : table.DifferentiableNames())
-        names += (names.empty() ? "" : ", ") + d;
-      throw std::invalid_argument("--param " + name +
-                                  ": not a differentiable parameter; estimable here: " + names);
-    }
-  }
+  internal::CheckDifferentiable(scene, opts.params);
   if (log.episodes.empty()) throw std::invalid_argument("no log episode");
   const bool planar = scene.dim == sim::Dim::kPlanar;
   {
