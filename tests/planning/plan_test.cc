@@ -88,8 +88,7 @@ TEST(PlanSpecTest, BadSpecsRejectedWithFileAndLine) {
   EXPECT_NE(Error("scene: plate_one_part.yaml\n").find("bad.yaml:1: plate_extent: expected"),
             std::string::npos);
   // Not YAML at all: the line of the syntax error.
-  EXPECT_NE(Error(good + "seed: [1,\n").find("bad.yaml:15: YAML syntax error"),
-            std::string::npos)
+  EXPECT_NE(Error(good + "seed: [1,\n").find("bad.yaml:15: YAML syntax error"), std::string::npos)
       << Error(good + "seed: [1,\n");
   // An angle tolerance without an angle.
   EXPECT_NE(Error(Spec("{part: {position: [0.02, 0.0], angle_tolerance: 0.1}}"))
