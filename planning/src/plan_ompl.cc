@@ -19,6 +19,7 @@
 #include <mutex>
 #include <thread>
 #include <unordered_map>
+#include <vector>
 
 #ifndef VINCI_OMPL_VERSION
 #error "VINCI_OMPL_VERSION must be defined by the build (planning/CMakeLists.txt)"
@@ -148,6 +149,32 @@ class PartPositionProjection : public ob::ProjectionEvaluator {
   const PlanSpec& spec_;
 };
 
+// OMPL 1.5's control::SST deletes its witnesses without freeing the state and control each one
+// allocated (findClosestWitness): every planning query leaked them. This SST frees them before
+// SST's own clean-up runs (in clear() and in the destructor).
+class Sst final : public oc::SST {
+ public:
+  using oc::SST::SST;
+  ~Sst() override { FreeWitnessStates(); }
+  void clear() override {
+    FreeWitnessStates();
+    oc::SST::clear();
+  }
+
+ private:
+  void FreeWitnessStates() {
+    if (!witnesses_) return;
+    std::vector<Motion*> witnesses;
+    witnesses_->list(witnesses);
+    for (Motion* w : witnesses) {
+      if (w->state_ != nullptr) si_->freeState(w->state_);
+      if (w->control_ != nullptr) siC_->freeControl(w->control_);
+      w->state_ = nullptr;
+      w->control_ = nullptr;
+    }
+  }
+};
+
 }  // namespace
 
 const char* OmplVersion() { return VINCI_OMPL_VERSION; }
@@ -180,7 +207,7 @@ ob::PlannerPtr MakePlanner(const oc::SpaceInformationPtr& si, const PlanProblem&
       return kpiece;
     }
     case PlannerType::kSst: {
-      auto sst = std::make_shared<oc::SST>(si);
+      auto sst = std::make_shared<Sst>(si);
       const double L = PlateSize(problem.spec());
       sst->setSelectionRadius(kSstSelection * L);
       sst->setPruningRadius(kSstPruning * L);

@@ -20,10 +20,7 @@ namespace {
 using testing::LoadExample;
 using testing::WithParams;
 
-bool SameBits(const VectorXd& a, const VectorXd& b) {
-  return a.size() == b.size() &&
-         std::memcmp(a.data(), b.data(), sizeof(double) * static_cast<std::size_t>(a.size())) == 0;
-}
+using testing::SameBits;
 
 bool SameState(const State& a, const State& b) {
   return std::memcmp(&a.t, &b.t, sizeof a.t) == 0 && SameBits(a.q, b.q) && SameBits(a.v, b.v) &&

@@ -17,10 +17,7 @@ using testing::LoadExample;
 
 constexpr double kPoseTol = 1e-12;  // continuity to rounding of poses of size ~1
 
-bool SameBits(const VectorXd& a, const VectorXd& b) {
-  return a.size() == b.size() &&
-         std::memcmp(a.data(), b.data(), sizeof(double) * static_cast<std::size_t>(a.size())) == 0;
-}
+using testing::SameBits;
 
 // Runs the inputs from the initial state; ASSERTs every step succeeded.
 std::vector<State> RunInputs(const Simulator& sim, const std::vector<StepInput>& inputs) {

@@ -19,10 +19,7 @@ namespace {
 
 using testing::WithParams;
 
-bool SameBits(const VectorXd& a, const VectorXd& b) {
-  return a.size() == b.size() &&
-         std::memcmp(a.data(), b.data(), sizeof(double) * static_cast<std::size_t>(a.size())) == 0;
-}
+using testing::SameBits;
 
 bool SameBits(const Matrix3d& a, const Matrix3d& b) {
   return std::memcmp(a.data(), b.data(), sizeof(double) * 9) == 0;

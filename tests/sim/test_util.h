@@ -1,6 +1,7 @@
 // Shared helpers for the sim tests: loading the bundled example scenes, energies, rollouts.
 #pragma once
 
+#include <cstring>
 #include <string>
 
 #include "vinci/sim/model/scene_file.h"
@@ -11,6 +12,14 @@ namespace vinci::sim::testing {
 /// Loads examples/scenes/<name>.
 inline Scene LoadExample(const std::string& name) {
   return LoadSceneFile(std::string(VINCI_SOURCE_DIR) + "/examples/scenes/" + name);
+}
+
+/// True if a and b have the same size and the same bits (an empty vector's data() may be null,
+/// which memcmp must not see).
+inline bool SameBits(const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
+  if (a.size() != b.size()) return false;
+  return a.size() == 0 ||
+         std::memcmp(a.data(), b.data(), sizeof(double) * static_cast<std::size_t>(a.size())) == 0;
 }
 
 /// Params with the named entries overwritten.
