@@ -65,13 +65,10 @@ void ScatterDot(const Scene& model, int body, const BodyKinematics& k, const Vec
   }
 }
 
-// An empty nv × cols Jacobian with room for `per_column` entries in every column. No reserve for
-// cols = 0: it leaves the matrix uncompressed, and Eigen 3.4's makeCompressed() then reads and
-// writes m_outerIndex[1] of a 1-entry array (a heap overflow ASan reports on every scene without
-// joints or corner contacts; fuzz/crashes/scene/no_joint_rows.yaml).
+// An empty nv × cols Jacobian with room for `per_column` entries in every column.
 void StartJacobian(int nv, int cols, int per_column, SparseMatrixd* G) {
   G->resize(nv, cols);
-  if (cols > 0) G->reserve(Eigen::VectorXi::Constant(cols, per_column));
+  G->reserve(Eigen::VectorXi::Constant(cols, per_column));
 }
 
 // The entries of column `col` of G in rows [o, o + n) into out[0..n) (zeros elsewhere).
