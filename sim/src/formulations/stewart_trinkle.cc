@@ -65,10 +65,12 @@ void ScatterDot(const Scene& model, int body, const BodyKinematics& k, const Vec
   }
 }
 
-// An empty nv × cols Jacobian with room for `per_column` entries in every column.
+// An empty nv × cols Jacobian with room for `per_column` entries in every column. A matrix
+// without columns is left compressed: Eigen's per-column reserve would make it uncompressed, and
+// makeCompressed() of an uncompressed matrix with no columns reads past its outer index.
 void StartJacobian(int nv, int cols, int per_column, SparseMatrixd* G) {
   G->resize(nv, cols);
-  G->reserve(Eigen::VectorXi::Constant(cols, per_column));
+  if (cols > 0) G->reserve(Eigen::VectorXi::Constant(cols, per_column));
 }
 
 // The entries of column `col` of G in rows [o, o + n) into out[0..n) (zeros elsewhere).
