@@ -4,8 +4,10 @@
 // A malformed file must end in std::invalid_argument; a solver must return a status (never
 // throw), and whenever it says "solved" its z must pass the check below, written here without
 // the solvers' code: z and w = Mz + q finite, their negative parts and min(z_i, w_i) small
-// relative to the problem's own scale (s_w = max(‖q‖∞, max_i Σ_j |M_ij||z_j|), s_z = max(‖z‖∞,
-// ‖q‖∞ / ‖M‖∞)). A violation aborts, which libFuzzer and the replay test report.
+// relative to each row's own scale (s_i = max(|q_i| + Σ_j |M_ij||z_j|, s_z Σ_j |M_ij|, 1e-8 s_w)
+// with s_w = max_i s_i of the first two terms and s_z = max(‖z‖∞, ‖q‖∞ / ‖M‖∞)): a row written
+// in much smaller units than the others is judged in its own (fuzz/crashes/lcp/
+// lemke_fb_row_scaled.lcp). A violation aborts, which libFuzzer and the replay test report.
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
@@ -34,25 +36,28 @@ void CheckSolved(const vinci::sim::LcpProblem& p, const Eigen::VectorXd& z,
   const Eigen::Index n = p.q.size();
   if (z.size() != n) Finding(solver, "z has the wrong size");
   if (!z.allFinite()) Finding(solver, "z is not finite");
-  double q_norm = 0.0, m_norm = 0.0, z_norm = 0.0, s_w = 0.0;
+  double q_norm = 0.0, m_norm = 0.0, z_norm = 0.0;
+  Eigen::VectorXd row(n), row_z(n);
   for (Eigen::Index i = 0; i < n; ++i) {
     q_norm = std::max(q_norm, std::abs(p.q(i)));
     z_norm = std::max(z_norm, std::abs(z(i)));
-    double row = 0.0, row_z = 0.0;
+    row(i) = 0.0;
+    row_z(i) = std::abs(p.q(i));
     for (Eigen::Index j = 0; j < n; ++j) {
-      row += std::abs(p.M(i, j));
-      row_z += std::abs(p.M(i, j) * z(j));
+      row(i) += std::abs(p.M(i, j));
+      row_z(i) += std::abs(p.M(i, j) * z(j));
     }
-    m_norm = std::max(m_norm, row);
-    s_w = std::max(s_w, row_z);
+    m_norm = std::max(m_norm, row(i));
   }
-  s_w = std::max(s_w, q_norm);
   const double s_z = std::max(z_norm, m_norm > 0.0 ? q_norm / m_norm : 0.0);
+  double s_w = 0.0;
+  for (Eigen::Index i = 0; i < n; ++i) s_w = std::max({s_w, row_z(i), s_z * row(i)});
   for (Eigen::Index i = 0; i < n; ++i) {
     double w = p.q(i);
     for (Eigen::Index j = 0; j < n; ++j) w += p.M(i, j) * z(j);
     if (!std::isfinite(w)) Finding(solver, "w is not finite");
-    const double zr = s_z > 0.0 ? z(i) / s_z : 0.0, wr = s_w > 0.0 ? w / s_w : 0.0;
+    const double s_i = std::max({row_z(i), s_z * row(i), 1e-8 * s_w});
+    const double zr = s_z > 0.0 ? z(i) / s_z : 0.0, wr = s_i > 0.0 ? w / s_i : 0.0;
     if (zr < -kSignTolerance || wr < -kSignTolerance)
       Finding(solver, "z or w is negative at " + std::to_string(i));
     if (std::min(std::abs(zr), std::abs(wr)) > kSignTolerance)

@@ -167,6 +167,29 @@ TEST_F(FieldLimitsTest, StepsPerPointAreChecked) {
   EXPECT_THAT(ValidateError(s), HasSubstr("steps per point"));
 }
 
+// grid: {x: [-1e308, 1e308], points: 3}: the width overflows, every point was NaN (finding 3:
+// NaN rows with failed = 0, exit 0; then failed rows and exit 3). Bad input, rejected by name.
+TEST_F(FieldLimitsTest, GridWidthMustBeFinite) {
+  FieldSpec s = spec_;
+  s.x_min = -1e308;
+  s.x_max = 1e308;
+  EXPECT_THAT(ValidateError(s), HasSubstr("field.grid: expected a finite width"));
+  const std::string path = TempFile(
+      "huge_grid.yaml",
+      "dimension: 3\nbodies:\n  - {name: plate, kind: prescribed, shapes: [{type: halfspace}],\n"
+      "     motion: {frequency: 20, z: {harmonics: [{order: 1, amplitude: 0.001}]}}}\n"
+      "  - {name: part, mass: 1, pose: {position: [0, 0, 0.1]}, shapes: [{type: sphere, radius: "
+      "0.1}]}\nfield:\n  plate: plate\n  part: part\n  grid: {x: [-1e308, 1e308], points: 3}\n");
+  const Scene scene = LoadSceneFile(path);
+  try {
+    LoadFieldSpec(path, scene);
+    ADD_FAILURE() << "no exception";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("huge_grid.yaml:9: field.grid.x: expected a list [min, max] "
+                                    "with min <= max and a finite width"));
+  }
+}
+
 TEST_F(FieldLimitsTest, StepsPerCycleOutOfRangeIsAnError) {
   FieldSpec s = spec_;
   const double h = scene_.options.dt;

@@ -101,6 +101,58 @@ TEST(LcpAcceptanceTest, RecordedSimulatorProblemsStillPass) {
   }
 }
 
+// A row written 1e-10 below the other (fuzz/crashes/lcp/lemke_fb_row_scaled.lcp): the solution
+// is z = (0, 1e-7). Lemke and FB Newton reported z = (4e-10, 1e-12) as solved, w_2 = −1e-19
+// (violated by its whole size), which the largest row's scale (4e-10) passed. Each row is now
+// judged at its own scale (floored at 1e-8 of the problem's), and scaling row 2 changes nothing.
+TEST(LcpAcceptanceTest, RowsAreJudgedAtTheirOwnScale) {
+  MatrixXd M(2, 2);
+  M << 1e-12, 1, 0, 1e-12;
+  const VectorXd q = (VectorXd(2) << -1e-12, -1e-19).finished();
+  const VectorXd wrong = (VectorXd(2) << 4e-10, 1e-12).finished();
+  const VectorXd solution = (VectorXd(2) << 0.0, 1e-7).finished();
+  const LcpProblem p = Make(M, q);
+  // |w_2| = 1e-19 against the floor 1e-8 · 4e-10 (row 2's own terms, 1e-19, are below it).
+  EXPECT_NEAR(LcpScaledResidual(p, wrong), 0.025, 1e-6);
+  EXPECT_LE(LcpScaledResidual(p, solution), 1e-12);
+  for (double s : {1e3, 1e6}) {  // row 2 in units above the floor: judged by its own terms
+    MatrixXd Ms = M;
+    VectorXd qs = q;
+    Ms.row(1) *= s;
+    qs(1) *= s;
+    EXPECT_NEAR(LcpScaledResidual(Make(Ms, qs), wrong), 1.0, 1e-4);
+    EXPECT_LE(LcpScaledResidual(Make(Ms, qs), solution), 1e-12);
+  }
+  for (const std::string& name : LcpSolverNames()) {
+    SCOPED_TRACE(name);
+    VectorXd z;
+    const SolverReport r = MakeLcpSolver(name)->Solve(p, nullptr, &z);
+    if (r.ok()) {
+      EXPECT_NEAR(z(0), 0.0, 1e-13);
+      EXPECT_NEAR(z(1), 1e-7, 1e-13);
+    }
+  }
+}
+
+// A row that is zero in exact arithmetic (entries ~1e-16 of the others, as a degenerate friction
+// direction of the sensitivity LCP, sensitivity.cc): its residual is the cancellation
+// 1.04e-17 − 1.07e-17, 1.4 % of its own terms but 5e-18 of the problem's scale. Judged at its
+// own scale alone, every answer would fail (SensitivityTest.RollingSphereStepMatchesFinite-
+// Differences then lost the degenerate branch); the floor at 1e-8 of the problem's scale passes it.
+TEST(LcpAcceptanceTest, RowsOfPureRoundoffPass) {
+  MatrixXd M(2, 2);
+  M << 1, 1e-16, 3.78e-16, 1.09e-16;
+  const VectorXd q = (VectorXd(2) << -0.0275, -1.07e-17).finished();
+  const VectorXd z = (VectorXd(2) << 0.0275, 0.0).finished();
+  const LcpProblem p = Make(M, q);
+  ASSERT_LT((M * z + q)(1), 0.0);  // w_2 is a negative roundoff
+  EXPECT_LE(LcpScaledResidual(p, z), kLcpAcceptanceTolerance);
+  // The same violation in a row of real size fails.
+  MatrixXd M2 = M;
+  M2.row(1) *= 1e14;
+  EXPECT_GT(LcpScaledResidual(Make(M2, (VectorXd(2) << -0.0275, -1.07e-3).finished()), z), 1e-3);
+}
+
 TEST(LcpAcceptanceTest, ConfirmSolvedDowngradesAFalseSuccess) {
   const LcpProblem p = Make(1e-12 * MatrixXd::Identity(2, 2), VectorXd::Constant(2, -1e-12));
   SolverReport r;

@@ -35,6 +35,9 @@ void FieldSpec::Validate(const Scene& scene) const {
                                 FormatNumber(frequency));
   if (!(x_min <= x_max) || !(y_min <= y_max))
     throw std::invalid_argument("field.grid: expected min <= max on each axis");
+  // [-1e308, 1e308] has an infinite width: every grid point would be NaN (issue 18, finding 3).
+  if (!std::isfinite(x_max - x_min) || !std::isfinite(y_max - y_min))
+    throw std::invalid_argument("field.grid: expected a finite width max - min on each axis");
   if (nx < 1 || ny < 1)
     throw std::invalid_argument("field.grid.points: expected at least 1 point per axis");
   if (static_cast<long long>(nx) * ny > kMaxFieldPoints)
@@ -275,11 +278,12 @@ class FieldParser {
   }
 
   void Range(const YAML::Node& n, const std::string& key, double* lo, double* hi) const {
-    const std::string what = "a list [min, max] with min <= max (m)";
+    const std::string what = "a list [min, max] with min <= max and a finite width max - min (m)";
     if (!n.IsSequence() || n.size() != 2) Fail(n, key, what);
     *lo = Number(n[0], key + "[0]", false);
     *hi = Number(n[1], key + "[1]", false);
-    if (!(*lo <= *hi)) Fail(n, key, what, "[" + n[0].Scalar() + ", " + n[1].Scalar() + "]");
+    if (!(*lo <= *hi) || !std::isfinite(*hi - *lo))
+      Fail(n, key, what, "[" + n[0].Scalar() + ", " + n[1].Scalar() + "]");
   }
 
   int Body(const YAML::Node& n, const std::string& key, BodyKind kind) const {
