@@ -109,9 +109,9 @@ TEST(FieldDesignSpec, TargetFormulas) {
   EXPECT_TRUE(t.At(Vector2d(0.125, 0.0)).isApprox(Vector2d(0.6, 1.0)));
   EXPECT_TRUE(t.At(Vector2d(0.2, 0.0)).isApprox(Vector2d(-2.4, 4.0)));
   EXPECT_EQ(t.At(Vector2d(0.1, 0.0)), Vector2d::Zero());  // smooth: 0 at the centre,
-  const Vector2d small(1e-6, 2e-6);                       // ≈ s (ẑ × r + r) / R near it
+  const Vector2d small(1e-6, 2e-6);  // ≈ s (ẑ × r + r) / R near it (relative deviation 2q)
   EXPECT_TRUE(
-      t.At(t.center + small).isApprox(2.0 * Vector2d(1e-6 - 2e-6, 2e-6 + 1e-6) / 0.05, 1e-9));
+      t.At(t.center + small).isApprox(2.0 * Vector2d(1e-6 - 2e-6, 2e-6 + 1e-6) / 0.05, 1e-8));
   // Inversion in the circle (ρ → R²/ρ) flips the radial/tangential ratio: drawn onto it equally
   // from inside and outside.
   for (const double rho : {0.01, 0.03, 0.045}) {
