@@ -5,7 +5,7 @@ field were the cycle-averaged theory of docs/field.md?
 
 usage: scripts/field_theory_search.py TARGET [--radius R] [--harmonics 1|2|3] [--generations N]
                                      [--limits] [--local SCENE.yaml [--write-scene OUT.yaml]]
-       TARGET: circle | whirlpool | saddle | sink
+       TARGET: circle | circle_old | whirlpool | saddle | sink
 
 --limits: amplitude bounds from the acceleration limits of the issue's actuator instead of the
 bundled specs' bounds: harmonic k of x, y within 15 m/s^2, of roll, pitch, yaw within 100 rad/s^2,
@@ -51,7 +51,10 @@ def target(kind, radius):
     rho = np.hypot(X, Y)
     safe = np.where(rho > 0, rho, 1.0)
     rx, ry = X / safe, Y / safe
-    if kind == "circle":
+    if kind == "circle":  # v = (z x r + (1 - q)/(1 + q) r) / R, q = rho^2/R^2 (docs/planning.md)
+        ratio = (1 - (rho / radius)**2) / (1 + (rho / radius)**2)
+        vx, vy = (-Y + ratio * X) / radius, (X + ratio * Y) / radius
+    elif kind == "circle_old":  # the definition until Nov 2026: t + (R - rho)/R r, unit speed
         vx, vy = -ry + (radius - rho) / radius * rx, rx + (radius - rho) / radius * ry
         vx, vy = np.where(rho > 0, vx, 0.0), np.where(rho > 0, vy, 0.0)
     elif kind == "whirlpool":

@@ -182,10 +182,8 @@ Vector2d FieldTarget::At(const Vector2d& p) const {
     case TargetType::kWhirlpool:
       return sign * speed * perp(r) / radius;
     case TargetType::kCircle: {
-      const double rho = r.norm();
-      if (rho == 0.0) return Vector2d::Zero();
-      const Vector2d rh = r / rho;
-      return speed * (sign * perp(rh) + (radius - rho) / radius * rh);
+      const double q = r.squaredNorm() / (radius * radius);  // (ρ/R)²
+      return speed * (sign * perp(r) + (1.0 - q) / (1.0 + q) * r) / radius;
     }
     case TargetType::kSaddle: {
       const Vector2d n = perp(direction);

@@ -101,9 +101,27 @@ TEST(FieldDesignSpec, TargetFormulas) {
   EXPECT_TRUE(t.At(Vector2d(0.15, 0.0)).isApprox(Vector2d(-2.0, 0.0)));
   t.type = TargetType::kWhirlpool;
   EXPECT_TRUE(t.At(Vector2d(0.15, 0.0)).isApprox(Vector2d(0.0, 2.0)));
-  t.type = TargetType::kCircle;  // on the circle: tangential only; inside: pushed out
+  // Circle v = s (ẑ × r + (1 − q)/(1 + q) r) / R, q = ρ²/R²: on the circle tangential at speed
+  // s; at ρ = R/2 (q = 1/4) the ratio radial/tangential is +0.6 (outward), at ρ = 2R (q = 4) −0.6.
+  t.type = TargetType::kCircle;
   EXPECT_TRUE(t.At(Vector2d(0.15, 0.0)).isApprox(Vector2d(0.0, 2.0)));
-  EXPECT_GT(t.At(Vector2d(0.125, 0.0)).x(), 0.0);
+  EXPECT_TRUE(t.At(Vector2d(0.1, 0.05)).isApprox(Vector2d(-2.0, 0.0)));
+  EXPECT_TRUE(t.At(Vector2d(0.125, 0.0)).isApprox(Vector2d(0.6, 1.0)));
+  EXPECT_TRUE(t.At(Vector2d(0.2, 0.0)).isApprox(Vector2d(-2.4, 4.0)));
+  EXPECT_EQ(t.At(Vector2d(0.1, 0.0)), Vector2d::Zero());  // smooth: 0 at the centre,
+  const Vector2d small(1e-6, 2e-6);  // ≈ s (ẑ × r + r) / R near it (relative deviation 2q)
+  EXPECT_TRUE(
+      t.At(t.center + small).isApprox(2.0 * Vector2d(1e-6 - 2e-6, 2e-6 + 1e-6) / 0.05, 1e-8));
+  // Inversion in the circle (ρ → R²/ρ) flips the radial/tangential ratio: drawn onto it equally
+  // from inside and outside.
+  for (const double rho : {0.01, 0.03, 0.045}) {
+    const Vector2d in = t.At(t.center + Vector2d(rho, 0.0));
+    const Vector2d out = t.At(t.center + Vector2d(0.05 * 0.05 / rho, 0.0));
+    EXPECT_NEAR(in.x() / in.y(), -out.x() / out.y(), 1e-12) << rho;
+  }
+  t.clockwise = true;
+  EXPECT_TRUE(t.At(Vector2d(0.125, 0.0)).isApprox(Vector2d(0.6, -1.0)));
+  t.clockwise = false;
   t.type = TargetType::kSaddle;  // repelling along d = x, attracting along y
   EXPECT_GT(t.At(Vector2d(0.15, 0.0)).x(), 0.0);
   EXPECT_LT(t.At(Vector2d(0.1, 0.05)).y(), 0.0);

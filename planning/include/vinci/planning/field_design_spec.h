@@ -21,7 +21,10 @@ using Eigen::VectorXd;
 /// d = direction (unit), n = ẑ × d, s = speed:
 ///   sink      v = −s r / R            source  v = s r / R
 ///   whirlpool v = s ẑ × r / R  (counter-clockwise; `clockwise: true` flips it)
-///   circle    v = s (t̂ + (R − ρ)/R r̂), t̂ = ẑ × r̂: around the circle of radius R, drawn onto it
+///   circle    v = s (ẑ × r + (1 − q)/(1 + q) r) / R, q = ρ²/R²: the whirlpool plus a radial part
+///             that is the source near the centre, vanishes on the circle ρ = R and tends to the
+///             sink far outside (radial/tangential = (1 − q)/(1 + q) ∈ (−1, 1]): around the
+///             circle at speed s, drawn onto it from both sides, smooth and 0 at the centre
 ///   saddle    v = s ((r·d) d − (r·n) n) / R: repelling along d, attracting along n
 ///   line_sink v = −s (r·n) n / R: drawn onto the line through the centre along d
 ///   shear     v = s (r·n) d / R: along d, growing with the signed distance from that line
