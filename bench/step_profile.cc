@@ -4,10 +4,11 @@
 // counted: callgrind's call counts of malloc have those). No benchmark framework, so a profile
 // shows only the simulator.
 //
-//   step_profile [--k K | --pile] [--settle N] [--steps N]
+//   step_profile [--k K | --pile] [--settle N] [--steps N] [--digits D]
 //   valgrind --tool=callgrind --toggle-collect='TimedStep*' step_profile --k 10 [--dense]
 //   (counts the timed steps only, not the settling ones)
 //
+// --digits D: the start poses written with D significant digits (default 17: exact).
 // --dense: the step through the dense LCP (as before the structured warm-basis solve).
 #include <algorithm>
 #include <atomic>
@@ -16,10 +17,10 @@
 #include <ctime>
 #include <memory>
 #include <new>
-#include <sstream>
 #include <string>
 #include <utility>
 
+#include "box_scenes.h"
 #include "vinci/sim/formulations/stewart_trinkle.h"
 #include "vinci/sim/model/scene_file.h"
 #include "vinci/sim/simulator/simulator.h"
@@ -39,37 +40,6 @@ void operator delete(void* p) noexcept { std::free(p); }
 void operator delete(void* p, std::size_t) noexcept { std::free(p); }
 
 namespace {
-
-// A resting stack of k 0.2 m cubes (1 kg) on a floor, as box_stack.yaml.
-std::string StackYaml(int k) {
-  std::ostringstream s;
-  s << "name: stack" << k << "\ndimension: 3\n"
-    << "stepper: {dt: 0.001, duration: 2.0, friction_directions: 4, envelope: 0.002}\n"
-    << "friction: {default: 0.6}\nbodies:\n"
-    << "  - {name: floor, kind: static, shapes: [{type: halfspace}]}\n";
-  for (int i = 0; i < k; ++i)
-    s << "  - {name: box" << i << ", mass: 1.0, pose: {position: [0, 0, " << 0.1 + 0.2 * i
-      << "]}, shapes: [{type: box, half_extents: [0.1, 0.1, 0.1]}]}\n";
-  return s.str();
-}
-
-// Four layers of 5 × 5 cubes 5 mm apart, odd layers shifted by (5, 5) cm (vinci_vs_mujoco's).
-std::string PileYaml() {
-  std::ostringstream s;
-  s << "name: pile100\ndimension: 3\n"
-    << "stepper: {dt: 0.001, duration: 2.0, friction_directions: 4, envelope: 0.002}\n"
-    << "friction: {default: 0.6}\nbodies:\n"
-    << "  - {name: floor, kind: static, shapes: [{type: halfspace}]}\n";
-  for (int layer = 0; layer < 4; ++layer)
-    for (int i = 0; i < 5; ++i)
-      for (int j = 0; j < 5; ++j) {
-        const double shift = layer % 2 ? 0.05 : 0.0;
-        s << "  - {name: b" << layer << "_" << i << "_" << j << ", mass: 1.0, pose: {position: ["
-          << 0.205 * i + shift << ", " << 0.205 * j + shift << ", " << 0.1 + 0.2 * layer
-          << "]}, shapes: [{type: box, half_extents: [0.1, 0.1, 0.1]}]}\n";
-      }
-  return s.str();
-}
 
 // Lemke under another type: StewartTrinkle then always builds and solves the dense LCP (its
 // structured warm-basis path is for LemkeSolver only): the step as it was before issue 16's
@@ -108,7 +78,7 @@ __attribute__((noinline)) vinci::sim::StepInfo TimedStep(const vinci::sim::Stewa
 }
 
 int main(int argc, char** argv) {
-  int k = 10, settle = 300, steps = 1000;
+  int k = 10, settle = 300, steps = 1000, digits = 17;
   bool pile = false, dense = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -120,20 +90,25 @@ int main(int argc, char** argv) {
       dense = true;
     } else if (a == "--settle" && i + 1 < argc) {
       settle = std::atoi(argv[++i]);
+    } else if (a == "--digits" && i + 1 < argc) {
+      digits = std::atoi(argv[++i]);
     } else if (a == "--steps" && i + 1 < argc) {
       steps = std::atoi(argv[++i]);
     } else {
-      std::fprintf(stderr,
-                   "usage: step_profile [--k K | --pile] [--settle N] [--steps N] [--dense]\n");
+      std::fprintf(
+          stderr,
+          "usage: step_profile [--k K | --pile] [--settle N] [--steps N] [--digits D] [--dense]\n");
       return 2;
     }
   }
-  if (k < 1 || settle < 0 || steps < 1) {
-    std::fprintf(stderr, "step_profile: expected k >= 1, settle >= 0, steps >= 1\n");
+  if (k < 1 || settle < 0 || steps < 1 || digits < 1 || digits > 17) {
+    std::fprintf(stderr,
+                 "step_profile: expected k >= 1, settle >= 0, steps >= 1, 1 <= digits <= 17\n");
     return 2;
   }
   using namespace vinci::sim;
-  const Simulator sim(ParseScene(pile ? PileYaml() : StackYaml(k), "step_profile"));
+  const Simulator sim(ParseScene(
+      pile ? vinci::bench::PileYaml(digits) : vinci::bench::StackYaml(k, digits), "step_profile"));
   const Scene model = sim.scene().ApplyParams(sim.DefaultParams());
   std::shared_ptr<const LcpSolver> solver;
   if (dense)
@@ -158,6 +133,7 @@ int main(int argc, char** argv) {
     std::swap(x, next);
   }
   double contacts = 0.0, pivots = 0.0, lcp = 0.0;
+  int changes = 0, last_contacts = -1;  // steps whose contact count differs from the previous
   const long allocations0 = g_allocations.load();
   const double t0 = CpuSeconds();
   for (int i = 0; i < steps; ++i) {
@@ -167,6 +143,8 @@ int main(int argc, char** argv) {
       return 1;
     }
     contacts += info.contacts;
+    changes += last_contacts >= 0 && info.contacts != last_contacts;
+    last_contacts = info.contacts;
     pivots += info.solver.iterations;
     lcp += static_cast<double>(next.warm_start.size());
     std::swap(x, next);
@@ -177,8 +155,8 @@ int main(int argc, char** argv) {
   const long basis = (x.warm_start.array() > 0.0).count();
   std::printf(
       "%s: %.2f CPU us/step, %.1f contacts, LCP size %.0f, %.3f pivots/step, last basis %ld, %.1f "
-      "allocations/step\n",
+      "allocations/step, contact count changed in %d steps\n",
       pile ? "pile of 100" : (std::to_string(k) + "-box stack").c_str(), 1e6 * (t1 - t0) / steps,
-      contacts / steps, lcp / steps, pivots / steps, basis, allocations);
+      contacts / steps, lcp / steps, pivots / steps, basis, allocations, changes);
   return 0;
 }

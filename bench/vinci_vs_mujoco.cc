@@ -28,6 +28,7 @@
 #include <string>
 #include <vector>
 
+#include "box_scenes.h"
 #include "vinci/sim/model/scene_file.h"
 #include "vinci/sim/simulator/simulator.h"
 
@@ -155,11 +156,9 @@ struct MujocoVariant {
   int noslip_iterations = 0;
 };
 
-std::string Num(double x) {
-  char buf[64];
-  std::snprintf(buf, sizeof(buf), "%.17g", x);
-  return buf;
-}
+using vinci::bench::Num;
+using vinci::bench::PileYaml;
+using vinci::bench::StackYaml;
 std::string Vec(const Vector3d& v) { return Num(v.x()) + " " + Num(v.y()) + " " + Num(v.z()); }
 std::string Quat(const Isometry3d& X) {
   const Quaterniond q(X.linear());
@@ -235,40 +234,6 @@ std::string MakeMjcfBoxes(const std::string& label, const vinci::sim::Scene& sce
     }
   }
   s << "  </worldbody>\n</mujoco>\n";
-  return s.str();
-}
-
-// YAML of a resting stack of k 0.2 m cubes (1 kg) on a floor, as box_stack.yaml (μ = 0.6,
-// n_d = 4, dt = 1 ms, envelope 2 mm).
-std::string StackYaml(int k) {
-  std::ostringstream s;
-  s << "name: stack" << k << "\ndimension: 3\n"
-    << "stepper: {dt: 0.001, duration: 2.0, friction_directions: 4, envelope: 0.002}\n"
-    << "friction: {default: 0.6}\nbodies:\n"
-    << "  - {name: floor, kind: static, shapes: [{type: halfspace}]}\n";
-  for (int i = 0; i < k; ++i)
-    s << "  - {name: box" << i << ", mass: 1.0, pose: {position: [0, 0, " << Num(0.1 + 0.2 * i)
-      << "]}, shapes: [{type: box, half_extents: [0.1, 0.1, 0.1]}]}\n";
-  return s.str();
-}
-
-// YAML of a pile of 100 cubes: four layers of 5 × 5 cubes 5 mm apart (no side contacts), odd
-// layers shifted by (5, 5) cm, so each cube rests on one to four cubes below.
-std::string PileYaml() {
-  std::ostringstream s;
-  s << "name: pile100\ndimension: 3\n"
-    << "stepper: {dt: 0.001, duration: 2.0, friction_directions: 4, envelope: 0.002}\n"
-    << "friction: {default: 0.6}\nbodies:\n"
-    << "  - {name: floor, kind: static, shapes: [{type: halfspace}]}\n";
-  for (int layer = 0; layer < 4; ++layer)
-    for (int i = 0; i < 5; ++i)
-      for (int j = 0; j < 5; ++j) {
-        const double shift = layer % 2 ? 0.05 : 0.0;
-        s << "  - {name: b" << layer << "_" << i << "_" << j << ", mass: 1.0, pose: {position: ["
-          << Num(0.205 * i + shift) << ", " << Num(0.205 * j + shift) << ", "
-          << Num(0.1 + 0.2 * layer)
-          << "]}, shapes: [{type: box, half_extents: [0.1, 0.1, 0.1]}]}\n";
-      }
   return s.str();
 }
 
