@@ -2,7 +2,8 @@
 // of μ̂ over seeded trials of synthetic logs, per method, noise level and window length.
 //
 //   estimation_study STUDY [--trials N] [--noise S1,S2,..] [--windows W1,W2,..]
-//                    [--particles N1,N2,..] [--episodes N] [--methods lsq,lsq_ms,filter,mpec]
+//                    [--particles N1,N2,..] [--episodes N] [--methods
+//                    lsq,lsq_ms,filter,mpec,mpec_pen]
 //                    [--guess MU] [--first-trial K] [--out FILE.csv]
 //
 // STUDY:
@@ -17,14 +18,17 @@
 // episodes are different tosses (seeded launch velocities around the scene's), the planar
 // studies' differ only in their noise. One CSV row per trial and method: study, method,
 // noise_m, window, particles, episodes, trial, true_mu, mu_hat, std_error, converged,
-// iterations, time_s, samples. Methods: lsq (single shooting), lsq_ms (multiple shooting,
-// 25-sample segments), filter (the UKF with μ in the state), mpec (Ipopt). The defaults are
+// iterations, time_s (wall), samples, cpu_s (the process's CPU time: meaningful on a loaded
+// machine, summed over threads). Methods: lsq (single shooting), lsq_ms (multiple shooting,
+// 25-sample segments), filter (the UKF with μ in the state), mpec (Ipopt, Scholtes relaxation
+// homotopy), mpec_pen (Ipopt, ℓ1 penalty homotopy). The defaults are
 // the full study (20 trials); --trials and --methods cut it down (scripts/estimation_studies.sh
 // runs all four studies). Plots: scripts/plot_estimation_study.py FILE.csv.
 //
 // To add a method, add one line to Methods() below.
 #include <cstdio>
 #include <cstdlib>
+#include <ctime>
 #include <exception>
 #include <fstream>
 #include <functional>
@@ -64,6 +68,15 @@ std::vector<std::pair<std::string, Estimator>> Methods() {
       return est::EstimateLeastSquares(s, log, o);
     };
   };
+  auto mpec = [](est::ComplementarityMethod method) {
+    return [method](const sim::Simulator& s, const Log& log, double sigma) -> EstimateResult {
+      est::MpecOptions o;
+      o.params = {"mu.default"};
+      o.noise_sigma = sigma;
+      o.solver.method = method;
+      return est::EstimateMpec(s, log, o);
+    };
+  };
   return {
       {"lsq", lsq(est::Shooting::kSingle)},
       {"lsq_ms", lsq(est::Shooting::kMultiple)},
@@ -74,13 +87,8 @@ std::vector<std::pair<std::string, Estimator>> Methods() {
          o.noise_sigma = sigma;
          return est::EstimateFilter(s, log, o);
        }},
-      {"mpec",
-       [](const sim::Simulator& s, const Log& log, double sigma) -> EstimateResult {
-         est::MpecOptions o;
-         o.params = {"mu.default"};
-         o.noise_sigma = sigma;
-         return est::EstimateMpec(s, log, o);
-       }},
+      {"mpec", mpec(est::ComplementarityMethod::kScholtes)},
+      {"mpec_pen", mpec(est::ComplementarityMethod::kPenalty)},
   };
 }
 
@@ -232,7 +240,7 @@ std::vector<std::string> ParseNames(const std::string& s) {
 constexpr const char* kUsage =
     "usage: estimation_study plate|particles|block|cube [--trials N] [--first-trial K]\n"
     "         [--noise S1,S2] [--windows W1,W2] [--particles N1,N2] [--episodes N]\n"
-    "         [--methods lsq,lsq_ms,filter,mpec] [--guess MU] [--out F.csv]\n";
+    "         [--methods lsq,lsq_ms,filter,mpec,mpec_pen] [--guess MU] [--out F.csv]\n";
 
 int Run(int argc, char** argv) {
   if (argc < 2 || std::string(argv[1]) == "--help") {
@@ -314,7 +322,8 @@ int Run(int argc, char** argv) {
     bool known = false;
     for (const auto& k : Methods()) known |= k.first == m;
     if (!known) {
-      std::cerr << "--methods: unknown method '" << m << "' (lsq, lsq_ms, filter, mpec)\n";
+      std::cerr << "--methods: unknown method '" << m
+                << "' (lsq, lsq_ms, filter, mpec, mpec_pen)\n";
       return 1;
     }
   }
@@ -328,7 +337,7 @@ int Run(int argc, char** argv) {
     return 1;
   }
   csv << "study,method,noise_m,window,particles,episodes,trial,true_mu,mu_hat,std_error,"
-         "converged,iterations,time_s,samples\n";
+         "converged,iterations,time_s,samples,cpu_s\n";
   csv.precision(10);
   for (double np : particles) {
     const int n_particles = static_cast<int>(np);
@@ -344,6 +353,7 @@ int Run(int argc, char** argv) {
             for (const std::string& m : method_names) wanted |= m == name;
             if (!wanted) continue;
             EstimateResult r;
+            const std::clock_t cpu0 = std::clock();
             try {
               r = estimator(model, log, sigma);
             } catch (const std::exception& e) {
@@ -353,7 +363,8 @@ int Run(int argc, char** argv) {
             csv << which << "," << name << "," << sigma << "," << w << "," << n_particles << ","
                 << episodes << "," << trial << "," << st.true_mu << "," << r.estimates[0] << ","
                 << r.std_errors[0] << "," << (r.converged ? 1 : 0) << "," << r.iterations << ","
-                << r.time_s << "," << static_cast<int>(w) * episodes << std::endl;
+                << r.time_s << "," << static_cast<int>(w) * episodes << ","
+                << static_cast<double>(std::clock() - cpu0) / CLOCKS_PER_SEC << std::endl;
             std::fprintf(
                 stderr, "%s %-7s σ=%g w=%g n=%d e=%d trial %2d: μ̂ = %.5f ± %.5f %s %d it %.2f s\n",
                 which.c_str(), name.c_str(), sigma, w, n_particles, episodes, trial, r.estimates[0],
