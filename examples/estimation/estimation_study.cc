@@ -4,7 +4,7 @@
 //   estimation_study STUDY [--trials N] [--noise S1,S2,..] [--windows W1,W2,..]
 //                    [--particles N1,N2,..] [--episodes N] [--methods
 //                    lsq,lsq_ms,filter,mpec,mpec_pen]
-//                    [--guess MU] [--first-trial K] [--out FILE.csv]
+//                    [--guess MU] [--first-trial K] [--threads N] [--out FILE.csv]
 //
 // STUDY:
 //   plate      a particle on a vibrating plate (planar, true μ = 0.2), windows in samples
@@ -23,7 +23,9 @@
 // 25-sample segments), filter (the UKF with μ in the state), mpec (Ipopt, Scholtes relaxation
 // homotopy), mpec_pen (Ipopt, ℓ1 penalty homotopy). The defaults are
 // the full study (20 trials); --trials and --methods cut it down (scripts/estimation_studies.sh
-// runs all four studies). Plots: scripts/plot_estimation_study.py FILE.csv.
+// runs all four studies). --threads N (default 1) is passed to lsq/lsq_ms (episodes in
+// parallel) and mpec/mpec_pen (steps in parallel). Plots: scripts/plot_estimation_study.py
+// FILE.csv.
 //
 // To add a method, add one line to Methods() below.
 #include <cstdio>
@@ -56,6 +58,9 @@ namespace sim = vinci::sim;
 // An estimator: (simulator whose scene holds the initial guess, log, stated noise σ) → result.
 using Estimator = std::function<EstimateResult(const sim::Simulator&, const Log&, double)>;
 
+// Threads for the methods that evaluate in parallel (lsq: episodes; mpec: steps); --threads.
+int g_threads = 1;
+
 std::vector<std::pair<std::string, Estimator>> Methods() {
   auto lsq = [](est::Shooting shooting) {
     return [shooting](const sim::Simulator& s, const Log& log, double sigma) {
@@ -65,6 +70,7 @@ std::vector<std::pair<std::string, Estimator>> Methods() {
       o.shooting = shooting;
       o.segment_samples = 25;
       o.max_iterations = 50;
+      o.threads = g_threads;
       return est::EstimateLeastSquares(s, log, o);
     };
   };
@@ -74,6 +80,7 @@ std::vector<std::pair<std::string, Estimator>> Methods() {
       o.params = {"mu.default"};
       o.noise_sigma = sigma;
       o.solver.method = method;
+      o.threads = g_threads;
       return est::EstimateMpec(s, log, o);
     };
   };
@@ -240,7 +247,8 @@ std::vector<std::string> ParseNames(const std::string& s) {
 constexpr const char* kUsage =
     "usage: estimation_study plate|particles|block|cube [--trials N] [--first-trial K]\n"
     "         [--noise S1,S2] [--windows W1,W2] [--particles N1,N2] [--episodes N]\n"
-    "         [--methods lsq,lsq_ms,filter,mpec,mpec_pen] [--guess MU] [--out F.csv]\n";
+    "         [--methods lsq,lsq_ms,filter,mpec,mpec_pen] [--guess MU] [--threads N]\n"
+    "         [--out F.csv]\n";
 
 int Run(int argc, char** argv) {
   if (argc < 2 || std::string(argv[1]) == "--help") {
@@ -309,6 +317,8 @@ int Run(int argc, char** argv) {
       particles = ParseList(value);
     } else if (flag == "--methods") {
       method_names = ParseNames(value);
+    } else if (flag == "--threads") {
+      g_threads = std::stoi(value);
     } else if (flag == "--guess") {
       st.guess_mu = std::stod(value);
     } else if (flag == "--out") {
@@ -327,8 +337,8 @@ int Run(int argc, char** argv) {
       return 1;
     }
   }
-  if (trials < 1 || episodes < 1 || first_trial < 0) {
-    std::cerr << "--trials and --episodes must be ≥ 1, --first-trial ≥ 0\n";
+  if (trials < 1 || episodes < 1 || first_trial < 0 || g_threads < 1) {
+    std::cerr << "--trials, --episodes and --threads must be ≥ 1, --first-trial ≥ 0\n";
     return 1;
   }
   std::ofstream csv(out);
