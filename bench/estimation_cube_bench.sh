@@ -4,28 +4,34 @@
 # 100 samples per toss at ≈ 143 Hz with 30 µm position noise (5000 samples, orientations
 # logged), estimated together (shared μ, per-episode initial states) by each method in turn.
 #
-#   bench/estimation_cube_bench.sh [BUILD_DIR] [METHODS] [EPISODES]
+#   bench/estimation_cube_bench.sh [BUILD_DIR] [METHODS] [EPISODES] [THREADS]
 #
 # BUILD_DIR defaults to build (estimation_study must be built there: cmake --build BUILD_DIR
-# --target estimation_study); METHODS a comma list of lsq,lsq_ms,filter,mpec (default all);
-# EPISODES default 50. Writes estimation_cube_bench.csv in the current directory and prints a
-# table. Run it on an idle machine; one method at a time is fine (the CSV is per run).
+# --target estimation_study); METHODS a comma list of lsq,lsq_ms,filter,mpec,mpec_pen (default
+# all); EPISODES default 50; THREADS (default 2) evaluate lsq's episodes and mpec's steps in
+# parallel. Writes estimation_cube_bench_<METHODS>_<EPISODES>.csv in the current directory and
+# prints a table (wall and CPU time). Run it on an idle machine; one method at a time is fine.
+# The MPEC's problem grows with the log (one step block, ~100 unknowns with 8 corner contacts,
+# per simulator step: 50 tosses are ~35 000 steps); a smaller EPISODES gives its per-toss cost.
 set -eu
 BUILD=${1:-build}
-METHODS=${2:-lsq,lsq_ms,filter,mpec}
+METHODS=${2:-lsq,lsq_ms,filter,mpec,mpec_pen}
 EPISODES=${3:-50}
+THREADS=${4:-2}
 STUDY="$BUILD/examples/estimation_study"
 [ -x "$STUDY" ] || { echo "no $STUDY: build the estimation_study target first" >&2; exit 1; }
-OUT=estimation_cube_bench.csv
+OUT=estimation_cube_bench_$(echo "$METHODS" | tr , _)_$EPISODES.csv
 echo "# $(date -u +%FT%TZ) $(git rev-parse --short HEAD 2>/dev/null || echo '?') load: $(cut -d' ' -f1-3 /proc/loadavg)" >&2
-"$STUDY" cube --trials 1 --episodes "$EPISODES" --methods "$METHODS" --out "$OUT"
+"$STUDY" cube --trials 1 --episodes "$EPISODES" --methods "$METHODS" \
+  --threads "$THREADS" --out "$OUT"
 /usr/bin/python3 - "$OUT" <<'PY'
 import csv, sys
 rows = list(csv.DictReader(open(sys.argv[1])))
-print("| method | episodes | samples | mu_hat (true 0.4) | std. error | iterations | time (s) | converged |")
-print("|---|---|---|---|---|---|---|---|")
+print("| method | episodes | samples | mu_hat (true 0.4) | std. error | iterations | time (s) | CPU (s) | converged |")
+print("|---|---|---|---|---|---|---|---|---|")
 for r in rows:
     print(f"| {r['method']} | {r['episodes']} | {r['samples']} | {float(r['mu_hat']):.5f} | "
           f"{float(r['std_error']):.2e} | {r['iterations']} | {float(r['time_s']):.1f} | "
+          f"{float(r.get('cpu_s') or 'nan'):.1f} | "
           f"{'yes' if r['converged'] == '1' else 'no'} |")
 PY

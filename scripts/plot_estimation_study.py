@@ -4,8 +4,8 @@
 usage: plot_estimation_study.py STUDY.csv [STUDY2.csv ...] [--out PREFIX]
 
 Per study and method: the RMS error of mu_hat over the trials, its bias, the fraction of trials
-within 3 reported standard errors (of all trials, and of the converged ones), convergence and
-mean time, against the noise level and the
+within 3 reported standard errors (of all trials, and of the converged ones), convergence, mean
+iterations, mean wall time and (where the CSV has it) mean CPU time, against the noise level and the
 window length (the `particles` study: against the number of particles). Writes PREFIX_<study>.png
 (default prefix: the first CSV without .csv) and prints a table.
 """
@@ -51,6 +51,8 @@ def summarize(rows):
             coverage_converged=covered_conv / len(conv) if conv else math.nan,
             converged=sum(int(r["converged"]) for r in rs) / n,
             time=sum(float(r["time_s"]) for r in rs) / n,
+            cpu=(sum(float(r["cpu_s"]) for r in rs) / n
+                 if all(r.get("cpu_s") not in (None, "") for r in rs) else math.nan),
             iterations=sum(int(r["iterations"]) for r in rs) / n,
         )
     return out
@@ -68,14 +70,14 @@ def main():
         return 1
     prefix = prefix or args[0].rsplit(".csv", 1)[0]
     s = summarize(load(args))
-    print("study      method  noise_m   window particles  n   rms_err    bias       mean_se"
-          "    in_3se conv  in_3se|conv  iters  time_s")
+    print("study      method   noise_m   window particles  n   rms_err    bias       mean_se"
+          "    in_3se conv  in_3se|conv  iters  time_s   cpu_s")
     for k in sorted(s):
         v = s[k]
-        print(f"{k[0]:10s} {k[1]:7s} {k[2]:8.1e} {k[3]:6d} {k[4]:9d} {v['n']:3d}  {v['rms']:.3e}"
+        print(f"{k[0]:10s} {k[1]:8s} {k[2]:8.1e} {k[3]:6d} {k[4]:9d} {v['n']:3d}  {v['rms']:.3e}"
               f"  {v['bias']:+.3e}  {v['mean_se']:.3e}  {v['coverage']:5.2f}  {v['converged']:4.2f}"
               f"  {v['coverage_converged']:11.2f}"
-              f"  {v['iterations']:5.1f}  {v['time']:.3f}")
+              f"  {v['iterations']:5.1f}  {v['time']:7.3f}  {v['cpu']:7.3f}")
     for study in sorted({k[0] for k in s}):
         keys = [k for k in s if k[0] == study]
         fig, (ax, cx) = plt.subplots(1, 2, figsize=(11, 4))

@@ -2,8 +2,9 @@
 // of μ̂ over seeded trials of synthetic logs, per method, noise level and window length.
 //
 //   estimation_study STUDY [--trials N] [--noise S1,S2,..] [--windows W1,W2,..]
-//                    [--particles N1,N2,..] [--episodes N] [--methods lsq,lsq_ms,filter,mpec]
-//                    [--guess MU] [--first-trial K] [--out FILE.csv]
+//                    [--particles N1,N2,..] [--episodes N] [--methods
+//                    lsq,lsq_ms,filter,mpec,mpec_pen]
+//                    [--guess MU] [--first-trial K] [--threads N] [--out FILE.csv]
 //
 // STUDY:
 //   plate      a particle on a vibrating plate (planar, true μ = 0.2), windows in samples
@@ -17,14 +18,19 @@
 // episodes are different tosses (seeded launch velocities around the scene's), the planar
 // studies' differ only in their noise. One CSV row per trial and method: study, method,
 // noise_m, window, particles, episodes, trial, true_mu, mu_hat, std_error, converged,
-// iterations, time_s, samples. Methods: lsq (single shooting), lsq_ms (multiple shooting,
-// 25-sample segments), filter (the UKF with μ in the state), mpec (Ipopt). The defaults are
+// iterations, time_s (wall), samples, cpu_s (the process's CPU time: meaningful on a loaded
+// machine, summed over threads). Methods: lsq (single shooting), lsq_ms (multiple shooting,
+// 25-sample segments), filter (the UKF with μ in the state), mpec (Ipopt, Scholtes relaxation
+// homotopy), mpec_pen (Ipopt, ℓ1 penalty homotopy). The defaults are
 // the full study (20 trials); --trials and --methods cut it down (scripts/estimation_studies.sh
-// runs all four studies). Plots: scripts/plot_estimation_study.py FILE.csv.
+// runs all four studies). --threads N (default 1) is passed to lsq/lsq_ms (episodes in
+// parallel) and mpec/mpec_pen (steps in parallel). Plots: scripts/plot_estimation_study.py
+// FILE.csv.
 //
 // To add a method, add one line to Methods() below.
 #include <cstdio>
 #include <cstdlib>
+#include <ctime>
 #include <exception>
 #include <fstream>
 #include <functional>
@@ -52,6 +58,9 @@ namespace sim = vinci::sim;
 // An estimator: (simulator whose scene holds the initial guess, log, stated noise σ) → result.
 using Estimator = std::function<EstimateResult(const sim::Simulator&, const Log&, double)>;
 
+// Threads for the methods that evaluate in parallel (lsq: episodes; mpec: steps); --threads.
+int g_threads = 1;
+
 std::vector<std::pair<std::string, Estimator>> Methods() {
   auto lsq = [](est::Shooting shooting) {
     return [shooting](const sim::Simulator& s, const Log& log, double sigma) {
@@ -61,7 +70,18 @@ std::vector<std::pair<std::string, Estimator>> Methods() {
       o.shooting = shooting;
       o.segment_samples = 25;
       o.max_iterations = 50;
+      o.threads = g_threads;
       return est::EstimateLeastSquares(s, log, o);
+    };
+  };
+  auto mpec = [](est::ComplementarityMethod method) {
+    return [method](const sim::Simulator& s, const Log& log, double sigma) -> EstimateResult {
+      est::MpecOptions o;
+      o.params = {"mu.default"};
+      o.noise_sigma = sigma;
+      o.solver.method = method;
+      o.threads = g_threads;
+      return est::EstimateMpec(s, log, o);
     };
   };
   return {
@@ -74,13 +94,8 @@ std::vector<std::pair<std::string, Estimator>> Methods() {
          o.noise_sigma = sigma;
          return est::EstimateFilter(s, log, o);
        }},
-      {"mpec",
-       [](const sim::Simulator& s, const Log& log, double sigma) -> EstimateResult {
-         est::MpecOptions o;
-         o.params = {"mu.default"};
-         o.noise_sigma = sigma;
-         return est::EstimateMpec(s, log, o);
-       }},
+      {"mpec", mpec(est::ComplementarityMethod::kScholtes)},
+      {"mpec_pen", mpec(est::ComplementarityMethod::kPenalty)},
   };
 }
 
@@ -232,7 +247,8 @@ std::vector<std::string> ParseNames(const std::string& s) {
 constexpr const char* kUsage =
     "usage: estimation_study plate|particles|block|cube [--trials N] [--first-trial K]\n"
     "         [--noise S1,S2] [--windows W1,W2] [--particles N1,N2] [--episodes N]\n"
-    "         [--methods lsq,lsq_ms,filter,mpec] [--guess MU] [--out F.csv]\n";
+    "         [--methods lsq,lsq_ms,filter,mpec,mpec_pen] [--guess MU] [--threads N]\n"
+    "         [--out F.csv]\n";
 
 int Run(int argc, char** argv) {
   if (argc < 2 || std::string(argv[1]) == "--help") {
@@ -301,6 +317,8 @@ int Run(int argc, char** argv) {
       particles = ParseList(value);
     } else if (flag == "--methods") {
       method_names = ParseNames(value);
+    } else if (flag == "--threads") {
+      g_threads = std::stoi(value);
     } else if (flag == "--guess") {
       st.guess_mu = std::stod(value);
     } else if (flag == "--out") {
@@ -314,12 +332,13 @@ int Run(int argc, char** argv) {
     bool known = false;
     for (const auto& k : Methods()) known |= k.first == m;
     if (!known) {
-      std::cerr << "--methods: unknown method '" << m << "' (lsq, lsq_ms, filter, mpec)\n";
+      std::cerr << "--methods: unknown method '" << m
+                << "' (lsq, lsq_ms, filter, mpec, mpec_pen)\n";
       return 1;
     }
   }
-  if (trials < 1 || episodes < 1 || first_trial < 0) {
-    std::cerr << "--trials and --episodes must be ≥ 1, --first-trial ≥ 0\n";
+  if (trials < 1 || episodes < 1 || first_trial < 0 || g_threads < 1) {
+    std::cerr << "--trials, --episodes and --threads must be ≥ 1, --first-trial ≥ 0\n";
     return 1;
   }
   std::ofstream csv(out);
@@ -328,7 +347,7 @@ int Run(int argc, char** argv) {
     return 1;
   }
   csv << "study,method,noise_m,window,particles,episodes,trial,true_mu,mu_hat,std_error,"
-         "converged,iterations,time_s,samples\n";
+         "converged,iterations,time_s,samples,cpu_s\n";
   csv.precision(10);
   for (double np : particles) {
     const int n_particles = static_cast<int>(np);
@@ -344,6 +363,7 @@ int Run(int argc, char** argv) {
             for (const std::string& m : method_names) wanted |= m == name;
             if (!wanted) continue;
             EstimateResult r;
+            const std::clock_t cpu0 = std::clock();
             try {
               r = estimator(model, log, sigma);
             } catch (const std::exception& e) {
@@ -353,7 +373,8 @@ int Run(int argc, char** argv) {
             csv << which << "," << name << "," << sigma << "," << w << "," << n_particles << ","
                 << episodes << "," << trial << "," << st.true_mu << "," << r.estimates[0] << ","
                 << r.std_errors[0] << "," << (r.converged ? 1 : 0) << "," << r.iterations << ","
-                << r.time_s << "," << static_cast<int>(w) * episodes << std::endl;
+                << r.time_s << "," << static_cast<int>(w) * episodes << ","
+                << static_cast<double>(std::clock() - cpu0) / CLOCKS_PER_SEC << std::endl;
             std::fprintf(
                 stderr, "%s %-7s σ=%g w=%g n=%d e=%d trial %2d: μ̂ = %.5f ± %.5f %s %d it %.2f s\n",
                 which.c_str(), name.c_str(), sigma, w, n_particles, episodes, trial, r.estimates[0],
