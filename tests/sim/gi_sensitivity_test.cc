@@ -3,6 +3,7 @@
 // of Simulator::Step.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 #include <vector>
@@ -110,11 +111,20 @@ TEST(GiSensitivityTest, RestingDiscStepMatchesFiniteDifferences) {
   CheckGiStep(sim, {"mu.default", "mass.disc"}, After(sim, 50), 1e-6, SensitivityStatus::kExact);
 }
 
-// Without gravity, a disc touching the plane at rest (p_n = ψ = 0): the degenerate normal pair
-// is flagged and the derivative along +e_j is the one-sided one.
-TEST(GiSensitivityTest, TouchingUnloadedDiscIsFlaggedDegenerate) {
-  const Simulator sim(ParseScene(DiscAtRest("[0, 0]", 0.1), "<gi touch>"));
-  CheckGiStep(sim, {"mu.default", "mass.disc"}, sim.InitialState(), 1e-6,
+// A frictionless disc resting on the floor and just touching a wall (the wall's pair has
+// p_n = ψ = 0, its cone pair is inert): the degenerate pair is flagged, and the derivative along
+// +e_j is the one-sided one (along +x, +v_x the disc leaves the wall).
+TEST(GiSensitivityTest, DiscTouchingAWallIsFlaggedDegenerate) {
+  const std::string text =
+      "name: gi-disc-wall\ndimension: 2\ngravity: [0, -9.81]\n"
+      "stepper: {formulation: gi, dt: 0.001}\nfriction: {default: 0.0}\nbodies:\n"
+      "  - {name: floor, kind: static, shapes: [{type: halfplane}]}\n"
+      "  - {name: wall, kind: static, pose: {position: [-0.1, 0], angle: -1.5707963267948966}, "
+      "shapes: [{type: halfplane}]}\n"
+      "  - {name: disc, mass: 2.0, pose: {position: [0, 0.1]}, shapes: [{type: disc, radius: "
+      "0.1}]}\n";
+  const Simulator sim(ParseScene(text, "<gi wall>"));
+  CheckGiStep(sim, {"mu.default", "mass.disc"}, After(sim, 50), 1e-6,
               SensitivityStatus::kDegenerate);
 }
 
@@ -155,9 +165,10 @@ TEST(GiSensitivityTest, SlidingDiscRolloutMatchesCentralDifferences) {
   };
   MatrixXd fd(nx, 1 + nx);
   const double hm = 1e-6;
-  fd.col(0) = (run(sel.Set(p, sel.Get(p).array() + hm), x0) -
-               run(sel.Set(p, sel.Get(p).array() - hm), x0)) /
-              (2 * hm);
+  VectorXd up = sel.Get(p), down = up;
+  up[0] += hm;
+  down[0] -= hm;
+  fd.col(0) = (run(sel.Set(p, up), x0) - run(sel.Set(p, down), x0)) / (2 * hm);
   for (int i = 0; i < nx; ++i) {
     State xp = x0, xm = x0;
     const double h = 1e-7;

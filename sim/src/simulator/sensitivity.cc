@@ -53,7 +53,10 @@ class Linearization {
  public:
   // `vals` holds the step equations and their z Jacobians at the linearization point; `nx`
   // rows of dz are the end state (q_ℓ+1, ν_ℓ+1) unless the model writes it otherwise.
-  Linearization(const StepModelValues& vals, const SensitivityOptions& options, bool smoothed) {
+  // `gi`: the step layout if the model is the geometrically implicit stepper's (its unloaded
+  // candidate pairs are pinned, below), else null.
+  Linearization(const StepModelValues& vals, const SensitivityOptions& options, bool smoothed,
+                const StepLayout* gi) {
     const MatrixXd E = MatrixXd(vals.d_equality.d_z);
     A_ = MatrixXd(vals.d_comp_a.d_z);
     B_ = MatrixXd(vals.d_comp_b.d_z);
@@ -73,15 +76,23 @@ class Linearization {
     weight_a_ = VectorXd::Zero(np);
     weight_b_ = VectorXd::Zero(np);
     const double inert_tol = options.active_tol * std::max(1.0, B_.cwiseAbs().maxCoeff());
+    std::vector<int> inert;  // GI pairs whose cone pair is inert
     for (int i = 0; i < np; ++i) {
       const bool a0 = a[i] <= tol, b0 = b[i] <= tol;
-      if (a0 && b0 && B_.row(i).cwiseAbs().maxCoeff() <= inert_tol) {
-        // An inert pair: b has no first-order variation (the quadratic cone μ² p_n² − ‖p_t‖² of
-        // an unloaded contact, p_n = p_t = 0, e.g. a GI candidate pair not in contact). With
-        // p_n held at 0 by its own pair the cone keeps p_t = 0, so the pair is held at a and is
-        // not a kink of the solution map (if p_n is degenerate, its own pair is flagged).
-        side_[i] = 'a';
-        continue;
+      if (gi && !smoothed && a0 && b0 && B_.row(i).cwiseAbs().maxCoeff() <= inert_tol) {
+        // A GI cone pair (σ, μ² p_n² − ‖p_t‖²) of an unloaded pair, p_n = p_t = 0: b has no
+        // first-order variation and the pair's friction rows μ p_n v_t' + σ p_t are 0 = 0 to
+        // first order, leaving p_t free in K. The cone with p_n at 0 allows no p_t: the pair is
+        // held at dσ = 0 and its friction rows are replaced by dp_t = 0 (below). Not a kink of
+        // the solution map where p_n is held at 0 (if p_n is degenerate, its own pair is).
+        Eigen::Index col = 0;
+        A_.row(i).cwiseAbs().maxCoeff(&col);
+        const int k = static_cast<int>(col) - gi->sigma();
+        if (k >= 0 && k < gi->nc) {
+          side_[i] = 'a';
+          inert.push_back(k);
+          continue;
+        }
       }
       if (a0 && b0) {
         ++degenerate_;
@@ -116,6 +127,17 @@ class Linearization {
       }
       K_.row(ne + i) = weight_a_[i] * A_.row(i) + weight_b_[i] * B_.row(i);
     }
+    // GI equality rows (geometrically_implicit.h): [dynamics (nv); kinematics (nq); per pair:
+    // separation (d), normals (d), A side, B side, friction (d − 1 = nd)].
+    for (int k : inert) {
+      for (int j = 0; j < gi->nd; ++j) {
+        const int row = gi->nv + gi->nq + k * (3 * gi->nd + 4) + 2 * gi->nd + 4 + j;
+        if (row >= ne) continue;
+        K_.row(row).setZero();
+        K_(row, gi->pf() + k * gi->nd + j) = 1.0;
+        pinned_.push_back(row);
+      }
+    }
     if (smoothed) deg_.clear();
     // A regular K (no redundant contacts) by LU with partial pivoting; a singular or nearly
     // singular one (redundant contacts: impulses not unique) by the rank-revealing complete
@@ -149,6 +171,7 @@ class Linearization {
     VectorXd rhs(nz_);
     rhs.head(ne_) = r.eq;
     rhs.tail(nz_ - ne_) = weight_a_.cwiseProduct(r.a) + weight_b_.cwiseProduct(r.b);
+    for (int row : pinned_) rhs[row] = 0.0;
     *dz = use_lu_ ? VectorXd(lu_.solve(-rhs)) : VectorXd(cod_.solve(-rhs));
     const double resid = (K_ * *dz + rhs).cwiseAbs().maxCoeff();
     const double ref = rhs.cwiseAbs().maxCoeff() + k_norm_ * dz->cwiseAbs().maxCoeff();
@@ -189,6 +212,7 @@ class Linearization {
   VectorXd weight_a_, weight_b_;
   std::vector<char> side_;
   std::vector<int> deg_;
+  std::vector<int> pinned_;  // equality rows replaced by dp_t = 0 (inert GI pairs)
   // Below this reciprocal condition number K is treated as singular (COD).
   static constexpr double kLuMinRcond = 1e-10;
   Eigen::PartialPivLU<MatrixXd> lu_;
@@ -271,7 +295,9 @@ class StepDifferentiator {
     o.state_jacobian = full_state;
     o.state_step = options.state_step;
     vals_ = frozen_->Evaluate(z_, params, x, u, o);
-    lin_ = std::make_unique<Linearization>(vals_, options, options.smoothing > 0.0);
+    const bool gi = dynamic_cast<const GeometricallyImplicit*>(&sim.formulation()) != nullptr;
+    lin_ = std::make_unique<Linearization>(vals_, options, options.smoothing > 0.0,
+                                           gi ? &frozen_->layout() : nullptr);
     if (!lin_->ok()) {
       message_ = lin_->message();
       return;
@@ -279,7 +305,7 @@ class StepDifferentiator {
     // A mode change within the step: the contact set found at the end differs. GI finds its
     // contacts at ℓ+1 inside the step (a contact made within the step is one of its pairs'
     // complementarity, classified above); its candidate pairs at ℓ+1 belong to the next step.
-    explicit_start_ = dynamic_cast<const GeometricallyImplicit*>(&sim.formulation()) != nullptr;
+    explicit_start_ = gi;
     if (!explicit_start_) {
       const StepLayout end = sim.formulation().Layout(model, next);
       const StepLayout& l = frozen_->layout();

@@ -31,8 +31,8 @@
 // Anitescu–Potra, first order, NCP, quasistatic and geometrically implicit (its mixed NCP with
 // the candidate pairs found at x_ℓ; its end state depends on x_ℓ explicitly, R_ℓ+1 = R_ℓ Exp(φ),
 // which the state columns include; contacts made within a GI step are its own pairs, so GI steps
-// are never flagged kModeChange). A degenerate pair whose b side has no first-order variation
-// (the quadratic cone of an unloaded contact, p_n = p_t = 0) is inert: held, not counted.
+// are never flagged kModeChange; an unloaded GI pair, p_n = p_t = 0, is held at dσ = dp_t = 0
+// and not counted as degenerate).
 #pragma once
 
 #include <functional>
