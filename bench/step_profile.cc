@@ -4,11 +4,13 @@
 // counted: callgrind's call counts of malloc have those). No benchmark framework, so a profile
 // shows only the simulator.
 //
-//   step_profile [--k K | --pile] [--settle N] [--steps N]
+//   step_profile [--k K [--gap G] | --pile] [--settle N] [--steps N]
 //   valgrind --tool=callgrind --toggle-collect='TimedStep*' step_profile --k 10 [--dense]
 //   (counts the timed steps only, not the settling ones)
 //
-// --dense: the step through the dense LCP (as before the structured warm-basis solve).
+// --dense: the step through the dense LCP (as before the structured warm-basis solve and the
+// sparse Lemke). --gap G: the cubes start G m apart (and above the floor), so the stack settles
+// through impacts (Lemke pivots).
 #include <algorithm>
 #include <atomic>
 #include <cstdio>
@@ -40,15 +42,17 @@ void operator delete(void* p, std::size_t) noexcept { std::free(p); }
 
 namespace {
 
-// A resting stack of k 0.2 m cubes (1 kg) on a floor, as box_stack.yaml.
-std::string StackYaml(int k) {
+// A resting stack of k 0.2 m cubes (1 kg) on a floor, as box_stack.yaml; with gap > 0 the cubes
+// start that far (m) apart and above the floor, so the stack settles through impacts.
+std::string StackYaml(int k, double gap) {
   std::ostringstream s;
   s << "name: stack" << k << "\ndimension: 3\n"
     << "stepper: {dt: 0.001, duration: 2.0, friction_directions: 4, envelope: 0.002}\n"
     << "friction: {default: 0.6}\nbodies:\n"
     << "  - {name: floor, kind: static, shapes: [{type: halfspace}]}\n";
   for (int i = 0; i < k; ++i)
-    s << "  - {name: box" << i << ", mass: 1.0, pose: {position: [0, 0, " << 0.1 + 0.2 * i
+    s << "  - {name: box" << i << ", mass: 1.0, pose: {position: [0, 0, "
+      << 0.1 + gap + (0.2 + gap) * i
       << "]}, shapes: [{type: box, half_extents: [0.1, 0.1, 0.1]}]}\n";
   return s.str();
 }
@@ -110,12 +114,15 @@ __attribute__((noinline)) vinci::sim::StepInfo TimedStep(const vinci::sim::Stewa
 int main(int argc, char** argv) {
   int k = 10, settle = 300, steps = 1000;
   bool pile = false, dense = false;
+  double gap = 0.0;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--k" && i + 1 < argc) {
       k = std::atoi(argv[++i]);
     } else if (a == "--pile") {
       pile = true;
+    } else if (a == "--gap" && i + 1 < argc) {
+      gap = std::atof(argv[++i]);
     } else if (a == "--dense") {
       dense = true;
     } else if (a == "--settle" && i + 1 < argc) {
@@ -123,8 +130,9 @@ int main(int argc, char** argv) {
     } else if (a == "--steps" && i + 1 < argc) {
       steps = std::atoi(argv[++i]);
     } else {
-      std::fprintf(stderr,
-                   "usage: step_profile [--k K | --pile] [--settle N] [--steps N] [--dense]\n");
+      std::fprintf(
+          stderr,
+          "usage: step_profile [--k K [--gap G] | --pile] [--settle N] [--steps N] [--dense]\n");
       return 2;
     }
   }
@@ -133,7 +141,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   using namespace vinci::sim;
-  const Simulator sim(ParseScene(pile ? PileYaml() : StackYaml(k), "step_profile"));
+  const Simulator sim(ParseScene(pile ? PileYaml() : StackYaml(k, gap), "step_profile"));
   const Scene model = sim.scene().ApplyParams(sim.DefaultParams());
   std::shared_ptr<const LcpSolver> solver;
   if (dense)
