@@ -12,7 +12,6 @@
 #include "vinci/sim/formulations/joint.h"
 #include "vinci/sim/model/kinematics.h"
 #include "vinci/sim/solvers/lemke.h"
-#include "vinci/sim/solvers/sparse_lemke.h"
 
 namespace vinci::sim {
 namespace {
@@ -586,23 +585,14 @@ void StewartTrinkle::Step(const Scene& model, const State& x, const StepInput& u
   bool solved = false;
   const auto* lemke = dynamic_cast<const LemkeSolver*>(solver_.get());
   const int m_plain = nc * (a.nd + 2);
-  // Above kSparseLemkeMinSize unknowns, a refused basis is pivoted from on the sparse LCP matrix
-  // (sparse_lemke.h), falling back to the dense LCP only if that fails.
-  const bool warm_plain = x.warm_start.size() == m_plain;
-  if (lemke != nullptr && nc > 0 && (warm_plain || m_plain > kSparseLemkeMinSize)) {
+  if (lemke != nullptr && nc > 0 && x.warm_start.size() == m_plain) {
     internal::StepScratchLease lease;
     internal::StepScratch& s = lease.get();
-    if (s.lcp.Build(model, a, v_l, h, velocity_level_)) {
-      solved = warm_plain && SolveOnWarmBasis(s.lcp, s.lcp.q(), x.warm_start, lemke->options(),
-                                              &s.basis, &z, &info->solver);
-      if (!solved && m_plain > kSparseLemkeMinSize) {
-        s.lcp.ToSparse(&s.M);
-        const SolverReport sparse = SolveSparseLemke(
-            s.M, s.lcp.q(), warm_plain ? &x.warm_start : nullptr, lemke->options(), &z);
-        solved = sparse.ok();
-        if (solved) info->solver = sparse;
-      }
-      if (solved) v_star = s.lcp.v_star();
+    if (s.lcp.Build(model, a, v_l, h, velocity_level_) &&
+        SolveOnWarmBasis(s.lcp, s.lcp.q(), x.warm_start, lemke->options(), &s.basis, &z,
+                         &info->solver)) {
+      v_star = s.lcp.v_star();
+      solved = true;
     }
   }
   if (!solved) {
