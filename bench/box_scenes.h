@@ -17,8 +17,9 @@ inline std::string Num(double x, int digits = 17) {
 /// YAML of a resting stack of k 0.2 m cubes (1 kg) on a floor, as box_stack.yaml (μ = 0.6,
 /// n_d = 4, dt = 1 ms, envelope 2 mm). Box i's centre is at height 0.1 + 0.2 i written with
 /// `digits` significant digits (17: the double 0.1 + 0.2 * i exactly, so faces touch to within
-/// round-off; 6: the nearest double to the decimal, as a hand-written scene file).
-inline std::string StackYaml(int k, int digits = 17) {
+/// round-off; 6: the nearest double to the decimal, as a hand-written scene file). With gap > 0
+/// the cubes start that far (m) apart and above the floor, so the stack settles through impacts.
+inline std::string StackYaml(int k, int digits = 17, double gap = 0.0) {
   std::ostringstream s;
   s << "name: stack" << k << "\ndimension: 3\n"
     << "stepper: {dt: 0.001, duration: 2.0, friction_directions: 4, envelope: 0.002}\n"
@@ -26,7 +27,7 @@ inline std::string StackYaml(int k, int digits = 17) {
     << "  - {name: floor, kind: static, shapes: [{type: halfspace}]}\n";
   for (int i = 0; i < k; ++i)
     s << "  - {name: box" << i << ", mass: 1.0, pose: {position: [0, 0, "
-      << Num(0.1 + 0.2 * i, digits)
+      << Num(0.1 + gap + (0.2 + gap) * i, digits)
       << "]}, shapes: [{type: box, half_extents: [0.1, 0.1, 0.1]}]}\n";
   return s.str();
 }

@@ -4,12 +4,14 @@
 // counted: callgrind's call counts of malloc have those). No benchmark framework, so a profile
 // shows only the simulator.
 //
-//   step_profile [--k K | --pile] [--settle N] [--steps N] [--digits D]
+//   step_profile [--k K [--gap G] | --pile] [--settle N] [--steps N] [--digits D]
 //   valgrind --tool=callgrind --toggle-collect='TimedStep*' step_profile --k 10 [--dense]
 //   (counts the timed steps only, not the settling ones)
 //
 // --digits D: the start poses written with D significant digits (default 17: exact).
-// --dense: the step through the dense LCP (as before the structured warm-basis solve).
+// --dense: the step through the dense LCP (as before the structured warm-basis solve and the
+// sparse Lemke). --gap G: the cubes start G m apart (and above the floor), so the stack settles
+// through impacts (Lemke pivots).
 #include <algorithm>
 #include <atomic>
 #include <cstdio>
@@ -80,12 +82,15 @@ __attribute__((noinline)) vinci::sim::StepInfo TimedStep(const vinci::sim::Stewa
 int main(int argc, char** argv) {
   int k = 10, settle = 300, steps = 1000, digits = 17;
   bool pile = false, dense = false;
+  double gap = 0.0;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--k" && i + 1 < argc) {
       k = std::atoi(argv[++i]);
     } else if (a == "--pile") {
       pile = true;
+    } else if (a == "--gap" && i + 1 < argc) {
+      gap = std::atof(argv[++i]);
     } else if (a == "--dense") {
       dense = true;
     } else if (a == "--settle" && i + 1 < argc) {
@@ -97,7 +102,9 @@ int main(int argc, char** argv) {
     } else {
       std::fprintf(
           stderr,
-          "usage: step_profile [--k K | --pile] [--settle N] [--steps N] [--digits D] [--dense]\n");
+          "usage: step_profile [--k K [--gap G] | --pile] [--settle N] [--steps N] [--digits D] "
+          "[--dense]
+");
       return 2;
     }
   }
@@ -107,8 +114,9 @@ int main(int argc, char** argv) {
     return 2;
   }
   using namespace vinci::sim;
-  const Simulator sim(ParseScene(
-      pile ? vinci::bench::PileYaml(digits) : vinci::bench::StackYaml(k, digits), "step_profile"));
+  const Simulator sim(
+      ParseScene(pile ? vinci::bench::PileYaml(digits) : vinci::bench::StackYaml(k, digits, gap),
+                 "step_profile"));
   const Scene model = sim.scene().ApplyParams(sim.DefaultParams());
   std::shared_ptr<const LcpSolver> solver;
   if (dense)

@@ -201,6 +201,29 @@ void ContactLcpOperator::MultiplyAdd(const VectorXd& z, const VectorXd& q, Vecto
   }
 }
 
+void ContactLcpOperator::ToSparse(SparseMatrixd* out) const {
+  const int nc = nc_, nd = nd_, s0 = nc_ + nf_;
+  triplets_.clear();
+  for (int body : model_->dynamic_bodies()) {
+    const std::vector<int>& cols = columns_[body];
+    const MatrixXd& B = blocks_[body];
+    for (int j = 0; j < static_cast<int>(cols.size()); ++j)
+      for (int i = 0; i < static_cast<int>(cols.size()); ++i)
+        triplets_.emplace_back(cols[i], cols[j], B(i, j));
+  }
+  for (int c = 0; c < nc; ++c) {
+    if (a_->compliance[c].compliant) triplets_.emplace_back(c, c, a_->compliance[c].vel_diagonal);
+    for (int j = 0; j < nd; ++j) {
+      triplets_.emplace_back(nc + c * nd + j, s0 + c, 1.0);   // E
+      triplets_.emplace_back(s0 + c, nc + c * nd + j, -1.0);  // −Eᵀ
+    }
+    triplets_.emplace_back(s0 + c, c, a_->mu[c]);  // U
+  }
+  out->resize(m_, m_);
+  // Duplicates (an entry two bodies share) are summed in insertion order: body order.
+  out->setFromTriplets(triplets_.begin(), triplets_.end());
+}
+
 void ContactLcpOperator::PrincipalBlock(const std::vector<int>& index, MatrixXd* out) const {
   const int k = static_cast<int>(index.size());
   out->resize(k, k);

@@ -36,6 +36,10 @@ class ContactLcpOperator final : public LcpMatrixOperator {
   void PrincipalBlock(const std::vector<int>& index, MatrixXd* out) const override;
   /// M_ij.
   double Entry(int i, int j) const;
+  /// *out = M as a sparse matrix (column major): the body blocks where two impulse columns share
+  /// a body (an entry two bodies share summed in body order, as BuildLcp), D_c, E, U, −Eᵀ.
+  /// O(Σ_b k_b²).
+  void ToSparse(SparseMatrixd* out) const;
 
  private:
   int ContactOf(int col) const { return col < nc_ ? col : (col - nc_) / nd_; }
@@ -53,12 +57,14 @@ class ContactLcpOperator final : public LcpMatrixOperator {
   std::vector<int> first_;                 // per contact and side: its normal's position
   MatrixXd Gb_, WG_;
   mutable VectorXd impulse_, dv_;
+  mutable std::vector<Eigen::Triplet<double>> triplets_;
 };
 
 /// Buffers kept between steps.
 struct StepScratch {
   ContactLcpOperator lcp;
   WarmBasisScratch basis;
+  SparseMatrixd M;  // the LCP matrix for SolveSparseLemke (sparse_lemke.h)
 };
 
 /// The calling thread's StepScratch for the lifetime of the lease.

@@ -14,13 +14,20 @@ namespace internal {
 double ScaledNaturalResidual(const VectorXd& z, const VectorXd& F, const VectorXd* lower,
                              const VectorXd* upper, const VectorXd& row_terms,
                              const VectorXd& row_norms, double c_norm) {
+  if (z.size() == 0) return 0.0;
+  if (!row_norms.allFinite()) return std::numeric_limits<double>::infinity();
+  return ScaledNaturalResidual(z, F, lower, upper, row_terms, row_norms.maxCoeff(), c_norm);
+}
+
+double ScaledNaturalResidual(const VectorXd& z, const VectorXd& F, const VectorXd* lower,
+                             const VectorXd* upper, const VectorXd& row_terms, double j_norm,
+                             double c_norm) {
   constexpr double kInf = std::numeric_limits<double>::infinity();
   const Eigen::Index n = z.size();
   if (n == 0) return 0.0;
-  if (!z.allFinite() || !F.allFinite() || !row_terms.allFinite() || !row_norms.allFinite() ||
+  if (!z.allFinite() || !F.allFinite() || !row_terms.allFinite() || !std::isfinite(j_norm) ||
       !std::isfinite(c_norm))
     return kInf;
-  const double j_norm = row_norms.maxCoeff();
   double s_z = std::max(z.lpNorm<Eigen::Infinity>(), j_norm > 0.0 ? c_norm / j_norm : 0.0);
   if (!std::isfinite(s_z)) return kInf;
   if (!(s_z > 0.0)) s_z = 1.0;  // z = 0 and c = 0: F = 0

@@ -24,6 +24,7 @@
 #include <string>
 #include <vector>
 
+#include "lemke_internal.h"
 #include "solver_util.h"
 #include "vinci/sim/solvers/fischer_burmeister.h"
 #include "vinci/sim/solvers/lcp_acceptance.h"
@@ -31,72 +32,12 @@
 namespace vinci::sim {
 namespace {
 
-// Ratios within this relative distance of the minimum ratio are ties (degenerate pivots).
-// Degenerate basic values carry roundoff of order ε‖B⁻¹‖‖q‖ ≈ 1e-14, which pivots of order
-// 1e-3 turn into ratios of 1e-11; 1e-12 missed such ties on a random contact LCP (n = 108)
-// and ended on a spurious secondary ray, 1e-10 solved 14 400 random stress problems.
-//
-// The same constant, times max(1, ‖q‖∞), is also an absolute tolerance on the basic values
-// (Harris' two-pass ratio test): row i is a tie if stepping to its ratio leaves no other row
-// below −kRatioTieTolerance·max(1, ‖q‖∞). A purely ratio-relative tolerance is not enough:
-// on a 10-box stack (tests/data/lcp/box_stack_cold_step425.lcp) ~200 rows, z0 among them,
-// blocked at the same ratio 9.81e-3 up to a relative noise of 5e-8 (basic values carry errors
-// of ~5e-11, and dividing by pivots of ~0.04 spreads the ratios by 1e-9 > 1e-10); z0 was not
-// recognized as blocking, was left at 1e-11 instead of leaving the basis, and the next pivot
-// ended on a spurious secondary ray.
-constexpr double kRatioTieTolerance = 1e-10;
-// Among tied rows, pivots smaller than this fraction of the largest tied pivot are not used
-// (unless all are that small). In degenerate steps (ratio 0) the lexicographic rule otherwise
-// happily picks a pivot that is pure noise: on a sliding-box LCP
-// (tests/data/lcp/incline_sliding_step9744.lcp) it pivoted on d = 1.5e-12 (the M entries that
-// are physically zero are ~1e-12 from the contact geometry) next to a tied pivot of 1, which
-// scaled B⁻¹ by 1e12 and ended with a residual of 0.54. Skipping a tied row keeps the iterate
-// feasible (its value stays within the tie tolerance of 0).
-constexpr double kTiePivotFraction = 1e-7;
-// Relative tolerance of the lexicographic comparisons of B⁻¹ rows among tied ratios.
-constexpr double kLexTieTolerance = 1e-12;
-// A secondary-ray iterate is accepted as a solution only if z0 fell below this fraction of its
-// initial value (it was driven to 0 by the pivoting, not merely small because q is tiny) and
-// the residual passes.
-constexpr double kSecondaryRayZ0Fraction = 1e-6;
-// Symmetric equilibration sweeps; the loop stops earlier once no scale factor changes.
-constexpr int kScalingSweeps = 10;
-// Iterative-refinement steps at termination (each O(n²) with the kept inverse), skipped once
-// the residual is below kRefineBelow·max(1, ‖q‖∞) (roundoff level of the data).
-constexpr int kRefinementSteps = 2;
-constexpr double kRefineBelow = 1e-15;
-// Cap of the ‖M‖∞‖z‖∞ term of the acceptance scale, relative to max(1, ‖q‖∞). Without a cap
-// a huge z would make any residual pass: a regularized retry of an infeasible LCP
-// (M = −I, q = −1, ε = 1e-10) returns ‖z‖ ≈ 1e10 with residual 2. The 10-box stack needs
-// ‖M‖∞‖z‖∞ ≈ 6–12 next to max(1, ‖q‖∞) = 1.
-constexpr double kMaxAcceptanceGrowth = 1e3;
+using namespace internal::lemke;  // NOLINT(build/namespaces): the shared constants and helpers
+
 // Retry factors applied to options.regularization.
 constexpr double kRegularizationFactors[] = {1.0, 1e3, 1e6};
 
-constexpr double kInf = std::numeric_limits<double>::infinity();
-
 using internal::FormatDouble;
-
-// NaN sorts last: a NaN residual is worse than any number.
-double OrInf(double v) { return std::isnan(v) ? kInf : v; }
-
-void ValidateOptions(const LemkeOptions& o) {
-  auto fail = [](const std::string& field, double value, const char* expected) {
-    throw std::invalid_argument("LemkeOptions." + field + " = " + FormatDouble(value) +
-                                "; expected " + expected);
-  };
-  if (o.max_pivots < 0) fail("max_pivots", o.max_pivots, ">= 0");
-  if (!(o.pivot_tolerance >= 0.0) || !std::isfinite(o.pivot_tolerance)) {
-    fail("pivot_tolerance", o.pivot_tolerance, "a finite value >= 0");
-  }
-  if (!(o.residual_tolerance >= 0.0) || !std::isfinite(o.residual_tolerance)) {
-    fail("residual_tolerance", o.residual_tolerance, "a finite value >= 0");
-  }
-  if (!(o.regularization >= 0.0) || !std::isfinite(o.regularization)) {
-    fail("regularization", o.regularization, "a finite value >= 0");
-  }
-  if (o.refactor_interval < 0) fail("refactor_interval", o.refactor_interval, ">= 0");
-}
 
 // Scratch memory of one solve, reused across solves on the same thread: a cold solve of a
 // one-box contact LCP (n = 24, 4 pivots) takes a few µs, of which ~20 small heap allocations
@@ -208,38 +149,6 @@ bool ScanMatrix(const MatrixXd& M, Workspace* ws, double* m_norm) {
   *m_norm = n > 0 ? sum.maxCoeff() : 0.0;
   // A NaN or ±inf entry makes its row sum NaN or +inf (the terms are ≥ 0).
   return sum.allFinite();
-}
-
-// −trunc(½·log2 m) for a finite m > 0, without a call to log2 where the result cannot depend
-// on its rounding: with m = f·2^e, f ∈ [1, 2), and f at least 2^-22 away from 1 and 2,
-// ½·log2 m lies strictly between e/2 and (e+1)/2 (its rounding error is below 1e-12), so its
-// truncation is floor(e/2) for e ≥ 0 and floor(e/2) + 1 for e < 0; for f = 1 it is trunc(e/2).
-// Otherwise (f near 1 or 2, subnormal m) std::log2 decides as before. Checked against the log2
-// formula on 2·10⁷ values (log-uniform over the range of double, and next to every power of two).
-int MinusTruncHalfLog2(double m) {
-  std::uint64_t bits = 0;
-  std::memcpy(&bits, &m, sizeof bits);
-  const int biased = static_cast<int>((bits >> 52) & 0x7ff);
-  const std::uint64_t frac = bits & ((std::uint64_t{1} << 52) - 1);
-  constexpr std::uint64_t kMargin = std::uint64_t{1} << 30;  // f − 1, 2 − f ≥ 2^-22
-  const int e = biased - 1023;
-  // A power of two (entries ±1 are common): log2 is exact (checked for every normal one).
-  if (biased != 0 && biased != 0x7ff && frac == 0) return -(e / 2);
-  if (biased != 0 && biased != 0x7ff && frac > kMargin &&
-      frac < (std::uint64_t{1} << 52) - kMargin) {
-    const int floor_half = e >= 0 ? e / 2 : -((1 - e) / 2);
-    return -(e >= 0 ? floor_half : floor_half + 1);
-  }
-  return -static_cast<int>(std::trunc(0.5 * std::log2(m)));
-}
-
-// 2^k, exactly std::ldexp(1, k); built from its bits for normal results.
-double PowerOfTwo(int k) {
-  if (k < -1022 || k > 1023) return std::ldexp(1.0, k);
-  const std::uint64_t bits = static_cast<std::uint64_t>(k + 1023) << 52;
-  double v = 0.0;
-  std::memcpy(&v, &bits, sizeof v);
-  return v;
 }
 
 // Power-of-two diagonal D (in ws->scale) such that D A D, A = M + εI, has each row and column
@@ -485,65 +394,15 @@ CoreOutcome RunLemke(const PivotMatrix& A, const VectorXd& q, const LemkeOptions
         return fail(SolverStatus::kNumericalFailure,
                     "non-finite pivot column at pivot " + std::to_string(out.pivots));
       }
-      const double pivot_tol = options.pivot_tolerance * std::max(1.0, d.cwiseAbs().maxCoeff());
-      // Harris' two-pass ratio test: theta is the minimum ratio, theta_max the largest step
-      // that keeps every basic value ≥ −tau_x; rows whose ratio is ≤ theta_max are ties.
-      double theta = kInf;
-      double theta_max = kInf;
-      for (int i = 0; i < n; ++i) {
-        if (d(i) > pivot_tol) {
-          const double xi = std::max(x(i), 0.0);
-          theta = std::min(theta, xi / d(i));
-          theta_max = std::min(theta_max, (xi + tau_x) / d(i));
-        }
-      }
-      if (theta == kInf) {
+      r = ChooseLeavingRow(x, d, basis, kZ0, tau_x, options, &ties, &kept, binv_at,
+                           [](const std::vector<int>&, int) {});
+      if (r < 0) {
         return fail(SolverStatus::kSecondaryRay,
                     "Lemke terminated on a secondary ray at pivot " + std::to_string(out.pivots) +
                         " (entering " +
                         (entering < n ? "w_" + std::to_string(entering)
                                       : "z_" + std::to_string(entering - n)) +
                         "); the LCP may be infeasible");
-      }
-      const double tie_bound =
-          std::max(theta_max, theta + kRatioTieTolerance * std::max(1.0, theta));
-      ties.clear();
-      r = -1;
-      double d_tied_max = 0.0;
-      for (int i = 0; i < n; ++i) {
-        if (d(i) > pivot_tol && std::max(x(i), 0.0) / d(i) <= tie_bound) {
-          ties.push_back(i);
-          d_tied_max = std::max(d_tied_max, d(i));
-          if (basis[i] == kZ0) r = i;  // z0 blocks: leave now and terminate
-        }
-      }
-      if (r < 0 && ties.size() > 1) {
-        // Stability: drop tied pivots that are negligible next to the largest tied one.
-        kept.clear();
-        for (int i : ties) {
-          if (d(i) >= kTiePivotFraction * d_tied_max) kept.push_back(i);
-        }
-        ties.swap(kept);
-      }
-      if (r < 0) {
-        if (options.lexicographic) {
-          for (int k = 0; k < n && ties.size() > 1; ++k) {
-            double m = kInf;
-            for (int i : ties) m = std::min(m, binv_at(i, k) / d(i));
-            const double tau_k = kLexTieTolerance * std::max(1.0, std::abs(m));
-            kept.clear();
-            for (int i : ties) {
-              if (binv_at(i, k) / d(i) <= m + tau_k) kept.push_back(i);
-            }
-            ties.swap(kept);
-          }
-          r = ties.front();
-        } else {
-          r = ties.front();  // largest pivot among the ties, for stability
-          for (int i : ties) {
-            if (d(i) > d(r)) r = i;
-          }
-        }
       }
       leaving = pivot(r, entering);
       ++out.pivots;
@@ -597,19 +456,6 @@ CoreOutcome RunLemke(const PivotMatrix& A, const VectorXd& q, const LemkeOptions
   out.status = SolverStatus::kSolved;
   return out;
 }
-
-// The scale-aware acceptance test of lemke.h:
-//   residual ≤ rtol·max(b, min(‖M‖∞‖z‖∞, kMaxAcceptanceGrowth·b)),   b = max(1, ‖q‖∞).
-struct Acceptance {
-  double rtol = 0.0;
-  double q_norm = 0.0;  // ‖q‖∞
-  double m_norm = 0.0;  // ‖M‖∞ = max_i Σ_j |M_ij| (ScanMatrix)
-  double For(const VectorXd& z) const {
-    const double z_norm = z.size() > 0 ? z.lpNorm<Eigen::Infinity>() : 0.0;
-    const double base = std::max(1.0, q_norm);
-    return rtol * std::max(base, std::min(m_norm * z_norm, kMaxAcceptanceGrowth * base));
-  }
-};
 
 struct Attempt {
   SolverStatus status = SolverStatus::kNumericalFailure;
@@ -684,108 +530,6 @@ Attempt RunAttempt(const LcpProblem& problem, double epsilon, const LemkeOptions
 // A residual that overflowed (inf) never passes, even against an overflowed τ.
 bool Passes(const Attempt& a) {
   return a.terminated && std::isfinite(a.residual) && a.residual <= a.tolerance && a.scale_ok;
-}
-
-// Solve on a guessed basis: with B = {i : in_basis_i}, z_B solves M_BB z_B = −q_B, accepted
-// if z_B ≥ −tol, w_N ≥ −tol and the residual passes. The solve is anchored at the guess,
-// z_B = guess_B + δ with M_BB δ = −(M_BB guess_B + q_B) by column-pivoted QR: for a
-// nonsingular M_BB this is the same z_B, and for a singular one (degenerate contact LCPs: a
-// sliding-speed λ_i whose contact carries no force is not determined by the B rows) the
-// undetermined components keep the guessed values instead of being set to zero.
-// w = M z + q over the columns with z_j ≠ 0 only (M is finite: ScanMatrix checked it, so the
-// skipped terms are exact zeros): O(n · nnz(z)) instead of O(n²) for a warm-start candidate.
-void MultiplySkippingZeros(const LcpProblem& problem, const VectorXd& z, VectorXd* w) {
-  *w = problem.q;
-  for (Eigen::Index j = 0; j < z.size(); ++j)
-    if (z(j) != 0.0) w->noalias() += z(j) * problem.M.col(j);
-}
-
-// LcpResidual (lcp.h) from a given w = M z + q.
-double ResidualOf(const VectorXd& z, const VectorXd& w) {
-  double residual = 0.0;
-  for (Eigen::Index i = 0; i < z.size(); ++i) {
-    if (std::isnan(w(i)) || std::isnan(z(i))) return std::numeric_limits<double>::quiet_NaN();
-    residual = std::max(residual, std::abs(std::min(z(i), w(i))));
-  }
-  return residual;
-}
-
-bool TryBasis(const LcpProblem& problem, const std::vector<bool>& in_basis, const VectorXd& guess,
-              const Acceptance& acceptance, VectorXd* z, double* residual) {
-  const Eigen::Index n = problem.q.size();
-  std::vector<Eigen::Index> active;
-  for (Eigen::Index i = 0; i < n; ++i) {
-    if (in_basis[i]) active.push_back(i);
-  }
-  if (active.empty()) return false;  // z = 0 was already ruled out (q has a negative entry)
-  const MatrixXd m_bb = problem.M(active, active);
-  const VectorXd guess_b = guess(active);
-  const VectorXd rhs = -(m_bb * guess_b + problem.q(active));
-  const Eigen::ColPivHouseholderQR<MatrixXd> qr(m_bb);
-  const VectorXd z_b = guess_b + qr.solve(rhs);
-  if (!z_b.allFinite()) return false;
-  const double tolerance = acceptance.For(z_b);
-  if (z_b.minCoeff() < -tolerance) return false;
-  VectorXd candidate = VectorXd::Zero(n);
-  candidate(active) = z_b;
-  VectorXd w;
-  MultiplySkippingZeros(problem, candidate, &w);
-  for (Eigen::Index i = 0; i < n; ++i) {
-    if (!in_basis[i] && w(i) < -tolerance) return false;
-  }
-  if (candidate.minCoeff() < 0.0) {
-    candidate = candidate.cwiseMax(0.0);
-    MultiplySkippingZeros(problem, candidate, &w);
-  }
-  // LcpResidual (from this w) and the scale-aware check (lcp_acceptance.h) of the candidate.
-  const double r = ResidualOf(candidate, w);
-  if (!(r <= acceptance.For(candidate))) return false;
-  if (!(LcpScaledResidual(problem, candidate) <= kLcpAcceptanceTolerance)) return false;
-  *z = std::move(candidate);
-  *residual = r;
-  return true;
-}
-
-// Warm start: the guessed basis is B = {i : warm_i > 0}.
-bool TryWarmStart(const LcpProblem& problem, const VectorXd& warm, const Acceptance& acceptance,
-                  VectorXd* z, double* residual) {
-  std::vector<bool> in_basis(warm.size());
-  for (Eigen::Index i = 0; i < warm.size(); ++i) in_basis[i] = warm(i) > 0.0;
-  return TryBasis(problem, in_basis, warm, acceptance, z, residual);
-}
-
-// Polish of a terminated Lemke iterate that misses the tolerance by roundoff (a basic w_i left
-// slightly negative in a degenerate basis): Fischer–Burmeister Newton started at it. An
-// active-set re-solve on B = {i : z_i > 0 or w_i < 0} does not do: on the 10-box stack
-// (tests/data/lcp/box_stack_cold_step7724.lcp) M_BB has rank 78 of 168 and every solution
-// of the B equations near the iterate has negative components.
-// With z_lemke null: Newton from z = 0 (the final fallback).
-// `note` receives the Newton report's message (e.g. that its proximal-point fallback ran).
-bool PolishTerminalIterate(const LcpProblem& problem, const VectorXd* z_lemke,
-                           const Acceptance& acceptance, VectorXd* z, int* iterations,
-                           std::string* note) {
-  FischerBurmeisterOptions options;
-  options.lemke_fallback = false;  // no recursion back into Lemke
-  // Stop Newton (and its proximal-point fallback) at Lemke's own acceptance test rather than
-  // FB's tighter default: half of τ at the start point (τ(z) changes with ‖z‖; the result is
-  // checked against τ of the candidate below). Without this the polish of a pile step spent
-  // 400 Newton steps (2.7 s) driving a residual already below τ towards 1e-10.
-  const double q_base = std::max(1.0, problem.q.lpNorm<Eigen::Infinity>());
-  const double tau_start =
-      z_lemke != nullptr ? acceptance.For(*z_lemke) : acceptance.For(VectorXd::Zero(0));
-  options.tolerance = std::max(options.tolerance, 0.5 * tau_start / q_base);
-  // τ overflows on a problem near the largest double (‖q‖∞ ~ 1e308): nothing to polish to.
-  if (!std::isfinite(options.tolerance)) return false;
-  VectorXd candidate;
-  const SolverReport r = FischerBurmeisterSolver(options).Solve(problem, z_lemke, &candidate);
-  *iterations = r.iterations;
-  *note = r.message;
-  if (!candidate.allFinite() || candidate.size() != problem.q.size()) return false;
-  candidate = candidate.cwiseMax(0.0);
-  if (!(LcpResidual(problem, candidate) <= acceptance.For(candidate))) return false;
-  if (!CheckLcpSolution(problem, candidate).empty()) return false;  // lcp_acceptance.h
-  *z = std::move(candidate);
-  return true;
 }
 
 }  // namespace

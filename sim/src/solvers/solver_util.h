@@ -26,5 +26,10 @@ inline std::string FormatDouble(double v) {
 double ScaledNaturalResidual(const VectorXd& z, const VectorXd& F, const VectorXd* lower,
                              const VectorXd* upper, const VectorXd& row_terms,
                              const VectorXd& row_norms, double c_norm);
+/// The same with ‖J‖∞ given (j_norm = max_i row_norms_i): for callers that know ‖J‖∞ from a
+/// scan of J and need no O(n²) pass for the row norms.
+double ScaledNaturalResidual(const VectorXd& z, const VectorXd& F, const VectorXd* lower,
+                             const VectorXd* upper, const VectorXd& row_terms, double j_norm,
+                             double c_norm);
 
 }  // namespace vinci::sim::internal
