@@ -135,7 +135,7 @@ bool ParameterVariances(const sim::MatrixXd& information, VectorXd* variances) {
 // How the segments' Jacobians were obtained (shared by all segments; thread-safe).
 class JacobianStats {
  public:
-  explicit JacobianStats(bool sensitivity) : sensitivity(sensitivity) {}
+  explicit JacobianStats(bool use_sensitivity) : sensitivity(use_sensitivity) {}
   /// Step sensitivities in use (false: finite differences).
   std::atomic<bool> sensitivity;
   void Unsupported(const std::string& why) {
@@ -320,7 +320,6 @@ class SegmentCost : public ceres::CostFunction {
             J.bottomRows(continuity_rows_).diagonal() = -c;
           }
         }
-        const int np = sel_.size();
         for (int block = 0; block < (with_state_ ? 2 : 1); ++block) {
           if (!jacobians[block]) continue;
           const int first = block == 0 ? 0 : np;
