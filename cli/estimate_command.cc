@@ -252,10 +252,10 @@ Command RegisterEstimateCommand(CLI::App& app) {
       ->type_name("N")
       ->check(CLI::Range(2, 1000000));
   sub->add_option("--jacobian", options->jacobian,
-                  "lsq: how the residuals' Jacobians are computed: sensitivity (forward step "
-                  "sensitivities along each rollout; default, finite differences where the "
-                  "formulation has none) or fd (central differences of rollouts)")
-      ->type_name("sensitivity|fd");
+                  "lsq: how the residuals' Jacobians are computed: fd (central differences of "
+                  "rollouts; default) or sensitivity (forward step sensitivities along each "
+                  "rollout, experimental: see docs/estimation.md)")
+      ->type_name("fd|sensitivity");
   sub->add_option("--bootstrap", options->bootstrap,
                   "mpec: standard errors from B bootstrap resamples of the episodes (log files; "
                   "at least 2 fitted) instead of the reduced Hessian")
