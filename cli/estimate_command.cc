@@ -55,16 +55,14 @@ std::string ResultJson(const EstimateOptions& o, const estimation::EstimateResul
       << "      \"num_continuity_residuals\": " << r.num_continuity_residuals << ",\n"
       << "      \"continuity_defect\": " << JsonNumber(r.continuity_defect) << ",\n"
       << "      \"initial_state_estimated\": " << (o.fixed_initial_state ? "false" : "true")
-      << ",\n      \"frozen_state_components\": " << r.frozen_state_components << ",\n";
+      << ",\n      \"frozen_state_components\": " << r.frozen_state_components << ",\n"
+      << "      \"jacobian\": " << JsonString(r.jacobian) << ",\n"
+      << "      \"jacobian_note\": " << JsonString(r.jacobian_note) << ",\n"
+      << "      \"jacobian_fallbacks\": " << r.jacobian_fallbacks << ",\n"
+      << "      \"degenerate_steps\": " << r.degenerate_steps << ",\n"
+      << "      \"mode_change_steps\": " << r.mode_change_steps << ",\n";
   }
-  if (holdout) {
-    j << "      \"holdout_error\": {\"k\": " << o.holdout << ", \"episodes\": [";
-    for (size_t e = 0; e < holdout->files.size(); ++e)
-      j << (e ? ", " : "") << JsonString(holdout->files[e]);
-    j << "],\n        \"fitted\": " << ErrorJson(holdout->fitted)
-      << ",\n        \"stationary\": " << ErrorJson(holdout->stationary)
-      << ",\n        \"initial_guess\": " << ErrorJson(holdout->initial_guess) << "},\n";
-  }
+  if (holdout) j << HoldoutJson(o, *holdout);
   j << "      \"episodes\": [";
   for (size_t e = 0; e < r.episodes.size(); ++e) {
     j << (e ? ", " : "") << "{\"file\": " << JsonString(r.episodes[e].file)
@@ -103,6 +101,7 @@ estimation::EstimateResult RunLeastSquares(const EstimateOptions& o,
   else if (o.shooting != "single")
     throw std::invalid_argument("--shooting " + o.shooting + ": expected single or multiple");
   lo.segment_samples = o.segment_samples;
+  if (!o.jacobian.empty()) lo.jacobian = estimation::ParseLeastSquaresJacobian(o.jacobian);
   lo.progress = ProgressPrinter(o);
   return estimation::EstimateLeastSquares(simulator, log, lo);
 }
@@ -127,17 +126,45 @@ estimation::EstimateResult RunFilter(const EstimateOptions& o, const sim::Simula
 
 }  // namespace
 
+std::string HoldoutJson(const EstimateOptions& o, const estimation::HoldoutResult& holdout) {
+  std::ostringstream j;
+  j << "      \"holdout_error\": {\"k\": " << o.holdout << ", \"episodes\": [";
+  for (size_t e = 0; e < holdout.files.size(); ++e)
+    j << (e ? ", " : "") << JsonString(holdout.files[e]);
+  j << "],\n        \"fitted\": " << ErrorJson(holdout.fitted)
+    << ",\n        \"stationary\": " << ErrorJson(holdout.stationary)
+    << ",\n        \"initial_guess\": " << ErrorJson(holdout.initial_guess) << "},\n";
+  return j.str();
+}
+
+std::string HoldoutSummary(const estimation::HoldoutResult& holdout) {
+  std::ostringstream s;
+  s.precision(6);
+  s << "hold-out rollout error (" << holdout.files.size() << " episodes): fitted "
+    << holdout.fitted.position_m << " m (" << holdout.fitted.position_percent << " %), stationary "
+    << holdout.stationary.position_m << " m, initial guess " << holdout.initial_guess.position_m
+    << " m\n";
+  return s.str();
+}
+
 ExitCode RunEstimateCommand(const EstimateOptions& o) {
-  if (o.method == "mpec") {
-    if (o.holdout > 0)
-      throw std::invalid_argument("--holdout: not implemented for --method mpec (lsq, filter)");
-    return RunEstimateMpec(o);
-  }
+  if (o.holdout < 0 || o.holdout == 1)
+    throw std::invalid_argument("--holdout " + std::to_string(o.holdout) +
+                                ": expected K ≥ 2 (every K-th episode is held out)");
+  if (o.bootstrap < 0 || o.bootstrap == 1)
+    throw std::invalid_argument("--bootstrap " + std::to_string(o.bootstrap) +
+                                ": expected B ≥ 2 resamples (0: off)");
+  if (o.bootstrap > 0 && o.method != "mpec")
+    throw std::invalid_argument(
+        "--bootstrap: only for --method mpec (lsq and filter report "
+        "linearized standard errors)");
+  if (!o.jacobian.empty() && o.method != "lsq")
+    throw std::invalid_argument("--jacobian: only for --method lsq");
+  if (o.method == "mpec") return RunEstimateMpec(o);
   if (o.method != "lsq" && o.method != "filter")
     throw std::invalid_argument("--method " + o.method + ": expected lsq, mpec or filter");
   if (o.noise < 0 || !std::isfinite(o.noise))
     throw std::invalid_argument("--noise: expected a finite σ ≥ 0 in m");
-  if (o.holdout < 0) throw std::invalid_argument("--holdout: expected K ≥ 2");
   // Check that the output can be written before the work.
   {
     std::ofstream test(o.out, std::ios::app);
@@ -175,12 +202,7 @@ ExitCode RunEstimateCommand(const EstimateOptions& o) {
     }
     s << "iterations " << r.iterations << ", " << r.time_s << " s, "
       << (r.converged ? "converged" : "did not converge") << ": " << r.reason << "\n";
-    if (holdout) {
-      s << "hold-out rollout error (" << holdout->files.size() << " episodes): fitted "
-        << holdout->fitted.position_m << " m (" << holdout->fitted.position_percent
-        << " %), stationary " << holdout->stationary.position_m << " m, initial guess "
-        << holdout->initial_guess.position_m << " m\n";
-    }
+    if (holdout) s << HoldoutSummary(*holdout);
     s << "result      " << o.out << "\n";
     std::cout << s.str() << std::flush;
   }
@@ -229,11 +251,19 @@ Command RegisterEstimateCommand(CLI::App& app) {
                   "lsq --shooting multiple: logged samples per segment (default 20)")
       ->type_name("N")
       ->check(CLI::Range(2, 1000000));
+  sub->add_option("--jacobian", options->jacobian,
+                  "lsq: how the residuals' Jacobians are computed: fd (central differences of "
+                  "rollouts; default) or sensitivity (forward step sensitivities along each "
+                  "rollout, experimental: see docs/estimation.md)")
+      ->type_name("fd|sensitivity");
+  sub->add_option("--bootstrap", options->bootstrap,
+                  "mpec: standard errors from B bootstrap resamples of the episodes (log files; "
+                  "at least 2 fitted) instead of the reduced Hessian")
+      ->type_name("B");
   sub->add_option("--holdout", options->holdout,
                   "Keep every K-th log file out of the fit and report the fitted model's "
-                  "rollout error on them next to two baselines (holdout_error)")
-      ->type_name("K")
-      ->check(CLI::Range(2, 1000000));
+                  "rollout error on them next to two baselines (holdout_error; every method)")
+      ->type_name("K");
   sub->add_option("--noise", options->noise,
                   "Measurement noise σ of the logged positions in m for the standard errors "
                   "(default: estimated from the residuals)")
@@ -251,7 +281,7 @@ Command RegisterEstimateCommand(CLI::App& app) {
   sub->add_option("--out,-o", options->out, "Result file (JSON)")->required()->type_name("FILE");
   sub->add_flag("--quiet,-q", options->quiet, "Print nothing but errors");
   sub->footer(
-      "result.json: {scene, logs, methods: {lsq|filter: {estimates, std_errors, "
+      "result.json: {scene, logs, methods: {lsq|mpec|filter: {estimates, std_errors, "
       "initial_values, iterations, time_s, converged, reason, sigma, holdout_error, ...}}}.\nExit "
       "0 converged, 1 bad input, 3 "
       "did not converge (the result is still written).");

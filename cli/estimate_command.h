@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "command.h"
+#include "vinci/estimation/holdout.h"
 
 namespace vinci::cli {
 
@@ -27,6 +28,8 @@ struct EstimateOptions {
   bool quiet = false;
   std::string complementarity = "scholtes";  ///< mpec: scholtes | penalty
   double process_noise = 0.0;                ///< mpec: σ_Q (N, N·m); 0: 1% of the weight
+  int bootstrap = 0;     ///< mpec: B bootstrap resamples over episodes (0: reduced Hessian)
+  std::string jacobian;  ///< lsq: sensitivity | fd ("": sensitivity)
 };
 
 /// Adds the `estimate` subcommand to `app`.
@@ -39,5 +42,11 @@ ExitCode RunEstimateCommand(const EstimateOptions& options);
 
 /// `--method mpec` (estimate_mpec.cc): same contract as RunEstimateCommand.
 ExitCode RunEstimateMpec(const EstimateOptions& options);
+
+/// The `"holdout_error": {...},` member of a method's result.json object (indented for it).
+std::string HoldoutJson(const EstimateOptions& options, const estimation::HoldoutResult& holdout);
+
+/// The one-line hold-out summary printed on stdout.
+std::string HoldoutSummary(const estimation::HoldoutResult& holdout);
 
 }  // namespace vinci::cli

@@ -4,12 +4,14 @@
 #include <cmath>
 #include <fstream>
 #include <iostream>
+#include <memory>
 #include <sstream>
 #include <stdexcept>
 #include <string>
 
 #include "estimate_command.h"
 #include "json.h"
+#include "vinci/estimation/holdout.h"
 #include "vinci/estimation/log.h"
 #include "vinci/estimation/mpec_estimator.h"
 #include "vinci/sim/model/scene_file.h"
@@ -17,13 +19,17 @@
 namespace vinci::cli {
 namespace {
 
-std::string MpecJson(const EstimateOptions& o, const estimation::MpecEstimateResult& r) {
+std::string MpecJson(const EstimateOptions& o, const estimation::MpecEstimateResult& r,
+                     const estimation::HoldoutResult* holdout) {
   std::ostringstream j;
   j << "{\n  \"scene\": " << JsonString(o.scene_path) << ",\n  \"logs\": [";
   for (size_t i = 0; i < o.logs.size(); ++i) j << (i ? ", " : "") << JsonString(o.logs[i]);
   j << "],\n  \"methods\": {\n    \"mpec\": {\n"
     << "      \"estimates\": " << JsonNamedNumbers(r.names, r.estimates) << ",\n"
     << "      \"std_errors\": " << JsonNamedNumbers(r.names, r.std_errors) << ",\n"
+    << "      \"std_error_method\": " << JsonString(r.std_error_method) << ",\n"
+    << "      \"bootstrap\": " << o.bootstrap << ",\n"
+    << "      \"bootstrap_converged\": " << r.bootstrap_converged << ",\n"
     << "      \"initial_values\": " << JsonNamedNumbers(r.names, r.initial_values) << ",\n"
     << "      \"iterations\": " << r.iterations << ",\n"
     << "      \"time_s\": " << JsonNumber(r.time_s) << ",\n"
@@ -45,8 +51,9 @@ std::string MpecJson(const EstimateOptions& o, const estimation::MpecEstimateRes
     << "      \"num_unknowns\": " << r.num_unknowns << ",\n"
     << "      \"num_constraints\": " << r.num_constraints << ",\n"
     << "      \"num_complementarity_pairs\": " << r.num_pairs << ",\n"
-    << "      \"num_steps\": " << r.num_steps << ",\n"
-    << "      \"episodes\": [";
+    << "      \"num_steps\": " << r.num_steps << ",\n";
+  if (holdout) j << HoldoutJson(o, *holdout);
+  j << "      \"episodes\": [";
   for (size_t e = 0; e < r.episodes.size(); ++e) {
     j << (e ? ", " : "") << "{\"file\": " << JsonString(r.episodes[e].file)
       << ", \"rms_residual\": " << JsonNumber(r.episodes[e].rms_residual) << "}";
@@ -79,15 +86,33 @@ ExitCode RunEstimateMpec(const EstimateOptions& o) {
     if (!test) throw std::invalid_argument("--out: cannot open '" + o.out + "' for writing");
   }
   const sim::Simulator simulator(sim::LoadSceneFile(o.scene_path));
-  const estimation::Log log = estimation::ReadLog(o.logs, simulator.scene());
+  const estimation::Log all = estimation::ReadLog(o.logs, simulator.scene());
+  estimation::Log log = all, held_out;
+  if (o.holdout > 0) estimation::SplitHoldout(all, o.holdout, &log, &held_out);
+  if (o.bootstrap > 0 && log.episodes.size() < 2)
+    throw std::invalid_argument(
+        "--bootstrap " + std::to_string(o.bootstrap) +
+        ": resamples the episodes (log files) and needs at least 2 fitted episodes, got " +
+        std::to_string(log.episodes.size()) + (o.holdout > 0 ? " after --holdout" : ""));
+  mo.bootstrap = o.bootstrap;
   if (!o.quiet) {
     mo.progress = [](const std::string& line) { std::cerr << line << "\n"; };
     std::cerr << "vinci estimate: mpec (" << o.complementarity << "), " << log.episodes.size()
-              << " episode(s), " << o.params.size() << " parameter(s)" << std::endl;
+              << " episode(s) fitted";
+    if (o.holdout > 0) std::cerr << ", " << held_out.episodes.size() << " held out";
+    std::cerr << ", " << o.params.size() << " parameter(s)";
+    if (o.bootstrap > 0) std::cerr << ", " << o.bootstrap << " bootstrap resamples";
+    std::cerr << std::endl;
   }
   const estimation::MpecEstimateResult r = estimation::EstimateMpec(simulator, log, mo);
+  std::unique_ptr<estimation::HoldoutResult> holdout;
+  if (o.holdout > 0) {
+    const sim::ParamSelection sel(simulator.scene().param_table(), r.names);
+    holdout = std::make_unique<estimation::HoldoutResult>(estimation::EvaluateHoldout(
+        simulator, sel.Set(simulator.DefaultParams(), r.estimates), held_out));
+  }
   std::ofstream out(o.out, std::ios::out | std::ios::trunc);
-  out << MpecJson(o, r);
+  out << MpecJson(o, r, holdout.get());
   out.close();
   if (!out) throw std::invalid_argument("--out: writing '" + o.out + "' failed");
   if (!o.quiet) {
@@ -100,8 +125,12 @@ ExitCode RunEstimateMpec(const EstimateOptions& o) {
     }
     s << "iterations " << r.iterations << " in " << r.stages << " NLPs, " << r.time_s
       << " s, complementarity violation " << r.complementarity_violation << ", "
-      << (r.converged ? "converged" : "did not converge") << ": " << r.reason << "\n"
-      << "result      " << o.out << "\n";
+      << (r.converged ? "converged" : "did not converge") << ": " << r.reason << "\n";
+    if (r.std_error_method == "bootstrap")
+      s << "standard errors from " << o.bootstrap << " bootstrap resamples ("
+        << r.bootstrap_converged << " converged)\n";
+    if (holdout) s << HoldoutSummary(*holdout);
+    s << "result      " << o.out << "\n";
     std::cout << s.str() << std::flush;
   }
   if (!r.converged) {

@@ -3,6 +3,7 @@
 #include <ceres/ceres.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -12,6 +13,8 @@
 #include <stdexcept>
 
 #include "estimation_internal.h"
+#include "segment_sensitivity.h"
+#include "vinci/sim/formulations/geometrically_implicit.h"
 #include "vinci/sim/model/state_util.h"
 
 namespace vinci::estimation {
@@ -61,7 +64,7 @@ using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::Ro
 
 // Derivatives of one shooting segment's rollout: its measured residuals and its end state (the
 // next segment's start state coordinates) with respect to θ and its own start state s_j.
-struct SegmentJacobian {
+struct SegmentDerivatives {
   sim::MatrixXd measured_theta, measured_state;  // measured rows × θ, × s_j
   sim::MatrixXd end_theta, end_state;            // empty for an episode's last segment
 };
@@ -73,7 +76,7 @@ struct SegmentJacobian {
 // treated as exact: ds_j+1 = ∂x_end/∂θ dθ + ∂x_end/∂s_j ds_j (chain rule through the
 // segments), so single and multiple shooting give the same covariance at a continuous
 // solution. Frozen initial-state components (is_free false) are known.
-sim::MatrixXd EpisodeInformation(const std::vector<SegmentJacobian>& chain,
+sim::MatrixXd EpisodeInformation(const std::vector<SegmentDerivatives>& chain,
                                  const std::vector<bool>& is_free) {
   const int np = static_cast<int>(chain.front().measured_theta.cols());
   const int ns = static_cast<int>(is_free.size());
@@ -82,13 +85,13 @@ sim::MatrixXd EpisodeInformation(const std::vector<SegmentJacobian>& chain,
     if (is_free[j]) free.push_back(j);
   const int nf = static_cast<int>(free.size());
   int rows = 0;
-  for (const SegmentJacobian& c : chain) rows += static_cast<int>(c.measured_theta.rows());
+  for (const SegmentDerivatives& c : chain) rows += static_cast<int>(c.measured_theta.rows());
   // D = ds_j / d(θ, s_0,F), J = d(measured) / d(θ, s_0,F).
   sim::MatrixXd D = sim::MatrixXd::Zero(ns, np + nf);
   for (int f = 0; f < nf; ++f) D(free[f], np + f) = 1.0;
   sim::MatrixXd J(rows, np + nf);
   int row = 0;
-  for (const SegmentJacobian& c : chain) {
+  for (const SegmentDerivatives& c : chain) {
     const int m = static_cast<int>(c.measured_theta.rows());
     J.middleRows(row, m) = c.measured_state * D;
     J.block(row, 0, m, np) += c.measured_theta;
@@ -129,20 +132,61 @@ bool ParameterVariances(const sim::MatrixXd& information, VectorXd* variances) {
   return true;
 }
 
+// How the segments' Jacobians were obtained (shared by all segments; thread-safe).
+class JacobianStats {
+ public:
+  explicit JacobianStats(bool use_sensitivity) : sensitivity(use_sensitivity) {}
+  /// Step sensitivities in use (false: finite differences).
+  std::atomic<bool> sensitivity;
+  void Unsupported(const std::string& why) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    sensitivity = false;
+    if (note_.empty()) note_ = "no step sensitivities (" + why + "): finite differences";
+  }
+  void Fallback(const std::string& why) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ++fallbacks_;
+    if (first_fallback_.empty()) first_fallback_ = why;
+  }
+  void Count(int degenerate, int mode_change) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    degenerate_ += degenerate;
+    mode_change_ += mode_change;
+  }
+  void Report(EstimateResult* r) const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    r->jacobian = sensitivity ? "sensitivity" : "fd";
+    r->jacobian_note = note_;
+    if (fallbacks_ > 0)
+      r->jacobian_note += (note_.empty() ? "" : "; ") + std::to_string(fallbacks_) +
+                          " evaluation(s) by finite differences, first: " + first_fallback_;
+    r->jacobian_fallbacks = fallbacks_;
+    r->degenerate_steps = degenerate_;
+    r->mode_change_steps = mode_change_;
+  }
+
+ private:
+  mutable std::mutex mutex_;
+  std::string note_, first_fallback_;
+  int fallbacks_ = 0;
+  long long degenerate_ = 0, mode_change_ = 0;
+};
+
 // One shooting segment: the samples of an episode from the segment's start state s_j (at its
 // first sample) up to the next segment's first sample. Residuals: the logged samples of the
 // segment (all of them for the episode's last segment, all but the next segment's first
 // otherwise) and, if there is a next segment, the continuity defect
 // c ⊙ (x(t_next; θ, s_j) − s_{j+1}) in the next segment's state coordinates. Parameter blocks:
 // θ, then (if estimated) s_j, then (if there is a next segment) s_{j+1}. Jacobians for θ and
-// s_j by central differences of rollouts (one-sided at a parameter bound); for s_{j+1} −c.
+// s_j by forward step sensitivities along the rollout (segment_sensitivity.h) or central
+// differences of rollouts (one-sided at a parameter bound); for s_{j+1} −c.
 class SegmentCost : public ceres::CostFunction {
  public:
   SegmentCost(const sim::Simulator& sim, const sim::ParamSelection& sel, const Params& base,
               Episode segment, int measured_samples, const State& ref, bool with_state,
               const VectorXd& fixed_state, std::unique_ptr<Episode> next,
               const VectorXd& continuity_scale, const double* weight,
-              const LeastSquaresOptions& opt, FailureLog* failures)
+              const LeastSquaresOptions& opt, FailureLog* failures, JacobianStats* stats)
       : sim_(sim),
         sel_(sel),
         base_(base),
@@ -154,7 +198,8 @@ class SegmentCost : public ceres::CostFunction {
         scale_(continuity_scale),
         weight_(weight),
         opt_(opt),
-        failures_(failures) {
+        failures_(failures),
+        stats_(stats) {
     measured_rows_ = measured_samples * ResidualsPerSample(ep_, sim.scene().dim);
     continuity_rows_ = next_ ? static_cast<int>(scale_.size()) : 0;
     set_num_residuals(measured_rows_ + continuity_rows_);
@@ -170,7 +215,7 @@ class SegmentCost : public ceres::CostFunction {
   /// split into the measured rows and the rollout's end state (the continuity rows divided by
   /// w c). False if a rollout failed.
   bool Jacobians(const VectorXd& theta, const VectorXd& s, const double* s_next,
-                 SegmentJacobian* out) const {
+                 SegmentDerivatives* out, VectorXd* residuals = nullptr) const {
     const int m = num_residuals(), np = sel_.size(), ns = static_cast<int>(fixed_state_.size());
     RowMajor j_theta(m, np), j_state(m, ns), j_next(m, std::max(1, continuity_rows_));
     std::vector<const double*> params = {theta.data()};
@@ -185,6 +230,7 @@ class SegmentCost : public ceres::CostFunction {
     }
     VectorXd r(m);
     if (!Evaluate(params.data(), r.data(), jac.data())) return false;
+    if (residuals) *residuals = r;
     out->measured_theta = j_theta.topRows(measured_rows_);
     out->measured_state = with_state_ ? sim::MatrixXd(j_state.topRows(measured_rows_))
                                       : sim::MatrixXd::Zero(measured_rows_, ns);
@@ -242,9 +288,53 @@ class SegmentCost : public ceres::CostFunction {
                      : fixed_state_;
     const int next_block = with_state_ ? 2 : 1;
     const double* s_next = next_ ? parameters[next_block] : nullptr;
+    const int m = num_residuals();
+    const bool want_state = with_state_ && jacobians && jacobians[1];
+    if (jacobians && (jacobians[0] || want_state) && stats_->sensitivity.load()) {
+      // Residuals and Jacobians from one rollout with forward step sensitivities.
+      SegmentSensitivityResult sr;
+      try {
+        sr = SegmentSensitivity(sim_, sel_, sel_.Set(base_, theta), ep_, ref_, s, want_state,
+                                measured_rows_, next_.get(), opt_.orientation_length);
+      } catch (const std::invalid_argument& e) {
+        stats_->Unsupported(e.what());  // no step sensitivities here: finite differences
+        sr.status = SegmentSensitivityStatus::kSensitivityFailed;
+        sr.failure.clear();
+      }
+      if (sr.status == SegmentSensitivityStatus::kRolloutFailed && !sr.failure.empty()) {
+        failures_->Record(ep_.file + " (t = " + std::to_string(ep_.t.front()) + "): " + sr.failure);
+        return false;
+      }
+      if (sr.status == SegmentSensitivityStatus::kOk) {
+        stats_->Count(sr.degenerate_steps, sr.mode_change_steps);
+        Eigen::Map<VectorXd> r(residuals, m);
+        r.head(measured_rows_) = sr.measured;
+        VectorXd c;
+        if (next_) {
+          c = *weight_ * scale_;
+          r.tail(continuity_rows_) =
+              c.cwiseProduct(sr.end - Eigen::Map<const VectorXd>(s_next, continuity_rows_));
+          if (jacobians[next_block]) {
+            Eigen::Map<RowMajor> J(jacobians[next_block], m, continuity_rows_);
+            J.setZero();
+            J.bottomRows(continuity_rows_).diagonal() = -c;
+          }
+        }
+        for (int block = 0; block < (with_state_ ? 2 : 1); ++block) {
+          if (!jacobians[block]) continue;
+          const int first = block == 0 ? 0 : np;
+          const int n = block == 0 ? np : static_cast<int>(s.size());
+          Eigen::Map<RowMajor> J(jacobians[block], m, n);
+          J.topRows(measured_rows_) = sr.d_measured.middleCols(first, n);
+          if (next_)
+            J.bottomRows(continuity_rows_) = c.asDiagonal() * sr.d_end.middleCols(first, n);
+        }
+        return true;
+      }
+      if (!sr.failure.empty()) stats_->Fallback(ep_.file + ": " + sr.failure);
+    }
     VectorXd r;
     if (!Residuals(theta, s, s_next, &r)) return false;
-    const int m = num_residuals();
     Eigen::Map<VectorXd>(residuals, m) = r;
     if (!jacobians) return true;
     if (next_ && jacobians[next_block]) {
@@ -299,6 +389,7 @@ class SegmentCost : public ceres::CostFunction {
   const double* weight_;  // the continuity weight w of the current stage
   const LeastSquaresOptions& opt_;
   FailureLog* failures_;
+  JacobianStats* stats_;
   int measured_rows_ = 0, continuity_rows_ = 0;
 };
 
@@ -352,6 +443,75 @@ VectorXd ContinuityScale(bool planar, int bodies, double duration, const LeastSq
 }  // namespace
 
 const char* ToString(Shooting s) { return s == Shooting::kMultiple ? "multiple" : "single"; }
+
+const char* ToString(LeastSquaresJacobian j) {
+  return j == LeastSquaresJacobian::kFiniteDifference ? "fd" : "sensitivity";
+}
+
+LeastSquaresJacobian ParseLeastSquaresJacobian(const std::string& name) {
+  if (name == "sensitivity") return LeastSquaresJacobian::kSensitivity;
+  if (name == "fd") return LeastSquaresJacobian::kFiniteDifference;
+  throw std::invalid_argument("--jacobian " + name + ": expected sensitivity or fd");
+}
+
+bool SegmentJacobian(const sim::Simulator& simulator, const Log& log, int episode, int first,
+                     int last, const VectorXd& theta, const LeastSquaresOptions& options,
+                     VectorXd* s, VectorXd* residuals, sim::MatrixXd* jacobian, std::string* note) {
+  options.Validate();
+  CheckDifferentiable(simulator.scene(), options.params);
+  if (episode < 0 || episode >= static_cast<int>(log.episodes.size()))
+    throw std::invalid_argument("SegmentJacobian: episode out of range");
+  const Episode& ep = log.episodes[episode];
+  if (first < 0 || last <= first || last >= ep.num_samples())
+    throw std::invalid_argument("SegmentJacobian: expected 0 ≤ first < last < samples");
+  const sim::ParamSelection sel(simulator.scene().param_table(), options.params);
+  if (theta.size() != sel.size()) throw std::invalid_argument("SegmentJacobian: theta size");
+  const bool multiple = options.shooting == Shooting::kMultiple;
+  const Episode tail = Slice(ep, first, ep.num_samples() - 1);
+  VectorXd se;
+  const State ref = GuessInitialState(simulator, tail, &se, multiple);
+  if (s->size() == 0) *s = VectorFromState(simulator, tail, ref);
+  const bool has_next = last < ep.num_samples() - 1;
+  std::unique_ptr<Episode> next;
+  VectorXd s_next;
+  if (has_next) {
+    next = std::make_unique<Episode>(Slice(ep, last, ep.num_samples() - 1));
+    VectorXd se_next;
+    s_next =
+        VectorFromState(simulator, *next, GuessInitialState(simulator, *next, &se_next, multiple));
+  }
+  const int measured = has_next ? last - first : last - first + 1;
+  const VectorXd scale =
+      ContinuityScale(Planar(simulator), ObservedDynamic(ep), ep.t[last] - ep.t[first], options);
+  const double weight = 1.0;
+  FailureLog failures;
+  JacobianStats stats(options.jacobian == LeastSquaresJacobian::kSensitivity);
+  if (stats.sensitivity &&
+      dynamic_cast<const sim::GeometricallyImplicit*>(&simulator.formulation()) != nullptr)
+    stats.Unsupported("the geometrically implicit stepper");
+  const Params base = simulator.DefaultParams();
+  const SegmentCost cost(simulator, sel, base, Slice(ep, first, last), measured, ref, true, *s,
+                         std::move(next), scale, &weight, options, &failures, &stats);
+  SegmentDerivatives sj;
+  const bool ok = cost.Jacobians(theta, *s, has_next ? s_next.data() : nullptr, &sj, residuals);
+  EstimateResult r;
+  stats.Report(&r);
+  *note = r.jacobian + (r.jacobian_note.empty() ? "" : ": " + r.jacobian_note);
+  if (!ok) {
+    *note += "; " + failures.Summary();
+    return false;
+  }
+  const int np = sel.size(), ns = static_cast<int>(s->size());
+  const int rows = static_cast<int>(sj.measured_theta.rows() + sj.end_theta.rows());
+  jacobian->resize(rows, np + ns);
+  jacobian->topLeftCorner(sj.measured_theta.rows(), np) = sj.measured_theta;
+  jacobian->topRightCorner(sj.measured_theta.rows(), ns) = sj.measured_state;
+  if (has_next) {
+    jacobian->bottomLeftCorner(sj.end_theta.rows(), np) = scale.asDiagonal() * sj.end_theta;
+    jacobian->bottomRightCorner(sj.end_theta.rows(), ns) = scale.asDiagonal() * sj.end_state;
+  }
+  return true;
+}
 
 EstimateResult EstimateLeastSquares(const sim::Simulator& simulator, const Log& log,
                                     const LeastSquaresOptions& options) {
@@ -414,6 +574,10 @@ EstimateResult EstimateLeastSquares(const sim::Simulator& simulator, const Log& 
   }
 
   FailureLog failures;
+  JacobianStats jacobian_stats(options.jacobian == LeastSquaresJacobian::kSensitivity);
+  if (jacobian_stats.sensitivity &&
+      dynamic_cast<const sim::GeometricallyImplicit*>(&simulator.formulation()) != nullptr)
+    jacobian_stats.Unsupported("the geometrically implicit stepper");
   ceres::Problem::Options po;
   po.cost_function_ownership = ceres::TAKE_OWNERSHIP;
   ceres::Problem problem(po);
@@ -439,7 +603,7 @@ EstimateResult EstimateLeastSquares(const sim::Simulator& simulator, const Log& 
         ContinuityScale(planar, ObservedDynamic(ep), ep.t[s.last] - ep.t[s.first], options);
     auto* cost = new SegmentCost(simulator, sel, base, Slice(ep, s.first, s.last), measured, s.ref,
                                  options.estimate_initial_state, states[k], std::move(next), scale,
-                                 &weight, options, &failures);
+                                 &weight, options, &failures, &jacobian_stats);
     result.num_residuals += cost->measured_rows();
     continuity_rows += cost->continuity_rows();
     costs.push_back(cost);
@@ -591,9 +755,9 @@ EstimateResult EstimateLeastSquares(const sim::Simulator& simulator, const Log& 
     sim::MatrixXd information = sim::MatrixXd::Zero(sel.size(), sel.size());
     bool ok = true;
     for (size_t e = 0; e < log.episodes.size() && ok; ++e) {
-      std::vector<SegmentJacobian> chain;
+      std::vector<SegmentDerivatives> chain;
       for (int k : episode_segments[e]) {
-        SegmentJacobian sj;
+        SegmentDerivatives sj;
         const double* next = costs[k]->continuity_rows() > 0 ? states[k + 1].data() : nullptr;
         ok = ok && costs[k]->Jacobians(theta, states[k], next, &sj);
         chain.push_back(std::move(sj));
@@ -627,6 +791,7 @@ EstimateResult EstimateLeastSquares(const sim::Simulator& simulator, const Log& 
                           : std::numeric_limits<double>::quiet_NaN();
     result.episodes.push_back(ee);
   }
+  jacobian_stats.Report(&result);
   result.time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;
 }

@@ -19,8 +19,11 @@
 // orientation_length for angles, the segment's duration for velocities, so they are in metres;
 // w = continuity_weight ≫ 1, a penalty that makes them constraints to O(1/w²)). Rollouts are
 // short and start near the data, so the fit is much less prone to local minima.
-// Jacobians by central finite differences of rollouts. Standard errors: σ √diag(I⁻¹), I the
-// Gauss–Newton information about θ with each episode's free initial-state components profiled
+// Jacobians (`jacobian`): central finite differences of rollouts (default), or forward step
+// sensitivities propagated along each rollout (sim/simulator/sensitivity.h; one-sided at
+// degenerate stick–slip steps; finite differences where the formulation has none — the
+// geometrically implicit stepper — or a step's derivative fails). Standard errors: σ √diag(I⁻¹), I
+// the Gauss–Newton information about θ with each episode's free initial-state components profiled
 // out, I = Σ_e Jθᵀ (1 − P_s) Jθ (P_s the projector on the columns of J_s), J the Jacobian of the
 // episode's measured residuals with respect to (θ, s_e,0); for multiple shooting J chains the
 // segments through the continuity constraints as exact (ds_j+1 = ∂x_end/∂θ dθ + ∂x_end/∂s_j
@@ -50,6 +53,21 @@ enum class Shooting { kSingle, kMultiple };
 /// "single" / "multiple".
 const char* ToString(Shooting s);
 
+/// How the residuals' Jacobians are computed.
+enum class LeastSquaresJacobian {
+  /// Forward step sensitivities along the rollout (sim::PropagateStep): exact where the contact
+  /// mode is fixed, directional (one-sided) at degenerate steps; one rollout per evaluation.
+  /// Falls back to finite differences for a formulation without step sensitivities (GI) and
+  /// for an evaluation whose step derivative failed.
+  kSensitivity,
+  /// Central differences of whole rollouts (2 rollouts per unknown; one-sided at a bound).
+  kFiniteDifference,
+};
+/// "sensitivity" / "fd".
+const char* ToString(LeastSquaresJacobian j);
+/// Parses "sensitivity" or "fd"; throws std::invalid_argument naming the value otherwise.
+LeastSquaresJacobian ParseLeastSquaresJacobian(const std::string& name);
+
 struct LeastSquaresOptions {
   std::vector<std::string> params;  ///< names in the scene's ParamTable, differentiable
   /// Estimate each episode's initial state (else it is taken from the log's first sample, with
@@ -66,6 +84,10 @@ struct LeastSquaresOptions {
   double function_tolerance = 1e-12;
   double parameter_tolerance = 1e-10;
   double gradient_tolerance = 1e-14;
+  /// Finite differences by default: the sensitivity Jacobians disagree with them after a
+  /// sliding block stops (by one step's dt in ∂x/∂v0) and on a box resting on four redundant
+  /// corners (tilt columns), docs/estimation.md; opt in with kSensitivity.
+  LeastSquaresJacobian jacobian = LeastSquaresJacobian::kFiniteDifference;
   double fd_relative_step = 1e-6;  ///< central-difference step, relative (absolute ≥ this)
   /// Called after every solver iteration with its number (0 = the starting point), the cost
   /// ½ Σ r² (m²) and the current parameter values. May be empty. Must not throw.
@@ -106,6 +128,15 @@ struct EstimateResult {
   /// σ̂ = √(Σ r² / (m − n)) over the measured residuals (n: parameters and free initial-state
   /// components; segment start states are tied by the continuity constraints). NaN if m ≤ n.
   double sigma_residual = 0.0;
+  /// How the Jacobians were computed: "sensitivity", "fd" (asked for, or the formulation has
+  /// no step sensitivities: jacobian_note says why), "" for methods without Jacobians.
+  std::string jacobian;
+  std::string jacobian_note;
+  /// kSensitivity: Jacobian evaluations that fell back to finite differences (a step's
+  /// derivative failed), and steps whose derivative was one-sided (degenerate) or crossed a
+  /// contact-set change, summed over all Jacobian evaluations.
+  int jacobian_fallbacks = 0;
+  long long degenerate_steps = 0, mode_change_steps = 0;
   std::vector<EpisodeEstimate> episodes;
 };
 
@@ -123,6 +154,19 @@ EstimateResult EstimateLeastSquares(const sim::Simulator& simulator, const Log& 
 bool EpisodeResiduals(const sim::Simulator& simulator, const sim::Params& params,
                       const Episode& episode, const sim::State& x0, double orientation_length,
                       sim::VectorXd* residuals, std::string* failure);
+
+/// One shooting segment's residuals and Jacobian, for tests and tools: the episode's samples
+/// first..last rolled out with the parameters `theta` (of options.params, the others at the
+/// scene's values) from the segment's state unknowns *s (if s is empty on entry, the log's guess
+/// at sample first is used and returned). Rows: the residuals of samples first..last−1 (all of
+/// first..last if last is the episode's last sample) and, if not, the continuity rows
+/// c ⊙ (x(t_last) − s_last) with weight 1 and s_last the log's guess at sample last. Columns:
+/// θ, then s. The Jacobian by options.jacobian (JacobianNote says how it was obtained). Returns
+/// false if the rollout failed (*note says why).
+bool SegmentJacobian(const sim::Simulator& simulator, const Log& log, int episode, int first,
+                     int last, const sim::VectorXd& theta, const LeastSquaresOptions& options,
+                     sim::VectorXd* s, sim::VectorXd* residuals, sim::MatrixXd* jacobian,
+                     std::string* note);
 
 /// The initial state the log suggests for an episode: the scene's initial state with the
 /// observed dynamic bodies at their first logged pose and velocity (logged, or a finite
