@@ -427,7 +427,10 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o) {
   };
 
   std::string stage_failure;
-  bool early = o.polish && o.early_polish_tolerance >= 0;  // early polish still allowed
+  // Early polish still allowed (Scholtes only: the penalty usually ends after its first stage
+  // anyway, and an early polish from a penalty iterate far from complementary was measured to
+  // run long).
+  bool early = o.polish && o.early_polish_tolerance >= 0;
   if (pairs.empty()) {
     accept(run(Stage::kPolish, 0.0, {}, false), "nlp");
     if (!Solved(last)) stage_failure = std::string("nlp: ") + StatusText(last);
@@ -466,13 +469,6 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o) {
         break;
       }
       if (Violation(pairs, x) <= o.complementarity_tolerance) break;
-      if (early && rho * o.penalty_factor <= o.penalty_max * (1 + 1e-9)) {
-        if (try_polish(nlp->objective_, "early polish")) {
-          sol.polished = true;
-          break;
-        }
-        early = false;
-      }
     }
   }
   if (!sol.polished) {
