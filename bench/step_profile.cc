@@ -103,8 +103,7 @@ int main(int argc, char** argv) {
       std::fprintf(
           stderr,
           "usage: step_profile [--k K [--gap G] | --pile] [--settle N] [--steps N] [--digits D] "
-          "[--dense]
-");
+          "[--dense]\n");
       return 2;
     }
   }
