@@ -11,33 +11,17 @@ namespace vinci::sim {
 
 namespace internal {
 
-double ScaledNaturalResidual(const VectorXd& z, const VectorXd& F, const VectorXd* lower,
-                             const VectorXd* upper, const VectorXd& row_terms,
-                             const VectorXd& row_norms, double c_norm) {
-  if (z.size() == 0) return 0.0;
-  if (!row_norms.allFinite()) return std::numeric_limits<double>::infinity();
-  return ScaledNaturalResidual(z, F, lower, upper, row_terms, row_norms.maxCoeff(), c_norm);
-}
+namespace {
 
-double ScaledNaturalResidual(const VectorXd& z, const VectorXd& F, const VectorXd* lower,
-                             const VectorXd* upper, const VectorXd& row_terms, double j_norm,
-                             double c_norm) {
+// max_i |ẑ_i − mid(l_i / s_z, u_i / s_z, ẑ_i − F_i / s_i)| with s_i = row_scale(i) (x / 0 as 0).
+template <typename RowScale>
+double NaturalResidualAtScales(const VectorXd& z, const VectorXd& F, const VectorXd* lower,
+                               const VectorXd* upper, double s_z, const RowScale& row_scale) {
   constexpr double kInf = std::numeric_limits<double>::infinity();
-  const Eigen::Index n = z.size();
-  if (n == 0) return 0.0;
-  if (!z.allFinite() || !F.allFinite() || !row_terms.allFinite() || !std::isfinite(j_norm) ||
-      !std::isfinite(c_norm))
-    return kInf;
-  double s_z = std::max(z.lpNorm<Eigen::Infinity>(), j_norm > 0.0 ? c_norm / j_norm : 0.0);
-  if (!std::isfinite(s_z)) return kInf;
-  if (!(s_z > 0.0)) s_z = 1.0;  // z = 0 and c = 0: F = 0
-  // One scale for every row (the largest row's). LcpScaledResidual judges each row at its own
-  // scale (lcp_acceptance.h); the MCP measure keeps the global one (docs/fuzzing.md).
-  const double s_w = std::max(row_terms.maxCoeff(), s_z * j_norm);
-  if (!std::isfinite(s_w)) return kInf;
   double r = 0.0;
-  for (Eigen::Index i = 0; i < n; ++i) {
-    const double f = s_w > 0.0 ? F(i) / s_w : 0.0;
+  for (Eigen::Index i = 0; i < z.size(); ++i) {
+    const double s_i = row_scale(i);
+    const double f = s_i > 0.0 ? F(i) / s_i : 0.0;
     const double zi = z(i) / s_z;
     const double l = lower != nullptr ? (*lower)(i) / s_z : 0.0;
     const double u = upper != nullptr ? (*upper)(i) / s_z : kInf;
@@ -49,15 +33,59 @@ double ScaledNaturalResidual(const VectorXd& z, const VectorXd& F, const VectorX
   return r;
 }
 
+// s_z = max(‖z‖∞, c_norm / j_norm), 1 if that is 0; infinity if not finite.
+double UnknownScale(const VectorXd& z, double j_norm, double c_norm) {
+  const double s_z = std::max(z.lpNorm<Eigen::Infinity>(), j_norm > 0.0 ? c_norm / j_norm : 0.0);
+  if (!std::isfinite(s_z)) return std::numeric_limits<double>::infinity();
+  return s_z > 0.0 ? s_z : 1.0;  // z = 0 and c = 0: F = 0
+}
+
+}  // namespace
+
+double ScaledNaturalResidual(const VectorXd& z, const VectorXd& F, const VectorXd* lower,
+                             const VectorXd* upper, const VectorXd& row_terms,
+                             const VectorXd& row_norms, double c_norm) {
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  if (z.size() == 0) return 0.0;
+  if (!z.allFinite() || !F.allFinite() || !row_terms.allFinite() || !row_norms.allFinite() ||
+      !std::isfinite(c_norm))
+    return kInf;
+  const double j_norm = row_norms.maxCoeff();
+  const double s_z = UnknownScale(z, j_norm, c_norm);
+  if (!std::isfinite(s_z)) return kInf;
+  // Each row at its own scale, floored by the problem's (lcp_acceptance.h).
+  const double s_w = std::max(row_terms.maxCoeff(), s_z * j_norm);
+  if (!std::isfinite(s_w)) return kInf;
+  const double floor = kLcpRoundoffFloor * s_w;
+  return NaturalResidualAtScales(z, F, lower, upper, s_z, [&](Eigen::Index i) {
+    return std::max({row_terms(i), s_z * row_norms(i), floor});
+  });
+}
+
+double ScaledNaturalResidual(const VectorXd& z, const VectorXd& F, const VectorXd* lower,
+                             const VectorXd* upper, const VectorXd& row_terms, double j_norm,
+                             double c_norm) {
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  if (z.size() == 0) return 0.0;
+  if (!z.allFinite() || !F.allFinite() || !row_terms.allFinite() || !std::isfinite(j_norm) ||
+      !std::isfinite(c_norm))
+    return kInf;
+  const double s_z = UnknownScale(z, j_norm, c_norm);
+  if (!std::isfinite(s_z)) return kInf;
+  // Without the row norms: one scale for every row (the largest row's).
+  const double s_w = std::max(row_terms.maxCoeff(), s_z * j_norm);
+  if (!std::isfinite(s_w)) return kInf;
+  return NaturalResidualAtScales(z, F, lower, upper, s_z, [&](Eigen::Index) { return s_w; });
+}
+
 }  // namespace internal
 
 double LcpScaledResidual(const LcpProblem& problem, const VectorXd& z) {
-  constexpr double kInf = std::numeric_limits<double>::infinity();
   const Eigen::Index n = problem.q.size();
   if (problem.M.rows() != n || problem.M.cols() != n || z.size() != n)
     return std::numeric_limits<double>::quiet_NaN();
   if (n == 0) return 0.0;
-  if (!z.allFinite()) return kInf;
+  if (!z.allFinite()) return std::numeric_limits<double>::infinity();
   const VectorXd w = problem.M * z + problem.q;
   // Column by column (M is column-major): t_i = |q_i| + Σ_j |M_ij z_j| and Σ_j |M_ij|.
   VectorXd terms = problem.q.cwiseAbs();
@@ -70,23 +98,8 @@ double LcpScaledResidual(const LcpProblem& problem, const VectorXd& z) {
       terms(i) += m * zj;
     }
   }
-  if (!w.allFinite() || !terms.allFinite() || !norms.allFinite()) return kInf;
-  const double m_norm = norms.maxCoeff();
-  const double q_norm = problem.q.lpNorm<Eigen::Infinity>();
-  double s_z = std::max(z.lpNorm<Eigen::Infinity>(), m_norm > 0.0 ? q_norm / m_norm : 0.0);
-  if (!std::isfinite(s_z)) return kInf;
-  if (!(s_z > 0.0)) return 0.0;  // z = 0 and q = 0: w = 0
-  const double s_w = std::max(terms.maxCoeff(), s_z * m_norm);
-  if (!std::isfinite(s_w)) return kInf;
-  const double floor = kLcpRoundoffFloor * s_w;
-  double r = 0.0;
-  for (Eigen::Index i = 0; i < n; ++i) {
-    const double s_i = std::max({terms(i), s_z * norms(i), floor});
-    const double ri = std::abs(std::min(z(i) / s_z, s_i > 0.0 ? w(i) / s_i : 0.0));
-    if (std::isnan(ri)) return kInf;
-    r = std::max(r, ri);
-  }
-  return r;
+  return internal::ScaledNaturalResidual(z, w, nullptr, nullptr, terms, norms,
+                                         problem.q.lpNorm<Eigen::Infinity>());
 }
 
 std::string CheckLcpSolution(const LcpProblem& problem, const VectorXd& z) {
