@@ -39,25 +39,9 @@ const char* kBlock =
     "[-0.2, 0.1]]}]\n";
 
 // A 20 g box (4 × 1 cm) on a plate vibrating at 20 Hz (x 20 m/s², y 5 m/s²), sticking and
-// slipping twice per cycle; μ = 0.2 (the scene says 0.5).
-const char* kPlate =
-    "dimension: 2\n"
-    "gravity: [0, -9.81]\n"
-    "stepper: {dt: 1.0e-3, envelope: 0.002, prescribed_velocity: exact}\n"
-    "friction: {default: 0.5}\n"
-    "bodies:\n"
-    "  - name: plate\n"
-    "    kind: prescribed\n"
-    "    shapes: [{type: halfplane}]\n"
-    "    motion:\n"
-    "      frequency: 20\n"
-    "      x: {harmonics: [{order: 1, amplitude: 1.2665e-3, phase: 0}]}\n"
-    "      y: {harmonics: [{order: 1, amplitude: 3.166e-4, phase: 1.5707963267948966}]}\n"
-    "  - name: box\n"
-    "    mass: 0.02\n"
-    "    pose: {position: [0.0, 0.0053166]}\n"
-    "    shapes: [{type: polygon, vertices: [[-0.02, -0.005], [0.02, -0.005], [0.02, 0.005], "
-    "[-0.02, 0.005]]}]\n";
+// slipping twice per cycle; μ = 0.2 (the scene says 0.5). Shared with the MPEC tests.
+const std::string kPlateFile =
+    std::string(VINCI_SOURCE_DIR) + "/tests/data/scenes/plate_box_planar.yaml";
 
 // Simulates with mu.default = mu and writes `samples` samples (every step) of the body's x, y,
 // θ with N(0, sigma²) position noise (angles sigma / 0.1 m).
@@ -110,17 +94,17 @@ int main(int argc, char** argv) {
   const std::string dir = std::filesystem::temp_directory_path().string();
   struct Case {
     const char* name;
-    const char* scene;
+    bool plate;  // the plate scene file, else the block
     const char* body;
     double mu;
     double sigma;
   };
   const std::vector<Case> cases =
-      quick ? std::vector<Case>{{"block", kBlock, "block", 0.3, 0.0}}
-            : std::vector<Case>{{"block", kBlock, "block", 0.3, 0.0},
-                                {"block_noisy", kBlock, "block", 0.3, 1e-3},
-                                {"plate", kPlate, "box", 0.2, 0.0},
-                                {"plate_noisy", kPlate, "box", 0.2, 1e-5}};
+      quick ? std::vector<Case>{{"block", false, "block", 0.3, 0.0}}
+            : std::vector<Case>{{"block", false, "block", 0.3, 0.0},
+                                {"block_noisy", false, "block", 0.3, 1e-3},
+                                {"plate", true, "box", 0.2, 0.0},
+                                {"plate_noisy", true, "box", 0.2, 1e-5}};
   int mismatches = 0;
   std::string table =
       "case,complementarity,threads,samples,steps,unknowns,constraints,pairs,iterations,stages,"
@@ -130,7 +114,8 @@ int main(int argc, char** argv) {
               "mu_hat", "std_err", "compl", "conv");
   for (const Case& c : cases) {
     if (!only.empty() && only != c.name) continue;
-    const sim::Simulator s(sim::ParseScene(c.scene, std::string(c.name) + ".yaml"));
+    const sim::Simulator s(c.plate ? sim::LoadSceneFile(kPlateFile)
+                                   : sim::ParseScene(kBlock, "block.yaml"));
     const std::string path =
         WriteLog(s, c.body, c.mu, samples, c.sigma, dir + "/mpec_bench_" + c.name + ".csv");
     const estimation::Log log = estimation::ReadLog({path}, s.scene());
@@ -143,7 +128,7 @@ int main(int argc, char** argv) {
         if (quick && (ti > 0 || method != estimation::ComplementarityMethod::kScholtes)) continue;
         estimation::MpecOptions o;
         o.params = {"mu.default"};
-        o.noise_sigma = c.sigma > 0 ? c.sigma : (c.scene == kPlate ? 1e-4 : 1e-3);
+        o.noise_sigma = c.sigma > 0 ? c.sigma : (c.plate ? 1e-4 : 1e-3);
         o.threads = threads;
         o.solver.method = method;
         if (epsilon_start > 0) o.solver.epsilon_start = epsilon_start;

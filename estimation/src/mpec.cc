@@ -391,7 +391,46 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o) {
     return ok;
   };
 
+  // The polish NLP from the current iterate (active set: the smaller side of every pair).
+  // Accepted (x, multipliers and sol.first_at_zero replaced) if it solves and, when
+  // `lower_bound` is finite, its objective is at most lower_bound + early_polish_tolerance;
+  // otherwise the iterate is restored.
+  auto try_polish = [&](double lower_bound, const std::string& what) {
+    std::vector<bool> fixed(pairs.size());
+    for (std::size_t k = 0; k < pairs.size(); ++k)
+      fixed[k] = x[pairs[k].first] <= x[pairs[k].second];
+    const VectorXd x_keep = x, l_keep = lambda, zl_keep = zl, zu_keep = zu;
+    const double f_keep = sol.objective;
+    // The Scholtes rows' multipliers are dropped: lambda keeps the problem's rows.
+    lambda.conservativeResize(problem.num_constraints());
+    Ipopt::SmartPtr<RelaxedNlp> nlp = run(Stage::kPolish, 0.0, fixed, true);
+    const bool solved = Solved(last) && nlp->x_.size() == n && nlp->x_.allFinite();
+    const bool close =
+        !std::isfinite(lower_bound) || nlp->objective_ <= lower_bound + o.early_polish_tolerance;
+    if (solved && close) {
+      accept(nlp, what);
+      sol.first_at_zero = fixed;
+      return true;
+    }
+    if (o.progress) {
+      std::ostringstream line;
+      line << what << ": " << StatusText(last) << ", " << nlp->iterations_ << " iterations";
+      if (solved) line << ", objective " << nlp->objective_ << " above the relaxed " << lower_bound;
+      o.progress(line.str() + ", kept the relaxed iterate");
+    }
+    x = x_keep;
+    lambda = l_keep;
+    zl = zl_keep;
+    zu = zu_keep;
+    sol.objective = f_keep;
+    return false;
+  };
+
   std::string stage_failure;
+  // Early polish still allowed (Scholtes only: the penalty usually ends after its first stage
+  // anyway, and an early polish from a penalty iterate far from complementary was measured to
+  // run long).
+  bool early = o.polish && o.early_polish_tolerance >= 0;
   if (pairs.empty()) {
     accept(run(Stage::kPolish, 0.0, {}, false), "nlp");
     if (!Solved(last)) stage_failure = std::string("nlp: ") + StatusText(last);
@@ -409,6 +448,13 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o) {
         if (o.progress && !first) o.progress(stage_failure + ", stopped the homotopy");
         break;
       }
+      if (early && eps * o.epsilon_factor >= o.epsilon_end * (1 - 1e-9)) {
+        if (try_polish(nlp->objective_, "early polish")) {
+          sol.polished = true;
+          break;
+        }
+        early = false;
+      }
     }
   } else {
     for (double rho = o.penalty_start; rho <= o.penalty_max * (1 + 1e-9); rho *= o.penalty_factor) {
@@ -425,28 +471,16 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o) {
       if (Violation(pairs, x) <= o.complementarity_tolerance) break;
     }
   }
-  for (std::size_t k = 0; k < pairs.size(); ++k)
-    sol.first_at_zero[k] = x[pairs[k].first] <= x[pairs[k].second];
-  bool relaxed_ok = stage_failure.empty();
-  if (o.polish && !pairs.empty()) {
-    const VectorXd x_relaxed = x, l_relaxed = lambda, zl_relaxed = zl, zu_relaxed = zu;
-    const double f_relaxed = sol.objective;
-    // The Scholtes rows' multipliers are dropped: lambda keeps the problem's rows.
-    lambda.conservativeResize(problem.num_constraints());
-    Ipopt::SmartPtr<RelaxedNlp> nlp = run(Stage::kPolish, 0.0, sol.first_at_zero, true);
-    if (Solved(last) && nlp->x_.allFinite()) {
-      accept(nlp, "polish");
+  if (!sol.polished) {
+    for (std::size_t k = 0; k < pairs.size(); ++k)
+      sol.first_at_zero[k] = x[pairs[k].first] <= x[pairs[k].second];
+  }
+  bool relaxed_ok = stage_failure.empty() || sol.polished;
+  if (o.polish && !pairs.empty() && !sol.polished) {
+    if (try_polish(std::numeric_limits<double>::infinity(), "polish")) {
       sol.polished = true;
       relaxed_ok = true;
       stage_failure.clear();
-    } else {
-      if (o.progress)
-        o.progress(std::string("polish: ") + StatusText(last) + ", kept the relaxed iterate");
-      x = x_relaxed;
-      lambda = l_relaxed;
-      zl = zl_relaxed;
-      zu = zu_relaxed;
-      sol.objective = f_relaxed;
     }
   }
   sol.x = x;

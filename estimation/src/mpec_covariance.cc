@@ -1,6 +1,7 @@
 // Standard errors of the MPEC estimator: the Laplace approximation at the solution (the
 // reduced-Hessian inverse through a quasi-definite KKT factorization) (mpec_estimator.h).
 #include <Eigen/SparseCholesky>
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -23,8 +24,21 @@ bool MpecEstimationProblem::ParameterVariances(const VectorXd& x,
   const Impl& I = *impl_;
   variances->setConstant(I.ntheta, std::numeric_limits<double>::quiet_NaN());
   std::vector<char> fixed(I.n, 0);
-  for (std::size_t k = 0; k < I.pairs.size() && k < first_at_zero.size(); ++k)
-    fixed[first_at_zero[k] ? I.pairs[k].first : I.pairs[k].second] = 1;
+  // The zero side of every pair is held at zero. A biactive pair (both sides zero) is held at
+  // zero on both sides — the tightened NLP of MPEC theory — rather than on the side the
+  // solver's last digits happened to make smaller (`first_at_zero` compares two ~1e-12 values
+  // there). Sides are compared in the solver's scaled unknowns (typical magnitude 1), where a
+  // bound-active side sits at ≲ 1e-8 (Ipopt's bound push).
+  for (std::size_t k = 0; k < I.pairs.size(); ++k) {
+    const auto [a, b] = I.pairs[k];
+    if (std::max(x[a], x[b]) <= mpec_internal::kBiactive) {
+      fixed[a] = fixed[b] = 1;
+    } else if (k < first_at_zero.size()) {
+      fixed[first_at_zero[k] ? a : b] = 1;
+    } else {
+      fixed[x[a] <= x[b] ? a : b] = 1;
+    }
+  }
   for (int i = 0; i < I.ntheta; ++i)
     if (x[i] <= I.x_l[i] + 1e-12 || x[i] >= I.x_u[i] - 1e-12) fixed[i] = 1;
   VectorXd J;

@@ -48,6 +48,7 @@ MpecEstimateResult EstimateMpec(const sim::Simulator& simulator, const Log& log,
   }
   MpecSolverOptions so = options.solver;
   if (!so.progress) so.progress = options.progress;
+  if (!stated) so.early_polish_tolerance = -1.0;  // the objective's scale is unknown
   const MpecSolution sol = SolveMpec(problem, so);
   r.estimates = problem.Parameters(sol.x);
   r.iterations = sol.iterations;

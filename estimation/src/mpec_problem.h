@@ -20,6 +20,8 @@ constexpr double kDefaultSigma = 1e-3;  // m, weighting when no noise is stated
 constexpr double kInf = 1e20;
 // Below this, an entry of a step's x_ℓ Jacobian block (central differences) is rounding noise.
 constexpr double kStateJacobianNoise = 1e-7;
+// A complementarity pair whose larger side is at most this (scaled unknowns) is biactive.
+constexpr double kBiactive = 1e-6;
 
 // A measurement residual r = Σ coef_k x[col_k] − y (m).
 struct ResidualRow {

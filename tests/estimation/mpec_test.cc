@@ -202,27 +202,10 @@ TEST(MpecSolver, RejectsBadOptionsAndPairs) {
 
 constexpr double kTrueMu = 0.3;
 
-// A small box (4 cm × 1 cm, 20 g) on a plate vibrating at 20 Hz (horizontal acceleration
-// 20 m/s², vertical 5 m/s², less than g: it stays on the plate, starting on its surface at the
-// plate's top position) and slides back and forth; true μ = 0.2, the scene says 0.5.
-const char* kPlateBox =
-    "dimension: 2\n"
-    "gravity: [0, -9.81]\n"
-    "stepper: {dt: 1.0e-3, duration: 0.2, envelope: 0.002, prescribed_velocity: exact}\n"
-    "friction: {default: 0.5}\n"
-    "bodies:\n"
-    "  - name: plate\n"
-    "    kind: prescribed\n"
-    "    shapes: [{type: halfplane}]\n"
-    "    motion:\n"
-    "      frequency: 20\n"
-    "      x: {harmonics: [{order: 1, amplitude: 1.2665e-3, phase: 0}]}\n"
-    "      y: {harmonics: [{order: 1, amplitude: 3.166e-4, phase: 1.5707963267948966}]}\n"
-    "  - name: box\n"
-    "    mass: 0.02\n"
-    "    pose: {position: [0.0, 0.0053166]}\n"
-    "    shapes: [{type: polygon, vertices: [[-0.02, -0.005], [0.02, -0.005], [0.02, 0.005], "
-    "[-0.02, 0.005]]}]\n";
+// A small box (4 cm × 1 cm, 20 g) on a plate vibrating at 20 Hz, sticking and slipping twice
+// per cycle; true μ = 0.2, the scene says 0.5 (tests/data/scenes/plate_box_planar.yaml).
+const std::string kPlateBoxFile =
+    std::string(VINCI_SOURCE_DIR) + "/tests/data/scenes/plate_box_planar.yaml";
 
 // A simulated trajectory of the sliding block satisfies the MPEC's constraints (the frozen step
 // equations, slack rows) and complementarity to 1e-9 at the unknowns mapped from the rollout.
@@ -273,7 +256,7 @@ TEST(MpecEstimator, SimulatedTrajectorySatisfiesConstraints) {
 // The same on the vibrating plate (a prescribed body: the step model evaluates its motion at the
 // grid times).
 TEST(MpecEstimator, SimulatedPlateTrajectorySatisfiesConstraints) {
-  const sim::Simulator sim(sim::ParseScene(kPlateBox, "plate.yaml"));
+  const sim::Simulator sim(sim::LoadSceneFile(kPlateBoxFile));
   const std::string path =
       testing::SyntheticLog(sim, "box", 0.2, 0.1, 1, 0.0, 1, "mpec_plate_constraints.csv");
   const Log log = ReadLog({path}, sim.scene());
@@ -304,7 +287,7 @@ TEST(MpecEstimator, SimulatedPlateTrajectorySatisfiesConstraints) {
 // gives the true μ. Before the unknowns were scaled, the products x_a x_b ≤ ε compared impulses
 // with speeds and the homotopy ended at μ̂ = 0.
 TEST(MpecEstimator, PlateNoiseFreeRecoversMu) {
-  const sim::Simulator sim(sim::ParseScene(kPlateBox, "plate.yaml"));
+  const sim::Simulator sim(sim::LoadSceneFile(kPlateBoxFile));
   const std::string path =
       testing::SyntheticLog(sim, "box", 0.2, 0.1, 2, 0.0, 1, "mpec_plate_exact.csv");
   const Log log = ReadLog({path}, sim.scene());
@@ -325,8 +308,8 @@ TEST(MpecEstimator, PlateNoiseFreeRecoversMu) {
 TEST(MpecEstimator, JacobianStructureHoldsEveryNonZero) {
   for (const char* which : {"plate", "block"}) {
     const bool plate = std::string(which) == "plate";
-    const sim::Simulator sim(
-        sim::ParseScene(plate ? kPlateBox : testing::kPlanarBlock, std::string(which) + ".yaml"));
+    const sim::Simulator sim(plate ? sim::LoadSceneFile(kPlateBoxFile)
+                                   : sim::ParseScene(testing::kPlanarBlock, "block.yaml"));
     const std::string path =
         testing::SyntheticLog(sim, plate ? "box" : "block", 0.25, 0.02, 1, 1e-5, 5,
                               std::string("mpec_fd_") + which + ".csv");
@@ -409,7 +392,7 @@ TEST(MpecEstimator, PlanarBlockNoiseFreeRecoversMu) {
 // reduction is ordered, and the linear algebra runs on one thread: the result is bitwise the
 // same for 1 and 3 threads, run after run.
 TEST(MpecEstimator, BitIdenticalForAnyThreadCount) {
-  const sim::Simulator sim(sim::ParseScene(kPlateBox, "plate.yaml"));
+  const sim::Simulator sim(sim::LoadSceneFile(kPlateBoxFile));
   const std::string path =
       testing::SyntheticLog(sim, "box", 0.2, 0.05, 1, 1e-5, 3, "mpec_threads.csv");
   const Log log = ReadLog({path}, sim.scene());

@@ -58,30 +58,15 @@ TEST(MpecNoise, EstimatedSigmaStandardErrorsAreHonest) {
   CheckHonest(ComplementarityMethod::kScholtes, false);
 }
 
-const char* kPlateBox =
-    "dimension: 2\n"
-    "gravity: [0, -9.81]\n"
-    "stepper: {dt: 1.0e-3, duration: 0.2, envelope: 0.002, prescribed_velocity: exact}\n"
-    "friction: {default: 0.5}\n"
-    "bodies:\n"
-    "  - name: plate\n"
-    "    kind: prescribed\n"
-    "    shapes: [{type: halfplane}]\n"
-    "    motion:\n"
-    "      frequency: 20\n"
-    "      x: {harmonics: [{order: 1, amplitude: 1.2665e-3, phase: 0}]}\n"
-    "      y: {harmonics: [{order: 1, amplitude: 3.166e-4, phase: 1.5707963267948966}]}\n"
-    "  - name: box\n"
-    "    mass: 0.02\n"
-    "    pose: {position: [0.0, 0.0053166]}\n"
-    "    shapes: [{type: polygon, vertices: [[-0.02, -0.005], [0.02, -0.005], [0.02, 0.005], "
-    "[-0.02, 0.005]]}]\n";
+// A box on a vibrating plate (tests/data/scenes/plate_box_planar.yaml).
+const std::string kPlateBoxFile =
+    std::string(VINCI_SOURCE_DIR) + "/tests/data/scenes/plate_box_planar.yaml";
 
 // Bootstrap over episodes: identical episodes make every resample the same data, so (the
 // solver being deterministic) the bootstrap standard error is exactly 0; episodes with
 // independent noise give a positive one of the order of the Laplace approximation.
 TEST(MpecNoise, BootstrapOverEpisodes) {
-  const sim::Simulator sim(sim::ParseScene(kPlateBox, "plate.yaml"));
+  const sim::Simulator sim(sim::LoadSceneFile(kPlateBoxFile));
   std::vector<std::string> same, noisy;
   for (int k = 0; k < 3; ++k) {
     same.push_back(SyntheticLog(sim, "box", 0.2, 0.03, 1, 1e-5, 11,

@@ -88,7 +88,14 @@ struct MpecSolverOptions {
   /// at most this (and the last NLP solved). A relaxed iterate has min(x_a, x_b) ≤ ε / max(x_a,
   /// x_b) (plus Ipopt's bound relaxation, ~1e-8); a polished one is exactly complementary.
   double complementarity_tolerance = 1e-6;
-  bool polish = true;           ///< the final NLP with the active set fixed
+  bool polish = true;  ///< the final NLP with the active set fixed
+  /// Early polish (Scholtes only): after a relaxation stage (not the last), the polish NLP is
+  /// tried from its iterate and accepted, ending the homotopy, if its objective is at most the
+  /// stage's optimal value plus this (the stage's value is a lower bound of the MPEC's near
+  /// the iterate: its feasible set contains the MPEC's; so the polished point is within this
+  /// of what the remaining stages could reach). After one rejected attempt the homotopy
+  /// continues without further ones. < 0: off (every stage run).
+  double early_polish_tolerance = -1.0;
   bool limited_memory = false;  ///< Ipopt's L-BFGS Hessian instead of the problem's
   double tolerance = 1e-8;      ///< Ipopt tol of each NLP
   int max_iterations = 3000;    ///< Ipopt iterations per NLP
