@@ -11,6 +11,7 @@
 #include <string>
 #include <utility>
 
+#include "test_util.h"
 #include "vinci/sim/formulations/stewart_trinkle.h"
 #include "vinci/sim/model/scene_file.h"
 #include "vinci/sim/simulator/simulator.h"
@@ -23,25 +24,7 @@ namespace {
 
 using SpMat = Eigen::SparseMatrix<double>;
 
-// A banded P-matrix LCP: M = AᵀA + S + 0.1 I with A banded and S skew (positive definite
-// symmetric part, so the solution is unique).
-LcpProblem RandomPLcp(int n, std::mt19937* rng) {
-  std::normal_distribution<double> g;
-  MatrixXd A = MatrixXd::Zero(n, n);
-  for (int i = 0; i < n; ++i)
-    for (int j = 0; j < n; ++j)
-      if (std::abs(i - j) <= 2) A(i, j) = g(*rng);
-  MatrixXd S = MatrixXd::Zero(n, n);
-  for (int i = 0; i + 1 < n; ++i) {
-    const double s = g(*rng);
-    S(i, i + 1) = s;
-    S(i + 1, i) = -s;
-  }
-  LcpProblem p;
-  p.M = A.transpose() * A + S + 0.1 * MatrixXd::Identity(n, n);
-  p.q = VectorXd::NullaryExpr(n, [&]() { return g(*rng); });
-  return p;
-}
+using testing::RandomBandedPLcp;
 
 // A Stewart–Trinkle-like contact LCP: nb bodies in a chain (6 velocities each, W = M⁻¹ SPD
 // per body), contact c between bodies c−1 and c (body −1 the ground), nd friction directions,
@@ -101,7 +84,7 @@ TEST(SparseLemkeTest, RandomPMatrixMatchesDenseLemke) {
   int checked = 0, warm_pivots = 0, cold_pivots = 0;
   for (int n : {20, 70, 150, 300}) {
     for (int trial = 0; trial < 4; ++trial) {
-      const LcpProblem p = RandomPLcp(n, &rng);
+      const LcpProblem p = RandomBandedPLcp(n, &rng);
       VectorXd z_dense;
       ASSERT_TRUE(dense.Solve(p, nullptr, &z_dense).ok());
       const SpMat Ms = Sparse(p.M);

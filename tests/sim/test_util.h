@@ -1,11 +1,14 @@
 // Shared helpers for the sim tests: loading the bundled example scenes, energies, rollouts.
 #pragma once
 
+#include <cmath>
 #include <cstring>
+#include <random>
 #include <string>
 
 #include "vinci/sim/model/scene_file.h"
 #include "vinci/sim/simulator/simulator.h"
+#include "vinci/sim/solvers/lcp.h"
 
 namespace vinci::sim::testing {
 
@@ -20,6 +23,26 @@ inline bool SameBits(const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
   if (a.size() != b.size()) return false;
   return a.size() == 0 ||
          std::memcmp(a.data(), b.data(), sizeof(double) * static_cast<std::size_t>(a.size())) == 0;
+}
+
+/// A banded P-matrix LCP of size n: M = AᵀA + S + 0.1 I with A banded (half-width 2) and S
+/// skew (positive definite symmetric part, so the solution is unique), q ~ N(0, 1).
+inline LcpProblem RandomBandedPLcp(int n, std::mt19937* rng) {
+  std::normal_distribution<double> g;
+  MatrixXd A = MatrixXd::Zero(n, n);
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j)
+      if (std::abs(i - j) <= 2) A(i, j) = g(*rng);
+  MatrixXd S = MatrixXd::Zero(n, n);
+  for (int i = 0; i + 1 < n; ++i) {
+    const double s = g(*rng);
+    S(i, i + 1) = s;
+    S(i + 1, i) = -s;
+  }
+  LcpProblem p;
+  p.M = A.transpose() * A + S + 0.1 * MatrixXd::Identity(n, n);
+  p.q = VectorXd::NullaryExpr(n, [&]() { return g(*rng); });
+  return p;
 }
 
 /// Params with the named entries overwritten.

@@ -21,25 +21,7 @@ namespace {
 
 using testing::LoadExample;
 
-// A random contact-like LCP: M = [AᵀA, E; −Eᵀ-ish] is replaced by a PSD-plus-skew matrix with a
-// sparse pattern (the warm-start test does not need M's origin).
-LcpProblem RandomLcp(int n, std::mt19937* rng) {
-  std::normal_distribution<double> g;
-  MatrixXd A = MatrixXd::Zero(n, n);
-  for (int i = 0; i < n; ++i)
-    for (int j = 0; j < n; ++j)
-      if (std::abs(i - j) <= 2) A(i, j) = g(*rng);
-  MatrixXd S = MatrixXd::Zero(n, n);
-  for (int i = 0; i + 1 < n; ++i) {
-    const double s = g(*rng);
-    S(i, i + 1) = s;
-    S(i + 1, i) = -s;
-  }
-  LcpProblem p;
-  p.M = A.transpose() * A + S + 0.1 * MatrixXd::Identity(n, n);
-  p.q = VectorXd::NullaryExpr(n, [&]() { return g(*rng); });
-  return p;
-}
+using testing::RandomBandedPLcp;
 
 // Sizes below and above kDenseWarmBasisMax: the solution that Lemke found cold is accepted
 // from the sparse operator with the same z as LemkeSolver's own warm start (0 pivots).
@@ -49,7 +31,7 @@ TEST(WarmBasisTest, AcceptsLemkeSolutionAsLemkeWarmStartDoes) {
   int checked = 0, above_dense = 0;
   for (int n : {6, 20, 60, 120}) {
     for (int trial = 0; trial < 5; ++trial) {
-      const LcpProblem p = RandomLcp(n, &rng);
+      const LcpProblem p = RandomBandedPLcp(n, &rng);
       VectorXd z_cold;
       ASSERT_TRUE(lemke.Solve(p, nullptr, &z_cold).ok());
       VectorXd z_lemke;
