@@ -1,0 +1,248 @@
+#!/usr/bin/python3
+"""Screening search for the circle motion on the transient point model (scripts/
+plate_point_model.py; docs/planning.md, "The circle target and its floor"): differential
+evolution over the parametrization of examples/field_design/circle.yaml (or with --harmonics 2
+the second harmonics of x, y, roll, pitch, yaw too) within the issue's actuator limits, then
+Powell; writes the best motion as a plate scene for `vinci field-design --start`.
+
+usage: scripts/circle_model_search.py [--harmonics 1|2] [--generations N] [--popsize P]
+                                      [--seed S] [--steps S] [--cycles K] [--average N]
+                                      [--write-scene OUT.yaml] [--start SCENE.yaml]
+
+The limits are vinci field-design's (docs/planning.md, "The objective"): the peak normal
+acceleration over the grid Σ (2πkf)² (|A_z| + 0.1 |A_roll| + 0.1 |A_pitch|) ≤ 9 m/s², per DOF
+Σ (2πkf)² |A| ≤ 15 m/s² (x, y) and ≤ 100 rad/s² (roll, pitch, yaw); amplitude bounds as the spec.
+A motion beyond them scores 10 + its relative excess (never chosen). The target, grid and metric
+are the spec's; the screening runs the model with S steps per cycle (default 40; the simulator's
+160 changes the error by ~0.005).
+"""
+import argparse
+import os
+
+import numpy as np
+from scipy.optimize import differential_evolution, minimize
+
+import plate_point_model as pm
+
+W = 2 * np.pi * pm.F
+LIMIT = {"x": 15.0, "y": 15.0, "z": 9.0, "roll": 100.0, "pitch": 100.0, "yaw": 100.0}
+BOUND = {"x": 4.2e-4, "y": 4.2e-4, "z": 2.5e-4, "roll": 2.5e-3, "pitch": 2.5e-3, "yaw": 2.8e-3}
+BOUND2 = {"x": 1.05e-4, "y": 1.05e-4, "z": 6.3e-5, "roll": 6.25e-4, "pitch": 6.25e-4,
+          "yaw": 7.0e-4}
+
+
+def slots(harmonics):
+    s = [(d, 1) for d in pm.DOFS] + [("z", 2)]
+    if harmonics == 2:
+        s += [(d, 2) for d in ("x", "y", "roll", "pitch", "yaw")]
+    return s
+
+
+def decode(u, sl):
+    """u: (2 len(sl),) in [-1, 1] (amplitude / bound, phase / pi); x's first phase is 0."""
+    m = []
+    for i, (d, k) in enumerate(sl):
+        amp = u[2 * i] * (BOUND[d] if k == 1 else BOUND2[d])
+        phi = 0.0 if (d, k) == ("x", 1) else u[2 * i + 1] * np.pi
+        m.append((d, k, amp, phi))
+    return m
+
+
+def excess(m):
+    peak_n = sum((W * k)**2 * abs(a) * (1.0 if d == "z" else 0.1) for d, k, a, _ in m
+                 if d in ("z", "roll", "pitch"))
+    worst = peak_n / 9.0 - 1.0
+    for dof in pm.DOFS:
+        if dof == "z":
+            continue
+        p = sum((W * k)**2 * abs(a) for d, k, a, _ in m if d == dof)
+        worst = max(worst, p / LIMIT[dof] - 1.0)
+    return worst
+
+
+def ring_direction(target):
+    """The unit vector (vx stacked over vy on the grid) of the target's part that no affine field
+    has (the target minus its least-squares affine fit), and the target's angle to the affine
+    fields (the affine floor is 2 sin(angle / 2))."""
+    one, zero = np.ones_like(pm.GX), np.zeros_like(pm.GX)
+    basis = np.stack([np.concatenate(c) for c in [(one, zero), (zero, one), (pm.GX, zero),
+                                                   (pm.GY, zero), (zero, pm.GX), (zero, pm.GY)]], 1)
+    q, _ = np.linalg.qr(basis)
+    t = np.concatenate([target[:, 0], target[:, 1]])
+    perp = t - q @ (q.T @ t)
+    return perp / np.linalg.norm(perp), float(np.arcsin(np.linalg.norm(perp) / np.linalg.norm(t)))
+
+
+def ring_component(v, target):
+    """b = v·u / |v|: the share of the field along the target's ring direction u. A field with
+    shape error e to the target has b ≥ sin(angle − 2 arcsin(e/2)) (0.074 for e = 0.1)."""
+    u, _ = ring_direction(target)
+    vv = np.concatenate([v[:, 0], v[:, 1]])
+    n = np.linalg.norm(vv)
+    return 0.0 if n == 0 else float(vv @ u / n)
+
+
+def batch_error(us, sl, a, target):
+    """Shape errors of the motions us (P, n): the model vectorized over motions and points
+    (with a.objective == "ring": minus the ring component b)."""
+    P = us.shape[0]
+    motions = [decode(u, sl) for u in us]
+    x0 = np.tile(pm.GX, P)
+    y0 = np.tile(pm.GY, P)
+    h = 1.0 / pm.F / a.steps
+    t = (np.arange(a.cycles * a.steps) + 1) * h
+    n_pts = pm.GX.size
+    # per motion signals, broadcast to points
+    sig = {}
+    for key in ("rate", "acc", "angle"):
+        sig[key] = {d: np.zeros((t.size, P)) for d in pm.DOFS}
+    for j, m in enumerate(motions):
+        rate, acc, angle = pm.plate_signals(m, t)
+        for d in pm.DOFS:
+            sig["rate"][d][:, j] = rate[d]
+            sig["acc"][d][:, j] = acc[d]
+        for d in angle:
+            sig["angle"][d][:, j] = angle[d]
+    rep = lambda arr: np.repeat(arr, n_pts, axis=1)  # noqa: E731
+    rate = {d: rep(sig["rate"][d]) for d in pm.DOFS}
+    acc = {d: rep(sig["acc"][d]) for d in pm.DOFS}
+    angle = {d: rep(sig["angle"][d]) for d in ("roll", "pitch")}
+    x, y = x0.copy(), y0.copy()
+    vx, vy = np.zeros_like(x), np.zeros_like(x)
+    sx, sy = np.zeros_like(x), np.zeros_like(x)
+    start = (a.cycles - a.average) * a.steps
+    for i in range(t.size):
+        n = np.maximum(pm.G_ACC + acc["z"][i] + acc["roll"][i] * y - acc["pitch"][i] * x, 0.0)
+        vx = vx + h * n * angle["pitch"][i]
+        vy = vy - h * n * angle["roll"][i]
+        vpx = rate["x"][i] - rate["yaw"][i] * y
+        vpy = rate["y"][i] + rate["yaw"][i] * x
+        ux, uy = vx - vpx, vy - vpy
+        uu = np.hypot(ux, uy)
+        cap = pm.MU * n * h
+        scale = np.where(uu > cap, 1.0 - cap / np.maximum(uu, 1e-300), 0.0)
+        vx, vy = vpx + scale * ux, vpy + scale * uy
+        x, y = x + h * vx, y + h * vy
+        if i >= start:
+            sx, sy = sx + vx, sy + vy
+    out = np.empty(P)
+    for j in range(P):
+        sl_ = slice(j * n_pts, (j + 1) * n_pts)
+        v = np.stack([sx[sl_], sy[sl_]], 1)
+        out[j] = -ring_component(v, target) if a.objective == "ring" else pm.shape_error(v, target)
+        speed = np.sqrt((v**2).sum(1).mean())
+        if speed < a.min_speed:  # a field too slow to be of use (the metric is scale-free)
+            out[j] += 1.0 - speed / a.min_speed
+    return out
+
+
+def objective_batch(us, sl, a, target):
+    us = np.atleast_2d(us)
+    ex = np.array([excess(decode(u, sl)) for u in us])
+    err = np.full(us.shape[0], 0.0)
+    ok = ex <= 0
+    if ok.any():
+        err[ok] = batch_error(us[ok], sl, a, target)
+    err[~ok] = 10 + ex[~ok]
+    return err
+
+
+def start_vector(path, sl):
+    m, _ = pm.scene_motion(path)
+    got = {(d, k): (amp, phi) for d, k, amp, phi in m}
+    u = []
+    for d, k in sl:
+        amp, phi = got.get((d, k), (0.0, 0.0))
+        b = BOUND[d] if k == 1 else BOUND2[d]
+        phi = (phi + np.pi) % (2 * np.pi) - np.pi
+        u += [float(np.clip(amp / b, -1, 1)), phi / np.pi]
+    return np.array(u)
+
+
+def write_scene(base, out, motion, note):
+    import yaml
+    scene = yaml.safe_load(open(base))
+    plate = next(b for b in scene["bodies"] if b.get("kind") == "prescribed")
+    mm = {"frequency": pm.F}
+    for d in pm.DOFS:
+        hs = [{"order": k, "amplitude": float(amp), "phase": float(phi)}
+              for dd, k, amp, phi in motion if dd == d]
+        if hs:
+            mm[d] = {"harmonics": hs}
+    plate["motion"] = mm
+    with open(out, "w") as f:
+        f.write("# Written by scripts/circle_model_search.py: %s\n" % note)
+        yaml.safe_dump(scene, f, sort_keys=False, default_flow_style=None, width=100)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--harmonics", type=int, default=1, choices=[1, 2])
+    ap.add_argument("--generations", type=int, default=60)
+    ap.add_argument("--popsize", type=int, default=10)
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--steps", type=int, default=40)
+    ap.add_argument("--cycles", type=int, default=20)
+    ap.add_argument("--average", type=int, default=5)
+    ap.add_argument("--powell", type=int, default=1500, help="Powell evaluations after DE")
+    ap.add_argument("--objective", default="shape", choices=["shape", "ring"],
+                    help="shape: the field error; ring: maximize the ring component b")
+    ap.add_argument("--min-speed", type=float, default=0.0,
+                    help="m/s: a field with a smaller RMS speed is penalized by 1 - speed/min")
+    ap.add_argument("--start", help="a plate scene: Powell only, from its motion")
+    ap.add_argument("--write-scene")
+    ap.add_argument("--base", default=os.path.join(os.path.dirname(os.path.abspath(__file__)), "..",
+                                                   "examples/field_design/found/circle.yaml"))
+    a = ap.parse_args()
+    sl = slots(a.harmonics)
+    target = pm.circle_target(pm.GX, pm.GY)
+    bounds = [(-1, 1)] * (2 * len(sl))
+    if a.start:
+        u = start_vector(a.start, sl)
+        print("start: model error %.4f" % objective_batch(u, sl, a, target)[0], flush=True)
+    else:
+        gen = [0]
+
+        def cb(xk, convergence):
+            gen[0] += 1
+            print("generation %d: best %.4f" % (gen[0], objective_batch(xk, sl, a, target)[0]),
+                  flush=True)
+
+        r = differential_evolution(lambda us: objective_batch(us.T, sl, a, target), bounds,
+                                   seed=a.seed, maxiter=a.generations, popsize=a.popsize,
+                                   tol=1e-8, polish=False, vectorized=True, updating="deferred",
+                                   callback=cb)
+        u = r.x
+        print("differential evolution: %.4f (%d evaluations)" % (r.fun, r.nfev), flush=True)
+    if a.powell > 0:
+        count = [0, np.inf]
+
+        def f(v):
+            e = objective_batch(np.clip(v, -1, 1), sl, a, target)[0]
+            count[0] += 1
+            count[1] = min(count[1], e)
+            if count[0] % 200 == 0:
+                print("powell %d: best %.4f" % tuple(count), flush=True)
+            return e
+
+        r = minimize(f, u,
+                     method="Powell", options={"maxfev": a.powell, "xtol": 1e-4, "ftol": 1e-7})
+        u = np.clip(r.x, -1, 1)
+        print("powell: %.4f (%d evaluations)" % (r.fun, r.nfev), flush=True)
+    m = decode(u, sl)
+    err = objective_batch(u, sl, a, target)[0]
+    print("best model objective %.4f (steps %d); limits excess %.3f" % (err, a.steps, excess(m)))
+    v = batch_error(np.array([u]), sl, argparse.Namespace(**{**vars(a), "objective": "shape"}),
+                    target)
+    print("its shape error %.4f" % v[0])
+    speed = np.sqrt((pm.transient_field(m, steps=a.steps, cycles=a.cycles,
+                                        average=a.average)[0]**2).sum(1).mean())
+    print("its RMS speed %.4f m/s" % speed)
+    for d, k, amp, phi in m:
+        print("  %-5s order %d: amplitude %+.4e, phase %+.4f" % (d, k, amp, phi))
+    if a.write_scene:
+        write_scene(a.base, a.write_scene, m, "model error %.4f" % err)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,161 @@
+#!/usr/bin/python3
+"""A transient point model of a part on the vibrating plate (docs/planning.md, "The circle target
+and its floor"): the cheap stand-in for `vinci field` used to screen circle motions.
+
+usage: scripts/plate_point_model.py SCENE.yaml [--field FIELD.csv] [--cycles K] [--average N]
+                                               [--steps S]
+
+For SCENE's plate motion (a `vinci field-design` best.yaml or any plate scene with harmonics) it
+prints, on the specs' 11x11 grid over [-0.1, 0.1]^2, the circle target's shape error (R = 5 cm) of
+  1. the cycle-averaged theory (plate_theory.h's model: the part's velocity constant within a
+     cycle, measured where it starts), and
+  2. the transient model: a point part started at rest at each grid point, integrated for K
+     cycles with the simulator's time step h = T/S and its velocity averaged over the last N
+     cycles (what `vinci field` measures, including the drift of the part during the run),
+and with --field, the simulated field's error and the RMS difference between each model and the
+simulation (both normalized by the simulation's RMS speed).
+
+The transient model, per time step (semi-implicit, like the simulator's time stepping, but with
+the exact friction disc where the scenes use a 16-sided pyramid): the plate point under the part
+p moves with v_p = (xdot - yawdot y, ydot + yawdot x); the normal force per unit mass is
+n = g + zddot + rollddot y - pitchddot x (small angles; n > 0 within the specs' vertical limit);
+the tilt adds n (pitch, -roll) to the part's horizontal acceleration; the friction impulse per
+unit mass is at most mu n h: if the part's velocity relative to the plate after the tilt impulse
+is within that, it sticks (v = v_p), else it slides with the relative velocity reduced by mu n h
+along itself. Every DOF is A (sin(2 pi k f t + phi) - sin(phi)) as in the scene format.
+"""
+import argparse
+
+import numpy as np
+
+G_ACC = 9.81
+MU = 0.2
+F = 30.0
+DOFS = ["x", "y", "z", "roll", "pitch", "yaw"]
+GRID = np.linspace(-0.1, 0.1, 11)
+GX, GY = (a.ravel() for a in np.meshgrid(GRID, GRID))
+
+
+def circle_target(x, y, radius=0.05):
+    """The circle target of planning/src/field_design_spec.cc (counter-clockwise, s = 1)."""
+    q = (x**2 + y**2) / radius**2
+    ratio = (1 - q) / (1 + q)
+    return np.stack([(-y + ratio * x) / radius, (x + ratio * y) / radius], 1)
+
+
+def shape_error(v, t):
+    sv = np.sqrt((v**2).sum(1).mean())
+    st = np.sqrt((t**2).sum(1).mean())
+    return 1.0 if sv == 0 else float(np.sqrt(((v / sv - t / st)**2).sum(1).mean()))
+
+
+def scene_motion(path):
+    """[(dof, order, amplitude, phase)] of the first prescribed body of a scene file, its frequency."""
+    import yaml
+    scene = yaml.safe_load(open(path))
+    plate = next(b for b in scene["bodies"] if b.get("kind") == "prescribed")
+    out = []
+    for dof in DOFS:
+        for i, h in enumerate(plate["motion"].get(dof, {}).get("harmonics", [])):
+            out.append((dof, int(h.get("order", i + 1)), float(h["amplitude"]), float(h["phase"])))
+    return out, float(plate["motion"]["frequency"])
+
+
+def plate_signals(motion, t, f=F):
+    """Per DOF: rate and acceleration at the times t (arrays)."""
+    rate = {d: np.zeros_like(t) for d in DOFS}
+    acc = {d: np.zeros_like(t) for d in DOFS}
+    for dof, k, a, phi in motion:
+        w = 2 * np.pi * f * k
+        rate[dof] = rate[dof] + a * w * np.cos(w * t + phi)
+        acc[dof] = acc[dof] - a * w * w * np.sin(w * t + phi)
+    angle = {d: np.zeros_like(t) for d in ("roll", "pitch")}
+    for dof, k, a, phi in motion:
+        if dof in angle:
+            w = 2 * np.pi * f * k
+            angle[dof] = angle[dof] + a * (np.sin(w * t + phi) - np.sin(phi))
+    return rate, acc, angle
+
+
+def transient_field(motion, x0=GX, y0=GY, cycles=20, average=5, steps=160, f=F, mu=MU):
+    """The transient point model (module docstring): average velocity over the last `average` of
+    `cycles` cycles of a part started at rest at (x0, y0); also its mean position there."""
+    h = 1.0 / f / steps
+    t = (np.arange(cycles * steps) + 1) * h  # the end of each step (the simulator's velocities)
+    rate, acc, angle = plate_signals(motion, t, f)
+    x, y = np.array(x0, float), np.array(y0, float)
+    vx, vy = np.zeros_like(x), np.zeros_like(x)
+    sx, sy, px, py, n_avg = 0.0, 0.0, 0.0, 0.0, 0
+    start = (cycles - average) * steps
+    for i in range(cycles * steps):
+        n = G_ACC + acc["z"][i] + acc["roll"][i] * y - acc["pitch"][i] * x
+        n = np.maximum(n, 0.0)
+        vx = vx + h * n * angle["pitch"][i]
+        vy = vy - h * n * angle["roll"][i]
+        vpx = rate["x"][i] - rate["yaw"][i] * y
+        vpy = rate["y"][i] + rate["yaw"][i] * x
+        ux, uy = vx - vpx, vy - vpy
+        u = np.hypot(ux, uy)
+        cap = mu * n * h
+        scale = np.where(u > cap, 1.0 - cap / np.maximum(u, 1e-300), 0.0)
+        vx, vy = vpx + scale * ux, vpy + scale * uy
+        x, y = x + h * vx, y + h * vy
+        if i >= start:
+            sx, sy, px, py, n_avg = sx + vx, sy + vy, px + x, py + y, n_avg + 1
+    return np.stack([sx / n_avg, sy / n_avg], 1), np.stack([px / n_avg, py / n_avg], 1)
+
+
+def theory_field(motion, x0=GX, y0=GY, samples=64, f=F, mu=MU, iterations=80):
+    """The cycle-averaged theory (plate_theory.h's force balance; tilt neglected): Weiszfeld."""
+    t = (np.arange(samples) + 0.5) / samples / f
+    rate, acc, _ = plate_signals(motion, t, f)
+    vpx = rate["x"][None, :] - rate["yaw"][None, :] * y0[:, None]
+    vpy = rate["y"][None, :] + rate["yaw"][None, :] * x0[:, None]
+    n = np.maximum(0.0, G_ACC + acc["z"][None, :] + acc["roll"][None, :] * y0[:, None] -
+                   acc["pitch"][None, :] * x0[:, None])
+    v = np.stack([(n * vpx).sum(1), (n * vpy).sum(1)], 1) / np.maximum(n.sum(1), 1e-12)[:, None]
+    for _ in range(iterations):
+        d = np.sqrt((v[:, :1] - vpx)**2 + (v[:, 1:] - vpy)**2 + 1e-14)
+        w = n / d
+        v = np.stack([(w * vpx).sum(1), (w * vpy).sum(1)], 1) / np.maximum(w.sum(1), 1e-30)[:, None]
+    return v
+
+
+def read_field(path):
+    import csv
+    rows = list(csv.DictReader(open(path)))
+    return (np.array([[float(r["x"]), float(r["y"])] for r in rows]),
+            np.array([[float(r["vx"]), float(r["vy"])] for r in rows]))
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("scene")
+    ap.add_argument("--field")
+    ap.add_argument("--cycles", type=int, default=20)
+    ap.add_argument("--average", type=int, default=5)
+    ap.add_argument("--steps", type=int, default=160)
+    a = ap.parse_args()
+    motion, f = scene_motion(a.scene)
+    tg = circle_target(GX, GY)
+    th = theory_field(motion, f=f)
+    tr, where = transient_field(motion, cycles=a.cycles, average=a.average, steps=a.steps, f=f)
+    print("circle shape error: theory %.3f, transient model %.3f" %
+          (shape_error(th, tg), shape_error(tr, tg)))
+    drift = np.hypot(where[:, 0] - GX, where[:, 1] - GY)
+    print("transient model: RMS speed %.4f m/s, drift of the averaging window's mean position "
+          "from the start: median %.1f mm, max %.1f mm" %
+          (np.sqrt((tr**2).sum(1).mean()), 1e3 * np.median(drift), 1e3 * drift.max()))
+    if a.field:
+        pts, sim = read_field(a.field)
+        s = np.sqrt((sim**2).sum(1).mean())
+        print("simulation: circle shape error %.3f, RMS speed %.4f m/s" %
+              (shape_error(sim, circle_target(pts[:, 0], pts[:, 1])), s))
+        for name, v in (("theory", th), ("transient", tr)):
+            print("  %s vs simulation: RMS difference / simulated RMS speed %.3f, shape error "
+                  "between them %.3f" % (name, np.sqrt(((v - sim)**2).sum(1).mean()) / s,
+                                         shape_error(v, sim)))
+
+
+if __name__ == "__main__":
+    main()
