@@ -85,8 +85,12 @@ def ring_component(v, target):
 def batch_error(us, sl, a, target):
     """Shape errors of the motions us (P, n): the model vectorized over motions and points
     (with a.objective == "ring": minus the ring component b)."""
-    P = us.shape[0]
-    motions = [decode(u, sl) for u in us]
+    return batch_motion_error([decode(u, sl) for u in us], a, target)
+
+
+def batch_motion_error(motions, a, target):
+    """batch_error for a list of motions [(dof, order, amplitude, phase)]."""
+    P = len(motions)
     x0 = np.tile(pm.GX, P)
     y0 = np.tile(pm.GY, P)
     h = 1.0 / pm.F / a.steps
@@ -117,11 +121,7 @@ def batch_error(us, sl, a, target):
         vy = vy - h * n * angle["roll"][i]
         vpx = rate["x"][i] - rate["yaw"][i] * y
         vpy = rate["y"][i] + rate["yaw"][i] * x
-        ux, uy = vx - vpx, vy - vpy
-        uu = np.hypot(ux, uy)
-        cap = pm.MU * n * h
-        scale = np.where(uu > cap, 1.0 - cap / np.maximum(uu, 1e-300), 0.0)
-        vx, vy = vpx + scale * ux, vpy + scale * uy
+        vx, vy = pm.friction_step(vx, vy, vpx, vpy, pm.MU * n * h, a.sides)
         x, y = x + h * vx, y + h * vy
         if i >= start:
             sx, sy = sx + vx, sy + vy
@@ -159,6 +159,21 @@ def start_vector(path, sl):
     return np.array(u)
 
 
+def wobble_vector(text, sl):
+    """The start vector of --wobble U,ALPHA,PSI."""
+    amp, alpha, psi = (float(v) for v in text.split(","))
+    tilt = alpha / W**2
+    got = {("x", 1): (amp, 0.0), ("y", 1): (amp, -np.pi / 2), ("roll", 1): (tilt, psi),
+           ("pitch", 1): (-tilt, psi + np.pi / 2)}
+    u = []
+    for d, k in sl:
+        a_, phi = got.get((d, k), (0.0, 0.0))
+        b = BOUND[d] if k == 1 else BOUND2[d]
+        phi = (phi + np.pi) % (2 * np.pi) - np.pi
+        u += [float(np.clip(a_ / b, -1, 1)), phi / np.pi]
+    return np.array(u)
+
+
 def write_scene(base, out, motion, note):
     import yaml
     scene = yaml.safe_load(open(base))
@@ -183,6 +198,8 @@ def main():
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--steps", type=int, default=40)
     ap.add_argument("--cycles", type=int, default=20)
+    ap.add_argument("--sides", type=int, default=0,
+                    help="friction polygon (the scenes' friction_directions); 0: the disc (default: it matches vinci field better than 16)")
     ap.add_argument("--average", type=int, default=5)
     ap.add_argument("--powell", type=int, default=1500, help="Powell evaluations after DE")
     ap.add_argument("--objective", default="shape", choices=["shape", "ring"],
@@ -190,6 +207,10 @@ def main():
     ap.add_argument("--min-speed", type=float, default=0.0,
                     help="m/s: a field with a smaller RMS speed is penalized by 1 - speed/min")
     ap.add_argument("--start", help="a plate scene: Powell only, from its motion")
+    ap.add_argument("--wobble", metavar="U,ALPHA,PSI",
+                    help="Powell only, from a circular translation of amplitude U (m) with a "
+                    "wobble (roll and pitch in quadrature) of angular acceleration ALPHA (rad/s^2) "
+                    "at phase PSI (rad), both at the base frequency")
     ap.add_argument("--write-scene")
     ap.add_argument("--base", default=os.path.join(os.path.dirname(os.path.abspath(__file__)), "..",
                                                    "examples/field_design/found/circle.yaml"))
@@ -197,8 +218,8 @@ def main():
     sl = slots(a.harmonics)
     target = pm.circle_target(pm.GX, pm.GY)
     bounds = [(-1, 1)] * (2 * len(sl))
-    if a.start:
-        u = start_vector(a.start, sl)
+    if a.start or a.wobble:
+        u = start_vector(a.start, sl) if a.start else wobble_vector(a.wobble, sl)
         print("start: model error %.4f" % objective_batch(u, sl, a, target)[0], flush=True)
     else:
         gen = [0]

@@ -77,7 +77,33 @@ def plate_signals(motion, t, f=F):
     return rate, acc, angle
 
 
-def transient_field(motion, x0=GX, y0=GY, cycles=20, average=5, steps=160, f=F, mu=MU):
+def friction_step(vx, vy, vpx, vpy, cap, sides=0):
+    """The part's velocity after one step's friction impulse (per unit mass at most cap), from its
+    velocity (vx, vy) and the plate point's (vpx, vpy): the relative velocity u minus its
+    projection onto the friction set (maximal dissipation with the implicit velocity, as the
+    simulator's time stepping for a point mass). The set is the disc of radius cap (sides = 0) or,
+    like the scenes' `friction_directions: sides` pyramid, the regular polygon inscribed in it with
+    vertices at the angles 2 pi k / sides."""
+    ux, uy = vx - vpx, vy - vpy
+    if sides == 0:
+        u = np.hypot(ux, uy)
+        scale = np.where(u > cap, 1.0 - cap / np.maximum(u, 1e-300), 0.0)
+        return vpx + scale * ux, vpy + scale * uy
+    step = 2 * np.pi / sides
+    k = np.floor(np.arctan2(uy, ux) / step)
+    ax, ay = cap * np.cos(k * step), cap * np.sin(k * step)  # the edge of u's wedge: a to b
+    bx, by = cap * np.cos((k + 1) * step), cap * np.sin((k + 1) * step)
+    ex, ey = bx - ax, by - ay
+    t = np.clip(((ux - ax) * ex + (uy - ay) * ey) / np.maximum(ex * ex + ey * ey, 1e-300), 0, 1)
+    px, py = ax + t * ex, ay + t * ey  # the nearest point of the edge
+    # inside the polygon (u on the origin's side of the edge): the part sticks
+    inside = ((ux - ax) * ey - (uy - ay) * ex) * (-(ax * ey - ay * ex)) >= 0
+    rx, ry = np.where(inside, 0.0, ux - px), np.where(inside, 0.0, uy - py)
+    return vpx + rx, vpy + ry
+
+
+def transient_field(motion, x0=GX, y0=GY, cycles=20, average=5, steps=160, f=F, mu=MU,
+                    sides=0):
     """The transient point model (module docstring): average velocity over the last `average` of
     `cycles` cycles of a part started at rest at (x0, y0); also its mean position there."""
     h = 1.0 / f / steps
@@ -94,11 +120,7 @@ def transient_field(motion, x0=GX, y0=GY, cycles=20, average=5, steps=160, f=F, 
         vy = vy - h * n * angle["roll"][i]
         vpx = rate["x"][i] - rate["yaw"][i] * y
         vpy = rate["y"][i] + rate["yaw"][i] * x
-        ux, uy = vx - vpx, vy - vpy
-        u = np.hypot(ux, uy)
-        cap = mu * n * h
-        scale = np.where(u > cap, 1.0 - cap / np.maximum(u, 1e-300), 0.0)
-        vx, vy = vpx + scale * ux, vpy + scale * uy
+        vx, vy = friction_step(vx, vy, vpx, vpy, mu * n * h, sides)
         x, y = x + h * vx, y + h * vy
         if i >= start:
             sx, sy, px, py, n_avg = sx + vx, sy + vy, px + x, py + y, n_avg + 1
