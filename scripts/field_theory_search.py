@@ -1,7 +1,9 @@
 #!/usr/bin/python3
-"""Global search of plate motions on the point theory (docs/planning.md, "Why the circle stays far
-from 0.1"): how well can any motion of the field-design family match a target, if the simulated
-field were the cycle-averaged theory of docs/field.md?
+"""Global search of plate motions on the point theory (docs/planning.md, "The circle target and its
+floor"): how well can any motion of the field-design family match a target, if the simulated
+field were the cycle-averaged theory of docs/field.md? At the actuator's amplitudes this theory
+does not predict the simulation (docs/planning.md, "Theory versus simulation"): use
+scripts/plate_point_model.py and scripts/circle_model_search.py instead.
 
 usage: scripts/field_theory_search.py TARGET [--radius R] [--harmonics 1|2|3] [--generations N]
                                      [--limits] [--local SCENE.yaml [--write-scene OUT.yaml]]
