@@ -99,29 +99,24 @@ def batch_error(us, sl, a, target):
 
 
 def batch_motion_error(motions, a, target):
-    """batch_error for a list of motions [(dof, order, amplitude, phase)]."""
+    """batch_error for a list of motions [(dof, order, amplitude, phase)]: the transient model
+    (plate_point_model.transient_field) with the state as (motion, point) arrays."""
     P = len(motions)
-    x0 = np.tile(pm.GX, P)
-    y0 = np.tile(pm.GY, P)
     h = 1.0 / pm.F / a.steps
     t = (np.arange(a.cycles * a.steps) + 1) * h
-    n_pts = pm.GX.size
-    # per motion signals, broadcast to points
-    sig = {}
-    for key in ("rate", "acc", "angle"):
-        sig[key] = {d: np.zeros((t.size, P)) for d in pm.DOFS}
+    # per-motion signals (time, motion, 1), broadcast over the points
+    rate = {d: np.zeros((t.size, P, 1)) for d in pm.DOFS}
+    acc = {d: np.zeros((t.size, P, 1)) for d in pm.DOFS}
+    angle = {d: np.zeros((t.size, P, 1)) for d in ("roll", "pitch")}
     for j, m in enumerate(motions):
-        rate, acc, angle = pm.plate_signals(m, t)
+        r_, a_, g_ = pm.plate_signals(m, t)
         for d in pm.DOFS:
-            sig["rate"][d][:, j] = rate[d]
-            sig["acc"][d][:, j] = acc[d]
+            rate[d][:, j, 0] = r_[d]
+            acc[d][:, j, 0] = a_[d]
         for d in angle:
-            sig["angle"][d][:, j] = angle[d]
-    rep = lambda arr: np.repeat(arr, n_pts, axis=1)  # noqa: E731
-    rate = {d: rep(sig["rate"][d]) for d in pm.DOFS}
-    acc = {d: rep(sig["acc"][d]) for d in pm.DOFS}
-    angle = {d: rep(sig["angle"][d]) for d in ("roll", "pitch")}
-    x, y = x0.copy(), y0.copy()
+            angle[d][:, j, 0] = g_[d]
+    x = np.tile(pm.GX, (P, 1))
+    y = np.tile(pm.GY, (P, 1))
     vx, vy = np.zeros_like(x), np.zeros_like(x)
     sx, sy = np.zeros_like(x), np.zeros_like(x)
     start = (a.cycles - a.average) * a.steps
@@ -137,8 +132,7 @@ def batch_motion_error(motions, a, target):
             sx, sy = sx + vx, sy + vy
     out = np.empty(P)
     for j in range(P):
-        sl_ = slice(j * n_pts, (j + 1) * n_pts)
-        v = np.stack([sx[sl_], sy[sl_]], 1)
+        v = np.stack([sx[j], sy[j]], 1)
         out[j] = -ring_component(v, target) if a.objective == "ring" else pm.shape_error(v, target)
         speed = np.sqrt((v**2).sum(1).mean())
         if speed < a.min_speed:  # a field too slow to be of use (the metric is scale-free)
