@@ -231,7 +231,8 @@ def main():
     ap.add_argument("--steps", type=int, default=160)
     ap.add_argument("--cycles", type=int, default=20)
     ap.add_argument("--sides", type=int, default=0,
-                    help="friction polygon (the scenes' friction_directions); 0: the disc (default: it matches vinci field better than 16)")
+                    help="friction polygon (the scenes' friction_directions); 0 (default): the disc, "
+                    "which matches vinci field better than 16")
     ap.add_argument("--average", type=int, default=5)
     ap.add_argument("--powell", type=int, default=1500, help="Powell evaluations after DE")
     ap.add_argument("--objective", default="shape", choices=["shape", "ring"],

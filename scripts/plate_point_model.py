@@ -50,7 +50,7 @@ def shape_error(v, t):
 
 
 def scene_motion(path):
-    """[(dof, order, amplitude, phase)] of the first prescribed body of a scene file, its frequency."""
+    """[(dof, order, amplitude, phase)] of a scene file's first prescribed body; its frequency."""
     import yaml
     scene = yaml.safe_load(open(path))
     plate = next(b for b in scene["bodies"] if b.get("kind") == "prescribed")
