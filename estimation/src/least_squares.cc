@@ -11,6 +11,7 @@
 #include <mutex>
 #include <sstream>
 #include <stdexcept>
+#include <thread>
 
 #include "estimation_internal.h"
 #include "segment_sensitivity.h"
@@ -135,9 +136,16 @@ bool ParameterVariances(const sim::MatrixXd& information, VectorXd* variances) {
 // How the segments' Jacobians were obtained (shared by all segments; thread-safe).
 class JacobianStats {
  public:
-  explicit JacobianStats(bool use_sensitivity) : sensitivity(use_sensitivity) {}
-  /// Step sensitivities in use (false: finite differences).
+  explicit JacobianStats(bool use_sensitivity)
+      : sensitivity(use_sensitivity), active_(use_sensitivity) {}
+  /// Step sensitivities still possible (false: finite differences; cleared by Unsupported).
   std::atomic<bool> sensitivity;
+  /// Whether segment evaluations try the step sensitivities: `sensitivity` as of the last
+  /// Sync(), so that all segments of one (parallel) evaluation pass take the same path whatever
+  /// their order.
+  bool active() const { return active_; }
+  /// Call between evaluation passes only (not while segments are being evaluated).
+  void Sync() { active_ = sensitivity.load(); }
   void Unsupported(const std::string& why) {
     std::lock_guard<std::mutex> lock(mutex_);
     sensitivity = false;
@@ -168,6 +176,7 @@ class JacobianStats {
  private:
   mutable std::mutex mutex_;
   std::string note_, first_fallback_;
+  bool active_;
   int fallbacks_ = 0;
   long long degenerate_ = 0, mode_change_ = 0;
 };
@@ -290,7 +299,7 @@ class SegmentCost : public ceres::CostFunction {
     const double* s_next = next_ ? parameters[next_block] : nullptr;
     const int m = num_residuals();
     const bool want_state = with_state_ && jacobians && jacobians[1];
-    if (jacobians && (jacobians[0] || want_state) && stats_->sensitivity.load()) {
+    if (jacobians && (jacobians[0] || want_state) && stats_->active()) {
       // Residuals and Jacobians from one rollout with forward step sensitivities.
       SegmentSensitivityResult sr;
       try {
@@ -391,6 +400,123 @@ class SegmentCost : public ceres::CostFunction {
   FailureLog* failures_;
   JacobianStats* stats_;
   int measured_rows_ = 0, continuity_rows_ = 0;
+};
+
+// Runs f(0), ..., f(n − 1) on up to `threads` threads (indices handed out dynamically; each f(i)
+// must write only its own outputs, so the results do not depend on the thread count).
+template <typename F>
+void ParallelFor(int n, int threads, const F& f) {
+  const int workers = std::min(threads, n);
+  if (workers <= 1) {
+    for (int i = 0; i < n; ++i) f(i);
+    return;
+  }
+  std::atomic<int> next{0};
+  auto work = [&] {
+    for (int i = next++; i < n; i = next++) f(i);
+  };
+  std::vector<std::thread> pool;
+  for (int t = 1; t < workers; ++t) pool.emplace_back(work);
+  work();
+  for (std::thread& t : pool) t.join();
+}
+
+// One segment's residuals and Jacobian blocks, evaluated by ParallelEvaluation at the point
+// Ceres is about to evaluate, for SegmentCeresCost to hand over.
+struct SegmentSlot {
+  std::vector<double*> blocks;  // the segment's parameter blocks (user memory)
+  std::vector<bool> wanted;     // blocks whose Jacobian Ceres needs (not constant)
+  std::vector<VectorXd> point;  // the parameter values the slot was evaluated at
+  VectorXd residuals;
+  std::vector<RowMajor> jacobians;  // per block; empty if not evaluated
+  bool valid = false, ok = false;
+};
+
+// Determinism: Ceres with several threads sums the cost and gradient over residual blocks in
+// per-thread partial sums whose partition depends on scheduling, and its Schur eliminator adds
+// the blocks' outer products into the reduced system in thread order, so its iterates (and a
+// fit's end point near a stick–slip kink) changed with the thread count and from run to run.
+// So Ceres runs single-threaded, and the expensive part — the segment rollouts — is done here:
+// before every evaluation Ceres calls PrepareForEvaluation, which evaluates all segments in
+// parallel into their own slots; SegmentCeresCost then copies them in Ceres' fixed order. Every
+// number Ceres sees is then a function of the point alone, whatever the thread count.
+class ParallelEvaluation : public ceres::EvaluationCallback {
+ public:
+  ParallelEvaluation(int threads, JacobianStats* stats) : threads_(threads), stats_(stats) {}
+  void Add(const SegmentCost* cost, SegmentSlot* slot) {
+    costs_.push_back(cost);
+    slots_.push_back(slot);
+  }
+  /// Forget the slots (e.g. after the continuity weight changed).
+  void Invalidate() {
+    for (SegmentSlot* s : slots_) s->valid = false;
+  }
+  void PrepareForEvaluation(bool evaluate_jacobians, bool /*new_evaluation_point*/) override {
+    stats_->Sync();
+    ParallelFor(static_cast<int>(slots_.size()), threads_,
+                [&](int k) { Fill(*costs_[k], slots_[k], evaluate_jacobians); });
+  }
+
+ private:
+  static void Fill(const SegmentCost& cost, SegmentSlot* slot, bool with_jacobians) {
+    const int nb = static_cast<int>(slot->blocks.size());
+    const std::vector<int32_t>& sizes = cost.parameter_block_sizes();
+    slot->point.resize(nb);
+    slot->jacobians.resize(nb);
+    std::vector<const double*> params(nb);
+    std::vector<double*> jac(nb, nullptr);
+    for (int b = 0; b < nb; ++b) {
+      slot->point[b] = Eigen::Map<const VectorXd>(slot->blocks[b], sizes[b]);
+      params[b] = slot->point[b].data();
+      if (with_jacobians && slot->wanted[b]) {
+        slot->jacobians[b].resize(cost.num_residuals(), sizes[b]);
+        jac[b] = slot->jacobians[b].data();
+      } else {
+        slot->jacobians[b].resize(0, 0);
+      }
+    }
+    slot->residuals.resize(cost.num_residuals());
+    slot->ok =
+        cost.Evaluate(params.data(), slot->residuals.data(), with_jacobians ? jac.data() : nullptr);
+    slot->valid = true;
+  }
+
+  int threads_;
+  JacobianStats* stats_;
+  std::vector<const SegmentCost*> costs_;
+  std::vector<SegmentSlot*> slots_;
+};
+
+// The cost function Ceres sees: the slot's values when it holds the requested point and
+// Jacobians (always, during a solve), else a direct evaluation.
+class SegmentCeresCost : public ceres::CostFunction {
+ public:
+  SegmentCeresCost(const SegmentCost* cost, const SegmentSlot* slot) : cost_(cost), slot_(slot) {
+    set_num_residuals(cost->num_residuals());
+    *mutable_parameter_block_sizes() = cost->parameter_block_sizes();
+  }
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override {
+    const int nb = static_cast<int>(parameter_block_sizes().size());
+    bool cached = slot_->valid && static_cast<int>(slot_->point.size()) == nb;
+    for (int b = 0; b < nb && cached; ++b) {
+      cached =
+          Eigen::Map<const VectorXd>(parameters[b], parameter_block_sizes()[b]) == slot_->point[b];
+      if (jacobians && jacobians[b] && slot_->jacobians[b].size() == 0) cached = false;
+    }
+    if (!cached) return cost_->Evaluate(parameters, residuals, jacobians);
+    if (!slot_->ok) return false;
+    Eigen::Map<VectorXd>(residuals, num_residuals()) = slot_->residuals;
+    for (int b = 0; b < nb && jacobians; ++b)
+      if (jacobians[b])
+        Eigen::Map<RowMajor>(jacobians[b], num_residuals(), parameter_block_sizes()[b]) =
+            slot_->jacobians[b];
+    return true;
+  }
+
+ private:
+  const SegmentCost* cost_;
+  const SegmentSlot* slot_;
 };
 
 // Forwards Ceres' iteration summaries to LeastSquaresOptions::progress.
@@ -578,8 +704,13 @@ EstimateResult EstimateLeastSquares(const sim::Simulator& simulator, const Log& 
   if (jacobian_stats.sensitivity &&
       dynamic_cast<const sim::GeometricallyImplicit*>(&simulator.formulation()) != nullptr)
     jacobian_stats.Unsupported("the geometrically implicit stepper");
+  // Segment evaluations: in parallel, before Ceres asks for them (ParallelEvaluation).
+  std::vector<std::unique_ptr<SegmentCost>> owned_costs;
+  std::vector<SegmentSlot> slots(segments.size());
+  ParallelEvaluation parallel(options.threads, &jacobian_stats);
   ceres::Problem::Options po;
   po.cost_function_ownership = ceres::TAKE_OWNERSHIP;
+  po.evaluation_callback = &parallel;
   ceres::Problem problem(po);
   problem.AddParameterBlock(theta.data(), sel.size());
   for (int i = 0; i < sel.size(); ++i) {
@@ -601,16 +732,20 @@ EstimateResult EstimateLeastSquares(const sim::Simulator& simulator, const Log& 
     const int measured = has_next ? s.last - s.first : s.last - s.first + 1;
     const VectorXd scale =
         ContinuityScale(planar, ObservedDynamic(ep), ep.t[s.last] - ep.t[s.first], options);
-    auto* cost = new SegmentCost(simulator, sel, base, Slice(ep, s.first, s.last), measured, s.ref,
-                                 options.estimate_initial_state, states[k], std::move(next), scale,
-                                 &weight, options, &failures, &jacobian_stats);
+    owned_costs.push_back(std::make_unique<SegmentCost>(
+        simulator, sel, base, Slice(ep, s.first, s.last), measured, s.ref,
+        options.estimate_initial_state, states[k], std::move(next), scale, &weight, options,
+        &failures, &jacobian_stats));
+    const SegmentCost* cost = owned_costs.back().get();
     result.num_residuals += cost->measured_rows();
     continuity_rows += cost->continuity_rows();
     costs.push_back(cost);
     std::vector<double*> blocks = {theta.data()};
     if (options.estimate_initial_state) blocks.push_back(states[k].data());
     if (has_next) blocks.push_back(states[k + 1].data());
-    problem.AddResidualBlock(cost, nullptr, blocks);
+    slots[k].blocks = blocks;
+    parallel.Add(cost, &slots[k]);
+    problem.AddResidualBlock(new SegmentCeresCost(cost, &slots[k]), nullptr, blocks);
   }
   result.num_continuity_residuals = continuity_rows;
 
@@ -658,6 +793,11 @@ EstimateResult EstimateLeastSquares(const sim::Simulator& simulator, const Log& 
     }
   }
   result.num_unknowns = problem.NumParameters() - result.frozen_state_components;
+  for (SegmentSlot& slot : slots) {
+    slot.wanted.clear();
+    for (double* block : slot.blocks)
+      slot.wanted.push_back(!problem.IsParameterBlockConstant(block));
+  }
 
   ceres::Solver::Options so;
   so.minimizer_type = ceres::TRUST_REGION;
@@ -675,7 +815,7 @@ EstimateResult EstimateLeastSquares(const sim::Simulator& simulator, const Log& 
   so.function_tolerance = options.function_tolerance;
   so.parameter_tolerance = options.parameter_tolerance;
   so.gradient_tolerance = options.gradient_tolerance;
-  so.num_threads = options.threads;
+  so.num_threads = 1;  // determinism: options.threads go to ParallelEvaluation
   so.update_state_every_iteration = static_cast<bool>(options.progress);
   so.logging_type = ceres::SILENT;
   so.minimizer_progress_to_stdout = false;
@@ -687,10 +827,12 @@ EstimateResult EstimateLeastSquares(const sim::Simulator& simulator, const Log& 
   result.initial_cost = summary.initial_cost;
   while (continuity_rows > 0 && weight < options.continuity_weight && summary.IsSolutionUsable()) {
     weight = std::min(10.0 * weight, options.continuity_weight);
+    parallel.Invalidate();
     ceres::Solve(so, &problem, &summary);
     result.iterations += summary.num_successful_steps + summary.num_unsuccessful_steps;
   }
 
+  jacobian_stats.Sync();
   result.estimates = theta;
   result.final_cost = summary.final_cost;
   result.converged = summary.termination_type == ceres::CONVERGENCE;
