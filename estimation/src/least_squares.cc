@@ -70,6 +70,9 @@ struct SegmentDerivatives {
   sim::MatrixXd end_theta, end_state;            // empty for an episode's last segment
 };
 
+// Relative singular-value cut-off of the unit-scaled initial-state Jacobian (EpisodeInformation).
+constexpr double kRankTolerance = 1e-6;
+
 // The information about θ of one episode, JθᵀJθ − JθᵀJs (JsᵀJs)⁺ JsᵀJθ (the Schur complement
 // that profiles out the episode's free initial-state components), with J the Jacobian of all the
 // episode's measured residuals with respect to θ and its free initial-state components s_0,F.
@@ -105,14 +108,24 @@ sim::MatrixXd EpisodeInformation(const std::vector<SegmentDerivatives>& chain,
   const sim::MatrixXd Jt = J.leftCols(np);
   if (nf == 0) return Jt.transpose() * Jt;
   // Jθ's part orthogonal to the columns of Js (scaled to unit norm; columns the data do not
-  // see are dropped), by a rank-revealing least-squares fit.
+  // see are dropped), by a rank-revealing least-squares fit. The rank cut-off must be above
+  // the accuracy of the finite-difference columns (relative step 1e-6: round-off ~1e-10 of a
+  // column, more through the contact solves): a dependent pair of columns — e.g. on a block
+  // sliding on the floor the initial vy, whose only effect is the friction impulse of the
+  // first step, is a multiple of vx to ~1e-10 — must count as one direction. With a cut-off
+  // of 1e-10 such a pair counted as two in some fits (singular value 1.4e-10) and not in
+  // others (3e-11): the spurious direction, pure differencing noise, was projected out of Jθ
+  // and the standard error came out 25–90% too large at the same μ̂ (closed form for the
+  // noisy block: 0.00130; reported 0.00163 single, 0.00132 multiple shooting, 0.0024 with
+  // w = 1e5); with 1e-6 all gave 0.001315. Genuine state directions here have singular
+  // values ≥ 0.1.
   sim::MatrixXd Js = J.rightCols(nf);
   for (int f = 0; f < nf; ++f) {
     const double n = Js.col(f).norm();
     Js.col(f) = n > 0 ? sim::MatrixXd(Js.col(f) / n) : sim::MatrixXd::Zero(rows, 1);
   }
   Eigen::CompleteOrthogonalDecomposition<sim::MatrixXd> cod;
-  cod.setThreshold(1e-10);
+  cod.setThreshold(kRankTolerance);
   cod.compute(Js);
   const sim::MatrixXd residual = Jt - Js * cod.solve(Jt);
   return residual.transpose() * residual;
