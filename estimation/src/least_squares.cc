@@ -12,6 +12,7 @@
 #include <sstream>
 #include <stdexcept>
 #include <thread>
+#include <utility>
 
 #include "estimation_internal.h"
 #include "segment_sensitivity.h"
@@ -146,6 +147,43 @@ bool ParameterVariances(const sim::MatrixXd& information, VectorXd* variances) {
   return true;
 }
 
+// Events of segment evaluations (failures, fallbacks), counted, with one reported: the first
+// by evaluation pass, then by segment, so that the message does not depend on which thread got
+// there first. Record is thread-safe; NextPass is called between passes only.
+class OrderedLog {
+ public:
+  void NextPass() { ++pass_; }
+  void Record(int segment, const std::string& what) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const std::pair<long, int> key(pass_, segment);
+    if (count_++ == 0 || key < first_key_) {
+      first_key_ = key;
+      first_ = what;
+    }
+  }
+  int count() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return count_;
+  }
+  std::string first() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return first_;
+  }
+  /// "N evaluation(s) failed, first: ..." or "" (as internal::FailureLog).
+  std::string Summary() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (count_ == 0) return "";
+    return std::to_string(count_) + " evaluation(s) failed, first: " + first_;
+  }
+
+ private:
+  mutable std::mutex mutex_;
+  long pass_ = 0;
+  int count_ = 0;
+  std::pair<long, int> first_key_;
+  std::string first_;
+};
+
 // How the segments' Jacobians were obtained (shared by all segments; thread-safe).
 class JacobianStats {
  public:
@@ -158,17 +196,16 @@ class JacobianStats {
   /// their order.
   bool active() const { return active_; }
   /// Call between evaluation passes only (not while segments are being evaluated).
-  void Sync() { active_ = sensitivity.load(); }
-  void Unsupported(const std::string& why) {
-    std::lock_guard<std::mutex> lock(mutex_);
+  void Sync() {
+    active_ = sensitivity.load();
+    unsupported_.NextPass();
+    fallbacks_.NextPass();
+  }
+  void Unsupported(int segment, const std::string& why) {
     sensitivity = false;
-    if (note_.empty()) note_ = "no step sensitivities (" + why + "): finite differences";
+    unsupported_.Record(segment, why);
   }
-  void Fallback(const std::string& why) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    ++fallbacks_;
-    if (first_fallback_.empty()) first_fallback_ = why;
-  }
+  void Fallback(int segment, const std::string& why) { fallbacks_.Record(segment, why); }
   void Count(int degenerate, int mode_change) {
     std::lock_guard<std::mutex> lock(mutex_);
     degenerate_ += degenerate;
@@ -177,20 +214,22 @@ class JacobianStats {
   void Report(EstimateResult* r) const {
     std::lock_guard<std::mutex> lock(mutex_);
     r->jacobian = sensitivity ? "sensitivity" : "fd";
-    r->jacobian_note = note_;
-    if (fallbacks_ > 0)
-      r->jacobian_note += (note_.empty() ? "" : "; ") + std::to_string(fallbacks_) +
-                          " evaluation(s) by finite differences, first: " + first_fallback_;
-    r->jacobian_fallbacks = fallbacks_;
+    r->jacobian_note = unsupported_.count() > 0 ? "no step sensitivities (" + unsupported_.first() +
+                                                      "): finite differences"
+                                                : "";
+    const int fallbacks = fallbacks_.count();
+    if (fallbacks > 0)
+      r->jacobian_note += (r->jacobian_note.empty() ? "" : "; ") + std::to_string(fallbacks) +
+                          " evaluation(s) by finite differences, first: " + fallbacks_.first();
+    r->jacobian_fallbacks = fallbacks;
     r->degenerate_steps = degenerate_;
     r->mode_change_steps = mode_change_;
   }
 
  private:
   mutable std::mutex mutex_;
-  std::string note_, first_fallback_;
+  OrderedLog unsupported_, fallbacks_;
   bool active_;
-  int fallbacks_ = 0;
   long long degenerate_ = 0, mode_change_ = 0;
 };
 
@@ -208,7 +247,7 @@ class SegmentCost : public ceres::CostFunction {
               Episode segment, int measured_samples, const State& ref, bool with_state,
               const VectorXd& fixed_state, std::unique_ptr<Episode> next,
               const VectorXd& continuity_scale, const double* weight,
-              const LeastSquaresOptions& opt, FailureLog* failures, JacobianStats* stats)
+              const LeastSquaresOptions& opt, int index, OrderedLog* failures, JacobianStats* stats)
       : sim_(sim),
         sel_(sel),
         base_(base),
@@ -220,6 +259,7 @@ class SegmentCost : public ceres::CostFunction {
         scale_(continuity_scale),
         weight_(weight),
         opt_(opt),
+        index_(index),
         failures_(failures),
         stats_(stats) {
     measured_rows_ = measured_samples * ResidualsPerSample(ep_, sim.scene().dim);
@@ -272,7 +312,7 @@ class SegmentCost : public ceres::CostFunction {
     try {
       return EvaluateOrThrow(parameters, residuals, jacobians);
     } catch (const std::exception& e) {
-      failures_->Record(ep_.file + ": " + e.what());
+      failures_->Record(index_, ep_.file + ": " + e.what());
       return false;
     }
   }
@@ -287,7 +327,8 @@ class SegmentCost : public ceres::CostFunction {
     sim::Trajectory tr;
     if (!RolloutResiduals(sim_, p, ep_, x0, opt_.orientation_length, &measured, &failure,
                           next_ ? &tr : nullptr)) {
-      failures_->Record(ep_.file + " (t = " + std::to_string(ep_.t.front()) + "): " + failure);
+      failures_->Record(index_,
+                        ep_.file + " (t = " + std::to_string(ep_.t.front()) + "): " + failure);
       return false;
     }
     r->resize(num_residuals());
@@ -319,12 +360,13 @@ class SegmentCost : public ceres::CostFunction {
         sr = SegmentSensitivity(sim_, sel_, sel_.Set(base_, theta), ep_, ref_, s, want_state,
                                 measured_rows_, next_.get(), opt_.orientation_length);
       } catch (const std::invalid_argument& e) {
-        stats_->Unsupported(e.what());  // no step sensitivities here: finite differences
+        stats_->Unsupported(index_, e.what());  // no step sensitivities here: finite differences
         sr.status = SegmentSensitivityStatus::kSensitivityFailed;
         sr.failure.clear();
       }
       if (sr.status == SegmentSensitivityStatus::kRolloutFailed && !sr.failure.empty()) {
-        failures_->Record(ep_.file + " (t = " + std::to_string(ep_.t.front()) + "): " + sr.failure);
+        failures_->Record(index_,
+                          ep_.file + " (t = " + std::to_string(ep_.t.front()) + "): " + sr.failure);
         return false;
       }
       if (sr.status == SegmentSensitivityStatus::kOk) {
@@ -353,7 +395,7 @@ class SegmentCost : public ceres::CostFunction {
         }
         return true;
       }
-      if (!sr.failure.empty()) stats_->Fallback(ep_.file + ": " + sr.failure);
+      if (!sr.failure.empty()) stats_->Fallback(index_, ep_.file + ": " + sr.failure);
     }
     VectorXd r;
     if (!Residuals(theta, s, s_next, &r)) return false;
@@ -410,7 +452,8 @@ class SegmentCost : public ceres::CostFunction {
   const VectorXd scale_;
   const double* weight_;  // the continuity weight w of the current stage
   const LeastSquaresOptions& opt_;
-  FailureLog* failures_;
+  const int index_;  // the segment's position in the problem (orders OrderedLog entries)
+  OrderedLog* failures_;
   JacobianStats* stats_;
   int measured_rows_ = 0, continuity_rows_ = 0;
 };
@@ -455,7 +498,8 @@ struct SegmentSlot {
 // number Ceres sees is then a function of the point alone, whatever the thread count.
 class ParallelEvaluation : public ceres::EvaluationCallback {
  public:
-  ParallelEvaluation(int threads, JacobianStats* stats) : threads_(threads), stats_(stats) {}
+  ParallelEvaluation(int threads, JacobianStats* stats, OrderedLog* failures)
+      : threads_(threads), stats_(stats), failures_(failures) {}
   void Add(const SegmentCost* cost, SegmentSlot* slot) {
     costs_.push_back(cost);
     slots_.push_back(slot);
@@ -466,6 +510,7 @@ class ParallelEvaluation : public ceres::EvaluationCallback {
   }
   void PrepareForEvaluation(bool evaluate_jacobians, bool /*new_evaluation_point*/) override {
     stats_->Sync();
+    failures_->NextPass();
     ParallelFor(static_cast<int>(slots_.size()), threads_,
                 [&](int k) { Fill(*costs_[k], slots_[k], evaluate_jacobians); });
   }
@@ -496,6 +541,7 @@ class ParallelEvaluation : public ceres::EvaluationCallback {
 
   int threads_;
   JacobianStats* stats_;
+  OrderedLog* failures_;
   std::vector<const SegmentCost*> costs_;
   std::vector<SegmentSlot*> slots_;
 };
@@ -623,14 +669,14 @@ bool SegmentJacobian(const sim::Simulator& simulator, const Log& log, int episod
   const VectorXd scale =
       ContinuityScale(Planar(simulator), ObservedDynamic(ep), ep.t[last] - ep.t[first], options);
   const double weight = 1.0;
-  FailureLog failures;
+  OrderedLog failures;
   JacobianStats stats(options.jacobian == LeastSquaresJacobian::kSensitivity);
   if (stats.sensitivity &&
       dynamic_cast<const sim::GeometricallyImplicit*>(&simulator.formulation()) != nullptr)
-    stats.Unsupported("the geometrically implicit stepper");
+    stats.Unsupported(0, "the geometrically implicit stepper");
   const Params base = simulator.DefaultParams();
   const SegmentCost cost(simulator, sel, base, Slice(ep, first, last), measured, ref, true, *s,
-                         std::move(next), scale, &weight, options, &failures, &stats);
+                         std::move(next), scale, &weight, options, 0, &failures, &stats);
   SegmentDerivatives sj;
   const bool ok = cost.Jacobians(theta, *s, has_next ? s_next.data() : nullptr, &sj, residuals);
   EstimateResult r;
@@ -712,15 +758,15 @@ EstimateResult EstimateLeastSquares(const sim::Simulator& simulator, const Log& 
         states[k][j] = 0.0;
   }
 
-  FailureLog failures;
+  OrderedLog failures;
   JacobianStats jacobian_stats(options.jacobian == LeastSquaresJacobian::kSensitivity);
   if (jacobian_stats.sensitivity &&
       dynamic_cast<const sim::GeometricallyImplicit*>(&simulator.formulation()) != nullptr)
-    jacobian_stats.Unsupported("the geometrically implicit stepper");
+    jacobian_stats.Unsupported(0, "the geometrically implicit stepper");
   // Segment evaluations: in parallel, before Ceres asks for them (ParallelEvaluation).
   std::vector<std::unique_ptr<SegmentCost>> owned_costs;
   std::vector<SegmentSlot> slots(segments.size());
-  ParallelEvaluation parallel(options.threads, &jacobian_stats);
+  ParallelEvaluation parallel(options.threads, &jacobian_stats, &failures);
   ceres::Problem::Options po;
   po.cost_function_ownership = ceres::TAKE_OWNERSHIP;
   po.evaluation_callback = &parallel;
@@ -748,7 +794,7 @@ EstimateResult EstimateLeastSquares(const sim::Simulator& simulator, const Log& 
     owned_costs.push_back(std::make_unique<SegmentCost>(
         simulator, sel, base, Slice(ep, s.first, s.last), measured, s.ref,
         options.estimate_initial_state, states[k], std::move(next), scale, &weight, options,
-        &failures, &jacobian_stats));
+        static_cast<int>(k), &failures, &jacobian_stats));
     const SegmentCost* cost = owned_costs.back().get();
     result.num_residuals += cost->measured_rows();
     continuity_rows += cost->continuity_rows();
