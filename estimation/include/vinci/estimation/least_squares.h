@@ -79,7 +79,7 @@ struct LeastSquaresOptions {
   /// Multiple shooting: weight w of the continuity residuals relative to the measurements.
   double continuity_weight = 1e3;
   double orientation_length = 0.1;  ///< m per rad for orientation residuals
-  int threads = 1;                  ///< Ceres evaluation threads (episodes in parallel)
+  int threads = 1;                  ///< segments evaluated in parallel (same bits for any count)
   int max_iterations = 100;
   double function_tolerance = 1e-12;
   double parameter_tolerance = 1e-10;
