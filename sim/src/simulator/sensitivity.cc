@@ -1,5 +1,6 @@
 #include "vinci/sim/simulator/sensitivity.h"
 
+#include <Eigen/LU>
 #include <Eigen/QR>
 #include <algorithm>
 #include <cmath>
@@ -52,7 +53,10 @@ class Linearization {
  public:
   // `vals` holds the step equations and their z Jacobians at the linearization point; `nx`
   // rows of dz are the end state (q_ℓ+1, ν_ℓ+1) unless the model writes it otherwise.
-  Linearization(const StepModelValues& vals, const SensitivityOptions& options, bool smoothed) {
+  // `gi`: the step layout if the model is the geometrically implicit stepper's (its unloaded
+  // candidate pairs are pinned, below), else null.
+  Linearization(const StepModelValues& vals, const SensitivityOptions& options, bool smoothed,
+                const StepLayout* gi) {
     const MatrixXd E = MatrixXd(vals.d_equality.d_z);
     A_ = MatrixXd(vals.d_comp_a.d_z);
     B_ = MatrixXd(vals.d_comp_b.d_z);
@@ -71,8 +75,25 @@ class Linearization {
     side_.assign(np, 'a');
     weight_a_ = VectorXd::Zero(np);
     weight_b_ = VectorXd::Zero(np);
+    const double inert_tol = options.active_tol * std::max(1.0, B_.cwiseAbs().maxCoeff());
+    std::vector<int> inert;  // GI pairs whose cone pair is inert
     for (int i = 0; i < np; ++i) {
       const bool a0 = a[i] <= tol, b0 = b[i] <= tol;
+      if (gi && !smoothed && a0 && b0 && B_.row(i).cwiseAbs().maxCoeff() <= inert_tol) {
+        // A GI cone pair (σ, μ² p_n² − ‖p_t‖²) of an unloaded pair, p_n = p_t = 0: b has no
+        // first-order variation and the pair's friction rows μ p_n v_t' + σ p_t are 0 = 0 to
+        // first order, leaving p_t free in K. The cone with p_n at 0 allows no p_t: the pair is
+        // held at dσ = 0 and its friction rows are replaced by dp_t = 0 (below). Not a kink of
+        // the solution map where p_n is held at 0 (if p_n is degenerate, its own pair is).
+        Eigen::Index col = 0;
+        A_.row(i).cwiseAbs().maxCoeff(&col);
+        const int k = static_cast<int>(col) - gi->sigma();
+        if (k >= 0 && k < gi->nc) {
+          side_[i] = 'a';
+          inert.push_back(k);
+          continue;
+        }
+      }
       if (a0 && b0) {
         ++degenerate_;
         switch (options.degenerate) {
@@ -106,18 +127,32 @@ class Linearization {
       }
       K_.row(ne + i) = weight_a_[i] * A_.row(i) + weight_b_[i] * B_.row(i);
     }
+    // GI equality rows (geometrically_implicit.h): [dynamics (nv); kinematics (nq); per pair:
+    // separation (d), normals (d), A side, B side, friction (d − 1 = nd)].
+    for (int k : inert) {
+      for (int j = 0; j < gi->nd; ++j) {
+        const int row = gi->nv + gi->nq + k * (3 * gi->nd + 4) + 2 * gi->nd + 4 + j;
+        if (row >= ne) continue;
+        K_.row(row).setZero();
+        K_(row, gi->pf() + k * gi->nd + j) = 1.0;
+        pinned_.push_back(row);
+      }
+    }
     if (smoothed) deg_.clear();
-    cod_.setThreshold(1e-12);
-    cod_.compute(K_);
+    // A regular K (no redundant contacts) by LU with partial pivoting; a singular or nearly
+    // singular one (redundant contacts: impulses not unique) by the rank-revealing complete
+    // orthogonal decomposition, whose solutions' state part is still unique where consistent.
+    lu_.compute(K_);
+    use_lu_ = lu_.rcond() > kLuMinRcond;
+    if (!use_lu_) {
+      cod_.setThreshold(1e-12);
+      cod_.compute(K_);
+    }
     k_norm_ = K_.cwiseAbs().maxCoeff();
     if (!deg_.empty()) {
       const int nd = static_cast<int>(deg_.size());
-      MatrixXd ED = MatrixXd::Zero(nz_, nd);
-      for (int j = 0; j < nd; ++j) ED(ne + deg_[j], j) = 1.0;
-      W_ = cod_.solve(ED);
       BD_.resize(nd, nz_);
       for (int j = 0; j < nd; ++j) BD_.row(j) = B_.row(deg_[j]);
-      lcp_.M = BD_ * W_;
     }
     ne_ = ne;
     ok_ = true;
@@ -136,19 +171,28 @@ class Linearization {
     VectorXd rhs(nz_);
     rhs.head(ne_) = r.eq;
     rhs.tail(nz_ - ne_) = weight_a_.cwiseProduct(r.a) + weight_b_.cwiseProduct(r.b);
-    *dz = cod_.solve(-rhs);
+    for (int row : pinned_) rhs[row] = 0.0;
+    *dz = use_lu_ ? VectorXd(lu_.solve(-rhs)) : VectorXd(cod_.solve(-rhs));
     const double resid = (K_ * *dz + rhs).cwiseAbs().maxCoeff();
     const double ref = rhs.cwiseAbs().maxCoeff() + k_norm_ * dz->cwiseAbs().maxCoeff();
     if (!std::isfinite(resid) || resid > 1e-6 * ref + 1e-300) return false;
     if (deg_.empty()) return true;
     const int nd = static_cast<int>(deg_.size());
     LcpProblem p;
-    p.M = lcp_.M;
     p.q.resize(nd);
     for (int j = 0; j < nd; ++j) p.q[j] = B_.row(deg_[j]).dot(*dz) + r.b[deg_[j]];
     // λ = 0 is the solution unless some q_j is negative beyond the round-off of its terms.
     const double qscale = (BD_.cwiseAbs() * dz->cwiseAbs()).maxCoeff() + r.b.cwiseAbs().maxCoeff();
     if (p.q.minCoeff() >= -1e-10 * qscale) return true;
+    if (W_.cols() != nd) {
+      // K⁻¹ E_D and the sensitivity LCP's matrix, once per step and only when some column needs
+      // them (most columns of a sticking step keep λ = 0).
+      MatrixXd ED = MatrixXd::Zero(nz_, nd);
+      for (int j = 0; j < nd; ++j) ED(ne_ + deg_[j], j) = 1.0;
+      W_ = use_lu_ ? MatrixXd(lu_.solve(ED)) : MatrixXd(cod_.solve(ED));
+      lcp_M_ = BD_ * W_;
+    }
+    p.M = lcp_M_;
     VectorXd lambda;
     const SolverReport rep = LemkeSolver().Solve(p, nullptr, &lambda);
     if (rep.status != SolverStatus::kSolved) {
@@ -163,13 +207,18 @@ class Linearization {
   bool ok_ = false;
   std::string message_;
   int nz_ = 0, ne_ = 0, degenerate_ = 0;
-  MatrixXd A_, B_, K_, W_, BD_;
+  MatrixXd A_, B_, K_, BD_;
+  mutable MatrixXd W_, lcp_M_;  // K⁻¹ E_D and B_D K⁻¹ E_D, computed on first need
   VectorXd weight_a_, weight_b_;
   std::vector<char> side_;
   std::vector<int> deg_;
+  std::vector<int> pinned_;  // equality rows replaced by dp_t = 0 (inert GI pairs)
+  // Below this reciprocal condition number K is treated as singular (COD).
+  static constexpr double kLuMinRcond = 1e-10;
+  Eigen::PartialPivLU<MatrixXd> lu_;
+  bool use_lu_ = false;
   Eigen::CompleteOrthogonalDecomposition<MatrixXd> cod_;
   double k_norm_ = 0.0;
-  LcpProblem lcp_;
 };
 
 // The smoothed step's solution: Newton on [equality; φ_ε(a, b)] = 0 from z*.
@@ -227,10 +276,14 @@ class StepDifferentiator {
  public:
   StepDifferentiator(const Simulator& sim, const Params& params, const ParamSelection& selection,
                      const State& x, const StepInput& u, const State& next,
-                     const SensitivityOptions& options, bool full_state)
+                     const SensitivityOptions& options, bool full_state, Workspace* ws)
       : sim_(sim), params_(params), selection_(selection), x_(x), u_(u), options_(options) {
-    const Scene& model = sim.ResolveWithInputs(params, u, &ws_);
-    frozen_ = Freeze(sim.formulation(), model, params, x, u);
+    // The scene resolved in the caller's workspace (the step's own: no copy if it already holds
+    // these parameters), shared by the frozen model.
+    Workspace* w = ws ? ws : &own_ws_;
+    const Scene& model = sim.ResolveWithInputs(params, u, w);
+    frozen_ =
+        Freeze(sim.formulation(), u.motions.empty() ? w->model : w->motion_model, params, x, u);
     z_ = frozen_->UnknownsFromStep(next);
     if (options.smoothing > 0.0) {
       if (!SmoothedSolution(*frozen_, params, x, u, options.smoothing, &z_)) {
@@ -242,15 +295,22 @@ class StepDifferentiator {
     o.state_jacobian = full_state;
     o.state_step = options.state_step;
     vals_ = frozen_->Evaluate(z_, params, x, u, o);
-    lin_ = std::make_unique<Linearization>(vals_, options, options.smoothing > 0.0);
+    const bool gi = dynamic_cast<const GeometricallyImplicit*>(&sim.formulation()) != nullptr;
+    lin_ = std::make_unique<Linearization>(vals_, options, options.smoothing > 0.0,
+                                           gi ? &frozen_->layout() : nullptr);
     if (!lin_->ok()) {
       message_ = lin_->message();
       return;
     }
-    // A mode change within the step: the contact set found at the end differs.
-    const StepLayout end = sim.formulation().Layout(model, next);
-    const StepLayout& l = frozen_->layout();
-    contact_set_changed_ = end.nc != l.nc || end.nk != l.nk || end.ns != l.ns;
+    // A mode change within the step: the contact set found at the end differs. GI finds its
+    // contacts at ℓ+1 inside the step (a contact made within the step is one of its pairs'
+    // complementarity, classified above); its candidate pairs at ℓ+1 belong to the next step.
+    explicit_start_ = gi;
+    if (!explicit_start_) {
+      const StepLayout end = sim.formulation().Layout(model, next);
+      const StepLayout& l = frozen_->layout();
+      contact_set_changed_ = end.nc != l.nc || end.nk != l.nk || end.ns != l.ns;
+    }
     ok_ = true;
   }
 
@@ -354,8 +414,10 @@ class StepDifferentiator {
     return a;
   }
 
-  // ∂x_ℓ+1 along a residual column; NaN if the system is inconsistent along it.
-  VectorXd EndStateDerivative(const ResidualColumn& r, bool* unsolved, bool* failed) const {
+  // ∂x_ℓ+1 along a residual column whose state direction is s (empty: none); NaN if the system
+  // is inconsistent along it.
+  VectorXd EndStateDerivative(const ResidualColumn& r, const VectorXd& s, bool* unsolved,
+                              bool* failed) const {
     *failed = false;
     VectorXd dz;
     if (!r.eq.allFinite() || !r.a.allFinite() || !r.b.allFinite() ||
@@ -363,17 +425,31 @@ class StepDifferentiator {
       *failed = true;
       return VectorXd::Constant(nx(), kNaN);
     }
-    // The end state as the model writes it from z: linear in z for every formulation but GI
-    // (a central difference along the unit direction dz/‖dz‖ is exact for a linear map, O(h²)
-    // otherwise; scaled back by ‖dz‖ so tiny or huge columns neither under- nor overflow).
-    const double dn = dz.cwiseAbs().maxCoeff();
+    // The end state as the model writes it from z (and, for GI, from x_ℓ: a spatial body's
+    // R_ℓ+1 = R_ℓ Exp(φ)): linear in z for every formulation but GI. A central difference along
+    // the unit direction (dz, s)/‖(dz, s)‖ is exact for a linear map, O(h²) otherwise; scaled
+    // back so tiny or huge columns neither under- nor overflow.
+    const bool with_x = explicit_start_ && s.size() == nx() && s.allFinite();
+    const double dn = std::max(dz.cwiseAbs().maxCoeff(), with_x ? s.cwiseAbs().maxCoeff() : 0.0);
     if (!(dn > 0.0)) return VectorXd::Zero(nx());
-    const VectorXd unit = dz / dn;
     const double h = 1e-6 * std::max(1.0, z_.cwiseAbs().maxCoeff());
-    const State p = frozen_->StateFromUnknowns(z_ + h * unit);
-    const State m = frozen_->StateFromUnknowns(z_ - h * unit);
+    const double t = h / dn;
+    State p, m;
+    if (with_x) {
+      const int nq = static_cast<int>(x_.q.size());
+      State xp = x_, xm = x_;
+      xp.q += t * s.head(nq);
+      xm.q -= t * s.head(nq);
+      xp.v += t * s.tail(s.size() - nq);
+      xm.v -= t * s.tail(s.size() - nq);
+      p = frozen_->StateFromUnknowns(z_ + t * dz, xp);
+      m = frozen_->StateFromUnknowns(z_ - t * dz, xm);
+    } else {
+      p = frozen_->StateFromUnknowns(z_ + t * dz);
+      m = frozen_->StateFromUnknowns(z_ - t * dz);
+    }
     VectorXd d(nx());
-    d << (p.q - m.q) * (dn / (2 * h)), (p.v - m.v) * (dn / (2 * h));
+    d << (p.q - m.q) / (2 * t), (p.v - m.v) / (2 * t);
     return d;
   }
 
@@ -384,23 +460,17 @@ class StepDifferentiator {
   const State& x_;
   const StepInput& u_;
   SensitivityOptions options_;
-  Workspace ws_;
+  Workspace own_ws_;  // when the caller passes none
   std::unique_ptr<StepModel> frozen_;
   VectorXd z_;
   StepModelValues vals_;
   std::unique_ptr<Linearization> lin_;
   bool ok_ = false, contact_set_changed_ = false;
+  bool explicit_start_ = false;  // the end state depends on x_ℓ explicitly (GI)
   std::string message_;
 };
 
 void CheckSelection(const Simulator& sim, const ParamSelection& selection) {
-  // GI writes q_ℓ+1 from its unknowns and x_ℓ (geometrically_implicit.h): ∂x_ℓ+1/∂x_ℓ would miss
-  // that explicit term, so its derivatives are refused rather than returned wrong.
-  if (dynamic_cast<const GeometricallyImplicit*>(&sim.formulation()) != nullptr)
-    throw std::invalid_argument(
-        "sensitivity: formulation 'geometrically-implicit' is not supported (its end state is "
-        "written from the step unknowns and x_l); expected stewart-trinkle, anitescu-potra, "
-        "first-order, ncp or quasistatic, or finite differences (finite_difference.h)");
   const ParamTable& table = sim.scene().param_table();
   for (int index : selection.indices()) {
     if (index < 0 || index >= table.size())
@@ -477,11 +547,11 @@ std::vector<std::string> SensitivityParameterNames(const ParamTable& table) {
 StepSensitivity StepDerivatives(const Simulator& sim, const Params& params,
                                 const ParamSelection& selection, const State& x, const StepInput& u,
                                 const State& next, bool with_state,
-                                const SensitivityOptions& options) {
+                                const SensitivityOptions& options, Workspace* ws) {
   CheckSelection(sim, selection);
   const int nx = static_cast<int>(x.q.size() + x.v.size());
   StepSensitivity out;
-  StepDifferentiator d(sim, params, selection, x, u, next, options, with_state);
+  StepDifferentiator d(sim, params, selection, x, u, next, options, with_state, ws);
   if (!d.ok()) {
     out.status = SensitivityStatus::kFailed;
     out.message = d.message();
@@ -496,7 +566,7 @@ StepSensitivity StepDerivatives(const Simulator& sim, const Params& params,
     const ResidualColumn r = d.ParamColumn(j);
     changed = changed || r.contact_set_changed;
     bool uns = false, f = false;
-    out.d_theta.col(j) = d.EndStateDerivative(r, &uns, &f);
+    out.d_theta.col(j) = d.EndStateDerivative(r, VectorXd(), &uns, &f);
     unsolved += uns;
     failed = failed || (f && !r.contact_set_changed);
   }
@@ -504,7 +574,7 @@ StepSensitivity StepDerivatives(const Simulator& sim, const Params& params,
     out.d_x.resize(nx, nx);
     for (int i = 0; i < nx; ++i) {
       bool uns = false, f = false;
-      out.d_x.col(i) = d.EndStateDerivative(d.StateColumn(i), &uns, &f);
+      out.d_x.col(i) = d.EndStateDerivative(d.StateColumn(i), VectorXd::Unit(nx, i), &uns, &f);
       unsolved += uns;
       failed = failed || f;
     }
@@ -521,7 +591,7 @@ StepSensitivity StepDerivatives(const Simulator& sim, const Params& params,
 StepSensitivity PropagateStep(const Simulator& sim, const Params& params,
                               const ParamSelection& selection, const State& x, const StepInput& u,
                               const State& next, const MatrixXd& S, MatrixXd* S_next,
-                              const SensitivityOptions& options) {
+                              const SensitivityOptions& options, Workspace* ws) {
   CheckSelection(sim, selection);
   const int nx = static_cast<int>(x.q.size() + x.v.size());
   const int p = selection.size(), ncols = static_cast<int>(S.cols());
@@ -532,7 +602,7 @@ StepSensitivity PropagateStep(const Simulator& sim, const Params& params,
   // Many columns: one full state Jacobian is cheaper than a directional difference per column.
   const bool full_state = ncols > nx;
   StepSensitivity st;
-  StepDifferentiator d(sim, params, selection, x, u, next, options, full_state);
+  StepDifferentiator d(sim, params, selection, x, u, next, options, full_state, ws);
   *S_next = MatrixXd::Constant(nx, ncols, kNaN);
   if (!d.ok()) {
     st.status = SensitivityStatus::kFailed;
@@ -559,7 +629,7 @@ StepSensitivity PropagateStep(const Simulator& sim, const Params& params,
     }
     changed = changed || r.contact_set_changed;
     bool uns = false, f = false;
-    S_next->col(c) = d.EndStateDerivative(r, &uns, &f);
+    S_next->col(c) = d.EndStateDerivative(r, S.col(c), &uns, &f);
     unsolved += uns;
     failed = failed || (f && !r.contact_set_changed);
   }
@@ -596,7 +666,8 @@ RolloutSensitivity RolloutForward(const Simulator& sim, const Params& params,
           "step " + std::to_string(k) + ": " + out.trajectory.steps.back().failure;
       break;
     }
-    StepSensitivity st = PropagateStep(sim, params, selection, x, inputs[k], next, S, &S1, options);
+    StepSensitivity st =
+        PropagateStep(sim, params, selection, x, inputs[k], next, S, &S1, options, &ws);
     Count(st.status, &out.exact_steps, &out.degenerate_steps, &out.mode_change_steps,
           &out.failed_steps);
     out.steps.push_back(std::move(st));
@@ -629,7 +700,8 @@ RolloutGradient RolloutReverse(const Simulator& sim, const Params& params,
       out.failure = "step " + std::to_string(k) + ": " + info.failure;
       return out;
     }
-    StepSensitivity st = StepDerivatives(sim, params, selection, x, inputs[k], next, true, options);
+    StepSensitivity st =
+        StepDerivatives(sim, params, selection, x, inputs[k], next, true, options, &ws);
     Count(st.status, &out.exact_steps, &out.degenerate_steps, &out.mode_change_steps,
           &out.failed_steps);
     failed = failed || st.status == SensitivityStatus::kFailed;
