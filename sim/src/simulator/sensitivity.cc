@@ -19,6 +19,12 @@ namespace vinci::sim {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+// A column whose held active set stays feasible (to first order) only for perturbations below
+// this (relative to the column variable, at least 1) is flagged: its derivative is that of the
+// step's branch, which steps perturbed by any practical amount have left. Happens where K is
+// nearly singular and the solver form's small compliances decide the impulse split (a GI sphere
+// resting in the groove between two spheres: ∂p_n/∂z_ℓ ~ 1e8, the cone reached at ~1e-11 m).
+constexpr double kMinStableRadius = 1e-6;
 
 bool IsMotionKind(ParamKind k) {
   switch (k) {
@@ -72,10 +78,15 @@ class Linearization {
     const double scale = std::max(a.size() ? a.cwiseAbs().maxCoeff() : 0.0,
                                   b.size() ? b.cwiseAbs().maxCoeff() : 0.0);
     const double tol = options.active_tol * scale + 10.0 * vals.Violation();
+    a_ = a;
+    b_ = b;
+    tol_ = tol;
+    smoothed_ = smoothed;
     side_.assign(np, 'a');
     weight_a_ = VectorXd::Zero(np);
     weight_b_ = VectorXd::Zero(np);
-    const double inert_tol = options.active_tol * std::max(1.0, B_.cwiseAbs().maxCoeff());
+    const double inert_tol =
+        options.active_tol * std::max(1.0, B_.size() ? B_.cwiseAbs().maxCoeff() : 0.0);
     std::vector<int> inert;  // GI pairs whose cone pair is inert
     for (int i = 0; i < np; ++i) {
       const bool a0 = a[i] <= tol, b0 = b[i] <= tol;
@@ -89,7 +100,7 @@ class Linearization {
         A_.row(i).cwiseAbs().maxCoeff(&col);
         const int k = static_cast<int>(col) - gi->sigma();
         if (k >= 0 && k < gi->nc) {
-          side_[i] = 'a';
+          side_[i] = 'i';
           inert.push_back(k);
           continue;
         }
@@ -148,7 +159,7 @@ class Linearization {
       cod_.setThreshold(1e-12);
       cod_.compute(K_);
     }
-    k_norm_ = K_.cwiseAbs().maxCoeff();
+    k_norm_ = K_.size() ? K_.cwiseAbs().maxCoeff() : 0.0;
     if (!deg_.empty()) {
       const int nd = static_cast<int>(deg_.size());
       BD_.resize(nd, nz_);
@@ -203,6 +214,29 @@ class Linearization {
     return true;
   }
 
+  // How far along a column (dz its solution, r its residual column) the held active set stays
+  // feasible to first order: the smallest t at which a strictly positive side of a held pair
+  // (b where a is held at 0, a where b is) reaches 0. +∞ for the smoothed step, and where no
+  // positive side decreases. Degenerate pairs are excluded (their side is chosen per column).
+  double StableRadius(const ResidualColumn& r, const VectorXd& dz) const {
+    double rho = std::numeric_limits<double>::infinity();
+    if (smoothed_) return rho;
+    for (int i = 0; i < static_cast<int>(side_.size()); ++i) {
+      double slack = 0.0, rate = 0.0;
+      if (side_[i] == 'a') {
+        slack = b_[i];
+        rate = B_.row(i).dot(dz) + r.b[i];
+      } else if (side_[i] == 'b') {
+        slack = a_[i];
+        rate = A_.row(i).dot(dz) + r.a[i];
+      } else {
+        continue;
+      }
+      if (rate < 0.0 && slack > tol_) rho = std::min(rho, slack / -rate);
+    }
+    return rho;
+  }
+
  private:
   bool ok_ = false;
   std::string message_;
@@ -210,7 +244,10 @@ class Linearization {
   MatrixXd A_, B_, K_, BD_;
   mutable MatrixXd W_, lcp_M_;  // K⁻¹ E_D and B_D K⁻¹ E_D, computed on first need
   VectorXd weight_a_, weight_b_;
-  std::vector<char> side_;
+  VectorXd a_, b_;    // the pairs' sides at the linearization point
+  double tol_ = 0.0;  // a side at most this is 0 (active)
+  bool smoothed_ = false;
+  std::vector<char> side_;  // per pair: 'a' / 'b' held, 'd' degenerate, 'i' inert GI pair
   std::vector<int> deg_;
   std::vector<int> pinned_;  // equality rows replaced by dp_t = 0 (inert GI pairs)
   // Below this reciprocal condition number K is treated as singular (COD).
@@ -415,41 +452,55 @@ class StepDifferentiator {
   }
 
   // ∂x_ℓ+1 along a residual column whose state direction is s (empty: none); NaN if the system
-  // is inconsistent along it.
-  VectorXd EndStateDerivative(const ResidualColumn& r, const VectorXd& s, bool* unsolved,
-                              bool* failed) const {
+  // is inconsistent along it. *near_kink: the held active set stays feasible only within a
+  // perturbation below kMinStableRadius · scale along the column (scale: the column variable's
+  // magnitude, ≥ 1).
+  VectorXd EndStateDerivative(const ResidualColumn& r, const VectorXd& s, double scale,
+                              bool* unsolved, bool* failed, bool* near_kink) const {
     *failed = false;
+    *near_kink = false;
     VectorXd dz;
     if (!r.eq.allFinite() || !r.a.allFinite() || !r.b.allFinite() ||
         !lin_->Solve(r, &dz, unsolved)) {
       *failed = true;
       return VectorXd::Constant(nx(), kNaN);
     }
-    // The end state as the model writes it from z (and, for GI, from x_ℓ: a spatial body's
-    // R_ℓ+1 = R_ℓ Exp(φ)): linear in z for every formulation but GI. A central difference along
-    // the unit direction (dz, s)/‖(dz, s)‖ is exact for a linear map, O(h²) otherwise; scaled
-    // back so tiny or huge columns neither under- nor overflow.
-    const bool with_x = explicit_start_ && s.size() == nx() && s.allFinite();
-    const double dn = std::max(dz.cwiseAbs().maxCoeff(), with_x ? s.cwiseAbs().maxCoeff() : 0.0);
+    *near_kink = lin_->StableRadius(r, dz) < kMinStableRadius * std::max(1.0, scale);
+    // The end state as the model writes it from z: the z blocks q_ℓ+1, ν_ℓ+1 for every
+    // formulation but GI (read directly). GI writes a spatial body's orientation from its
+    // rotation unknowns and x_ℓ (R_ℓ+1 = R_ℓ Exp(φ)): a central difference along the unit
+    // direction of the pose and velocity blocks of dz (and the state direction s) only — the
+    // impulse and geometry blocks, which the end state does not read, can be 1e8 times larger
+    // (a stiff contact's dp_n) and would shrink the pose step below round-off.
+    const StepLayout& l = frozen_->layout();
+    VectorXd d(nx());
+    if (!explicit_start_) {
+      d << dz.segment(l.q1(), l.nq), dz.segment(l.v1(), l.nv);
+      return d;
+    }
+    VectorXd dzs = VectorXd::Zero(dz.size());
+    dzs.segment(l.q1(), l.nq) = dz.segment(l.q1(), l.nq);
+    dzs.segment(l.v1(), l.nv) = dz.segment(l.v1(), l.nv);
+    const bool with_x = s.size() == nx() && s.allFinite();
+    const double dn = std::max(dzs.cwiseAbs().maxCoeff(), with_x ? s.cwiseAbs().maxCoeff() : 0.0);
     if (!(dn > 0.0)) return VectorXd::Zero(nx());
-    const double h = 1e-6 * std::max(1.0, z_.cwiseAbs().maxCoeff());
-    const double t = h / dn;
-    State p, m;
+    // Unit directions first: h / dn overflows for columns that decayed to denormals (~1e-318).
+    const double zs = std::max(z_.segment(l.q1(), l.nq).cwiseAbs().maxCoeff(),
+                               z_.segment(l.v1(), l.nv).cwiseAbs().maxCoeff());
+    const double h = 1e-6 * std::max(1.0, zs);
+    const VectorXd unit = dzs / dn;
+    State xp = x_, xm = x_;
     if (with_x) {
       const int nq = static_cast<int>(x_.q.size());
-      State xp = x_, xm = x_;
-      xp.q += t * s.head(nq);
-      xm.q -= t * s.head(nq);
-      xp.v += t * s.tail(s.size() - nq);
-      xm.v -= t * s.tail(s.size() - nq);
-      p = frozen_->StateFromUnknowns(z_ + t * dz, xp);
-      m = frozen_->StateFromUnknowns(z_ - t * dz, xm);
-    } else {
-      p = frozen_->StateFromUnknowns(z_ + t * dz);
-      m = frozen_->StateFromUnknowns(z_ - t * dz);
+      const VectorXd us = s / dn;
+      xp.q += h * us.head(nq);
+      xm.q -= h * us.head(nq);
+      xp.v += h * us.tail(us.size() - nq);
+      xm.v -= h * us.tail(us.size() - nq);
     }
-    VectorXd d(nx());
-    d << (p.q - m.q) / (2 * t), (p.v - m.v) / (2 * t);
+    const State p = frozen_->StateFromUnknowns(z_ + h * unit, xp);
+    const State m = frozen_->StateFromUnknowns(z_ - h * unit, xm);
+    d << (p.q - m.q) * (dn / (2 * h)), (p.v - m.v) * (dn / (2 * h));
     return d;
   }
 
@@ -508,7 +559,7 @@ void Count(SensitivityStatus s, int* exact, int* degenerate, int* mode_change, i
   }
 }
 
-std::string Describe(const StepDifferentiator& d, int unsolved) {
+std::string Describe(const StepDifferentiator& d, int unsolved, int kinks) {
   std::string m;
   if (d.degenerate() > 0)
     m += std::to_string(d.degenerate()) + " degenerate pair(s) (one-sided derivative)";
@@ -516,6 +567,10 @@ std::string Describe(const StepDifferentiator& d, int unsolved) {
   if (unsolved > 0)
     m += std::string(m.empty() ? "" : "; ") + std::to_string(unsolved) +
          " column(s) with an unsolved sensitivity LCP";
+  if (kinks > 0)
+    m += std::string(m.empty() ? "" : "; ") + std::to_string(kinks) +
+         " column(s) whose active set holds only within a perturbation below 1e-6 (near-singular "
+         "active block: the derivative of the step's own branch)";
   return m;
 }
 
@@ -560,31 +615,38 @@ StepSensitivity StepDerivatives(const Simulator& sim, const Params& params,
     return out;
   }
   bool failed = false, changed = d.contact_set_changed();
-  int unsolved = 0;
+  int unsolved = 0, kinks = 0;
   out.d_theta.resize(nx, selection.size());
+  const VectorXd theta = selection.Get(params);
   for (int j = 0; j < selection.size(); ++j) {
     const ResidualColumn r = d.ParamColumn(j);
     changed = changed || r.contact_set_changed;
-    bool uns = false, f = false;
-    out.d_theta.col(j) = d.EndStateDerivative(r, VectorXd(), &uns, &f);
+    bool uns = false, f = false, k = false;
+    out.d_theta.col(j) = d.EndStateDerivative(r, VectorXd(), std::abs(theta[j]), &uns, &f, &k);
     unsolved += uns;
+    kinks += k;
     failed = failed || (f && !r.contact_set_changed);
   }
   if (with_state) {
     out.d_x.resize(nx, nx);
+    const int nq = static_cast<int>(x.q.size());
     for (int i = 0; i < nx; ++i) {
-      bool uns = false, f = false;
-      out.d_x.col(i) = d.EndStateDerivative(d.StateColumn(i), VectorXd::Unit(nx, i), &uns, &f);
+      bool uns = false, f = false, k = false;
+      const double xi = std::abs(i < nq ? x.q[i] : x.v[i - nq]);
+      out.d_x.col(i) =
+          d.EndStateDerivative(d.StateColumn(i), VectorXd::Unit(nx, i), xi, &uns, &f, &k);
       unsolved += uns;
+      kinks += k;
       failed = failed || f;
     }
   }
   out.degenerate_pairs = d.degenerate();
   out.unsolved_columns = unsolved;
+  out.near_kink_columns = kinks;
   out.contact_set_changed = changed;
-  out.status = Classify(failed, changed, d.degenerate());
-  out.message =
-      failed ? "the active system is inconsistent along some column (NaN)" : Describe(d, unsolved);
+  out.status = Classify(failed, changed, d.degenerate() + kinks);
+  out.message = failed ? "the active system is inconsistent along some column (NaN)"
+                       : Describe(d, unsolved, kinks);
   return out;
 }
 
@@ -610,7 +672,8 @@ StepSensitivity PropagateStep(const Simulator& sim, const Params& params,
     return st;
   }
   bool failed = false, changed = d.contact_set_changed();
-  int unsolved = 0;
+  int unsolved = 0, kinks = 0;
+  const VectorXd theta = selection.Get(params);
   for (int c = 0; c < ncols; ++c) {
     ResidualColumn r;
     if (full_state) {
@@ -628,17 +691,20 @@ StepSensitivity PropagateStep(const Simulator& sim, const Params& params,
       if (c < p) r = StepDifferentiator::Add(std::move(r), d.ParamColumn(c));
     }
     changed = changed || r.contact_set_changed;
-    bool uns = false, f = false;
-    S_next->col(c) = d.EndStateDerivative(r, S.col(c), &uns, &f);
+    bool uns = false, f = false, k = false;
+    S_next->col(c) =
+        d.EndStateDerivative(r, S.col(c), c < p ? std::abs(theta[c]) : 1.0, &uns, &f, &k);
     unsolved += uns;
+    kinks += k;
     failed = failed || (f && !r.contact_set_changed);
   }
   st.degenerate_pairs = d.degenerate();
   st.unsolved_columns = unsolved;
+  st.near_kink_columns = kinks;
   st.contact_set_changed = changed;
-  st.status = Classify(failed, changed, d.degenerate());
-  st.message =
-      failed ? "the active system is inconsistent along some column (NaN)" : Describe(d, unsolved);
+  st.status = Classify(failed, changed, d.degenerate() + kinks);
+  st.message = failed ? "the active system is inconsistent along some column (NaN)"
+                      : Describe(d, unsolved, kinks);
   return st;
 }
 

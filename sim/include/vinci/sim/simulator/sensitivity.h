@@ -90,6 +90,12 @@ struct StepSensitivity {
   int degenerate_pairs = 0;
   /// Columns whose sensitivity LCP Lemke could not solve (their λ = 0 branch is returned).
   int unsolved_columns = 0;
+  /// Columns whose held active set stays feasible only for perturbations below 1e-6 of the
+  /// column variable (a near-singular active block whose impulse split the solver form's small
+  /// compliances decide, e.g. a GI sphere resting between two spheres): the derivative is that
+  /// of the step's own branch, which any practically perturbed step has left. The step is
+  /// flagged kDegenerate.
+  int near_kink_columns = 0;
   bool contact_set_changed = false;
   std::string message;  ///< what was degenerate, changed or failed
 };
