@@ -62,11 +62,12 @@ void Run(const Case& c, int steps) {
   });
   MatrixXd S = MatrixXd::Zero(nx, 1), S_next;
   S(0, 0) = 1.0;  // a generic carried sensitivity
-  const double t_fwd = per_step([&](int k, Workspace*) {
-    PropagateStep(sim, p, one, tr.states[k], inputs[k], tr.states[k + 1], S, &S_next);
+  // With a workspace, as RolloutForward / RolloutReverse pass the step's own.
+  const double t_fwd = per_step([&](int k, Workspace* ws) {
+    PropagateStep(sim, p, one, tr.states[k], inputs[k], tr.states[k + 1], S, &S_next, {}, ws);
   });
-  const double t_full = per_step([&](int k, Workspace*) {
-    StepDerivatives(sim, p, sel, tr.states[k], inputs[k], tr.states[k + 1], true);
+  const double t_full = per_step([&](int k, Workspace* ws) {
+    StepDerivatives(sim, p, sel, tr.states[k], inputs[k], tr.states[k + 1], true, {}, ws);
   });
 
   // 2. Rollout gradient: reverse mode vs 2p + 1 rollouts.
@@ -121,6 +122,7 @@ int main(int argc, char** argv) {
        0},
       {"sphere_on_incline.yaml", {"mu.default", "mass.ball"}, 50},
       {"box_on_plane.yaml", {"mu.default", "mass.box"}, 100},
+      {"disc_on_plane.yaml", {"mu.default", "mass.disc"}, 20},  // geometrically implicit
   };
   std::printf(
       "CPU time. step: Simulator::Step; fwd1: one-parameter forward step derivative "

@@ -264,7 +264,7 @@ class SensitivityColumns {
                               const sim::StepInput& u, const sim::State& next) {
     sim::MatrixXd S1;
     const sim::StepSensitivity st =
-        sim::PropagateStep(sim_, params, selection_, x, u, next, S_, &S1);
+        sim::PropagateStep(sim_, params, selection_, x, u, next, S_, &S1, {}, &ws_);
     S_ = std::move(S1);
     return st.status;
   }
@@ -330,6 +330,7 @@ class SensitivityColumns {
 
   const sim::Simulator& sim_;
   std::vector<std::string> names_;
+  sim::Workspace ws_;  // the scene resolved once for every step's derivative
   sim::ParamSelection selection_;
   sim::MatrixXd S_;
 };

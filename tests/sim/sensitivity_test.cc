@@ -227,26 +227,6 @@ TEST(SensitivityTest, SmoothedDerivativeConvergesToExactOnAStrictStep) {
   EXPECT_LT(previous, 1e-4 * exact.d_theta.cwiseAbs().maxCoeff());
 }
 
-// The geometrically implicit stepper's derivatives are refused, never returned wrong.
-TEST(SensitivityTest, RejectsGeometricallyImplicitStepper) {
-  const Simulator sim(LoadExample("disc_on_plane.yaml"));
-  ASSERT_EQ(sim.formulation().name(), "geometrically-implicit");
-  const Params p = sim.DefaultParams();
-  const ParamSelection sel(sim.scene().param_table(), {"mu.default"});
-  const State x = sim.InitialState();
-  Workspace ws;
-  State next;
-  ASSERT_TRUE(sim.Step(p, x, {}, &ws, &next).ok);
-  try {
-    StepDerivatives(sim, p, sel, x, {}, next, true);
-    FAIL() << "the GI stepper was accepted";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("geometrically-implicit"), std::string::npos) << e.what();
-  }
-  EXPECT_THROW(RolloutForward(sim, p, sel, x, std::vector<StepInput>(2), false),
-               std::invalid_argument);
-}
-
 TEST(SensitivityTest, RejectsSizesAndPoses) {
   const Simulator sim(LoadExample("ball_drop.yaml"));
   const Params p = sim.DefaultParams();

@@ -22,6 +22,13 @@ bool SamePose(const State& a, const State& b) {
   return a.t == b.t && a.q.size() == b.q.size() && (a.q.array() == b.q.array()).all();
 }
 
+// x and u are bitwise the freeze state and input (the assembly made there can be reused).
+bool SameStateAndInput(const State& x, const StepInput& u, const State& x0, const StepInput& u0) {
+  return SamePose(x, x0) && x.v.size() == x0.v.size() && (x.v.array() == x0.v.array()).all() &&
+         u.generalized_force.size() == u0.generalized_force.size() &&
+         (u.generalized_force.array() == u0.generalized_force.array()).all();
+}
+
 // Body poses as the contact detection of the Stewart–Trinkle assembly sees them: dynamic bodies
 // from q, prescribed ones from their motion at x.t (an integrated pose with step h).
 std::vector<BodyKinematics> DetectionKinematics(const Scene& model, const State& x, double h) {
@@ -129,8 +136,11 @@ class StewartTrinkleModel final : public StepModel {
                       State x, StepInput u)
       : StepModel(std::move(model), std::move(params), std::move(x), std::move(u), st.options().dt),
         st_(st) {
-    contacts_ = st_.Assemble(*model_, x_, u_).contacts;
-    const StewartTrinkle::Assembly a = AssembleAt(*model_, x_, u_);
+    // Assemble() selects each corner's edge in its contacts: AssembleAt of those contacts
+    // (without selection) is the same assembly, kept for evaluations at the freeze point.
+    freeze_ = st_.Assemble(*model_, x_, u_);
+    contacts_ = freeze_.contacts;
+    const StewartTrinkle::Assembly& a = freeze_;
     lcp_size_ = a.psi_n.size() * (2 + a.nd) + a.support.points() + a.support.columns() +
                 static_cast<Eigen::Index>(a.corner_contact.size());
     G_b_ = a.G_b;
@@ -149,6 +159,8 @@ class StewartTrinkleModel final : public StepModel {
  protected:
   StepResiduals Residuals(const Scene& model, const Params& theta, const State& x,
                           const StepInput& u, const VectorXd& z) const override {
+    if (&model == model_.get() && SameStateAndInput(x, u, x_, u_))
+      return st_.EvaluateAssembly(model, theta, freeze_, x, z);
     return st_.EvaluateAssembly(model, theta, AssembleAt(model, x, u), x, z);
   }
   VectorXd Unknowns(const State& next) const override {
@@ -183,6 +195,7 @@ class StewartTrinkleModel final : public StepModel {
   }
   const StewartTrinkle& st_;
   std::vector<Contact> contacts_;
+  StewartTrinkle::Assembly freeze_;  // at (model_, x_, u_)
   Eigen::Index lcp_size_ = 0;
   MatrixXd G_b_;
 };
@@ -196,15 +209,17 @@ class NcpModel final : public StepModel {
       : StepModel(std::move(model), std::move(params), std::move(x), std::move(u),
                   ncp.assembler().options().dt),
         ncp_(ncp) {
-    contacts_ = ncp_.assembler().Assemble(*model_, x_, u_).contacts;
-    const StewartTrinkle::Assembly a = AssembleAt(*model_, x_, u_);
-    G_b_ = a.G_b;
+    freeze_ = ncp_.assembler().Assemble(*model_, x_, u_);  // as StewartTrinkleModel
+    contacts_ = freeze_.contacts;
+    G_b_ = freeze_.G_b;
     Init(ncp_.Layout(*model_, x_).size());  // the contact set at x_ℓ is the frozen one
   }
 
  protected:
   StepResiduals Residuals(const Scene& model, const Params& theta, const State& x,
                           const StepInput& u, const VectorXd& z) const override {
+    if (&model == model_.get() && SameStateAndInput(x, u, x_, u_))
+      return ncp_.EvaluateAssembly(model, theta, freeze_, x, z);
     return ncp_.EvaluateAssembly(model, theta, AssembleAt(model, x, u), x, z);
   }
   // The MCP solution [p_n (nc); (p_t, p_o) per contact (2 nc); σ (nc)] is z's p_n, p_f, σ.
@@ -233,6 +248,7 @@ class NcpModel final : public StepModel {
   }
   const NcpStepper& ncp_;
   std::vector<Contact> contacts_;
+  StewartTrinkle::Assembly freeze_;  // at (model_, x_, u_)
   MatrixXd G_b_;
 };
 
@@ -298,8 +314,8 @@ class GiModel final : public StepModel {
   VectorXd WarmStart(const VectorXd& z) const override {
     return gi_.StateFromUnknowns(*model_, frozen_, x_, z).warm_start;
   }
-  State EndState(const VectorXd& z) const override {
-    return gi_.StateFromUnknowns(*model_, frozen_, x_, z);
+  State EndState(const VectorXd& z, const State& x) const override {
+    return gi_.StateFromUnknowns(*model_, frozen_, x, z);
   }
 
  private:
@@ -422,12 +438,22 @@ State StepModel::StateFromUnknowns(const VectorXd& z) const {
   if (z.size() != layout_.size())
     throw std::invalid_argument("StepModel::StateFromUnknowns: z " +
                                 Sizes("", z.size(), layout_.size()));
-  return EndState(z);
+  return EndState(z, x_);
 }
 
-State StepModel::EndState(const VectorXd& z) const {
+State StepModel::StateFromUnknowns(const VectorXd& z, const State& x) const {
+  if (z.size() != layout_.size())
+    throw std::invalid_argument("StepModel::StateFromUnknowns: z " +
+                                Sizes("", z.size(), layout_.size()));
+  if (x.q.size() != x_.q.size() || x.v.size() != x_.v.size() || x.t != x_.t)
+    throw std::invalid_argument(
+        "StepModel::StateFromUnknowns: x must have the freeze state's sizes and time");
+  return EndState(z, x);
+}
+
+State StepModel::EndState(const VectorXd& z, const State& x) const {
   State next;
-  next.t = x_.t + dt_;
+  next.t = x.t + dt_;
   next.q = z.segment(layout_.q1(), layout_.nq);
   next.v = z.segment(layout_.v1(), layout_.nv);
   next.warm_start = WarmStart(z);
@@ -445,7 +471,14 @@ void StepModel::RecoverJointImpulses(const MatrixXd& G_b, VectorXd* z) const {
 
 std::unique_ptr<StepModel> Freeze(const Formulation& formulation, const Scene& model,
                                   const Params& params, const State& x, const StepInput& u) {
-  auto scene = std::make_shared<const Scene>(model);
+  return Freeze(formulation, std::make_shared<const Scene>(model), params, x, u);
+}
+
+std::unique_ptr<StepModel> Freeze(const Formulation& formulation,
+                                  std::shared_ptr<const Scene> scene, const Params& params,
+                                  const State& x, const StepInput& u) {
+  if (!scene) throw std::invalid_argument("Freeze: null scene");
+  const Scene& model = *scene;
   if (params.values.size() != model.param_table().size())
     throw std::invalid_argument("Freeze: params " +
                                 Sizes("", params.values.size(), model.param_table().size()));

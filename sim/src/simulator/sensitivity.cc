@@ -1,5 +1,6 @@
 #include "vinci/sim/simulator/sensitivity.h"
 
+#include <Eigen/LU>
 #include <Eigen/QR>
 #include <algorithm>
 #include <cmath>
@@ -18,6 +19,12 @@ namespace vinci::sim {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+// A column whose held active set stays feasible (to first order) only for perturbations below
+// this (relative to the column variable, at least 1) is flagged: its derivative is that of the
+// step's branch, which steps perturbed by any practical amount have left. Happens where K is
+// nearly singular and the solver form's small compliances decide the impulse split (a GI sphere
+// resting in the groove between two spheres: ∂p_n/∂z_ℓ ~ 1e8, the cone reached at ~1e-11 m).
+constexpr double kMinStableRadius = 1e-6;
 
 bool IsMotionKind(ParamKind k) {
   switch (k) {
@@ -52,7 +59,10 @@ class Linearization {
  public:
   // `vals` holds the step equations and their z Jacobians at the linearization point; `nx`
   // rows of dz are the end state (q_ℓ+1, ν_ℓ+1) unless the model writes it otherwise.
-  Linearization(const StepModelValues& vals, const SensitivityOptions& options, bool smoothed) {
+  // `gi`: the step layout if the model is the geometrically implicit stepper's (its unloaded
+  // candidate pairs are pinned, below), else null.
+  Linearization(const StepModelValues& vals, const SensitivityOptions& options, bool smoothed,
+                const StepLayout* gi) {
     const MatrixXd E = MatrixXd(vals.d_equality.d_z);
     A_ = MatrixXd(vals.d_comp_a.d_z);
     B_ = MatrixXd(vals.d_comp_b.d_z);
@@ -68,11 +78,33 @@ class Linearization {
     const double scale = std::max(a.size() ? a.cwiseAbs().maxCoeff() : 0.0,
                                   b.size() ? b.cwiseAbs().maxCoeff() : 0.0);
     const double tol = options.active_tol * scale + 10.0 * vals.Violation();
+    a_ = a;
+    b_ = b;
+    tol_ = tol;
+    smoothed_ = smoothed;
     side_.assign(np, 'a');
     weight_a_ = VectorXd::Zero(np);
     weight_b_ = VectorXd::Zero(np);
+    const double inert_tol =
+        options.active_tol * std::max(1.0, B_.size() ? B_.cwiseAbs().maxCoeff() : 0.0);
+    std::vector<int> inert;  // GI pairs whose cone pair is inert
     for (int i = 0; i < np; ++i) {
       const bool a0 = a[i] <= tol, b0 = b[i] <= tol;
+      if (gi && !smoothed && a0 && b0 && B_.row(i).cwiseAbs().maxCoeff() <= inert_tol) {
+        // A GI cone pair (σ, μ² p_n² − ‖p_t‖²) of an unloaded pair, p_n = p_t = 0: b has no
+        // first-order variation and the pair's friction rows μ p_n v_t' + σ p_t are 0 = 0 to
+        // first order, leaving p_t free in K. The cone with p_n at 0 allows no p_t: the pair is
+        // held at dσ = 0 and its friction rows are replaced by dp_t = 0 (below). Not a kink of
+        // the solution map where p_n is held at 0 (if p_n is degenerate, its own pair is).
+        Eigen::Index col = 0;
+        A_.row(i).cwiseAbs().maxCoeff(&col);
+        const int k = static_cast<int>(col) - gi->sigma();
+        if (k >= 0 && k < gi->nc) {
+          side_[i] = 'i';
+          inert.push_back(k);
+          continue;
+        }
+      }
       if (a0 && b0) {
         ++degenerate_;
         switch (options.degenerate) {
@@ -106,18 +138,32 @@ class Linearization {
       }
       K_.row(ne + i) = weight_a_[i] * A_.row(i) + weight_b_[i] * B_.row(i);
     }
+    // GI equality rows (geometrically_implicit.h): [dynamics (nv); kinematics (nq); per pair:
+    // separation (d), normals (d), A side, B side, friction (d − 1 = nd)].
+    for (int k : inert) {
+      for (int j = 0; j < gi->nd; ++j) {
+        const int row = gi->nv + gi->nq + k * (3 * gi->nd + 4) + 2 * gi->nd + 4 + j;
+        if (row >= ne) continue;
+        K_.row(row).setZero();
+        K_(row, gi->pf() + k * gi->nd + j) = 1.0;
+        pinned_.push_back(row);
+      }
+    }
     if (smoothed) deg_.clear();
-    cod_.setThreshold(1e-12);
-    cod_.compute(K_);
-    k_norm_ = K_.cwiseAbs().maxCoeff();
+    // A regular K (no redundant contacts) by LU with partial pivoting; a singular or nearly
+    // singular one (redundant contacts: impulses not unique) by the rank-revealing complete
+    // orthogonal decomposition, whose solutions' state part is still unique where consistent.
+    lu_.compute(K_);
+    use_lu_ = lu_.rcond() > kLuMinRcond;
+    if (!use_lu_) {
+      cod_.setThreshold(1e-12);
+      cod_.compute(K_);
+    }
+    k_norm_ = K_.size() ? K_.cwiseAbs().maxCoeff() : 0.0;
     if (!deg_.empty()) {
       const int nd = static_cast<int>(deg_.size());
-      MatrixXd ED = MatrixXd::Zero(nz_, nd);
-      for (int j = 0; j < nd; ++j) ED(ne + deg_[j], j) = 1.0;
-      W_ = cod_.solve(ED);
       BD_.resize(nd, nz_);
       for (int j = 0; j < nd; ++j) BD_.row(j) = B_.row(deg_[j]);
-      lcp_.M = BD_ * W_;
     }
     ne_ = ne;
     ok_ = true;
@@ -136,19 +182,28 @@ class Linearization {
     VectorXd rhs(nz_);
     rhs.head(ne_) = r.eq;
     rhs.tail(nz_ - ne_) = weight_a_.cwiseProduct(r.a) + weight_b_.cwiseProduct(r.b);
-    *dz = cod_.solve(-rhs);
+    for (int row : pinned_) rhs[row] = 0.0;
+    *dz = use_lu_ ? VectorXd(lu_.solve(-rhs)) : VectorXd(cod_.solve(-rhs));
     const double resid = (K_ * *dz + rhs).cwiseAbs().maxCoeff();
     const double ref = rhs.cwiseAbs().maxCoeff() + k_norm_ * dz->cwiseAbs().maxCoeff();
     if (!std::isfinite(resid) || resid > 1e-6 * ref + 1e-300) return false;
     if (deg_.empty()) return true;
     const int nd = static_cast<int>(deg_.size());
     LcpProblem p;
-    p.M = lcp_.M;
     p.q.resize(nd);
     for (int j = 0; j < nd; ++j) p.q[j] = B_.row(deg_[j]).dot(*dz) + r.b[deg_[j]];
     // λ = 0 is the solution unless some q_j is negative beyond the round-off of its terms.
     const double qscale = (BD_.cwiseAbs() * dz->cwiseAbs()).maxCoeff() + r.b.cwiseAbs().maxCoeff();
     if (p.q.minCoeff() >= -1e-10 * qscale) return true;
+    if (W_.cols() != nd) {
+      // K⁻¹ E_D and the sensitivity LCP's matrix, once per step and only when some column needs
+      // them (most columns of a sticking step keep λ = 0).
+      MatrixXd ED = MatrixXd::Zero(nz_, nd);
+      for (int j = 0; j < nd; ++j) ED(ne_ + deg_[j], j) = 1.0;
+      W_ = use_lu_ ? MatrixXd(lu_.solve(ED)) : MatrixXd(cod_.solve(ED));
+      lcp_M_ = BD_ * W_;
+    }
+    p.M = lcp_M_;
     VectorXd lambda;
     const SolverReport rep = LemkeSolver().Solve(p, nullptr, &lambda);
     if (rep.status != SolverStatus::kSolved) {
@@ -159,17 +214,48 @@ class Linearization {
     return true;
   }
 
+  // How far along a column (dz its solution, r its residual column) the held active set stays
+  // feasible to first order: the smallest t at which a strictly positive side of a held pair
+  // (b where a is held at 0, a where b is) reaches 0. +∞ for the smoothed step, and where no
+  // positive side decreases. Degenerate pairs are excluded (their side is chosen per column).
+  double StableRadius(const ResidualColumn& r, const VectorXd& dz) const {
+    double rho = std::numeric_limits<double>::infinity();
+    if (smoothed_) return rho;
+    for (int i = 0; i < static_cast<int>(side_.size()); ++i) {
+      double slack = 0.0, rate = 0.0;
+      if (side_[i] == 'a') {
+        slack = b_[i];
+        rate = B_.row(i).dot(dz) + r.b[i];
+      } else if (side_[i] == 'b') {
+        slack = a_[i];
+        rate = A_.row(i).dot(dz) + r.a[i];
+      } else {
+        continue;
+      }
+      if (rate < 0.0 && slack > tol_) rho = std::min(rho, slack / -rate);
+    }
+    return rho;
+  }
+
  private:
   bool ok_ = false;
   std::string message_;
   int nz_ = 0, ne_ = 0, degenerate_ = 0;
-  MatrixXd A_, B_, K_, W_, BD_;
+  MatrixXd A_, B_, K_, BD_;
+  mutable MatrixXd W_, lcp_M_;  // K⁻¹ E_D and B_D K⁻¹ E_D, computed on first need
   VectorXd weight_a_, weight_b_;
-  std::vector<char> side_;
+  VectorXd a_, b_;    // the pairs' sides at the linearization point
+  double tol_ = 0.0;  // a side at most this is 0 (active)
+  bool smoothed_ = false;
+  std::vector<char> side_;  // per pair: 'a' / 'b' held, 'd' degenerate, 'i' inert GI pair
   std::vector<int> deg_;
+  std::vector<int> pinned_;  // equality rows replaced by dp_t = 0 (inert GI pairs)
+  // Below this reciprocal condition number K is treated as singular (COD).
+  static constexpr double kLuMinRcond = 1e-10;
+  Eigen::PartialPivLU<MatrixXd> lu_;
+  bool use_lu_ = false;
   Eigen::CompleteOrthogonalDecomposition<MatrixXd> cod_;
   double k_norm_ = 0.0;
-  LcpProblem lcp_;
 };
 
 // The smoothed step's solution: Newton on [equality; φ_ε(a, b)] = 0 from z*.
@@ -227,10 +313,14 @@ class StepDifferentiator {
  public:
   StepDifferentiator(const Simulator& sim, const Params& params, const ParamSelection& selection,
                      const State& x, const StepInput& u, const State& next,
-                     const SensitivityOptions& options, bool full_state)
+                     const SensitivityOptions& options, bool full_state, Workspace* ws)
       : sim_(sim), params_(params), selection_(selection), x_(x), u_(u), options_(options) {
-    const Scene& model = sim.ResolveWithInputs(params, u, &ws_);
-    frozen_ = Freeze(sim.formulation(), model, params, x, u);
+    // The scene resolved in the caller's workspace (the step's own: no copy if it already holds
+    // these parameters), shared by the frozen model.
+    Workspace* w = ws ? ws : &own_ws_;
+    const Scene& model = sim.ResolveWithInputs(params, u, w);
+    frozen_ =
+        Freeze(sim.formulation(), u.motions.empty() ? w->model : w->motion_model, params, x, u);
     z_ = frozen_->UnknownsFromStep(next);
     if (options.smoothing > 0.0) {
       if (!SmoothedSolution(*frozen_, params, x, u, options.smoothing, &z_)) {
@@ -242,15 +332,22 @@ class StepDifferentiator {
     o.state_jacobian = full_state;
     o.state_step = options.state_step;
     vals_ = frozen_->Evaluate(z_, params, x, u, o);
-    lin_ = std::make_unique<Linearization>(vals_, options, options.smoothing > 0.0);
+    const bool gi = dynamic_cast<const GeometricallyImplicit*>(&sim.formulation()) != nullptr;
+    lin_ = std::make_unique<Linearization>(vals_, options, options.smoothing > 0.0,
+                                           gi ? &frozen_->layout() : nullptr);
     if (!lin_->ok()) {
       message_ = lin_->message();
       return;
     }
-    // A mode change within the step: the contact set found at the end differs.
-    const StepLayout end = sim.formulation().Layout(model, next);
-    const StepLayout& l = frozen_->layout();
-    contact_set_changed_ = end.nc != l.nc || end.nk != l.nk || end.ns != l.ns;
+    // A mode change within the step: the contact set found at the end differs. GI finds its
+    // contacts at ℓ+1 inside the step (a contact made within the step is one of its pairs'
+    // complementarity, classified above); its candidate pairs at ℓ+1 belong to the next step.
+    explicit_start_ = gi;
+    if (!explicit_start_) {
+      const StepLayout end = sim.formulation().Layout(model, next);
+      const StepLayout& l = frozen_->layout();
+      contact_set_changed_ = end.nc != l.nc || end.nk != l.nk || end.ns != l.ns;
+    }
     ok_ = true;
   }
 
@@ -354,25 +451,55 @@ class StepDifferentiator {
     return a;
   }
 
-  // ∂x_ℓ+1 along a residual column; NaN if the system is inconsistent along it.
-  VectorXd EndStateDerivative(const ResidualColumn& r, bool* unsolved, bool* failed) const {
+  // ∂x_ℓ+1 along a residual column whose state direction is s (empty: none); NaN if the system
+  // is inconsistent along it. *near_kink: the held active set stays feasible only within a
+  // perturbation below kMinStableRadius · scale along the column (scale: the column variable's
+  // magnitude, ≥ 1).
+  VectorXd EndStateDerivative(const ResidualColumn& r, const VectorXd& s, double scale,
+                              bool* unsolved, bool* failed, bool* near_kink) const {
     *failed = false;
+    *near_kink = false;
     VectorXd dz;
     if (!r.eq.allFinite() || !r.a.allFinite() || !r.b.allFinite() ||
         !lin_->Solve(r, &dz, unsolved)) {
       *failed = true;
       return VectorXd::Constant(nx(), kNaN);
     }
-    // The end state as the model writes it from z: linear in z for every formulation but GI
-    // (a central difference along the unit direction dz/‖dz‖ is exact for a linear map, O(h²)
-    // otherwise; scaled back by ‖dz‖ so tiny or huge columns neither under- nor overflow).
-    const double dn = dz.cwiseAbs().maxCoeff();
-    if (!(dn > 0.0)) return VectorXd::Zero(nx());
-    const VectorXd unit = dz / dn;
-    const double h = 1e-6 * std::max(1.0, z_.cwiseAbs().maxCoeff());
-    const State p = frozen_->StateFromUnknowns(z_ + h * unit);
-    const State m = frozen_->StateFromUnknowns(z_ - h * unit);
+    *near_kink = lin_->StableRadius(r, dz) < kMinStableRadius * std::max(1.0, scale);
+    // The end state as the model writes it from z: the z blocks q_ℓ+1, ν_ℓ+1 for every
+    // formulation but GI (read directly). GI writes a spatial body's orientation from its
+    // rotation unknowns and x_ℓ (R_ℓ+1 = R_ℓ Exp(φ)): a central difference along the unit
+    // direction of the pose and velocity blocks of dz (and the state direction s) only — the
+    // impulse and geometry blocks, which the end state does not read, can be 1e8 times larger
+    // (a stiff contact's dp_n) and would shrink the pose step below round-off.
+    const StepLayout& l = frozen_->layout();
     VectorXd d(nx());
+    if (!explicit_start_) {
+      d << dz.segment(l.q1(), l.nq), dz.segment(l.v1(), l.nv);
+      return d;
+    }
+    VectorXd dzs = VectorXd::Zero(dz.size());
+    dzs.segment(l.q1(), l.nq) = dz.segment(l.q1(), l.nq);
+    dzs.segment(l.v1(), l.nv) = dz.segment(l.v1(), l.nv);
+    const bool with_x = s.size() == nx() && s.allFinite();
+    const double dn = std::max(dzs.cwiseAbs().maxCoeff(), with_x ? s.cwiseAbs().maxCoeff() : 0.0);
+    if (!(dn > 0.0)) return VectorXd::Zero(nx());
+    // Unit directions first: h / dn overflows for columns that decayed to denormals (~1e-318).
+    const double zs = std::max(z_.segment(l.q1(), l.nq).cwiseAbs().maxCoeff(),
+                               z_.segment(l.v1(), l.nv).cwiseAbs().maxCoeff());
+    const double h = 1e-6 * std::max(1.0, zs);
+    const VectorXd unit = dzs / dn;
+    State xp = x_, xm = x_;
+    if (with_x) {
+      const int nq = static_cast<int>(x_.q.size());
+      const VectorXd us = s / dn;
+      xp.q += h * us.head(nq);
+      xm.q -= h * us.head(nq);
+      xp.v += h * us.tail(us.size() - nq);
+      xm.v -= h * us.tail(us.size() - nq);
+    }
+    const State p = frozen_->StateFromUnknowns(z_ + h * unit, xp);
+    const State m = frozen_->StateFromUnknowns(z_ - h * unit, xm);
     d << (p.q - m.q) * (dn / (2 * h)), (p.v - m.v) * (dn / (2 * h));
     return d;
   }
@@ -384,23 +511,17 @@ class StepDifferentiator {
   const State& x_;
   const StepInput& u_;
   SensitivityOptions options_;
-  Workspace ws_;
+  Workspace own_ws_;  // when the caller passes none
   std::unique_ptr<StepModel> frozen_;
   VectorXd z_;
   StepModelValues vals_;
   std::unique_ptr<Linearization> lin_;
   bool ok_ = false, contact_set_changed_ = false;
+  bool explicit_start_ = false;  // the end state depends on x_ℓ explicitly (GI)
   std::string message_;
 };
 
 void CheckSelection(const Simulator& sim, const ParamSelection& selection) {
-  // GI writes q_ℓ+1 from its unknowns and x_ℓ (geometrically_implicit.h): ∂x_ℓ+1/∂x_ℓ would miss
-  // that explicit term, so its derivatives are refused rather than returned wrong.
-  if (dynamic_cast<const GeometricallyImplicit*>(&sim.formulation()) != nullptr)
-    throw std::invalid_argument(
-        "sensitivity: formulation 'geometrically-implicit' is not supported (its end state is "
-        "written from the step unknowns and x_l); expected stewart-trinkle, anitescu-potra, "
-        "first-order, ncp or quasistatic, or finite differences (finite_difference.h)");
   const ParamTable& table = sim.scene().param_table();
   for (int index : selection.indices()) {
     if (index < 0 || index >= table.size())
@@ -438,7 +559,7 @@ void Count(SensitivityStatus s, int* exact, int* degenerate, int* mode_change, i
   }
 }
 
-std::string Describe(const StepDifferentiator& d, int unsolved) {
+std::string Describe(const StepDifferentiator& d, int unsolved, int kinks) {
   std::string m;
   if (d.degenerate() > 0)
     m += std::to_string(d.degenerate()) + " degenerate pair(s) (one-sided derivative)";
@@ -446,6 +567,10 @@ std::string Describe(const StepDifferentiator& d, int unsolved) {
   if (unsolved > 0)
     m += std::string(m.empty() ? "" : "; ") + std::to_string(unsolved) +
          " column(s) with an unsolved sensitivity LCP";
+  if (kinks > 0)
+    m += std::string(m.empty() ? "" : "; ") + std::to_string(kinks) +
+         " column(s) whose active set holds only within a perturbation below 1e-6 (near-singular "
+         "active block: the derivative of the step's own branch)";
   return m;
 }
 
@@ -477,11 +602,11 @@ std::vector<std::string> SensitivityParameterNames(const ParamTable& table) {
 StepSensitivity StepDerivatives(const Simulator& sim, const Params& params,
                                 const ParamSelection& selection, const State& x, const StepInput& u,
                                 const State& next, bool with_state,
-                                const SensitivityOptions& options) {
+                                const SensitivityOptions& options, Workspace* ws) {
   CheckSelection(sim, selection);
   const int nx = static_cast<int>(x.q.size() + x.v.size());
   StepSensitivity out;
-  StepDifferentiator d(sim, params, selection, x, u, next, options, with_state);
+  StepDifferentiator d(sim, params, selection, x, u, next, options, with_state, ws);
   if (!d.ok()) {
     out.status = SensitivityStatus::kFailed;
     out.message = d.message();
@@ -490,38 +615,45 @@ StepSensitivity StepDerivatives(const Simulator& sim, const Params& params,
     return out;
   }
   bool failed = false, changed = d.contact_set_changed();
-  int unsolved = 0;
+  int unsolved = 0, kinks = 0;
   out.d_theta.resize(nx, selection.size());
+  const VectorXd theta = selection.Get(params);
   for (int j = 0; j < selection.size(); ++j) {
     const ResidualColumn r = d.ParamColumn(j);
     changed = changed || r.contact_set_changed;
-    bool uns = false, f = false;
-    out.d_theta.col(j) = d.EndStateDerivative(r, &uns, &f);
+    bool uns = false, f = false, k = false;
+    out.d_theta.col(j) = d.EndStateDerivative(r, VectorXd(), std::abs(theta[j]), &uns, &f, &k);
     unsolved += uns;
+    kinks += k;
     failed = failed || (f && !r.contact_set_changed);
   }
   if (with_state) {
     out.d_x.resize(nx, nx);
+    const int nq = static_cast<int>(x.q.size());
     for (int i = 0; i < nx; ++i) {
-      bool uns = false, f = false;
-      out.d_x.col(i) = d.EndStateDerivative(d.StateColumn(i), &uns, &f);
+      bool uns = false, f = false, k = false;
+      const double xi = std::abs(i < nq ? x.q[i] : x.v[i - nq]);
+      out.d_x.col(i) =
+          d.EndStateDerivative(d.StateColumn(i), VectorXd::Unit(nx, i), xi, &uns, &f, &k);
       unsolved += uns;
+      kinks += k;
       failed = failed || f;
     }
   }
   out.degenerate_pairs = d.degenerate();
   out.unsolved_columns = unsolved;
+  out.near_kink_columns = kinks;
   out.contact_set_changed = changed;
-  out.status = Classify(failed, changed, d.degenerate());
-  out.message =
-      failed ? "the active system is inconsistent along some column (NaN)" : Describe(d, unsolved);
+  out.status = Classify(failed, changed, d.degenerate() + kinks);
+  out.message = failed ? "the active system is inconsistent along some column (NaN)"
+                       : Describe(d, unsolved, kinks);
   return out;
 }
 
 StepSensitivity PropagateStep(const Simulator& sim, const Params& params,
                               const ParamSelection& selection, const State& x, const StepInput& u,
                               const State& next, const MatrixXd& S, MatrixXd* S_next,
-                              const SensitivityOptions& options) {
+                              const SensitivityOptions& options, Workspace* ws) {
   CheckSelection(sim, selection);
   const int nx = static_cast<int>(x.q.size() + x.v.size());
   const int p = selection.size(), ncols = static_cast<int>(S.cols());
@@ -532,7 +664,7 @@ StepSensitivity PropagateStep(const Simulator& sim, const Params& params,
   // Many columns: one full state Jacobian is cheaper than a directional difference per column.
   const bool full_state = ncols > nx;
   StepSensitivity st;
-  StepDifferentiator d(sim, params, selection, x, u, next, options, full_state);
+  StepDifferentiator d(sim, params, selection, x, u, next, options, full_state, ws);
   *S_next = MatrixXd::Constant(nx, ncols, kNaN);
   if (!d.ok()) {
     st.status = SensitivityStatus::kFailed;
@@ -540,7 +672,8 @@ StepSensitivity PropagateStep(const Simulator& sim, const Params& params,
     return st;
   }
   bool failed = false, changed = d.contact_set_changed();
-  int unsolved = 0;
+  int unsolved = 0, kinks = 0;
+  const VectorXd theta = selection.Get(params);
   for (int c = 0; c < ncols; ++c) {
     ResidualColumn r;
     if (full_state) {
@@ -558,17 +691,20 @@ StepSensitivity PropagateStep(const Simulator& sim, const Params& params,
       if (c < p) r = StepDifferentiator::Add(std::move(r), d.ParamColumn(c));
     }
     changed = changed || r.contact_set_changed;
-    bool uns = false, f = false;
-    S_next->col(c) = d.EndStateDerivative(r, &uns, &f);
+    bool uns = false, f = false, k = false;
+    S_next->col(c) =
+        d.EndStateDerivative(r, S.col(c), c < p ? std::abs(theta[c]) : 1.0, &uns, &f, &k);
     unsolved += uns;
+    kinks += k;
     failed = failed || (f && !r.contact_set_changed);
   }
   st.degenerate_pairs = d.degenerate();
   st.unsolved_columns = unsolved;
+  st.near_kink_columns = kinks;
   st.contact_set_changed = changed;
-  st.status = Classify(failed, changed, d.degenerate());
-  st.message =
-      failed ? "the active system is inconsistent along some column (NaN)" : Describe(d, unsolved);
+  st.status = Classify(failed, changed, d.degenerate() + kinks);
+  st.message = failed ? "the active system is inconsistent along some column (NaN)"
+                      : Describe(d, unsolved, kinks);
   return st;
 }
 
@@ -596,7 +732,8 @@ RolloutSensitivity RolloutForward(const Simulator& sim, const Params& params,
           "step " + std::to_string(k) + ": " + out.trajectory.steps.back().failure;
       break;
     }
-    StepSensitivity st = PropagateStep(sim, params, selection, x, inputs[k], next, S, &S1, options);
+    StepSensitivity st =
+        PropagateStep(sim, params, selection, x, inputs[k], next, S, &S1, options, &ws);
     Count(st.status, &out.exact_steps, &out.degenerate_steps, &out.mode_change_steps,
           &out.failed_steps);
     out.steps.push_back(std::move(st));
@@ -629,7 +766,8 @@ RolloutGradient RolloutReverse(const Simulator& sim, const Params& params,
       out.failure = "step " + std::to_string(k) + ": " + info.failure;
       return out;
     }
-    StepSensitivity st = StepDerivatives(sim, params, selection, x, inputs[k], next, true, options);
+    StepSensitivity st =
+        StepDerivatives(sim, params, selection, x, inputs[k], next, true, options, &ws);
     Count(st.status, &out.exact_steps, &out.degenerate_steps, &out.mode_change_steps,
           &out.failed_steps);
     failed = failed || st.status == SensitivityStatus::kFailed;

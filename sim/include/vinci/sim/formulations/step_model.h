@@ -99,6 +99,10 @@ class StepModel {
   /// The end-of-step state a step with unknowns z writes: t + h, q_ℓ+1, ν_ℓ+1 and the warm
   /// start (the solver's unknowns) — StateFromUnknowns(UnknownsFromStep(next)) reproduces next.
   State StateFromUnknowns(const VectorXd& z) const;
+  /// The same with the start state x in place of x_freeze() (same sizes and time): GI writes a
+  /// spatial body's orientation relative to R_ℓ (R_ℓ+1 = R_ℓ Exp(φ)), so its end state depends on
+  /// x_ℓ explicitly; every other formulation's does not (x is ignored).
+  State StateFromUnknowns(const VectorXd& z, const State& x) const;
 
  protected:
   StepModel(std::shared_ptr<const Scene> model, Params params, State x, StepInput u, double dt);
@@ -109,8 +113,8 @@ class StepModel {
                                   const StepInput& u, const VectorXd& z) const = 0;
   virtual VectorXd Unknowns(const State& next) const = 0;
   virtual VectorXd WarmStart(const VectorXd& z) const = 0;
-  /// ν_ℓ+1, q_ℓ+1 written from z (default: the z blocks; GI overrides).
-  virtual State EndState(const VectorXd& z) const;
+  /// ν_ℓ+1, q_ℓ+1 written from z with start state x (default: the z blocks; GI overrides).
+  virtual State EndState(const VectorXd& z, const State& x) const;
   /// Recovers the p_b block of z from the dynamics rows (least squares through G_b).
   void RecoverJointImpulses(const MatrixXd& G_b, VectorXd* z) const;
 
@@ -131,5 +135,9 @@ class StepModel {
 /// another Formulation, mismatched sizes or a scene the formulation rejects.
 std::unique_ptr<StepModel> Freeze(const Formulation& formulation, const Scene& model,
                                   const Params& params, const State& x, const StepInput& u = {});
+/// Freeze() sharing `model` (e.g. a Workspace's resolved scene) instead of copying it.
+std::unique_ptr<StepModel> Freeze(const Formulation& formulation,
+                                  std::shared_ptr<const Scene> model, const Params& params,
+                                  const State& x, const StepInput& u = {});
 
 }  // namespace vinci::sim

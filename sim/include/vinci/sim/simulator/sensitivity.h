@@ -28,8 +28,11 @@
 // the contact set does not change, which is flagged). Sizes and poses are rejected: they move
 // the contact set itself. The state columns [q_ℓ; ν_ℓ] are raw coordinates (a spatial body's
 // quaternion entries as they are), as in finite_difference.h. Formulations: Stewart–Trinkle,
-// Anitescu–Potra, first order, NCP, quasistatic; the geometrically implicit stepper is rejected
-// (std::invalid_argument: its end state depends on x_ℓ explicitly, which is not differentiated).
+// Anitescu–Potra, first order, NCP, quasistatic and geometrically implicit (its mixed NCP with
+// the candidate pairs found at x_ℓ; its end state depends on x_ℓ explicitly, R_ℓ+1 = R_ℓ Exp(φ),
+// which the state columns include; contacts made within a GI step are its own pairs, so GI steps
+// are never flagged kModeChange; an unloaded GI pair, p_n = p_t = 0, is held at dσ = dp_t = 0
+// and not counted as degenerate).
 #pragma once
 
 #include <functional>
@@ -87,6 +90,12 @@ struct StepSensitivity {
   int degenerate_pairs = 0;
   /// Columns whose sensitivity LCP Lemke could not solve (their λ = 0 branch is returned).
   int unsolved_columns = 0;
+  /// Columns whose held active set stays feasible only for perturbations below 1e-6 of the
+  /// column variable (a near-singular active block whose impulse split the solver form's small
+  /// compliances decide, e.g. a GI sphere resting between two spheres): the derivative is that
+  /// of the step's own branch, which any practically perturbed step has left. The step is
+  /// flagged kDegenerate.
+  int near_kink_columns = 0;
   bool contact_set_changed = false;
   std::string message;  ///< what was degenerate, changed or failed
 };
@@ -97,23 +106,24 @@ std::vector<std::string> SensitivityParameterNames(const ParamTable& table);
 
 /// The derivatives of the step sim.Step(params, x, u) → next (`next` as that step returned it;
 /// it must have succeeded). `with_state`: also ∂x_ℓ+1/∂x_ℓ (2 (nq + nv) extra evaluations of the
-/// frozen equations). Throws std::invalid_argument for a selection entry that is neither
-/// differentiable nor a motion parameter, mismatched sizes, or the geometrically implicit
-/// stepper.
+/// frozen equations). `ws`: a workspace to resolve the scene in (the step's own avoids a copy
+/// of the scene; null: a local one). Throws std::invalid_argument for a selection entry that is
+/// neither differentiable nor a motion parameter, or mismatched sizes.
 StepSensitivity StepDerivatives(const Simulator& sim, const Params& params,
                                 const ParamSelection& selection, const State& x, const StepInput& u,
                                 const State& next, bool with_state,
-                                const SensitivityOptions& options = {});
+                                const SensitivityOptions& options = {}, Workspace* ws = nullptr);
 
 /// One forward-mode step: S_next = ∂x_ℓ+1/∂θ_sel [E; 0] + ∂x_ℓ+1/∂x_ℓ S for the step x → next
 /// (`next` from sim.Step(params, x, u)), S = ∂x_ℓ/∂(columns): (nq + nv) × m with m ≥ selection
 /// size, the first selection-size columns belonging to the parameters in order (further columns,
 /// e.g. initial-state directions, have no explicit θ part). Each column is the directional
-/// derivative along it. Returns the step's status (matrices left empty).
+/// derivative along it. Returns the step's status (matrices left empty). `ws` as for
+/// StepDerivatives.
 StepSensitivity PropagateStep(const Simulator& sim, const Params& params,
                               const ParamSelection& selection, const State& x, const StepInput& u,
                               const State& next, const MatrixXd& S, MatrixXd* S_next,
-                              const SensitivityOptions& options = {});
+                              const SensitivityOptions& options = {}, Workspace* ws = nullptr);
 
 /// Forward mode: x_k's derivatives along a rollout.
 struct RolloutSensitivity {
