@@ -95,7 +95,7 @@ void FindContacts(const Scene& scene, const std::vector<BodyKinematics>& bodies,
   // O(n log n + pairs) instead of all n² pairs, then in index order (ia < ib) as the contact
   // order requires. A shape-pair overlap implies a body-box overlap, so no contact is lost.
   std::vector<Aabb>& body_box = scratch.body_box;
-  body_box.assign(n, Aabb{});
+  body_box.resize(n);  // entries are written before they are read (bodies in `order`)
   std::vector<int>& order = scratch.order;
   order.clear();
   for (int i = 0; i < n; ++i) {
