@@ -6,24 +6,30 @@
 
 namespace vinci::sim {
 
-std::vector<BodyKinematics> ComputeBodyKinematics(const Scene& scene, const State& x) {
-  std::vector<BodyKinematics> out(scene.bodies.size());
+void ComputeBodyKinematics(const Scene& scene, const State& x, std::vector<BodyKinematics>* out) {
+  out->resize(scene.bodies.size());
   for (std::size_t i = 0; i < scene.bodies.size(); ++i) {
     const Body& b = scene.bodies[i];
     switch (b.kind) {
       case BodyKind::kDynamic: {
         const BodyIndex& idx = scene.index(static_cast<int>(i));
-        out[i] = KinematicsFromQV(scene.dim, x.q.data() + idx.q, x.v.data() + idx.v);
+        (*out)[i] = KinematicsFromQV(scene.dim, x.q.data() + idx.q, x.v.data() + idx.v);
         break;
       }
       case BodyKind::kStatic:
-        out[i].X_WB = b.X_WB0;
+        (*out)[i] = BodyKinematics{};
+        (*out)[i].X_WB = b.X_WB0;
         break;
       case BodyKind::kPrescribed:
-        out[i] = EvaluateMotion(b.motion, b.X_WB0, scene.dim == Dim::kPlanar, x.t);
+        (*out)[i] = EvaluateMotion(b.motion, b.X_WB0, scene.dim == Dim::kPlanar, x.t);
         break;
     }
   }
+}
+
+std::vector<BodyKinematics> ComputeBodyKinematics(const Scene& scene, const State& x) {
+  std::vector<BodyKinematics> out;
+  ComputeBodyKinematics(scene, x, &out);
   return out;
 }
 
@@ -40,41 +46,77 @@ int FrictionParamIndex(const Scene& scene, int ma, int mb) {
   return it == scene.mu.end() ? 0 : 1 + static_cast<int>(std::distance(scene.mu.begin(), it));
 }
 
+namespace {
+
+// FindContacts' scratch, kept per thread between calls so that a steady-state step allocates
+// nothing here. Every buffer is cleared and refilled by each call: no result depends on what a
+// previous call (or another thread) left in it.
+struct FindContactsScratch {
+  std::vector<ContactPoint> points;
+  std::vector<int> shape_begin;   // body i's shapes are [shape_begin[i], shape_begin[i + 1])
+  std::vector<Aabb> boxes;        // world AABB of every shape, flattened
+  std::vector<Isometry3d> poses;  // world pose of every shape, flattened
+  std::vector<Aabb> body_box;
+  std::vector<int> order;
+  std::vector<std::pair<int, int>> pairs;
+};
+
+}  // namespace
+
 void FindContacts(const Scene& scene, const std::vector<BodyKinematics>& bodies, double envelope,
                   std::vector<Contact>* out) {
   out->clear();
   const int n = static_cast<int>(scene.bodies.size());
-  std::vector<ContactPoint> points;
+  thread_local FindContactsScratch scratch;
+  std::vector<ContactPoint>& points = scratch.points;
   // Broad phase: world AABBs of every shape, computed once.
-  std::vector<std::vector<Aabb>> boxes(n);
-  std::vector<std::vector<Isometry3d>> poses(n);
+  std::vector<int>& shape_begin = scratch.shape_begin;
+  std::vector<Aabb>& boxes_flat = scratch.boxes;
+  std::vector<Isometry3d>& poses_flat = scratch.poses;
+  shape_begin.clear();
+  boxes_flat.clear();
+  poses_flat.clear();
   for (int i = 0; i < n; ++i) {
     const Body& b = scene.bodies[i];
+    shape_begin.push_back(static_cast<int>(poses_flat.size()));
     for (const Shape& s : b.shapes) {
-      poses[i].push_back(bodies[i].X_WB * s.X_BS);
-      boxes[i].push_back(ComputeAabb(s, poses[i].back()));
+      poses_flat.push_back(bodies[i].X_WB * s.X_BS);
+      boxes_flat.push_back(ComputeAabb(s, poses_flat.back()));
     }
   }
+  shape_begin.push_back(static_cast<int>(poses_flat.size()));
+  const auto box = [&](int body, std::size_t shape) -> const Aabb& {
+    return boxes_flat[static_cast<std::size_t>(shape_begin[body]) + shape];
+  };
+  const auto pose = [&](int body, std::size_t shape) -> const Isometry3d& {
+    return poses_flat[static_cast<std::size_t>(shape_begin[body]) + shape];
+  };
   // Candidate body pairs: sweep and prune along x on each body's box (the union of its shapes'),
   // O(n log n + pairs) instead of all n² pairs, then in index order (ia < ib) as the contact
   // order requires. A shape-pair overlap implies a body-box overlap, so no contact is lost.
-  std::vector<Aabb> body_box(n);
-  std::vector<int> order;
-  order.reserve(n);
+  std::vector<Aabb>& body_box = scratch.body_box;
+  body_box.resize(n);  // entries are written before they are read (bodies in `order`)
+  std::vector<int>& order = scratch.order;
+  order.clear();
   for (int i = 0; i < n; ++i) {
-    if (boxes[i].empty()) continue;
-    Aabb box = boxes[i][0];
-    for (const Aabb& s : boxes[i]) {
-      box.lo = box.lo.cwiseMin(s.lo);
-      box.hi = box.hi.cwiseMax(s.hi);
+    if (shape_begin[i] == shape_begin[i + 1]) continue;
+    Aabb bb = box(i, 0);
+    for (int s = shape_begin[i]; s < shape_begin[i + 1]; ++s) {
+      bb.lo = bb.lo.cwiseMin(boxes_flat[s].lo);
+      bb.hi = bb.hi.cwiseMax(boxes_flat[s].hi);
     }
-    if (box.lo.hasNaN() || box.hi.hasNaN()) continue;  // overlaps nothing (as before)
-    body_box[i] = box;
+    if (bb.lo.hasNaN() || bb.hi.hasNaN()) continue;  // overlaps nothing (as before)
+    body_box[i] = bb;
     order.push_back(i);
   }
-  std::stable_sort(order.begin(), order.end(),
-                   [&](int i, int j) { return body_box[i].lo.x() < body_box[j].lo.x(); });
-  std::vector<std::pair<int, int>> pairs;
+  // By the box's low x, ties in index order (what a stable sort of the index-ordered list gives;
+  // std::sort does not allocate).
+  std::sort(order.begin(), order.end(), [&](int i, int j) {
+    return body_box[i].lo.x() < body_box[j].lo.x() ||
+           (body_box[i].lo.x() == body_box[j].lo.x() && i < j);
+  });
+  std::vector<std::pair<int, int>>& pairs = scratch.pairs;
+  pairs.clear();
   for (std::size_t p = 0; p < order.size(); ++p) {
     const int i = order[p];
     for (std::size_t q = p + 1; q < order.size(); ++q) {
@@ -98,10 +140,9 @@ void FindContacts(const Scene& scene, const std::vector<BodyKinematics>& bodies,
       const Body& BB = scene.bodies[b];
       for (std::size_t sa = 0; sa < BA.shapes.size(); ++sa) {
         for (std::size_t sb = 0; sb < BB.shapes.size(); ++sb) {
-          if (!boxes[a][sa].Overlaps(boxes[b][sb], envelope)) continue;
+          if (!box(a, sa).Overlaps(box(b, sb), envelope)) continue;
           points.clear();
-          CollideShapes(BA.shapes[sa], poses[a][sa], BB.shapes[sb], poses[b][sb], envelope,
-                        &points);
+          CollideShapes(BA.shapes[sa], pose(a, sa), BB.shapes[sb], pose(b, sb), envelope, &points);
           const int ma = BA.shapes[sa].material, mb = BB.shapes[sb].material;
           if (!scene.options.nonconvex_corners) {  // per-edge constraints: split every corner
             const std::size_t n_points = points.size();

@@ -48,6 +48,8 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
   const std::size_t nbody = model.bodies.size();
   columns_.resize(nbody);
   blocks_.resize(nbody);
+  Gb_.resize(nbody);
+  WG_.resize(nbody);
   for (std::vector<int>& cols : columns_) cols.clear();
   first_.assign(2 * static_cast<std::size_t>(nc), -1);
   for (int c = 0; c < nc; ++c) {
@@ -65,27 +67,30 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
     const std::vector<int>& cols = columns_[body];
     if (cols.empty()) continue;
     const int o = model.index(body).v, k = static_cast<int>(cols.size());
-    Gb_.setZero(nvb, k);
+    // Per body, so that a steady step (same k per body) reuses their storage.
+    MatrixXd& Gb = Gb_[body];
+    MatrixXd& WG = WG_[body];
+    Gb.setZero(nvb, k);
     for (int i = 0; i < k; ++i) {
       const SparseMatrixd& G = cols[i] < nc ? a.G_n : a.G_f;
       const int col = cols[i] < nc ? cols[i] : cols[i] - nc;
       for (SparseMatrixd::InnerIterator it(G, col); it; ++it)
-        if (it.row() >= o && it.row() < o + nvb) Gb_(it.row() - o, i) = it.value();
+        if (it.row() >= o && it.row() < o + nvb) Gb(it.row() - o, i) = it.value();
     }
-    WG_.noalias() = a.M_inv.BlockAt(o) * Gb_;
+    WG.noalias() = a.M_inv.BlockAt(o) * Gb;
     MatrixXd& B = blocks_[body];
     B.resize(k, k);
     // W_b is symmetric, so is the block: the lower triangle, mirrored.
     if (nvb == 6) {
       for (int j = 0; j < k; ++j) {
-        const Eigen::Map<const Eigen::Matrix<double, 6, 1>> wg(WG_.col(j).data());
+        const Eigen::Map<const Eigen::Matrix<double, 6, 1>> wg(WG.col(j).data());
         for (int i = j; i < k; ++i)
           B(j, i) = B(i, j) =
-              Eigen::Map<const Eigen::Matrix<double, 6, 1>>(Gb_.col(i).data()).dot(wg);
+              Eigen::Map<const Eigen::Matrix<double, 6, 1>>(Gb.col(i).data()).dot(wg);
       }
     } else {
       for (int j = 0; j < k; ++j)
-        for (int i = j; i < k; ++i) B(j, i) = B(i, j) = Gb_.col(i).dot(WG_.col(j));
+        for (int i = j; i < k; ++i) B(j, i) = B(i, j) = Gb.col(i).dot(WG.col(j));
     }
   }
 

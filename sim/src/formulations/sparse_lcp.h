@@ -55,16 +55,18 @@ class ContactLcpOperator final : public LcpMatrixOperator {
   std::vector<std::vector<int>> columns_;  // per body: the impulse columns touching it
   std::vector<MatrixXd> blocks_;           // per body: G_bᵀ W_b G_b over columns_[body]
   std::vector<int> first_;                 // per contact and side: its normal's position
-  MatrixXd Gb_, WG_;
+  std::vector<MatrixXd> Gb_, WG_;          // per body: its G_b over columns_[body], W_b G_b
   mutable VectorXd impulse_, dv_;
   mutable std::vector<Eigen::Triplet<double>> triplets_;
 };
 
-/// Buffers kept between steps.
+/// Buffers kept between steps (allocation reuse only: a step overwrites everything it reads).
 struct StepScratch {
+  StewartTrinkle::Assembly assembly;  // the step's assembly (AssembleInto)
   ContactLcpOperator lcp;
   WarmBasisScratch basis;
   SparseMatrixd M;  // the LCP matrix for SolveSparseLemke (sparse_lemke.h)
+  VectorXd gaps, v_l, v_star, z, impulse, product, dv, v1;
 };
 
 /// The calling thread's StepScratch for the lifetime of the lease.

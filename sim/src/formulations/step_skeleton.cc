@@ -20,24 +20,28 @@ bool NeedsImplicitContact(const Scene& model) {
 }  // namespace
 
 double MinGapAt(const Scene& model, const State& x, double h, double envelope, std::string* where) {
-  std::vector<BodyKinematics> kin = ComputeBodyKinematics(model, x);
+  // Kept per thread between calls (allocation reuse only: both are overwritten by every call).
+  thread_local std::vector<BodyKinematics> kin;
+  thread_local std::vector<Contact> contacts;
+  ComputeBodyKinematics(model, x, &kin);
   for (std::size_t i = 0; i < kin.size(); ++i) {  // as the next step's assembly poses them
     const Body& b = model.bodies[i];
     if (b.kind == BodyKind::kPrescribed && b.motion.pose == PoseRule::kIntegrated)
       kin[i] = EvaluateMotion(b.motion, b.X_WB0, model.dim == Dim::kPlanar, x.t, h);
   }
-  std::vector<Contact> contacts;
   FindContacts(model, kin, envelope, &contacts);
   double min_gap = std::numeric_limits<double>::infinity();
+  const Contact* min_contact = nullptr;
   for (const Contact& c : contacts) {
     const double gap = c.point.corner ? std::max(c.point.gap, c.point.gap2) : c.point.gap;
     if (gap < min_gap) {
       min_gap = gap;
-      if (where)
-        *where = "bodies '" + model.bodies[c.body_a].name + "' and '" +
-                 model.bodies[c.body_b].name + "'";
+      min_contact = &c;
     }
   }
+  if (where && min_contact)
+    *where = "bodies '" + model.bodies[min_contact->body_a].name + "' and '" +
+             model.bodies[min_contact->body_b].name + "'";
   return min_gap;
 }
 
@@ -75,9 +79,10 @@ StepInfo RunStep(const Formulation& formulation, const Scene& model, const State
   }
   const StepperOptions& o = model.options;
   if (!NeedsImplicitContact(model)) {
-    std::string where;
-    const double gap = MinGapAt(model, *next, o.dt, -o.max_penetration, &where);
+    const double gap = MinGapAt(model, *next, o.dt, -o.max_penetration, nullptr);
     if (gap < -o.max_penetration) {
+      std::string where;  // named only on failure (no string work on the steady path)
+      MinGapAt(model, *next, o.dt, -o.max_penetration, &where);
       internal::FailStep(StepStatus::kPenetration,
                          "penetration " + internal::FormatNumber(-gap) + " m (" + where +
                              ") at the end of the step exceeds max_penetration " +

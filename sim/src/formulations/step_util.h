@@ -59,8 +59,10 @@ inline void SolverFailed(const std::string& solver, StepInfo* info) {
 /// Writes the end-of-step state from the solved velocity: t + h, ν_ℓ+1 = v1,
 /// q_ℓ+1 = q_ℓ + h G(q_ℓ) ν_ℓ+1 per dynamic body (IntegratePosition), and the solver warm start.
 /// Returns false, the step failed with kNonFinite and *next untouched, if v1 is not finite.
+/// The same with the warm start swapped in from *warm_start (which receives next's old buffer):
+/// no allocation when the sizes did not change.
 inline bool CompleteStep(const Scene& model, const State& x, const VectorXd& v1, double h,
-                         VectorXd warm_start, State* next, StepInfo* info) {
+                         VectorXd* warm_start, State* next, StepInfo* info) {
   if (!v1.allFinite()) {
     FailStep(StepStatus::kNonFinite, "non-finite velocity after the step", info);
     return false;
@@ -72,8 +74,13 @@ inline bool CompleteStep(const Scene& model, const State& x, const VectorXd& v1,
     const BodyIndex& idx = model.index(bi);
     IntegratePosition(model.dim, x.q.data() + idx.q, v1.data() + idx.v, h, next->q.data() + idx.q);
   }
-  next->warm_start = std::move(warm_start);
+  next->warm_start.swap(*warm_start);
   return true;
+}
+
+inline bool CompleteStep(const Scene& model, const State& x, const VectorXd& v1, double h,
+                         VectorXd warm_start, State* next, StepInfo* info) {
+  return CompleteStep(model, x, v1, h, &warm_start, next, info);
 }
 
 }  // namespace vinci::sim::internal

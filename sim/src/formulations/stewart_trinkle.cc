@@ -39,15 +39,73 @@ void FrictionDirections(Dim dim, const Vector3d& n, int nd, std::vector<Vector3d
   }
 }
 
+// A constraint Jacobian (nv × cols) built column by column. A column touches at most two
+// dynamic bodies, so it is held as at most two blocks of nvb rows (a body's ν block) and written
+// into the compressed SparseMatrix at the end, blocks in row order: the entries (explicit zeros
+// included) and values of a matrix built by coeffRef with two body blocks reserved per column,
+// without Eigen's per-column reserve, insertion and compression — allocation-free once sized.
+class JacobianColumns {
+ public:
+  void Start(int cols) {
+    columns_.resize(static_cast<std::size_t>(cols));
+    for (Column& c : columns_) c.n = 0;
+  }
+  // Row block of column `col` at ν offset `o` (zero on first use).
+  double* Block(int col, int o) {
+    Column& c = columns_[static_cast<std::size_t>(col)];
+    for (int b = 0; b < c.n; ++b)
+      if (c.offset[b] == o) return c.value[b];
+    if (c.n == 2) throw std::logic_error("StewartTrinkle: a Jacobian column touches three bodies");
+    c.offset[c.n] = o;
+    std::fill(c.value[c.n], c.value[c.n] + 6, 0.0);
+    return c.value[c.n++];
+  }
+  // Writes the columns into *G (nv × cols, compressed), reusing its storage.
+  void Finish(int nv, int nvb, SparseMatrixd* G) const {
+    const int cols = static_cast<int>(columns_.size());
+    // Eigen's resize reallocates the outer index when there are no columns: skip it when the
+    // shape is already right.
+    if (G->rows() != nv || G->cols() != cols || !G->isCompressed()) G->resize(nv, cols);
+    Eigen::Index nnz = 0;
+    for (const Column& c : columns_) nnz += c.n * nvb;
+    G->resizeNonZeros(nnz);
+    int* outer = G->outerIndexPtr();
+    int* inner = G->innerIndexPtr();
+    double* value = G->valuePtr();
+    int k = 0;
+    for (int j = 0; j < cols; ++j) {
+      const Column& c = columns_[static_cast<std::size_t>(j)];
+      outer[j] = k;
+      const bool swap = c.n == 2 && c.offset[1] < c.offset[0];
+      for (int bb = 0; bb < c.n; ++bb) {
+        const int b = swap ? 1 - bb : bb;
+        for (int i = 0; i < nvb; ++i, ++k) {
+          inner[k] = c.offset[b] + i;
+          value[k] = c.value[b][i];
+        }
+      }
+    }
+    outer[cols] = k;
+  }
+
+ private:
+  struct Column {
+    int n = 0;
+    int offset[2] = {0, 0};
+    double value[2][6];
+  };
+  std::vector<Column> columns_;
+};
+
 // Adds `row` (the body's point-velocity row) into column `col` of G at the body's ν block,
-// or, for a non-dynamic body, adds its contribution row·ν_body to *dpsi. G's columns have
-// room reserved for two body blocks (StartJacobian).
+// or, for a non-dynamic body, adds its contribution row·ν_body to *dpsi.
 void Scatter(const Scene& model, int body, const BodyKinematics& k, const Vector3d& p,
-             const Vector3d& d, double sign, SparseMatrixd* G, int col, double* dpsi) {
+             const Vector3d& d, double sign, JacobianColumns* G, int col, double* dpsi) {
   if (model.bodies[body].kind == BodyKind::kDynamic) {
     const int nvb = VelocitySize(model.dim), o = model.index(body).v;
     const auto row = PointVelocityRow(model.dim, k.X_WB, p, d);
-    for (int i = 0; i < nvb; ++i) G->coeffRef(o + i, col) += sign * row[i];
+    double* block = G->Block(col, o);
+    for (int i = 0; i < nvb; ++i) block[i] += sign * row[i];
   } else {
     *dpsi += sign * d.dot(PointVelocity(k, p));
   }
@@ -65,12 +123,19 @@ void ScatterDot(const Scene& model, int body, const BodyKinematics& k, const Vec
   }
 }
 
-// An empty nv × cols Jacobian with room for `per_column` entries in every column. A matrix
-// without columns is left compressed: Eigen's per-column reserve would make it uncompressed, and
-// makeCompressed() of an uncompressed matrix with no columns reads past its outer index.
-void StartJacobian(int nv, int cols, int per_column, SparseMatrixd* G) {
-  G->resize(nv, cols);
-  if (cols > 0) G->reserve(Eigen::VectorXi::Constant(cols, per_column));
+// The assembly's transient buffers, kept per thread between calls (allocation reuse only: every
+// call overwrites what it uses, so no result depends on a previous call or on the thread).
+struct AssemblyScratch {
+  std::vector<BodyKinematics> kin;
+  std::vector<Vector3d> dirs;
+  JacobianColumns G_n, G_f, G_b, G_1;
+  JointRows joint_rows;
+  VectorXd zero_v;
+};
+
+AssemblyScratch& ThreadAssemblyScratch() {
+  thread_local AssemblyScratch scratch;
+  return scratch;
 }
 
 // The entries of column `col` of G in rows [o, o + n) into out[0..n) (zeros elsewhere).
@@ -168,15 +233,23 @@ std::string_view StewartTrinkle::name() const {
 
 StewartTrinkle::Assembly StewartTrinkle::Assemble(const Scene& model, const State& x,
                                                   const StepInput& u) const {
+  Assembly a;
+  AssembleInto(model, x, u, &a);
+  return a;
+}
+
+void StewartTrinkle::AssembleInto(const Scene& model, const State& x, const StepInput& u,
+                                  Assembly* a) const {
   CheckShapesSupported(model);
-  std::vector<BodyKinematics> kin = ComputeBodyKinematics(model, x);
+  // Fill() recomputes the kinematics into the same buffer.
+  std::vector<BodyKinematics>& kin = ThreadAssemblyScratch().kin;
+  ComputeBodyKinematics(model, x, &kin);
   for (std::size_t i = 0; i < kin.size(); ++i)  // integrated prescribed poses
     if (model.bodies[i].kind == BodyKind::kPrescribed &&
         model.bodies[i].motion.pose == PoseRule::kIntegrated)
       kin[i] = PrescribedKinematics(model, static_cast<int>(i), x.t, options_.dt);
-  std::vector<Contact> contacts;
-  FindContacts(model, kin, options_.envelope, &contacts);
-  return AssembleAt(model, x, u, std::move(contacts), /*select_corner_edges=*/true);
+  FindContacts(model, kin, options_.envelope, &a->contacts);
+  Fill(model, x, u, /*select_corner_edges=*/true, a);
 }
 
 StewartTrinkle::Assembly StewartTrinkle::AssembleAt(const Scene& model, const State& x,
@@ -185,12 +258,21 @@ StewartTrinkle::Assembly StewartTrinkle::AssembleAt(const Scene& model, const St
                                                     bool select_corner_edges) const {
   Assembly a;
   a.contacts = std::move(contacts);
+  Fill(model, x, u, select_corner_edges, &a);
+  return a;
+}
+
+void StewartTrinkle::Fill(const Scene& model, const State& x, const StepInput& u,
+                          bool select_corner_edges, Assembly* assembly) const {
+  Assembly& a = *assembly;
+  AssemblyScratch& scratch = ThreadAssemblyScratch();
   const Dim dim = model.dim;
   const double h = options_.dt;
   const int nv = model.num_velocities();
   const int nvb = VelocitySize(dim);
   CheckShapesSupported(model);
-  std::vector<BodyKinematics> kin = ComputeBodyKinematics(model, x);
+  std::vector<BodyKinematics>& kin = scratch.kin;
+  ComputeBodyKinematics(model, x, &kin);
   for (std::size_t i = 0; i < kin.size(); ++i)  // integrated prescribed poses
     if (model.bodies[i].kind == BodyKind::kPrescribed &&
         model.bodies[i].motion.pose == PoseRule::kIntegrated)
@@ -206,7 +288,7 @@ StewartTrinkle::Assembly StewartTrinkle::AssembleAt(const Scene& model, const St
   // Mass matrix (block diagonal, one block per dynamic body) and external impulses.
   a.M.Resize(nv, nvb);
   a.M_inv.Resize(nv, nvb);
-  a.p_ext = VectorXd::Zero(nv);
+  a.p_ext.setZero(nv);
   for (int bi : model.dynamic_bodies()) {
     const Body& b = model.bodies[bi];
     const int o = model.index(bi).v;
@@ -247,8 +329,10 @@ StewartTrinkle::Assembly StewartTrinkle::AssembleAt(const Scene& model, const St
   // Corner contacts: edge 2 (the contact's `point`) is the edge with the larger predicted gap
   // ψ_i + h (G_iᵀ ν_ℓ + ∂ψ_i/∂t) (first order: ψ_i + h ∂ψ_i/∂t); near-ties (a vertex arriving
   // exactly at the corner) go to the edge with the smaller |ψ_i|, the edge it slides along.
+  a.corner_contact.clear();
   {
-    const VectorXd v_pred = first_order_ ? VectorXd::Zero(nv) : x.v;
+    // First order: ν_ℓ → 0.
+    const VectorXd& v_pred = first_order_ ? scratch.zero_v.setZero(nv) : x.v;
     for (int c = 0; c < nc; ++c) {
       ContactPoint& p = a.contacts[c].point;
       if (!p.corner) continue;
@@ -275,27 +359,29 @@ StewartTrinkle::Assembly StewartTrinkle::AssembleAt(const Scene& model, const St
       a.corner_contact.push_back(c);
     }
     const int nk = static_cast<int>(a.corner_contact.size());
-    StartJacobian(nv, nk, 2 * nvb, &a.G_1);
+    scratch.G_1.Start(nk);
     a.psi_1.resize(nk);
-    a.dpsi_1 = VectorXd::Zero(nk);
+    a.dpsi_1.setZero(nk);
     for (int k = 0; k < nk; ++k) {
       const Contact& ct = a.contacts[a.corner_contact[k]];
       const ContactPoint& p = ct.point;
       a.psi_1[k] = p.gap2;
-      Scatter(model, ct.body_a, kin[ct.body_a], p.p2_A_W, p.n2_W, 1.0, &a.G_1, k, &a.dpsi_1[k]);
-      Scatter(model, ct.body_b, kin[ct.body_b], p.p2_B_W, p.n2_W, -1.0, &a.G_1, k, &a.dpsi_1[k]);
+      Scatter(model, ct.body_a, kin[ct.body_a], p.p2_A_W, p.n2_W, 1.0, &scratch.G_1, k,
+              &a.dpsi_1[k]);
+      Scatter(model, ct.body_b, kin[ct.body_b], p.p2_B_W, p.n2_W, -1.0, &scratch.G_1, k,
+              &a.dpsi_1[k]);
     }
   }
 
   // Contacts.
-  StartJacobian(nv, nc, 2 * nvb, &a.G_n);
-  StartJacobian(nv, nc * nd, 2 * nvb, &a.G_f);
+  scratch.G_n.Start(nc);
+  scratch.G_f.Start(nc * nd);
   a.psi_n.resize(nc);
-  a.dpsi_n = VectorXd::Zero(nc);
-  a.dpsi_f = VectorXd::Zero(nc * nd);
+  a.dpsi_n.setZero(nc);
+  a.dpsi_f.setZero(nc * nd);
   a.mu.resize(nc);
   a.compliance.resize(nc);
-  std::vector<Vector3d> dirs;
+  std::vector<Vector3d>& dirs = scratch.dirs;
   for (int c = 0; c < nc; ++c) {
     const Contact& ct = a.contacts[c];
     const ContactPoint& p = ct.point;
@@ -304,13 +390,14 @@ StewartTrinkle::Assembly StewartTrinkle::AssembleAt(const Scene& model, const St
     a.compliance[c] = LinearizeNormalLaw(
         CombineCompliance(model.bodies[ct.body_a].compliance, model.bodies[ct.body_b].compliance),
         p.gap, h);
-    Scatter(model, ct.body_a, kin[ct.body_a], p.p_A_W, p.n_W, 1.0, &a.G_n, c, &a.dpsi_n[c]);
-    Scatter(model, ct.body_b, kin[ct.body_b], p.p_B_W, p.n_W, -1.0, &a.G_n, c, &a.dpsi_n[c]);
+    Scatter(model, ct.body_a, kin[ct.body_a], p.p_A_W, p.n_W, 1.0, &scratch.G_n, c, &a.dpsi_n[c]);
+    Scatter(model, ct.body_b, kin[ct.body_b], p.p_B_W, p.n_W, -1.0, &scratch.G_n, c, &a.dpsi_n[c]);
     FrictionDirections(dim, p.n_W, nd, &dirs);
     for (int j = 0; j < nd; ++j) {
       const int col = c * nd + j;
-      Scatter(model, ct.body_a, kin[ct.body_a], p.p_A_W, dirs[j], 1.0, &a.G_f, col, &a.dpsi_f[col]);
-      Scatter(model, ct.body_b, kin[ct.body_b], p.p_B_W, dirs[j], -1.0, &a.G_f, col,
+      Scatter(model, ct.body_a, kin[ct.body_a], p.p_A_W, dirs[j], 1.0, &scratch.G_f, col,
+              &a.dpsi_f[col]);
+      Scatter(model, ct.body_b, kin[ct.body_b], p.p_B_W, dirs[j], -1.0, &scratch.G_f, col,
               &a.dpsi_f[col]);
     }
   }
@@ -318,10 +405,10 @@ StewartTrinkle::Assembly StewartTrinkle::AssembleAt(const Scene& model, const St
   // Joints.
   int nb = 0;
   for (const Joint& j : model.joints) nb += JointRowCount(j.type, dim);
-  StartJacobian(nv, nb, 2 * nvb, &a.G_b);
+  scratch.G_b.Start(nb);
   a.psi_b.resize(nb);
-  a.dpsi_b = VectorXd::Zero(nb);
-  JointRows rows;
+  a.dpsi_b.setZero(nb);
+  JointRows& rows = scratch.joint_rows;
   const BodyKinematics world;
   int r = 0;
   for (const Joint& j : model.joints) {
@@ -334,8 +421,10 @@ StewartTrinkle::Assembly StewartTrinkle::AssembleAt(const Scene& model, const St
       if (body < 0) return;  // the world does not move
       if (model.bodies[body].kind == BodyKind::kDynamic) {
         const int o = model.index(body).v;
-        for (int i = 0; i < m; ++i)
-          for (int e = 0; e < nvb; ++e) a.G_b.coeffRef(o + e, r + i) += J(i, e);
+        for (int i = 0; i < m; ++i) {
+          double* block = scratch.G_b.Block(r + i, o);
+          for (int e = 0; e < nvb; ++e) block[e] += J(i, e);
+        }
       } else {
         a.dpsi_b.segment(r, m) += J * BodyVelocity(dim, k);
       }
@@ -345,14 +434,13 @@ StewartTrinkle::Assembly StewartTrinkle::AssembleAt(const Scene& model, const St
     r += m;
   }
 
-  a.G_1.makeCompressed();
-  a.G_n.makeCompressed();
-  a.G_f.makeCompressed();
-  a.G_b.makeCompressed();
+  scratch.G_1.Finish(nv, nvb, &a.G_1);
+  scratch.G_n.Finish(nv, nvb, &a.G_n);
+  scratch.G_f.Finish(nv, nvb, &a.G_f);
+  scratch.G_b.Finish(nv, nvb, &a.G_b);
 
   // 2.5D support friction (support.h): empty without support points.
   a.support = AssembleSupport(model, x, h, /*quadratic=*/false);
-  return a;
 }
 
 std::vector<std::vector<int>> StewartTrinkle::LcpBlocks(const Assembly& a, LcpBlocking blocking,
@@ -550,37 +638,64 @@ LcpProblem StewartTrinkle::BuildLcp(const Scene& model, const Assembly& a, const
   return lcp;
 }
 
-VectorXd StewartTrinkle::VelocityAfter(const Assembly& a, const VectorXd& v_star, const VectorXd& z,
-                                       const JointElimination& joints) const {
+namespace {
+
+// ν_ℓ+1 = ν* + W G_c p_c into *v1, with the intermediate vectors in *impulse, *product and *dv
+// (their storage reused).
+void VelocityAfterInto(const StewartTrinkle::Assembly& a, const VectorXd& v_star, const VectorXd& z,
+                       const StewartTrinkle::JointElimination& joints, VectorXd* impulse,
+                       VectorXd* product, VectorXd* dv, VectorXd* v1) {
   const int nc = static_cast<int>(a.contacts.size());
   const int nf = nc * a.nd;
-  VectorXd impulse = a.G_n * z.head(nc) + a.G_f * z.segment(nc, nf);
-  if (a.support.columns() > 0)
-    impulse += a.support.G_s * z.segment(nc + nf + nc, a.support.columns());
-  VectorXd dv = a.M_inv * impulse;
-  if (a.psi_b.size() > 0) dv -= joints.MinvGb * joints.S.solve(joints.MinvGb.transpose() * impulse);
-  return v_star + dv;
+  // impulse = G_n p_n + G_f p_f (+ G_s p_s), evaluated as Eigen evaluates that expression:
+  // G_f p_f accumulated into G_n p_n, G_s p_s formed whole, then added.
+  impulse->noalias() = a.G_n * z.head(nc);
+  impulse->noalias() += a.G_f * z.segment(nc, nf);
+  if (a.support.columns() > 0) {
+    product->noalias() = a.support.G_s * z.segment(nc + nf + nc, a.support.columns());
+    *impulse += *product;
+  }
+  a.M_inv.Multiply(*impulse, dv);
+  if (a.psi_b.size() > 0)
+    *dv -= joints.MinvGb * joints.S.solve(joints.MinvGb.transpose() * *impulse);
+  *v1 = v_star + *dv;
+}
+
+}  // namespace
+
+VectorXd StewartTrinkle::VelocityAfter(const Assembly& a, const VectorXd& v_star, const VectorXd& z,
+                                       const JointElimination& joints) const {
+  VectorXd impulse, product, dv, v1;
+  VelocityAfterInto(a, v_star, z, joints, &impulse, &product, &dv, &v1);
+  return v1;
 }
 
 void StewartTrinkle::Step(const Scene& model, const State& x, const StepInput& u, Workspace* ws,
                           State* next, StepInfo* info) const {
   internal::BeginStep(x, next, info);
   const double h = options_.dt;
-  Assembly a = Assemble(model, x, u);
+  // The step's buffers (assembly, vectors, warm-basis scratch) are this thread's, reused: a
+  // step whose contact structure did not change allocates nothing on the warm-basis path.
+  internal::StepScratchLease lease;
+  internal::StepScratch& s = lease.get();
+  Assembly& a = s.assembly;
+  AssembleInto(model, x, u, &a);
   const int nc = static_cast<int>(a.contacts.size());
   info->contacts = nc;
   info->joint_rows = static_cast<int>(a.psi_b.size());
   // A corner contact's gap is max(ψ_1, ψ_2).
-  VectorXd gaps = a.psi_n;
+  VectorXd& gaps = s.gaps;
+  gaps = a.psi_n;
   for (std::size_t k = 0; k < a.corner_contact.size(); ++k)
     gaps[a.corner_contact[k]] = std::max(gaps[a.corner_contact[k]], a.psi_1[k]);
   info->min_gap = nc > 0 ? gaps.minCoeff() : 0.0;
   if (!internal::CheckStartPenetration(nc, options_.max_penetration, info)) return;
 
-  VectorXd v_star;
+  VectorXd& v_star = s.v_star;
   JointElimination joints;
-  const VectorXd v_l = first_order_ ? VectorXd::Zero(x.v.size()) : x.v;  // first order: no ν_ℓ
-  VectorXd z;
+  // First order: no ν_ℓ.
+  const VectorXd& v_l = first_order_ ? s.v_l.setZero(x.v.size()) : x.v;
+  VectorXd& z = s.z;
   // Warm-started Lemke on plain contacts: first the guessed basis on the structured LCP operator
   // (sparse_lcp.h, warm_basis.h); the dense LCP is built only if that basis is refused
   // (LemkeSolver then repeats the test and pivots).
@@ -588,8 +703,6 @@ void StewartTrinkle::Step(const Scene& model, const State& x, const StepInput& u
   const auto* lemke = dynamic_cast<const LemkeSolver*>(solver_.get());
   const int m_plain = nc * (a.nd + 2);
   if (lemke != nullptr && nc > 0 && x.warm_start.size() == m_plain) {
-    internal::StepScratchLease lease;
-    internal::StepScratch& s = lease.get();
     if (s.lcp.Build(model, a, v_l, h, velocity_level_) &&
         SolveOnWarmBasis(s.lcp, s.lcp.q(), x.warm_start, lemke->options(), &s.basis, &z,
                          &info->solver)) {
@@ -599,7 +712,7 @@ void StewartTrinkle::Step(const Scene& model, const State& x, const StepInput& u
   }
   if (!solved) {
     const LcpProblem lcp = BuildLcp(model, a, v_l, &v_star, &joints);
-    z = VectorXd::Zero(lcp.size());
+    z.setZero(lcp.size());
     if (lcp.size() > 0) {
       const VectorXd* warm = x.warm_start.size() == lcp.size() ? &x.warm_start : nullptr;
       info->solver = solver_->Solve(lcp, warm, &z);
@@ -612,9 +725,9 @@ void StewartTrinkle::Step(const Scene& model, const State& x, const StepInput& u
     }
   }
 
-  const VectorXd v1 = VelocityAfter(a, v_star, z, joints);
-  if (!internal::CompleteStep(model, x, v1, h, z, next, info)) return;
-  if (ws) ws->contacts = std::move(a.contacts);
+  VelocityAfterInto(a, v_star, z, joints, &s.impulse, &s.product, &s.dv, &s.v1);
+  if (!internal::CompleteStep(model, x, s.v1, h, &z, next, info)) return;
+  if (ws) ws->contacts = a.contacts;  // a copy into its storage (the assembly is reused)
   info->ok = true;
   info->status = StepStatus::kOk;
 }

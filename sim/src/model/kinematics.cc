@@ -4,16 +4,15 @@
 
 namespace vinci::sim {
 
-Eigen::Matrix<double, 1, Eigen::Dynamic> PointVelocityRow(Dim dim, const Isometry3d& X_WB,
-                                                          const Vector3d& p_W,
-                                                          const Vector3d& d_W) {
+PointVelocityRowType PointVelocityRow(Dim dim, const Isometry3d& X_WB, const Vector3d& p_W,
+                                      const Vector3d& d_W) {
   const Vector3d r = p_W - X_WB.translation();
   if (dim == Dim::kPlanar) {
-    Eigen::Matrix<double, 1, Eigen::Dynamic> row(3);
+    PointVelocityRowType row(3);
     row << d_W.x(), d_W.y(), r.x() * d_W.y() - r.y() * d_W.x();
     return row;
   }
-  Eigen::Matrix<double, 1, Eigen::Dynamic> row(6);
+  PointVelocityRowType row(6);
   row.head<3>() = d_W.transpose();
   row.tail<3>() = (X_WB.linear().transpose() * r.cross(d_W)).transpose();
   return row;

@@ -583,7 +583,7 @@ SolverReport LemkeSolver::Solve(const LcpProblem& problem, const VectorXd* warm_
     report.status = SolverStatus::kSolved;
     report.residual = warm_residual;
     report.tolerance = acceptance.For(*z);
-    report.message = "accepted the warm-start basis";
+    report.message = "warm basis";  // as SolveOnWarmBasis (warm_basis.cc): no heap allocation
     return finish();
   }
 

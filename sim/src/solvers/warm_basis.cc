@@ -94,11 +94,43 @@ bool SolveOnWarmBasis(const LcpMatrixOperator& M, const Eigen::VectorXd& q,
     s->rhs(a) = q(s->active[a]);
   }
   M.PrincipalBlock(s->active, &s->m_bb);
-  s->rhs = -(s->m_bb * s->guess_b + s->rhs);
+  s->product.noalias() = s->m_bb * s->guess_b;
+  s->rhs = -(s->product + s->rhs);
   if (nb <= kDenseWarmBasisMax) {
-    // As LemkeSolver: column-pivoted Householder QR of the dense M_BB.
-    const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(s->m_bb);
-    s->z_b = s->guess_b + qr.solve(s->rhs);
+    // As LemkeSolver: column-pivoted Householder QR of the dense M_BB, and z_B = guess_B +
+    // qr.solve(rhs) with the solve's steps (ColPivHouseholderQR::_solve_impl, same bits) done in
+    // the scratch's storage: a steady step allocates nothing here.
+    Eigen::ColPivHouseholderQR<Eigen::MatrixXd>& qr = s->qr;
+    qr.compute(s->m_bb);
+    const Eigen::Index nz = qr.nonzeroPivots();
+    Eigen::VectorXd& c = s->c;
+    c = s->rhs;
+    if (nz > 0) {
+      // c ← Qᵀ c: the reflectors k = 0..nz−1 applied as HouseholderSequence::applyThisOnTheLeft
+      // and MatrixBase::applyHouseholderOnTheLeft do (same operations, same order), without the
+      // temporary Eigen's outer product allocates per reflector.
+      for (Eigen::Index k = 0; k < nz; ++k) {
+        const Eigen::Index len = nb - k;
+        const double tau = qr.hCoeffs()(k);
+        if (len == 1) {
+          c(k) *= 1.0 - tau;
+        } else if (tau != 0.0) {
+          const auto essential = qr.matrixQR().col(k).tail(len - 1);
+          auto bottom = c.segment(k + 1, len - 1);
+          double tmp = 0.0;
+          tmp += 1.0 * essential.dot(bottom);
+          tmp += c(k);
+          c(k) -= tau * tmp;
+          for (Eigen::Index i = 0; i < len - 1; ++i) bottom(i) -= tmp * (tau * essential(i));
+        }
+      }
+      qr.matrixQR().topLeftCorner(nz, nz).template triangularView<Eigen::Upper>().solveInPlace(
+          c.topRows(nz));
+    }
+    s->z_b.resize(nb);
+    const auto& perm = qr.colsPermutation().indices();
+    for (Eigen::Index i = 0; i < nb; ++i)
+      s->z_b(perm(i)) = s->guess_b(perm(i)) + (i < nz ? s->c(i) : 0.0);
   } else {
     const Eigen::SparseMatrix<double> s_bb = s->m_bb.sparseView();
     Eigen::SparseQR<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>> qr;
@@ -136,7 +168,8 @@ bool SolveOnWarmBasis(const LcpMatrixOperator& M, const Eigen::VectorXd& q,
     scaled = std::max(scaled, std::abs(std::min(ratio(s->candidate(i), s_z), ratio(s->w(i), s_w))));
   if (!(scaled <= kLcpAcceptanceTolerance)) return false;
   z->swap(s->candidate);
-  return solved(residual, tau, "accepted the warm-start basis");
+  // A short message (no heap allocation: within std::string's inline buffer).
+  return solved(residual, tau, "warm basis");
 }
 
 }  // namespace vinci::sim

@@ -44,6 +44,14 @@ class BlockDiagonal {
   }
 
   /// The dense rows() × cols() matrix (for small dense consumers: Newton Jacobians).
+  /// *y = this · x for a vector x (rows() entries), the product operator* forms, into y's
+  /// storage (no allocation when y already has rows() entries). y must not alias x.
+  void Multiply(const VectorXd& x, VectorXd* y) const {
+    y->resize(rows());
+    for (int o = 0; o < rows(); o += block_size_)
+      y->segment(o, block_size_).noalias() = BlockAt(o) * x.segment(o, block_size_);
+  }
+
   MatrixXd ToDense() const;
 
  private:

@@ -29,6 +29,8 @@ int FrictionParamIndex(const Scene& scene, int ma, int mb);
 /// World kinematics of every body at state x (dynamic: from q, v; prescribed: from the motion
 /// at x.t; static: initial pose).
 std::vector<BodyKinematics> ComputeBodyKinematics(const Scene& scene, const State& x);
+/// The same into *out (resized to the body count; its storage is reused).
+void ComputeBodyKinematics(const Scene& scene, const State& x, std::vector<BodyKinematics>* out);
 
 /// All contacts with ψ_n ≤ envelope between shapes of different bodies, at least one of them
 /// dynamic, excluding pairs of bodies connected by a joint. Deterministic order (by body, shape

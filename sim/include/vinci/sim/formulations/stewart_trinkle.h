@@ -77,6 +77,9 @@ class StewartTrinkle final : public Formulation {
     SupportRows support;  ///< 2.5D support friction, linearized (empty without supports)
   };
   Assembly Assemble(const Scene& model, const State& x, const StepInput& u) const;
+  /// Assemble() into *a, reusing its storage (every field is overwritten; same result): a step
+  /// whose contact count and structure did not change allocates nothing here.
+  void AssembleInto(const Scene& model, const State& x, const StepInput& u, Assembly* a) const;
   /// Assemble() with the contact list given instead of found at x (the frozen step model,
   /// step_model.h: contacts found once at x_ℓ, moved with their bodies). With
   /// `select_corner_edges` false each corner contact keeps the edge order it arrives with
@@ -126,6 +129,9 @@ class StewartTrinkle final : public Formulation {
   const StepperOptions& options() const { return options_; }
 
  private:
+  // AssembleAt's work on a->contacts, into *a (storage reused).
+  void Fill(const Scene& model, const State& x, const StepInput& u, bool select_corner_edges,
+            Assembly* a) const;
   StepperOptions options_;
   std::shared_ptr<const LcpSolver> solver_;
   bool velocity_level_;  // Anitescu–Potra

@@ -12,9 +12,11 @@ namespace vinci::sim {
 
 /// Row r such that r · ν_B = d · (velocity of the material point at p_W), i.e. the wrench column
 /// [d; r × d] of docs/formulations.md expressed in the body's ν coordinates (size 3 or 6).
-/// Planar: (d.x, d.y, (p − c) × d). Spatial: (d, R_WBᵀ((p − c) × d)).
-Eigen::Matrix<double, 1, Eigen::Dynamic> PointVelocityRow(Dim dim, const Isometry3d& X_WB,
-                                                          const Vector3d& p_W, const Vector3d& d_W);
+/// Planar: (d.x, d.y, (p − c) × d). Spatial: (d, R_WBᵀ((p − c) × d)). At most 6 entries, held
+/// inline (no heap allocation).
+using PointVelocityRowType = Eigen::Matrix<double, 1, Eigen::Dynamic, Eigen::RowMajor, 1, 6>;
+PointVelocityRowType PointVelocityRow(Dim dim, const Isometry3d& X_WB, const Vector3d& p_W,
+                                      const Vector3d& d_W);
 
 /// ν of a prescribed/static body from its world kinematics, in the convention above.
 VectorXd BodyVelocity(Dim dim, const BodyKinematics& k);

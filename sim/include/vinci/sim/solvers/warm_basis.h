@@ -3,6 +3,7 @@
 // m × m matrix and a scan of it.
 #pragma once
 
+#include <Eigen/QR>
 #include <Eigen/SparseCore>
 #include <vector>
 
@@ -46,8 +47,9 @@ class SparseLcpMatrix final : public LcpMatrixOperator {
 struct WarmBasisScratch {
   std::vector<int> active;
   std::vector<char> in_basis;
-  Eigen::VectorXd guess_b, rhs, z_b, w, candidate;
+  Eigen::VectorXd guess_b, rhs, z_b, w, candidate, product, c;
   Eigen::MatrixXd m_bb;
+  Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr;  // of m_bb (dense bases)
 };
 
 /// Bases with at most this many members are solved densely, by the column-pivoted QR that
