@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "sparse_lcp.h"
+#include "spread_normals.h"
 #include "step_util.h"
 #include "vinci/sim/formulations/joint.h"
 #include "vinci/sim/model/kinematics.h"
@@ -613,6 +614,11 @@ void StewartTrinkle::Step(const Scene& model, const State& x, const StepInput& u
   }
 
   const VectorXd v1 = VelocityAfter(a, v_star, z, joints);
+  // Lemke's basis is the next step's warm start: spread statically indeterminate normal impulses
+  // over every touching contact, so that basis holds them all (spread_normals.h).
+  if (lemke != nullptr)
+    internal::SpreadIndeterminateNormals(model, a, v1, h, velocity_level_, info->solver.tolerance,
+                                         &z);
   if (!internal::CompleteStep(model, x, v1, h, z, next, info)) return;
   if (ws) ws->contacts = std::move(a.contacts);
   info->ok = true;

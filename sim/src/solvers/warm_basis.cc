@@ -8,6 +8,7 @@
 #include <cmath>
 #include <limits>
 
+#include "basis_solve.h"
 #include "vinci/sim/solvers/lcp_acceptance.h"
 
 namespace vinci::sim {
@@ -97,11 +98,16 @@ bool SolveOnWarmBasis(const LcpMatrixOperator& M, const Eigen::VectorXd& q,
   s->rhs = -(s->m_bb * s->guess_b + s->rhs);
   if (nb <= kDenseWarmBasisMax) {
     // As LemkeSolver: column-pivoted Householder QR of the dense M_BB.
-    const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(s->m_bb);
-    s->z_b = s->guess_b + qr.solve(s->rhs);
+    internal::SolveBasisBlock(s->m_bb, s->rhs, &s->z_b);
+    s->z_b += s->guess_b;
   } else {
     const Eigen::SparseMatrix<double> s_bb = s->m_bb.sparseView();
     Eigen::SparseQR<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>> qr;
+    // Columns whose remaining norm is at most kBasisRankTolerance of the largest column norm
+    // are dependent (basis_solve.h): their unknowns keep the guess.
+    double max_norm = 0.0;
+    for (int j = 0; j < nb; ++j) max_norm = std::max(max_norm, s->m_bb.col(j).norm());
+    qr.setPivotThreshold(internal::kBasisRankTolerance * max_norm);
     qr.compute(s_bb);
     if (qr.info() != Eigen::Success) return false;
     s->z_b = qr.solve(s->rhs);
