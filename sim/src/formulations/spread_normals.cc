@@ -54,6 +54,10 @@ void SpreadIndeterminateNormals(const Scene& model, const StewartTrinkle::Assemb
     begin = end;
     const int m = static_cast<int>(s.members.size());
     if (m < 2) continue;
+    // Every touching contact already carries load (the basis holds them all): keep z as it is.
+    int loaded = 0;
+    for (int c : s.members) loaded += (*z)[c] > 0.0;
+    if (loaded == m) continue;
     // The pair's normal columns restricted to its dynamic bodies' velocity blocks.
     int rows = 0;
     int offsets[2], nblocks = 0;

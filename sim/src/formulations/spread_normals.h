@@ -16,7 +16,8 @@
 
 namespace vinci::sim::internal {
 
-/// Replaces the normal impulses z[0, nc) of each body pair's touching contacts by the point of
+/// If some of a body pair's touching contacts carry no load, replaces the normal impulses
+/// z[0, nc) of the pair's touching contacts by the point of
 /// {p' ≥ 0 : G_pair p' = G_pair p} nearest (along the segment from p) to the minimum-norm
 /// solution G_pair⁺ G_pair p. Only rigid, non-corner contacts take part whose complementarity
 /// the change keeps: those with p_c > 0 or an end-of-step normal row w_c = G_n,cᵀ v1 + ∂ψ_c/∂t
