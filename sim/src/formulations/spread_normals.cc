@@ -1,5 +1,6 @@
 #include "spread_normals.h"
 
+#include <Eigen/QR>
 #include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
@@ -18,7 +19,53 @@ struct SpreadScratch {
   Eigen::VectorXd p, target;
 };
 
+// The pair's normal columns of `members` restricted to its dynamic bodies' velocity blocks
+// (false if neither body is dynamic).
+bool PairColumns(const Scene& model, const StewartTrinkle::Assembly& a, int ba, int bb,
+                 const std::vector<int>& members, Eigen::MatrixXd* J) {
+  const int nvb = VelocitySize(model.dim);
+  int rows = 0, offsets[2], nblocks = 0;
+  for (int body : {ba, bb})
+    if (body >= 0 && model.bodies[body].kind == BodyKind::kDynamic) {
+      offsets[nblocks++] = model.index(body).v;
+      rows += nvb;
+    }
+  if (rows == 0) return false;
+  const int m = static_cast<int>(members.size());
+  J->setZero(rows, m);
+  for (int i = 0; i < m; ++i)
+    for (SparseMatrixd::InnerIterator it(a.G_n, members[i]); it; ++it)
+      for (int k = 0; k < nblocks; ++k)
+        if (it.row() >= offsets[k] && it.row() < offsets[k] + nvb)
+          (*J)(k * nvb + (it.row() - offsets[k]), i) = it.value();
+  return true;
+}
+
 }  // namespace
+
+void IndependentNormalsWarmStart(const Scene& model, const StewartTrinkle::Assembly& a,
+                                 const VectorXd& z, VectorXd* out) {
+  *out = z;
+  const int nc = static_cast<int>(a.contacts.size());
+  if (nc < 2 || z.size() < nc) return;
+  std::vector<int> members;
+  Eigen::MatrixXd J;
+  for (int begin = 0; begin < nc;) {
+    const int ba = a.contacts[begin].body_a, bb = a.contacts[begin].body_b;
+    int end = begin + 1;
+    while (end < nc && a.contacts[end].body_a == ba && a.contacts[end].body_b == bb) ++end;
+    members.clear();
+    for (int c = begin; c < end; ++c)
+      if (z[c] > 0.0) members.push_back(c);
+    begin = end;
+    if (members.size() < 2 || !PairColumns(model, a, ba, bb, members, &J)) continue;
+    Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(J);
+    qr.setThreshold(kNullSpaceTol);
+    const Eigen::Index rank = qr.rank();
+    for (Eigen::Index i = rank; i < static_cast<Eigen::Index>(members.size()); ++i)
+      (*out)[members[qr.colsPermutation().indices()(i)]] = 0.0;
+  }
+}
 
 void SpreadIndeterminateNormals(const Scene& model, const StewartTrinkle::Assembly& a,
                                 const VectorXd& v1, double h, bool velocity_level, double w_tol,
@@ -26,7 +73,6 @@ void SpreadIndeterminateNormals(const Scene& model, const StewartTrinkle::Assemb
   const int nc = static_cast<int>(a.contacts.size());
   const int nf = nc * a.nd;
   if (nc < 2 || z->size() < nc + nf + nc) return;
-  const int nvb = VelocitySize(model.dim);
   // Buffers only (no result depends on them): one set per thread.
   thread_local SpreadScratch s;
   std::vector<char> is_corner;  // corner contacts carry a second edge row: left alone
@@ -58,26 +104,12 @@ void SpreadIndeterminateNormals(const Scene& model, const StewartTrinkle::Assemb
     int loaded = 0;
     for (int c : s.members) loaded += (*z)[c] > 0.0;
     if (loaded == m) continue;
-    // The pair's normal columns restricted to its dynamic bodies' velocity blocks.
-    int rows = 0;
-    int offsets[2], nblocks = 0;
-    for (int body : {ba, bb})
-      if (body >= 0 && model.bodies[body].kind == BodyKind::kDynamic) {
-        offsets[nblocks++] = model.index(body).v;
-        rows += nvb;
-      }
-    if (rows == 0) continue;
-    s.J.setZero(rows, m);
+    if (!PairColumns(model, a, ba, bb, s.members, &s.J)) continue;
     s.p.resize(m);
     double p_sum = 0.0;
     for (int i = 0; i < m; ++i) {
-      const int c = s.members[i];
-      s.p[i] = (*z)[c];
+      s.p[i] = (*z)[s.members[i]];
       p_sum += s.p[i];
-      for (SparseMatrixd::InnerIterator it(a.G_n, c); it; ++it)
-        for (int k = 0; k < nblocks; ++k)
-          if (it.row() >= offsets[k] && it.row() < offsets[k] + nvb)
-            s.J(k * nvb + (it.row() - offsets[k]), i) = it.value();
     }
     if (!(p_sum > 0.0)) continue;
     const Eigen::JacobiSVD<Eigen::MatrixXd> svd(s.J, Eigen::ComputeFullV);

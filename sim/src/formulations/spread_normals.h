@@ -31,3 +31,14 @@ void SpreadIndeterminateNormals(const Scene& model, const StewartTrinkle::Assemb
                                 VectorXd* z);
 
 }  // namespace vinci::sim::internal
+
+namespace vinci::sim::internal {
+
+/// The reverse for a pivoting solver's start basis (SolveSparseLemke factors B = {i : z_i > 0}
+/// and needs it nonsingular): a copy of the warm start z in which each body pair's loaded
+/// normal impulses are cut to an independent subset (the pivot columns of a column-pivoted QR
+/// of the pair's normal columns, rank as SpreadIndeterminateNormals'); the others are set to 0.
+void IndependentNormalsWarmStart(const Scene& model, const StewartTrinkle::Assembly& a,
+                                 const VectorXd& z, VectorXd* out);
+
+}  // namespace vinci::sim::internal

@@ -605,8 +605,11 @@ void StewartTrinkle::Step(const Scene& model, const State& x, const StepInput& u
         // Large LCPs pivot on the sparse matrix (a dense m × m one is O(m²) memory and a
         // pivot O(m²) work); if that run fails, the dense LemkeSolver below takes over.
         s.lcp.ToSparse(&s.M);
-        const SolverReport report = SolveSparseLemke(
-            s.M, s.lcp.q(), warm_plain ? &x.warm_start : nullptr, lemke->options(), &z);
+        // The start basis must be nonsingular: not every corner of a spread support.
+        VectorXd start;
+        if (warm_plain) internal::IndependentNormalsWarmStart(model, a, x.warm_start, &start);
+        const SolverReport report =
+            SolveSparseLemke(s.M, s.lcp.q(), warm_plain ? &start : nullptr, lemke->options(), &z);
         if (report.ok()) {
           info->solver = report;
           solved = true;
