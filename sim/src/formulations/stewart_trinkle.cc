@@ -8,15 +8,21 @@
 #include <vector>
 
 #include "sparse_lcp.h"
+#include "spread_normals.h"
 #include "step_util.h"
 #include "vinci/sim/formulations/joint.h"
 #include "vinci/sim/model/kinematics.h"
 #include "vinci/sim/solvers/lemke.h"
+#include "vinci/sim/solvers/sparse_lemke.h"
 
 namespace vinci::sim {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
+// Plain-contact LCPs with at least this many unknowns that the warm basis does not solve are
+// solved by SolveSparseLemke instead of the dense LemkeSolver (a 6432-unknown pile of 100 boxes:
+// ~18 ms a step against > 2 s). Below it the dense solver's pivots are cheaper (bench/README.md).
+constexpr int kSparseStepMinSize = 1024;
 // Relative tolerance under which the two predicted gaps of a corner contact tie.
 constexpr double kCornerTieTol = 1e-9;
 
@@ -702,12 +708,27 @@ void StewartTrinkle::Step(const Scene& model, const State& x, const StepInput& u
   bool solved = false;
   const auto* lemke = dynamic_cast<const LemkeSolver*>(solver_.get());
   const int m_plain = nc * (a.nd + 2);
-  if (lemke != nullptr && nc > 0 && x.warm_start.size() == m_plain) {
-    if (s.lcp.Build(model, a, v_l, h, velocity_level_) &&
-        SolveOnWarmBasis(s.lcp, s.lcp.q(), x.warm_start, lemke->options(), &s.basis, &z,
-                         &info->solver)) {
-      v_star = s.lcp.v_star();
-      solved = true;
+  const bool warm_plain = x.warm_start.size() == m_plain;
+  if (lemke != nullptr && nc > 0 && (warm_plain || m_plain >= kSparseStepMinSize)) {
+    if (s.lcp.Build(model, a, v_l, h, velocity_level_)) {
+      if (warm_plain && SolveOnWarmBasis(s.lcp, s.lcp.q(), x.warm_start, lemke->options(),
+                                         &s.basis, &z, &info->solver)) {
+        solved = true;
+      } else if (m_plain >= kSparseStepMinSize) {
+        // Large LCPs pivot on the sparse matrix (a dense m × m one is O(m²) memory and a
+        // pivot O(m²) work); if that run fails, the dense LemkeSolver below takes over.
+        s.lcp.ToSparse(&s.M);
+        // The start basis must be nonsingular: not every corner of a spread support.
+        VectorXd start;
+        if (warm_plain) internal::IndependentNormalsWarmStart(model, a, x.warm_start, &start);
+        const SolverReport report =
+            SolveSparseLemke(s.M, s.lcp.q(), warm_plain ? &start : nullptr, lemke->options(), &z);
+        if (report.ok()) {
+          info->solver = report;
+          solved = true;
+        }
+      }
+      if (solved) v_star = s.lcp.v_star();
     }
   }
   if (!solved) {
@@ -726,6 +747,11 @@ void StewartTrinkle::Step(const Scene& model, const State& x, const StepInput& u
   }
 
   VelocityAfterInto(a, v_star, z, joints, &s.impulse, &s.product, &s.dv, &s.v1);
+  // Lemke's basis is the next step's warm start: spread statically indeterminate normal impulses
+  // over every touching contact, so that basis holds them all (spread_normals.h).
+  if (lemke != nullptr)
+    internal::SpreadIndeterminateNormals(model, a, s.v1, h, velocity_level_,
+                                         info->solver.tolerance, &z);
   if (!internal::CompleteStep(model, x, s.v1, h, &z, next, info)) return;
   if (ws) ws->contacts = a.contacts;  // a copy into its storage (the assembly is reused)
   info->ok = true;

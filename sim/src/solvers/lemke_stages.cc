@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "basis_solve.h"
 #include "lemke_internal.h"
 #include "solver_util.h"
 #include "vinci/sim/solvers/fischer_burmeister.h"
@@ -50,8 +51,9 @@ bool TryBasis(const LcpProblem& problem, const std::vector<bool>& in_basis, cons
   const MatrixXd m_bb = problem.M(active, active);
   const VectorXd guess_b = guess(active);
   const VectorXd rhs = -(m_bb * guess_b + problem.q(active));
-  const Eigen::ColPivHouseholderQR<MatrixXd> qr(m_bb);
-  const VectorXd z_b = guess_b + qr.solve(rhs);
+  VectorXd delta;
+  internal::SolveBasisBlock(m_bb, rhs, &delta);
+  const VectorXd z_b = guess_b + delta;
   if (!z_b.allFinite()) return false;
   const double tolerance = acceptance.For(z_b);
   if (z_b.minCoeff() < -tolerance) return false;

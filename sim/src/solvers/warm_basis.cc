@@ -8,6 +8,7 @@
 #include <cmath>
 #include <limits>
 
+#include "basis_solve.h"
 #include "vinci/sim/solvers/lcp_acceptance.h"
 
 namespace vinci::sim {
@@ -97,43 +98,17 @@ bool SolveOnWarmBasis(const LcpMatrixOperator& M, const Eigen::VectorXd& q,
   s->product.noalias() = s->m_bb * s->guess_b;
   s->rhs = -(s->product + s->rhs);
   if (nb <= kDenseWarmBasisMax) {
-    // As LemkeSolver: column-pivoted Householder QR of the dense M_BB, and z_B = guess_B +
-    // qr.solve(rhs) with the solve's steps (ColPivHouseholderQR::_solve_impl, same bits) done in
-    // the scratch's storage: a steady step allocates nothing here.
-    Eigen::ColPivHouseholderQR<Eigen::MatrixXd>& qr = s->qr;
-    qr.compute(s->m_bb);
-    const Eigen::Index nz = qr.nonzeroPivots();
-    Eigen::VectorXd& c = s->c;
-    c = s->rhs;
-    if (nz > 0) {
-      // c ← Qᵀ c: the reflectors k = 0..nz−1 applied as HouseholderSequence::applyThisOnTheLeft
-      // and MatrixBase::applyHouseholderOnTheLeft do (same operations, same order), without the
-      // temporary Eigen's outer product allocates per reflector.
-      for (Eigen::Index k = 0; k < nz; ++k) {
-        const Eigen::Index len = nb - k;
-        const double tau = qr.hCoeffs()(k);
-        if (len == 1) {
-          c(k) *= 1.0 - tau;
-        } else if (tau != 0.0) {
-          const auto essential = qr.matrixQR().col(k).tail(len - 1);
-          auto bottom = c.segment(k + 1, len - 1);
-          double tmp = 0.0;
-          tmp += 1.0 * essential.dot(bottom);
-          tmp += c(k);
-          c(k) -= tau * tmp;
-          for (Eigen::Index i = 0; i < len - 1; ++i) bottom(i) -= tmp * (tau * essential(i));
-        }
-      }
-      qr.matrixQR().topLeftCorner(nz, nz).template triangularView<Eigen::Upper>().solveInPlace(
-          c.topRows(nz));
-    }
-    s->z_b.resize(nb);
-    const auto& perm = qr.colsPermutation().indices();
-    for (Eigen::Index i = 0; i < nb; ++i)
-      s->z_b(perm(i)) = s->guess_b(perm(i)) + (i < nz ? s->c(i) : 0.0);
+    // As LemkeSolver: column-pivoted Householder QR of the dense M_BB, in the scratch's storage.
+    internal::SolveBasisBlock(s->m_bb, s->rhs, &s->qr, &s->c, &s->z_b);
+    s->z_b += s->guess_b;
   } else {
     const Eigen::SparseMatrix<double> s_bb = s->m_bb.sparseView();
     Eigen::SparseQR<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>> qr;
+    // Columns whose remaining norm is at most kBasisRankTolerance of the largest column norm
+    // are dependent (basis_solve.h): their unknowns keep the guess.
+    double max_norm = 0.0;
+    for (int j = 0; j < nb; ++j) max_norm = std::max(max_norm, s->m_bb.col(j).norm());
+    qr.setPivotThreshold(internal::kBasisRankTolerance * max_norm);
     qr.compute(s_bb);
     if (qr.info() != Eigen::Success) return false;
     s->z_b = qr.solve(s->rhs);

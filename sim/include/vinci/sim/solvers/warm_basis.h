@@ -55,7 +55,7 @@ struct WarmBasisScratch {
 /// Bases with at most this many members are solved densely, by the column-pivoted QR that
 /// LemkeSolver's warm start uses (same bits for the same M_BB); larger ones by a sparse
 /// rank-revealing QR (Eigen::SparseQR, COLAMD ordering) of M_BB.
-inline constexpr int kDenseWarmBasisMax = 32;
+inline constexpr int kDenseWarmBasisMax = 48;
 
 /// LemkeSolver's first two stages (lemke.h) on LCP(M, q) with M given as an operator: the
 /// trivial solution z = 0 if q ≥ 0, else the warm start from `guess`: B = {i : guess_i > 0},

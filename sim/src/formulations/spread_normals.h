@@ -1,0 +1,44 @@
+// Choosing among the equivalent solutions of a statically indeterminate contact (internal).
+//
+// When a body pair touches at more points than its normal Jacobian has rank (a box face on a
+// face: four corners, rank 3), the step's LCP solution set contains a segment of normal impulses
+// p_n + t·n (G_n n = 0) that give the same velocity. Lemke returns a vertex of it: a box carried
+// by two diagonally opposite corners, with the other two at w_n = 0 and p_n = 0. The step's
+// velocity is the same, but the next step's warm-started basis then enforces w_n = 0 on the
+// diagonal only: the unloaded corners are checked with the acceptance tolerance w_n ≥ −τ, so a
+// rotation about the diagonal is free up to τ and grows (a stack of boxes is an inverted pendulum
+// about each diagonal). Spreading the impulse over all touching contacts keeps every one of them
+// in the basis, so the next step holds w_n = 0 on all of them and nothing can rock.
+#pragma once
+
+#include "vinci/sim/formulations/stewart_trinkle.h"
+#include "vinci/sim/model/scene.h"
+
+namespace vinci::sim::internal {
+
+/// If some of a body pair's touching contacts carry no load, replaces the normal impulses
+/// z[0, nc) of the pair's touching contacts by the point of
+/// {p' ≥ 0 : G_pair p' = G_pair p} nearest (along the segment from p) to the minimum-norm
+/// solution G_pair⁺ G_pair p. Only rigid, non-corner contacts take part whose complementarity
+/// the change keeps: those with p_c > 0 or an end-of-step normal row w_c = G_n,cᵀ v1 + ∂ψ_c/∂t
+/// (+ ψ_c/h unless velocity_level) with |w_c| ≤ w_tol, no sliding (σ_c = 0), and whose friction
+/// row μ p'_c − Σ_j p_f,cj stays ≥ 0. The velocity G p (hence v1 and every other row of w) is
+/// unchanged up to round-off: the change lies in the null space of the pair's normal columns
+/// (singular values below 1e-10 of the largest). z's layout is the Stewart–Trinkle LCP's
+/// [p_n; p_f; σ; ...]. Deterministic; O(contacts).
+void SpreadIndeterminateNormals(const Scene& model, const StewartTrinkle::Assembly& a,
+                                const VectorXd& v1, double h, bool velocity_level, double w_tol,
+                                VectorXd* z);
+
+}  // namespace vinci::sim::internal
+
+namespace vinci::sim::internal {
+
+/// The reverse for a pivoting solver's start basis (SolveSparseLemke factors B = {i : z_i > 0}
+/// and needs it nonsingular): a copy of the warm start z in which each body pair's loaded
+/// normal impulses are cut to an independent subset (the pivot columns of a column-pivoted QR
+/// of the pair's normal columns, rank as SpreadIndeterminateNormals'); the others are set to 0.
+void IndependentNormalsWarmStart(const Scene& model, const StewartTrinkle::Assembly& a,
+                                 const VectorXd& z, VectorXd* out);
+
+}  // namespace vinci::sim::internal
