@@ -392,11 +392,9 @@ TEST(MpecEstimator, PlanarBlockNoiseFreeRecoversMu) {
 }
 
 TEST(MpecEstimator, PlanarBlockNoiseFreeRecoversMuWithThePenalty) {
-  // Open bug (docs/estimation.md, "Not implemented yet"): the ℓ1-penalty homotopy on this log is
-  // fragile — small changes elsewhere (Lemke's pivoting, the acceptance measure, the early
-  // polish) make it run to its iteration limit with μ̂ far from the truth. Skipped, not passed,
-  // until the penalty schedule is fixed; the Scholtes homotopy is checked above.
-  GTEST_SKIP() << "the penalty homotopy diverges on the noise-free block (open bug)";
+  // Was an open bug: Ipopt's default bound relaxation (1e-8) let a pair's side go slightly
+  // negative, so ρ x_a x_b ran to −∞ along a ray where the other side grew freely; the penalty
+  // NLPs now keep the bounds exact (mpec.cc).
   ExpectPlanarBlockNoiseFreeRecoversMu(ComplementarityMethod::kPenalty);
 }
 
