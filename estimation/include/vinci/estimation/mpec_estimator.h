@@ -60,6 +60,7 @@ inline MpecSolverOptions EstimatorSolverDefaults() {
   MpecSolverOptions o;
   o.epsilon_start = 1e-4;
   o.early_polish_tolerance = 1e-3;
+  o.deterministic_ordering = true;  // results bitwise independent of threads and run order
   return o;
 }
 
@@ -162,10 +163,17 @@ class MpecEstimationProblem final : public MpecProblem {
   /// their rows, θ = params' chosen entries. Throws std::invalid_argument if a node has no state.
   sim::VectorXd VariablesFromRollouts(const std::vector<sim::Trajectory>& rollouts,
                                       const sim::Params& params) const;
+  /// How the Laplace approximation treats a complementarity pair: the side(s) held at zero.
+  enum class PairTreatment : char { kFirstZero, kSecondZero, kBothZero, kFree };
+  /// The treatment of every pair (in ComplementarityPairs() order) at the solution x, from x
+  /// alone (see the file comment): a side is zero when at most `zero_tolerance` in the solver's
+  /// scaled unknowns; one side zero: that side held (strictly active); both zero (biactive):
+  /// kBothZero; neither (a relaxed, unpolished iterate): the smaller side held.
+  std::vector<PairTreatment> ClassifyPairs(const sim::VectorXd& x, double zero_tolerance) const;
   /// Variances of the chosen parameters at x (the Laplace approximation of the file comment,
-  /// in σ_R units of the objective): `first_at_zero` as MpecSolution's. false if the KKT matrix
-  /// is singular.
-  bool ParameterVariances(const sim::VectorXd& x, const std::vector<bool>& first_at_zero,
+  /// in σ_R units of the objective) with the pairs treated as `treatment`; θ at a bound is
+  /// held. false if the KKT matrix is singular.
+  bool ParameterVariances(const sim::VectorXd& x, const std::vector<PairTreatment>& treatment,
                           sim::VectorXd* variances) const;
 
  private:
