@@ -45,6 +45,9 @@ void CheckHonest(ComplementarityMethod method, bool state_noise) {
     const double z = (r.estimates[0] - kTrueMu) / r.std_errors[0];
     sum_z2 += z * z;
     within += std::abs(z) <= 3.0;
+    std::printf("trial %d: mu %.6f s.e. %.3g z %.2f iterations %d converged %d\n", trial,
+                r.estimates[0], r.std_errors[0], z, r.iterations, r.converged ? 1 : 0);
+    std::fflush(stdout);
     if (!state_noise) {
       EXPECT_NEAR(r.sigma, sigma, 0.3 * sigma);
     }

@@ -30,8 +30,9 @@
 // from each guessed state (then the next state overwritten by the guess), w = 0, θ the scene's
 // values. Unobserved dynamic bodies start at the scene's initial state.
 //
-// Standard errors: the Laplace approximation at the solution. With the active side of every
-// complementarity pair and θ at a bound fixed, the covariance of the free unknowns is the
+// Standard errors: the Laplace approximation at the solution, from the solution alone. With the
+// zero side of every complementarity pair (ClassifyPairs: both sides of a biactive pair) and θ at
+// a bound fixed, the covariance of the free unknowns is the
 // upper-left block of the inverse KKT matrix [H J_Fᵀ; J_F 0], H = ½ ∇²(objective) (the Gauss–
 // Newton Hessian of the negative log-likelihood, the step equations' curvature neglected), J_F
 // the constraint Jacobian: the reduced-Hessian inverse Z (Zᵀ H Z)⁻¹ Zᵀ. Without a stated σ_R the
