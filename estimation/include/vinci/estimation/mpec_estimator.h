@@ -31,7 +31,7 @@
 // values. Unobserved dynamic bodies start at the scene's initial state.
 //
 // Standard errors: the Laplace approximation at the solution, from the solution alone. With the
-// zero side of every complementarity pair (ClassifyPairs: both sides of a biactive pair) and θ at
+// zero side of every complementarity pair (ClassifyPairs: neither side of a biactive pair) and θ at
 // a bound fixed, the covariance of the free unknowns is the
 // upper-left block of the inverse KKT matrix [H J_Fᵀ; J_F 0], H = ½ ∇²(objective) (the Gauss–
 // Newton Hessian of the negative log-likelihood, the step equations' curvature neglected), J_F
@@ -169,7 +169,8 @@ class MpecEstimationProblem final : public MpecProblem {
   /// The treatment of every pair (in ComplementarityPairs() order) at the solution x, from x
   /// alone (see the file comment): a side is zero when at most `zero_tolerance` in the solver's
   /// scaled unknowns; one side zero: that side held (strictly active); both zero (biactive):
-  /// kBothZero; neither (a relaxed, unpolished iterate): the smaller side held.
+  /// kFree (neither held: holding both can pin θ); neither zero (a relaxed, unpolished
+  /// iterate): the smaller side held.
   std::vector<PairTreatment> ClassifyPairs(const sim::VectorXd& x, double zero_tolerance) const;
   /// Variances of the chosen parameters at x (the Laplace approximation of the file comment,
   /// in σ_R units of the objective) with the pairs treated as `treatment`; θ at a bound is
