@@ -353,9 +353,17 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o) {
     opt.SetStringValue("mu_strategy", "adaptive");
     // MUMPS' automatic ordering picks SCOTCH on large KKT systems, whose random generator
     // continues from call to call within a process: the same problem solved twice in one
-    // process can differ in the last digits. Approximate minimum degree is deterministic but
-    // took more iterations here (bench/README.md).
-    if (o.deterministic_ordering) opt.SetIntegerValue("mumps_pivot_order", 0);
+    // process can differ in the last digits. QAMD (approximate minimum degree with quasi-dense
+    // row detection) is deterministic; it took as many iterations as the automatic choice on the
+    // block (plain AMD: more; bench/README.md).
+    if (o.deterministic_ordering) opt.SetIntegerValue("mumps_pivot_order", 6);
+    // The penalty ρ Σ x_a x_b is bounded below by 0 only on x_a, x_b ≥ 0. Ipopt relaxes every
+    // bound by 1e-8 (bound_relax_factor), so a side at its bound sits at ≈ −1e-8 and the
+    // penalty decreases without bound along any ray where its partner grows freely (an
+    // impulse or slack with no upper bound): on the noise-free block the first penalty NLP
+    // followed such a ray (objective −338 after 60 iterations, |x| ~ 1e8) to its iteration
+    // limit. Exact bounds keep the penalty ≥ 0.
+    if (stage == Stage::kPenalty) opt.SetNumericValue("bound_relax_factor", 0.0);
     if (warm) {
       opt.SetStringValue("warm_start_init_point", "yes");
       opt.SetNumericValue("warm_start_bound_push", 1e-9);

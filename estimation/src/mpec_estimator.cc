@@ -68,7 +68,8 @@ MpecEstimateResult EstimateMpec(const sim::Simulator& simulator, const Log& log,
     for (const BodyTrack& b : ep.bodies) p += b.dynamic ? (planar ? 6 : 12) : 0;
   r.sigma = stated ? options.noise_sigma : std::sqrt(ss / std::max(1, r.num_residuals - p));
   VectorXd var;
-  if (problem.ParameterVariances(sol.x, sol.first_at_zero, &var)) {
+  if (problem.ParameterVariances(sol.x, problem.ClassifyPairs(sol.x, mpec_internal::kBiactive),
+                                 &var)) {
     const double scale = stated ? 1.0 : (r.sigma * r.sigma) / (sigma_w * sigma_w);
     r.std_errors = (var * scale).cwiseMax(0.0).cwiseSqrt();
     for (int i = 0; i < var.size(); ++i)

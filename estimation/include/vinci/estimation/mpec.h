@@ -100,10 +100,10 @@ struct MpecSolverOptions {
   double tolerance = 1e-8;      ///< Ipopt tol of each NLP
   int max_iterations = 3000;    ///< Ipopt iterations per NLP
   int print_level = 0;          ///< Ipopt print_level (0 silent … 12)
-  /// MUMPS ordering by approximate minimum degree (deterministic: the same problem gives
-  /// bitwise the same result run after run in one process) instead of its automatic choice
-  /// (SCOTCH on large systems, whose random state persists between solves: last-digit
-  /// differences; fewer iterations measured).
+  /// MUMPS ordering by QAMD (approximate minimum degree; deterministic: the same problem gives
+  /// bitwise the same result run after run in one process and for any thread count of the
+  /// problem's evaluation) instead of its automatic choice (SCOTCH on large systems, whose
+  /// random state persists between solves: last-digit differences).
   bool deterministic_ordering = false;
   /// Called after each NLP with a one-line summary. May be empty. Must not throw.
   std::function<void(const std::string&)> progress;

@@ -30,8 +30,9 @@
 // from each guessed state (then the next state overwritten by the guess), w = 0, θ the scene's
 // values. Unobserved dynamic bodies start at the scene's initial state.
 //
-// Standard errors: the Laplace approximation at the solution. With the active side of every
-// complementarity pair and θ at a bound fixed, the covariance of the free unknowns is the
+// Standard errors: the Laplace approximation at the solution, from the solution alone. With the
+// zero side of every complementarity pair (ClassifyPairs: neither side of a biactive pair) and θ at
+// a bound fixed, the covariance of the free unknowns is the
 // upper-left block of the inverse KKT matrix [H J_Fᵀ; J_F 0], H = ½ ∇²(objective) (the Gauss–
 // Newton Hessian of the negative log-likelihood, the step equations' curvature neglected), J_F
 // the constraint Jacobian: the reduced-Hessian inverse Z (Zᵀ H Z)⁻¹ Zᵀ. Without a stated σ_R the
@@ -60,6 +61,7 @@ inline MpecSolverOptions EstimatorSolverDefaults() {
   MpecSolverOptions o;
   o.epsilon_start = 1e-4;
   o.early_polish_tolerance = 1e-3;
+  o.deterministic_ordering = true;  // results bitwise independent of threads and run order
   return o;
 }
 
@@ -162,10 +164,18 @@ class MpecEstimationProblem final : public MpecProblem {
   /// their rows, θ = params' chosen entries. Throws std::invalid_argument if a node has no state.
   sim::VectorXd VariablesFromRollouts(const std::vector<sim::Trajectory>& rollouts,
                                       const sim::Params& params) const;
+  /// How the Laplace approximation treats a complementarity pair: the side(s) held at zero.
+  enum class PairTreatment : char { kFirstZero, kSecondZero, kBothZero, kFree };
+  /// The treatment of every pair (in ComplementarityPairs() order) at the solution x, from x
+  /// alone (see the file comment): a side is zero when at most `zero_tolerance` in the solver's
+  /// scaled unknowns; one side zero: that side held (strictly active); both zero (biactive):
+  /// kFree (neither held: holding both can pin θ); neither zero (a relaxed, unpolished
+  /// iterate): the smaller side held.
+  std::vector<PairTreatment> ClassifyPairs(const sim::VectorXd& x, double zero_tolerance) const;
   /// Variances of the chosen parameters at x (the Laplace approximation of the file comment,
-  /// in σ_R units of the objective): `first_at_zero` as MpecSolution's. false if the KKT matrix
-  /// is singular.
-  bool ParameterVariances(const sim::VectorXd& x, const std::vector<bool>& first_at_zero,
+  /// in σ_R units of the objective) with the pairs treated as `treatment`; θ at a bound is
+  /// held. false if the KKT matrix is singular.
+  bool ParameterVariances(const sim::VectorXd& x, const std::vector<PairTreatment>& treatment,
                           sim::VectorXd* variances) const;
 
  private:
