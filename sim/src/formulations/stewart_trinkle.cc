@@ -711,8 +711,8 @@ void StewartTrinkle::Step(const Scene& model, const State& x, const StepInput& u
   const bool warm_plain = x.warm_start.size() == m_plain;
   if (lemke != nullptr && nc > 0 && (warm_plain || m_plain >= kSparseStepMinSize)) {
     if (s.lcp.Build(model, a, v_l, h, velocity_level_)) {
-      if (warm_plain && SolveOnWarmBasis(s.lcp, s.lcp.q(), x.warm_start, lemke->options(),
-                                         &s.basis, &z, &info->solver)) {
+      if (warm_plain && SolveOnWarmBasis(s.lcp, s.lcp.q(), x.warm_start, lemke->options(), &s.basis,
+                                         &z, &info->solver)) {
         solved = true;
       } else if (m_plain >= kSparseStepMinSize) {
         // Large LCPs pivot on the sparse matrix (a dense m × m one is O(m²) memory and a
@@ -750,8 +750,8 @@ void StewartTrinkle::Step(const Scene& model, const State& x, const StepInput& u
   // Lemke's basis is the next step's warm start: spread statically indeterminate normal impulses
   // over every touching contact, so that basis holds them all (spread_normals.h).
   if (lemke != nullptr)
-    internal::SpreadIndeterminateNormals(model, a, s.v1, h, velocity_level_,
-                                         info->solver.tolerance, &z);
+    internal::SpreadIndeterminateNormals(model, a, s.v1, h, velocity_level_, info->solver.tolerance,
+                                         &z);
   if (!internal::CompleteStep(model, x, s.v1, h, &z, next, info)) return;
   if (ws) ws->contacts = a.contacts;  // a copy into its storage (the assembly is reused)
   info->ok = true;

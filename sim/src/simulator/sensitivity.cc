@@ -1,6 +1,5 @@
 #include "vinci/sim/simulator/sensitivity.h"
 
-#include <Eigen/LU>
 #include <Eigen/QR>
 #include <algorithm>
 #include <cmath>
@@ -150,15 +149,13 @@ class Linearization {
       }
     }
     if (smoothed) deg_.clear();
-    // A regular K (no redundant contacts) by LU with partial pivoting; a singular or nearly
-    // singular one (redundant contacts: impulses not unique) by the rank-revealing complete
-    // orthogonal decomposition, whose solutions' state part is still unique where consistent.
-    lu_.compute(K_);
-    use_lu_ = lu_.rcond() > kLuMinRcond;
-    if (!use_lu_) {
-      cod_.setThreshold(1e-12);
-      cod_.compute(K_);
-    }
+    // K by the rank-revealing complete orthogonal decomposition: with redundant contacts (a box
+    // face on a plane, four corners all loaded: impulses not unique) K is singular, and its
+    // solutions' state part is still unique where consistent. (Partial-pivoting LU, tried for
+    // speed, took such a K as regular — its rcond estimate was above the 1e-10 cut-off used —
+    // and returned wrong state derivatives: SensitivityTest.RedundantRestingContacts….)
+    cod_.setThreshold(1e-12);
+    cod_.compute(K_);
     k_norm_ = K_.size() ? K_.cwiseAbs().maxCoeff() : 0.0;
     if (!deg_.empty()) {
       const int nd = static_cast<int>(deg_.size());
@@ -183,7 +180,7 @@ class Linearization {
     rhs.head(ne_) = r.eq;
     rhs.tail(nz_ - ne_) = weight_a_.cwiseProduct(r.a) + weight_b_.cwiseProduct(r.b);
     for (int row : pinned_) rhs[row] = 0.0;
-    *dz = use_lu_ ? VectorXd(lu_.solve(-rhs)) : VectorXd(cod_.solve(-rhs));
+    *dz = cod_.solve(-rhs);
     const double resid = (K_ * *dz + rhs).cwiseAbs().maxCoeff();
     const double ref = rhs.cwiseAbs().maxCoeff() + k_norm_ * dz->cwiseAbs().maxCoeff();
     if (!std::isfinite(resid) || resid > 1e-6 * ref + 1e-300) return false;
@@ -200,7 +197,7 @@ class Linearization {
       // them (most columns of a sticking step keep λ = 0).
       MatrixXd ED = MatrixXd::Zero(nz_, nd);
       for (int j = 0; j < nd; ++j) ED(ne_ + deg_[j], j) = 1.0;
-      W_ = use_lu_ ? MatrixXd(lu_.solve(ED)) : MatrixXd(cod_.solve(ED));
+      W_ = cod_.solve(ED);
       lcp_M_ = BD_ * W_;
     }
     p.M = lcp_M_;
@@ -250,10 +247,6 @@ class Linearization {
   std::vector<char> side_;  // per pair: 'a' / 'b' held, 'd' degenerate, 'i' inert GI pair
   std::vector<int> deg_;
   std::vector<int> pinned_;  // equality rows replaced by dp_t = 0 (inert GI pairs)
-  // Below this reciprocal condition number K is treated as singular (COD).
-  static constexpr double kLuMinRcond = 1e-10;
-  Eigen::PartialPivLU<MatrixXd> lu_;
-  bool use_lu_ = false;
   Eigen::CompleteOrthogonalDecomposition<MatrixXd> cod_;
   double k_norm_ = 0.0;
 };

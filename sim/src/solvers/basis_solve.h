@@ -2,10 +2,9 @@
 // SolveOnWarmBasis (warm_basis.cc), so both give the same bits for the same M_BB (internal).
 #pragma once
 
-#include <algorithm>
-
 #include <Eigen/Core>
 #include <Eigen/QR>
+#include <algorithm>
 
 namespace vinci::sim::internal {
 
@@ -49,8 +48,10 @@ inline void SolveBasisBlock(const Eigen::MatrixXd& m_bb, const Eigen::VectorXd& 
     }
   }
   if (rank > 0)
-    qr->matrixQR().topLeftCorner(rank, rank).template triangularView<Eigen::Upper>().solveInPlace(
-        c->topRows(rank));
+    qr->matrixQR()
+        .topLeftCorner(rank, rank)
+        .template triangularView<Eigen::Upper>()
+        .solveInPlace(c->topRows(rank));
   delta->resize(nb);
   const auto& perm = qr->colsPermutation().indices();
   for (Eigen::Index i = 0; i < nb; ++i) (*delta)(perm(i)) = i < rank ? (*c)(i) : 0.0;
