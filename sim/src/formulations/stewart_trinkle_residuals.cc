@@ -1,0 +1,263 @@
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <stdexcept>
+#include <utility>
+#include <vector>
+
+#include "sparse_lcp.h"
+#include "step_util.h"
+#include "stewart_trinkle_internal.h"
+#include "vinci/sim/formulations/joint.h"
+#include "vinci/sim/formulations/stewart_trinkle.h"
+#include "vinci/sim/model/kinematics.h"
+
+namespace vinci::sim {
+namespace {
+
+using internal::CheckShapesSupported;
+using internal::PrescribedKinematics;
+
+// Appends the support-friction pairs (p_s, G_sᵀν + E_s σ_s) and (σ_s, h μ_s N − E_sᵀ p_s) to
+// the complementarity block of r (after every other pair).
+void AppendSupportPairs(const SupportRows& sup, const StepLayout& l, const VectorXd& z,
+                        StepResiduals* r) {
+  const int old = static_cast<int>(r->comp_a.size()), ncol = static_cast<int>(r->d_comp_a.cols());
+  const int add = l.nps + l.ns;
+  r->comp_a.conservativeResize(old + add);
+  r->comp_b.conservativeResize(old + add);
+  r->d_comp_a.conservativeResize(old + add, ncol);
+  r->d_comp_b.conservativeResize(old + add, ncol);
+  r->d_comp_a.bottomRows(add).setZero();
+  r->d_comp_b.bottomRows(add).setZero();
+  r->comp_a.tail(add) = z.segment(l.ps(), add);  // p_s, σ_s are contiguous
+  r->d_comp_a.block(old, l.ps(), add, add).setIdentity();
+  r->comp_b.segment(old, l.nps) = sup.G_s.transpose() * z.segment(l.v1(), l.nv);
+  r->d_comp_b.block(old, l.v1(), l.nps, l.nv) = sup.G_s.transpose();
+  for (int k = 0; k < l.ns; ++k) {
+    const int row = old + l.nps + k;
+    r->comp_b[row] = sup.limit[k];
+    for (int j = 0; j < sup.count[k]; ++j) {
+      const int col = sup.first[k] + j;
+      r->comp_b[old + col] += z[l.sigma_s() + k];
+      r->d_comp_b(old + col, l.sigma_s() + k) = 1.0;
+      r->comp_b[row] -= z[l.ps() + col];
+      r->d_comp_b(row, l.ps() + col) = -1.0;
+    }
+  }
+}
+
+}  // namespace
+
+StepLayout StewartTrinkle::Layout(const Scene& model, const State& x) const {
+  std::vector<BodyKinematics> kin = ComputeBodyKinematics(model, x);
+  for (std::size_t i = 0; i < kin.size(); ++i)  // as in Assemble
+    if (model.bodies[i].kind == BodyKind::kPrescribed &&
+        model.bodies[i].motion.pose == PoseRule::kIntegrated)
+      kin[i] = PrescribedKinematics(model, static_cast<int>(i), x.t, options_.dt);
+  std::vector<Contact> contacts;
+  CheckShapesSupported(model);
+  FindContacts(model, kin, options_.envelope, &contacts);
+  StepLayout l;
+  l.nq = model.num_positions();
+  l.nv = model.num_velocities();
+  l.nc = static_cast<int>(contacts.size());
+  l.nd = model.dim == Dim::kPlanar ? 2 : options_.friction_directions;
+  for (const Joint& j : model.joints) l.nb += JointRowCount(j.type, model.dim);
+  for (const Contact& c : contacts) l.nk += c.point.corner ? 1 : 0;
+  for (int bi : model.dynamic_bodies()) {
+    const Support& s = model.bodies[bi].support;
+    l.ns += static_cast<int>(s.points_B.size());
+    l.nps += static_cast<int>(s.points_B.size()) * s.directions;
+  }
+  return l;
+}
+
+StepResiduals StewartTrinkle::Evaluate(const Scene& model, const Params& params, const State& x,
+                                       const StepInput& u, const VectorXd& z) const {
+  return EvaluateAssembly(model, params, Assemble(model, x, u), x, z);
+}
+
+StepResiduals StewartTrinkle::EvaluateAssembly(const Scene& model, const Params& params,
+                                               const Assembly& a, const State& x,
+                                               const VectorXd& z) const {
+  const double h = options_.dt;
+  StepResiduals r;
+  StepLayout& l = r.layout;
+  l.nq = model.num_positions();
+  l.nv = model.num_velocities();
+  l.nc = static_cast<int>(a.contacts.size());
+  l.nd = a.nd;
+  l.nb = static_cast<int>(a.psi_b.size());
+  l.nk = static_cast<int>(a.corner_contact.size());
+  l.ns = a.support.points();
+  l.nps = a.support.columns();
+  if (z.size() != l.size())
+    throw std::invalid_argument("StewartTrinkle::Evaluate: z has " + std::to_string(z.size()) +
+                                " entries, the step layout needs " + std::to_string(l.size()));
+  if (params.values.size() != model.param_table().size())
+    throw std::invalid_argument("StewartTrinkle::Evaluate: params do not match the scene");
+  // Differentiable parameters: friction coefficients and masses; column of each param.
+  std::vector<int> column_of(params.values.size(), -1);
+  for (int i = 0; i < model.param_table().size(); ++i) {
+    const ParamKind kind = model.param_table().info(i).kind;
+    if (kind == ParamKind::kDefaultFriction || kind == ParamKind::kFriction ||
+        kind == ParamKind::kMass || kind == ParamKind::kSupportFriction) {
+      column_of[i] = l.size() + static_cast<int>(r.param_columns.size());
+      r.param_columns.push_back(i);
+    }
+  }
+  const int np = static_cast<int>(r.param_columns.size());
+  const int nz = l.size(), ncol = nz + np;
+  const int nc = l.nc, nd = l.nd, nf = nc * nd, nv = l.nv, nq = l.nq, nb = l.nb;
+  const auto q1 = z.segment(l.q1(), nq);
+  const auto v1 = z.segment(l.v1(), nv);
+  const auto pn = z.segment(l.pn(), nc);
+  const auto pf = z.segment(l.pf(), nf);
+  const auto sigma = z.segment(l.sigma(), nc);
+  const auto pb = z.segment(l.pb(), nb);
+
+  // Equalities: [dynamics (nv); kinematics (nq); joints (nb)].
+  r.equality.resize(nv + nq + nb);
+  r.d_equality = MatrixXd::Zero(nv + nq + nb, ncol);
+  const VectorXd v_l = first_order_ ? VectorXd::Zero(nv) : x.v;  // first order: no ν_ℓ
+  r.equality.head(nv) = a.M * (v1 - v_l) - a.G_n * pn - a.G_f * pf - a.G_b * pb - a.p_ext;
+  r.d_equality.block(0, l.v1(), nv, nv) = a.M.ToDense();
+  r.d_equality.block(0, l.pn(), nv, nc) = -a.G_n;
+  r.d_equality.block(0, l.pf(), nv, nf) = -a.G_f;
+  r.d_equality.block(0, l.pb(), nv, nb) = -a.G_b;
+  if (l.nps > 0) {
+    r.equality.head(nv) -= a.support.G_s * z.segment(l.ps(), l.nps);
+    r.d_equality.block(0, l.ps(), nv, l.nps) = -a.support.G_s;
+  }
+  // ∂/∂m of body b's rows: M_b and p_ext scale with the mass (inertia ∝ mass, same shape).
+  for (int i = 0; i < model.param_table().size(); ++i) {
+    const ParamInfo& info = model.param_table().info(i);
+    if (info.kind != ParamKind::kMass) continue;
+    const Body& b = model.bodies[info.a];
+    const int o = model.index(info.a).v, nvb = VelocitySize(model.dim);
+    const VectorXd dv = v1.segment(o, nvb) - x.v.segment(o, nvb);
+    // First order: h C does not scale with the mass, only the weight does.
+    VectorXd d =
+        first_order_ ? VectorXd(VectorXd::Zero(nvb)) : VectorXd(a.M.BlockAt(o) * dv / b.mass);
+    if (b.gravity) {
+      d.head(model.dim == Dim::kPlanar ? 2 : 3) -=
+          h * model.gravity_W.head(model.dim == Dim::kPlanar ? 2 : 3);
+    }
+    if (model.dim == Dim::kSpatial && !first_order_) {
+      const Vector3d w_B = x.v.segment<3>(o + 3);
+      d.tail<3>() += h * w_B.cross(b.inertia * w_B) / b.mass;
+    }
+    r.d_equality.block(o, column_of[i], nvb, 1) = d;
+  }
+
+  VectorXd q_pred(nq);
+  for (int bi : model.dynamic_bodies()) {
+    const BodyIndex& idx = model.index(bi);
+    IntegratePosition(model.dim, x.q.data() + idx.q, v1.data() + idx.v, h, q_pred.data() + idx.q);
+  }
+  r.equality.segment(nv, nq) = q1 - q_pred;
+  r.d_equality.block(nv, l.q1(), nq, nq).setIdentity();
+  // ∂q_pred/∂ν: planar and the position part of spatial bodies are exactly h·I; the quaternion
+  // block (exponential map) is differentiated by central differences.
+  for (int bi : model.dynamic_bodies()) {
+    const BodyIndex& idx = model.index(bi);
+    for (int k = 0; k < 3; ++k) r.d_equality(nv + idx.q + k, l.v1() + idx.v + k) = -h;
+    if (model.dim == Dim::kSpatial) {
+      const double eps = 1e-7;
+      for (int k = 3; k < 6; ++k) {
+        VectorXd vp = v1.segment(idx.v, 6), vm = vp;
+        vp[k] += eps;
+        vm[k] -= eps;
+        double qp[7], qm[7];
+        IntegratePosition(model.dim, x.q.data() + idx.q, vp.data(), h, qp);
+        IntegratePosition(model.dim, x.q.data() + idx.q, vm.data(), h, qm);
+        for (int i = 3; i < 7; ++i)
+          r.d_equality(nv + idx.q + i, l.v1() + idx.v + k) = -(qp[i] - qm[i]) / (2 * eps);
+      }
+    }
+  }
+  if (nb > 0) {
+    VectorXd jr = a.G_b.transpose() * v1 + a.dpsi_b;
+    if (options_.joint_stabilization) jr += a.psi_b / h;
+    r.equality.tail(nb) = jr;
+    r.d_equality.block(nv + nq, l.v1(), nb, nv) = a.G_b.transpose();
+  }
+
+  // Complementarity pairs: (p_n, normal), (p_f, friction), (σ, cone), then (c, corner).
+  const int nk = l.nk;
+  const int ncomp = nc + nf + nc + nk;
+  const auto cc = z.segment(l.corner(), nk);
+  r.comp_a.resize(ncomp);
+  r.comp_b.resize(ncomp);
+  r.d_comp_a = MatrixXd::Zero(ncomp, ncol);
+  r.d_comp_b = MatrixXd::Zero(ncomp, ncol);
+  r.comp_a << pn, pf, sigma, cc;
+  r.d_comp_a.block(0, l.pn(), nc + nf + nc, nc + nf + nc).setIdentity();  // contiguous
+  r.d_comp_a.block(ncomp - nk, l.corner(), nk, nk).setIdentity();
+
+  r.comp_b.head(nc) = a.G_n.transpose() * v1 + a.dpsi_n;
+  if (!velocity_level_) r.comp_b.head(nc) += a.psi_n / h;
+  r.d_comp_b.block(0, l.v1(), nc, nv) = a.G_n.transpose();
+  for (int c = 0; c < nc; ++c) {
+    const CompliantNormalRow& law = a.compliance[c];
+    if (!law.compliant) continue;
+    r.comp_b[c] = a.G_n.col(c).dot(v1) + a.dpsi_n[c] + law.vel_psi * a.psi_n[c] +
+                  law.vel_diagonal * pn[c] + law.vel_constant;
+    r.d_comp_b(c, l.pn() + c) = law.vel_diagonal;
+  }
+
+  r.comp_b.segment(nc, nf) = a.G_f.transpose() * v1 + a.dpsi_f;
+  r.d_comp_b.block(nc, l.v1(), nf, nv) = a.G_f.transpose();
+  for (int c = 0; c < nc; ++c) {
+    double sum_pf = 0.0;
+    for (int j = 0; j < nd; ++j) {
+      r.comp_b[nc + c * nd + j] += sigma[c];
+      r.d_comp_b(nc + c * nd + j, l.sigma() + c) = 1.0;
+      sum_pf += pf[c * nd + j];
+      r.d_comp_b(nc + nf + c, l.pf() + c * nd + j) = -1.0;
+    }
+    r.comp_b[nc + nf + c] = a.mu[c] * pn[c] - sum_pf;
+    r.d_comp_b(nc + nf + c, l.pn() + c) = a.mu[c];
+    r.d_comp_b(nc + nf + c, column_of[a.contacts[c].mu_param]) = pn[c];
+  }
+  // Corner rows: c_k − ((ψ_1 − ψ_2)/h + (G_1 − G_2)ᵀ ν + ∂ψ_1/∂t − ∂ψ_2/∂t), and + c_k in the
+  // normal row of its contact.
+  for (int k = 0; k < nk; ++k) {
+    const int c = a.corner_contact[k], row = ncomp - nk + k;  // corner pairs last
+    const VectorXd D = a.G_1.col(k).toDense() - a.G_n.col(c).toDense();
+    r.comp_b[row] = cc[k] - ((a.psi_1[k] - a.psi_n[c]) / h + D.dot(v1) + a.dpsi_1[k] - a.dpsi_n[c]);
+    r.d_comp_b(row, l.corner() + k) = 1.0;
+    r.d_comp_b.block(row, l.v1(), 1, nv) = -D.transpose();
+    r.comp_b[c] += cc[k];
+    if (velocity_level_) r.comp_b[c] += a.psi_n[c] / h;  // corners stay position-level
+    r.d_comp_b(c, l.corner() + k) = 1.0;
+  }
+  if (l.ns > 0) {
+    AppendSupportPairs(a.support, l, z, &r);
+    // A static distribution scales with the mass: ∂(h μ_s N_k)/∂m = h μ_s N_k / m.
+    for (int i = 0; i < model.param_table().size(); ++i) {
+      const ParamInfo& info = model.param_table().info(i);
+      if (info.kind == ParamKind::kSupportFriction) {  // ∂(h μ_s N_k)/∂μ_s = h N_k
+        for (int k = 0; k < l.ns; ++k)
+          if (a.support.body[k] == info.a)
+            r.d_comp_b(ncomp + l.nps + k, column_of[i]) = a.support.hN[k];
+      }
+      if (info.kind != ParamKind::kMass || !model.bodies[info.a].support.static_distribution)
+        continue;
+      for (int k = 0; k < l.ns; ++k)
+        if (a.support.body[k] == info.a)
+          r.d_comp_b(ncomp + l.nps + k, column_of[i]) =
+              a.support.limit[k] / model.bodies[info.a].mass;
+    }
+  }
+  return r;
+}
+
+double StepResiduals::Violation() const {
+  double v = equality.size() ? equality.cwiseAbs().maxCoeff() : 0.0;
+  for (int i = 0; i < comp_a.size(); ++i) v = std::max(v, std::abs(std::min(comp_a[i], comp_b[i])));
+  return v;
+}
+
+}  // namespace vinci::sim
