@@ -230,10 +230,44 @@ void ContactLcpOperator::ToSparse(SparseMatrixd* out) const {
 }
 
 void ContactLcpOperator::PrincipalBlock(const std::vector<int>& index, MatrixXd* out) const {
+  // Entry(index[r], index[b]) for every r, b, assembled per body: O(Σ_body k_body²) rather than
+  // O(k²) lookups. Each impulse entry sums at most two body blocks (0 + x + y in either order:
+  // the same bits as ImpulseEntry), then the compliance; E, U and −Eᵀ are set directly.
   const int k = static_cast<int>(index.size());
-  out->resize(k, k);
-  for (int b = 0; b < k; ++b)
-    for (int r = 0; r < k; ++r) (*out)(r, b) = Entry(index[r], index[b]);
+  const int s0 = nc_ + nf_, n = s0 + nc_;
+  out->setZero(k, k);
+  position_.resize(n);
+  std::fill(position_.begin(), position_.end(), -1);
+  for (int b = 0; b < k; ++b) position_[index[b]] = b;
+  for (int body : model_->dynamic_bodies()) {
+    const std::vector<int>& cols = columns_[body];
+    const MatrixXd& B = blocks_[body];
+    members_.clear();
+    for (int p = 0; p < static_cast<int>(cols.size()); ++p)
+      if (position_[cols[p]] >= 0) members_.emplace_back(p, position_[cols[p]]);
+    for (const auto& [pj, bj] : members_)
+      for (const auto& [pi, bi] : members_) (*out)(bi, bj) += B(pi, pj);
+  }
+  for (int b = 0; b < k; ++b) {
+    const int j = index[b];
+    if (j < nc_ && a_->compliance[j].compliant) (*out)(b, b) += a_->compliance[j].vel_diagonal;
+    if (j < s0) continue;
+    const int c = j - s0;  // column σ_c: E in the friction rows of contact c
+    for (int t = 0; t < nd_; ++t) {
+      const int r = position_[nc_ + c * nd_ + t];
+      if (r >= 0) (*out)(r, b) = 1.0;
+    }
+  }
+  for (int r = 0; r < k; ++r) {
+    const int i = index[r];
+    if (i < s0) continue;
+    const int c = i - s0;  // row σ_c: U and −Eᵀ
+    if (position_[c] >= 0) (*out)(r, position_[c]) = a_->mu[c];
+    for (int t = 0; t < nd_; ++t) {
+      const int b = position_[nc_ + c * nd_ + t];
+      if (b >= 0) (*out)(r, b) = -1.0;
+    }
+  }
 }
 
 }  // namespace internal

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <memory>
+#include <utility>
 #include <vector>
 
 #include "vinci/sim/formulations/formulation.h"
@@ -58,6 +59,8 @@ class ContactLcpOperator final : public LcpMatrixOperator {
   std::vector<MatrixXd> Gb_, WG_;          // per body: its G_b over columns_[body], W_b G_b
   mutable VectorXd impulse_, dv_;
   mutable std::vector<Eigen::Triplet<double>> triplets_;
+  mutable std::vector<int> position_;                 // PrincipalBlock: index → basis position
+  mutable std::vector<std::pair<int, int>> members_;  // PrincipalBlock: (column in body, position)
 };
 
 /// Buffers kept between steps (allocation reuse only: a step overwrites everything it reads).
