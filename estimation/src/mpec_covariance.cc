@@ -1,7 +1,6 @@
 // Standard errors of the MPEC estimator: the Laplace approximation at the solution (the
 // reduced-Hessian inverse through a quasi-definite KKT factorization) (mpec_estimator.h).
 #include <Eigen/SparseCholesky>
-#include <Eigen/SparseLU>
 #include <algorithm>
 #include <cmath>
 #include <limits>
