@@ -7,10 +7,10 @@
 
 #include <memory>
 #include <random>
-#include <sstream>
 #include <string>
 #include <utility>
 
+#include "box_scenes.h"
 #include "test_util.h"
 #include "vinci/sim/formulations/stewart_trinkle.h"
 #include "vinci/sim/model/scene_file.h"
@@ -242,15 +242,7 @@ TEST(SparseLemkeTest, SparseScaledResidualMatchesDense) {
 // A k-box stack of 0.2 m cubes on a floor (4 friction directions), dropped from rest with 5 mm
 // gaps between the cubes (impacts: the active set changes while it settles).
 Scene Stack(int k) {
-  std::ostringstream s;
-  s << "name: stack" << k << "\ndimension: 3\n"
-    << "stepper: {dt: 0.001, duration: 2.0, friction_directions: 4, envelope: 0.002}\n"
-    << "friction: {default: 0.6}\nbodies:\n"
-    << "  - {name: floor, kind: static, shapes: [{type: halfspace}]}\n";
-  for (int i = 0; i < k; ++i)
-    s << "  - {name: box" << i << ", mass: 1.0, pose: {position: [0, 0, " << 0.105 + 0.205 * i
-      << "]}, shapes: [{type: box, half_extents: [0.1, 0.1, 0.1]}]}\n";
-  const Scene scene = ParseScene(s.str(), "stack");
+  const Scene scene = ParseScene(bench::StackYaml(k, 6, 0.005), "stack");
   return scene.ApplyParams(scene.DefaultParams());
 }
 

@@ -5,10 +5,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <cstdio>
-#include <sstream>
 #include <string>
 
+#include "box_scenes.h"
 #include "test_util.h"
 #include "vinci/sim/model/scene_file.h"
 #include "vinci/sim/simulator/simulator.h"
@@ -19,20 +18,7 @@ namespace {
 // A resting stack of k 0.2 m, 1 kg cubes on a floor (box_stack.yaml's stepper: μ = 0.6,
 // n_d = 4, dt = 1 ms, envelope 2 mm); box i's centre at the double 0.1 + 0.2 i written with 17
 // significant digits, so the faces touch to within round-off (which excites any free rocking).
-Scene StackScene(int k) {
-  std::ostringstream s;
-  s << "name: stack\ndimension: 3\n"
-    << "stepper: {dt: 0.001, duration: 1.0, friction_directions: 4, envelope: 0.002}\n"
-    << "friction: {default: 0.6}\nbodies:\n"
-    << "  - {name: floor, kind: static, shapes: [{type: halfspace}]}\n";
-  for (int i = 0; i < k; ++i) {
-    char z[64];
-    std::snprintf(z, sizeof z, "%.17g", 0.1 + 0.2 * i);
-    s << "  - {name: box" << i << ", mass: 1.0, pose: {position: [0, 0, " << z
-      << "]}, shapes: [{type: box, half_extents: [0.1, 0.1, 0.1]}]}\n";
-  }
-  return ParseScene(s.str(), "stack_settle_test");
-}
+Scene StackScene(int k) { return ParseScene(bench::StackYaml(k, 17), "stack_settle_test"); }
 
 // A cube at rest on the plane: by symmetry each corner carries a quarter of the weight,
 // p_n = m g h / 4, not Lemke's vertex solution (two diagonal corners at m g h / 2).
