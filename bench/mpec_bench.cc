@@ -71,6 +71,7 @@ int main(int argc, char** argv) {
   std::string csv, only, only_method;
   std::vector<int> thread_counts{1, 2};
   double epsilon_start = 0.0, epsilon_factor = 0.0;  // 0: the estimator's defaults
+  int stall = -1;                                    // < 0: the estimator's default
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--quick")) quick = true;
     if (!std::strcmp(argv[i], "--csv") && i + 1 < argc) csv = argv[++i];
@@ -80,6 +81,7 @@ int main(int argc, char** argv) {
       epsilon_start = std::atof(argv[++i]);
       epsilon_factor = std::atof(argv[++i]);
     }
+    if (!std::strcmp(argv[i], "--stall") && i + 1 < argc) stall = std::atoi(argv[++i]);
     if (!std::strcmp(argv[i], "--threads") && i + 1 < argc) {
       thread_counts.clear();
       for (const char* p = argv[++i]; *p;) {
@@ -133,6 +135,11 @@ int main(int argc, char** argv) {
         o.solver.method = method;
         if (epsilon_start > 0) o.solver.epsilon_start = epsilon_start;
         if (epsilon_factor > 0) o.solver.epsilon_factor = epsilon_factor;
+        if (stall >= 0) o.solver.stall_iterations = stall;
+        if (std::getenv("MPEC_BENCH_VERBOSE"))
+          o.progress = [](const std::string& line) {
+            std::fprintf(stderr, "  %s\n", line.c_str());
+          };
         const std::clock_t cpu0 = std::clock();
         const estimation::MpecEstimateResult r = estimation::EstimateMpec(s, log, o);
         const double cpu_s = static_cast<double>(std::clock() - cpu0) / CLOCKS_PER_SEC;

@@ -315,6 +315,10 @@ void MpecSolverOptions::Validate() const {
     fail("complementarity_tolerance", complementarity_tolerance, "> 0");
   if (!(tolerance > 0)) fail("tolerance", tolerance, "> 0");
   if (max_iterations < 1) fail("max_iterations", max_iterations, "≥ 1");
+  if (stall_iterations < 0) fail("stall_iterations", stall_iterations, "≥ 0");
+  if (!(stall_objective_change > 0)) fail("stall_objective_change", stall_objective_change, "> 0");
+  if (!(stall_constraint_violation > 0))
+    fail("stall_constraint_violation", stall_constraint_violation, "> 0");
   if (print_level < 0 || print_level > 12) fail("print_level", print_level, "in [0, 12]");
 }
 
@@ -364,6 +368,15 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o) {
     // followed such a ray (objective −338 after 60 iterations, |x| ~ 1e8) to its iteration
     // limit. Exact bounds keep the penalty ≥ 0.
     if (stage == Stage::kPenalty) opt.SetNumericValue("bound_relax_factor", 0.0);
+    if (stage != Stage::kPolish && o.stall_iterations > 0) {
+      // Ipopt's acceptable level, made a stall test: the overall error bound is loose (the
+      // dual infeasibility oscillates at a degenerate solution), the objective change and the
+      // constraint violation decide.
+      opt.SetIntegerValue("acceptable_iter", o.stall_iterations);
+      opt.SetNumericValue("acceptable_tol", 1e-2);
+      opt.SetNumericValue("acceptable_obj_change_tol", o.stall_objective_change);
+      opt.SetNumericValue("acceptable_constr_viol_tol", o.stall_constraint_violation);
+    }
     if (warm) {
       opt.SetStringValue("warm_start_init_point", "yes");
       opt.SetNumericValue("warm_start_bound_push", 1e-9);

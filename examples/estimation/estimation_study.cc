@@ -60,6 +60,9 @@ using Estimator = std::function<EstimateResult(const sim::Simulator&, const Log&
 
 // Threads for the methods that evaluate in parallel (lsq: episodes; mpec: steps); --threads.
 int g_threads = 1;
+// --verbose 1: the MPEC's progress lines (setup, each NLP) on stderr; ≥ 2: also Ipopt's output
+// at that print_level.
+int g_verbose = 0;
 
 std::vector<std::pair<std::string, Estimator>> Methods() {
   auto lsq = [](est::Shooting shooting) {
@@ -81,6 +84,9 @@ std::vector<std::pair<std::string, Estimator>> Methods() {
       o.noise_sigma = sigma;
       o.solver.method = method;
       o.threads = g_threads;
+      if (g_verbose > 0)
+        o.progress = [](const std::string& line) { std::cerr << "  " << line << "\n"; };
+      if (g_verbose > 1) o.solver.print_level = g_verbose;
       return est::EstimateMpec(s, log, o);
     };
   };
@@ -248,7 +254,7 @@ constexpr const char* kUsage =
     "usage: estimation_study plate|particles|block|cube [--trials N] [--first-trial K]\n"
     "         [--noise S1,S2] [--windows W1,W2] [--particles N1,N2] [--episodes N]\n"
     "         [--methods lsq,lsq_ms,filter,mpec,mpec_pen] [--guess MU] [--threads N]\n"
-    "         [--out F.csv]\n";
+    "         [--verbose 0|1|IPOPT_PRINT_LEVEL] [--out F.csv]\n";
 
 int Run(int argc, char** argv) {
   if (argc < 2 || std::string(argv[1]) == "--help") {
@@ -319,6 +325,8 @@ int Run(int argc, char** argv) {
       method_names = ParseNames(value);
     } else if (flag == "--threads") {
       g_threads = std::stoi(value);
+    } else if (flag == "--verbose") {
+      g_verbose = std::stoi(value);
     } else if (flag == "--guess") {
       st.guess_mu = std::stod(value);
     } else if (flag == "--out") {

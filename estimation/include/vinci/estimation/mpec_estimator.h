@@ -56,11 +56,13 @@ namespace vinci::estimation {
 /// early polish on with a tolerance of 1e-3 in the objective's units (χ² with a stated σ_R: a
 /// polished point within 1e-3 of the relaxed optimum differs from the full homotopy's by at most
 /// ~0.03 standard errors). Without a stated σ_R the objective's scale is unknown and
-/// EstimateMpec turns the early polish off.
+/// EstimateMpec turns the early polish off. Stages that stall at their value end after 5
+/// iterations (MpecSolverOptions::stall_iterations).
 inline MpecSolverOptions EstimatorSolverDefaults() {
   MpecSolverOptions o;
   o.epsilon_start = 1e-4;
   o.early_polish_tolerance = 1e-3;
+  o.stall_iterations = 5;
   o.deterministic_ordering = true;  // results bitwise independent of threads and run order
   return o;
 }
