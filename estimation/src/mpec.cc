@@ -1,10 +1,14 @@
 #include "vinci/estimation/mpec.h"
 
+#include <dlfcn.h>
+
 #include <IpIpoptApplication.hpp>
 #include <IpTNLP.hpp>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
+#include <cstdlib>
 #include <limits>
 #include <sstream>
 #include <stdexcept>
@@ -233,6 +237,17 @@ class RelaxedNlp : public Ipopt::TNLP {
   VectorXd xbuf_;
 };
 
+// SCOTCH_randomSeed of the SCOTCH library MUMPS was built with, if the process has it (it is a
+// dependency of MUMPS, not of vinci: looked up at run time; null without it). Its argument is a
+// SCOTCH_Num (32 or 64 bits by build): passed as a 64-bit register value, small seeds read the
+// same either way.
+using ScotchRandomSeed = void (*)(std::int64_t);
+ScotchRandomSeed FindScotchRandomSeed() {
+  static const ScotchRandomSeed f =
+      reinterpret_cast<ScotchRandomSeed>(dlsym(RTLD_DEFAULT, "SCOTCH_randomSeed"));
+  return f;
+}
+
 const char* StatusText(Ipopt::ApplicationReturnStatus s) {
   switch (s) {
     case Ipopt::Solve_Succeeded:
@@ -360,7 +375,12 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o) {
     // process can differ in the last digits. QAMD (approximate minimum degree with quasi-dense
     // row detection) is deterministic; it took as many iterations as the automatic choice on the
     // block (plain AMD: more; bench/README.md).
-    if (o.deterministic_ordering) opt.SetIntegerValue("mumps_pivot_order", 6);
+    // SCOTCH with its generator reset before every NLP orders the same structure the same way
+    // every time, and its orderings cost half the CPU of QAMD's factorizations here
+    // (bench/README.md); QAMD where SCOTCH is not found.
+    const ScotchRandomSeed scotch_seed =
+        o.deterministic_ordering ? FindScotchRandomSeed() : nullptr;
+    if (o.deterministic_ordering) opt.SetIntegerValue("mumps_pivot_order", scotch_seed ? 3 : 6);
     // The penalty ρ Σ x_a x_b is bounded below by 0 only on x_a, x_b ≥ 0. Ipopt relaxes every
     // bound by 1e-8 (bound_relax_factor), so a side at its bound sits at ≈ −1e-8 and the
     // penalty decreases without bound along any ray where its partner grows freely (an
@@ -390,6 +410,13 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o) {
         new RelaxedNlp(problem, pairs, stage, param, fixed, !o.limited_memory, x,
                        warm ? &lambda : nullptr, warm ? &zl : nullptr, warm ? &zu : nullptr);
     last = app->Initialize();
+    if (scotch_seed) {
+      // SCOTCH 7 orders with several threads unless told otherwise (read at every ordering):
+      // one thread and a fixed seed give the same ordering every time (measured: two runs in
+      // one process, or two processes, differed in the last digits of μ̂ without either).
+      setenv("SCOTCH_PTHREAD_NUMBER", "1", 1);
+      scotch_seed(1);
+    }
     if (last == Ipopt::Solve_Succeeded) last = app->OptimizeTNLP(nlp);
     sol.iterations += nlp->iterations_;
     ++sol.stages;

@@ -112,10 +112,13 @@ struct MpecSolverOptions {
   double tolerance = 1e-8;      ///< Ipopt tol of each NLP
   int max_iterations = 3000;    ///< Ipopt iterations per NLP
   int print_level = 0;          ///< Ipopt print_level (0 silent … 12)
-  /// MUMPS ordering by QAMD (approximate minimum degree; deterministic: the same problem gives
-  /// bitwise the same result run after run in one process and for any thread count of the
-  /// problem's evaluation) instead of its automatic choice (SCOTCH on large systems, whose
-  /// random state persists between solves: last-digit differences).
+  /// A deterministic MUMPS ordering: the same problem gives bitwise the same result run after
+  /// run in one process and for any thread count of the problem's evaluation. SCOTCH on one
+  /// thread (sets the environment variable SCOTCH_PTHREAD_NUMBER=1) with its random generator
+  /// seeded (SCOTCH_randomSeed) before every NLP where MUMPS' SCOTCH is found in the process,
+  /// else QAMD (approximate minimum degree; about twice the factorization cost
+  /// here). Off: MUMPS' automatic choice (SCOTCH on large systems, whose random state persists
+  /// between solves: last-digit differences).
   bool deterministic_ordering = false;
   /// Called after each NLP with a one-line summary. May be empty. Must not throw.
   std::function<void(const std::string&)> progress;
