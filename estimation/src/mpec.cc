@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
+#include <cstring>
 #include <limits>
 #include <sstream>
 #include <stdexcept>
@@ -414,7 +415,9 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o) {
       // SCOTCH 7 orders with several threads unless told otherwise (read at every ordering):
       // one thread and a fixed seed give the same ordering every time (measured: two runs in
       // one process, or two processes, differed in the last digits of μ̂ without either).
-      setenv("SCOTCH_PTHREAD_NUMBER", "1", 1);
+      const char* threads = std::getenv("SCOTCH_PTHREAD_NUMBER");
+      if (threads == nullptr || std::strcmp(threads, "1") != 0)
+        setenv("SCOTCH_PTHREAD_NUMBER", "1", 1);
       scotch_seed(1);
     }
     if (last == Ipopt::Solve_Succeeded) last = app->OptimizeTNLP(nlp);
