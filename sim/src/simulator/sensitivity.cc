@@ -327,6 +327,63 @@ class Linearization {
     return true;
   }
 
+  // A move of the unknowns within the step's solution set toward its relative interior, or an
+  // empty vector. With redundant contacts (K singular) the solver's impulse split is one point of
+  // a set of solutions with the same velocities, and it may put a contact exactly at its friction
+  // cone edge (a degenerate pair) while a redundant contact is strictly inside its cone: held
+  // there, the sensitivity LCP lets the first slide where the true step moves load to the other
+  // (docs/sensitivity.md, "Redundant contacts"). Along a null vector n of K (the held rows, the
+  // degenerate pairs' a rows included, stay as they are; q_ℓ+1 and ν_ℓ+1 must not move) whose
+  // rates B_i n are ≥ 0 on every degenerate pair and > 0 on some, half the step to the first held
+  // side that reaches 0 makes those pairs strictly complementary. Greedy over K's null vectors
+  // (each direction tried with both signs), the move accumulated. `nx_rows`: the leading unknowns
+  // (q_ℓ+1, ν_ℓ+1) that must not move.
+  VectorXd InteriorShift(int nx_rows, const VectorXd& z) const {
+    if (deg_.empty() || smoothed_ || !solver_.singular()) return VectorXd();
+    Eigen::FullPivLU<MatrixXd> lu(K_);
+    lu.setThreshold(1e-10);
+    const MatrixXd N = lu.kernel();
+    if (lu.rank() == nz_ || N.cols() == 0) return VectorXd();
+    VectorXd shift = VectorXd::Zero(nz_);
+    VectorXd a = a_, b = b_;
+    std::vector<char> side = side_;
+    const double zmax = std::max(1e-300, z.tail(nz_ - nx_rows).cwiseAbs().maxCoeff());
+    bool moved = false;
+    for (int k = 0; k < N.cols(); ++k) {
+      const double nn = N.col(k).cwiseAbs().maxCoeff();
+      if (!(nn > 0.0) || N.col(k).head(nx_rows).cwiseAbs().maxCoeff() > 1e-10 * nn) continue;
+      for (double sign : {1.0, -1.0}) {
+        const VectorXd n = sign * N.col(k) / nn;
+        const VectorXd ra = A_ * n, rb = B_ * n;
+        const double eps = 1e-9;
+        int gain = 0;
+        bool allowed = true;
+        double t = zmax;  // no farther than the impulses' own scale
+        for (int i = 0; i < static_cast<int>(side.size()) && allowed; ++i) {
+          if (side[i] == 'd') {
+            if (std::abs(ra[i]) > eps) allowed = false;  // a_D is held: must not move
+            if (rb[i] < -eps) allowed = false;
+            if (rb[i] > eps) ++gain;
+          } else if (side[i] == 'a') {
+            if (rb[i] < -eps) t = std::min(t, b[i] / -rb[i]);
+          } else if (side[i] == 'b') {
+            if (ra[i] < -eps) t = std::min(t, a[i] / -ra[i]);
+          }
+        }
+        if (!allowed || gain == 0 || !(t > 0.0)) continue;
+        t *= 0.5;
+        shift += t * n;
+        a += t * ra;
+        b += t * rb;
+        for (int i = 0; i < static_cast<int>(side.size()); ++i)
+          if (side[i] == 'd' && rb[i] > eps) side[i] = 'a';
+        moved = true;
+        break;
+      }
+    }
+    return moved ? shift : VectorXd();
+  }
+
   // How far along a column (dz its solution, r its residual column) the held active set stays
   // feasible to first order: the smallest t at which a strictly positive side of a held pair
   // (b where a is held at 0, a where b is) reaches 0. +∞ for the smoothed step, and where no
@@ -447,6 +504,21 @@ class StepDifferentiator {
     if (!lin_->ok()) {
       message_ = lin_->message();
       return;
+    }
+    if (!gi && options.degenerate == DegenerateRule::kDirectional) {
+      // Redundant contacts with a contact at its cone edge: linearize at a split inside the
+      // solution set instead (Linearization::InteriorShift).
+      const StepLayout& l = frozen_->layout();
+      const VectorXd shift = lin_->InteriorShift(l.nq + l.nv, z_);
+      if (shift.size() == z_.size()) {
+        z_ += shift;
+        vals_ = frozen_->Evaluate(z_, params, x, u, o);
+        lin_ = std::make_unique<Linearization>(vals_, options, false, nullptr);
+        if (!lin_->ok()) {
+          message_ = lin_->message();
+          return;
+        }
+      }
     }
     // A mode change within the step: the contact set found at the end differs. GI finds its
     // contacts at ℓ+1 inside the step (a contact made within the step is one of its pairs'
