@@ -145,6 +145,25 @@ class StructuredSolver {
     return x;
   }
 
+  /// A basis of K's null space from the core's (columns; none if the core is regular or was not
+  /// square): the core's null vectors with the eliminated unknowns recovered (a singleton row's
+  /// unknown is 0, a singleton column's from its row).
+  MatrixXd NullSpace() const {
+    const int n = static_cast<int>(K_->rows());
+    if (use_lu_ || cols_.empty() || rows_.size() != cols_.size()) return MatrixXd(n, 0);
+    const MatrixXd Nc = lu_.kernel();
+    if (lu_.rank() == static_cast<int>(cols_.size())) return MatrixXd(n, 0);
+    MatrixXd N = MatrixXd::Zero(n, Nc.cols());
+    for (int k = 0; k < Nc.cols(); ++k) {
+      VectorXd x = VectorXd::Zero(n);
+      for (std::size_t c = 0; c < cols_.size(); ++c) x[cols_[c]] = Nc(c, k);
+      for (auto it = ops_.rbegin(); it != ops_.rend(); ++it)
+        if (!it->row_singleton) x[it->col] = -K_->row(it->row).dot(x) / (*K_)(it->row, it->col);
+      N.col(k) = x;
+    }
+    return N;
+  }
+
   MatrixXd Solve(const MatrixXd& B) const {
     MatrixXd X(B.rows(), B.cols());
     for (int j = 0; j < B.cols(); ++j) X.col(j) = Solve(VectorXd(B.col(j)));
@@ -340,10 +359,8 @@ class Linearization {
   // (q_ℓ+1, ν_ℓ+1) that must not move.
   VectorXd InteriorShift(int nx_rows, const VectorXd& z) const {
     if (deg_.empty() || smoothed_ || !solver_.singular()) return VectorXd();
-    Eigen::FullPivLU<MatrixXd> lu(K_);
-    lu.setThreshold(1e-10);
-    const MatrixXd N = lu.kernel();
-    if (lu.rank() == nz_ || N.cols() == 0) return VectorXd();
+    const MatrixXd N = solver_.NullSpace();
+    if (N.cols() == 0) return VectorXd();
     VectorXd shift = VectorXd::Zero(nz_);
     VectorXd a = a_, b = b_;
     std::vector<char> side = side_;
