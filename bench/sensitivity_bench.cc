@@ -6,7 +6,9 @@
 //  2. per rollout of N steps (default 1000): the reverse-mode gradient of a terminal objective
 //     with respect to p parameters (RolloutReverse) against the 2p + 1 rollouts of central
 //     differences.
-// Prints a table. --steps N sets N; --quick runs 50 steps of one scene (the ctest smoke run).
+// Prints a table. --steps N sets N; --quick runs 50 steps of one scene (the ctest smoke run);
+// --scene S runs only the scenes whose file name contains S; --fwd-only measures only step and
+// fwd1 (for a profiler: `perf record build/bench/sensitivity_bench --scene box --fwd-only`).
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -29,7 +31,7 @@ struct Case {
   int warmup;  // steps simulated before the measured ones
 };
 
-void Run(const Case& c, int steps) {
+void Run(const Case& c, int steps, bool fwd_only) {
   const Simulator sim(LoadSceneFile(std::string(VINCI_SOURCE_DIR) + "/examples/scenes/" + c.scene));
   const Params p = sim.DefaultParams();
   const ParamSelection sel(sim.scene().param_table(), c.params);
@@ -66,6 +68,11 @@ void Run(const Case& c, int steps) {
   const double t_fwd = per_step([&](int k, Workspace* ws) {
     PropagateStep(sim, p, one, tr.states[k], inputs[k], tr.states[k + 1], S, &S_next, {}, ws);
   });
+  if (fwd_only) {
+    std::printf("%-26s %2d %5d | %9.1f %9.1f %5.2f |\n", c.scene, sel.size(), steps, 1e6 * t_step,
+                1e6 * t_fwd, t_fwd / t_step);
+    return;
+  }
   const double t_full = per_step([&](int k, Workspace* ws) {
     StepDerivatives(sim, p, sel, tr.states[k], inputs[k], tr.states[k + 1], true, {}, ws);
   });
@@ -98,15 +105,21 @@ void Run(const Case& c, int steps) {
 
 int main(int argc, char** argv) {
   int steps = 1000;
-  bool quick = false;
+  bool quick = false, fwd_only = false;
+  std::string only;
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--quick") == 0) {
       quick = true;
       steps = 50;
+    } else if (std::strcmp(argv[i], "--fwd-only") == 0) {
+      fwd_only = true;
+    } else if (std::strcmp(argv[i], "--scene") == 0 && i + 1 < argc) {
+      only = argv[++i];
     } else if (std::strcmp(argv[i], "--steps") == 0 && i + 1 < argc) {
       steps = std::atoi(argv[++i]);
     } else {
-      std::fprintf(stderr, "usage: sensitivity_bench [--steps N] [--quick]\n");
+      std::fprintf(stderr,
+                   "usage: sensitivity_bench [--steps N] [--quick] [--scene S] [--fwd-only]\n");
       return 2;
     }
   }
@@ -131,7 +144,8 @@ int main(int argc, char** argv) {
   std::printf("%-26s %2s %5s | %9s %9s %5s | %9s %6s | %8s %8s %6s |\n", "scene", "p", "N",
               "step(us)", "fwd1(us)", "ratio", "full(us)", "ratio", "rev(s)", "fd(s)", "ratio");
   for (const Case& c : cases) {
-    Run(c, steps);
+    if (!only.empty() && std::string(c.scene).find(only) == std::string::npos) continue;
+    Run(c, steps, fwd_only);
     if (quick) break;
   }
   return 0;

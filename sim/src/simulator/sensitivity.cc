@@ -1,5 +1,6 @@
 #include "vinci/sim/simulator/sensitivity.h"
 
+#include <Eigen/LU>
 #include <Eigen/QR>
 #include <algorithm>
 #include <cmath>
@@ -51,6 +52,136 @@ std::string JoinNames(const std::vector<std::string>& names) {
 struct ResidualColumn {
   VectorXd eq, a, b;
   bool contact_set_changed = false;
+};
+
+// A square system K dz = b factored structurally: singleton rows (a held impulse, dp = 0; a
+// variable fixed by one row) are eliminated first, then singleton columns (a variable that only
+// one remaining row reads, e.g. q_ℓ+1 in its kinematics row, recovered last), and the small core
+// left (the dynamics and the loaded contacts' rows) is factored by LU with complete pivoting,
+// which reveals its rank. Only a rank-deficient core (redundant contacts: a box face on a plane,
+// its four corners loaded) is factored by the complete orthogonal decomposition, whose solution
+// is the minimum-norm one of the core. The caller checks the residual of every solution (an
+// inconsistent singular system is not solvable).
+class StructuredSolver {
+ public:
+  void Compute(const MatrixXd& K) {
+    K_ = &K;
+    const int n = static_cast<int>(K.rows());
+    std::vector<int> row_count(n, 0), col_count(n, 0);
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i)
+        if (K(i, j) != 0.0) {
+          ++row_count[i];
+          ++col_count[j];
+        }
+    std::vector<char> row_done(n, 0), col_done(n, 0);
+    ops_.clear();
+    bool changed = true;
+    while (changed) {
+      changed = false;
+      for (int i = 0; i < n; ++i) {
+        if (row_done[i] || row_count[i] != 1) continue;
+        int j = 0;
+        while (col_done[j] || K(i, j) == 0.0) ++j;
+        ops_.push_back({i, j, true});
+        row_done[i] = col_done[j] = 1;
+        for (int r = 0; r < n; ++r)
+          if (!row_done[r] && K(r, j) != 0.0) --row_count[r];
+        changed = true;
+      }
+      for (int j = 0; j < n; ++j) {
+        if (col_done[j] || col_count[j] != 1) continue;
+        int i = 0;
+        while (row_done[i] || K(i, j) == 0.0) ++i;
+        ops_.push_back({i, j, false});
+        row_done[i] = col_done[j] = 1;
+        for (int c = 0; c < n; ++c)
+          if (!col_done[c] && K(i, c) != 0.0) --col_count[c];
+        changed = true;
+      }
+    }
+    // The core: rows and columns not eliminated; an emptied row (a duplicate of a singleton) or
+    // column (a free variable) leaves it (the residual check decides consistency; free: 0).
+    rows_.clear();
+    cols_.clear();
+    for (int i = 0; i < n; ++i)
+      if (!row_done[i] && row_count[i] > 0) rows_.push_back(i);
+    for (int j = 0; j < n; ++j)
+      if (!col_done[j] && col_count[j] > 0) cols_.push_back(j);
+    const int nr = static_cast<int>(rows_.size()), nc = static_cast<int>(cols_.size());
+    core_.resize(nr, nc);
+    for (int c = 0; c < nc; ++c)
+      for (int r = 0; r < nr; ++r) core_(r, c) = K(rows_[r], cols_[c]);
+    use_lu_ = false;
+    if (nr == nc && nr > 0) {
+      lu_.setThreshold(1e-10);
+      lu_.compute(core_);
+      use_lu_ = lu_.isInvertible();
+    }
+    if (!use_lu_ && nr > 0 && nc > 0) {
+      cod_.setThreshold(1e-12);
+      cod_.compute(core_);
+    }
+  }
+
+  /// Columns of the core factored (a diagnostic) and whether it needed the rank-revealing path.
+  int core_size() const { return static_cast<int>(cols_.size()); }
+  bool singular() const { return !use_lu_ && !cols_.empty(); }
+
+  VectorXd Solve(const VectorXd& b) const {
+    const MatrixXd& K = *K_;
+    VectorXd x = VectorXd::Zero(b.size());
+    for (const Op& op : ops_)
+      if (op.row_singleton) x[op.col] = (b[op.row] - K.row(op.row).dot(x)) / K(op.row, op.col);
+    if (!cols_.empty() && !rows_.empty()) {
+      VectorXd bc(rows_.size());
+      for (std::size_t r = 0; r < rows_.size(); ++r) bc[r] = b[rows_[r]] - K.row(rows_[r]).dot(x);
+      const VectorXd xc = use_lu_ ? VectorXd(lu_.solve(bc)) : VectorXd(cod_.solve(bc));
+      for (std::size_t c = 0; c < cols_.size(); ++c) x[cols_[c]] = xc[c];
+    }
+    for (auto it = ops_.rbegin(); it != ops_.rend(); ++it)
+      if (!it->row_singleton)
+        x[it->col] = (b[it->row] - K.row(it->row).dot(x)) / K(it->row, it->col);
+    return x;
+  }
+
+  /// A basis of K's null space from the core's (columns; none if the core is regular or was not
+  /// square): the core's null vectors with the eliminated unknowns recovered (a singleton row's
+  /// unknown is 0, a singleton column's from its row).
+  MatrixXd NullSpace() const {
+    const int n = static_cast<int>(K_->rows());
+    if (use_lu_ || cols_.empty() || rows_.size() != cols_.size()) return MatrixXd(n, 0);
+    const MatrixXd Nc = lu_.kernel();
+    if (lu_.rank() == static_cast<int>(cols_.size())) return MatrixXd(n, 0);
+    MatrixXd N = MatrixXd::Zero(n, Nc.cols());
+    for (int k = 0; k < Nc.cols(); ++k) {
+      VectorXd x = VectorXd::Zero(n);
+      for (std::size_t c = 0; c < cols_.size(); ++c) x[cols_[c]] = Nc(c, k);
+      for (auto it = ops_.rbegin(); it != ops_.rend(); ++it)
+        if (!it->row_singleton) x[it->col] = -K_->row(it->row).dot(x) / (*K_)(it->row, it->col);
+      N.col(k) = x;
+    }
+    return N;
+  }
+
+  MatrixXd Solve(const MatrixXd& B) const {
+    MatrixXd X(B.rows(), B.cols());
+    for (int j = 0; j < B.cols(); ++j) X.col(j) = Solve(VectorXd(B.col(j)));
+    return X;
+  }
+
+ private:
+  struct Op {
+    int row, col;
+    bool row_singleton;  // else a column singleton (recovered after the core)
+  };
+  const MatrixXd* K_ = nullptr;
+  std::vector<Op> ops_;
+  std::vector<int> rows_, cols_;
+  MatrixXd core_;
+  bool use_lu_ = false;
+  Eigen::FullPivLU<MatrixXd> lu_;
+  Eigen::CompleteOrthogonalDecomposition<MatrixXd> cod_;
 };
 
 // The step's active equations at the linearization point and their factorization.
@@ -149,13 +280,14 @@ class Linearization {
       }
     }
     if (smoothed) deg_.clear();
-    // K by the rank-revealing complete orthogonal decomposition: with redundant contacts (a box
-    // face on a plane, four corners all loaded: impulses not unique) K is singular, and its
-    // solutions' state part is still unique where consistent. (Partial-pivoting LU, tried for
-    // speed, took such a K as regular — its rcond estimate was above the 1e-10 cut-off used —
-    // and returned wrong state derivatives: SensitivityTest.RedundantRestingContacts….)
-    cod_.setThreshold(1e-12);
-    cod_.compute(K_);
+    // K factored structurally (StructuredSolver): the held impulses and the end positions
+    // eliminated, the small core by LU with complete pivoting, and by the rank-revealing
+    // complete orthogonal decomposition only where the core is singular (redundant contacts: a
+    // box face on a plane, four corners all loaded: impulses not unique; the solutions' state
+    // part is still unique where consistent). Partial-pivoting LU, tried earlier for speed, took
+    // such a K as regular — its rcond estimate was above a 1e-10 cut-off — and returned wrong
+    // state derivatives (SensitivityTest.RedundantRestingContacts…).
+    solver_.Compute(K_);
     k_norm_ = K_.size() ? K_.cwiseAbs().maxCoeff() : 0.0;
     if (!deg_.empty()) {
       const int nd = static_cast<int>(deg_.size());
@@ -165,6 +297,9 @@ class Linearization {
     ne_ = ne;
     ok_ = true;
   }
+
+  Linearization(const Linearization&) = delete;  // solver_ points to K_
+  Linearization& operator=(const Linearization&) = delete;
 
   bool ok() const { return ok_; }
   const std::string& message() const { return message_; }
@@ -180,7 +315,7 @@ class Linearization {
     rhs.head(ne_) = r.eq;
     rhs.tail(nz_ - ne_) = weight_a_.cwiseProduct(r.a) + weight_b_.cwiseProduct(r.b);
     for (int row : pinned_) rhs[row] = 0.0;
-    *dz = cod_.solve(-rhs);
+    *dz = solver_.Solve(VectorXd(-rhs));
     const double resid = (K_ * *dz + rhs).cwiseAbs().maxCoeff();
     const double ref = rhs.cwiseAbs().maxCoeff() + k_norm_ * dz->cwiseAbs().maxCoeff();
     if (!std::isfinite(resid) || resid > 1e-6 * ref + 1e-300) return false;
@@ -197,7 +332,7 @@ class Linearization {
       // them (most columns of a sticking step keep λ = 0).
       MatrixXd ED = MatrixXd::Zero(nz_, nd);
       for (int j = 0; j < nd; ++j) ED(ne_ + deg_[j], j) = 1.0;
-      W_ = cod_.solve(ED);
+      W_ = solver_.Solve(ED);
       lcp_M_ = BD_ * W_;
     }
     p.M = lcp_M_;
@@ -209,6 +344,61 @@ class Linearization {
     }
     *dz += W_ * lambda;
     return true;
+  }
+
+  // A move of the unknowns within the step's solution set toward its relative interior, or an
+  // empty vector. With redundant contacts (K singular) the solver's impulse split is one point of
+  // a set of solutions with the same velocities, and it may put a contact exactly at its friction
+  // cone edge (a degenerate pair) while a redundant contact is strictly inside its cone: held
+  // there, the sensitivity LCP lets the first slide where the true step moves load to the other
+  // (docs/sensitivity.md, "Redundant contacts"). Along a null vector n of K (the held rows, the
+  // degenerate pairs' a rows included, stay as they are; q_ℓ+1 and ν_ℓ+1 must not move) whose
+  // rates B_i n are ≥ 0 on every degenerate pair and > 0 on some, half the step to the first held
+  // side that reaches 0 makes those pairs strictly complementary. Greedy over K's null vectors
+  // (each direction tried with both signs), the move accumulated. `nx_rows`: the leading unknowns
+  // (q_ℓ+1, ν_ℓ+1) that must not move.
+  VectorXd InteriorShift(int nx_rows, const VectorXd& z) const {
+    if (deg_.empty() || smoothed_ || !solver_.singular()) return VectorXd();
+    const MatrixXd N = solver_.NullSpace();
+    if (N.cols() == 0) return VectorXd();
+    VectorXd shift = VectorXd::Zero(nz_);
+    VectorXd a = a_, b = b_;
+    std::vector<char> side = side_;
+    const double zmax = std::max(1e-300, z.tail(nz_ - nx_rows).cwiseAbs().maxCoeff());
+    bool moved = false;
+    for (int k = 0; k < N.cols(); ++k) {
+      const double nn = N.col(k).cwiseAbs().maxCoeff();
+      if (!(nn > 0.0) || N.col(k).head(nx_rows).cwiseAbs().maxCoeff() > 1e-10 * nn) continue;
+      for (double sign : {1.0, -1.0}) {
+        const VectorXd n = sign * N.col(k) / nn;
+        const VectorXd ra = A_ * n, rb = B_ * n;
+        const double eps = 1e-9;
+        int gain = 0;
+        bool allowed = true;
+        double t = zmax;  // no farther than the impulses' own scale
+        for (int i = 0; i < static_cast<int>(side.size()) && allowed; ++i) {
+          if (side[i] == 'd') {
+            if (std::abs(ra[i]) > eps) allowed = false;  // a_D is held: must not move
+            if (rb[i] < -eps) allowed = false;
+            if (rb[i] > eps) ++gain;
+          } else if (side[i] == 'a') {
+            if (rb[i] < -eps) t = std::min(t, b[i] / -rb[i]);
+          } else if (side[i] == 'b') {
+            if (ra[i] < -eps) t = std::min(t, a[i] / -ra[i]);
+          }
+        }
+        if (!allowed || gain == 0 || !(t > 0.0)) continue;
+        t *= 0.5;
+        shift += t * n;
+        a += t * ra;
+        b += t * rb;
+        for (int i = 0; i < static_cast<int>(side.size()); ++i)
+          if (side[i] == 'd' && rb[i] > eps) side[i] = 'a';
+        moved = true;
+        break;
+      }
+    }
+    return moved ? shift : VectorXd();
   }
 
   // How far along a column (dz its solution, r its residual column) the held active set stays
@@ -247,7 +437,7 @@ class Linearization {
   std::vector<char> side_;  // per pair: 'a' / 'b' held, 'd' degenerate, 'i' inert GI pair
   std::vector<int> deg_;
   std::vector<int> pinned_;  // equality rows replaced by dp_t = 0 (inert GI pairs)
-  Eigen::CompleteOrthogonalDecomposition<MatrixXd> cod_;
+  StructuredSolver solver_;  // of K_ (keeps a pointer to it: Linearization is not copied)
   double k_norm_ = 0.0;
 };
 
@@ -331,6 +521,21 @@ class StepDifferentiator {
     if (!lin_->ok()) {
       message_ = lin_->message();
       return;
+    }
+    if (!gi && options.degenerate == DegenerateRule::kDirectional) {
+      // Redundant contacts with a contact at its cone edge: linearize at a split inside the
+      // solution set instead (Linearization::InteriorShift).
+      const StepLayout& l = frozen_->layout();
+      const VectorXd shift = lin_->InteriorShift(l.nq + l.nv, z_);
+      if (shift.size() == z_.size()) {
+        z_ += shift;
+        vals_ = frozen_->Evaluate(z_, params, x, u, o);
+        lin_ = std::make_unique<Linearization>(vals_, options, false, nullptr);
+        if (!lin_->ok()) {
+          message_ = lin_->message();
+          return;
+        }
+      }
     }
     // A mode change within the step: the contact set found at the end differs. GI finds its
     // contacts at ℓ+1 inside the step (a contact made within the step is one of its pairs'

@@ -17,9 +17,12 @@
 // (K̃: the equality rows, the held rows and the rows a_D) — exact along +d, one-sided: the
 // derivative along −d may differ. `DegenerateRule` selects that or a fixed branch.
 //
-// K is solved by a rank-revealing factorization (complete orthogonal decomposition): with
-// redundant contacts (a box's four corners on a plane) the impulses are not unique, the state's
-// derivative still is when the system is consistent, which is checked per column.
+// K is factored structurally (singleton rows and columns eliminated, the core by LU with complete
+// pivoting, a rank-deficient core by the complete orthogonal decomposition): with redundant
+// contacts (a box's four corners on a plane) the impulses are not unique, the state's derivative
+// still is when the system is consistent, which is checked per column. Where the solver's split
+// of such impulses puts a contact at its friction cone edge, the derivative is taken at a split
+// moved inside the solution set along K's null space (docs/sensitivity.md).
 //
 // Parameter columns: friction coefficients, support friction and masses (ParamInfo::
 // differentiable) through the step equations' analytic θ columns; motion and tilt parameters of
