@@ -211,7 +211,11 @@ std::string MakeMjcfBoxes(const std::string& label, const vinci::sim::Scene& sce
   const std::string friction = Num(mu) + " 0.005 0.0001";
   int boxes = 0;
   for (const vinci::sim::Body& b : scene.bodies) boxes += b.kind == vinci::sim::BodyKind::kDynamic;
-  const int ncon = 8 * 5 * boxes + 64;  // ≤ 8 contacts per touching pair, ≤ 5 pairs per box
+  // Stacks: ≤ 8 contacts per touching pair, ≤ 5 pairs per box. The pile (≥ 100 boxes) touches
+  // ~2.7 pairs per box with ~4 contacts each (vinci: 1072 contacts): 12 per box. MuJoCo 2.2
+  // allocates njmax² doubles (efc_AR), so the stacks' bound (njmax = 16 256: 2 GB) made
+  // mj_makeData fail on the pile; 12 per box keeps it at ~200 MB.
+  const int ncon = (boxes >= 100 ? 12 : 8 * 5) * boxes + 64;
   s << "<mujoco model=\"" << label << "\">\n"
     << "  <compiler angle=\"radian\"/>\n"
     << "  <size nconmax=\"" << ncon << "\" njmax=\"" << 4 * ncon << "\"/>\n"
