@@ -32,17 +32,19 @@ inline std::string StackYaml(int k, int digits = 17, double gap = 0.0) {
   return s.str();
 }
 
-/// YAML of a pile of 100 cubes: four layers of 5 × 5 cubes 5 mm apart (no side contacts), odd
-/// layers shifted by (5, 5) cm, so each cube rests on one to four cubes below.
-inline std::string PileYaml(int digits = 17) {
+/// YAML of a pile of layers × side × side cubes (default 4 × 5 × 5 = 100): `layers` layers of
+/// side × side 0.2 m cubes (1 kg) 5 mm apart (no side contacts), odd layers shifted by (5, 5) cm,
+/// so each cube above the floor rests on one to four cubes below; μ = 0.6, n_d = 4, dt = 1 ms,
+/// envelope 2 mm.
+inline std::string PileYaml(int digits = 17, int layers = 4, int side = 5) {
   std::ostringstream s;
-  s << "name: pile100\ndimension: 3\n"
+  s << "name: pile" << layers * side * side << "\ndimension: 3\n"
     << "stepper: {dt: 0.001, duration: 2.0, friction_directions: 4, envelope: 0.002}\n"
     << "friction: {default: 0.6}\nbodies:\n"
     << "  - {name: floor, kind: static, shapes: [{type: halfspace}]}\n";
-  for (int layer = 0; layer < 4; ++layer)
-    for (int i = 0; i < 5; ++i)
-      for (int j = 0; j < 5; ++j) {
+  for (int layer = 0; layer < layers; ++layer)
+    for (int i = 0; i < side; ++i)
+      for (int j = 0; j < side; ++j) {
         const double shift = layer % 2 ? 0.05 : 0.0;
         s << "  - {name: b" << layer << "_" << i << "_" << j << ", mass: 1.0, pose: {position: ["
           << Num(0.205 * i + shift, digits) << ", " << Num(0.205 * j + shift, digits) << ", "

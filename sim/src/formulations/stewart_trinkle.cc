@@ -4,6 +4,7 @@
 #include <cmath>
 #include <map>
 #include <stdexcept>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -45,7 +46,8 @@ using internal::PrescribedKinematics;
 constexpr double kPi = 3.14159265358979323846;
 // Plain-contact LCPs with at least this many unknowns that the warm basis does not solve are
 // solved by SolveSparseLemke instead of the dense LemkeSolver (a 6432-unknown pile of 100 boxes:
-// ~18 ms a step against > 2 s). Below it the dense solver's pivots are cheaper (bench/README.md).
+// ~18 ms a step against > 2 s), with no dense fallback: a failed sparse run fails the step.
+// Below it the dense solver's pivots are cheaper (bench/README.md).
 constexpr int kSparseStepMinSize = 1024;
 // Relative tolerance under which the two predicted gaps of a corner contact tie.
 constexpr double kCornerTieTol = 1e-9;
@@ -693,17 +695,36 @@ void StewartTrinkle::Step(const Scene& model, const State& x, const StepInput& u
         solved = true;
       } else if (m_plain >= kSparseStepMinSize) {
         // Large LCPs pivot on the sparse matrix (a dense m × m one is O(m²) memory and a
-        // pivot O(m²) work); if that run fails, the dense LemkeSolver below takes over.
+        // pivot O(m²) work). If that run fails, the step fails with its report: the dense
+        // LemkeSolver's cold run, unscaled run and three regularized retries on m ≥ 1024
+        // unknowns took minutes a step on the 100-box pile (bench/README.md) and did not
+        // solve it either.
         s.lcp.ToSparse(&s.M);
         // The start basis must be nonsingular: not every corner of a spread support.
         VectorXd start;
         if (warm_plain) internal::IndependentNormalsWarmStart(model, a, x.warm_start, &start);
-        const SolverReport report =
+        info->solver =
             SolveSparseLemke(s.M, s.lcp.q(), warm_plain ? &start : nullptr, lemke->options(), &z);
-        if (report.ok()) {
-          info->solver = report;
-          solved = true;
+        // A run that misses the tolerance by round-off (a degenerate terminal basis: the 27-box
+        // pile's cold run ended at residual 1.8e-8 against τ = 1.5e-8) is polished by solving
+        // its basis {i : z_i > 0} once more, by the warm-basis QR (same acceptance tests).
+        if (!info->solver.ok() && z.size() == m_plain && z.allFinite() && (z.array() > 0.0).any()) {
+          const VectorXd terminal = z;
+          SolverReport polished;
+          if (SolveOnWarmBasis(s.lcp, s.lcp.q(), terminal, lemke->options(), &s.basis, &z,
+                               &polished)) {
+            polished.iterations = info->solver.iterations;
+            polished.message = "re-solved the terminal basis of the sparse Lemke run (" +
+                               info->solver.message + ")";
+            info->solver = polished;
+          }
         }
+        if (!info->solver.ok()) {
+          internal::SolverFailed(
+              "LCP solver 'lemke' (sparse, " + std::to_string(m_plain) + " unknowns)", info);
+          return;
+        }
+        solved = true;
       }
       if (solved) v_star = s.lcp.v_star();
     }

@@ -512,7 +512,9 @@ SolverReport SolveSparseLemke(const SpMat& M, const VectorXd& q, const VectorXd*
       report.message = message;
       return true;
     }
-    if (first_message.empty()) {
+    // On failure the report and z are those of the run with the smaller residual (a caller may
+    // polish that iterate's basis).
+    if (first_message.empty() || OrInf(residual) < OrInf(report.residual)) {
       report.status = terminated ? SolverStatus::kNumericalFailure : core.status;
       report.residual = residual;
       report.tolerance = tolerance;

@@ -40,10 +40,11 @@ inline constexpr int kSparseLemkeMinSize = 64;
 ///
 /// Returns kSolved (iterations = pivots of all runs) iff z passes both acceptance tests. There
 /// are no regularized retries, Fischer–Burmeister polish or Newton fallback: on failure the
-/// report says why (z: the last iterate, clamped to z ≥ 0, or zeros) and a caller needing
-/// LemkeSolver's full robustness solves the dense LCP with it. Invalid input (sizes, non-finite
-/// entries) is kInvalidInput, invalid options throw std::invalid_argument as LemkeSolver's, a
-/// null z throws. No state survives the call (thread-safe; same inputs, same bits).
+/// report says why (z, status, residual: those of the run, warm or cold, whose last iterate,
+/// clamped to z ≥ 0, has the smaller residual) and a caller needing LemkeSolver's full robustness
+/// solves the dense LCP with it. Invalid input (sizes, non-finite entries) is kInvalidInput,
+/// invalid options throw std::invalid_argument as LemkeSolver's, a null z throws. No state survives
+/// the call (thread-safe; same inputs, same bits).
 SolverReport SolveSparseLemke(const Eigen::SparseMatrix<double>& M, const Eigen::VectorXd& q,
                               const Eigen::VectorXd* warm_start, const LemkeOptions& options,
                               Eigen::VectorXd* z);
