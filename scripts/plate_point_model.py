@@ -49,6 +49,36 @@ def shape_error(v, t):
     return 1.0 if sv == 0 else float(np.sqrt(((v / sv - t / st)**2).sum(1).mean()))
 
 
+def circle_error(v, x=GX, y=GY, radius=0.05):
+    """The circle's field error as vinci field-design scores it (FieldError with the target's
+    regions): the shape error inside (rho < R) and outside, each on its own, RMS of the two."""
+    t = circle_target(x, y, radius)
+    inside = x**2 + y**2 < radius**2
+    return float(np.sqrt(0.5 * (shape_error(v[inside], t[inside])**2 +
+                                shape_error(v[~inside], t[~inside])**2)))
+
+
+def radial_profile(v, x=GX, y=GY):
+    """[(rho, n, mean v_r, mean v_t)] over the grid's rings of equal rho (m, m/s)."""
+    rho = np.hypot(x, y)
+    th = np.arctan2(y, x)
+    vr = v[:, 0] * np.cos(th) + v[:, 1] * np.sin(th)
+    vt = -v[:, 0] * np.sin(th) + v[:, 1] * np.cos(th)
+    out = []
+    for r in np.unique(np.round(rho, 6)):
+        k = np.abs(rho - r) < 1e-6
+        out.append((float(r), int(k.sum()), float(vr[k].mean()), float(vt[k].mean())))
+    return out
+
+
+def print_profile(name, v, x=GX, y=GY):
+    print("%s: radial profile (rho mm: v_r, v_t mm/s; v_r/|v_t|)" % name)
+    for r, n, vr, vt in radial_profile(v, x, y):
+        if r > 0:
+            print("  %5.1f (%2d): %+7.3f %+7.3f  %+.2f" % (1e3 * r, n, 1e3 * vr, 1e3 * vt,
+                                                       vr / max(abs(vt), 1e-12)))
+
+
 def scene_motion(path):
     """[(dof, order, amplitude, phase)] of a scene file's first prescribed body; its frequency."""
     import yaml
@@ -157,13 +187,20 @@ def main():
     ap.add_argument("--cycles", type=int, default=20)
     ap.add_argument("--average", type=int, default=5)
     ap.add_argument("--steps", type=int, default=160)
+    ap.add_argument("--profile", action="store_true",
+                    help="print the radial profile v_r(rho), v_t(rho) of the transient model (and "
+                    "of the simulation with --field): a ring has v_r > 0 inside, < 0 outside")
     a = ap.parse_args()
     motion, f = scene_motion(a.scene)
     tg = circle_target(GX, GY)
     th = theory_field(motion, f=f)
     tr, where = transient_field(motion, cycles=a.cycles, average=a.average, steps=a.steps, f=f)
-    print("circle shape error: theory %.3f, transient model %.3f" %
+    print("circle error (inside/outside): theory %.3f, transient model %.3f" %
+          (circle_error(th), circle_error(tr)))
+    print("whole-field shape error: theory %.3f, transient model %.3f" %
           (shape_error(th, tg), shape_error(tr, tg)))
+    if a.profile:
+        print_profile("transient model", tr)
     drift = np.hypot(where[:, 0] - GX, where[:, 1] - GY)
     print("transient model: RMS speed %.4f m/s, drift of the averaging window's mean position "
           "from the start: median %.1f mm, max %.1f mm" %
@@ -171,8 +208,11 @@ def main():
     if a.field:
         pts, sim = read_field(a.field)
         s = np.sqrt((sim**2).sum(1).mean())
-        print("simulation: circle shape error %.3f, RMS speed %.4f m/s" %
-              (shape_error(sim, circle_target(pts[:, 0], pts[:, 1])), s))
+        print("simulation: circle error %.3f (whole-field shape error %.3f), RMS speed %.4f m/s" %
+              (circle_error(sim, pts[:, 0], pts[:, 1]),
+               shape_error(sim, circle_target(pts[:, 0], pts[:, 1])), s))
+        if a.profile:
+            print_profile("simulation", sim, pts[:, 0], pts[:, 1])
         for name, v in (("theory", th), ("transient", tr)):
             print("  %s vs simulation: RMS difference / simulated RMS speed %.3f, shape error "
                   "between them %.3f" % (name, np.sqrt(((v - sim)**2).sum(1).mean()) / s,
