@@ -3,7 +3,8 @@
 and its floor"): the cheap stand-in for `vinci field` used to screen circle motions.
 
 usage: scripts/plate_point_model.py SCENE.yaml [--field FIELD.csv] [--cycles K] [--average N]
-                                               [--steps S]
+                                               [--steps S] [--profile]
+                                               [--trajectories SECONDS [--plot PNG]]
 
 For SCENE's plate motion (a `vinci field-design` best.yaml or any plate scene with harmonics) it
 prints, on the specs' 11x11 grid over [-0.1, 0.1]^2, the circle target's shape error (R = 5 cm) of
@@ -157,6 +158,27 @@ def transient_field(motion, x0=GX, y0=GY, cycles=20, average=5, steps=160, f=F, 
     return np.stack([sx / n_avg, sy / n_avg], 1), np.stack([px / n_avg, py / n_avg], 1)
 
 
+def trajectories(motion, rho0, seconds, steps=160, f=F, mu=MU):
+    """The transient model's paths of parts started at rest at (rho0, 0): positions (cycles + 1,
+    n, 2) once per cycle."""
+    h = 1.0 / f / steps
+    x, y = np.array(rho0, float), np.zeros(len(rho0))
+    vx, vy = np.zeros_like(x), np.zeros_like(x)
+    t1 = (np.arange(steps) + 1) * h
+    rate, acc, angle = plate_signals(motion, t1, f)  # periodic: one cycle serves them all
+    path = [np.stack([x, y], 1)]
+    for _ in range(int(round(seconds * f))):
+        for i in range(steps):
+            n = np.maximum(G_ACC + acc["z"][i] + acc["roll"][i] * y - acc["pitch"][i] * x, 0.0)
+            vx = vx + h * n * angle["pitch"][i]
+            vy = vy - h * n * angle["roll"][i]
+            vx, vy = friction_step(vx, vy, rate["x"][i] - rate["yaw"][i] * y,
+                                   rate["y"][i] + rate["yaw"][i] * x, mu * n * h)
+            x, y = x + h * vx, y + h * vy
+        path.append(np.stack([x, y], 1))
+    return np.array(path)
+
+
 def theory_field(motion, x0=GX, y0=GY, samples=64, f=F, mu=MU, iterations=80):
     """The cycle-averaged theory (plate_theory.h's force balance; tilt neglected): Weiszfeld."""
     t = (np.arange(samples) + 0.5) / samples / f
@@ -190,8 +212,42 @@ def main():
     ap.add_argument("--profile", action="store_true",
                     help="print the radial profile v_r(rho), v_t(rho) of the transient model (and "
                     "of the simulation with --field): a ring has v_r > 0 inside, < 0 outside")
+    ap.add_argument("--trajectories", metavar="SECONDS", type=float,
+                    help="also integrate parts started at 1, 3, 7, 9, 12 cm for SECONDS with the "
+                    "transient model, print their distance from the centre and (with --plot PNG) "
+                    "draw their paths with the circle R = 5 cm")
+    ap.add_argument("--plot", metavar="PNG")
     a = ap.parse_args()
     motion, f = scene_motion(a.scene)
+    if a.trajectories:
+        rho0 = np.array([0.01, 0.03, 0.07, 0.09, 0.12])
+        path = trajectories(motion, rho0, a.trajectories, steps=a.steps, f=f)
+        rho = np.hypot(path[:, :, 0], path[:, :, 1])
+        for k in range(0, len(path), max(1, int(round(f * a.trajectories / 10)))):
+            print("t %6.1f s: rho (mm) %s" % (k / f, " ".join("%6.1f" % (1e3 * r) for r in rho[k])))
+        if a.plot:
+            import matplotlib
+            matplotlib.use("Agg")
+            import matplotlib.pyplot as plt
+            fig, ax = plt.subplots(1, 2, figsize=(11, 5))
+            th = np.linspace(0, 2 * np.pi, 200)
+            ax[0].plot(0.05 * np.cos(th), 0.05 * np.sin(th), "k--", lw=1, label="R = 5 cm")
+            t = np.arange(len(path)) / f
+            for j in range(len(rho0)):
+                ax[0].plot(path[:, j, 0], path[:, j, 1], lw=1)
+                ax[0].plot(path[0, j, 0], path[0, j, 1], "ko", ms=3)
+                ax[1].plot(t, 1e3 * rho[:, j])
+            ax[1].axhline(50, color="k", ls="--", lw=1)
+            ax[0].set_aspect("equal")
+            ax[0].set_xlabel("x (m)")
+            ax[0].set_ylabel("y (m)")
+            ax[0].set_title("paths from rest (transient point model)")
+            ax[1].set_xlabel("t (s)")
+            ax[1].set_ylabel("distance from the centre (mm)")
+            fig.suptitle(a.scene)
+            fig.tight_layout()
+            fig.savefig(a.plot, dpi=90)
+        return
     tg = circle_target(GX, GY)
     th = theory_field(motion, f=f)
     tr, where = transient_field(motion, cycles=a.cycles, average=a.average, steps=a.steps, f=f)
