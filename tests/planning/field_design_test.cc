@@ -261,6 +261,30 @@ TEST(FieldError, TheCircleScoresTheInsideOfTheRing) {
   EXPECT_EQ(circle.Region(Vector2d(0.01, 0)), circle.Region(Vector2d(0.2, 0)));
 }
 
+TEST(FieldDesignProblem, ACircleNeedsTargetVelocitiesOnBothSides) {
+  // On the 3×3 grid over [−0.05, 0.05]² a circle of radius 3 cm has only the centre inside, where
+  // the target is 0: its inside cannot be scored on its own.
+  std::string text = kSpec;
+  const std::string conveyor = "{type: conveyor, direction: [-1, 0], speed: 0.05}";
+  text.replace(text.find(conveyor), conveyor.size(), "{type: circle, radius: 0.03}");
+  const FieldDesignSpec spec = ParseFieldDesignSpec(text, "ok.yaml", kData);
+  try {
+    const FieldDesignProblem problem(spec);
+    FAIL() << "expected std::invalid_argument";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("ok.yaml: target: expected grid points with a nonzero "
+                                         "target velocity on both sides of the circle"),
+              std::string::npos)
+        << e.what();
+  }
+  // Radius 6 cm: the corners are outside, the rest inside: two regions, both scored.
+  text.replace(text.find("radius: 0.03"), 12, "radius: 0.06");
+  const FieldDesignProblem two(ParseFieldDesignSpec(text, "ok.yaml", kData));
+  ASSERT_EQ(two.regions().size(), 9u);
+  EXPECT_EQ(two.regions()[0], 1);  // a corner
+  EXPECT_EQ(two.regions()[4], 0);  // the centre
+}
+
 TEST(FieldError, ShapeOfAConveyorTargetFromTheSimulation) {
   // The bundled-style conveyor (z leads x by π/2) moves parts along −x: its field matches the
   // conveyor target toward −x closely and the opposite direction not at all.
