@@ -5,13 +5,16 @@ of x, y, z, roll, pitch, yaw and z's second (with --harmonics 2 the second harmo
 roll, pitch, yaw too) over the whole actuator range, within the issue's actuator limits; writes
 the best motion as a plate scene (for `vinci field-design --start`, or to centre a spec's box).
 
-usage: scripts/circle_model_search.py [--scan] [--harmonics 1|2] [--generations N]
+usage: scripts/circle_model_search.py [--scan | --ring] [--harmonics 1|2] [--generations N]
                                       [--popsize P] [--seed S] [--steps S] [--cycles K]
                                       [--average N] [--sides N] [--objective shape|ring]
                                       [--min-speed V] [--powell N]
                                       [--start SCENE.yaml | --wobble U,ALPHA,PSI]
                                       [--write-scene OUT.yaml]
 
+--ring: the symmetric family near the sticking threshold, keeping the motions whose radial
+velocity turns from outward to inward (a ring), then Powell on x, y, roll, pitch from the best:
+the search that seeded the shipped ring (docs/planning.md, "A ring").
 --scan: the rotationally symmetric family only (a circular translation with a wobble of the same
 frequency, both senses), on a grid of amplitudes from the sticking threshold up, angular
 accelerations and phases: the search that found the shipped circle's mechanism.
@@ -133,7 +136,12 @@ def batch_motion_error(motions, a, target):
     out = np.empty(P)
     for j in range(P):
         v = np.stack([sx[j], sy[j]], 1)
-        out[j] = -ring_component(v, target) if a.objective == "ring" else pm.shape_error(v, target)
+        if a.objective == "ring":
+            out[j] = -ring_component(v, target)
+        elif a.objective == "circle":
+            out[j] = pm.circle_error(v)
+        else:
+            out[j] = pm.shape_error(v, target)
         speed = np.sqrt((v**2).sum(1).mean())
         if speed < a.min_speed:  # a field too slow to be of use (the metric is scale-free)
             out[j] += 1.0 - speed / a.min_speed
@@ -206,6 +214,52 @@ def scan_symmetric(a, target):
     return symmetric_motion(*rows[0][1])
 
 
+def ring_radius(v):
+    """Where the grid's mean radial velocity turns from outward to inward (m, linear
+    interpolation between rings of grid points), or None if it does not (no ring)."""
+    prof = [(r, vr) for r, _, vr, _ in pm.radial_profile(v) if r > 0]
+    if not prof or prof[0][1] <= 0 or prof[-1][1] >= 0:
+        return None
+    for (r0, v0), (r1, v1) in zip(prof, prof[1:]):
+        if v0 > 0 >= v1:
+            return r0 + (r1 - r0) * v0 / (v0 - v1)
+    return None
+
+
+def scan_ring(a):
+    """--ring: the symmetric family near and above the sticking threshold (amplitudes 5.0-9.0e-5
+    m, 48 phases, alpha 35 and 44.5 rad/s^2, both senses): the circle error of every motion and
+    whether its radial velocity changes sign (a ring); prints the best rings, returns the best."""
+    keys = [(alpha, sense, amp, psi) for alpha in (35.0, 44.5) for sense in (1, -1)
+            for amp in np.arange(5.0, 9.01, 0.25) * 1e-5 for psi in np.arange(48) * np.pi / 24]
+    a2 = argparse.Namespace(**{**vars(a), "objective": "circle", "min_speed": 0.0})
+    rows = []
+    for i in range(0, len(keys), 96):  # chunks: the signals are (steps, motions, 1) arrays
+        chunk = keys[i:i + 96]
+        errors = batch_motion_error([symmetric_motion(*k) for k in chunk], a2, None)
+        rows += list(zip(errors, chunk))
+    rows.sort()
+    best = None
+    shown = 0
+    for e, k in rows:
+        m = symmetric_motion(*k)
+        v, _ = pm.transient_field(m, steps=a.steps, cycles=a.cycles, average=a.average)
+        r = ring_radius(v)
+        if r is None:
+            continue
+        best = best or m
+        print("ring: model circle error %.4f (whole-field %.4f), ring at %.1f mm: alpha %g "
+              "rad/s^2, sense %+d, amplitude %.3e m, psi %.4f" %
+              (e, pm.shape_error(v, pm.circle_target(pm.GX, pm.GY)), 1e3 * r, *k), flush=True)
+        shown += 1
+        if shown == 8:
+            break
+    print("best non-ring motion of the family: circle error %.4f (%s)" %
+          next((e, k) for e, k in rows
+               if ring_radius(pm.transient_field(symmetric_motion(*k), steps=a.steps)[0]) is None))
+    return best
+
+
 def write_scene(base, out, motion, note):
     import yaml
     scene = yaml.safe_load(open(base))
@@ -235,13 +289,19 @@ def main():
                     "which matches vinci field better than 16")
     ap.add_argument("--average", type=int, default=5)
     ap.add_argument("--powell", type=int, default=1500, help="Powell evaluations after DE")
-    ap.add_argument("--objective", default="shape", choices=["shape", "ring"],
-                    help="shape: the field error; ring: maximize the ring component b")
+    ap.add_argument("--objective", default="circle", choices=["circle", "shape", "ring"],
+                    help="circle (default): the field error as vinci field-design scores the "
+                    "circle (inside and outside each on its own); shape: the whole-field shape "
+                    "error; ring: maximize the ring component b")
     ap.add_argument("--min-speed", type=float, default=0.0,
                     help="m/s: a field with a smaller RMS speed is penalized by 1 - speed/min")
     ap.add_argument("--start", help="a plate scene: Powell only, from its motion")
     ap.add_argument("--scan", action="store_true",
                     help="only scan the rotationally symmetric family (translation + wobble)")
+    ap.add_argument("--ring", action="store_true",
+                    help="scan the symmetric family near the sticking threshold for rings (radial "
+                    "velocity outward inside, inward outside); with --powell N refine the best "
+                    "ring's x, y, roll, pitch (first harmonics) on the circle error")
     ap.add_argument("--wobble", metavar="U,ALPHA,PSI",
                     help="Powell only, from a circular translation of amplitude U (m) with a "
                     "wobble (roll and pitch in quadrature) of angular acceleration ALPHA (rad/s^2) "
@@ -253,6 +313,25 @@ def main():
     sl = slots(a.harmonics)
     target = pm.circle_target(pm.GX, pm.GY)
     bounds = [(-1, 1)] * (2 * len(sl))
+    if a.ring:
+        m = scan_ring(a)
+        if m is not None and a.powell > 0:
+            sl = [("x", 1), ("y", 1), ("roll", 1), ("pitch", 1)]
+            got = {(d, k): (amp, phi) for d, k, amp, phi in m}
+            u0 = np.array(sum(([got[s_][0] / BOUND[s_[0]], got[s_][1] / np.pi] for s_ in sl), []))
+            a.objective = "circle"
+            r = minimize(lambda v: objective_batch(np.clip(v, -1, 1), sl, a, target)[0], u0,
+                         method="Powell", options={"maxfev": a.powell, "xtol": 1e-4,
+                                                   "ftol": 1e-6})
+            m = decode(np.clip(r.x, -1, 1), sl)
+            v, _ = pm.transient_field(m, steps=a.steps)
+            print("powell: circle error %.4f, ring at %s mm" %
+                  (r.fun, ring_radius(v) and "%.1f" % (1e3 * ring_radius(v))))
+            for d, k, amp, phi in m:
+                print("  %-5s order %d: amplitude %+.4e, phase %+.4f" % (d, k, amp, phi))
+        if a.write_scene and m is not None:
+            write_scene(a.base, a.write_scene, m, "the best ring of --ring")
+        return
     if a.scan:
         m = scan_symmetric(a, target)
         if a.write_scene:

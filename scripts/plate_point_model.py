@@ -3,7 +3,8 @@
 and its floor"): the cheap stand-in for `vinci field` used to screen circle motions.
 
 usage: scripts/plate_point_model.py SCENE.yaml [--field FIELD.csv] [--cycles K] [--average N]
-                                               [--steps S]
+                                               [--steps S] [--profile]
+                                               [--trajectories SECONDS [--plot PNG]]
 
 For SCENE's plate motion (a `vinci field-design` best.yaml or any plate scene with harmonics) it
 prints, on the specs' 11x11 grid over [-0.1, 0.1]^2, the circle target's shape error (R = 5 cm) of
@@ -47,6 +48,36 @@ def shape_error(v, t):
     sv = np.sqrt((v**2).sum(1).mean())
     st = np.sqrt((t**2).sum(1).mean())
     return 1.0 if sv == 0 else float(np.sqrt(((v / sv - t / st)**2).sum(1).mean()))
+
+
+def circle_error(v, x=GX, y=GY, radius=0.05):
+    """The circle's field error as vinci field-design scores it (FieldError with the target's
+    regions): the shape error inside (rho < R) and outside, each on its own, RMS of the two."""
+    t = circle_target(x, y, radius)
+    inside = x**2 + y**2 < radius**2
+    return float(np.sqrt(0.5 * (shape_error(v[inside], t[inside])**2 +
+                                shape_error(v[~inside], t[~inside])**2)))
+
+
+def radial_profile(v, x=GX, y=GY):
+    """[(rho, n, mean v_r, mean v_t)] over the grid's rings of equal rho (m, m/s)."""
+    rho = np.hypot(x, y)
+    th = np.arctan2(y, x)
+    vr = v[:, 0] * np.cos(th) + v[:, 1] * np.sin(th)
+    vt = -v[:, 0] * np.sin(th) + v[:, 1] * np.cos(th)
+    out = []
+    for r in np.unique(np.round(rho, 6)):
+        k = np.abs(rho - r) < 1e-6
+        out.append((float(r), int(k.sum()), float(vr[k].mean()), float(vt[k].mean())))
+    return out
+
+
+def print_profile(name, v, x=GX, y=GY):
+    print("%s: radial profile (rho mm: v_r, v_t mm/s; v_r/|v_t|)" % name)
+    for r, n, vr, vt in radial_profile(v, x, y):
+        if r > 0:
+            print("  %5.1f (%2d): %+7.3f %+7.3f  %+.2f" % (1e3 * r, n, 1e3 * vr, 1e3 * vt,
+                                                       vr / max(abs(vt), 1e-12)))
 
 
 def scene_motion(path):
@@ -127,6 +158,27 @@ def transient_field(motion, x0=GX, y0=GY, cycles=20, average=5, steps=160, f=F, 
     return np.stack([sx / n_avg, sy / n_avg], 1), np.stack([px / n_avg, py / n_avg], 1)
 
 
+def trajectories(motion, rho0, seconds, steps=160, f=F, mu=MU):
+    """The transient model's paths of parts started at rest at (rho0, 0): positions (cycles + 1,
+    n, 2) once per cycle."""
+    h = 1.0 / f / steps
+    x, y = np.array(rho0, float), np.zeros(len(rho0))
+    vx, vy = np.zeros_like(x), np.zeros_like(x)
+    t1 = (np.arange(steps) + 1) * h
+    rate, acc, angle = plate_signals(motion, t1, f)  # periodic: one cycle serves them all
+    path = [np.stack([x, y], 1)]
+    for _ in range(int(round(seconds * f))):
+        for i in range(steps):
+            n = np.maximum(G_ACC + acc["z"][i] + acc["roll"][i] * y - acc["pitch"][i] * x, 0.0)
+            vx = vx + h * n * angle["pitch"][i]
+            vy = vy - h * n * angle["roll"][i]
+            vx, vy = friction_step(vx, vy, rate["x"][i] - rate["yaw"][i] * y,
+                                   rate["y"][i] + rate["yaw"][i] * x, mu * n * h)
+            x, y = x + h * vx, y + h * vy
+        path.append(np.stack([x, y], 1))
+    return np.array(path)
+
+
 def theory_field(motion, x0=GX, y0=GY, samples=64, f=F, mu=MU, iterations=80):
     """The cycle-averaged theory (plate_theory.h's force balance; tilt neglected): Weiszfeld."""
     t = (np.arange(samples) + 0.5) / samples / f
@@ -157,13 +209,54 @@ def main():
     ap.add_argument("--cycles", type=int, default=20)
     ap.add_argument("--average", type=int, default=5)
     ap.add_argument("--steps", type=int, default=160)
+    ap.add_argument("--profile", action="store_true",
+                    help="print the radial profile v_r(rho), v_t(rho) of the transient model (and "
+                    "of the simulation with --field): a ring has v_r > 0 inside, < 0 outside")
+    ap.add_argument("--trajectories", metavar="SECONDS", type=float,
+                    help="also integrate parts started at 1, 3, 7, 9, 12 cm for SECONDS with the "
+                    "transient model, print their distance from the centre and (with --plot PNG) "
+                    "draw their paths with the circle R = 5 cm")
+    ap.add_argument("--plot", metavar="PNG")
     a = ap.parse_args()
     motion, f = scene_motion(a.scene)
+    if a.trajectories:
+        rho0 = np.array([0.01, 0.03, 0.07, 0.09, 0.12])
+        path = trajectories(motion, rho0, a.trajectories, steps=a.steps, f=f)
+        rho = np.hypot(path[:, :, 0], path[:, :, 1])
+        for k in range(0, len(path), max(1, int(round(f * a.trajectories / 10)))):
+            print("t %6.1f s: rho (mm) %s" % (k / f, " ".join("%6.1f" % (1e3 * r) for r in rho[k])))
+        if a.plot:
+            import matplotlib
+            matplotlib.use("Agg")
+            import matplotlib.pyplot as plt
+            fig, ax = plt.subplots(1, 2, figsize=(11, 5))
+            th = np.linspace(0, 2 * np.pi, 200)
+            ax[0].plot(0.05 * np.cos(th), 0.05 * np.sin(th), "k--", lw=1, label="R = 5 cm")
+            t = np.arange(len(path)) / f
+            for j in range(len(rho0)):
+                ax[0].plot(path[:, j, 0], path[:, j, 1], lw=1)
+                ax[0].plot(path[0, j, 0], path[0, j, 1], "ko", ms=3)
+                ax[1].plot(t, 1e3 * rho[:, j])
+            ax[1].axhline(50, color="k", ls="--", lw=1)
+            ax[0].set_aspect("equal")
+            ax[0].set_xlabel("x (m)")
+            ax[0].set_ylabel("y (m)")
+            ax[0].set_title("paths from rest (transient point model)")
+            ax[1].set_xlabel("t (s)")
+            ax[1].set_ylabel("distance from the centre (mm)")
+            fig.suptitle(a.scene)
+            fig.tight_layout()
+            fig.savefig(a.plot, dpi=90)
+        return
     tg = circle_target(GX, GY)
     th = theory_field(motion, f=f)
     tr, where = transient_field(motion, cycles=a.cycles, average=a.average, steps=a.steps, f=f)
-    print("circle shape error: theory %.3f, transient model %.3f" %
+    print("circle error (inside/outside): theory %.3f, transient model %.3f" %
+          (circle_error(th), circle_error(tr)))
+    print("whole-field shape error: theory %.3f, transient model %.3f" %
           (shape_error(th, tg), shape_error(tr, tg)))
+    if a.profile:
+        print_profile("transient model", tr)
     drift = np.hypot(where[:, 0] - GX, where[:, 1] - GY)
     print("transient model: RMS speed %.4f m/s, drift of the averaging window's mean position "
           "from the start: median %.1f mm, max %.1f mm" %
@@ -171,8 +264,11 @@ def main():
     if a.field:
         pts, sim = read_field(a.field)
         s = np.sqrt((sim**2).sum(1).mean())
-        print("simulation: circle shape error %.3f, RMS speed %.4f m/s" %
-              (shape_error(sim, circle_target(pts[:, 0], pts[:, 1])), s))
+        print("simulation: circle error %.3f (whole-field shape error %.3f), RMS speed %.4f m/s" %
+              (circle_error(sim, pts[:, 0], pts[:, 1]),
+               shape_error(sim, circle_target(pts[:, 0], pts[:, 1])), s))
+        if a.profile:
+            print_profile("simulation", sim, pts[:, 0], pts[:, 1])
         for name, v in (("theory", th), ("transient", tr)):
             print("  %s vs simulation: RMS difference / simulated RMS speed %.3f, shape error "
                   "between them %.3f" % (name, np.sqrt(((v - sim)**2).sum(1).mean()) / s,

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <map>
 #include <nlopt.hpp>
 #include <sstream>
 #include <stdexcept>
@@ -43,29 +44,27 @@ YAML::Node Harmonic(YAML::Node plate, const std::string& dof, int index) {
 
 }  // namespace
 
-double FieldError(const sim::VelocityField& field, const std::vector<Vector2d>& target,
-                  bool absolute, int* bad_points) {
-  const std::size_t m = target.size();
-  if (field.points.size() != m || m == 0)
-    throw std::invalid_argument("FieldError: expected a field of " + std::to_string(m) +
-                                " points (the target's), got " +
-                                std::to_string(field.points.size()));
+namespace {
+
+// The field error over the points `idx` alone (their own RMS speeds); adds their bad points.
+double SubsetError(const sim::VelocityField& field, const std::vector<Vector2d>& target,
+                   const std::vector<std::size_t>& idx, bool absolute, int* bad) {
+  const double m = static_cast<double>(idx.size());
   double st2 = 0.0, sv2 = 0.0;
-  int bad = 0;
-  for (std::size_t i = 0; i < m; ++i) {
+  for (std::size_t i : idx) {
     st2 += target[i].squaredNorm();
     const sim::FieldPoint& p = field.points[i];
     if (p.left_plate || p.failed)
-      ++bad;
+      ++*bad;
     else
       sv2 += p.vx * p.vx + p.vy * p.vy;
   }
-  if (bad_points) *bad_points = bad;
   const double st = std::sqrt(st2 / m), sv = std::sqrt(sv2 / m);
   if (!(st > 0.0))
-    throw std::invalid_argument("FieldError: expected a target field not zero everywhere");
+    throw std::invalid_argument(
+        "FieldError: expected a target field not zero everywhere (in every region)");
   double sum = 0.0;
-  for (std::size_t i = 0; i < m; ++i) {
+  for (std::size_t i : idx) {
     const sim::FieldPoint& p = field.points[i];
     if (p.left_plate || p.failed) {
       sum += kBadPointMismatch * kBadPointMismatch;
@@ -77,7 +76,29 @@ double FieldError(const sim::VelocityField& field, const std::vector<Vector2d>& 
     else
       sum += ((sv > 0.0 ? 1.0 / sv : 0.0) * v - target[i] / st).squaredNorm();
   }
-  return std::sqrt(sum / m);
+  return sum / m;
+}
+
+}  // namespace
+
+double FieldError(const sim::VelocityField& field, const std::vector<Vector2d>& target,
+                  bool absolute, int* bad_points, const std::vector<int>& regions) {
+  const std::size_t m = target.size();
+  if (field.points.size() != m || m == 0)
+    throw std::invalid_argument("FieldError: expected a field of " + std::to_string(m) +
+                                " points (the target's), got " +
+                                std::to_string(field.points.size()));
+  if (!regions.empty() && regions.size() != m)
+    throw std::invalid_argument("FieldError: expected a region label per point (" +
+                                std::to_string(m) + "), got " + std::to_string(regions.size()));
+  std::map<int, std::vector<std::size_t>> groups;  // region label -> its points
+  for (std::size_t i = 0; i < m; ++i) groups[regions.empty() ? 0 : regions[i]].push_back(i);
+  int bad = 0;
+  double mean_square = 0.0;
+  for (const auto& [label, idx] : groups)
+    mean_square += SubsetError(field, target, idx, absolute, &bad);
+  if (bad_points) *bad_points = bad;
+  return std::sqrt(mean_square / static_cast<double>(groups.size()));
 }
 
 FieldDesignProblem::FieldDesignProblem(const FieldDesignSpec& spec) : spec_(spec) {
@@ -158,7 +179,22 @@ FieldDesignProblem::FieldDesignProblem(const FieldDesignSpec& spec) : spec_(spec
       throw std::invalid_argument(spec.path + ": target.csv: expected " + std::to_string(m) +
                                   " velocities, got " + std::to_string(target_.size()));
   } else {
-    for (int k = 0; k < m; ++k) target_.push_back(spec.target.At(GridPoint(spec, k)));
+    for (int k = 0; k < m; ++k) {
+      target_.push_back(spec.target.At(GridPoint(spec, k)));
+      regions_.push_back(spec.target.Region(GridPoint(spec, k)));
+    }
+    // one region only: the plain error (no labels)
+    if (std::all_of(regions_.begin(), regions_.end(), [&](int r) { return r == regions_[0]; }))
+      regions_.clear();
+    std::map<int, double> region_t2;
+    for (std::size_t k = 0; k < regions_.size(); ++k)
+      region_t2[regions_[k]] += target_[k].squaredNorm();
+    for (const auto& [label, t2] : region_t2)
+      if (!(t2 > 0.0))
+        throw std::invalid_argument(spec.path + ": target: expected grid points with a nonzero " +
+                                    "target velocity on both sides of the circle (radius " +
+                                    std::to_string(spec.target.radius) + "), got none " +
+                                    (label == 0 ? "inside" : "outside"));
   }
   double t2 = 0.0;
   for (const Vector2d& t : target_) t2 += t.squaredNorm();
@@ -344,7 +380,7 @@ FieldEvaluation FieldDesignProblem::Evaluate(const VectorXd& x, int threads) con
     sim::FieldOptions options;
     options.threads = threads;
     e.field = sim::ComputeVelocityField(*simulator_, ParamsFor(x), field_spec_, options);
-    e.error = FieldError(e.field, target_, spec_.absolute, &e.bad_points);
+    e.error = FieldError(e.field, target_, spec_.absolute, &e.bad_points, regions_);
   }
   e.time_s = Seconds(Clock::now() - start);
   return e;

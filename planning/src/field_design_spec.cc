@@ -203,6 +203,11 @@ Vector2d FieldTarget::At(const Vector2d& p) const {
   throw std::invalid_argument("FieldTarget::At: a csv target has no formula");
 }
 
+int FieldTarget::Region(const Vector2d& p) const {
+  if (type != TargetType::kCircle) return 0;
+  return (p - center).squaredNorm() < radius * radius ? 0 : 1;
+}
+
 Vector2d GridPoint(const FieldDesignSpec& spec, int k) {
   const int i = k % spec.nx, j = k / spec.nx;
   const double x = spec.nx == 1 ? 0.5 * (spec.x_min + spec.x_max)

@@ -194,6 +194,97 @@ TEST(FieldError, ZeroForTheSameFieldAndClosedFormsUnderPerturbations) {
   EXPECT_EQ(bad, 1);
 }
 
+// A field given as velocities (no simulation) on the 11×11 grid over [−0.1, 0.1]².
+sim::VelocityField GridField(const std::vector<Vector2d>& v) {
+  sim::VelocityField f;
+  for (const Vector2d& u : v) {
+    sim::FieldPoint p;
+    p.vx = u.x();
+    p.vy = u.y();
+    f.points.push_back(p);
+  }
+  return f;
+}
+
+Vector2d Grid11(int k) { return {-0.1 + 0.02 * (k % 11), -0.1 + 0.02 * (k / 11)}; }
+
+TEST(FieldError, RegionsAreScoredEachOnItsOwn) {
+  // Two regions, the field equal to the target in one and rotated by δ in the other: each region
+  // has its own RMS speeds, so e = √((0 + (2 sin(δ/2))²)/2) whatever the regions' speeds.
+  std::vector<Vector2d> t, v;
+  std::vector<int> regions;
+  for (int k = 0; k < 10; ++k) {
+    const bool second = k >= 4;
+    const Vector2d u = (second ? 5.0 : 0.1) * Vector2d(std::cos(k), std::sin(2 * k) + 1.5);
+    t.push_back(u);
+    v.push_back(second ? Eigen::Rotation2Dd(0.4) * u * 3.0 : u * 0.2);
+    regions.push_back(second ? 1 : 0);
+  }
+  const double rotated = 2 * std::sin(0.2);
+  EXPECT_NEAR(FieldError(GridField(v), t, false, nullptr, regions), rotated / std::sqrt(2.0),
+              1e-12);
+  // One label is the plain error; a label list of the wrong size is rejected.
+  EXPECT_EQ(FieldError(GridField(v), t, false, nullptr, std::vector<int>(10, 3)),
+            FieldError(GridField(v), t, false));
+  EXPECT_THROW(FieldError(GridField(v), t, false, nullptr, std::vector<int>(9, 0)),
+               std::invalid_argument);
+}
+
+TEST(FieldError, TheCircleScoresTheInsideOfTheRing) {
+  // The circle target (R = 5 cm on the specs' 11×11 grid) with its outward radial part removed
+  // inside (parts spiral into the centre: no ring) is close to the target over the whole grid,
+  // where the inside's small speeds hide it, but far from it inside: with the regions (inside,
+  // outside scored each on its own) it no longer passes for a circle.
+  FieldTarget circle;
+  circle.type = TargetType::kCircle;
+  circle.radius = 0.05;
+  std::vector<Vector2d> t, no_ring;
+  std::vector<int> regions;
+  int inside = 0;
+  for (int k = 0; k < 121; ++k) {
+    const Vector2d p = Grid11(k);
+    t.push_back(circle.At(p));
+    regions.push_back(circle.Region(p));
+    inside += regions.back() == 0;
+    const Vector2d radial = p.squaredNorm() > 0 ? p.normalized() : Vector2d::Zero();
+    const double vr = t.back().dot(radial);
+    no_ring.push_back(t.back() - (vr > 0 ? 2.0 : 0.0) * vr * radial);  // inside: inward
+  }
+  EXPECT_EQ(inside, 21);  // ρ < R: 21 of the 121 points
+  const double whole = FieldError(GridField(no_ring), t, false);
+  const double by_region = FieldError(GridField(no_ring), t, false, nullptr, regions);
+  EXPECT_LT(whole, 0.1);
+  EXPECT_GT(by_region, 0.3);
+  EXPECT_NEAR(FieldError(GridField(t), t, false, nullptr, regions), 0.0, 1e-12);
+  // Every other target type has a single region.
+  circle.type = TargetType::kWhirlpool;
+  EXPECT_EQ(circle.Region(Vector2d(0.01, 0)), circle.Region(Vector2d(0.2, 0)));
+}
+
+TEST(FieldDesignProblem, ACircleNeedsTargetVelocitiesOnBothSides) {
+  // On the 3×3 grid over [−0.05, 0.05]² a circle of radius 3 cm has only the centre inside, where
+  // the target is 0: its inside cannot be scored on its own.
+  std::string text = kSpec;
+  const std::string conveyor = "{type: conveyor, direction: [-1, 0], speed: 0.05}";
+  text.replace(text.find(conveyor), conveyor.size(), "{type: circle, radius: 0.03}");
+  const FieldDesignSpec spec = ParseFieldDesignSpec(text, "ok.yaml", kData);
+  try {
+    const FieldDesignProblem problem(spec);
+    FAIL() << "expected std::invalid_argument";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("ok.yaml: target: expected grid points with a nonzero "
+                                         "target velocity on both sides of the circle"),
+              std::string::npos)
+        << e.what();
+  }
+  // Radius 6 cm: the corners are outside, the rest inside: two regions, both scored.
+  text.replace(text.find("radius: 0.03"), 12, "radius: 0.06");
+  const FieldDesignProblem two(ParseFieldDesignSpec(text, "ok.yaml", kData));
+  ASSERT_EQ(two.regions().size(), 9u);
+  EXPECT_EQ(two.regions()[0], 1);  // a corner
+  EXPECT_EQ(two.regions()[4], 0);  // the centre
+}
+
 TEST(FieldError, ShapeOfAConveyorTargetFromTheSimulation) {
   // The bundled-style conveyor (z leads x by π/2) moves parts along −x: its field matches the
   // conveyor target toward −x closely and the opposite direction not at all.

@@ -12,6 +12,10 @@
 //                     (each field scaled to unit RMS speed: directions and relative speeds);
 //                     a field with s_v = 0 has e = 1.
 //   absolute:         e = √( (1/M) Σ_i |v_i − t_i|² ) / s_t.
+// A target with regions (FieldTarget::Region: the circle's inside ρ < R and outside) is scored
+// per region, each with its own M and RMS speeds, and e = √(mean over the regions of e_region²):
+// each side of the circle counts as a field of its own, so a field that matches outside but
+// spirals inward inside (no ring) is not hidden by the inside's small speeds.
 // A point whose part left the plate or whose step failed contributes a mismatch of
 // kBadPointMismatch (its velocity is excluded from s_v) and is counted. A motion over an
 // actuator limit (FieldDesignSpec::max_vertical_acceleration, max_linear_acceleration,
@@ -42,10 +46,12 @@ constexpr double kBadPointMismatch = 2.0;
 constexpr double kInfeasibleError = 10.0;
 
 /// The field error of `field` against `target` (one vector per grid point, grid order).
-/// `bad_points` (may be null) receives the points that left the plate or failed. Throws
-/// std::invalid_argument if the sizes differ or the target is zero everywhere.
+/// `bad_points` (may be null) receives the points that left the plate or failed. `regions`
+/// (empty, or a label per point): the points of each label are scored on their own and
+/// e = √(mean over the labels of e_label²) (see the file comment). Throws
+/// std::invalid_argument if the sizes differ or the target is zero everywhere (in a region).
 double FieldError(const sim::VelocityField& field, const std::vector<Vector2d>& target,
-                  bool absolute, int* bad_points = nullptr);
+                  bool absolute, int* bad_points = nullptr, const std::vector<int>& regions = {});
 
 /// One evaluated motion.
 struct FieldEvaluation {
@@ -74,6 +80,8 @@ class FieldDesignProblem {
   const sim::Simulator& simulator() const { return *simulator_; }
   const sim::FieldSpec& field_spec() const { return field_spec_; }
   const std::vector<Vector2d>& target() const { return target_; }
+  /// The target's region label per grid point (FieldTarget::Region); empty if it has one region.
+  const std::vector<int>& regions() const { return regions_; }
   /// Free variables: parameter names (motion.<plate>.<dof>.amplitude<i> | phase<i>) and bounds.
   const std::vector<std::string>& names() const { return names_; }
   const VectorXd& lower() const { return lower_; }
@@ -116,6 +124,7 @@ class FieldDesignProblem {
   std::unique_ptr<sim::Simulator> simulator_;
   sim::FieldSpec field_spec_;
   std::vector<Vector2d> target_;
+  std::vector<int> regions_;
   std::vector<std::string> names_;
   std::vector<int> indices_;         ///< into the scene's ParamTable
   std::vector<int> harmonic_index_;  ///< per spec.dofs entry: its index in the DOF's harmonics

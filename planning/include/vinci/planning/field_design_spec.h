@@ -53,6 +53,10 @@ struct FieldTarget {
   std::vector<Vector2d> velocities;
   /// The target velocity at plate point p (not for kCsv).
   Vector2d At(const Vector2d& p) const;
+  /// The region of plate point p that the field error scores on its own (FieldError): for a
+  /// circle 0 inside (ρ < R) and 1 outside, so that both sides of the ring count equally; 0
+  /// for every other type.
+  int Region(const Vector2d& p) const;
 };
 
 /// One searched harmonic of a plate DOF: A sin(2π k f t + φ), k = order, A ∈ [amplitude_lo,
