@@ -147,8 +147,7 @@ bool SolveOnWarmBasis(const LcpMatrixOperator& M, const Eigen::VectorXd& q,
     s->rhs = -(s->product + s->rhs);
     // A symmetric M_BB = G_Bᵀ M⁻¹ G_B (+ compliance) is semidefinite: LDLᵀ with the dependent
     // pivots dropped (their unknowns keep the guess, as kBasisRankTolerance's in the QR).
-    if (!m_bb.IsSymmetric(&s->cursor) ||
-        !s->ldlt.Factorize(m_bb, internal::kBasisRankTolerance)) {
+    if (!m_bb.IsSymmetric(&s->cursor) || !s->ldlt.Factorize(m_bb, internal::kBasisRankTolerance)) {
       const Eigen::SparseMatrix<double> s_bb = Eigen::Map<const Eigen::SparseMatrix<double>>(
           nb, nb, static_cast<Eigen::Index>(m_bb.row.size()), m_bb.col_start.data(),
           m_bb.row.data(), m_bb.value.data());
