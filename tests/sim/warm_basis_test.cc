@@ -10,6 +10,7 @@
 #include <string>
 #include <utility>
 
+#include "box_scenes.h"
 #include "test_util.h"
 #include "vinci/sim/formulations/stewart_trinkle.h"
 #include "vinci/sim/model/scene_file.h"
@@ -167,6 +168,32 @@ TEST(StructuredStepTest, SlidingVariantsAndComplianceMatchDenseLcp) {
     EXPECT_LT(worst, 1e-9) << c.file;
     EXPECT_GT(zero, c.steps / 2) << c.file;
   }
+}
+
+// Bases above kDenseWarmBasisMax: the resting 20-box stack (80 normals, M_BB symmetric and
+// singular: the semidefinite LDLᵀ) and twelve cubes sliding apart on the floor (normal,
+// friction and σ columns basic, M_BB not symmetric: the sparse QR on the structured block) give
+// the dense LCP's velocities to solver tolerance with no pivots once settled.
+TEST(StructuredStepTest, LargeBasesMatchDenseLcp) {
+  const Scene stack_file = ParseScene(bench::StackYaml(20), "stack20");
+  const Scene stack = stack_file.ApplyParams(stack_file.DefaultParams());
+  int zero = 0;
+  EXPECT_LT(CompareStructuredWithDense(stack, stack.options, 60, &zero), 1e-9);
+  EXPECT_GT(zero, 50);
+  std::string sliding =
+      "name: sliding12\ndimension: 3\n"
+      "stepper: {dt: 0.001, duration: 1.0, friction_directions: 4, envelope: 0.002}\n"
+      "friction: {default: 0.3}\nbodies:\n"
+      "  - {name: floor, kind: static, shapes: [{type: halfspace}]}\n";
+  for (int i = 0; i < 12; ++i)
+    sliding += "  - {name: box" + std::to_string(i) + ", mass: " + std::to_string(1.0 + 0.1 * i) +
+               ", pose: {position: [" + std::to_string(0.3 * i) +
+               ", 0, 0.1]}, velocity: {linear: [" + std::to_string(0.5 + 0.1 * i) +
+               ", 0.3, 0]}, shapes: [{type: box, half_extents: [0.1, 0.1, 0.1]}]}\n";
+  const Scene slide_file = ParseScene(sliding, "sliding12");
+  const Scene slide = slide_file.ApplyParams(slide_file.DefaultParams());
+  EXPECT_LT(CompareStructuredWithDense(slide, slide.options, 60, &zero), 1e-9);
+  EXPECT_GT(zero, 50);
 }
 
 }  // namespace

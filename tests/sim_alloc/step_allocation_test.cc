@@ -12,6 +12,7 @@
 #include <utility>
 #include <vector>
 
+#include "box_scenes.h"
 #include "vinci/sim/model/scene_file.h"
 #include "vinci/sim/simulator/batch.h"
 #include "vinci/sim/simulator/simulator.h"
@@ -128,6 +129,15 @@ TEST(StepAllocationTest, SlidingBlockOnInclineSteps) {
 
 TEST(StepAllocationTest, TenBoxStackStepAllocatesNothing) {
   EXPECT_EQ(StepAllocations(Load("examples/scenes/box_stack.yaml")), 0);
+}
+
+// Bases above kDenseWarmBasisMax (80 and 160 normals): the sparse semidefinite LDLᵀ of M_BB
+// keeps its analysis while the basis is unchanged.
+TEST(StepAllocationTest, TallStackStepsAllocateNothing) {
+  for (int k : {20, 40}) {
+    const Simulator sim(ParseScene(bench::StackYaml(k), "stack"));
+    EXPECT_EQ(StepAllocations(sim), 0) << k << "-box stack";
+  }
 }
 
 TEST(StepAllocationTest, RolloutStepAllocatesNothing) {

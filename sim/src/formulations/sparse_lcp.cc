@@ -270,5 +270,70 @@ void ContactLcpOperator::PrincipalBlock(const std::vector<int>& index, MatrixXd*
   }
 }
 
+void ContactLcpOperator::PrincipalBlockSparse(const std::vector<int>& index,
+                                              CompressedColumns* out) const {
+  // Column b: the basis members of the body blocks of the (at most two) bodies its impulse
+  // column touches, summed where both bodies hold the row (0 + x + y in either order, as
+  // PrincipalBlock), then the compliance; or the E, U, −Eᵀ entries. Rows sorted per column.
+  const int k = static_cast<int>(index.size());
+  const int s0 = nc_ + nf_, n = s0 + nc_;
+  position_.resize(n);
+  std::fill(position_.begin(), position_.end(), -1);
+  for (int b = 0; b < k; ++b) position_[index[b]] = b;
+  slot_.resize(k);
+  std::fill(slot_.begin(), slot_.end(), -1);
+  out->Reset(k);
+  const auto add = [&](int r, double value) {
+    if (slot_[r] < 0) {
+      slot_[r] = static_cast<int>(out->row.size());
+      out->row.push_back(r);
+      out->value.push_back(0.0 + value);
+    } else {
+      out->value[slot_[r]] += value;
+    }
+  };
+  for (int b = 0; b < k; ++b) {
+    const int j = index[b];
+    const int begin = static_cast<int>(out->row.size());
+    if (j < s0) {
+      const int c = ContactOf(j);
+      const int bodies[2] = {a_->contacts[c].body_a, a_->contacts[c].body_b};
+      for (int side = 0; side < 2; ++side) {
+        if (first_[2 * c + side] < 0) continue;
+        const int body = bodies[side];
+        const int pj = PositionIn(j, body);
+        const std::vector<int>& cols = columns_[body];
+        const MatrixXd& B = blocks_[body];
+        for (int p = 0; p < static_cast<int>(cols.size()); ++p)
+          if (const int r = position_[cols[p]]; r >= 0) add(r, B(p, pj));
+      }
+      if (j < nc_ && a_->compliance[j].compliant) {
+        if (slot_[b] < 0) add(b, 0.0);
+        out->value[slot_[b]] += a_->compliance[j].vel_diagonal;
+      }
+      if (const int r = position_[s0 + c]; r >= 0) add(r, j < nc_ ? a_->mu[c] : -1.0);  // U, −Eᵀ
+    } else {
+      const int c = j - s0;  // column σ_c: E in the friction rows of contact c
+      for (int t = 0; t < nd_; ++t)
+        if (const int r = position_[nc_ + c * nd_ + t]; r >= 0) add(r, 1.0);
+    }
+    // Insertion sort of the column's entries by row (a few dozen at most).
+    const int end = static_cast<int>(out->row.size());
+    for (int p = begin; p < end; ++p) slot_[out->row[p]] = -1;
+    for (int p = begin + 1; p < end; ++p) {
+      const int r = out->row[p];
+      const double v = out->value[p];
+      int q = p;
+      for (; q > begin && out->row[q - 1] > r; --q) {
+        out->row[q] = out->row[q - 1];
+        out->value[q] = out->value[q - 1];
+      }
+      out->row[q] = r;
+      out->value[q] = v;
+    }
+    out->col_start[b + 1] = end;
+  }
+}
+
 }  // namespace internal
 }  // namespace vinci::sim

@@ -35,6 +35,9 @@ class ContactLcpOperator final : public LcpMatrixOperator {
   double NormInf() const override { return norm_inf_; }
   void MultiplyAdd(const VectorXd& z, const VectorXd& q, VectorXd* w) const override;
   void PrincipalBlock(const std::vector<int>& index, MatrixXd* out) const override;
+  /// The entries of PrincipalBlock (same bits) on the pattern of M's structure: where two impulse
+  /// columns share a body, E, U and −Eᵀ (zeros included). O(Σ_body k_body · |B ∩ body|).
+  void PrincipalBlockSparse(const std::vector<int>& index, CompressedColumns* out) const override;
   /// M_ij.
   double Entry(int i, int j) const;
   /// *out = M as a sparse matrix (column major): the body blocks where two impulse columns share
@@ -61,6 +64,7 @@ class ContactLcpOperator final : public LcpMatrixOperator {
   mutable std::vector<Eigen::Triplet<double>> triplets_;
   mutable std::vector<int> position_;                 // PrincipalBlock: index → basis position
   mutable std::vector<std::pair<int, int>> members_;  // PrincipalBlock: (column in body, position)
+  mutable std::vector<int> slot_;                     // PrincipalBlockSparse: row → entry, −1
 };
 
 /// Buffers kept between steps (allocation reuse only: a step overwrites everything it reads).

@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <utility>
 
 #include "basis_solve.h"
 #include "vinci/sim/solvers/lcp_acceptance.h"
@@ -54,6 +55,45 @@ void SparseLcpMatrix::PrincipalBlock(const std::vector<int>& index, Eigen::Matri
       if (const int r = position[it.row()]; r >= 0) (*out)(r, a) = it.value();
 }
 
+void LcpMatrixOperator::PrincipalBlockSparse(const std::vector<int>& index,
+                                             CompressedColumns* out) const {
+  Eigen::MatrixXd block;
+  PrincipalBlock(index, &block);
+  const int k = static_cast<int>(index.size());
+  out->Reset(k);
+  for (int j = 0; j < k; ++j) {
+    for (int i = 0; i < k; ++i)
+      if (block(i, j) != 0.0) {
+        out->row.push_back(i);
+        out->value.push_back(block(i, j));
+      }
+    out->col_start[j + 1] = static_cast<int>(out->row.size());
+  }
+}
+
+void SparseLcpMatrix::PrincipalBlockSparse(const std::vector<int>& index,
+                                           CompressedColumns* out) const {
+  // Each column's entries in M's row order, mapped to basis positions, then sorted (both
+  // index and M's rows ascend in the usual case, and the sort is then a no-op pass).
+  const int k = static_cast<int>(index.size());
+  std::vector<int> position(M_.rows(), -1);
+  for (int a = 0; a < k; ++a) position[index[a]] = a;
+  out->Reset(k);
+  std::vector<std::pair<int, double>> column;
+  for (int a = 0; a < k; ++a) {
+    column.clear();
+    for (Eigen::SparseMatrix<double>::InnerIterator it(M_, index[a]); it; ++it)
+      if (const int r = position[it.row()]; r >= 0) column.emplace_back(r, it.value());
+    std::sort(column.begin(), column.end(),
+              [](const auto& x, const auto& y) { return x.first < y.first; });
+    for (const auto& [r, v] : column) {
+      out->row.push_back(r);
+      out->value.push_back(v);
+    }
+    out->col_start[a + 1] = static_cast<int>(out->row.size());
+  }
+}
+
 bool SolveOnWarmBasis(const LcpMatrixOperator& M, const Eigen::VectorXd& q,
                       const Eigen::VectorXd& guess, const LemkeOptions& options,
                       WarmBasisScratch* s, Eigen::VectorXd* z, SolverReport* report) {
@@ -94,27 +134,43 @@ bool SolveOnWarmBasis(const LcpMatrixOperator& M, const Eigen::VectorXd& q,
     s->guess_b(a) = guess(s->active[a]);
     s->rhs(a) = q(s->active[a]);
   }
-  M.PrincipalBlock(s->active, &s->m_bb);
-  s->product.noalias() = s->m_bb * s->guess_b;
-  s->rhs = -(s->product + s->rhs);
   if (nb <= kDenseWarmBasisMax) {
     // As LemkeSolver: column-pivoted Householder QR of the dense M_BB, in the scratch's storage.
+    M.PrincipalBlock(s->active, &s->m_bb);
+    s->product.noalias() = s->m_bb * s->guess_b;
+    s->rhs = -(s->product + s->rhs);
     internal::SolveBasisBlock(s->m_bb, s->rhs, &s->qr, &s->c, &s->z_b);
-    s->z_b += s->guess_b;
   } else {
-    const Eigen::SparseMatrix<double> s_bb = s->m_bb.sparseView();
-    Eigen::SparseQR<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>> qr;
-    // Columns whose remaining norm is at most kBasisRankTolerance of the largest column norm
-    // are dependent (basis_solve.h): their unknowns keep the guess.
-    double max_norm = 0.0;
-    for (int j = 0; j < nb; ++j) max_norm = std::max(max_norm, s->m_bb.col(j).norm());
-    qr.setPivotThreshold(internal::kBasisRankTolerance * max_norm);
-    qr.compute(s_bb);
-    if (qr.info() != Eigen::Success) return false;
-    s->z_b = qr.solve(s->rhs);
-    if (qr.info() != Eigen::Success) return false;
-    s->z_b += s->guess_b;
+    CompressedColumns& m_bb = s->m_bb_sparse;
+    M.PrincipalBlockSparse(s->active, &m_bb);
+    m_bb.Multiply(s->guess_b, &s->product);
+    s->rhs = -(s->product + s->rhs);
+    // A symmetric M_BB = G_Bᵀ M⁻¹ G_B (+ compliance) is semidefinite: LDLᵀ with the dependent
+    // pivots dropped (their unknowns keep the guess, as kBasisRankTolerance's in the QR).
+    if (!m_bb.IsSymmetric(&s->cursor) || !s->ldlt.Factorize(m_bb, internal::kBasisRankTolerance)) {
+      const Eigen::SparseMatrix<double> s_bb = Eigen::Map<const Eigen::SparseMatrix<double>>(
+          nb, nb, static_cast<Eigen::Index>(m_bb.row.size()), m_bb.col_start.data(),
+          m_bb.row.data(), m_bb.value.data());
+      Eigen::SparseQR<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>> qr;
+      // Columns whose remaining norm is at most kBasisRankTolerance of the largest column norm
+      // are dependent (basis_solve.h): their unknowns keep the guess.
+      double max_norm = 0.0;
+      for (int j = 0; j < nb; ++j) {
+        double sum = 0.0;
+        for (int p = m_bb.col_start[j]; p < m_bb.col_start[j + 1]; ++p)
+          sum += m_bb.value[p] * m_bb.value[p];
+        max_norm = std::max(max_norm, std::sqrt(sum));
+      }
+      qr.setPivotThreshold(internal::kBasisRankTolerance * max_norm);
+      qr.compute(s_bb);
+      if (qr.info() != Eigen::Success) return false;
+      s->z_b = qr.solve(s->rhs);
+      if (qr.info() != Eigen::Success) return false;
+    } else {
+      s->ldlt.Solve(s->rhs, &s->z_b);
+    }
   }
+  s->z_b += s->guess_b;
   if (!s->z_b.allFinite()) return false;
   const double tolerance = Tolerance(options.residual_tolerance, q_norm, m_norm, s->z_b);
   if (s->z_b.minCoeff() < -tolerance) return false;

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "vinci/sim/solvers/lemke.h"
+#include "vinci/sim/solvers/semidefinite_ldlt.h"
 
 namespace vinci::sim {
 
@@ -25,6 +26,10 @@ class LcpMatrixOperator {
                            Eigen::VectorXd* w) const = 0;
   /// *out = M(index, index) (|index| × |index|, dense).
   virtual void PrincipalBlock(const std::vector<int>& index, Eigen::MatrixXd* out) const = 0;
+  /// *out = M(index, index) as compressed columns (rows ascending; its pattern may hold zero
+  /// entries, and should depend on M's structure only, so that a factorization can keep its
+  /// analysis between calls). The default compresses PrincipalBlock's nonzero entries.
+  virtual void PrincipalBlockSparse(const std::vector<int>& index, CompressedColumns* out) const;
 };
 
 /// An LcpMatrixOperator over an Eigen sparse matrix (column major); for tests and callers that
@@ -37,6 +42,7 @@ class SparseLcpMatrix final : public LcpMatrixOperator {
   void MultiplyAdd(const Eigen::VectorXd& z, const Eigen::VectorXd& q,
                    Eigen::VectorXd* w) const override;
   void PrincipalBlock(const std::vector<int>& index, Eigen::MatrixXd* out) const override;
+  void PrincipalBlockSparse(const std::vector<int>& index, CompressedColumns* out) const override;
 
  private:
   const Eigen::SparseMatrix<double>& M_;
@@ -50,11 +56,17 @@ struct WarmBasisScratch {
   Eigen::VectorXd guess_b, rhs, z_b, w, candidate, product, c;
   Eigen::MatrixXd m_bb;
   Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr;  // of m_bb (dense bases)
+  CompressedColumns m_bb_sparse;                   // M_BB of sparse bases
+  SemidefiniteLdlt ldlt;                           // of m_bb_sparse when it is symmetric
+  std::vector<int> cursor;
 };
 
 /// Bases with at most this many members are solved densely, by the column-pivoted QR that
-/// LemkeSolver's warm start uses (same bits for the same M_BB); larger ones by a sparse
-/// rank-revealing QR (Eigen::SparseQR, COLAMD ordering) of M_BB.
+/// LemkeSolver's warm start uses (same bits for the same M_BB); larger ones sparsely: a
+/// symmetric M_BB (a basis of impulse columns only: resting and sticking contacts) by
+/// SemidefiniteLdlt with drop tolerance 1e-10 (its analysis kept between calls while the basis
+/// block's pattern is unchanged), any other (or one whose LDLᵀ finds it indefinite) by a sparse
+/// rank-revealing QR (Eigen::SparseQR, COLAMD ordering).
 inline constexpr int kDenseWarmBasisMax = 48;
 
 /// LemkeSolver's first two stages (lemke.h) on LCP(M, q) with M given as an operator: the
@@ -63,8 +75,9 @@ inline constexpr int kDenseWarmBasisMax = 48;
 /// M_BB keeps the guessed values in its null space), accepted iff z_B ≥ −τ, w_N ≥ −τ,
 /// LcpResidual ≤ τ(z) and the scale-aware residual (lcp_acceptance.h) ≤
 /// kLcpAcceptanceTolerance, with τ(z) of `options` (lemke.h) and M's ‖M‖∞. Work: one
-/// NormInf, two products, the |B| × |B| block and its QR (dense up to kDenseWarmBasisMax,
-/// sparse above) — no pass over a dense n × n matrix.
+/// NormInf, two products, the |B| × |B| block and its factorization (dense up to
+/// kDenseWarmBasisMax, sparse above) — no pass over a dense n × n matrix. The result does not
+/// depend on what the scratch solved before.
 ///
 /// Returns true with *z and *report (kSolved, 0 iterations, residual, tolerance, message as
 /// LemkeSolver's) if z = 0 or the guessed basis is accepted; false otherwise (then *z and
