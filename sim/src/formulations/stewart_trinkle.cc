@@ -59,13 +59,24 @@ void FrictionDirections(Dim dim, const Vector3d& n, int nd, std::vector<Vector3d
     d->push_back(-t);
     return;
   }
+  // (cos φ_j, sin φ_j), φ_j = 2π j / nd, computed once per thread and nd.
+  thread_local int table_nd = -1;
+  thread_local std::vector<std::pair<double, double>> table;
+  if (table_nd != nd) {
+    table.resize(static_cast<std::size_t>(nd));
+    for (int j = 0; j < nd; ++j) {
+      const double phi = 2.0 * kPi * j / nd;
+      table[static_cast<std::size_t>(j)] = {std::cos(phi), std::sin(phi)};
+    }
+    table_nd = nd;
+  }
   // A deterministic orthonormal tangent basis (t1, t2) for n.
   const Vector3d a = std::abs(n.x()) < 0.9 ? Vector3d::UnitX() : Vector3d::UnitY();
   const Vector3d t1 = n.cross(a).normalized();
   const Vector3d t2 = n.cross(t1);
   for (int j = 0; j < nd; ++j) {
-    const double phi = 2.0 * kPi * j / nd;
-    d->push_back(std::cos(phi) * t1 + std::sin(phi) * t2);
+    const auto& [c, s] = table[static_cast<std::size_t>(j)];
+    d->push_back(c * t1 + s * t2);
   }
 }
 
@@ -138,6 +149,39 @@ void Scatter(const Scene& model, int body, const BodyKinematics& k, const Vector
     for (int i = 0; i < nvb; ++i) block[i] += sign * row[i];
   } else {
     *dpsi += sign * d.dot(PointVelocity(k, p));
+  }
+}
+
+// One side (body) of a contact for Scatter's work over its normal and friction columns: whether
+// the body is dynamic, its ν offset, or (non-dynamic) the velocity of the contact point, computed
+// once per contact instead of once per column (the same values, so the same bits).
+struct ContactSide {
+  bool dynamic = false;
+  int o = 0;
+  Vector3d v_p = Vector3d::Zero();
+};
+
+ContactSide MakeContactSide(const Scene& model, int body, const BodyKinematics& k,
+                            const Vector3d& p) {
+  ContactSide side;
+  side.dynamic = model.bodies[body].kind == BodyKind::kDynamic;
+  if (side.dynamic)
+    side.o = model.index(body).v;
+  else
+    side.v_p = PointVelocity(k, p);
+  return side;
+}
+
+// Scatter for a precomputed side.
+void ScatterSide(Dim dim, const ContactSide& side, const BodyKinematics& k, const Vector3d& p,
+                 const Vector3d& d, double sign, JacobianColumns* G, int col, double* dpsi) {
+  if (side.dynamic) {
+    const int nvb = VelocitySize(dim);
+    const auto row = PointVelocityRow(dim, k.X_WB, p, d);
+    double* block = G->Block(col, side.o);
+    for (int i = 0; i < nvb; ++i) block[i] += sign * row[i];
+  } else {
+    *dpsi += sign * d.dot(side.v_p);
   }
 }
 
@@ -232,7 +276,7 @@ void StewartTrinkle::AssembleInto(const Scene& model, const State& x, const Step
         model.bodies[i].motion.pose == PoseRule::kIntegrated)
       kin[i] = PrescribedKinematics(model, static_cast<int>(i), x.t, options_.dt);
   FindContacts(model, kin, options_.envelope, &a->contacts);
-  Fill(model, x, u, /*select_corner_edges=*/true, a);
+  Fill(model, x, u, /*select_corner_edges=*/true, a, /*kinematics_ready=*/true);
 }
 
 StewartTrinkle::Assembly StewartTrinkle::AssembleAt(const Scene& model, const State& x,
@@ -246,7 +290,8 @@ StewartTrinkle::Assembly StewartTrinkle::AssembleAt(const Scene& model, const St
 }
 
 void StewartTrinkle::Fill(const Scene& model, const State& x, const StepInput& u,
-                          bool select_corner_edges, Assembly* assembly) const {
+                          bool select_corner_edges, Assembly* assembly,
+                          bool kinematics_ready) const {
   Assembly& a = *assembly;
   AssemblyScratch& scratch = ThreadAssemblyScratch();
   const Dim dim = model.dim;
@@ -255,11 +300,13 @@ void StewartTrinkle::Fill(const Scene& model, const State& x, const StepInput& u
   const int nvb = VelocitySize(dim);
   CheckShapesSupported(model);
   std::vector<BodyKinematics>& kin = scratch.kin;
-  ComputeBodyKinematics(model, x, &kin);
-  for (std::size_t i = 0; i < kin.size(); ++i)  // integrated prescribed poses
-    if (model.bodies[i].kind == BodyKind::kPrescribed &&
-        model.bodies[i].motion.pose == PoseRule::kIntegrated)
-      kin[i] = PrescribedKinematics(model, static_cast<int>(i), x.t, h);
+  if (!kinematics_ready) {
+    ComputeBodyKinematics(model, x, &kin);
+    for (std::size_t i = 0; i < kin.size(); ++i)  // integrated prescribed poses
+      if (model.bodies[i].kind == BodyKind::kPrescribed &&
+          model.bodies[i].motion.pose == PoseRule::kIntegrated)
+        kin[i] = PrescribedKinematics(model, static_cast<int>(i), x.t, h);
+  }
   // From here on, non-dynamic bodies carry their velocity over the step (StepKinematics).
   for (std::size_t i = 0; i < kin.size(); ++i)
     kin[i] =
@@ -373,15 +420,16 @@ void StewartTrinkle::Fill(const Scene& model, const State& x, const StepInput& u
     a.compliance[c] = LinearizeNormalLaw(
         CombineCompliance(model.bodies[ct.body_a].compliance, model.bodies[ct.body_b].compliance),
         p.gap, h);
-    Scatter(model, ct.body_a, kin[ct.body_a], p.p_A_W, p.n_W, 1.0, &scratch.G_n, c, &a.dpsi_n[c]);
-    Scatter(model, ct.body_b, kin[ct.body_b], p.p_B_W, p.n_W, -1.0, &scratch.G_n, c, &a.dpsi_n[c]);
+    const BodyKinematics &ka = kin[ct.body_a], &kb = kin[ct.body_b];
+    const ContactSide side_a = MakeContactSide(model, ct.body_a, ka, p.p_A_W);
+    const ContactSide side_b = MakeContactSide(model, ct.body_b, kb, p.p_B_W);
+    ScatterSide(dim, side_a, ka, p.p_A_W, p.n_W, 1.0, &scratch.G_n, c, &a.dpsi_n[c]);
+    ScatterSide(dim, side_b, kb, p.p_B_W, p.n_W, -1.0, &scratch.G_n, c, &a.dpsi_n[c]);
     FrictionDirections(dim, p.n_W, nd, &dirs);
     for (int j = 0; j < nd; ++j) {
       const int col = c * nd + j;
-      Scatter(model, ct.body_a, kin[ct.body_a], p.p_A_W, dirs[j], 1.0, &scratch.G_f, col,
-              &a.dpsi_f[col]);
-      Scatter(model, ct.body_b, kin[ct.body_b], p.p_B_W, dirs[j], -1.0, &scratch.G_f, col,
-              &a.dpsi_f[col]);
+      ScatterSide(dim, side_a, ka, p.p_A_W, dirs[j], 1.0, &scratch.G_f, col, &a.dpsi_f[col]);
+      ScatterSide(dim, side_b, kb, p.p_B_W, dirs[j], -1.0, &scratch.G_f, col, &a.dpsi_f[col]);
     }
   }
 

@@ -129,9 +129,10 @@ class StewartTrinkle final : public Formulation {
   const StepperOptions& options() const { return options_; }
 
  private:
-  // AssembleAt's work on a->contacts, into *a (storage reused).
+  // AssembleAt's work on a->contacts, into *a (storage reused). `kinematics_ready`: the calling
+  // thread's assembly kinematics already hold x's (AssembleInto computed them for FindContacts).
   void Fill(const Scene& model, const State& x, const StepInput& u, bool select_corner_edges,
-            Assembly* a) const;
+            Assembly* a, bool kinematics_ready = false) const;
   StepperOptions options_;
   std::shared_ptr<const LcpSolver> solver_;
   bool velocity_level_;  // Anitescu–Potra
