@@ -68,7 +68,9 @@ struct StepScratch {
   StewartTrinkle::Assembly assembly;  // the step's assembly (AssembleInto)
   ContactLcpOperator lcp;
   WarmBasisScratch basis;
-  SparseMatrixd M;  // the LCP matrix for SolveSparseLemke (sparse_lemke.h)
+  SparseMatrixd M;                          // the LCP matrix for SolveSparseLemke (sparse_lemke.h)
+  LcpProblem dense_lcp;                     // the dense path's LCP (BuildLcpInto)
+  StewartTrinkle::JointElimination joints;  // the dense path's joint elimination
   VectorXd gaps, v_l, v_star, z, impulse, product, dv, v1;
 };
 

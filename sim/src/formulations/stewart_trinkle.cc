@@ -476,6 +476,31 @@ void StewartTrinkle::Fill(const Scene& model, const State& x, const StepInput& u
 
 std::vector<std::vector<int>> StewartTrinkle::LcpBlocks(const Assembly& a, LcpBlocking blocking,
                                                         std::vector<std::vector<int>>* parts) {
+  std::vector<std::vector<int>> blocks;
+  LcpBlocksInto(a, blocking, &blocks, parts);
+  return blocks;
+}
+
+namespace {
+
+// LcpBlocksInto's per-thread buffers (allocation reuse only).
+struct BlocksScratch {
+  std::vector<int> corner_of;
+  // Open patch block per unordered body pair (contacts) or body (support points): key, block,
+  // members. Looked up linearly (a step has few body pairs).
+  struct Open {
+    std::pair<int, int> key;
+    int block, members;
+  };
+  std::vector<Open> open;
+};
+
+}  // namespace
+
+void StewartTrinkle::LcpBlocksInto(const Assembly& a, LcpBlocking blocking,
+                                   std::vector<std::vector<int>>* blocks_out,
+                                   std::vector<std::vector<int>>* parts) {
+  thread_local BlocksScratch scratch;
   const int nc = static_cast<int>(a.contacts.size());
   const int nd = a.nd;
   const int nf = nc * nd;
@@ -483,36 +508,51 @@ std::vector<std::vector<int>> StewartTrinkle::LcpBlocks(const Assembly& a, LcpBl
   const int ns = sup.points(), nps = sup.columns(), s0 = nc + nf + nc;
   const int nk = static_cast<int>(a.corner_contact.size());
   const int o = nc + nf + nc + nps + ns;  // first corner unknown
-  std::vector<int> corner_of(nc, -1);
+  std::vector<int>& corner_of = scratch.corner_of;
+  corner_of.assign(static_cast<std::size_t>(nc), -1);
   for (int k = 0; k < nk; ++k) corner_of[a.corner_contact[k]] = k;
   const bool patches = blocking == LcpBlocking::kContactPatch;
 
-  std::vector<std::vector<int>> blocks;
-  // Open patch block per unordered body pair (contacts) or body (support points), and how many
-  // contacts it holds; a full block is closed and the next member opens a new one.
-  std::map<std::pair<int, int>, std::pair<int, int>> open;  // key → (block, members)
-  auto block_for = [&](std::pair<int, int> key, int rows) -> std::vector<int>& {
+  // The vectors of *blocks_out (and *parts) are reused in order: `used` of them hold blocks.
+  std::vector<std::vector<int>>& blocks = *blocks_out;
+  std::size_t used = 0;
+  std::vector<BlocksScratch::Open>& open = scratch.open;
+  open.clear();
+  // A full block is closed and the next member opens a new one.
+  auto block_for = [&](std::pair<int, int> key) -> std::vector<int>& {
     if (patches) {
-      auto it = open.find(key);
-      if (it != open.end() && it->second.second < kMaxPatchContacts) {
-        ++it->second.second;
-        return blocks[it->second.first];
+      BlocksScratch::Open* entry = nullptr;
+      for (BlocksScratch::Open& e : open)
+        if (e.key == key) {
+          entry = &e;
+          break;
+        }
+      if (entry != nullptr && entry->members < kMaxPatchContacts) {
+        ++entry->members;
+        return blocks[static_cast<std::size_t>(entry->block)];
       }
-      open[key] = {static_cast<int>(blocks.size()), 1};
+      if (entry != nullptr)
+        *entry = {key, static_cast<int>(used), 1};  // the full block is replaced
+      else
+        open.push_back({key, static_cast<int>(used), 1});
     }
-    blocks.emplace_back().reserve(rows);
-    if (parts) parts->emplace_back();
-    return blocks.back();
+    if (used == blocks.size()) blocks.emplace_back();
+    if (parts) {
+      if (used == parts->size()) parts->emplace_back();
+      (*parts)[used].clear();
+    }
+    blocks[used].clear();
+    return blocks[used++];
   };
   // Records where the next member of `b` (the block just returned by block_for) begins.
   auto begin_part = [&](const std::vector<int>& b) {
-    if (parts) (*parts)[&b - blocks.data()].push_back(static_cast<int>(b.size()));
+    if (parts)
+      (*parts)[static_cast<std::size_t>(&b - blocks.data())].push_back(static_cast<int>(b.size()));
   };
-  if (parts) parts->clear();
   for (int c = 0; c < nc; ++c) {
     const Contact& ct = a.contacts[c];
     std::vector<int>& b =
-        block_for({std::min(ct.body_a, ct.body_b), std::max(ct.body_a, ct.body_b)}, nd + 3);
+        block_for({std::min(ct.body_a, ct.body_b), std::max(ct.body_a, ct.body_b)});
     begin_part(b);
     b.push_back(c);
     for (int j = 0; j < nd; ++j) b.push_back(nc + c * nd + j);
@@ -521,16 +561,38 @@ std::vector<std::vector<int>> StewartTrinkle::LcpBlocks(const Assembly& a, LcpBl
   }
   // Support points: keyed (−1, body), apart from every contact pair.
   for (int k = 0; k < ns; ++k) {
-    std::vector<int>& b = block_for({-1, sup.body[k]}, sup.count[k] + 1);
+    std::vector<int>& b = block_for({-1, sup.body[k]});
     begin_part(b);
     for (int j = 0; j < sup.count[k]; ++j) b.push_back(s0 + sup.first[k] + j);
     b.push_back(s0 + nps + k);
   }
-  return blocks;
+  blocks.resize(used);
+  if (parts) parts->resize(used);
 }
 
 LcpProblem StewartTrinkle::BuildLcp(const Scene& model, const Assembly& a, const VectorXd& v,
                                     VectorXd* v_star, JointElimination* joints) const {
+  LcpProblem lcp;
+  BuildLcpInto(model, a, v, v_star, joints, &lcp);
+  return lcp;
+}
+
+namespace {
+
+// BuildLcpInto's per-thread buffers (allocation reuse only: every call overwrites what it uses).
+struct DenseLcpScratch {
+  std::vector<std::vector<int>> columns;
+  MatrixXd Gb_cols, MinvG, block;
+  VectorXd Minv_p, Gv;
+};
+
+}  // namespace
+
+void StewartTrinkle::BuildLcpInto(const Scene& model, const Assembly& a, const VectorXd& v,
+                                  VectorXd* v_star, JointElimination* joints,
+                                  LcpProblem* lcp_out) const {
+  thread_local DenseLcpScratch scratch;
+  LcpProblem& lcp = *lcp_out;
   const double h = options_.dt;
   const int nc = static_cast<int>(a.contacts.size());
   const int nd = a.nd;
@@ -544,14 +606,16 @@ LcpProblem StewartTrinkle::BuildLcp(const Scene& model, const Assembly& a, const
   // Corner unknowns c (nk) come last: z = [p_n; p_f; σ; p_s; σ_s; c].
   const int m = nc + nf + nc + nps + ns + nk;
 
-  *v_star = v + a.M_inv * a.p_ext;
-  LcpProblem lcp;
-  lcp.M = MatrixXd::Zero(m, m);
-  lcp.q = VectorXd::Zero(m);
+  a.M_inv.Multiply(a.p_ext, &scratch.Minv_p);
+  *v_star = v + scratch.Minv_p;
+  lcp.M.setZero(m, m);
+  lcp.q.setZero(m);
 
   // G_cᵀ M⁻¹ G_c from per-body blocks: M⁻¹ is block diagonal and each contact column touches at
   // most two bodies, so only columns sharing a body interact (O(Σ_b k_b²) instead of dense).
-  std::vector<std::vector<int>> columns(model.bodies.size());
+  std::vector<std::vector<int>>& columns = scratch.columns;
+  columns.resize(model.bodies.size());
+  for (std::vector<int>& cols : columns) cols.clear();
   for (int c = 0; c < nc; ++c) {
     for (int body : {a.contacts[c].body_a, a.contacts[c].body_b}) {
       if (model.bodies[body].kind != BodyKind::kDynamic) continue;
@@ -562,7 +626,7 @@ LcpProblem StewartTrinkle::BuildLcp(const Scene& model, const Assembly& a, const
   }
   for (int k = 0; k < ns; ++k)
     for (int j = 0; j < sup.count[k]; ++j) columns[sup.body[k]].push_back(s0 + sup.first[k] + j);
-  MatrixXd Gb_cols, MinvG;
+  MatrixXd &Gb_cols = scratch.Gb_cols, &MinvG = scratch.MinvG, &block = scratch.block;
   for (int body : model.dynamic_bodies()) {
     const std::vector<int>& cols = columns[body];
     if (cols.empty()) continue;
@@ -577,7 +641,7 @@ LcpProblem StewartTrinkle::BuildLcp(const Scene& model, const Assembly& a, const
         Gb_cols.col(i) = sup.G_s.block(o, cols[i] - s0, nvb, 1);
     }
     MinvG.noalias() = a.M_inv.BlockAt(o) * Gb_cols;
-    const MatrixXd block = Gb_cols.transpose() * MinvG;
+    block.noalias() = Gb_cols.transpose() * MinvG;
     for (int i = 0; i < k; ++i)
       for (int j = 0; j < k; ++j) lcp.M(cols[i], cols[j]) += block(i, j);
   }
@@ -615,8 +679,12 @@ LcpProblem StewartTrinkle::BuildLcp(const Scene& model, const Assembly& a, const
     lcp.M(nc + nf + c, c) = a.mu[c];  // U
   }
   // Blocks for block-iterative solvers: one per contact patch (LcpBlocks).
-  lcp.blocks = LcpBlocks(a, LcpBlocking::kContactPatch, &lcp.block_parts);
-  lcp.q.head(nc) = a.G_n.transpose() * *v_star + a.dpsi_n;
+  LcpBlocksInto(a, LcpBlocking::kContactPatch, &lcp.blocks, &lcp.block_parts);
+  // The sparse products into a buffer, then the sums (what Eigen does for the whole expression,
+  // without its temporary).
+  VectorXd& Gv = scratch.Gv;
+  Gv.noalias() = a.G_n.transpose() * *v_star;
+  lcp.q.head(nc) = Gv + a.dpsi_n;
   if (!velocity_level_) lcp.q.head(nc) += a.psi_n / h;
   for (int c = 0; c < nc; ++c) {
     const CompliantNormalRow& law = a.compliance[c];
@@ -625,7 +693,8 @@ LcpProblem StewartTrinkle::BuildLcp(const Scene& model, const Assembly& a, const
         a.G_n.col(c).dot(*v_star) + a.dpsi_n[c] + law.vel_psi * a.psi_n[c] + law.vel_constant;
     lcp.M(c, c) += law.vel_diagonal;
   }
-  lcp.q.segment(nc, nf) = a.G_f.transpose() * *v_star + a.dpsi_f;
+  Gv.noalias() = a.G_f.transpose() * *v_star;
+  lcp.q.segment(nc, nf) = Gv + a.dpsi_f;
 
   // Corner contacts (header comment): c_k are the last unknowns. With D = G_1 − G_2 and
   // e = (ψ_1 − ψ_2)/h + ∂ψ_1/∂t − ∂ψ_2/∂t, row k is c_k − Dᵀ(ν* + W G_c p_c) − e, and c_k adds to
@@ -663,10 +732,9 @@ LcpProblem StewartTrinkle::BuildLcp(const Scene& model, const Assembly& a, const
     }
   }
   if (nps > 0) {
-    lcp.q.segment(s0, nps) = sup.G_s.transpose() * *v_star;
+    lcp.q.segment(s0, nps).noalias() = sup.G_s.transpose() * *v_star;
     lcp.q.segment(s0 + nps, ns) = sup.limit;
   }
-  return lcp;
 }
 
 namespace {
@@ -723,7 +791,8 @@ void StewartTrinkle::Step(const Scene& model, const State& x, const StepInput& u
   if (!internal::CheckStartPenetration(nc, options_.max_penetration, info)) return;
 
   VectorXd& v_star = s.v_star;
-  JointElimination joints;
+  // Read only where the assembly has joint rows, which BuildLcpInto then overwrites.
+  JointElimination& joints = s.joints;
   // First order: no ν_ℓ.
   const VectorXd& v_l = first_order_ ? s.v_l.setZero(x.v.size()) : x.v;
   VectorXd& z = s.z;
@@ -757,7 +826,8 @@ void StewartTrinkle::Step(const Scene& model, const State& x, const StepInput& u
     }
   }
   if (!solved) {
-    const LcpProblem lcp = BuildLcp(model, a, v_l, &v_star, &joints);
+    LcpProblem& lcp = s.dense_lcp;
+    BuildLcpInto(model, a, v_l, &v_star, &joints, &lcp);
     z.setZero(lcp.size());
     if (lcp.size() > 0) {
       const VectorXd* warm = x.warm_start.size() == lcp.size() ? &x.warm_start : nullptr;
