@@ -22,6 +22,16 @@ StepScratchLease::StepScratchLease() {
   }
 }
 
+WarmBasisScratch& StepScratch::BasisFor(const VectorXd& guess) {
+  int nb = 0;
+  for (Eigen::Index i = 0; i < guess.size(); ++i) nb += guess(i) > 0.0 ? 1 : 0;
+  if (nb > kDenseWarmBasisMax) return basis;
+  if (basis_by_size.size() <= static_cast<std::size_t>(nb)) basis_by_size.resize(nb + 1);
+  std::unique_ptr<WarmBasisScratch>& b = basis_by_size[static_cast<std::size_t>(nb)];
+  if (!b) b = std::make_unique<WarmBasisScratch>();
+  return *b;
+}
+
 StepScratchLease::~StepScratchLease() {
   if (in_use_) *in_use_ = false;
 }

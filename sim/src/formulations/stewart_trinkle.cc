@@ -805,8 +805,8 @@ void StewartTrinkle::Step(const Scene& model, const State& x, const StepInput& u
   const bool warm_plain = x.warm_start.size() == m_plain;
   if (lemke != nullptr && nc > 0 && (warm_plain || m_plain >= kSparseStepMinSize)) {
     if (s.lcp.Build(model, a, v_l, h, velocity_level_)) {
-      if (warm_plain && SolveOnWarmBasis(s.lcp, s.lcp.q(), x.warm_start, lemke->options(), &s.basis,
-                                         &z, &info->solver)) {
+      if (warm_plain && SolveOnWarmBasis(s.lcp, s.lcp.q(), x.warm_start, lemke->options(),
+                                         &s.BasisFor(x.warm_start), &z, &info->solver)) {
         solved = true;
       } else if (m_plain >= kSparseStepMinSize) {
         // Large LCPs pivot on the sparse matrix (a dense m × m one is O(m²) memory and a

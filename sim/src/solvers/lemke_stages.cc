@@ -83,13 +83,21 @@ bool TryBasis(const LcpProblem& problem, const std::vector<bool>& in_basis, cons
   if (active.empty()) return false;  // z = 0 was already ruled out (q has a negative entry)
   BasisBuffers& b = s.For(static_cast<Eigen::Index>(active.size()));
   Eigen::MatrixXd& m_bb = b.m_bb;
-  m_bb = problem.M(active, active);
+  // M_BB, guess_B and q_B gathered by hand (Eigen's indexed views copy their index vectors).
+  const Eigen::Index nb = static_cast<Eigen::Index>(active.size());
+  m_bb.resize(nb, nb);
+  for (Eigen::Index c = 0; c < nb; ++c)
+    for (Eigen::Index r = 0; r < nb; ++r) m_bb(r, c) = problem.M(active[r], active[c]);
   VectorXd& guess_b = b.guess_b;
-  guess_b = guess(active);
+  guess_b.resize(nb);
+  b.q_b.resize(nb);
+  for (Eigen::Index r = 0; r < nb; ++r) {
+    guess_b(r) = guess(active[r]);
+    b.q_b(r) = problem.q(active[r]);
+  }
   // rhs = −(M_BB guess_B + q_B): the product, then the sum (Eigen's order for the expression).
   VectorXd& rhs = b.rhs;
   rhs.noalias() = m_bb * guess_b;
-  b.q_b = problem.q(active);
   rhs = -(rhs + b.q_b);
   VectorXd& delta = b.delta;
   internal::SolveBasisBlock(m_bb, rhs, &b.qr, &b.c, &delta);
@@ -100,7 +108,7 @@ bool TryBasis(const LcpProblem& problem, const std::vector<bool>& in_basis, cons
   if (z_b.minCoeff() < -tolerance) return false;
   VectorXd& candidate = s.candidate;
   candidate.setZero(n);
-  candidate(active) = z_b;
+  for (Eigen::Index r = 0; r < nb; ++r) candidate(active[r]) = z_b(r);
   VectorXd& w = s.w;
   MultiplySkippingZeros(problem, candidate, &w);
   for (Eigen::Index i = 0; i < n; ++i) {
