@@ -583,7 +583,7 @@ namespace {
 struct DenseLcpScratch {
   std::vector<std::vector<int>> columns;
   MatrixXd Gb_cols, MinvG, block;
-  VectorXd Minv_p, Gv;
+  VectorXd Minv_p, Gv_n, Gv_f;
 };
 
 }  // namespace
@@ -682,9 +682,9 @@ void StewartTrinkle::BuildLcpInto(const Scene& model, const Assembly& a, const V
   LcpBlocksInto(a, LcpBlocking::kContactPatch, &lcp.blocks, &lcp.block_parts);
   // The sparse products into a buffer, then the sums (what Eigen does for the whole expression,
   // without its temporary).
-  VectorXd& Gv = scratch.Gv;
-  Gv.noalias() = a.G_n.transpose() * *v_star;
-  lcp.q.head(nc) = Gv + a.dpsi_n;
+  VectorXd& Gv_n = scratch.Gv_n;
+  Gv_n.noalias() = a.G_n.transpose() * *v_star;
+  lcp.q.head(nc) = Gv_n + a.dpsi_n;
   if (!velocity_level_) lcp.q.head(nc) += a.psi_n / h;
   for (int c = 0; c < nc; ++c) {
     const CompliantNormalRow& law = a.compliance[c];
@@ -693,8 +693,9 @@ void StewartTrinkle::BuildLcpInto(const Scene& model, const Assembly& a, const V
         a.G_n.col(c).dot(*v_star) + a.dpsi_n[c] + law.vel_psi * a.psi_n[c] + law.vel_constant;
     lcp.M(c, c) += law.vel_diagonal;
   }
-  Gv.noalias() = a.G_f.transpose() * *v_star;
-  lcp.q.segment(nc, nf) = Gv + a.dpsi_f;
+  VectorXd& Gv_f = scratch.Gv_f;
+  Gv_f.noalias() = a.G_f.transpose() * *v_star;
+  lcp.q.segment(nc, nf) = Gv_f + a.dpsi_f;
 
   // Corner contacts (header comment): c_k are the last unknowns. With D = G_1 − G_2 and
   // e = (ψ_1 − ψ_2)/h + ∂ψ_1/∂t − ∂ψ_2/∂t, row k is c_k − Dᵀ(ν* + W G_c p_c) − e, and c_k adds to
