@@ -471,7 +471,7 @@ void StewartTrinkle::Fill(const Scene& model, const State& x, const StepInput& u
   scratch.G_b.Finish(nv, nvb, &a.G_b);
 
   // 2.5D support friction (support.h): empty without support points.
-  a.support = AssembleSupport(model, x, h, /*quadratic=*/false);
+  AssembleSupportInto(model, x, h, /*quadratic=*/false, &a.support);
 }
 
 std::vector<std::vector<int>> StewartTrinkle::LcpBlocks(const Assembly& a, LcpBlocking blocking,
