@@ -22,9 +22,34 @@ StepScratchLease::StepScratchLease() {
   }
 }
 
+WarmBasisScratch& StepScratch::BasisFor(const VectorXd& guess) {
+  int nb = 0;
+  for (Eigen::Index i = 0; i < guess.size(); ++i) nb += guess(i) > 0.0 ? 1 : 0;
+  if (nb > kDenseWarmBasisMax) return basis;
+  if (basis_by_size.size() <= static_cast<std::size_t>(nb)) basis_by_size.resize(nb + 1);
+  std::unique_ptr<WarmBasisScratch>& b = basis_by_size[static_cast<std::size_t>(nb)];
+  if (!b) b = std::make_unique<WarmBasisScratch>();
+  return *b;
+}
+
 StepScratchLease::~StepScratchLease() {
   if (in_use_) *in_use_ = false;
 }
+
+namespace {
+
+// out = W g for an N × N column-major W: every entry accumulated from 0 over the inner index in
+// order (the order of Eigen's GEMM kernel at depth N ≤ 6, hence its bits).
+template <int N>
+void BlockTimesColumn(const double* W, const double* g, double* out) {
+  double acc[N];
+  for (int i = 0; i < N; ++i) acc[i] = 0.0;
+  for (int e = 0; e < N; ++e)
+    for (int i = 0; i < N; ++i) acc[i] += W[e * N + i] * g[e];
+  for (int i = 0; i < N; ++i) out[i] = acc[i];
+}
+
+}  // namespace
 
 bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembly& a,
                                const VectorXd& v, double h, bool velocity_level) {
@@ -77,7 +102,17 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
       for (SparseMatrixd::InnerIterator it(G, col); it; ++it)
         if (it.row() >= o && it.row() < o + nvb) Gb(it.row() - o, i) = it.value();
     }
-    WG.noalias() = a.M_inv.BlockAt(o) * Gb;
+    // WG = W_b Gb by hand: Eigen's GEMM for a 6 × k product costs more in setup than in flops.
+    // Each entry accumulates from 0 over the inner index in order, as GEMM's kernel does
+    // (the inner dimension nvb ≤ 6 is below its unrolled depth), so the bits are GEMM's.
+    WG.resize(nvb, k);
+    const double* W = a.M_inv.BlockAt(o).data();  // nvb × nvb, column major, contiguous
+    for (int j = 0; j < k; ++j) {
+      if (nvb == 6)
+        BlockTimesColumn<6>(W, Gb.col(j).data(), WG.col(j).data());
+      else
+        BlockTimesColumn<3>(W, Gb.col(j).data(), WG.col(j).data());
+    }
     MatrixXd& B = blocks_[body];
     B.resize(k, k);
     // W_b is symmetric, so is the block: the lower triangle, mirrored.
@@ -109,6 +144,18 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
       const int p = PositionIn(r, b), p_other = other >= 0 ? PositionIn(r, other) : -1;
       const std::vector<int>& cols = columns_[b];
       const MatrixXd& B = blocks_[b];
+      if (other < 0) {
+        // No other dynamic body: row p of B (column p, B symmetric), the same sums in the same
+        // order as the general loop below (cols[jj] == r only at jj = p).
+        const double* Bp = B.col(p).data();
+        const bool compliant = r < nc && a.compliance[r].compliant;
+        for (int jj = 0; jj < static_cast<int>(cols.size()); ++jj) {
+          double value = Bp[jj];
+          if (compliant && jj == p) value += a.compliance[r].vel_diagonal;
+          sum += std::abs(value);
+        }
+        continue;
+      }
       const int groups = static_cast<int>(cols.size()) / group;
       for (int g = 0; g < groups; ++g) {
         const Contact& cj = a.contacts[cols[g * group]];

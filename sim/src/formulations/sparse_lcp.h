@@ -71,8 +71,16 @@ class ContactLcpOperator final : public LcpMatrixOperator {
 struct StepScratch {
   StewartTrinkle::Assembly assembly;  // the step's assembly (AssembleInto)
   ContactLcpOperator lcp;
-  WarmBasisScratch basis;
-  SparseMatrixd M;  // the LCP matrix for SolveSparseLemke (sparse_lemke.h)
+  WarmBasisScratch basis;  // bases above kDenseWarmBasisMax members
+  // Dense bases, one scratch per basis size: a step whose basis size differs from the previous
+  // step's (a contact starts or stops sliding) reuses its size's storage instead of
+  // reallocating the QR and the basis block.
+  std::vector<std::unique_ptr<WarmBasisScratch>> basis_by_size;
+  /// The scratch for the warm basis {i : guess_i > 0}.
+  WarmBasisScratch& BasisFor(const VectorXd& guess);
+  SparseMatrixd M;                          // the LCP matrix for SolveSparseLemke (sparse_lemke.h)
+  LcpProblem dense_lcp;                     // the dense path's LCP (BuildLcpInto)
+  StewartTrinkle::JointElimination joints;  // the dense path's joint elimination
   VectorXd gaps, v_l, v_star, z, impulse, product, dv, v1;
 };
 

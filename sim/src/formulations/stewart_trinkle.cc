@@ -61,13 +61,24 @@ void FrictionDirections(Dim dim, const Vector3d& n, int nd, std::vector<Vector3d
     d->push_back(-t);
     return;
   }
+  // (cos φ_j, sin φ_j), φ_j = 2π j / nd, computed once per thread and nd.
+  thread_local int table_nd = -1;
+  thread_local std::vector<std::pair<double, double>> table;
+  if (table_nd != nd) {
+    table.resize(static_cast<std::size_t>(nd));
+    for (int j = 0; j < nd; ++j) {
+      const double phi = 2.0 * kPi * j / nd;
+      table[static_cast<std::size_t>(j)] = {std::cos(phi), std::sin(phi)};
+    }
+    table_nd = nd;
+  }
   // A deterministic orthonormal tangent basis (t1, t2) for n.
   const Vector3d a = std::abs(n.x()) < 0.9 ? Vector3d::UnitX() : Vector3d::UnitY();
   const Vector3d t1 = n.cross(a).normalized();
   const Vector3d t2 = n.cross(t1);
   for (int j = 0; j < nd; ++j) {
-    const double phi = 2.0 * kPi * j / nd;
-    d->push_back(std::cos(phi) * t1 + std::sin(phi) * t2);
+    const auto& [c, s] = table[static_cast<std::size_t>(j)];
+    d->push_back(c * t1 + s * t2);
   }
 }
 
@@ -140,6 +151,39 @@ void Scatter(const Scene& model, int body, const BodyKinematics& k, const Vector
     for (int i = 0; i < nvb; ++i) block[i] += sign * row[i];
   } else {
     *dpsi += sign * d.dot(PointVelocity(k, p));
+  }
+}
+
+// One side (body) of a contact for Scatter's work over its normal and friction columns: whether
+// the body is dynamic, its ν offset, or (non-dynamic) the velocity of the contact point, computed
+// once per contact instead of once per column (the same values, so the same bits).
+struct ContactSide {
+  bool dynamic = false;
+  int o = 0;
+  Vector3d v_p = Vector3d::Zero();
+};
+
+ContactSide MakeContactSide(const Scene& model, int body, const BodyKinematics& k,
+                            const Vector3d& p) {
+  ContactSide side;
+  side.dynamic = model.bodies[body].kind == BodyKind::kDynamic;
+  if (side.dynamic)
+    side.o = model.index(body).v;
+  else
+    side.v_p = PointVelocity(k, p);
+  return side;
+}
+
+// Scatter for a precomputed side.
+void ScatterSide(Dim dim, const ContactSide& side, const BodyKinematics& k, const Vector3d& p,
+                 const Vector3d& d, double sign, JacobianColumns* G, int col, double* dpsi) {
+  if (side.dynamic) {
+    const int nvb = VelocitySize(dim);
+    const auto row = PointVelocityRow(dim, k.X_WB, p, d);
+    double* block = G->Block(col, side.o);
+    for (int i = 0; i < nvb; ++i) block[i] += sign * row[i];
+  } else {
+    *dpsi += sign * d.dot(side.v_p);
   }
 }
 
@@ -234,7 +278,7 @@ void StewartTrinkle::AssembleInto(const Scene& model, const State& x, const Step
         model.bodies[i].motion.pose == PoseRule::kIntegrated)
       kin[i] = PrescribedKinematics(model, static_cast<int>(i), x.t, options_.dt);
   FindContacts(model, kin, options_.envelope, &a->contacts);
-  Fill(model, x, u, /*select_corner_edges=*/true, a);
+  Fill(model, x, u, /*select_corner_edges=*/true, a, /*kinematics_ready=*/true);
 }
 
 StewartTrinkle::Assembly StewartTrinkle::AssembleAt(const Scene& model, const State& x,
@@ -248,7 +292,8 @@ StewartTrinkle::Assembly StewartTrinkle::AssembleAt(const Scene& model, const St
 }
 
 void StewartTrinkle::Fill(const Scene& model, const State& x, const StepInput& u,
-                          bool select_corner_edges, Assembly* assembly) const {
+                          bool select_corner_edges, Assembly* assembly,
+                          bool kinematics_ready) const {
   Assembly& a = *assembly;
   AssemblyScratch& scratch = ThreadAssemblyScratch();
   const Dim dim = model.dim;
@@ -257,11 +302,13 @@ void StewartTrinkle::Fill(const Scene& model, const State& x, const StepInput& u
   const int nvb = VelocitySize(dim);
   CheckShapesSupported(model);
   std::vector<BodyKinematics>& kin = scratch.kin;
-  ComputeBodyKinematics(model, x, &kin);
-  for (std::size_t i = 0; i < kin.size(); ++i)  // integrated prescribed poses
-    if (model.bodies[i].kind == BodyKind::kPrescribed &&
-        model.bodies[i].motion.pose == PoseRule::kIntegrated)
-      kin[i] = PrescribedKinematics(model, static_cast<int>(i), x.t, h);
+  if (!kinematics_ready) {
+    ComputeBodyKinematics(model, x, &kin);
+    for (std::size_t i = 0; i < kin.size(); ++i)  // integrated prescribed poses
+      if (model.bodies[i].kind == BodyKind::kPrescribed &&
+          model.bodies[i].motion.pose == PoseRule::kIntegrated)
+        kin[i] = PrescribedKinematics(model, static_cast<int>(i), x.t, h);
+  }
   // From here on, non-dynamic bodies carry their velocity over the step (StepKinematics).
   for (std::size_t i = 0; i < kin.size(); ++i)
     kin[i] =
@@ -375,15 +422,16 @@ void StewartTrinkle::Fill(const Scene& model, const State& x, const StepInput& u
     a.compliance[c] = LinearizeNormalLaw(
         CombineCompliance(model.bodies[ct.body_a].compliance, model.bodies[ct.body_b].compliance),
         p.gap, h);
-    Scatter(model, ct.body_a, kin[ct.body_a], p.p_A_W, p.n_W, 1.0, &scratch.G_n, c, &a.dpsi_n[c]);
-    Scatter(model, ct.body_b, kin[ct.body_b], p.p_B_W, p.n_W, -1.0, &scratch.G_n, c, &a.dpsi_n[c]);
+    const BodyKinematics &ka = kin[ct.body_a], &kb = kin[ct.body_b];
+    const ContactSide side_a = MakeContactSide(model, ct.body_a, ka, p.p_A_W);
+    const ContactSide side_b = MakeContactSide(model, ct.body_b, kb, p.p_B_W);
+    ScatterSide(dim, side_a, ka, p.p_A_W, p.n_W, 1.0, &scratch.G_n, c, &a.dpsi_n[c]);
+    ScatterSide(dim, side_b, kb, p.p_B_W, p.n_W, -1.0, &scratch.G_n, c, &a.dpsi_n[c]);
     FrictionDirections(dim, p.n_W, nd, &dirs);
     for (int j = 0; j < nd; ++j) {
       const int col = c * nd + j;
-      Scatter(model, ct.body_a, kin[ct.body_a], p.p_A_W, dirs[j], 1.0, &scratch.G_f, col,
-              &a.dpsi_f[col]);
-      Scatter(model, ct.body_b, kin[ct.body_b], p.p_B_W, dirs[j], -1.0, &scratch.G_f, col,
-              &a.dpsi_f[col]);
+      ScatterSide(dim, side_a, ka, p.p_A_W, dirs[j], 1.0, &scratch.G_f, col, &a.dpsi_f[col]);
+      ScatterSide(dim, side_b, kb, p.p_B_W, dirs[j], -1.0, &scratch.G_f, col, &a.dpsi_f[col]);
     }
   }
 
@@ -425,11 +473,36 @@ void StewartTrinkle::Fill(const Scene& model, const State& x, const StepInput& u
   scratch.G_b.Finish(nv, nvb, &a.G_b);
 
   // 2.5D support friction (support.h): empty without support points.
-  a.support = AssembleSupport(model, x, h, /*quadratic=*/false);
+  AssembleSupportInto(model, x, h, /*quadratic=*/false, &a.support);
 }
 
 std::vector<std::vector<int>> StewartTrinkle::LcpBlocks(const Assembly& a, LcpBlocking blocking,
                                                         std::vector<std::vector<int>>* parts) {
+  std::vector<std::vector<int>> blocks;
+  LcpBlocksInto(a, blocking, &blocks, parts);
+  return blocks;
+}
+
+namespace {
+
+// LcpBlocksInto's per-thread buffers (allocation reuse only).
+struct BlocksScratch {
+  std::vector<int> corner_of;
+  // Open patch block per unordered body pair (contacts) or body (support points): key, block,
+  // members. Looked up linearly (a step has few body pairs).
+  struct Open {
+    std::pair<int, int> key;
+    int block, members;
+  };
+  std::vector<Open> open;
+};
+
+}  // namespace
+
+void StewartTrinkle::LcpBlocksInto(const Assembly& a, LcpBlocking blocking,
+                                   std::vector<std::vector<int>>* blocks_out,
+                                   std::vector<std::vector<int>>* parts) {
+  thread_local BlocksScratch scratch;
   const int nc = static_cast<int>(a.contacts.size());
   const int nd = a.nd;
   const int nf = nc * nd;
@@ -437,36 +510,51 @@ std::vector<std::vector<int>> StewartTrinkle::LcpBlocks(const Assembly& a, LcpBl
   const int ns = sup.points(), nps = sup.columns(), s0 = nc + nf + nc;
   const int nk = static_cast<int>(a.corner_contact.size());
   const int o = nc + nf + nc + nps + ns;  // first corner unknown
-  std::vector<int> corner_of(nc, -1);
+  std::vector<int>& corner_of = scratch.corner_of;
+  corner_of.assign(static_cast<std::size_t>(nc), -1);
   for (int k = 0; k < nk; ++k) corner_of[a.corner_contact[k]] = k;
   const bool patches = blocking == LcpBlocking::kContactPatch;
 
-  std::vector<std::vector<int>> blocks;
-  // Open patch block per unordered body pair (contacts) or body (support points), and how many
-  // contacts it holds; a full block is closed and the next member opens a new one.
-  std::map<std::pair<int, int>, std::pair<int, int>> open;  // key → (block, members)
-  auto block_for = [&](std::pair<int, int> key, int rows) -> std::vector<int>& {
+  // The vectors of *blocks_out (and *parts) are reused in order: `used` of them hold blocks.
+  std::vector<std::vector<int>>& blocks = *blocks_out;
+  std::size_t used = 0;
+  std::vector<BlocksScratch::Open>& open = scratch.open;
+  open.clear();
+  // A full block is closed and the next member opens a new one.
+  auto block_for = [&](std::pair<int, int> key) -> std::vector<int>& {
     if (patches) {
-      auto it = open.find(key);
-      if (it != open.end() && it->second.second < kMaxPatchContacts) {
-        ++it->second.second;
-        return blocks[it->second.first];
+      BlocksScratch::Open* entry = nullptr;
+      for (BlocksScratch::Open& e : open)
+        if (e.key == key) {
+          entry = &e;
+          break;
+        }
+      if (entry != nullptr && entry->members < kMaxPatchContacts) {
+        ++entry->members;
+        return blocks[static_cast<std::size_t>(entry->block)];
       }
-      open[key] = {static_cast<int>(blocks.size()), 1};
+      if (entry != nullptr)
+        *entry = {key, static_cast<int>(used), 1};  // the full block is replaced
+      else
+        open.push_back({key, static_cast<int>(used), 1});
     }
-    blocks.emplace_back().reserve(rows);
-    if (parts) parts->emplace_back();
-    return blocks.back();
+    if (used == blocks.size()) blocks.emplace_back();
+    if (parts) {
+      if (used == parts->size()) parts->emplace_back();
+      (*parts)[used].clear();
+    }
+    blocks[used].clear();
+    return blocks[used++];
   };
   // Records where the next member of `b` (the block just returned by block_for) begins.
   auto begin_part = [&](const std::vector<int>& b) {
-    if (parts) (*parts)[&b - blocks.data()].push_back(static_cast<int>(b.size()));
+    if (parts)
+      (*parts)[static_cast<std::size_t>(&b - blocks.data())].push_back(static_cast<int>(b.size()));
   };
-  if (parts) parts->clear();
   for (int c = 0; c < nc; ++c) {
     const Contact& ct = a.contacts[c];
     std::vector<int>& b =
-        block_for({std::min(ct.body_a, ct.body_b), std::max(ct.body_a, ct.body_b)}, nd + 3);
+        block_for({std::min(ct.body_a, ct.body_b), std::max(ct.body_a, ct.body_b)});
     begin_part(b);
     b.push_back(c);
     for (int j = 0; j < nd; ++j) b.push_back(nc + c * nd + j);
@@ -475,16 +563,38 @@ std::vector<std::vector<int>> StewartTrinkle::LcpBlocks(const Assembly& a, LcpBl
   }
   // Support points: keyed (−1, body), apart from every contact pair.
   for (int k = 0; k < ns; ++k) {
-    std::vector<int>& b = block_for({-1, sup.body[k]}, sup.count[k] + 1);
+    std::vector<int>& b = block_for({-1, sup.body[k]});
     begin_part(b);
     for (int j = 0; j < sup.count[k]; ++j) b.push_back(s0 + sup.first[k] + j);
     b.push_back(s0 + nps + k);
   }
-  return blocks;
+  blocks.resize(used);
+  if (parts) parts->resize(used);
 }
 
 LcpProblem StewartTrinkle::BuildLcp(const Scene& model, const Assembly& a, const VectorXd& v,
                                     VectorXd* v_star, JointElimination* joints) const {
+  LcpProblem lcp;
+  BuildLcpInto(model, a, v, v_star, joints, &lcp);
+  return lcp;
+}
+
+namespace {
+
+// BuildLcpInto's per-thread buffers (allocation reuse only: every call overwrites what it uses).
+struct DenseLcpScratch {
+  std::vector<std::vector<int>> columns;
+  MatrixXd Gb_cols, MinvG, block;
+  VectorXd Minv_p, Gv_n, Gv_f;
+};
+
+}  // namespace
+
+void StewartTrinkle::BuildLcpInto(const Scene& model, const Assembly& a, const VectorXd& v,
+                                  VectorXd* v_star, JointElimination* joints,
+                                  LcpProblem* lcp_out) const {
+  thread_local DenseLcpScratch scratch;
+  LcpProblem& lcp = *lcp_out;
   const double h = options_.dt;
   const int nc = static_cast<int>(a.contacts.size());
   const int nd = a.nd;
@@ -498,14 +608,16 @@ LcpProblem StewartTrinkle::BuildLcp(const Scene& model, const Assembly& a, const
   // Corner unknowns c (nk) come last: z = [p_n; p_f; σ; p_s; σ_s; c].
   const int m = nc + nf + nc + nps + ns + nk;
 
-  *v_star = v + a.M_inv * a.p_ext;
-  LcpProblem lcp;
-  lcp.M = MatrixXd::Zero(m, m);
-  lcp.q = VectorXd::Zero(m);
+  a.M_inv.Multiply(a.p_ext, &scratch.Minv_p);
+  *v_star = v + scratch.Minv_p;
+  lcp.M.setZero(m, m);
+  lcp.q.setZero(m);
 
   // G_cᵀ M⁻¹ G_c from per-body blocks: M⁻¹ is block diagonal and each contact column touches at
   // most two bodies, so only columns sharing a body interact (O(Σ_b k_b²) instead of dense).
-  std::vector<std::vector<int>> columns(model.bodies.size());
+  std::vector<std::vector<int>>& columns = scratch.columns;
+  columns.resize(model.bodies.size());
+  for (std::vector<int>& cols : columns) cols.clear();
   for (int c = 0; c < nc; ++c) {
     for (int body : {a.contacts[c].body_a, a.contacts[c].body_b}) {
       if (model.bodies[body].kind != BodyKind::kDynamic) continue;
@@ -516,7 +628,7 @@ LcpProblem StewartTrinkle::BuildLcp(const Scene& model, const Assembly& a, const
   }
   for (int k = 0; k < ns; ++k)
     for (int j = 0; j < sup.count[k]; ++j) columns[sup.body[k]].push_back(s0 + sup.first[k] + j);
-  MatrixXd Gb_cols, MinvG;
+  MatrixXd &Gb_cols = scratch.Gb_cols, &MinvG = scratch.MinvG, &block = scratch.block;
   for (int body : model.dynamic_bodies()) {
     const std::vector<int>& cols = columns[body];
     if (cols.empty()) continue;
@@ -531,7 +643,7 @@ LcpProblem StewartTrinkle::BuildLcp(const Scene& model, const Assembly& a, const
         Gb_cols.col(i) = sup.G_s.block(o, cols[i] - s0, nvb, 1);
     }
     MinvG.noalias() = a.M_inv.BlockAt(o) * Gb_cols;
-    const MatrixXd block = Gb_cols.transpose() * MinvG;
+    block.noalias() = Gb_cols.transpose() * MinvG;
     for (int i = 0; i < k; ++i)
       for (int j = 0; j < k; ++j) lcp.M(cols[i], cols[j]) += block(i, j);
   }
@@ -569,8 +681,12 @@ LcpProblem StewartTrinkle::BuildLcp(const Scene& model, const Assembly& a, const
     lcp.M(nc + nf + c, c) = a.mu[c];  // U
   }
   // Blocks for block-iterative solvers: one per contact patch (LcpBlocks).
-  lcp.blocks = LcpBlocks(a, LcpBlocking::kContactPatch, &lcp.block_parts);
-  lcp.q.head(nc) = a.G_n.transpose() * *v_star + a.dpsi_n;
+  LcpBlocksInto(a, LcpBlocking::kContactPatch, &lcp.blocks, &lcp.block_parts);
+  // The sparse products into a buffer, then the sums (what Eigen does for the whole expression,
+  // without its temporary).
+  VectorXd& Gv_n = scratch.Gv_n;
+  Gv_n.noalias() = a.G_n.transpose() * *v_star;
+  lcp.q.head(nc) = Gv_n + a.dpsi_n;
   if (!velocity_level_) lcp.q.head(nc) += a.psi_n / h;
   for (int c = 0; c < nc; ++c) {
     const CompliantNormalRow& law = a.compliance[c];
@@ -579,7 +695,9 @@ LcpProblem StewartTrinkle::BuildLcp(const Scene& model, const Assembly& a, const
         a.G_n.col(c).dot(*v_star) + a.dpsi_n[c] + law.vel_psi * a.psi_n[c] + law.vel_constant;
     lcp.M(c, c) += law.vel_diagonal;
   }
-  lcp.q.segment(nc, nf) = a.G_f.transpose() * *v_star + a.dpsi_f;
+  VectorXd& Gv_f = scratch.Gv_f;
+  Gv_f.noalias() = a.G_f.transpose() * *v_star;
+  lcp.q.segment(nc, nf) = Gv_f + a.dpsi_f;
 
   // Corner contacts (header comment): c_k are the last unknowns. With D = G_1 − G_2 and
   // e = (ψ_1 − ψ_2)/h + ∂ψ_1/∂t − ∂ψ_2/∂t, row k is c_k − Dᵀ(ν* + W G_c p_c) − e, and c_k adds to
@@ -617,10 +735,9 @@ LcpProblem StewartTrinkle::BuildLcp(const Scene& model, const Assembly& a, const
     }
   }
   if (nps > 0) {
-    lcp.q.segment(s0, nps) = sup.G_s.transpose() * *v_star;
+    lcp.q.segment(s0, nps).noalias() = sup.G_s.transpose() * *v_star;
     lcp.q.segment(s0 + nps, ns) = sup.limit;
   }
-  return lcp;
 }
 
 namespace {
@@ -677,7 +794,8 @@ void StewartTrinkle::Step(const Scene& model, const State& x, const StepInput& u
   if (!internal::CheckStartPenetration(nc, options_.max_penetration, info)) return;
 
   VectorXd& v_star = s.v_star;
-  JointElimination joints;
+  // Read only where the assembly has joint rows, which BuildLcpInto then overwrites.
+  JointElimination& joints = s.joints;
   // First order: no ν_ℓ.
   const VectorXd& v_l = first_order_ ? s.v_l.setZero(x.v.size()) : x.v;
   VectorXd& z = s.z;
@@ -690,8 +808,8 @@ void StewartTrinkle::Step(const Scene& model, const State& x, const StepInput& u
   const bool warm_plain = x.warm_start.size() == m_plain;
   if (lemke != nullptr && nc > 0 && (warm_plain || m_plain >= kSparseStepMinSize)) {
     if (s.lcp.Build(model, a, v_l, h, velocity_level_)) {
-      if (warm_plain && SolveOnWarmBasis(s.lcp, s.lcp.q(), x.warm_start, lemke->options(), &s.basis,
-                                         &z, &info->solver)) {
+      if (warm_plain && SolveOnWarmBasis(s.lcp, s.lcp.q(), x.warm_start, lemke->options(),
+                                         &s.BasisFor(x.warm_start), &z, &info->solver)) {
         solved = true;
       } else if (m_plain >= kSparseStepMinSize) {
         // Large LCPs pivot on the sparse matrix (a dense m × m one is O(m²) memory and a
@@ -730,7 +848,8 @@ void StewartTrinkle::Step(const Scene& model, const State& x, const StepInput& u
     }
   }
   if (!solved) {
-    const LcpProblem lcp = BuildLcp(model, a, v_l, &v_star, &joints);
+    LcpProblem& lcp = s.dense_lcp;
+    BuildLcpInto(model, a, v_l, &v_star, &joints, &lcp);
     z.setZero(lcp.size());
     if (lcp.size() > 0) {
       const VectorXd* warm = x.warm_start.size() == lcp.size() ? &x.warm_start : nullptr;

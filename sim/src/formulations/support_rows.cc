@@ -13,13 +13,23 @@ constexpr double kPi = 3.14159265358979323846;
 
 SupportRows AssembleSupport(const Scene& model, const State& x, double h, bool quadratic) {
   SupportRows r;
+  AssembleSupportInto(model, x, h, quadratic, &r);
+  return r;
+}
+
+void AssembleSupportInto(const Scene& model, const State& x, double h, bool quadratic,
+                         SupportRows* out) {
+  SupportRows& r = *out;
+  r.body.clear();
+  r.first.clear();
+  r.count.clear();
   int ns = 0, ncol = 0;
   for (int bi : model.dynamic_bodies()) {
     const Support& s = model.bodies[bi].support;
     ns += static_cast<int>(s.points_B.size());
     ncol += static_cast<int>(s.points_B.size()) * (quadratic ? 2 : s.directions);
   }
-  r.G_s = MatrixXd::Zero(model.num_velocities(), ncol);
+  r.G_s.setZero(model.num_velocities(), ncol);
   r.limit.resize(ns);
   r.hN.resize(ns);
   int k = 0, col = 0;
@@ -29,7 +39,8 @@ SupportRows AssembleSupport(const Scene& model, const State& x, double h, bool q
     if (s.empty()) continue;
     const BodyIndex& idx = model.index(bi);
     const Isometry3d X_WB = PoseFromQ(model.dim, x.q.data() + idx.q);
-    const std::vector<double> N = SupportNormalForces(model, b);
+    thread_local std::vector<double> N;  // storage reuse
+    SupportNormalForcesInto(model, b, &N);
     const int nd = quadratic ? 2 : s.directions;
     for (std::size_t p = 0; p < s.points_B.size(); ++p, ++k) {
       const Vector3d p_W = X_WB * Vector3d(s.points_B[p].x(), s.points_B[p].y(), 0.0);
@@ -46,7 +57,6 @@ SupportRows AssembleSupport(const Scene& model, const State& x, double h, bool q
       }
     }
   }
-  return r;
 }
 
 }  // namespace vinci::sim

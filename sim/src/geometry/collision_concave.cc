@@ -50,7 +50,8 @@ double SignedTwiceArea(const std::vector<Vector3d>& v) {
   return a2;
 }
 
-WorldPolygon MakeWorldPolygon(const Shape& s, const Isometry3d& X_WS) {
+// Into *out, reusing its vectors' storage.
+void MakeWorldPolygon(const Shape& s, const Isometry3d& X_WS, WorldPolygon* out) {
   if (s.type == ShapeType::kConcavePolygon && !s.polygon_checked) CheckSimplePolygon(s);
   const int n = static_cast<int>(s.vertices.size());
   if (n < 3) {
@@ -60,7 +61,11 @@ WorldPolygon MakeWorldPolygon(const Shape& s, const Isometry3d& X_WS) {
   const double sign = SignedTwiceArea(s.vertices) >= 0.0 ? 1.0 : -1.0;  // kPolygon: either way
   const Eigen::Matrix2d R = X_WS.linear().topLeftCorner<2, 2>();
   const Vector2d p = X_WS.translation().head<2>();
-  WorldPolygon P;
+  WorldPolygon& P = *out;
+  P.v.clear();
+  P.n.clear();
+  P.convex.clear();
+  P.size = 0.0;
   for (int i = 0; i < n; ++i) P.v.push_back(R * s.vertices[i].head<2>() + p);
   for (int i = 0; i < n; ++i) {
     const Vector2d e = P.edge(i);
@@ -71,7 +76,6 @@ WorldPolygon MakeWorldPolygon(const Shape& s, const Isometry3d& X_WS) {
     const Vector2d e_in = P.edge((i + n - 1) % n), e_out = P.edge(i);
     P.convex.push_back(sign * Cross2(e_in, e_out) > 0.0 ? 1 : 0);
   }
-  return P;
 }
 
 bool Inside(const WorldPolygon& P, const Vector2d& x) {
@@ -115,8 +119,10 @@ void VertexVsPolygon(const Vector2d& x, const WorldPolygon& P, double envelope, 
   for (int i = 0; i < n; ++i) dist = std::min(dist, SegmentDistance(P, i, x, &y));
   const double d = Inside(P, x) ? -dist : dist;
   if (d > envelope) return;
-  std::vector<char> candidate(n, 0);
-  std::vector<double> s(n);
+  thread_local std::vector<char> candidate;
+  thread_local std::vector<double> s;
+  candidate.assign(static_cast<std::size_t>(n), 0);
+  s.resize(static_cast<std::size_t>(n));
   bool any = false;
   for (int i = 0; i < n; ++i) {
     s[i] = P.n[i].dot(x - P.v[i]);
@@ -290,14 +296,18 @@ void CollideConcave(const Shape& a, const Isometry3d& X_WA, const Shape& b, cons
   const Shape& o = swap ? a : b;
   const Isometry3d& X_WP = swap ? X_WB : X_WA;
   const Isometry3d& X_WO = swap ? X_WA : X_WB;
-  const WorldPolygon P = MakeWorldPolygon(p, X_WP);
+  // Per-thread polygons (storage reuse; this function does not recurse).
+  thread_local WorldPolygon P_buffer, O_buffer;
+  MakeWorldPolygon(p, X_WP, &P_buffer);
+  const WorldPolygon& P = P_buffer;
   // p is shape A unless swapped.
   const bool p_is_a = !swap;
   double tie = kRelTol * P.size;
   switch (o.type) {
     case ShapeType::kPolygon:
     case ShapeType::kConcavePolygon: {
-      const WorldPolygon O = MakeWorldPolygon(o, X_WO);
+      MakeWorldPolygon(o, X_WO, &O_buffer);
+      const WorldPolygon& O = O_buffer;
       tie += kRelTol * O.size;
       for (int k = 0; k < O.count(); ++k) {
         if (O.convex[k]) VertexVsPolygon(O.v[k], P, envelope, !p_is_a, out);

@@ -136,12 +136,20 @@ void FinalizeSupports(Scene* scene) {
 }
 
 std::vector<double> SupportNormalForces(const Scene& scene, const Body& body) {
-  const Support& s = body.support;
-  if (!s.static_distribution) return s.normal_forces;
-  const double load = body.mass * scene.plane.g * std::cos(scene.plane.tilt);
-  std::vector<double> N(s.load_fractions.size());
-  for (std::size_t k = 0; k < N.size(); ++k) N[k] = s.load_fractions[k] * load;
+  std::vector<double> N;
+  SupportNormalForcesInto(scene, body, &N);
   return N;
+}
+
+void SupportNormalForcesInto(const Scene& scene, const Body& body, std::vector<double>* N) {
+  const Support& s = body.support;
+  if (!s.static_distribution) {
+    N->assign(s.normal_forces.begin(), s.normal_forces.end());
+    return;
+  }
+  const double load = body.mass * scene.plane.g * std::cos(scene.plane.tilt);
+  N->resize(s.load_fractions.size());
+  for (std::size_t k = 0; k < N->size(); ++k) (*N)[k] = s.load_fractions[k] * load;
 }
 
 bool HasSupports(const Scene& scene) {

@@ -38,7 +38,11 @@ double LcpResidual(const LcpProblem& problem, const VectorXd& z) {
     throw std::invalid_argument("LcpResidual: z has size " + std::to_string(z.size()) +
                                 " but the problem has size " + std::to_string(n));
   }
-  const VectorXd w = problem.M * z + problem.q;
+  // w = M z + q in a per-thread buffer: the product, then the sum (as Eigen evaluates the
+  // expression, without its temporaries).
+  thread_local VectorXd w;
+  w.noalias() = problem.M * z;
+  w += problem.q;
   double residual = 0.0;
   for (Eigen::Index i = 0; i < n; ++i) {
     const double w_i = w(i);

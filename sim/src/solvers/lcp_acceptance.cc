@@ -86,10 +86,13 @@ double LcpScaledResidual(const LcpProblem& problem, const VectorXd& z) {
     return std::numeric_limits<double>::quiet_NaN();
   if (n == 0) return 0.0;
   if (!z.allFinite()) return std::numeric_limits<double>::infinity();
-  const VectorXd w = problem.M * z + problem.q;
+  // Per-thread buffers (w: the product, then the sum, as Eigen evaluates M z + q).
+  thread_local VectorXd w, terms, norms;
+  w.noalias() = problem.M * z;
+  w += problem.q;
   // Column by column (M is column-major): t_i = |q_i| + Σ_j |M_ij z_j| and Σ_j |M_ij|.
-  VectorXd terms = problem.q.cwiseAbs();
-  VectorXd norms = VectorXd::Zero(n);
+  terms = problem.q.cwiseAbs();
+  norms.setZero(n);
   for (Eigen::Index j = 0; j < n; ++j) {
     const double zj = std::abs(z(j));
     for (Eigen::Index i = 0; i < n; ++i) {

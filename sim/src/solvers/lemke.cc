@@ -58,6 +58,9 @@ struct Workspace {
   VectorXd q;                                   // q of the pivoted (scaled) problem
   VectorXd scale, step, row_max, col_max, tmp;  // equilibration
   std::vector<int> basis, ties, kept;
+  // The storage of the last solve's output vector, handed to the next solve's first attempt
+  // (Solve swaps the caller's previous z buffer in here), so a steady solve allocates no z.
+  VectorXd spare_z;
   bool busy = false;
 };
 
@@ -489,6 +492,7 @@ Attempt RunAttempt(const LcpProblem& problem, double epsilon, const LemkeOptions
   }
   Attempt a;
   a.epsilon = epsilon;
+  a.z.swap(ws->spare_z);  // storage only: RunLemke overwrites z
   const CoreOutcome core = RunLemke(m, ws->q, options, ws, &a.z);
   if (scaled) a.z.array() *= scale.array();
   a.pivots = core.pivots;
@@ -657,6 +661,7 @@ SolverReport LemkeSolver::Solve(const LcpProblem& problem, const VectorXd* warm_
   const bool use_retry = have_retry && (Passes(best) || best.residual < first.residual);
   Attempt& chosen = use_retry ? best : first;
   z->swap(chosen.z);
+  ws.spare_z.swap(chosen.z);  // the caller's previous buffer, for the next solve
   report.iterations = total_pivots;
   // chosen.residual is LcpResidual of this very z (RunAttempt / polish), NaN mapped to ∞.
   report.residual = std::isfinite(chosen.residual) ? chosen.residual : LcpResidual(problem, *z);

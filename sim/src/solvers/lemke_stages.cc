@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -40,26 +41,75 @@ double ResidualOf(const VectorXd& z, const VectorXd& w) {
   return residual;
 }
 
+// TryBasis's buffers, per thread (allocation reuse only: every call overwrites what it reads).
+// The basis-size-dependent ones are kept per basis size up to kPerSizeMax, so that a step whose
+// basis size changes (a contact starts or stops sliding) reuses the storage of the last solve of
+// that size instead of reallocating Eigen's fixed-capacity matrices and its QR.
+struct BasisBuffers {
+  Eigen::MatrixXd m_bb;
+  Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr;
+  VectorXd guess_b, rhs, q_b, delta, z_b, c;
+};
+constexpr Eigen::Index kPerSizeMax = 64;
+struct TryBasisScratch {
+  std::vector<Eigen::Index> active;
+  std::vector<std::unique_ptr<BasisBuffers>> per_size;  // index: basis size (≤ kPerSizeMax)
+  BasisBuffers large;                                   // larger bases share one set
+  VectorXd candidate, w, terms;
+  std::vector<bool> in_basis;  // TryWarmStart's
+  BasisBuffers& For(Eigen::Index nb) {
+    if (nb > kPerSizeMax) return large;
+    if (per_size.size() <= static_cast<std::size_t>(nb)) per_size.resize(nb + 1);
+    std::unique_ptr<BasisBuffers>& b = per_size[static_cast<std::size_t>(nb)];
+    if (!b) b = std::make_unique<BasisBuffers>();
+    return *b;
+  }
+};
+
+TryBasisScratch& ThreadTryBasisScratch() {
+  thread_local TryBasisScratch scratch;
+  return scratch;
+}
+
 bool TryBasis(const LcpProblem& problem, const std::vector<bool>& in_basis, const VectorXd& guess,
               const Acceptance& acceptance, VectorXd* z, double* residual) {
+  TryBasisScratch& s = ThreadTryBasisScratch();
   const Eigen::Index n = problem.q.size();
-  std::vector<Eigen::Index> active;
+  std::vector<Eigen::Index>& active = s.active;
+  active.clear();
   for (Eigen::Index i = 0; i < n; ++i) {
     if (in_basis[i]) active.push_back(i);
   }
   if (active.empty()) return false;  // z = 0 was already ruled out (q has a negative entry)
-  const MatrixXd m_bb = problem.M(active, active);
-  const VectorXd guess_b = guess(active);
-  const VectorXd rhs = -(m_bb * guess_b + problem.q(active));
-  VectorXd delta;
-  internal::SolveBasisBlock(m_bb, rhs, &delta);
-  const VectorXd z_b = guess_b + delta;
+  BasisBuffers& b = s.For(static_cast<Eigen::Index>(active.size()));
+  Eigen::MatrixXd& m_bb = b.m_bb;
+  // M_BB, guess_B and q_B gathered by hand (Eigen's indexed views copy their index vectors).
+  const Eigen::Index nb = static_cast<Eigen::Index>(active.size());
+  m_bb.resize(nb, nb);
+  for (Eigen::Index c = 0; c < nb; ++c)
+    for (Eigen::Index r = 0; r < nb; ++r) m_bb(r, c) = problem.M(active[r], active[c]);
+  VectorXd& guess_b = b.guess_b;
+  guess_b.resize(nb);
+  b.q_b.resize(nb);
+  for (Eigen::Index r = 0; r < nb; ++r) {
+    guess_b(r) = guess(active[r]);
+    b.q_b(r) = problem.q(active[r]);
+  }
+  // rhs = −(M_BB guess_B + q_B): the product, then the sum (Eigen's order for the expression).
+  VectorXd& rhs = b.rhs;
+  rhs.noalias() = m_bb * guess_b;
+  rhs = -(rhs + b.q_b);
+  VectorXd& delta = b.delta;
+  internal::SolveBasisBlock(m_bb, rhs, &b.qr, &b.c, &delta);
+  VectorXd& z_b = b.z_b;
+  z_b = guess_b + delta;
   if (!z_b.allFinite()) return false;
   const double tolerance = acceptance.For(z_b);
   if (z_b.minCoeff() < -tolerance) return false;
-  VectorXd candidate = VectorXd::Zero(n);
-  candidate(active) = z_b;
-  VectorXd w;
+  VectorXd& candidate = s.candidate;
+  candidate.setZero(n);
+  for (Eigen::Index r = 0; r < nb; ++r) candidate(active[r]) = z_b(r);
+  VectorXd& w = s.w;
   MultiplySkippingZeros(problem, candidate, &w);
   for (Eigen::Index i = 0; i < n; ++i) {
     if (!in_basis[i] && w(i) < -tolerance) return false;
@@ -73,14 +123,15 @@ bool TryBasis(const LcpProblem& problem, const std::vector<bool>& in_basis, cons
   // ‖M‖∞ from the scan (O(n · nnz(z)), where LcpScaledResidual reads all of M).
   const double r = ResidualOf(candidate, w);
   if (!(r <= acceptance.For(candidate))) return false;
-  VectorXd terms = problem.q.cwiseAbs();
+  VectorXd& terms = s.terms;
+  terms = problem.q.cwiseAbs();
   for (Eigen::Index j = 0; j < n; ++j)
     if (candidate(j) != 0.0)
       terms.noalias() += std::abs(candidate(j)) * problem.M.col(j).cwiseAbs();
   if (!(internal::ScaledNaturalResidual(candidate, w, nullptr, nullptr, terms, acceptance.m_norm,
                                         acceptance.q_norm) <= kLcpAcceptanceTolerance))
     return false;
-  *z = std::move(candidate);
+  *z = candidate;
   *residual = r;
   return true;
 }
@@ -90,7 +141,8 @@ bool TryBasis(const LcpProblem& problem, const std::vector<bool>& in_basis, cons
 // Warm start: the guessed basis is B = {i : warm_i > 0}.
 bool TryWarmStart(const LcpProblem& problem, const VectorXd& warm, const Acceptance& acceptance,
                   VectorXd* z, double* residual) {
-  std::vector<bool> in_basis(warm.size());
+  std::vector<bool>& in_basis = ThreadTryBasisScratch().in_basis;
+  in_basis.assign(static_cast<std::size_t>(warm.size()), false);
   for (Eigen::Index i = 0; i < warm.size(); ++i) in_basis[i] = warm(i) > 0.0;
   return TryBasis(problem, in_basis, warm, acceptance, z, residual);
 }

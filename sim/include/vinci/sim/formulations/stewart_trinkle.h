@@ -118,10 +118,19 @@ class StewartTrinkle final : public Formulation {
   /// begin in its block.
   static std::vector<std::vector<int>> LcpBlocks(const Assembly& a, LcpBlocking blocking,
                                                  std::vector<std::vector<int>>* parts = nullptr);
+  /// LcpBlocks into *blocks (and *parts if non-null), reusing the storage of their vectors.
+  static void LcpBlocksInto(const Assembly& a, LcpBlocking blocking,
+                            std::vector<std::vector<int>>* blocks,
+                            std::vector<std::vector<int>>* parts);
   /// The LCP of the step in (p_n, p_f, σ[, p_s, σ_s][, c]) after eliminating ν and p_b; *v_star is
   /// ν_ℓ+1 for zero contact impulses. Its blocks are LcpBlocks(a, LcpBlocking::kContactPatch).
   LcpProblem BuildLcp(const Scene& model, const Assembly& a, const VectorXd& v, VectorXd* v_star,
                       JointElimination* joints) const;
+  /// BuildLcp into *lcp, reusing its storage (M, q, blocks): the same numbers, and no
+  /// allocation when the sizes did not change (plain contacts and support points; joints and
+  /// corner contacts still form temporaries).
+  void BuildLcpInto(const Scene& model, const Assembly& a, const VectorXd& v, VectorXd* v_star,
+                    JointElimination* joints, LcpProblem* lcp) const;
   /// ν_ℓ+1 = ν* + W G_c p_c for the LCP solution z.
   VectorXd VelocityAfter(const Assembly& a, const VectorXd& v_star, const VectorXd& z,
                          const JointElimination& joints) const;
@@ -129,9 +138,10 @@ class StewartTrinkle final : public Formulation {
   const StepperOptions& options() const { return options_; }
 
  private:
-  // AssembleAt's work on a->contacts, into *a (storage reused).
+  // AssembleAt's work on a->contacts, into *a (storage reused). `kinematics_ready`: the calling
+  // thread's assembly kinematics already hold x's (AssembleInto computed them for FindContacts).
   void Fill(const Scene& model, const State& x, const StepInput& u, bool select_corner_edges,
-            Assembly* a) const;
+            Assembly* a, bool kinematics_ready = false) const;
   StepperOptions options_;
   std::shared_ptr<const LcpSolver> solver_;
   bool velocity_level_;  // Anitescu–Potra

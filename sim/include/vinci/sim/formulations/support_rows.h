@@ -25,5 +25,8 @@ struct SupportRows {
 /// The support rows of all dynamic bodies of `model` at x for a step of length h. `quadratic`
 /// selects the exact disk's two axis columns instead of the n_d linearized directions.
 SupportRows AssembleSupport(const Scene& model, const State& x, double h, bool quadratic);
+/// AssembleSupport into *out, reusing its storage.
+void AssembleSupportInto(const Scene& model, const State& x, double h, bool quadratic,
+                         SupportRows* out);
 
 }  // namespace vinci::sim

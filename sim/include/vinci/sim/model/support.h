@@ -43,6 +43,8 @@ void FinalizeSupports(Scene* scene);
 
 /// N_k of a body's support points (N): the given forces, or f_k m g cos(tilt).
 std::vector<double> SupportNormalForces(const Scene& scene, const Body& body);
+/// SupportNormalForces into *N, reusing its storage.
+void SupportNormalForcesInto(const Scene& scene, const Body& body, std::vector<double>* N);
 
 /// True if any dynamic body of the scene has support points.
 bool HasSupports(const Scene& scene);
