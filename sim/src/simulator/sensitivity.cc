@@ -11,6 +11,7 @@
 #include <utility>
 #include <vector>
 
+#include "sensitivity_internal.h"
 #include "vinci/sim/formulations/geometrically_implicit.h"
 #include "vinci/sim/formulations/step_model.h"
 #include "vinci/sim/solvers/lemke.h"
@@ -54,135 +55,7 @@ struct ResidualColumn {
   bool contact_set_changed = false;
 };
 
-// A square system K dz = b factored structurally: singleton rows (a held impulse, dp = 0; a
-// variable fixed by one row) are eliminated first, then singleton columns (a variable that only
-// one remaining row reads, e.g. q_ℓ+1 in its kinematics row, recovered last), and the small core
-// left (the dynamics and the loaded contacts' rows) is factored by LU with complete pivoting,
-// which reveals its rank. Only a rank-deficient core (redundant contacts: a box face on a plane,
-// its four corners loaded) is factored by the complete orthogonal decomposition, whose solution
-// is the minimum-norm one of the core. The caller checks the residual of every solution (an
-// inconsistent singular system is not solvable).
-class StructuredSolver {
- public:
-  void Compute(const MatrixXd& K) {
-    K_ = &K;
-    const int n = static_cast<int>(K.rows());
-    std::vector<int> row_count(n, 0), col_count(n, 0);
-    for (int j = 0; j < n; ++j)
-      for (int i = 0; i < n; ++i)
-        if (K(i, j) != 0.0) {
-          ++row_count[i];
-          ++col_count[j];
-        }
-    std::vector<char> row_done(n, 0), col_done(n, 0);
-    ops_.clear();
-    bool changed = true;
-    while (changed) {
-      changed = false;
-      for (int i = 0; i < n; ++i) {
-        if (row_done[i] || row_count[i] != 1) continue;
-        int j = 0;
-        while (col_done[j] || K(i, j) == 0.0) ++j;
-        ops_.push_back({i, j, true});
-        row_done[i] = col_done[j] = 1;
-        for (int r = 0; r < n; ++r)
-          if (!row_done[r] && K(r, j) != 0.0) --row_count[r];
-        changed = true;
-      }
-      for (int j = 0; j < n; ++j) {
-        if (col_done[j] || col_count[j] != 1) continue;
-        int i = 0;
-        while (row_done[i] || K(i, j) == 0.0) ++i;
-        ops_.push_back({i, j, false});
-        row_done[i] = col_done[j] = 1;
-        for (int c = 0; c < n; ++c)
-          if (!col_done[c] && K(i, c) != 0.0) --col_count[c];
-        changed = true;
-      }
-    }
-    // The core: rows and columns not eliminated; an emptied row (a duplicate of a singleton) or
-    // column (a free variable) leaves it (the residual check decides consistency; free: 0).
-    rows_.clear();
-    cols_.clear();
-    for (int i = 0; i < n; ++i)
-      if (!row_done[i] && row_count[i] > 0) rows_.push_back(i);
-    for (int j = 0; j < n; ++j)
-      if (!col_done[j] && col_count[j] > 0) cols_.push_back(j);
-    const int nr = static_cast<int>(rows_.size()), nc = static_cast<int>(cols_.size());
-    core_.resize(nr, nc);
-    for (int c = 0; c < nc; ++c)
-      for (int r = 0; r < nr; ++r) core_(r, c) = K(rows_[r], cols_[c]);
-    use_lu_ = false;
-    if (nr == nc && nr > 0) {
-      lu_.setThreshold(1e-10);
-      lu_.compute(core_);
-      use_lu_ = lu_.isInvertible();
-    }
-    if (!use_lu_ && nr > 0 && nc > 0) {
-      cod_.setThreshold(1e-12);
-      cod_.compute(core_);
-    }
-  }
-
-  /// Columns of the core factored (a diagnostic) and whether it needed the rank-revealing path.
-  int core_size() const { return static_cast<int>(cols_.size()); }
-  bool singular() const { return !use_lu_ && !cols_.empty(); }
-
-  VectorXd Solve(const VectorXd& b) const {
-    const MatrixXd& K = *K_;
-    VectorXd x = VectorXd::Zero(b.size());
-    for (const Op& op : ops_)
-      if (op.row_singleton) x[op.col] = (b[op.row] - K.row(op.row).dot(x)) / K(op.row, op.col);
-    if (!cols_.empty() && !rows_.empty()) {
-      VectorXd bc(rows_.size());
-      for (std::size_t r = 0; r < rows_.size(); ++r) bc[r] = b[rows_[r]] - K.row(rows_[r]).dot(x);
-      const VectorXd xc = use_lu_ ? VectorXd(lu_.solve(bc)) : VectorXd(cod_.solve(bc));
-      for (std::size_t c = 0; c < cols_.size(); ++c) x[cols_[c]] = xc[c];
-    }
-    for (auto it = ops_.rbegin(); it != ops_.rend(); ++it)
-      if (!it->row_singleton)
-        x[it->col] = (b[it->row] - K.row(it->row).dot(x)) / K(it->row, it->col);
-    return x;
-  }
-
-  /// A basis of K's null space from the core's (columns; none if the core is regular or was not
-  /// square): the core's null vectors with the eliminated unknowns recovered (a singleton row's
-  /// unknown is 0, a singleton column's from its row).
-  MatrixXd NullSpace() const {
-    const int n = static_cast<int>(K_->rows());
-    if (use_lu_ || cols_.empty() || rows_.size() != cols_.size()) return MatrixXd(n, 0);
-    const MatrixXd Nc = lu_.kernel();
-    if (lu_.rank() == static_cast<int>(cols_.size())) return MatrixXd(n, 0);
-    MatrixXd N = MatrixXd::Zero(n, Nc.cols());
-    for (int k = 0; k < Nc.cols(); ++k) {
-      VectorXd x = VectorXd::Zero(n);
-      for (std::size_t c = 0; c < cols_.size(); ++c) x[cols_[c]] = Nc(c, k);
-      for (auto it = ops_.rbegin(); it != ops_.rend(); ++it)
-        if (!it->row_singleton) x[it->col] = -K_->row(it->row).dot(x) / (*K_)(it->row, it->col);
-      N.col(k) = x;
-    }
-    return N;
-  }
-
-  MatrixXd Solve(const MatrixXd& B) const {
-    MatrixXd X(B.rows(), B.cols());
-    for (int j = 0; j < B.cols(); ++j) X.col(j) = Solve(VectorXd(B.col(j)));
-    return X;
-  }
-
- private:
-  struct Op {
-    int row, col;
-    bool row_singleton;  // else a column singleton (recovered after the core)
-  };
-  const MatrixXd* K_ = nullptr;
-  std::vector<Op> ops_;
-  std::vector<int> rows_, cols_;
-  MatrixXd core_;
-  bool use_lu_ = false;
-  Eigen::FullPivLU<MatrixXd> lu_;
-  Eigen::CompleteOrthogonalDecomposition<MatrixXd> cod_;
-};
+using internal::StructuredSolver;
 
 // The step's active equations at the linearization point and their factorization.
 class Linearization {
@@ -719,6 +592,10 @@ class StepDifferentiator {
   std::string message_;
 };
 
+}  // namespace
+
+namespace internal {
+
 void CheckSelection(const Simulator& sim, const ParamSelection& selection) {
   const ParamTable& table = sim.scene().param_table();
   for (int index : selection.indices()) {
@@ -756,6 +633,13 @@ void Count(SensitivityStatus s, int* exact, int* degenerate, int* mode_change, i
       break;
   }
 }
+}  // namespace internal
+
+using internal::CheckSelection;
+using internal::Classify;
+using internal::Count;
+
+namespace {
 
 std::string Describe(const StepDifferentiator& d, int unsolved, int kinks) {
   std::string m;
@@ -904,90 +788,6 @@ StepSensitivity PropagateStep(const Simulator& sim, const Params& params,
   st.message = failed ? "the active system is inconsistent along some column (NaN)"
                       : Describe(d, unsolved, kinks);
   return st;
-}
-
-RolloutSensitivity RolloutForward(const Simulator& sim, const Params& params,
-                                  const ParamSelection& selection, const State& x0,
-                                  const std::vector<StepInput>& inputs, bool initial_state,
-                                  const SensitivityOptions& options) {
-  CheckSelection(sim, selection);
-  const int nx = static_cast<int>(x0.q.size() + x0.v.size());
-  const int ncols = selection.size() + (initial_state ? nx : 0);
-  RolloutSensitivity out;
-  MatrixXd S = MatrixXd::Zero(nx, ncols), S1;
-  if (initial_state) S.rightCols(nx).setIdentity();
-  out.d_state.push_back(S);
-  out.trajectory.states.push_back(x0);
-  Workspace ws;
-  State x = x0, next;
-  for (std::size_t k = 0; k < inputs.size(); ++k) {
-    StepInfo info = sim.Step(params, x, inputs[k], &ws, &next);
-    const bool ok = info.ok;
-    out.trajectory.steps.push_back(std::move(info));
-    if (!ok) {
-      out.trajectory.ok = false;
-      out.trajectory.failure =
-          "step " + std::to_string(k) + ": " + out.trajectory.steps.back().failure;
-      break;
-    }
-    StepSensitivity st =
-        PropagateStep(sim, params, selection, x, inputs[k], next, S, &S1, options, &ws);
-    Count(st.status, &out.exact_steps, &out.degenerate_steps, &out.mode_change_steps,
-          &out.failed_steps);
-    out.steps.push_back(std::move(st));
-    S = S1;
-    out.d_state.push_back(S);
-    out.trajectory.states.push_back(next);
-    std::swap(x, next);
-  }
-  return out;
-}
-
-RolloutGradient RolloutReverse(const Simulator& sim, const Params& params,
-                               const ParamSelection& selection, const State& x0,
-                               const std::vector<StepInput>& inputs,
-                               const TerminalObjective& objective,
-                               const SensitivityOptions& options) {
-  CheckSelection(sim, selection);
-  if (!objective) throw std::invalid_argument("RolloutReverse: null objective");
-  const int nx = static_cast<int>(x0.q.size() + x0.v.size());
-  RolloutGradient out;
-  std::vector<MatrixXd> dx, dtheta;
-  dx.reserve(inputs.size());
-  dtheta.reserve(inputs.size());
-  Workspace ws;
-  State x = x0, next;
-  bool failed = false;
-  for (std::size_t k = 0; k < inputs.size(); ++k) {
-    const StepInfo info = sim.Step(params, x, inputs[k], &ws, &next);
-    if (!info.ok) {
-      out.failure = "step " + std::to_string(k) + ": " + info.failure;
-      return out;
-    }
-    StepSensitivity st =
-        StepDerivatives(sim, params, selection, x, inputs[k], next, true, options, &ws);
-    Count(st.status, &out.exact_steps, &out.degenerate_steps, &out.mode_change_steps,
-          &out.failed_steps);
-    failed = failed || st.status == SensitivityStatus::kFailed;
-    dx.push_back(std::move(st.d_x));
-    dtheta.push_back(std::move(st.d_theta));
-    std::swap(x, next);
-  }
-  VectorXd lambda = VectorXd::Zero(nx);
-  out.value = objective(x, &lambda);
-  if (lambda.size() != nx)
-    throw std::invalid_argument("RolloutReverse: the objective's gradient has " +
-                                std::to_string(lambda.size()) + " entries; expected " +
-                                std::to_string(nx));
-  out.d_theta = VectorXd::Zero(selection.size());
-  for (std::size_t k = dx.size(); k-- > 0;) {
-    out.d_theta += dtheta[k].transpose() * lambda;
-    lambda = dx[k].transpose() * lambda;
-  }
-  out.d_x0 = lambda;
-  out.ok = !failed;
-  if (failed) out.failure = "a step's derivative failed (NaN columns)";
-  return out;
 }
 
 }  // namespace vinci::sim

@@ -1,0 +1,151 @@
+// Step sensitivities (sensitivity.cc) internals shared with the rollout gradients
+// (sensitivity_rollout.cc): the structured factorization of the active system K and the checks
+// and counters of the public entry points. Private to vinci::sim.
+#pragma once
+
+#include <Eigen/LU>
+#include <Eigen/QR>
+#include <vector>
+
+#include "vinci/sim/simulator/sensitivity.h"
+
+namespace vinci::sim::internal {
+
+/// Throws std::invalid_argument unless every selected parameter is differentiable or a motion
+/// parameter of a prescribed body.
+void CheckSelection(const Simulator& sim, const ParamSelection& selection);
+
+/// Adds one step's status to the matching counter.
+void Count(SensitivityStatus s, int* exact, int* degenerate, int* mode_change, int* failed);
+
+// A square system K dz = b factored structurally: singleton rows (a held impulse, dp = 0; a
+// variable fixed by one row) are eliminated first, then singleton columns (a variable that only
+// one remaining row reads, e.g. q_ℓ+1 in its kinematics row, recovered last), and the small core
+// left (the dynamics and the loaded contacts' rows) is factored by LU with complete pivoting,
+// which reveals its rank. Only a rank-deficient core (redundant contacts: a box face on a plane,
+// its four corners loaded) is factored by the complete orthogonal decomposition, whose solution
+// is the minimum-norm one of the core. The caller checks the residual of every solution (an
+// inconsistent singular system is not solvable).
+class StructuredSolver {
+ public:
+  void Compute(const MatrixXd& K) {
+    K_ = &K;
+    const int n = static_cast<int>(K.rows());
+    std::vector<int> row_count(n, 0), col_count(n, 0);
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i)
+        if (K(i, j) != 0.0) {
+          ++row_count[i];
+          ++col_count[j];
+        }
+    std::vector<char> row_done(n, 0), col_done(n, 0);
+    ops_.clear();
+    bool changed = true;
+    while (changed) {
+      changed = false;
+      for (int i = 0; i < n; ++i) {
+        if (row_done[i] || row_count[i] != 1) continue;
+        int j = 0;
+        while (col_done[j] || K(i, j) == 0.0) ++j;
+        ops_.push_back({i, j, true});
+        row_done[i] = col_done[j] = 1;
+        for (int r = 0; r < n; ++r)
+          if (!row_done[r] && K(r, j) != 0.0) --row_count[r];
+        changed = true;
+      }
+      for (int j = 0; j < n; ++j) {
+        if (col_done[j] || col_count[j] != 1) continue;
+        int i = 0;
+        while (row_done[i] || K(i, j) == 0.0) ++i;
+        ops_.push_back({i, j, false});
+        row_done[i] = col_done[j] = 1;
+        for (int c = 0; c < n; ++c)
+          if (!col_done[c] && K(i, c) != 0.0) --col_count[c];
+        changed = true;
+      }
+    }
+    // The core: rows and columns not eliminated; an emptied row (a duplicate of a singleton) or
+    // column (a free variable) leaves it (the residual check decides consistency; free: 0).
+    rows_.clear();
+    cols_.clear();
+    for (int i = 0; i < n; ++i)
+      if (!row_done[i] && row_count[i] > 0) rows_.push_back(i);
+    for (int j = 0; j < n; ++j)
+      if (!col_done[j] && col_count[j] > 0) cols_.push_back(j);
+    const int nr = static_cast<int>(rows_.size()), nc = static_cast<int>(cols_.size());
+    core_.resize(nr, nc);
+    for (int c = 0; c < nc; ++c)
+      for (int r = 0; r < nr; ++r) core_(r, c) = K(rows_[r], cols_[c]);
+    use_lu_ = false;
+    if (nr == nc && nr > 0) {
+      lu_.setThreshold(1e-10);
+      lu_.compute(core_);
+      use_lu_ = lu_.isInvertible();
+    }
+    if (!use_lu_ && nr > 0 && nc > 0) {
+      cod_.setThreshold(1e-12);
+      cod_.compute(core_);
+    }
+  }
+
+  /// Columns of the core factored (a diagnostic) and whether it needed the rank-revealing path.
+  int core_size() const { return static_cast<int>(cols_.size()); }
+  bool singular() const { return !use_lu_ && !cols_.empty(); }
+
+  VectorXd Solve(const VectorXd& b) const {
+    const MatrixXd& K = *K_;
+    VectorXd x = VectorXd::Zero(b.size());
+    for (const Op& op : ops_)
+      if (op.row_singleton) x[op.col] = (b[op.row] - K.row(op.row).dot(x)) / K(op.row, op.col);
+    if (!cols_.empty() && !rows_.empty()) {
+      VectorXd bc(rows_.size());
+      for (std::size_t r = 0; r < rows_.size(); ++r) bc[r] = b[rows_[r]] - K.row(rows_[r]).dot(x);
+      const VectorXd xc = use_lu_ ? VectorXd(lu_.solve(bc)) : VectorXd(cod_.solve(bc));
+      for (std::size_t c = 0; c < cols_.size(); ++c) x[cols_[c]] = xc[c];
+    }
+    for (auto it = ops_.rbegin(); it != ops_.rend(); ++it)
+      if (!it->row_singleton)
+        x[it->col] = (b[it->row] - K.row(it->row).dot(x)) / K(it->row, it->col);
+    return x;
+  }
+
+  /// A basis of K's null space from the core's (columns; none if the core is regular or was not
+  /// square): the core's null vectors with the eliminated unknowns recovered (a singleton row's
+  /// unknown is 0, a singleton column's from its row).
+  MatrixXd NullSpace() const {
+    const int n = static_cast<int>(K_->rows());
+    if (use_lu_ || cols_.empty() || rows_.size() != cols_.size()) return MatrixXd(n, 0);
+    const MatrixXd Nc = lu_.kernel();
+    if (lu_.rank() == static_cast<int>(cols_.size())) return MatrixXd(n, 0);
+    MatrixXd N = MatrixXd::Zero(n, Nc.cols());
+    for (int k = 0; k < Nc.cols(); ++k) {
+      VectorXd x = VectorXd::Zero(n);
+      for (std::size_t c = 0; c < cols_.size(); ++c) x[cols_[c]] = Nc(c, k);
+      for (auto it = ops_.rbegin(); it != ops_.rend(); ++it)
+        if (!it->row_singleton) x[it->col] = -K_->row(it->row).dot(x) / (*K_)(it->row, it->col);
+      N.col(k) = x;
+    }
+    return N;
+  }
+
+  MatrixXd Solve(const MatrixXd& B) const {
+    MatrixXd X(B.rows(), B.cols());
+    for (int j = 0; j < B.cols(); ++j) X.col(j) = Solve(VectorXd(B.col(j)));
+    return X;
+  }
+
+ private:
+  struct Op {
+    int row, col;
+    bool row_singleton;  // else a column singleton (recovered after the core)
+  };
+  const MatrixXd* K_ = nullptr;
+  std::vector<Op> ops_;
+  std::vector<int> rows_, cols_;
+  MatrixXd core_;
+  bool use_lu_ = false;
+  Eigen::FullPivLU<MatrixXd> lu_;
+  Eigen::CompleteOrthogonalDecomposition<MatrixXd> cod_;
+};
+
+}  // namespace vinci::sim::internal
