@@ -341,15 +341,8 @@ StepResiduals Quasistatic::EvaluateAssembly(const Scene& model, const Params& pa
 
   StepResiduals r;
   r.layout = l;
-  std::vector<int> column_of(params.values.size(), -1);
-  for (int i = 0; i < model.param_table().size(); ++i) {
-    const ParamKind kind = model.param_table().info(i).kind;
-    if (kind == ParamKind::kDefaultFriction || kind == ParamKind::kFriction ||
-        kind == ParamKind::kMass || kind == ParamKind::kSupportFriction) {
-      column_of[i] = l.size() + static_cast<int>(r.param_columns.size());
-      r.param_columns.push_back(i);
-    }
-  }
+  const std::vector<int> column_of =
+      internal::DifferentiableParamColumns(model.param_table(), l.size(), &r.param_columns);
   const int ncol = l.size() + static_cast<int>(r.param_columns.size());
 
   // Rows of F (indices into y) that are equations and pairs, in the documented order.

@@ -144,16 +144,7 @@ class StewartTrinkleModel final : public StepModel {
     lcp_size_ = a.psi_n.size() * (2 + a.nd) + a.support.points() + a.support.columns() +
                 static_cast<Eigen::Index>(a.corner_contact.size());
     G_b_ = a.G_b;
-    StepLayout l;
-    l.nq = model_->num_positions();
-    l.nv = model_->num_velocities();
-    l.nc = static_cast<int>(a.contacts.size());
-    l.nd = a.nd;
-    l.nb = static_cast<int>(a.psi_b.size());
-    l.nk = static_cast<int>(a.corner_contact.size());
-    l.ns = a.support.points();
-    l.nps = a.support.columns();
-    Init(l.size());
+    Init(StewartTrinkle::LayoutOf(*model_, a).size());
   }
 
  protected:

@@ -7,8 +7,10 @@
 #include <cstdio>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "vinci/sim/model/kinematics.h"
+#include "vinci/sim/model/params.h"
 #include "vinci/sim/model/scene.h"
 #include "vinci/sim/model/state.h"
 
@@ -19,6 +21,20 @@ inline std::string FormatNumber(double v) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%.6g", v);
   return buf;
+}
+
+/// The column of each differentiable parameter (ParamInfo::differentiable) in a StepResiduals'
+/// Jacobians, after its `first` step unknowns, in table order (−1 for the others); the
+/// parameters are appended to *param_columns.
+inline std::vector<int> DifferentiableParamColumns(const ParamTable& table, int first,
+                                                   std::vector<int>* param_columns) {
+  std::vector<int> column_of(static_cast<std::size_t>(table.size()), -1);
+  for (int i = 0; i < table.size(); ++i)
+    if (table.info(i).differentiable) {
+      column_of[static_cast<std::size_t>(i)] = first + static_cast<int>(param_columns->size());
+      param_columns->push_back(i);
+    }
+  return column_of;
 }
 
 /// Marks the step failed with `status` and `failure`.

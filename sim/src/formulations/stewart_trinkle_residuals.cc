@@ -73,6 +73,19 @@ StepLayout StewartTrinkle::Layout(const Scene& model, const State& x) const {
   return l;
 }
 
+StepLayout StewartTrinkle::LayoutOf(const Scene& model, const Assembly& a) {
+  StepLayout l;
+  l.nq = model.num_positions();
+  l.nv = model.num_velocities();
+  l.nc = static_cast<int>(a.contacts.size());
+  l.nd = a.nd;
+  l.nb = static_cast<int>(a.psi_b.size());
+  l.nk = static_cast<int>(a.corner_contact.size());
+  l.ns = a.support.points();
+  l.nps = a.support.columns();
+  return l;
+}
+
 StepResiduals StewartTrinkle::Evaluate(const Scene& model, const Params& params, const State& x,
                                        const StepInput& u, const VectorXd& z) const {
   return EvaluateAssembly(model, params, Assemble(model, x, u), x, z);
@@ -83,30 +96,16 @@ StepResiduals StewartTrinkle::EvaluateAssembly(const Scene& model, const Params&
                                                const VectorXd& z) const {
   const double h = options_.dt;
   StepResiduals r;
-  StepLayout& l = r.layout;
-  l.nq = model.num_positions();
-  l.nv = model.num_velocities();
-  l.nc = static_cast<int>(a.contacts.size());
-  l.nd = a.nd;
-  l.nb = static_cast<int>(a.psi_b.size());
-  l.nk = static_cast<int>(a.corner_contact.size());
-  l.ns = a.support.points();
-  l.nps = a.support.columns();
+  r.layout = LayoutOf(model, a);
+  const StepLayout& l = r.layout;
   if (z.size() != l.size())
     throw std::invalid_argument("StewartTrinkle::Evaluate: z has " + std::to_string(z.size()) +
                                 " entries, the step layout needs " + std::to_string(l.size()));
   if (params.values.size() != model.param_table().size())
     throw std::invalid_argument("StewartTrinkle::Evaluate: params do not match the scene");
-  // Differentiable parameters: friction coefficients and masses; column of each param.
-  std::vector<int> column_of(params.values.size(), -1);
-  for (int i = 0; i < model.param_table().size(); ++i) {
-    const ParamKind kind = model.param_table().info(i).kind;
-    if (kind == ParamKind::kDefaultFriction || kind == ParamKind::kFriction ||
-        kind == ParamKind::kMass || kind == ParamKind::kSupportFriction) {
-      column_of[i] = l.size() + static_cast<int>(r.param_columns.size());
-      r.param_columns.push_back(i);
-    }
-  }
+  // Differentiable parameters: friction coefficients, support friction and masses.
+  const std::vector<int> column_of =
+      internal::DifferentiableParamColumns(model.param_table(), l.size(), &r.param_columns);
   const int np = static_cast<int>(r.param_columns.size());
   const int nz = l.size(), ncol = nz + np;
   const int nc = l.nc, nd = l.nd, nf = nc * nd, nv = l.nv, nq = l.nq, nb = l.nb;

@@ -147,7 +147,9 @@ bool SolveOnWarmBasis(const LcpMatrixOperator& M, const Eigen::VectorXd& q,
     s->rhs = -(s->product + s->rhs);
     // A symmetric M_BB = G_Bᵀ M⁻¹ G_B (+ compliance) is semidefinite: LDLᵀ with the dependent
     // pivots dropped (their unknowns keep the guess, as kBasisRankTolerance's in the QR).
-    if (!m_bb.IsSymmetric(&s->cursor) || !s->ldlt.Factorize(m_bb, internal::kBasisRankTolerance)) {
+    if (m_bb.IsSymmetric(&s->cursor) && s->ldlt.Factorize(m_bb, internal::kBasisRankTolerance)) {
+      s->ldlt.Solve(s->rhs, &s->z_b);
+    } else {
       const Eigen::SparseMatrix<double> s_bb = Eigen::Map<const Eigen::SparseMatrix<double>>(
           nb, nb, static_cast<Eigen::Index>(m_bb.row.size()), m_bb.col_start.data(),
           m_bb.row.data(), m_bb.value.data());
@@ -166,8 +168,6 @@ bool SolveOnWarmBasis(const LcpMatrixOperator& M, const Eigen::VectorXd& q,
       if (qr.info() != Eigen::Success) return false;
       s->z_b = qr.solve(s->rhs);
       if (qr.info() != Eigen::Success) return false;
-    } else {
-      s->ldlt.Solve(s->rhs, &s->z_b);
     }
   }
   s->z_b += s->guess_b;

@@ -86,6 +86,8 @@ class StewartTrinkle final : public Formulation {
   /// (Assemble()'s choice at the freeze), so the rows stay the same functions of x.
   Assembly AssembleAt(const Scene& model, const State& x, const StepInput& u,
                       std::vector<Contact> contacts, bool select_corner_edges) const;
+  /// The step layout of an assembly (its contacts, joint rows, corners and support points).
+  static StepLayout LayoutOf(const Scene& model, const Assembly& a);
   /// Evaluate() for an assembly made at x (Evaluate = EvaluateAssembly(Assemble(x))).
   StepResiduals EvaluateAssembly(const Scene& model, const Params& params, const Assembly& a,
                                  const State& x, const VectorXd& z) const;
