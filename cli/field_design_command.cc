@@ -163,6 +163,7 @@ ExitCode RunFieldDesignCommand(const FieldDesignOptions& o) {
   j << "  \"feasible\": " << (r.best.feasible ? "true" : "false") << ",\n";
   j << "  \"bad_points\": " << r.best.bad_points << ",\n";
   j << "  \"peak_vertical_acceleration\": " << Num(r.best.peak_vertical_acceleration) << ",\n";
+  j << "  \"vertical_peak\": \"" << (spec.exact_vertical_peak ? "exact" : "bound") << "\",\n";
   j << "  \"peak_linear_acceleration\": " << Num(r.best.peak_linear_acceleration) << ",\n";
   j << "  \"peak_angular_acceleration\": " << Num(r.best.peak_angular_acceleration) << ",\n";
   j << "  \"parameters\": {";

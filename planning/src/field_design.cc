@@ -320,6 +320,27 @@ VectorXd FieldDesignProblem::ParametersFromScene(const std::string& path) const 
 
 double FieldDesignProblem::PeakVerticalAcceleration(const VectorXd& x) const {
   const double w2 = std::pow(2.0 * kPi * spec_.frequency, 2);
+  if (spec_.exact_vertical_peak) {
+    // a_n(t, p) = Σ −(2πkf)² A sin(2πkft + φ) c, c = 1 (z), y (roll), −x (pitch): affine in p,
+    // so its extremes over the grid's rectangle are at the corners; one base period sampled
+    // finely (the samples miss at most a relative 1 − cos(π k_max / kSamples) of a peak).
+    constexpr int kSamples = 4096;
+    const std::vector<DofValue> values = DofValues(x);
+    double peak = 0.0;
+    for (const double px : {spec_.x_min, spec_.x_max})
+      for (const double py : {spec_.y_min, spec_.y_max})
+        for (int i = 0; i < kSamples; ++i) {
+          const double phase = 2.0 * kPi * i / kSamples;  // 2πft over one base period
+          double a = 0.0;
+          for (const DofValue& d : values) {
+            const double c = d.dof == "z" ? 1.0 : d.dof == "roll" ? py : d.dof == "pitch" ? -px : 0;
+            a -= static_cast<double>(d.order) * d.order * d.amplitude * c *
+                 std::sin(d.order * phase + d.phase);
+          }
+          peak = std::max(peak, std::abs(a));
+        }
+    return w2 * peak;
+  }
   const double max_x = std::max(std::abs(spec_.x_min), std::abs(spec_.x_max));
   const double max_y = std::max(std::abs(spec_.y_min), std::abs(spec_.y_max));
   double a = 0.0;

@@ -96,13 +96,20 @@ void ReadTarget(const Reader& r, const Field& t, const std::string& base_dir, Fi
 
 void ReadMotion(const Reader& r, const Field& m, FieldDesignSpec* spec) {
   r.Map(m,
-        {"frequency", "dofs", "max_vertical_acceleration", "max_linear_acceleration",
-         "max_angular_acceleration"},
+        {"frequency", "dofs", "max_vertical_acceleration", "vertical_peak",
+         "max_linear_acceleration", "max_angular_acceleration"},
         "a map {frequency: Hz, dofs: {...}, max_vertical_acceleration: m/s^2, "
-        "max_linear_acceleration: m/s^2, max_angular_acceleration: rad/s^2}");
+        "vertical_peak: bound|exact, max_linear_acceleration: m/s^2, "
+        "max_angular_acceleration: rad/s^2}");
   spec->frequency = r.Positive(r.Require(m, "frequency", "the base frequency (Hz) > 0"));
   if (m.node["max_vertical_acceleration"])
     spec->max_vertical_acceleration = r.Positive(r.Child(m, "max_vertical_acceleration"));
+  if (m.node["vertical_peak"]) {
+    const Field v = r.Child(m, "vertical_peak");
+    const std::string s = v.node.IsScalar() ? v.node.Scalar() : "";
+    if (s != "bound" && s != "exact") r.Fail(v, "bound or exact");
+    spec->exact_vertical_peak = s == "exact";
+  }
   if (m.node["max_linear_acceleration"])
     spec->max_linear_acceleration = r.Positive(r.Child(m, "max_linear_acceleration"));
   if (m.node["max_angular_acceleration"])

@@ -90,8 +90,9 @@ class FieldDesignProblem {
   VectorXd Start() const { return 0.5 * (lower_ + upper_); }
   /// The scene parameters for free variables x.
   sim::Params ParamsFor(const VectorXd& x) const;
-  /// Σ over the harmonics (2πkf)² (|A_z| + |A_roll| max|y| + |A_pitch| max|x|) over the grid
-  /// (m/s²): a bound on the plate's peak normal acceleration there.
+  /// The plate's peak normal acceleration over the grid (m/s²) as the spec estimates it
+  /// (FieldDesignSpec::exact_vertical_peak): the bound Σ over the harmonics (2πkf)² (|A_z| +
+  /// |A_roll| max|y| + |A_pitch| max|x|), or the peak itself.
   double PeakVerticalAcceleration(const VectorXd& x) const;
   /// max over x, y of Σ over its harmonics (2πkf)² |A| (m/s²): a bound on the peak horizontal
   /// acceleration of each translation.

@@ -80,6 +80,13 @@ struct FieldDesignSpec {
   /// Σ_harmonics (2πkf)² (|A_z| + |A_roll| max|y| + |A_pitch| max|x|), must stay below it.
   /// ∞: no limit.
   double max_vertical_acceleration = std::numeric_limits<double>::infinity();
+  /// How that peak is estimated (`motion.vertical_peak`): false (`bound`, the default) the bound
+  /// above; true (`exact`) the peak itself, max over the grid's four corners (the normal
+  /// acceleration is affine in the plate point) and over one base period (sampled) of
+  /// |Σ_harmonics (2πkf)² (A_z sin_k + A_roll y sin_k − A_pitch x sin_k)|, sin_k = sin(2πkft + φ).
+  /// The bound adds the DOFs' peaks as if they were in phase: for a wobble (roll and pitch in
+  /// quadrature) it is √2 to 2 times the peak.
+  bool exact_vertical_peak = false;
   /// Actuator limits of the horizontal translations (m/s²) and of the rotations (rad/s²): for each
   /// of x, y (linear) and roll, pitch, yaw (angular) the bound Σ_harmonics (2πkf)² |A| of its
   /// peak acceleration must stay below it. ∞: no limit.
