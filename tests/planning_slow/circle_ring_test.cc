@@ -45,7 +45,7 @@ TEST(CircleRing, PartsInsideAndOutsideConvergeTowardTheCircle) {
       SCOPED_TRACE("start (" + std::to_string(p.x) + ", " + std::to_string(p.y) + "), end (" +
                    std::to_string(p.x_mean) + ", " + std::to_string(p.y_mean) + ")");
       // Toward the circle by at least 1 mm (inside) / 5 mm (outside), never across it: the
-      // radial drift is ~0.1 mm/s at 2 cm and ~0.6 mm/s at 9 cm (docs/planning.md).
+      // radial drift is ~0.3 mm/s at 2 cm and ~0.9 mm/s at 9 cm (docs/planning.md).
       if (rho0 < kRadius) {
         EXPECT_GT(r.rho1, r.rho0 + 1e-3);
         EXPECT_LT(r.rho1, kRadius);
