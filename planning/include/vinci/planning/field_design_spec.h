@@ -85,7 +85,8 @@ struct FieldDesignSpec {
   /// acceleration is affine in the plate point) and over one base period (sampled) of
   /// |Σ_harmonics (2πkf)² (A_z sin_k + A_roll y sin_k − A_pitch x sin_k)|, sin_k = sin(2πkft + φ).
   /// The bound adds the DOFs' peaks as if they were in phase: for a wobble (roll and pitch in
-  /// quadrature) it is √2 to 2 times the peak.
+  /// quadrature, equal angular accelerations) it is (max|x| + max|y|) / |corner| times the
+  /// peak, √2 on a square grid.
   bool exact_vertical_peak = false;
   /// Actuator limits of the horizontal translations (m/s²) and of the rotations (rad/s²): for each
   /// of x, y (linear) and roll, pitch, yaw (angular) the bound Σ_harmonics (2πkf)² |A| of its
