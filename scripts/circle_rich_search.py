@@ -5,8 +5,8 @@ the ring's circular translation with a co-rotating wobble, second harmonics of x
 and the first two harmonics of z and yaw, within the issue's actuator limits.
 
 usage: scripts/circle_rich_search.py symmetric [--frequencies 20,25,30] [--alphas 35,44.5]
-       scripts/circle_rich_search.py refine --start SCENE.yaml [--extras z,yaw,2] [--evals N]
-                                     [--write-scene OUT.yaml] [--frequency F]
+       scripts/circle_rich_search.py refine --start SCENE.yaml [--extras z,yaw,2,3,z4] [--evals N]
+                                     [--write-scene OUT.yaml] [--frequency F] [--exact]
        scripts/circle_rich_search.py de [--frequency F] [--generations N] [--popsize P]
        scripts/circle_rich_search.py tradeoff [--frequencies 20,30] [--ratios 1.0,1.25,1.5]
 
@@ -16,7 +16,9 @@ F(rho)) on a grid of U from the sticking threshold mu g / omega^2 up, psi and bo
 frequency; then Powell on (U, alpha, psi) from the best of each frequency. Prints the circle's
 field error per side (inside, outside), the ring's radius and the speed on the circle.
 refine: Powell on the first harmonics of x, y, roll, pitch plus the --extras (z: z's harmonics 1
-and 2; yaw: yaw's 1 and 2; 2: the second harmonics of x, y, roll, pitch) from a scene's motion.
+and 2; yaw: yaw's 1 and 2; 2: the second harmonics of x, y, roll, pitch; 3: their third
+harmonics; z4: z at 4 f) from a scene's motion; the wobble (first-harmonic roll, pitch) is scaled
+down to keep the vertical limit (with --exact: the peak itself, vertical_peak: exact).
 de: differential evolution (seeded) over the whole first-harmonic translation and tilt class,
 translations from half the sticking threshold to the horizontal limit (log scale), tilts within
 the vertical bound: a global search off the symmetric family.
