@@ -60,16 +60,15 @@ using internal::StructuredSolver;
 // The step's active equations at the linearization point and their factorization.
 class Linearization {
  public:
-  // `vals` holds the step equations and their z Jacobians at the linearization point; `nx`
-  // rows of dz are the end state (q_ℓ+1, ν_ℓ+1) unless the model writes it otherwise.
-  // `gi`: the step layout if the model is the geometrically implicit stepper's (its unloaded
-  // candidate pairs are pinned, below), else null.
-  Linearization(const StepModelValues& vals, const SensitivityOptions& options, bool smoothed,
-                const StepLayout* gi) {
-    const MatrixXd E = MatrixXd(vals.d_equality.d_z);
-    A_ = MatrixXd(vals.d_comp_a.d_z);
-    B_ = MatrixXd(vals.d_comp_b.d_z);
-    nz_ = static_cast<int>(E.cols());
+  // `vals` holds the step equations and their dense Jacobians at the linearization point, the
+  // first `nz` columns those of the unknowns z. `gi`: the step layout if the model is the
+  // geometrically implicit stepper's (its unloaded candidate pairs are pinned, below), else null.
+  Linearization(const StepResiduals& vals, int nz, const SensitivityOptions& options,
+                bool smoothed, const StepLayout* gi) {
+    const auto E = vals.d_equality.leftCols(nz);
+    A_ = vals.d_comp_a.leftCols(nz);
+    B_ = vals.d_comp_b.leftCols(nz);
+    nz_ = nz;
     const int ne = static_cast<int>(E.rows()), np = static_cast<int>(A_.rows());
     if (ne + np != nz_) {
       message_ = "the step equations are not square (" + std::to_string(ne) + " equalities + " +
@@ -384,12 +383,12 @@ class StepDifferentiator {
         return;
       }
     }
-    StepModelOptions o;
-    o.state_jacobian = full_state;
-    o.state_step = options.state_step;
-    vals_ = frozen_->Evaluate(z_, params, x, u, o);
+    // The residuals with their dense z and θ Jacobians; the x_ℓ block (central differences of
+    // the frozen equations) only for the full state Jacobian.
+    const int nz = frozen_->layout().size();
+    vals_ = frozen_->EvaluateResiduals(z_, params, x, u, true);
     const bool gi = dynamic_cast<const GeometricallyImplicit*>(&sim.formulation()) != nullptr;
-    lin_ = std::make_unique<Linearization>(vals_, options, options.smoothing > 0.0,
+    lin_ = std::make_unique<Linearization>(vals_, nz, options, options.smoothing > 0.0,
                                            gi ? &frozen_->layout() : nullptr);
     if (!lin_->ok()) {
       message_ = lin_->message();
@@ -402,13 +401,18 @@ class StepDifferentiator {
       const VectorXd shift = lin_->InteriorShift(l.nq + l.nv, z_);
       if (shift.size() == z_.size()) {
         z_ += shift;
-        vals_ = frozen_->Evaluate(z_, params, x, u, o);
-        lin_ = std::make_unique<Linearization>(vals_, options, false, nullptr);
+        vals_ = frozen_->EvaluateResiduals(z_, params, x, u, true);
+        lin_ = std::make_unique<Linearization>(vals_, nz, options, false, nullptr);
         if (!lin_->ok()) {
           message_ = lin_->message();
           return;
         }
       }
+    }
+    if (full_state) {
+      StepModelOptions o;
+      o.state_step = options.state_step;
+      state_jac_ = frozen_->Evaluate(z_, params, x, u, o);
     }
     // A mode change within the step: the contact set found at the end differs. GI finds its
     // contacts at ℓ+1 inside the step (a contact made within the step is one of its pairs'
@@ -440,9 +444,10 @@ class StepDifferentiator {
       if (it == cols.end()) {
         r = ZeroColumn();
       } else {
-        r.eq = VectorXd(vals_.d_equality.d_theta.col(c));
-        r.a = VectorXd(vals_.d_comp_a.d_theta.col(c));
-        r.b = VectorXd(vals_.d_comp_b.d_theta.col(c));
+        const int col = frozen_->layout().size() + c;
+        r.eq = vals_.d_equality.col(col);
+        r.a = vals_.d_comp_a.col(col);
+        r.b = vals_.d_comp_b.col(col);
       }
       return r;
     }
@@ -484,9 +489,9 @@ class StepDifferentiator {
   // The residual column of state entry i (needs full_state).
   ResidualColumn StateColumn(int i) const {
     ResidualColumn r;
-    r.eq = VectorXd(vals_.d_equality.d_x.col(i));
-    r.a = VectorXd(vals_.d_comp_a.d_x.col(i));
-    r.b = VectorXd(vals_.d_comp_b.d_x.col(i));
+    r.eq = VectorXd(state_jac_.d_equality.d_x.col(i));
+    r.a = VectorXd(state_jac_.d_comp_a.d_x.col(i));
+    r.b = VectorXd(state_jac_.d_comp_b.d_x.col(i));
     return r;
   }
 
@@ -504,10 +509,8 @@ class StepDifferentiator {
     xm.q -= h * s.head(nq);
     xp.v += h * s.tail(s.size() - nq);
     xm.v -= h * s.tail(s.size() - nq);
-    StepModelOptions none;
-    none.jacobians = false;
-    const StepModelValues p = frozen_->Evaluate(z_, params_, xp, u_, none);
-    const StepModelValues m = frozen_->Evaluate(z_, params_, xm, u_, none);
+    const StepResiduals p = frozen_->EvaluateResiduals(z_, params_, xp, u_, false);
+    const StepResiduals m = frozen_->EvaluateResiduals(z_, params_, xm, u_, false);
     r.eq = (p.equality - m.equality) / (2 * h);
     r.a = (p.comp_a - m.comp_a) / (2 * h);
     r.b = (p.comp_b - m.comp_b) / (2 * h);
@@ -585,7 +588,8 @@ class StepDifferentiator {
   Workspace own_ws_;  // when the caller passes none
   std::unique_ptr<StepModel> frozen_;
   VectorXd z_;
-  StepModelValues vals_;
+  StepResiduals vals_;        // at z_: values and dense [z, θ] Jacobians
+  StepModelValues state_jac_;  // the x_ℓ block (full state only)
   std::unique_ptr<Linearization> lin_;
   bool ok_ = false, contact_set_changed_ = false;
   bool explicit_start_ = false;  // the end state depends on x_ℓ explicitly (GI)
