@@ -32,8 +32,9 @@ bool SameStateAndInput(const State& x, const StepInput& u, const State& x0, cons
 
 // Body poses as the contact detection of the Stewart–Trinkle assembly sees them: dynamic bodies
 // from q, prescribed ones from their motion at x.t (an integrated pose with step h).
-std::vector<BodyKinematics> DetectionKinematics(const Scene& model, const State& x, double h) {
-  std::vector<BodyKinematics> k = ComputeBodyKinematics(model, x);
+// `k`: ComputeBodyKinematics(model, x).
+std::vector<BodyKinematics> DetectionKinematics(const Scene& model, const State& x, double h,
+                                                std::vector<BodyKinematics> k) {
   for (std::size_t i = 0; i < k.size(); ++i) {
     const Body& b = model.bodies[i];
     if (b.kind == BodyKind::kPrescribed && b.motion.pose == PoseRule::kIntegrated)
@@ -81,16 +82,19 @@ bool Recollide(const Scene& model, const std::vector<BodyKinematics>& k, const C
 // routine finds them for the same features at x (Recollide; rigidly with the bodies where it
 // finds none, and for corner contacts), gaps by the change of n·(p_A − p_B); μ from `model`. At
 // the freeze pose the contacts are returned unchanged.
+// `k0`: ComputeBodyKinematics(model, x0), if the caller has it (null: computed here).
 std::vector<Contact> MoveContacts(const Scene& model, const std::vector<Contact>& frozen,
-                                  const State& x0, const State& x, double h) {
+                                  const State& x0, const State& x, double h,
+                                  const std::vector<BodyKinematics>* k0_known = nullptr) {
   std::vector<Contact> out = frozen;
   for (Contact& c : out)
     c.mu = model.Mu(model.bodies[c.body_a].shapes[c.shape_a].material,
                     model.bodies[c.body_b].shapes[c.shape_b].material);
   if (SamePose(x0, x)) return out;
-  const std::vector<BodyKinematics> k0 = ComputeBodyKinematics(model, x0);
+  const std::vector<BodyKinematics> k0 =
+      k0_known ? *k0_known : ComputeBodyKinematics(model, x0);
   const std::vector<BodyKinematics> k1 = ComputeBodyKinematics(model, x);
-  const std::vector<BodyKinematics> detect = DetectionKinematics(model, x, h);
+  const std::vector<BodyKinematics> detect = DetectionKinematics(model, x, h, k1);
   std::vector<Isometry3d> T(model.bodies.size(), Isometry3d::Identity());
   for (int bi : model.dynamic_bodies()) T[bi] = k1[bi].X_WB * k0[bi].X_WB.inverse();
   const auto move = [](const Isometry3d& Ta, const Isometry3d& Tb, Vector3d* pa, Vector3d* pb,
@@ -141,6 +145,7 @@ class StewartTrinkleModel final : public StepModel {
     // (without selection) is the same assembly, kept for evaluations at the freeze point.
     freeze_ = st_.Assemble(*model_, x_, u_);
     contacts_ = freeze_.contacts;
+    k0_ = ComputeBodyKinematics(*model_, x_);
     const StewartTrinkle::Assembly& a = freeze_;
     lcp_size_ = a.psi_n.size() * (2 + a.nd) + a.support.points() + a.support.columns() +
                 static_cast<Eigen::Index>(a.corner_contact.size());
@@ -185,11 +190,12 @@ class StewartTrinkleModel final : public StepModel {
  private:
   StewartTrinkle::Assembly AssembleAt(const Scene& model, const State& x,
                                       const StepInput& u) const {
-    return st_.AssembleAt(model, x, u, MoveContacts(model, contacts_, x_, x, dt_),
+    return st_.AssembleAt(model, x, u, MoveContacts(model, contacts_, x_, x, dt_, &k0_),
                           /*select_corner_edges=*/false);
   }
   const StewartTrinkle& st_;
   std::vector<Contact> contacts_;
+  std::vector<BodyKinematics> k0_;  // at x_
   StewartTrinkle::Assembly freeze_;  // at (model_, x_, u_)
   Eigen::Index lcp_size_ = 0;
   MatrixXd G_b_;

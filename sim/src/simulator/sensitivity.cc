@@ -138,8 +138,8 @@ class Linearization {
       } else {
         weight_a_[i] = 1.0;  // held a, or a degenerate pair's λ = da row
       }
-      K_.row(ne + i) = weight_a_[i] * A_.row(i) + weight_b_[i] * B_.row(i);
     }
+    K_.bottomRows(np) = weight_a_.asDiagonal() * A_ + weight_b_.asDiagonal() * B_;
     // GI equality rows (geometrically_implicit.h): [dynamics (nv); kinematics (nq); per pair:
     // separation (d), normals (d), A side, B side, friction (d − 1 = nd)].
     for (int k : inert) {
@@ -188,7 +188,9 @@ class Linearization {
     rhs.tail(nz_ - ne_) = weight_a_.cwiseProduct(r.a) + weight_b_.cwiseProduct(r.b);
     for (int row : pinned_) rhs[row] = 0.0;
     *dz = solver_.Solve(VectorXd(-rhs));
-    const double resid = (K_ * *dz + rhs).cwiseAbs().maxCoeff();
+    VectorXd Kdz;
+    solver_.Multiply(*dz, &Kdz);
+    const double resid = (Kdz + rhs).cwiseAbs().maxCoeff();
     const double ref = rhs.cwiseAbs().maxCoeff() + k_norm_ * dz->cwiseAbs().maxCoeff();
     if (!std::isfinite(resid) || resid > 1e-6 * ref + 1e-300) return false;
     if (deg_.empty()) return true;
