@@ -35,6 +35,7 @@ class StructuredSolver {
     // col_row_): the eliminations, the singleton solves and products are O(nonzeros).
     col_ptr_.assign(n + 1, 0);
     col_row_.clear();
+    col_row_.reserve(static_cast<std::size_t>(n) * 8);
     std::vector<int>& row_count = row_count_;
     std::vector<int>& col_count = col_count_;
     row_count.assign(n, 0);
