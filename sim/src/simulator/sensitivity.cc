@@ -88,7 +88,7 @@ class Linearization {
     weight_a_ = VectorXd::Zero(np);
     weight_b_ = VectorXd::Zero(np);
     const double inert_tol =
-        options.active_tol * std::max(1.0, B_.size() ? B_.cwiseAbs().maxCoeff() : 0.0);
+        gi ? options.active_tol * std::max(1.0, B_.size() ? B_.cwiseAbs().maxCoeff() : 0.0) : 0.0;
     std::vector<int> inert;  // GI pairs whose cone pair is inert
     for (int i = 0; i < np; ++i) {
       const bool a0 = a[i] <= tol, b0 = b[i] <= tol;
@@ -412,9 +412,28 @@ class StepDifferentiator {
       }
     }
     if (full_state) {
-      StepModelOptions o;
-      o.state_step = options.state_step;
-      state_jac_ = frozen_->Evaluate(z_, params, x, u, o);
+      // ∂r/∂x_ℓ by central differences of the frozen equations (values only), as
+      // StepModel::Evaluate's x_ℓ block: step state_step · max(1, |x_i|).
+      const int nq = static_cast<int>(x.q.size()), n = nx();
+      d_eq_x_.resize(vals_.equality.size(), n);
+      d_a_x_.resize(vals_.comp_a.size(), n);
+      d_b_x_.resize(vals_.comp_b.size(), n);
+      State xp = x, xm = x;
+      for (int j = 0; j < n; ++j) {
+        double& cp = j < nq ? xp.q[j] : xp.v[j - nq];
+        double& cm = j < nq ? xm.q[j] : xm.v[j - nq];
+        const double c0 = cp;
+        const double step = options.state_step * std::max(1.0, std::abs(c0));
+        cp = c0 + step;
+        cm = c0 - step;
+        const StepResiduals rp = frozen_->EvaluateResiduals(z_, params, xp, u, false);
+        const StepResiduals rm = frozen_->EvaluateResiduals(z_, params, xm, u, false);
+        d_eq_x_.col(j) = (rp.equality - rm.equality) / (2 * step);
+        d_a_x_.col(j) = (rp.comp_a - rm.comp_a) / (2 * step);
+        d_b_x_.col(j) = (rp.comp_b - rm.comp_b) / (2 * step);
+        cp = c0;
+        cm = c0;
+      }
     }
     // A mode change within the step: the contact set found at the end differs. GI finds its
     // contacts at ℓ+1 inside the step (a contact made within the step is one of its pairs'
@@ -491,9 +510,9 @@ class StepDifferentiator {
   // The residual column of state entry i (needs full_state).
   ResidualColumn StateColumn(int i) const {
     ResidualColumn r;
-    r.eq = VectorXd(state_jac_.d_equality.d_x.col(i));
-    r.a = VectorXd(state_jac_.d_comp_a.d_x.col(i));
-    r.b = VectorXd(state_jac_.d_comp_b.d_x.col(i));
+    r.eq = d_eq_x_.col(i);
+    r.a = d_a_x_.col(i);
+    r.b = d_b_x_.col(i);
     return r;
   }
 
@@ -591,7 +610,7 @@ class StepDifferentiator {
   std::unique_ptr<StepModel> frozen_;
   VectorXd z_;
   StepResiduals vals_;        // at z_: values and dense [z, θ] Jacobians
-  StepModelValues state_jac_;  // the x_ℓ block (full state only)
+  MatrixXd d_eq_x_, d_a_x_, d_b_x_;  // ∂r/∂x_ℓ (full state only)
   std::unique_ptr<Linearization> lin_;
   bool ok_ = false, contact_set_changed_ = false;
   bool explicit_start_ = false;  // the end state depends on x_ℓ explicitly (GI)
