@@ -122,8 +122,9 @@ int main(int argc, char** argv) {
     } else if (std::strcmp(argv[i], "--steps") == 0 && i + 1 < argc) {
       steps = std::atoi(argv[++i]);
     } else {
-      std::fprintf(stderr,
-                   "usage: sensitivity_bench [--steps N] [--quick] [--scene S] [--fwd-only] [--once]\n");
+      std::fprintf(
+          stderr,
+          "usage: sensitivity_bench [--steps N] [--quick] [--scene S] [--fwd-only] [--once]\n");
       return 2;
     }
   }

@@ -91,8 +91,7 @@ std::vector<Contact> MoveContacts(const Scene& model, const std::vector<Contact>
     c.mu = model.Mu(model.bodies[c.body_a].shapes[c.shape_a].material,
                     model.bodies[c.body_b].shapes[c.shape_b].material);
   if (SamePose(x0, x)) return out;
-  const std::vector<BodyKinematics> k0 =
-      k0_known ? *k0_known : ComputeBodyKinematics(model, x0);
+  const std::vector<BodyKinematics> k0 = k0_known ? *k0_known : ComputeBodyKinematics(model, x0);
   const std::vector<BodyKinematics> k1 = ComputeBodyKinematics(model, x);
   const std::vector<BodyKinematics> detect = DetectionKinematics(model, x, h, k1);
   std::vector<Isometry3d> T(model.bodies.size(), Isometry3d::Identity());
@@ -195,7 +194,7 @@ class StewartTrinkleModel final : public StepModel {
   }
   const StewartTrinkle& st_;
   std::vector<Contact> contacts_;
-  std::vector<BodyKinematics> k0_;  // at x_
+  std::vector<BodyKinematics> k0_;   // at x_
   StewartTrinkle::Assembly freeze_;  // at (model_, x_, u_)
   Eigen::Index lcp_size_ = 0;
   MatrixXd G_b_;
@@ -435,7 +434,7 @@ StepModelValues StepModel::Evaluate(const VectorXd& z, const Params& theta, cons
 }
 
 StepResiduals StepModel::EvaluateResiduals(const VectorXd& z, const Params& theta, const State& x,
-                                          const StepInput& u, bool jacobians) const {
+                                           const StepInput& u, bool jacobians) const {
   if (z.size() != layout_.size())
     throw std::invalid_argument("StepModel::EvaluateResiduals: z " +
                                 Sizes("", z.size(), layout_.size()));

@@ -63,8 +63,8 @@ class Linearization {
   // `vals` holds the step equations and their dense Jacobians at the linearization point, the
   // first `nz` columns those of the unknowns z. `gi`: the step layout if the model is the
   // geometrically implicit stepper's (its unloaded candidate pairs are pinned, below), else null.
-  Linearization(const StepResiduals& vals, int nz, const SensitivityOptions& options,
-                bool smoothed, const StepLayout* gi) {
+  Linearization(const StepResiduals& vals, int nz, const SensitivityOptions& options, bool smoothed,
+                const StepLayout* gi) {
     const auto E = vals.d_equality.leftCols(nz);
     A_ = vals.d_comp_a.leftCols(nz);
     B_ = vals.d_comp_b.leftCols(nz);
@@ -609,7 +609,7 @@ class StepDifferentiator {
   Workspace own_ws_;  // when the caller passes none
   std::unique_ptr<StepModel> frozen_;
   VectorXd z_;
-  StepResiduals vals_;        // at z_: values and dense [z, θ] Jacobians
+  StepResiduals vals_;               // at z_: values and dense [z, θ] Jacobians
   MatrixXd d_eq_x_, d_a_x_, d_b_x_;  // ∂r/∂x_ℓ (full state only)
   std::unique_ptr<Linearization> lin_;
   bool ok_ = false, contact_set_changed_ = false;

@@ -139,8 +139,7 @@ class StructuredSolver {
       for (std::size_t c = 0; c < cols_.size(); ++c) x[cols_[c]] = xc[c];
     }
     for (auto it = ops_.rbegin(); it != ops_.rend(); ++it)
-      if (!it->row_singleton)
-        x[it->col] = (b[it->row] - RowDot(it->row, x)) / K(it->row, it->col);
+      if (!it->row_singleton) x[it->col] = (b[it->row] - RowDot(it->row, x)) / K(it->row, it->col);
     return x;
   }
 
