@@ -8,7 +8,9 @@
 //     differences.
 // Prints a table. --steps N sets N; --quick runs 50 steps of one scene (the ctest smoke run);
 // --scene S runs only the scenes whose file name contains S; --fwd-only measures only step and
-// fwd1 (for a profiler: `perf record build/bench/sensitivity_bench --scene box --fwd-only`).
+// fwd1 (for a profiler: `perf record build/bench/sensitivity_bench --scene box --fwd-only`);
+// --once makes each per-step measurement one pass over the N states (for instruction counts:
+// `valgrind --tool=callgrind ... --once`, then the inclusive counts of Step and PropagateStep).
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -31,7 +33,7 @@ struct Case {
   int warmup;  // steps simulated before the measured ones
 };
 
-void Run(const Case& c, int steps, bool fwd_only) {
+void Run(const Case& c, int steps, bool fwd_only, bool once) {
   const Simulator sim(LoadSceneFile(std::string(VINCI_SOURCE_DIR) + "/examples/scenes/" + c.scene));
   const Params p = sim.DefaultParams();
   const ParamSelection sel(sim.scene().param_table(), c.params);
@@ -55,7 +57,7 @@ void Run(const Case& c, int steps, bool fwd_only) {
       for (int k = 0; k < steps; ++k) fn(k, &ws);
       ++reps;
       t = CpuSeconds();
-    } while (t - t0 < 0.2);
+    } while (!once && t - t0 < 0.2);
     return (t - t0) / (static_cast<double>(reps) * steps);
   };
   const double t_step = per_step([&](int k, Workspace* ws) {
@@ -105,7 +107,7 @@ void Run(const Case& c, int steps, bool fwd_only) {
 
 int main(int argc, char** argv) {
   int steps = 1000;
-  bool quick = false, fwd_only = false;
+  bool quick = false, fwd_only = false, once = false;
   std::string only;
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--quick") == 0) {
@@ -113,13 +115,16 @@ int main(int argc, char** argv) {
       steps = 50;
     } else if (std::strcmp(argv[i], "--fwd-only") == 0) {
       fwd_only = true;
+    } else if (std::strcmp(argv[i], "--once") == 0) {
+      once = true;
     } else if (std::strcmp(argv[i], "--scene") == 0 && i + 1 < argc) {
       only = argv[++i];
     } else if (std::strcmp(argv[i], "--steps") == 0 && i + 1 < argc) {
       steps = std::atoi(argv[++i]);
     } else {
-      std::fprintf(stderr,
-                   "usage: sensitivity_bench [--steps N] [--quick] [--scene S] [--fwd-only]\n");
+      std::fprintf(
+          stderr,
+          "usage: sensitivity_bench [--steps N] [--quick] [--scene S] [--fwd-only] [--once]\n");
       return 2;
     }
   }
@@ -145,7 +150,7 @@ int main(int argc, char** argv) {
               "step(us)", "fwd1(us)", "ratio", "full(us)", "ratio", "rev(s)", "fd(s)", "ratio");
   for (const Case& c : cases) {
     if (!only.empty() && std::string(c.scene).find(only) == std::string::npos) continue;
-    Run(c, steps, fwd_only);
+    Run(c, steps, fwd_only, once);
     if (quick) break;
   }
   return 0;

@@ -187,6 +187,52 @@ TEST_P(StepModelTest, SparseJacobiansMatchFiniteDifferences) {
   }
 }
 
+// EvaluateResiduals (the step sensitivities' dense path) is Evaluate without the sparse
+// conversion: the same values, z and θ Jacobians at the freeze point, and the same values (the
+// values-only evaluation) at a moved start state; it accepts only the freeze parameters.
+TEST_P(StepModelTest, DenseResidualsAreTheSparseEvaluation) {
+  const Case& c = GetParam();
+  const Simulator sim = Make(c);
+  const Params p = sim.DefaultParams();
+  const Trajectory tr = sim.Rollout(p, sim.InitialState(), c.steps);
+  ASSERT_TRUE(tr.ok) << tr.failure;
+  const Scene model = sim.scene().ApplyParams(p);
+  int k = c.steps - 1;
+  while (k > 0 && Freeze(sim.formulation(), model, p, tr.states[k])->num_contacts() == 0) --k;
+  const State& x = tr.states[k];
+  const auto frozen = Freeze(sim.formulation(), model, p, x);
+  const VectorXd z = frozen->UnknownsFromStep(tr.states[k + 1]);
+  const int nz = frozen->layout().size(), np = static_cast<int>(frozen->param_columns().size());
+  StepModelOptions no_state;
+  no_state.state_jacobian = false;
+  const StepModelValues sparse = frozen->Evaluate(z, p, x, no_state);
+  const StepResiduals dense = frozen->EvaluateResiduals(z, p, x, StepInput{}, true);
+  EXPECT_EQ(dense.equality, sparse.equality);
+  EXPECT_EQ(dense.comp_a, sparse.comp_a);
+  EXPECT_EQ(dense.comp_b, sparse.comp_b);
+  const auto same = [&](const MatrixXd& d, const StepModelJacobian& s) {
+    ASSERT_EQ(d.cols(), nz + np);
+    EXPECT_EQ(MatrixXd(d.leftCols(nz)), MatrixXd(s.d_z));
+    EXPECT_EQ(MatrixXd(d.rightCols(np)), MatrixXd(s.d_theta));
+  };
+  same(dense.d_equality, sparse.d_equality);
+  same(dense.d_comp_a, sparse.d_comp_a);
+  same(dense.d_comp_b, sparse.d_comp_b);
+
+  State moved = x;
+  moved.q[0] += 1e-4;
+  moved.v[0] += 1e-3;
+  const StepModelValues vs = frozen->Evaluate(z, p, moved, ValuesOnly());
+  const StepResiduals vd = frozen->EvaluateResiduals(z, p, moved, StepInput{}, false);
+  EXPECT_EQ(vd.equality, vs.equality);
+  EXPECT_EQ(vd.comp_a, vs.comp_a);
+  EXPECT_EQ(vd.comp_b, vs.comp_b);
+
+  Params other = p;
+  other.values[0] += 0.1;
+  EXPECT_THROW(frozen->EvaluateResiduals(z, other, x, StepInput{}, false), std::invalid_argument);
+}
+
 INSTANTIATE_TEST_SUITE_P(AllFormulations, StepModelTest, ::testing::ValuesIn(kCases),
                          [](const ::testing::TestParamInfo<Case>& i) { return i.param.name; });
 

@@ -8,6 +8,7 @@
 #include <string>
 #include <utility>
 
+#include "step_util.h"
 #include "vinci/sim/formulations/contact.h"
 #include "vinci/sim/formulations/geometrically_implicit.h"
 #include "vinci/sim/formulations/ncp.h"
@@ -31,8 +32,9 @@ bool SameStateAndInput(const State& x, const StepInput& u, const State& x0, cons
 
 // Body poses as the contact detection of the Stewart–Trinkle assembly sees them: dynamic bodies
 // from q, prescribed ones from their motion at x.t (an integrated pose with step h).
-std::vector<BodyKinematics> DetectionKinematics(const Scene& model, const State& x, double h) {
-  std::vector<BodyKinematics> k = ComputeBodyKinematics(model, x);
+// `k`: ComputeBodyKinematics(model, x).
+std::vector<BodyKinematics> DetectionKinematics(const Scene& model, const State& x, double h,
+                                                std::vector<BodyKinematics> k) {
   for (std::size_t i = 0; i < k.size(); ++i) {
     const Body& b = model.bodies[i];
     if (b.kind == BodyKind::kPrescribed && b.motion.pose == PoseRule::kIntegrated)
@@ -80,16 +82,18 @@ bool Recollide(const Scene& model, const std::vector<BodyKinematics>& k, const C
 // routine finds them for the same features at x (Recollide; rigidly with the bodies where it
 // finds none, and for corner contacts), gaps by the change of n·(p_A − p_B); μ from `model`. At
 // the freeze pose the contacts are returned unchanged.
+// `k0`: ComputeBodyKinematics(model, x0), if the caller has it (null: computed here).
 std::vector<Contact> MoveContacts(const Scene& model, const std::vector<Contact>& frozen,
-                                  const State& x0, const State& x, double h) {
+                                  const State& x0, const State& x, double h,
+                                  const std::vector<BodyKinematics>* k0_known = nullptr) {
   std::vector<Contact> out = frozen;
   for (Contact& c : out)
     c.mu = model.Mu(model.bodies[c.body_a].shapes[c.shape_a].material,
                     model.bodies[c.body_b].shapes[c.shape_b].material);
   if (SamePose(x0, x)) return out;
-  const std::vector<BodyKinematics> k0 = ComputeBodyKinematics(model, x0);
+  const std::vector<BodyKinematics> k0 = k0_known ? *k0_known : ComputeBodyKinematics(model, x0);
   const std::vector<BodyKinematics> k1 = ComputeBodyKinematics(model, x);
-  const std::vector<BodyKinematics> detect = DetectionKinematics(model, x, h);
+  const std::vector<BodyKinematics> detect = DetectionKinematics(model, x, h, k1);
   std::vector<Isometry3d> T(model.bodies.size(), Isometry3d::Identity());
   for (int bi : model.dynamic_bodies()) T[bi] = k1[bi].X_WB * k0[bi].X_WB.inverse();
   const auto move = [](const Isometry3d& Ta, const Isometry3d& Tb, Vector3d* pa, Vector3d* pb,
@@ -140,19 +144,23 @@ class StewartTrinkleModel final : public StepModel {
     // (without selection) is the same assembly, kept for evaluations at the freeze point.
     freeze_ = st_.Assemble(*model_, x_, u_);
     contacts_ = freeze_.contacts;
+    k0_ = ComputeBodyKinematics(*model_, x_);
     const StewartTrinkle::Assembly& a = freeze_;
     lcp_size_ = a.psi_n.size() * (2 + a.nd) + a.support.points() + a.support.columns() +
                 static_cast<Eigen::Index>(a.corner_contact.size());
     G_b_ = a.G_b;
-    Init(StewartTrinkle::LayoutOf(*model_, a).size());
+    // The layout and θ columns straight from the assembly (no evaluation at z = 0).
+    std::vector<int> columns;
+    internal::DifferentiableParamColumns(model_->param_table(), 0, &columns);
+    InitLayout(StewartTrinkle::LayoutOf(*model_, a), std::move(columns));
   }
 
  protected:
   StepResiduals Residuals(const Scene& model, const Params& theta, const State& x,
-                          const StepInput& u, const VectorXd& z) const override {
+                          const StepInput& u, const VectorXd& z, bool jacobians) const override {
     if (&model == model_.get() && SameStateAndInput(x, u, x_, u_))
-      return st_.EvaluateAssembly(model, theta, freeze_, x, z);
-    return st_.EvaluateAssembly(model, theta, AssembleAt(model, x, u), x, z);
+      return st_.EvaluateAssembly(model, theta, freeze_, x, z, jacobians);
+    return st_.EvaluateAssembly(model, theta, AssembleAt(model, x, u), x, z, jacobians);
   }
   VectorXd Unknowns(const State& next) const override {
     const StepLayout& l = layout_;
@@ -181,11 +189,12 @@ class StewartTrinkleModel final : public StepModel {
  private:
   StewartTrinkle::Assembly AssembleAt(const Scene& model, const State& x,
                                       const StepInput& u) const {
-    return st_.AssembleAt(model, x, u, MoveContacts(model, contacts_, x_, x, dt_),
+    return st_.AssembleAt(model, x, u, MoveContacts(model, contacts_, x_, x, dt_, &k0_),
                           /*select_corner_edges=*/false);
   }
   const StewartTrinkle& st_;
   std::vector<Contact> contacts_;
+  std::vector<BodyKinematics> k0_;   // at x_
   StewartTrinkle::Assembly freeze_;  // at (model_, x_, u_)
   Eigen::Index lcp_size_ = 0;
   MatrixXd G_b_;
@@ -208,7 +217,7 @@ class NcpModel final : public StepModel {
 
  protected:
   StepResiduals Residuals(const Scene& model, const Params& theta, const State& x,
-                          const StepInput& u, const VectorXd& z) const override {
+                          const StepInput& u, const VectorXd& z, bool) const override {
     if (&model == model_.get() && SameStateAndInput(x, u, x_, u_))
       return ncp_.EvaluateAssembly(model, theta, freeze_, x, z);
     return ncp_.EvaluateAssembly(model, theta, AssembleAt(model, x, u), x, z);
@@ -258,7 +267,7 @@ class QuasistaticModel final : public StepModel {
 
  protected:
   StepResiduals Residuals(const Scene& model, const Params& theta, const State& x,
-                          const StepInput& u, const VectorXd& z) const override {
+                          const StepInput& u, const VectorXd& z, bool) const override {
     return qs_.EvaluateAssembly(
         model, theta, qs_.AssembleAt(model, x, u, MoveContacts(model, contacts_, x_, x, dt_)), x,
         z);
@@ -296,7 +305,7 @@ class GiModel final : public StepModel {
 
  protected:
   StepResiduals Residuals(const Scene& model, const Params& theta, const State& x,
-                          const StepInput& u, const VectorXd& z) const override {
+                          const StepInput& u, const VectorXd& z, bool) const override {
     return gi_.EvaluateFrozen(model, theta, frozen_, x, u, z);
   }
   VectorXd Unknowns(const State& next) const override {
@@ -336,9 +345,14 @@ StepModel::StepModel(std::shared_ptr<const Scene> model, Params params, State x,
       dt_(dt) {}
 
 void StepModel::Init(int num_unknowns) {
-  const StepResiduals r = Residuals(*model_, params_, x_, u_, VectorXd::Zero(num_unknowns));
+  const StepResiduals r = Residuals(*model_, params_, x_, u_, VectorXd::Zero(num_unknowns), true);
   layout_ = r.layout;
   param_columns_ = r.param_columns;
+}
+
+void StepModel::InitLayout(StepLayout layout, std::vector<int> param_columns) {
+  layout_ = layout;
+  param_columns_ = std::move(param_columns);
 }
 
 StepModelValues StepModel::Evaluate(const VectorXd& z, const Params& theta, const State& x,
@@ -375,7 +389,7 @@ StepModelValues StepModel::Evaluate(const VectorXd& z, const Params& theta, cons
     applied = s0.ApplyParams(theta);
     model = &applied;
   }
-  const StepResiduals r = Residuals(*model, theta, x, u, z);
+  const StepResiduals r = Residuals(*model, theta, x, u, z, options.jacobians);
   StepModelValues out;
   out.equality = r.equality;
   out.comp_a = r.comp_a;
@@ -407,8 +421,8 @@ StepModelValues StepModel::Evaluate(const VectorXd& z, const Params& theta, cons
     const double step = options.state_step * std::max(1.0, std::abs(cp));
     cp += step;
     cm -= step;
-    const StepResiduals rp = Residuals(*model, theta, xp, u, z);
-    const StepResiduals rm = Residuals(*model, theta, xm, u, z);
+    const StepResiduals rp = Residuals(*model, theta, xp, u, z, false);
+    const StepResiduals rm = Residuals(*model, theta, xm, u, z, false);
     De.col(j) = (rp.equality - rm.equality) / (2 * step);
     Da.col(j) = (rp.comp_a - rm.comp_a) / (2 * step);
     Db.col(j) = (rp.comp_b - rm.comp_b) / (2 * step);
@@ -417,6 +431,20 @@ StepModelValues StepModel::Evaluate(const VectorXd& z, const Params& theta, cons
   out.d_comp_a.d_x = Da.sparseView(0.0, 0.0);
   out.d_comp_b.d_x = Db.sparseView(0.0, 0.0);
   return out;
+}
+
+StepResiduals StepModel::EvaluateResiduals(const VectorXd& z, const Params& theta, const State& x,
+                                           const StepInput& u, bool jacobians) const {
+  if (z.size() != layout_.size())
+    throw std::invalid_argument("StepModel::EvaluateResiduals: z " +
+                                Sizes("", z.size(), layout_.size()));
+  if (!(theta == params_))
+    throw std::invalid_argument(
+        "StepModel::EvaluateResiduals: θ must be the freeze parameters (use Evaluate)");
+  if (x.q.size() != x_.q.size() || x.v.size() != x_.v.size() || x.t != x_.t)
+    throw std::invalid_argument(
+        "StepModel::EvaluateResiduals: x must have the freeze state's sizes and time");
+  return Residuals(*model_, theta, x, u, z, jacobians);
 }
 
 VectorXd StepModel::UnknownsFromStep(const State& next) const {
@@ -456,7 +484,7 @@ void StepModel::RecoverJointImpulses(const MatrixXd& G_b, VectorXd* z) const {
   if (l.nb == 0) return;
   z->segment(l.pb(), l.nb).setZero();
   // Dynamics rows with p_b = 0: r₀ = M(ν − ν_ℓ) − G_c p_c − p_ext = G_b p_b at the solution.
-  const StepResiduals r = Residuals(*model_, params_, x_, u_, *z);
+  const StepResiduals r = Residuals(*model_, params_, x_, u_, *z, false);
   z->segment(l.pb(), l.nb) = G_b.colPivHouseholderQr().solve(r.equality.head(l.nv));
 }
 

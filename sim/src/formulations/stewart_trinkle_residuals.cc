@@ -21,27 +21,30 @@ using internal::PrescribedKinematics;
 // Appends the support-friction pairs (p_s, G_sᵀν + E_s σ_s) and (σ_s, h μ_s N − E_sᵀ p_s) to
 // the complementarity block of r (after every other pair).
 void AppendSupportPairs(const SupportRows& sup, const StepLayout& l, const VectorXd& z,
-                        StepResiduals* r) {
+                        bool jacobians, StepResiduals* r) {
   const int old = static_cast<int>(r->comp_a.size()), ncol = static_cast<int>(r->d_comp_a.cols());
   const int add = l.nps + l.ns;
   r->comp_a.conservativeResize(old + add);
   r->comp_b.conservativeResize(old + add);
-  r->d_comp_a.conservativeResize(old + add, ncol);
-  r->d_comp_b.conservativeResize(old + add, ncol);
-  r->d_comp_a.bottomRows(add).setZero();
-  r->d_comp_b.bottomRows(add).setZero();
   r->comp_a.tail(add) = z.segment(l.ps(), add);  // p_s, σ_s are contiguous
-  r->d_comp_a.block(old, l.ps(), add, add).setIdentity();
   r->comp_b.segment(old, l.nps) = sup.G_s.transpose() * z.segment(l.v1(), l.nv);
-  r->d_comp_b.block(old, l.v1(), l.nps, l.nv) = sup.G_s.transpose();
+  if (jacobians) {
+    r->d_comp_a.conservativeResize(old + add, ncol);
+    r->d_comp_b.conservativeResize(old + add, ncol);
+    r->d_comp_a.bottomRows(add).setZero();
+    r->d_comp_b.bottomRows(add).setZero();
+    r->d_comp_a.block(old, l.ps(), add, add).setIdentity();
+    r->d_comp_b.block(old, l.v1(), l.nps, l.nv) = sup.G_s.transpose();
+  }
   for (int k = 0; k < l.ns; ++k) {
     const int row = old + l.nps + k;
     r->comp_b[row] = sup.limit[k];
     for (int j = 0; j < sup.count[k]; ++j) {
       const int col = sup.first[k] + j;
       r->comp_b[old + col] += z[l.sigma_s() + k];
-      r->d_comp_b(old + col, l.sigma_s() + k) = 1.0;
       r->comp_b[row] -= z[l.ps() + col];
+      if (!jacobians) continue;
+      r->d_comp_b(old + col, l.sigma_s() + k) = 1.0;
       r->d_comp_b(row, l.ps() + col) = -1.0;
     }
   }
@@ -92,8 +95,8 @@ StepResiduals StewartTrinkle::Evaluate(const Scene& model, const Params& params,
 }
 
 StepResiduals StewartTrinkle::EvaluateAssembly(const Scene& model, const Params& params,
-                                               const Assembly& a, const State& x,
-                                               const VectorXd& z) const {
+                                               const Assembly& a, const State& x, const VectorXd& z,
+                                               bool jacobians) const {
   const double h = options_.dt;
   StepResiduals r;
   r.layout = LayoutOf(model, a);
@@ -118,19 +121,24 @@ StepResiduals StewartTrinkle::EvaluateAssembly(const Scene& model, const Params&
 
   // Equalities: [dynamics (nv); kinematics (nq); joints (nb)].
   r.equality.resize(nv + nq + nb);
-  r.d_equality = MatrixXd::Zero(nv + nq + nb, ncol);
+  // Without Jacobians (values only: the sensitivities' directional differences) the d_ blocks
+  // stay empty and every write to them below is skipped.
+  const bool jac = jacobians;
+  if (jac) r.d_equality = MatrixXd::Zero(nv + nq + nb, ncol);
   const VectorXd v_l = first_order_ ? VectorXd::Zero(nv) : x.v;  // first order: no ν_ℓ
   r.equality.head(nv) = a.M * (v1 - v_l) - a.G_n * pn - a.G_f * pf - a.G_b * pb - a.p_ext;
-  r.d_equality.block(0, l.v1(), nv, nv) = a.M.ToDense();
-  r.d_equality.block(0, l.pn(), nv, nc) = -a.G_n;
-  r.d_equality.block(0, l.pf(), nv, nf) = -a.G_f;
-  r.d_equality.block(0, l.pb(), nv, nb) = -a.G_b;
+  if (jac) {
+    r.d_equality.block(0, l.v1(), nv, nv) = a.M.ToDense();
+    r.d_equality.block(0, l.pn(), nv, nc) = -a.G_n;
+    r.d_equality.block(0, l.pf(), nv, nf) = -a.G_f;
+    r.d_equality.block(0, l.pb(), nv, nb) = -a.G_b;
+  }
   if (l.nps > 0) {
     r.equality.head(nv) -= a.support.G_s * z.segment(l.ps(), l.nps);
-    r.d_equality.block(0, l.ps(), nv, l.nps) = -a.support.G_s;
+    if (jac) r.d_equality.block(0, l.ps(), nv, l.nps) = -a.support.G_s;
   }
   // ∂/∂m of body b's rows: M_b and p_ext scale with the mass (inertia ∝ mass, same shape).
-  for (int i = 0; i < model.param_table().size(); ++i) {
+  for (int i = 0; jac && i < model.param_table().size(); ++i) {
     const ParamInfo& info = model.param_table().info(i);
     if (info.kind != ParamKind::kMass) continue;
     const Body& b = model.bodies[info.a];
@@ -156,10 +164,11 @@ StepResiduals StewartTrinkle::EvaluateAssembly(const Scene& model, const Params&
     IntegratePosition(model.dim, x.q.data() + idx.q, v1.data() + idx.v, h, q_pred.data() + idx.q);
   }
   r.equality.segment(nv, nq) = q1 - q_pred;
-  r.d_equality.block(nv, l.q1(), nq, nq).setIdentity();
+  if (jac) r.d_equality.block(nv, l.q1(), nq, nq).setIdentity();
   // ∂q_pred/∂ν: planar and the position part of spatial bodies are exactly h·I; the quaternion
   // block (exponential map) is differentiated by central differences.
   for (int bi : model.dynamic_bodies()) {
+    if (!jac) break;
     const BodyIndex& idx = model.index(bi);
     for (int k = 0; k < 3; ++k) r.d_equality(nv + idx.q + k, l.v1() + idx.v + k) = -h;
     if (model.dim == Dim::kSpatial) {
@@ -180,7 +189,7 @@ StepResiduals StewartTrinkle::EvaluateAssembly(const Scene& model, const Params&
     VectorXd jr = a.G_b.transpose() * v1 + a.dpsi_b;
     if (options_.joint_stabilization) jr += a.psi_b / h;
     r.equality.tail(nb) = jr;
-    r.d_equality.block(nv + nq, l.v1(), nb, nv) = a.G_b.transpose();
+    if (jac) r.d_equality.block(nv + nq, l.v1(), nb, nv) = a.G_b.transpose();
   }
 
   // Complementarity pairs: (p_n, normal), (p_f, friction), (σ, cone), then (c, corner).
@@ -189,34 +198,38 @@ StepResiduals StewartTrinkle::EvaluateAssembly(const Scene& model, const Params&
   const auto cc = z.segment(l.corner(), nk);
   r.comp_a.resize(ncomp);
   r.comp_b.resize(ncomp);
-  r.d_comp_a = MatrixXd::Zero(ncomp, ncol);
-  r.d_comp_b = MatrixXd::Zero(ncomp, ncol);
   r.comp_a << pn, pf, sigma, cc;
-  r.d_comp_a.block(0, l.pn(), nc + nf + nc, nc + nf + nc).setIdentity();  // contiguous
-  r.d_comp_a.block(ncomp - nk, l.corner(), nk, nk).setIdentity();
+  if (jac) {
+    r.d_comp_a = MatrixXd::Zero(ncomp, ncol);
+    r.d_comp_b = MatrixXd::Zero(ncomp, ncol);
+    r.d_comp_a.block(0, l.pn(), nc + nf + nc, nc + nf + nc).setIdentity();  // contiguous
+    r.d_comp_a.block(ncomp - nk, l.corner(), nk, nk).setIdentity();
+  }
 
   r.comp_b.head(nc) = a.G_n.transpose() * v1 + a.dpsi_n;
   if (!velocity_level_) r.comp_b.head(nc) += a.psi_n / h;
-  r.d_comp_b.block(0, l.v1(), nc, nv) = a.G_n.transpose();
+  if (jac) r.d_comp_b.block(0, l.v1(), nc, nv) = a.G_n.transpose();
   for (int c = 0; c < nc; ++c) {
     const CompliantNormalRow& law = a.compliance[c];
     if (!law.compliant) continue;
     r.comp_b[c] = a.G_n.col(c).dot(v1) + a.dpsi_n[c] + law.vel_psi * a.psi_n[c] +
                   law.vel_diagonal * pn[c] + law.vel_constant;
-    r.d_comp_b(c, l.pn() + c) = law.vel_diagonal;
+    if (jac) r.d_comp_b(c, l.pn() + c) = law.vel_diagonal;
   }
 
   r.comp_b.segment(nc, nf) = a.G_f.transpose() * v1 + a.dpsi_f;
-  r.d_comp_b.block(nc, l.v1(), nf, nv) = a.G_f.transpose();
+  if (jac) r.d_comp_b.block(nc, l.v1(), nf, nv) = a.G_f.transpose();
   for (int c = 0; c < nc; ++c) {
     double sum_pf = 0.0;
     for (int j = 0; j < nd; ++j) {
       r.comp_b[nc + c * nd + j] += sigma[c];
-      r.d_comp_b(nc + c * nd + j, l.sigma() + c) = 1.0;
       sum_pf += pf[c * nd + j];
+      if (!jac) continue;
+      r.d_comp_b(nc + c * nd + j, l.sigma() + c) = 1.0;
       r.d_comp_b(nc + nf + c, l.pf() + c * nd + j) = -1.0;
     }
     r.comp_b[nc + nf + c] = a.mu[c] * pn[c] - sum_pf;
+    if (!jac) continue;
     r.d_comp_b(nc + nf + c, l.pn() + c) = a.mu[c];
     r.d_comp_b(nc + nf + c, column_of[a.contacts[c].mu_param]) = pn[c];
   }
@@ -226,16 +239,17 @@ StepResiduals StewartTrinkle::EvaluateAssembly(const Scene& model, const Params&
     const int c = a.corner_contact[k], row = ncomp - nk + k;  // corner pairs last
     const VectorXd D = a.G_1.col(k).toDense() - a.G_n.col(c).toDense();
     r.comp_b[row] = cc[k] - ((a.psi_1[k] - a.psi_n[c]) / h + D.dot(v1) + a.dpsi_1[k] - a.dpsi_n[c]);
-    r.d_comp_b(row, l.corner() + k) = 1.0;
-    r.d_comp_b.block(row, l.v1(), 1, nv) = -D.transpose();
     r.comp_b[c] += cc[k];
     if (velocity_level_) r.comp_b[c] += a.psi_n[c] / h;  // corners stay position-level
+    if (!jac) continue;
+    r.d_comp_b(row, l.corner() + k) = 1.0;
+    r.d_comp_b.block(row, l.v1(), 1, nv) = -D.transpose();
     r.d_comp_b(c, l.corner() + k) = 1.0;
   }
   if (l.ns > 0) {
-    AppendSupportPairs(a.support, l, z, &r);
+    AppendSupportPairs(a.support, l, z, jac, &r);
     // A static distribution scales with the mass: ∂(h μ_s N_k)/∂m = h μ_s N_k / m.
-    for (int i = 0; i < model.param_table().size(); ++i) {
+    for (int i = 0; jac && i < model.param_table().size(); ++i) {
       const ParamInfo& info = model.param_table().info(i);
       if (info.kind == ParamKind::kSupportFriction) {  // ∂(h μ_s N_k)/∂μ_s = h N_k
         for (int k = 0; k < l.ns; ++k)

@@ -60,16 +60,15 @@ using internal::StructuredSolver;
 // The step's active equations at the linearization point and their factorization.
 class Linearization {
  public:
-  // `vals` holds the step equations and their z Jacobians at the linearization point; `nx`
-  // rows of dz are the end state (q_ℓ+1, ν_ℓ+1) unless the model writes it otherwise.
-  // `gi`: the step layout if the model is the geometrically implicit stepper's (its unloaded
-  // candidate pairs are pinned, below), else null.
-  Linearization(const StepModelValues& vals, const SensitivityOptions& options, bool smoothed,
+  // `vals` holds the step equations and their dense Jacobians at the linearization point, the
+  // first `nz` columns those of the unknowns z. `gi`: the step layout if the model is the
+  // geometrically implicit stepper's (its unloaded candidate pairs are pinned, below), else null.
+  Linearization(const StepResiduals& vals, int nz, const SensitivityOptions& options, bool smoothed,
                 const StepLayout* gi) {
-    const MatrixXd E = MatrixXd(vals.d_equality.d_z);
-    A_ = MatrixXd(vals.d_comp_a.d_z);
-    B_ = MatrixXd(vals.d_comp_b.d_z);
-    nz_ = static_cast<int>(E.cols());
+    const auto E = vals.d_equality.leftCols(nz);
+    A_ = vals.d_comp_a.leftCols(nz);
+    B_ = vals.d_comp_b.leftCols(nz);
+    nz_ = nz;
     const int ne = static_cast<int>(E.rows()), np = static_cast<int>(A_.rows());
     if (ne + np != nz_) {
       message_ = "the step equations are not square (" + std::to_string(ne) + " equalities + " +
@@ -89,7 +88,7 @@ class Linearization {
     weight_a_ = VectorXd::Zero(np);
     weight_b_ = VectorXd::Zero(np);
     const double inert_tol =
-        options.active_tol * std::max(1.0, B_.size() ? B_.cwiseAbs().maxCoeff() : 0.0);
+        gi ? options.active_tol * std::max(1.0, B_.size() ? B_.cwiseAbs().maxCoeff() : 0.0) : 0.0;
     std::vector<int> inert;  // GI pairs whose cone pair is inert
     for (int i = 0; i < np; ++i) {
       const bool a0 = a[i] <= tol, b0 = b[i] <= tol;
@@ -139,8 +138,8 @@ class Linearization {
       } else {
         weight_a_[i] = 1.0;  // held a, or a degenerate pair's λ = da row
       }
-      K_.row(ne + i) = weight_a_[i] * A_.row(i) + weight_b_[i] * B_.row(i);
     }
+    K_.bottomRows(np) = weight_a_.asDiagonal() * A_ + weight_b_.asDiagonal() * B_;
     // GI equality rows (geometrically_implicit.h): [dynamics (nv); kinematics (nq); per pair:
     // separation (d), normals (d), A side, B side, friction (d − 1 = nd)].
     for (int k : inert) {
@@ -189,7 +188,9 @@ class Linearization {
     rhs.tail(nz_ - ne_) = weight_a_.cwiseProduct(r.a) + weight_b_.cwiseProduct(r.b);
     for (int row : pinned_) rhs[row] = 0.0;
     *dz = solver_.Solve(VectorXd(-rhs));
-    const double resid = (K_ * *dz + rhs).cwiseAbs().maxCoeff();
+    VectorXd Kdz;
+    solver_.Multiply(*dz, &Kdz);
+    const double resid = (Kdz + rhs).cwiseAbs().maxCoeff();
     const double ref = rhs.cwiseAbs().maxCoeff() + k_norm_ * dz->cwiseAbs().maxCoeff();
     if (!std::isfinite(resid) || resid > 1e-6 * ref + 1e-300) return false;
     if (deg_.empty()) return true;
@@ -384,12 +385,12 @@ class StepDifferentiator {
         return;
       }
     }
-    StepModelOptions o;
-    o.state_jacobian = full_state;
-    o.state_step = options.state_step;
-    vals_ = frozen_->Evaluate(z_, params, x, u, o);
+    // The residuals with their dense z and θ Jacobians; the x_ℓ block (central differences of
+    // the frozen equations) only for the full state Jacobian.
+    const int nz = frozen_->layout().size();
+    vals_ = frozen_->EvaluateResiduals(z_, params, x, u, true);
     const bool gi = dynamic_cast<const GeometricallyImplicit*>(&sim.formulation()) != nullptr;
-    lin_ = std::make_unique<Linearization>(vals_, options, options.smoothing > 0.0,
+    lin_ = std::make_unique<Linearization>(vals_, nz, options, options.smoothing > 0.0,
                                            gi ? &frozen_->layout() : nullptr);
     if (!lin_->ok()) {
       message_ = lin_->message();
@@ -402,12 +403,36 @@ class StepDifferentiator {
       const VectorXd shift = lin_->InteriorShift(l.nq + l.nv, z_);
       if (shift.size() == z_.size()) {
         z_ += shift;
-        vals_ = frozen_->Evaluate(z_, params, x, u, o);
-        lin_ = std::make_unique<Linearization>(vals_, options, false, nullptr);
+        vals_ = frozen_->EvaluateResiduals(z_, params, x, u, true);
+        lin_ = std::make_unique<Linearization>(vals_, nz, options, false, nullptr);
         if (!lin_->ok()) {
           message_ = lin_->message();
           return;
         }
+      }
+    }
+    if (full_state) {
+      // ∂r/∂x_ℓ by central differences of the frozen equations (values only), as
+      // StepModel::Evaluate's x_ℓ block: step state_step · max(1, |x_i|).
+      const int nq = static_cast<int>(x.q.size()), n = nx();
+      d_eq_x_.resize(vals_.equality.size(), n);
+      d_a_x_.resize(vals_.comp_a.size(), n);
+      d_b_x_.resize(vals_.comp_b.size(), n);
+      State xp = x, xm = x;
+      for (int j = 0; j < n; ++j) {
+        double& cp = j < nq ? xp.q[j] : xp.v[j - nq];
+        double& cm = j < nq ? xm.q[j] : xm.v[j - nq];
+        const double c0 = cp;
+        const double step = options.state_step * std::max(1.0, std::abs(c0));
+        cp = c0 + step;
+        cm = c0 - step;
+        const StepResiduals rp = frozen_->EvaluateResiduals(z_, params, xp, u, false);
+        const StepResiduals rm = frozen_->EvaluateResiduals(z_, params, xm, u, false);
+        d_eq_x_.col(j) = (rp.equality - rm.equality) / (2 * step);
+        d_a_x_.col(j) = (rp.comp_a - rm.comp_a) / (2 * step);
+        d_b_x_.col(j) = (rp.comp_b - rm.comp_b) / (2 * step);
+        cp = c0;
+        cm = c0;
       }
     }
     // A mode change within the step: the contact set found at the end differs. GI finds its
@@ -440,9 +465,10 @@ class StepDifferentiator {
       if (it == cols.end()) {
         r = ZeroColumn();
       } else {
-        r.eq = VectorXd(vals_.d_equality.d_theta.col(c));
-        r.a = VectorXd(vals_.d_comp_a.d_theta.col(c));
-        r.b = VectorXd(vals_.d_comp_b.d_theta.col(c));
+        const int col = frozen_->layout().size() + c;
+        r.eq = vals_.d_equality.col(col);
+        r.a = vals_.d_comp_a.col(col);
+        r.b = vals_.d_comp_b.col(col);
       }
       return r;
     }
@@ -484,9 +510,9 @@ class StepDifferentiator {
   // The residual column of state entry i (needs full_state).
   ResidualColumn StateColumn(int i) const {
     ResidualColumn r;
-    r.eq = VectorXd(vals_.d_equality.d_x.col(i));
-    r.a = VectorXd(vals_.d_comp_a.d_x.col(i));
-    r.b = VectorXd(vals_.d_comp_b.d_x.col(i));
+    r.eq = d_eq_x_.col(i);
+    r.a = d_a_x_.col(i);
+    r.b = d_b_x_.col(i);
     return r;
   }
 
@@ -504,10 +530,8 @@ class StepDifferentiator {
     xm.q -= h * s.head(nq);
     xp.v += h * s.tail(s.size() - nq);
     xm.v -= h * s.tail(s.size() - nq);
-    StepModelOptions none;
-    none.jacobians = false;
-    const StepModelValues p = frozen_->Evaluate(z_, params_, xp, u_, none);
-    const StepModelValues m = frozen_->Evaluate(z_, params_, xm, u_, none);
+    const StepResiduals p = frozen_->EvaluateResiduals(z_, params_, xp, u_, false);
+    const StepResiduals m = frozen_->EvaluateResiduals(z_, params_, xm, u_, false);
     r.eq = (p.equality - m.equality) / (2 * h);
     r.a = (p.comp_a - m.comp_a) / (2 * h);
     r.b = (p.comp_b - m.comp_b) / (2 * h);
@@ -585,7 +609,8 @@ class StepDifferentiator {
   Workspace own_ws_;  // when the caller passes none
   std::unique_ptr<StepModel> frozen_;
   VectorXd z_;
-  StepModelValues vals_;
+  StepResiduals vals_;               // at z_: values and dense [z, θ] Jacobians
+  MatrixXd d_eq_x_, d_a_x_, d_b_x_;  // ∂r/∂x_ℓ (full state only)
   std::unique_ptr<Linearization> lin_;
   bool ok_ = false, contact_set_changed_ = false;
   bool explicit_start_ = false;  // the end state depends on x_ℓ explicitly (GI)

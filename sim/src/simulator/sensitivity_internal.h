@@ -31,36 +31,64 @@ class StructuredSolver {
   void Compute(const MatrixXd& K) {
     K_ = &K;
     const int n = static_cast<int>(K.rows());
-    std::vector<int> row_count(n, 0), col_count(n, 0);
-    for (int j = 0; j < n; ++j)
+    // K's nonzero pattern, by rows (CSR: row_ptr_, row_col_, row_val_) and by columns (col_ptr_,
+    // col_row_): the eliminations, the singleton solves and products are O(nonzeros).
+    col_ptr_.assign(n + 1, 0);
+    col_row_.clear();
+    col_row_.reserve(static_cast<std::size_t>(n) * 8);
+    std::vector<int>& row_count = row_count_;
+    std::vector<int>& col_count = col_count_;
+    row_count.assign(n, 0);
+    col_count.assign(n, 0);
+    for (int j = 0; j < n; ++j) {
+      const double* c = K.data() + static_cast<Eigen::Index>(j) * n;
       for (int i = 0; i < n; ++i)
-        if (K(i, j) != 0.0) {
+        if (c[i] != 0.0) {
+          col_row_.push_back(i);
           ++row_count[i];
-          ++col_count[j];
         }
-    std::vector<char> row_done(n, 0), col_done(n, 0);
+      col_ptr_[j + 1] = static_cast<int>(col_row_.size());
+      col_count[j] = col_ptr_[j + 1] - col_ptr_[j];
+    }
+    row_ptr_.assign(n + 1, 0);
+    for (int i = 0; i < n; ++i) row_ptr_[i + 1] = row_ptr_[i] + row_count[i];
+    row_col_.resize(col_row_.size());
+    row_val_.resize(col_row_.size());
+    fill_.assign(row_ptr_.begin(), row_ptr_.end() - 1);
+    for (int j = 0; j < n; ++j)  // columns in order: each row's entries sorted by column
+      for (int k = col_ptr_[j]; k < col_ptr_[j + 1]; ++k) {
+        const int i = col_row_[k];
+        row_col_[fill_[i]] = j;
+        row_val_[fill_[i]++] = K(i, j);
+      }
+    std::vector<char>& row_done = row_done_;
+    std::vector<char>& col_done = col_done_;
+    row_done.assign(n, 0);
+    col_done.assign(n, 0);
     ops_.clear();
     bool changed = true;
     while (changed) {
       changed = false;
       for (int i = 0; i < n; ++i) {
         if (row_done[i] || row_count[i] != 1) continue;
-        int j = 0;
-        while (col_done[j] || K(i, j) == 0.0) ++j;
+        int j = -1;  // the first column not eliminated with K(i, j) ≠ 0
+        for (int k = row_ptr_[i]; k < row_ptr_[i + 1] && j < 0; ++k)
+          if (!col_done[row_col_[k]]) j = row_col_[k];
         ops_.push_back({i, j, true});
         row_done[i] = col_done[j] = 1;
-        for (int r = 0; r < n; ++r)
-          if (!row_done[r] && K(r, j) != 0.0) --row_count[r];
+        for (int k = col_ptr_[j]; k < col_ptr_[j + 1]; ++k)
+          if (!row_done[col_row_[k]]) --row_count[col_row_[k]];
         changed = true;
       }
       for (int j = 0; j < n; ++j) {
         if (col_done[j] || col_count[j] != 1) continue;
-        int i = 0;
-        while (row_done[i] || K(i, j) == 0.0) ++i;
+        int i = -1;  // the first row not eliminated with K(i, j) ≠ 0
+        for (int k = col_ptr_[j]; k < col_ptr_[j + 1] && i < 0; ++k)
+          if (!row_done[col_row_[k]]) i = col_row_[k];
         ops_.push_back({i, j, false});
         row_done[i] = col_done[j] = 1;
-        for (int c = 0; c < n; ++c)
-          if (!col_done[c] && K(i, c) != 0.0) --col_count[c];
+        for (int k = row_ptr_[i]; k < row_ptr_[i + 1]; ++k)
+          if (!col_done[row_col_[k]]) --col_count[row_col_[k]];
         changed = true;
       }
     }
@@ -88,6 +116,13 @@ class StructuredSolver {
     }
   }
 
+  /// K x (over K's nonzeros).
+  void Multiply(const VectorXd& x, VectorXd* y) const {
+    const int n = static_cast<int>(row_ptr_.size()) - 1;
+    y->resize(n);
+    for (int i = 0; i < n; ++i) (*y)[i] = RowDot(i, x);
+  }
+
   /// Columns of the core factored (a diagnostic) and whether it needed the rank-revealing path.
   int core_size() const { return static_cast<int>(cols_.size()); }
   bool singular() const { return !use_lu_ && !cols_.empty(); }
@@ -96,16 +131,15 @@ class StructuredSolver {
     const MatrixXd& K = *K_;
     VectorXd x = VectorXd::Zero(b.size());
     for (const Op& op : ops_)
-      if (op.row_singleton) x[op.col] = (b[op.row] - K.row(op.row).dot(x)) / K(op.row, op.col);
+      if (op.row_singleton) x[op.col] = (b[op.row] - RowDot(op.row, x)) / K(op.row, op.col);
     if (!cols_.empty() && !rows_.empty()) {
       VectorXd bc(rows_.size());
-      for (std::size_t r = 0; r < rows_.size(); ++r) bc[r] = b[rows_[r]] - K.row(rows_[r]).dot(x);
+      for (std::size_t r = 0; r < rows_.size(); ++r) bc[r] = b[rows_[r]] - RowDot(rows_[r], x);
       const VectorXd xc = use_lu_ ? VectorXd(lu_.solve(bc)) : VectorXd(cod_.solve(bc));
       for (std::size_t c = 0; c < cols_.size(); ++c) x[cols_[c]] = xc[c];
     }
     for (auto it = ops_.rbegin(); it != ops_.rend(); ++it)
-      if (!it->row_singleton)
-        x[it->col] = (b[it->row] - K.row(it->row).dot(x)) / K(it->row, it->col);
+      if (!it->row_singleton) x[it->col] = (b[it->row] - RowDot(it->row, x)) / K(it->row, it->col);
     return x;
   }
 
@@ -139,7 +173,16 @@ class StructuredSolver {
     int row, col;
     bool row_singleton;  // else a column singleton (recovered after the core)
   };
+  // Row i of K times x over its nonzeros (x's entries not yet set are 0).
+  double RowDot(int i, const VectorXd& x) const {
+    double sum = 0.0;
+    for (int k = row_ptr_[i]; k < row_ptr_[i + 1]; ++k) sum += row_val_[k] * x[row_col_[k]];
+    return sum;
+  }
   const MatrixXd* K_ = nullptr;
+  std::vector<int> row_ptr_, row_col_, col_ptr_, col_row_, fill_, row_count_, col_count_;
+  std::vector<double> row_val_;
+  std::vector<char> row_done_, col_done_;
   std::vector<Op> ops_;
   std::vector<int> rows_, cols_;
   MatrixXd core_;

@@ -90,6 +90,14 @@ class StepModel {
   StepModelValues Evaluate(const VectorXd& z, const Params& theta, const State& x,
                            const StepInput& u, const StepModelOptions& options = {}) const;
 
+  /// The formulation's own residuals at (z, x_ℓ) with the freeze parameters θ and input u: the
+  /// values and, if `jacobians`, the dense Jacobians with columns [z; θ] (StepResiduals, no
+  /// x_ℓ block; the θ columns are param_columns()). Evaluate without the sparse conversion, for
+  /// the step sensitivities. Throws std::invalid_argument for sizes that do not match, θ other
+  /// than the freeze parameters or x.t ≠ x_freeze().t.
+  StepResiduals EvaluateResiduals(const VectorXd& z, const Params& theta, const State& x,
+                                  const StepInput& u, bool jacobians) const;
+
   /// The unknowns z of a step the simulator took from x_freeze() to `next` (read from next.q,
   /// next.v and next.warm_start, the step's solver solution; impulses the solver eliminates,
   /// the joint impulses p_b, are recovered from the dynamics rows by least squares). Throws
@@ -108,9 +116,12 @@ class StepModel {
   StepModel(std::shared_ptr<const Scene> model, Params params, State x, StepInput u, double dt);
   /// Completes construction: layout and parameter columns from an evaluation at z = 0.
   void Init(int num_unknowns);
-  /// The formulation's residuals at x with the frozen contact set, on `model` (θ applied).
+  /// Completes construction with a known layout and θ columns (no evaluation).
+  void InitLayout(StepLayout layout, std::vector<int> param_columns);
+  /// The formulation's residuals at x with the frozen contact set, on `model` (θ applied);
+  /// `jacobians` false: the values are enough (a model may skip the Jacobians then).
   virtual StepResiduals Residuals(const Scene& model, const Params& theta, const State& x,
-                                  const StepInput& u, const VectorXd& z) const = 0;
+                                  const StepInput& u, const VectorXd& z, bool jacobians) const = 0;
   virtual VectorXd Unknowns(const State& next) const = 0;
   virtual VectorXd WarmStart(const VectorXd& z) const = 0;
   /// ν_ℓ+1, q_ℓ+1 written from z with start state x (default: the z blocks; GI overrides).

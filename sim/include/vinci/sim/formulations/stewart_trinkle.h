@@ -89,8 +89,9 @@ class StewartTrinkle final : public Formulation {
   /// The step layout of an assembly (its contacts, joint rows, corners and support points).
   static StepLayout LayoutOf(const Scene& model, const Assembly& a);
   /// Evaluate() for an assembly made at x (Evaluate = EvaluateAssembly(Assemble(x))).
+  /// `jacobians` false: the values only (the d_ matrices left empty).
   StepResiduals EvaluateAssembly(const Scene& model, const Params& params, const Assembly& a,
-                                 const State& x, const VectorXd& z) const;
+                                 const State& x, const VectorXd& z, bool jacobians = true) const;
   /// The Schur-complement pieces of the joint elimination (empty without joints).
   struct JointElimination {
     MatrixXd MinvGb;          ///< M⁻¹ G_b
