@@ -4,26 +4,28 @@
 # 100 samples per toss at ≈ 143 Hz with 30 µm position noise (5000 samples, orientations
 # logged), estimated together (shared μ, per-episode initial states) by each method in turn.
 #
-#   bench/estimation_cube_bench.sh [BUILD_DIR] [METHODS] [EPISODES] [THREADS]
+#   bench/estimation_cube_bench.sh [BUILD_DIR] [METHODS] [EPISODES] [THREADS] [SUBSTEPS]
 #
 # BUILD_DIR defaults to build (estimation_study must be built there: cmake --build BUILD_DIR
 # --target estimation_study); METHODS a comma list of lsq,lsq_ms,filter,mpec,mpec_pen (default
 # all); EPISODES default 50; THREADS (default 2) evaluate lsq's episodes and mpec's steps in
-# parallel. Writes estimation_cube_bench_<METHODS>_<EPISODES>.csv in the current directory and
-# prints a table (wall and CPU time). Run it on an idle machine; one method at a time is fine.
-# The MPEC's problem grows with the log (one step block, ~100 unknowns with 8 corner contacts,
-# per simulator step: 50 tosses are ~35 000 steps); a smaller EPISODES gives its per-toss cost.
+# parallel; SUBSTEPS (default 1) the MPEC's steps per logged sample (--mpec-substeps: 1 = one
+# step of 7 ms per sample, 99 steps and ~7000 unknowns per toss; 0 = the simulator's 1 ms grid,
+# 7× larger). Writes estimation_cube_bench_<METHODS>_<EPISODES>.csv in the current directory and
+# prints a table (wall and CPU time). Run it on an idle machine; one method at a time is fine; a
+# smaller EPISODES gives the per-toss cost.
 set -eu
 BUILD=${1:-build}
 METHODS=${2:-lsq,lsq_ms,filter,mpec,mpec_pen}
 EPISODES=${3:-50}
 THREADS=${4:-2}
+SUBSTEPS=${5:-1}
 STUDY="$BUILD/examples/estimation_study"
 [ -x "$STUDY" ] || { echo "no $STUDY: build the estimation_study target first" >&2; exit 1; }
 OUT=estimation_cube_bench_$(echo "$METHODS" | tr , _)_$EPISODES.csv
 echo "# $(date -u +%FT%TZ) $(git rev-parse --short HEAD 2>/dev/null || echo '?') load: $(cut -d' ' -f1-3 /proc/loadavg)" >&2
 "$STUDY" cube --trials 1 --episodes "$EPISODES" --methods "$METHODS" \
-  --threads "$THREADS" --out "$OUT"
+  --threads "$THREADS" --mpec-substeps "$SUBSTEPS" --out "$OUT"
 /usr/bin/python3 - "$OUT" <<'PY'
 import csv, sys
 rows = list(csv.DictReader(open(sys.argv[1])))

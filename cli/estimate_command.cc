@@ -158,6 +158,8 @@ ExitCode RunEstimateCommand(const EstimateOptions& o) {
     throw std::invalid_argument(
         "--bootstrap: only for --method mpec (lsq and filter report "
         "linearized standard errors)");
+  if (o.mpec_substeps >= 0 && o.method != "mpec")
+    throw std::invalid_argument("--mpec-substeps: only for --method mpec");
   if (!o.jacobian.empty() && o.method != "lsq")
     throw std::invalid_argument("--jacobian: only for --method lsq");
   if (o.method == "mpec") return RunEstimateMpec(o);
@@ -243,6 +245,11 @@ Command RegisterEstimateCommand(CLI::App& app) {
                   "mpec: process noise σ_Q of each generalized force (N, N·m; default 1% of the "
                   "lightest dynamic body's weight)")
       ->type_name("SIGMA");
+  sub->add_option("--mpec-substeps", options->mpec_substeps,
+                  "mpec: steps per log interval (default 0: the scene's dt, the simulator's "
+                  "grid; 1: one step per sample, a smaller problem with the coarser step's model "
+                  "error, docs/estimation.md)")
+      ->type_name("N");
   sub->add_option("--shooting", options->shooting,
                   "lsq: single (one rollout per episode; default) or multiple (segments of "
                   "--segment-samples samples from their own start states, with continuity)")

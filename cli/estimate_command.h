@@ -30,6 +30,8 @@ struct EstimateOptions {
   double process_noise = 0.0;                ///< mpec: σ_Q (N, N·m); 0: 1% of the weight
   int bootstrap = 0;     ///< mpec: B bootstrap resamples over episodes (0: reduced Hessian)
   std::string jacobian;  ///< lsq: sensitivity | fd ("": sensitivity)
+  /// mpec: steps per log interval (MpecOptions::substeps; 0: the scene's dt); −1: not given.
+  int mpec_substeps = -1;
 };
 
 /// Adds the `estimate` subcommand to `app`.

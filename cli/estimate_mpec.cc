@@ -1,5 +1,6 @@
 // `vinci estimate --method mpec`: the MPEC non-recursive filter (docs/estimation.md), run from
 // RunEstimateCommand.
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <fstream>
@@ -51,7 +52,8 @@ std::string MpecJson(const EstimateOptions& o, const estimation::MpecEstimateRes
     << "      \"num_unknowns\": " << r.num_unknowns << ",\n"
     << "      \"num_constraints\": " << r.num_constraints << ",\n"
     << "      \"num_complementarity_pairs\": " << r.num_pairs << ",\n"
-    << "      \"num_steps\": " << r.num_steps << ",\n";
+    << "      \"num_steps\": " << r.num_steps << ",\n"
+    << "      \"substeps\": " << std::max(0, o.mpec_substeps) << ",\n";
   if (holdout) j << HoldoutJson(o, *holdout);
   j << "      \"episodes\": [";
   for (size_t e = 0; e < r.episodes.size(); ++e) {
@@ -69,6 +71,10 @@ ExitCode RunEstimateMpec(const EstimateOptions& o) {
     throw std::invalid_argument("--noise: expected a finite σ ≥ 0 in m");
   if (!(o.process_noise >= 0) || !std::isfinite(o.process_noise))
     throw std::invalid_argument("--process-noise: expected a finite σ_Q ≥ 0 in N (N·m)");
+  if (o.mpec_substeps < -1)
+    throw std::invalid_argument("--mpec-substeps " + std::to_string(o.mpec_substeps) +
+                                ": expected N ≥ 0 (0: the scene's dt; N: N steps per log "
+                                "interval)");
   if (o.fixed_initial_state)
     throw std::invalid_argument(
         "--fixed-initial-state: only for --method lsq (mpec estimates "
@@ -78,6 +84,7 @@ ExitCode RunEstimateMpec(const EstimateOptions& o) {
   mo.noise_sigma = o.noise;
   mo.process_noise = o.process_noise;
   mo.threads = o.threads;
+  mo.substeps = std::max(0, o.mpec_substeps);
   mo.solver.method = estimation::ParseComplementarityMethod(o.complementarity);
   mo.solver.max_iterations = o.max_iterations;
   mo.Validate();

@@ -195,8 +195,9 @@ struct MpecEstimationProblem::Impl {
       *model = &model_dt;
       return sim.formulation();
     }
-    auto it = steppers.find(h);
-    if (it == steppers.end()) {
+    // Intervals equal to 1e-9 relative (a log's times accumulate rounding) share one stepper.
+    auto it = steppers.lower_bound(h * (1 - 1e-9));
+    if (it == steppers.end() || it->first > h * (1 + 1e-9)) {
       sim::Scene s = scene;
       s.options.dt = h;
       s.options.envelope += margin;

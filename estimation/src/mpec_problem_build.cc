@@ -39,6 +39,7 @@ void MpecOptions::Validate() const {
   if (threads < 1) fail("threads", threads, "≥ 1");
   if (bootstrap < 0) fail("bootstrap", bootstrap, "≥ 0");
   if (!std::isfinite(contact_margin)) fail("contact_margin", contact_margin, "finite");
+  if (substeps < 0) fail("substeps", substeps, "≥ 0 (0: the scene's dt)");
   solver.Validate();
 }
 
@@ -108,7 +109,8 @@ void MpecEstimationProblem::Impl::Build(const Log& log) {
     std::vector<double> step_h;
     for (int i = 0; i + 1 < ep.num_samples(); ++i) {
       const double span = ep.t[i + 1] - ep.t[i];
-      const int ni = std::max(1, static_cast<int>(std::lround(span / dt)));
+      const int ni =
+          opts.substeps > 0 ? opts.substeps : std::max(1, static_cast<int>(std::lround(span / dt)));
       double h = span / ni;
       if (std::abs(h - dt) <= 1e-9 * dt) h = dt;
       for (int j = 1; j <= ni; ++j) {

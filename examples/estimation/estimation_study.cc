@@ -4,7 +4,8 @@
 //   estimation_study STUDY [--trials N] [--noise S1,S2,..] [--windows W1,W2,..]
 //                    [--particles N1,N2,..] [--episodes N] [--methods
 //                    lsq,lsq_ms,filter,mpec,mpec_pen]
-//                    [--guess MU] [--first-trial K] [--threads N] [--out FILE.csv]
+//                    [--guess MU] [--first-trial K] [--threads N] [--mpec-substeps N]
+//                    [--out FILE.csv]
 //
 // STUDY:
 //   plate      a particle on a vibrating plate (planar, true μ = 0.2), windows in samples
@@ -24,8 +25,9 @@
 // homotopy), mpec_pen (Ipopt, ℓ1 penalty homotopy). The defaults are
 // the full study (20 trials); --trials and --methods cut it down (scripts/estimation_studies.sh
 // runs all four studies). --threads N (default 1) is passed to lsq/lsq_ms (episodes in
-// parallel) and mpec/mpec_pen (steps in parallel). Plots: scripts/plot_estimation_study.py
-// FILE.csv.
+// parallel) and mpec/mpec_pen (steps in parallel); --mpec-substeps N (default 0: the scene's
+// dt) the MPEC's steps per log interval (MpecOptions::substeps). Plots:
+// scripts/plot_estimation_study.py FILE.csv.
 //
 // To add a method, add one line to Methods() below.
 #include <cstdio>
@@ -60,6 +62,8 @@ using Estimator = std::function<EstimateResult(const sim::Simulator&, const Log&
 
 // Threads for the methods that evaluate in parallel (lsq: episodes; mpec: steps); --threads.
 int g_threads = 1;
+// MPEC steps per log interval (MpecOptions::substeps; 0: the scene's dt); --mpec-substeps.
+int g_mpec_substeps = 0;
 // --verbose 1: the MPEC's progress lines (setup, each NLP) on stderr; ≥ 2: also Ipopt's output
 // at that print_level.
 int g_verbose = 0;
@@ -84,6 +88,7 @@ std::vector<std::pair<std::string, Estimator>> Methods() {
       o.noise_sigma = sigma;
       o.solver.method = method;
       o.threads = g_threads;
+      o.substeps = g_mpec_substeps;
       if (g_verbose > 0)
         o.progress = [](const std::string& line) { std::cerr << "  " << line << "\n"; };
       if (g_verbose > 1) o.solver.print_level = g_verbose;
@@ -254,7 +259,7 @@ constexpr const char* kUsage =
     "usage: estimation_study plate|particles|block|cube [--trials N] [--first-trial K]\n"
     "         [--noise S1,S2] [--windows W1,W2] [--particles N1,N2] [--episodes N]\n"
     "         [--methods lsq,lsq_ms,filter,mpec,mpec_pen] [--guess MU] [--threads N]\n"
-    "         [--verbose 0|1|IPOPT_PRINT_LEVEL] [--out F.csv]\n";
+    "         [--mpec-substeps N] [--verbose 0|1|IPOPT_PRINT_LEVEL] [--out F.csv]\n";
 
 int Run(int argc, char** argv) {
   if (argc < 2 || std::string(argv[1]) == "--help") {
@@ -325,6 +330,8 @@ int Run(int argc, char** argv) {
       method_names = ParseNames(value);
     } else if (flag == "--threads") {
       g_threads = std::stoi(value);
+    } else if (flag == "--mpec-substeps") {
+      g_mpec_substeps = std::stoi(value);
     } else if (flag == "--verbose") {
       g_verbose = std::stoi(value);
     } else if (flag == "--guess") {
@@ -345,8 +352,9 @@ int Run(int argc, char** argv) {
       return 1;
     }
   }
-  if (trials < 1 || episodes < 1 || first_trial < 0 || g_threads < 1) {
-    std::cerr << "--trials, --episodes and --threads must be ≥ 1, --first-trial ≥ 0\n";
+  if (trials < 1 || episodes < 1 || first_trial < 0 || g_threads < 1 || g_mpec_substeps < 0) {
+    std::cerr << "--trials, --episodes and --threads must be ≥ 1, --first-trial and "
+                 "--mpec-substeps ≥ 0\n";
     return 1;
   }
   std::ofstream csv(out);

@@ -5,7 +5,8 @@
 // Time grid of an episode: its log times t_0 < … < t_n, each interval [t_i, t_i+1] divided
 // into n_i = max(1, round((t_i+1 − t_i)/dt)) steps of h_i = (t_i+1 − t_i)/n_i (dt the scene's;
 // h_i = dt exactly when |h_i − dt| ≤ 1e-9 dt, so a log written every k-th step of a simulation
-// has the simulator's own grid). Node ℓ has the state x_ℓ = (q_ℓ, ν_ℓ) of all dynamic bodies.
+// has the simulator's own grid), or, with MpecOptions::substeps = N ≥ 1, n_i = N. Node ℓ has the
+// state x_ℓ = (q_ℓ, ν_ℓ) of all dynamic bodies.
 //
 // Unknowns: θ (the chosen ParamTable entries: friction coefficients, support friction, masses,
 // within their table bounds), per episode x_0, and per step ℓ its step unknowns z_ℓ (the
@@ -80,6 +81,12 @@ struct MpecOptions {
   /// that noise lifting a resting part does not drop its contacts (m); < 0: 3 σ_R (the stated
   /// σ_R, else 1 mm). 0 with a log on the scene's dt grid freezes exactly the simulator's sets.
   double contact_margin = -1.0;
+  /// Steps per log interval (the time grid, file comment). 0: the scene's dt, n_i = max(1,
+  /// round((t_i+1 − t_i)/dt)), which reproduces the simulator's grid for a log written every
+  /// k-th step. N ≥ 1: N steps of (t_i+1 − t_i)/N per interval (1: one step per sample), a
+  /// problem k/N times smaller for a log every k-th step, at the cost of the model error of the
+  /// coarser step (docs/estimation.md, "Time grid").
+  int substeps = 0;
   int threads = 1;  ///< threads evaluating the step equations (the result is bitwise the same)
   /// Bootstrap over episodes: with B > 0 and at least two episodes, the estimation is repeated
   /// on B resamples of the episodes (drawn with replacement, seeded by bootstrap_seed), each
