@@ -21,6 +21,9 @@ class LcpMatrixOperator {
   virtual int size() const = 0;
   /// ‖M‖∞ = max_i Σ_j |M_ij| (+inf or NaN if M has a non-finite entry).
   virtual double NormInf() const = 0;
+  /// Bounds *lo ≤ NormInf() ≤ *hi (on the value NormInf returns), for an operator that can bound
+  /// its norm more cheaply than form it; *hi may be +inf (no bound). Default: both NormInf().
+  virtual void NormInfBounds(double* lo, double* hi) const { *lo = *hi = NormInf(); }
   /// *w = M z + q (w sized by the caller's vector; may reallocate).
   virtual void MultiplyAdd(const Eigen::VectorXd& z, const Eigen::VectorXd& q,
                            Eigen::VectorXd* w) const = 0;
