@@ -51,6 +51,17 @@ void BlockTimesColumn(const double* W, const double* g, double* out) {
   for (int i = 0; i < N; ++i) out[i] = acc[i];
 }
 
+// Entry (i, j), i ≥ j, of a body's block G_bᵀ W_b G_b: Gb(:, i) · WG(:, j), N = n_vb rows (the
+// one expression every path forms it with, hence the same bits).
+template <int N>
+inline double LowerEntry(const MatrixXd& Gb, const MatrixXd& WG, int i, int j) {
+  if constexpr (N == 6)
+    return Eigen::Map<const Eigen::Matrix<double, 6, 1>>(Gb.col(i).data())
+        .dot(Eigen::Map<const Eigen::Matrix<double, 6, 1>>(WG.col(j).data()));
+  else
+    return Gb.col(i).dot(WG.col(j));
+}
+
 }  // namespace
 
 bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembly& a,
@@ -96,7 +107,11 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
   WG_.resize(nbody);
   wg_ready_.resize(nbody);
   bound_u_.resize(nbody);
-  bool finite = true;
+  // The bounds are skipped for a while after a step that needed the exact norm anyway (a loaded
+  // stack: τ depends on ‖M‖∞ there); this changes the work only, never a result.
+  bounds_ = bounds_skip_ == 0;
+  if (!bounds_) --bounds_skip_;
+  bool finite = bounds_;
   for (int body : model.dynamic_bodies()) {
     const std::vector<int>& cols = columns_[body];
     if (cols.empty()) continue;
@@ -107,11 +122,24 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
     for (int i = 0; i < k; ++i) {
       const SparseMatrixd& G = cols[i] < nc ? a.G_n : a.G_f;
       const int col = cols[i] < nc ? cols[i] : cols[i] - nc;
+      // The assembly stores a body's block whole (rows o..o+nvb−1, explicit zeros included):
+      // copied at once when found so, else entry by entry.
+      if (G.isCompressed()) {
+        const int* inner = G.innerIndexPtr();
+        const int end = G.outerIndexPtr()[col + 1];
+        int p = G.outerIndexPtr()[col];
+        while (p < end && inner[p] < o) ++p;
+        if (p + nvb <= end && inner[p] == o && inner[p + nvb - 1] == o + nvb - 1) {
+          std::copy(G.valuePtr() + p, G.valuePtr() + p + nvb, Gb.col(i).data());
+          continue;
+        }
+      }
       for (SparseMatrixd::InnerIterator it(G, col); it; ++it)
         if (it.row() >= o && it.row() < o + nvb) Gb(it.row() - o, i) = it.value();
     }
     WG_[body].resize(nvb, k);
     wg_ready_[body].assign(static_cast<std::size_t>(k), 0);
+    if (!bounds_) continue;
     double column_sum[6] = {0, 0, 0, 0, 0, 0};
     for (int j = 0; j < k; ++j)
       for (int r = 0; r < nvb; ++r) column_sum[r] += std::abs(Gb(r, j));
@@ -126,7 +154,7 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
   // The bounds: hi from the rows (contact normals and friction directions), lo and both from the
   // σ rows (whose sums |μ_c| + n_d NormInf adds the same way).
   double hi = 0.0;
-  for (int c = 0; c < nc; ++c) {
+  for (int c = 0; c < (bounds_ ? nc : 0); ++c) {
     const int bodies[2] = {a.contacts[c].body_a, a.contacts[c].body_b};
     for (int t = 0; t <= nd; ++t) {    // t = 0: the normal row; 1 + j: friction direction j
       double sum = t > 0 ? 1.0 : 0.0;  // E
@@ -180,16 +208,13 @@ double ContactLcpOperator::BlockEntry(int body, int i, int j) const {
   // W_b is symmetric, so is the block: its lower triangle, entry (i ≥ j) = Gb(:, i) · WG(:, j).
   if (i < j) std::swap(i, j);
   EnsureWG(body, j);
-  const MatrixXd& Gb = Gb_[body];
-  const MatrixXd& WG = WG_[body];
-  if (nvb_ == 6)
-    return Eigen::Map<const Eigen::Matrix<double, 6, 1>>(Gb.col(i).data())
-        .dot(Eigen::Map<const Eigen::Matrix<double, 6, 1>>(WG.col(j).data()));
-  return Gb.col(i).dot(WG.col(j));
+  if (nvb_ == 6) return LowerEntry<6>(Gb_[body], WG_[body], i, j);
+  return LowerEntry<3>(Gb_[body], WG_[body], i, j);
 }
 
 void ContactLcpOperator::EnsureBlocks() const {
   if (full_) return;
+  if (bounds_) bounds_skip_ = kBoundsSkip;  // the bounds did not spare this
   const StewartTrinkle::Assembly& a = *a_;
   const int nc = nc_, nd = nd_, nf = nf_;
   // G_bᵀ W_b G_b per body.
@@ -198,9 +223,27 @@ void ContactLcpOperator::EnsureBlocks() const {
     if (cols.empty()) continue;
     const int k = static_cast<int>(cols.size());
     MatrixXd& B = blocks_[body];
+    const MatrixXd& Gb = Gb_[body];
+    MatrixXd& WG = WG_[body];
+    std::vector<char>& ready = wg_ready_[body];
+    const double* W = a.M_inv.BlockAt(model_->index(body).v).data();
+    for (int j = 0; j < k; ++j) {  // the columns EnsureWG has not formed, as it forms them
+      if (ready[static_cast<std::size_t>(j)]) continue;
+      if (nvb_ == 6)
+        BlockTimesColumn<6>(W, Gb.col(j).data(), WG.col(j).data());
+      else
+        BlockTimesColumn<3>(W, Gb.col(j).data(), WG.col(j).data());
+      ready[static_cast<std::size_t>(j)] = 1;
+    }
     B.resize(k, k);
-    for (int j = 0; j < k; ++j)
-      for (int i = j; i < k; ++i) B(j, i) = B(i, j) = BlockEntry(body, i, j);
+    // The lower triangle, mirrored (as BlockEntry).
+    if (nvb_ == 6) {
+      for (int j = 0; j < k; ++j)
+        for (int i = j; i < k; ++i) B(j, i) = B(i, j) = LowerEntry<6>(Gb, WG, i, j);
+    } else {
+      for (int j = 0; j < k; ++j)
+        for (int i = j; i < k; ++i) B(j, i) = B(i, j) = LowerEntry<3>(Gb, WG, i, j);
+    }
   }
 
   // ‖M‖∞: impulse rows from the body blocks (an entry shared by two dynamic bodies — two
@@ -212,6 +255,7 @@ void ContactLcpOperator::EnsureBlocks() const {
     const int c = ContactOf(r);
     const int bodies[2] = {a.contacts[c].body_a, a.contacts[c].body_b};
     double sum = r >= nc ? 1.0 : 0.0;  // E
+    const bool compliant = r < nc && a.compliance[r].compliant;
     for (int side = 0; side < 2; ++side) {
       if (first_[2 * c + side] < 0) continue;
       const int b = bodies[side], other = first_[2 * c + 1 - side] >= 0 ? bodies[1 - side] : -1;
@@ -223,7 +267,7 @@ void ContactLcpOperator::EnsureBlocks() const {
         // order as the general loop below (cols[jj] == r only at jj = p).
         const double* Bp = B.col(p).data();
         const int k = static_cast<int>(cols.size());
-        if (r < nc && a.compliance[r].compliant) {
+        if (compliant) {
           for (int jj = 0; jj < k; ++jj)
             sum += std::abs(jj == p ? Bp[jj] + a.compliance[r].vel_diagonal : Bp[jj]);
         } else {
@@ -245,8 +289,7 @@ void ContactLcpOperator::EnsureBlocks() const {
           const int jj = g * group + t;
           double value = B(p, jj);
           if (shared >= 0) value += blocks_[other](p_other, shared + t);
-          if (cols[jj] == r && r < nc && a.compliance[r].compliant)
-            value += a.compliance[r].vel_diagonal;
+          if (compliant && cols[jj] == r) value += a.compliance[r].vel_diagonal;
           sum += std::abs(value);
         }
       }
@@ -373,9 +416,16 @@ void ContactLcpOperator::PrincipalBlock(const std::vector<int>& index, MatrixXd*
       const MatrixXd& B = blocks_[body];
       for (const auto& [pj, bj] : members_)
         for (const auto& [pi, bi] : members_) (*out)(bi, bj) += B(pi, pj);
-    } else {  // only the members' entries (the same bits as the whole block's)
-      for (const auto& [pj, bj] : members_)
-        for (const auto& [pi, bi] : members_) (*out)(bi, bj) += BlockEntry(body, pi, pj);
+    } else {  // only the members' entries (the same bits as the whole block's), each pair once
+      for (std::size_t x = 0; x < members_.size(); ++x) {
+        const auto [pj, bj] = members_[x];
+        for (std::size_t y = x; y < members_.size(); ++y) {
+          const auto [pi, bi] = members_[y];
+          const double value = BlockEntry(body, pi, pj);
+          (*out)(bi, bj) += value;
+          if (y != x) (*out)(bj, bi) += value;
+        }
+      }
     }
   }
   for (int b = 0; b < k; ++b) {

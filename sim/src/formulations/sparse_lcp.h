@@ -40,7 +40,8 @@ class ContactLcpOperator final : public LcpMatrixOperator {
   int size() const override { return m_; }
   double NormInf() const override;
   /// lo = max_c (|μ_c| + n_d) (the σ rows), hi from |M_ij| ≤ |g_i|ᵀ|W_b||g_j| summed over a row
-  /// in O(n_v) per row (× (1 + 1e-8) for round-off; +inf if not finite): no body block formed.
+  /// in O(n_vb) per row (× (1 + 1e-8) for round-off; +inf if not finite, or for kBoundsSkip
+  /// Builds after one whose bounds did not spare the exact norm): no body block formed.
   void NormInfBounds(double* lo, double* hi) const override;
   void MultiplyAdd(const VectorXd& z, const VectorXd& q, VectorXd* w) const override;
   void PrincipalBlock(const std::vector<int>& index, MatrixXd* out) const override;
@@ -77,6 +78,10 @@ class ContactLcpOperator final : public LcpMatrixOperator {
   std::vector<MatrixXd> Gb_;                    // per body: its G_b over columns_[body]
   std::vector<std::array<double, 6>> bound_u_;  // per body: u_b of NormInfBounds
   // Formed on demand (caches of what Build was given: the same values whenever formed).
+  // Builds that skip the bounds after one whose bounds did not spare the exact norm.
+  static constexpr int kBoundsSkip = 15;
+  bool bounds_ = false;                              // this Build formed the bounds
+  mutable int bounds_skip_ = 0;                      // Builds left without them
   mutable bool full_ = false;                        // blocks_ and norm_inf_ formed
   mutable double norm_inf_ = 0.0;                    // ‖M‖∞
   mutable std::vector<MatrixXd> blocks_;             // per body: G_bᵀ W_b G_b over columns_[body]

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <utility>
 
@@ -121,6 +122,13 @@ bool SolveOnWarmBasis(const LcpMatrixOperator& M, const Eigen::VectorXd& q,
     return solved(0.0, options.residual_tolerance, "");
   }
   const double q_norm = q.lpNorm<Eigen::Infinity>();
+  // Where τ will likely depend on ‖M‖∞ (‖M‖∞‖z‖∞ above max(1, ‖q‖∞), the guess standing in for
+  // z: a loaded stack), the exact norm now rather than after forming basis entries twice (only
+  // the work differs, never the result).
+  if (m_lo != m_hi && !(m_hi * guess.lpNorm<Eigen::Infinity>() <= std::max(1.0, q_norm))) {
+    m_lo = m_hi = M.NormInf();
+    if (!std::isfinite(m_hi)) return false;  // not reached: NormInf ≤ the finite bound
+  }
 
   // The guessed basis and M_BB.
   s->active.clear();
@@ -143,7 +151,16 @@ bool SolveOnWarmBasis(const LcpMatrixOperator& M, const Eigen::VectorXd& q,
     M.PrincipalBlock(s->active, &s->m_bb);
     s->product.noalias() = s->m_bb * s->guess_b;
     s->rhs = -(s->product + s->rhs);
-    internal::SolveBasisBlock(s->m_bb, s->rhs, &s->qr, &s->c, &s->z_b);
+    // The QR of the previous call is kept when M_BB has the same bits (a resting contact whose
+    // Jacobian did not change): then only its solve is done.
+    const bool factorized =
+        s->qr_valid && s->m_bb_factorized.rows() == nb && s->m_bb_factorized.cols() == nb &&
+        std::memcmp(s->m_bb_factorized.data(), s->m_bb.data(), sizeof(double) * nb * nb) == 0;
+    internal::SolveBasisBlock(s->m_bb, s->rhs, &s->qr, &s->c, &s->z_b, factorized);
+    if (!factorized) {
+      s->m_bb_factorized = s->m_bb;
+      s->qr_valid = true;
+    }
   } else {
     CompressedColumns& m_bb = s->m_bb_sparse;
     M.PrincipalBlockSparse(s->active, &m_bb);
