@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <utility>
 
 namespace vinci::sim {
 
@@ -49,6 +51,17 @@ void BlockTimesColumn(const double* W, const double* g, double* out) {
   for (int i = 0; i < N; ++i) out[i] = acc[i];
 }
 
+// Entry (i, j), i ≥ j, of a body's block G_bᵀ W_b G_b: Gb(:, i) · WG(:, j), N = n_vb rows (the
+// one expression every path forms it with, hence the same bits).
+template <int N>
+inline double LowerEntry(const MatrixXd& Gb, const MatrixXd& WG, int i, int j) {
+  if constexpr (N == 6)
+    return Eigen::Map<const Eigen::Matrix<double, 6, 1>>(Gb.col(i).data())
+        .dot(Eigen::Map<const Eigen::Matrix<double, 6, 1>>(WG.col(j).data()));
+  else
+    return Gb.col(i).dot(WG.col(j));
+}
+
 }  // namespace
 
 bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembly& a,
@@ -72,9 +85,6 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
   // The impulse columns touching each dynamic body, and each contact's position in them.
   const std::size_t nbody = model.bodies.size();
   columns_.resize(nbody);
-  blocks_.resize(nbody);
-  Gb_.resize(nbody);
-  WG_.resize(nbody);
   for (std::vector<int>& cols : columns_) cols.clear();
   first_.assign(2 * static_cast<std::size_t>(nc), -1);
   for (int c = 0; c < nc; ++c) {
@@ -87,45 +97,152 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
       for (int j = 0; j < nd; ++j) cols.push_back(nc + c * nd + j);
     }
   }
-  // G_bᵀ W_b G_b per body.
+  // Per body: G_b gathered; W_b G_b, the block and ‖M‖∞ are formed on demand (EnsureBlocks,
+  // PrincipalBlock). The bound on ‖M‖∞: |(G_bᵀ W_b G_b)_ij| ≤ |g_i|ᵀ |W_b| |g_j|, so a row's sum
+  // over j is at most |g_i|ᵀ u_b with u_b = |W_b| Σ_j |g_j| — O(n_vb) per row.
+  full_ = false;
+  nvb_ = nvb;
+  blocks_.resize(nbody);
+  Gb_.resize(nbody);
+  WG_.resize(nbody);
+  wg_ready_.resize(nbody);
+  bound_u_.resize(nbody);
+  // The bounds are skipped for a while after a step that needed the exact norm anyway (a loaded
+  // stack: τ depends on ‖M‖∞ there); this changes the work only, never a result.
+  bounds_ = bounds_skip_ == 0;
+  if (!bounds_) --bounds_skip_;
+  bool finite = bounds_;
   for (int body : model.dynamic_bodies()) {
     const std::vector<int>& cols = columns_[body];
     if (cols.empty()) continue;
     const int o = model.index(body).v, k = static_cast<int>(cols.size());
     // Per body, so that a steady step (same k per body) reuses their storage.
     MatrixXd& Gb = Gb_[body];
-    MatrixXd& WG = WG_[body];
     Gb.setZero(nvb, k);
     for (int i = 0; i < k; ++i) {
       const SparseMatrixd& G = cols[i] < nc ? a.G_n : a.G_f;
       const int col = cols[i] < nc ? cols[i] : cols[i] - nc;
+      // The assembly stores a body's block whole (rows o..o+nvb−1, explicit zeros included):
+      // copied at once when found so, else entry by entry.
+      if (G.isCompressed()) {
+        const int* inner = G.innerIndexPtr();
+        const int end = G.outerIndexPtr()[col + 1];
+        int p = G.outerIndexPtr()[col];
+        while (p < end && inner[p] < o) ++p;
+        if (p + nvb <= end && inner[p] == o && inner[p + nvb - 1] == o + nvb - 1) {
+          std::copy(G.valuePtr() + p, G.valuePtr() + p + nvb, Gb.col(i).data());
+          continue;
+        }
+      }
       for (SparseMatrixd::InnerIterator it(G, col); it; ++it)
         if (it.row() >= o && it.row() < o + nvb) Gb(it.row() - o, i) = it.value();
     }
-    // WG = W_b Gb by hand: Eigen's GEMM for a 6 × k product costs more in setup than in flops.
-    // Each entry accumulates from 0 over the inner index in order, as GEMM's kernel does
-    // (the inner dimension nvb ≤ 6 is below its unrolled depth), so the bits are GEMM's.
-    WG.resize(nvb, k);
-    const double* W = a.M_inv.BlockAt(o).data();  // nvb × nvb, column major, contiguous
-    for (int j = 0; j < k; ++j) {
-      if (nvb == 6)
+    WG_[body].resize(nvb, k);
+    wg_ready_[body].assign(static_cast<std::size_t>(k), 0);
+    if (!bounds_) continue;
+    double column_sum[6] = {0, 0, 0, 0, 0, 0};
+    for (int j = 0; j < k; ++j)
+      for (int r = 0; r < nvb; ++r) column_sum[r] += std::abs(Gb(r, j));
+    const auto W = a.M_inv.BlockAt(o);
+    std::array<double, 6>& u = bound_u_[body];
+    for (int r = 0; r < nvb; ++r) {
+      u[r] = 0.0;
+      for (int e = 0; e < nvb; ++e) u[r] += std::abs(W(r, e)) * column_sum[e];
+      finite = finite && std::isfinite(u[r]);
+    }
+  }
+  // The bounds: hi from the rows (contact normals and friction directions), lo and both from the
+  // σ rows (whose sums |μ_c| + n_d NormInf adds the same way).
+  double hi = 0.0;
+  for (int c = 0; c < (bounds_ ? nc : 0); ++c) {
+    const int bodies[2] = {a.contacts[c].body_a, a.contacts[c].body_b};
+    for (int t = 0; t <= nd; ++t) {    // t = 0: the normal row; 1 + j: friction direction j
+      double sum = t > 0 ? 1.0 : 0.0;  // E
+      if (t == 0 && a.compliance[c].compliant) sum += std::abs(a.compliance[c].vel_diagonal);
+      for (int side = 0; side < 2; ++side) {
+        if (first_[2 * c + side] < 0) continue;
+        const int b = bodies[side], p = first_[2 * c + side] + t;
+        const MatrixXd& Gb = Gb_[b];
+        const std::array<double, 6>& u = bound_u_[b];
+        for (int r = 0; r < nvb; ++r) sum += std::abs(Gb(r, p)) * u[r];
+      }
+      finite = finite && std::isfinite(sum);
+      hi = std::max(hi, sum);
+    }
+  }
+  double lo = 0.0;
+  for (int c = 0; c < nc; ++c) lo = std::max(lo, std::abs(a.mu[c]) + nd);  // as NormInf
+  norm_lo_ = lo;
+  norm_hi_ = finite ? std::max(lo, hi * (1.0 + 1e-8)) : std::numeric_limits<double>::infinity();
+
+  // q as BuildLcp.
+  q_.setZero(m_);
+  q_.head(nc).noalias() = a.G_n.transpose() * v_star_;
+  q_.head(nc) += a.dpsi_n;
+  if (!velocity_level) q_.head(nc) += a.psi_n / h;
+  for (int c = 0; c < nc; ++c) {
+    const CompliantNormalRow& law = a.compliance[c];
+    if (!law.compliant) continue;
+    q_[c] = a.G_n.col(c).dot(v_star_) + a.dpsi_n[c] + law.vel_psi * a.psi_n[c] + law.vel_constant;
+  }
+  q_.segment(nc, nf).noalias() = a.G_f.transpose() * v_star_;
+  q_.segment(nc, nf) += a.dpsi_f;
+  return true;
+}
+
+void ContactLcpOperator::EnsureWG(int body, int p) const {
+  char& ready = wg_ready_[body][static_cast<std::size_t>(p)];
+  if (ready) return;
+  // WG = W_b Gb by hand: Eigen's GEMM for a 6 × k product costs more in setup than in flops.
+  // Each entry accumulates from 0 over the inner index in order, as GEMM's kernel does (the inner
+  // dimension nvb ≤ 6 is below its unrolled depth), so the bits are GEMM's.
+  const double* W = a_->M_inv.BlockAt(model_->index(body).v).data();  // nvb × nvb, contiguous
+  if (nvb_ == 6)
+    BlockTimesColumn<6>(W, Gb_[body].col(p).data(), WG_[body].col(p).data());
+  else
+    BlockTimesColumn<3>(W, Gb_[body].col(p).data(), WG_[body].col(p).data());
+  ready = 1;
+}
+
+double ContactLcpOperator::BlockEntry(int body, int i, int j) const {
+  // W_b is symmetric, so is the block: its lower triangle, entry (i ≥ j) = Gb(:, i) · WG(:, j).
+  if (i < j) std::swap(i, j);
+  EnsureWG(body, j);
+  if (nvb_ == 6) return LowerEntry<6>(Gb_[body], WG_[body], i, j);
+  return LowerEntry<3>(Gb_[body], WG_[body], i, j);
+}
+
+void ContactLcpOperator::EnsureBlocks() const {
+  if (full_) return;
+  if (bounds_) bounds_skip_ = kBoundsSkip;  // the bounds did not spare this
+  const StewartTrinkle::Assembly& a = *a_;
+  const int nc = nc_, nd = nd_, nf = nf_;
+  // G_bᵀ W_b G_b per body.
+  for (int body : model_->dynamic_bodies()) {
+    const std::vector<int>& cols = columns_[body];
+    if (cols.empty()) continue;
+    const int k = static_cast<int>(cols.size());
+    MatrixXd& B = blocks_[body];
+    const MatrixXd& Gb = Gb_[body];
+    MatrixXd& WG = WG_[body];
+    std::vector<char>& ready = wg_ready_[body];
+    const double* W = a.M_inv.BlockAt(model_->index(body).v).data();
+    for (int j = 0; j < k; ++j) {  // the columns EnsureWG has not formed, as it forms them
+      if (ready[static_cast<std::size_t>(j)]) continue;
+      if (nvb_ == 6)
         BlockTimesColumn<6>(W, Gb.col(j).data(), WG.col(j).data());
       else
         BlockTimesColumn<3>(W, Gb.col(j).data(), WG.col(j).data());
+      ready[static_cast<std::size_t>(j)] = 1;
     }
-    MatrixXd& B = blocks_[body];
     B.resize(k, k);
-    // W_b is symmetric, so is the block: the lower triangle, mirrored.
-    if (nvb == 6) {
-      for (int j = 0; j < k; ++j) {
-        const Eigen::Map<const Eigen::Matrix<double, 6, 1>> wg(WG.col(j).data());
-        for (int i = j; i < k; ++i)
-          B(j, i) = B(i, j) =
-              Eigen::Map<const Eigen::Matrix<double, 6, 1>>(Gb.col(i).data()).dot(wg);
-      }
+    // The lower triangle, mirrored (as BlockEntry).
+    if (nvb_ == 6) {
+      for (int j = 0; j < k; ++j)
+        for (int i = j; i < k; ++i) B(j, i) = B(i, j) = LowerEntry<6>(Gb, WG, i, j);
     } else {
       for (int j = 0; j < k; ++j)
-        for (int i = j; i < k; ++i) B(j, i) = B(i, j) = Gb.col(i).dot(WG.col(j));
+        for (int i = j; i < k; ++i) B(j, i) = B(i, j) = LowerEntry<3>(Gb, WG, i, j);
     }
   }
 
@@ -138,6 +255,7 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
     const int c = ContactOf(r);
     const int bodies[2] = {a.contacts[c].body_a, a.contacts[c].body_b};
     double sum = r >= nc ? 1.0 : 0.0;  // E
+    const bool compliant = r < nc && a.compliance[r].compliant;
     for (int side = 0; side < 2; ++side) {
       if (first_[2 * c + side] < 0) continue;
       const int b = bodies[side], other = first_[2 * c + 1 - side] >= 0 ? bodies[1 - side] : -1;
@@ -148,11 +266,12 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
         // No other dynamic body: row p of B (column p, B symmetric), the same sums in the same
         // order as the general loop below (cols[jj] == r only at jj = p).
         const double* Bp = B.col(p).data();
-        const bool compliant = r < nc && a.compliance[r].compliant;
-        for (int jj = 0; jj < static_cast<int>(cols.size()); ++jj) {
-          double value = Bp[jj];
-          if (compliant && jj == p) value += a.compliance[r].vel_diagonal;
-          sum += std::abs(value);
+        const int k = static_cast<int>(cols.size());
+        if (compliant) {
+          for (int jj = 0; jj < k; ++jj)
+            sum += std::abs(jj == p ? Bp[jj] + a.compliance[r].vel_diagonal : Bp[jj]);
+        } else {
+          for (int jj = 0; jj < k; ++jj) sum += std::abs(Bp[jj]);
         }
         continue;
       }
@@ -170,8 +289,7 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
           const int jj = g * group + t;
           double value = B(p, jj);
           if (shared >= 0) value += blocks_[other](p_other, shared + t);
-          if (cols[jj] == r && r < nc && a.compliance[r].compliant)
-            value += a.compliance[r].vel_diagonal;
+          if (compliant && cols[jj] == r) value += a.compliance[r].vel_diagonal;
           sum += std::abs(value);
         }
       }
@@ -180,20 +298,21 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
     if (std::isnan(sum)) norm_inf_ = sum;
   }
   for (int c = 0; c < nc; ++c) norm_inf_ = std::max(norm_inf_, std::abs(a.mu[c]) + nd);  // σ rows
+  full_ = true;
+}
 
-  // q as BuildLcp.
-  q_.setZero(m_);
-  q_.head(nc).noalias() = a.G_n.transpose() * v_star_;
-  q_.head(nc) += a.dpsi_n;
-  if (!velocity_level) q_.head(nc) += a.psi_n / h;
-  for (int c = 0; c < nc; ++c) {
-    const CompliantNormalRow& law = a.compliance[c];
-    if (!law.compliant) continue;
-    q_[c] = a.G_n.col(c).dot(v_star_) + a.dpsi_n[c] + law.vel_psi * a.psi_n[c] + law.vel_constant;
+double ContactLcpOperator::NormInf() const {
+  EnsureBlocks();
+  return norm_inf_;
+}
+
+void ContactLcpOperator::NormInfBounds(double* lo, double* hi) const {
+  if (full_) {
+    *lo = *hi = norm_inf_;
+    return;
   }
-  q_.segment(nc, nf).noalias() = a.G_f.transpose() * v_star_;
-  q_.segment(nc, nf) += a.dpsi_f;
-  return true;
+  *lo = norm_lo_;
+  *hi = norm_hi_;
 }
 
 int ContactLcpOperator::PositionIn(int col, int body) const {
@@ -205,6 +324,7 @@ int ContactLcpOperator::PositionIn(int col, int body) const {
 }
 
 double ContactLcpOperator::ImpulseEntry(int i, int j) const {
+  EnsureBlocks();
   const int c = ContactOf(i);
   const Contact& ct = a_->contacts[c];
   double value = 0.0;
@@ -254,6 +374,7 @@ void ContactLcpOperator::MultiplyAdd(const VectorXd& z, const VectorXd& q, Vecto
 }
 
 void ContactLcpOperator::ToSparse(SparseMatrixd* out) const {
+  EnsureBlocks();
   const int nc = nc_, nd = nd_, s0 = nc_ + nf_;
   triplets_.clear();
   for (int body : model_->dynamic_bodies()) {
@@ -288,12 +409,24 @@ void ContactLcpOperator::PrincipalBlock(const std::vector<int>& index, MatrixXd*
   for (int b = 0; b < k; ++b) position_[index[b]] = b;
   for (int body : model_->dynamic_bodies()) {
     const std::vector<int>& cols = columns_[body];
-    const MatrixXd& B = blocks_[body];
     members_.clear();
     for (int p = 0; p < static_cast<int>(cols.size()); ++p)
       if (position_[cols[p]] >= 0) members_.emplace_back(p, position_[cols[p]]);
-    for (const auto& [pj, bj] : members_)
-      for (const auto& [pi, bi] : members_) (*out)(bi, bj) += B(pi, pj);
+    if (full_) {
+      const MatrixXd& B = blocks_[body];
+      for (const auto& [pj, bj] : members_)
+        for (const auto& [pi, bi] : members_) (*out)(bi, bj) += B(pi, pj);
+    } else {  // only the members' entries (the same bits as the whole block's), each pair once
+      for (std::size_t x = 0; x < members_.size(); ++x) {
+        const auto [pj, bj] = members_[x];
+        for (std::size_t y = x; y < members_.size(); ++y) {
+          const auto [pi, bi] = members_[y];
+          const double value = BlockEntry(body, pi, pj);
+          (*out)(bi, bj) += value;
+          if (y != x) (*out)(bj, bi) += value;
+        }
+      }
+    }
   }
   for (int b = 0; b < k; ++b) {
     const int j = index[b];
@@ -322,6 +455,7 @@ void ContactLcpOperator::PrincipalBlockSparse(const std::vector<int>& index,
   // Column b: the basis members of the body blocks of the (at most two) bodies its impulse
   // column touches, summed where both bodies hold the row (0 + x + y in either order, as
   // PrincipalBlock), then the compliance; or the E, U, −Eᵀ entries. Rows sorted per column.
+  EnsureBlocks();
   const int k = static_cast<int>(index.size());
   const int s0 = nc_ + nf_, n = s0 + nc_;
   position_.resize(n);

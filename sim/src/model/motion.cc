@@ -1,6 +1,7 @@
 #include "vinci/sim/model/motion.h"
 
 #include <cmath>
+#include <cstring>
 #include <stdexcept>
 
 namespace vinci::sim {
@@ -94,11 +95,107 @@ BodyKinematics EvaluateMotion(const PrescribedMotion& motion, const Isometry3d& 
   return EvaluateMotion(motion, X_WB0, planar, t, 0.0);
 }
 
+namespace {
+
+BodyKinematics EvaluateMotionNow(const PrescribedMotion& motion, const Isometry3d& X_WB0,
+                                 bool planar, double t, double h);
+
+// Bitwise equality (so that −0.0 ≠ 0.0 and a key never stands for other bits).
+bool Same(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }
+
+// The rotation and translation (the top 3 × 4 of the column-major 4 × 4 matrix).
+bool SamePose(const Isometry3d& a, const Isometry3d& b) {
+  for (int col = 0; col < 4; ++col)
+    if (std::memcmp(a.data() + 4 * col, b.data() + 4 * col, sizeof(double) * 3) != 0) return false;
+  return true;
+}
+
+bool SameMotion(const PrescribedMotion& a, const PrescribedMotion& b) {
+  if (a.pose != b.pose || !Same(a.time_origin, b.time_origin) || a.dofs.size() != b.dofs.size())
+    return false;
+  const TiltMotion &ta = a.tilt, &tb = b.tilt;
+  if (!Same(ta.amplitude, tb.amplitude) || !Same(ta.frequency, tb.frequency) ||
+      !Same(ta.phase, tb.phase) || !Same(ta.depth, tb.depth) ||
+      std::memcmp(ta.axis_B.data(), tb.axis_B.data(), sizeof(double) * 3) != 0)
+    return false;
+  for (std::size_t i = 0; i < a.dofs.size(); ++i) {
+    const DofMotion &da = a.dofs[i], &db = b.dofs[i];
+    if (!Same(da.velocity, db.velocity) || da.harmonics.size() != db.harmonics.size() ||
+        da.keyframes.size() != db.keyframes.size())
+      return false;
+    for (std::size_t j = 0; j < da.harmonics.size(); ++j)
+      if (!Same(da.harmonics[j].amplitude, db.harmonics[j].amplitude) ||
+          !Same(da.harmonics[j].frequency, db.harmonics[j].frequency) ||
+          !Same(da.harmonics[j].phase, db.harmonics[j].phase))
+        return false;
+    for (std::size_t j = 0; j < da.keyframes.size(); ++j)
+      if (!Same(da.keyframes[j].t, db.keyframes[j].t) ||
+          !Same(da.keyframes[j].value, db.keyframes[j].value))
+        return false;
+  }
+  return true;
+}
+
+// The last evaluations on this thread, one entry per (motion, X_WB0, planar): a step evaluates a
+// prescribed body at the same t + h three times (its velocity over the step, the end-of-step
+// penetration check, the next step's assembly). A pure function's memo: a hit returns the bits
+// an evaluation would (the key compares every input bit for bit).
+struct MotionMemo {
+  static constexpr int kEntries = 4;
+  struct Entry {
+    bool valid = false;
+    PrescribedMotion motion;
+    Isometry3d X_WB0 = Isometry3d::Identity();
+    bool planar = false;
+    double t = 0.0, h = 0.0;
+    BodyKinematics k;
+  };
+  Entry entries[kEntries];
+  int next = 0;  // the entry a new key replaces
+};
+
+}  // namespace
+
 BodyKinematics EvaluateMotion(const PrescribedMotion& motion, const Isometry3d& X_WB0, bool planar,
                               double t, double h) {
+  if (motion.IsAtRest()) {
+    BodyKinematics k;
+    k.X_WB = X_WB0;
+    return k;
+  }
+  // h matters only for an integrated pose.
+  if (!(motion.pose == PoseRule::kIntegrated && h > 0.0)) h = 0.0;
+  thread_local MotionMemo memo;
+  MotionMemo::Entry* same_body = nullptr;
+  for (MotionMemo::Entry& e : memo.entries) {
+    if (!e.valid || e.planar != planar || !SamePose(e.X_WB0, X_WB0) ||
+        !SameMotion(e.motion, motion))
+      continue;
+    if (Same(e.t, t) && Same(e.h, h)) return e.k;
+    same_body = &e;
+  }
+  const BodyKinematics k = EvaluateMotionNow(motion, X_WB0, planar, t, h);
+  MotionMemo::Entry* e = same_body;
+  if (e == nullptr) {
+    e = &memo.entries[memo.next];
+    memo.next = (memo.next + 1) % MotionMemo::kEntries;
+    e->motion = motion;  // reuses the entry's storage once it has held a motion this large
+    e->X_WB0 = X_WB0;
+    e->planar = planar;
+  }
+  e->valid = true;
+  e->t = t;
+  e->h = h;
+  e->k = k;
+  return k;
+}
+
+namespace {
+
+BodyKinematics EvaluateMotionNow(const PrescribedMotion& motion, const Isometry3d& X_WB0,
+                                 bool planar, double t, double h) {
   BodyKinematics k;
   k.X_WB = X_WB0;
-  if (motion.IsAtRest()) return k;
   t -= motion.time_origin;  // τ; exact (t itself) for the default origin 0
   const std::size_t n = planar ? 3 : 6;
   if (!motion.dofs.empty() && motion.dofs.size() != n)
@@ -148,5 +245,7 @@ BodyKinematics EvaluateMotion(const PrescribedMotion& motion, const Isometry3d& 
   k.w_WB = R0 * (thd * a_B + R_tilt * w0);
   return k;
 }
+
+}  // namespace
 
 }  // namespace vinci::sim

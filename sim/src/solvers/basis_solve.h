@@ -19,13 +19,16 @@ constexpr double kBasisRankTolerance = 1e-10;
 // over the pivots above kBasisRankTolerance, δ = 0 on the others. Bitwise Eigen's
 // ColPivHouseholderQR::solve when no pivot is dropped. `qr` and `c` are scratch: the steps of
 // ColPivHouseholderQR::_solve_impl are done in their storage, so a call whose size matches the
-// previous one allocates nothing.
+// previous one allocates nothing. `factorized`: *qr already holds this m_bb's factorization (of
+// the same bits: the caller checked), so only the solve is done.
 inline void SolveBasisBlock(const Eigen::MatrixXd& m_bb, const Eigen::VectorXd& rhs,
                             Eigen::ColPivHouseholderQR<Eigen::MatrixXd>* qr, Eigen::VectorXd* c,
-                            Eigen::VectorXd* delta) {
+                            Eigen::VectorXd* delta, bool factorized = false) {
   const Eigen::Index nb = m_bb.cols();
-  qr->setThreshold(kBasisRankTolerance);
-  qr->compute(m_bb);
+  if (!factorized) {
+    qr->setThreshold(kBasisRankTolerance);
+    qr->compute(m_bb);
+  }
   const Eigen::Index nz = qr->nonzeroPivots();
   const Eigen::Index rank = std::min(qr->rank(), nz);
   *c = rhs;

@@ -21,6 +21,9 @@ class LcpMatrixOperator {
   virtual int size() const = 0;
   /// ‖M‖∞ = max_i Σ_j |M_ij| (+inf or NaN if M has a non-finite entry).
   virtual double NormInf() const = 0;
+  /// Bounds *lo ≤ NormInf() ≤ *hi (on the value NormInf returns), for an operator that can bound
+  /// its norm more cheaply than form it; *hi may be +inf (no bound). Default: both NormInf().
+  virtual void NormInfBounds(double* lo, double* hi) const { *lo = *hi = NormInf(); }
   /// *w = M z + q (w sized by the caller's vector; may reallocate).
   virtual void MultiplyAdd(const Eigen::VectorXd& z, const Eigen::VectorXd& q,
                            Eigen::VectorXd* w) const = 0;
@@ -56,8 +59,10 @@ struct WarmBasisScratch {
   Eigen::VectorXd guess_b, rhs, z_b, w, candidate, product, c;
   Eigen::MatrixXd m_bb;
   Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr;  // of m_bb (dense bases)
-  CompressedColumns m_bb_sparse;                   // M_BB of sparse bases
-  SemidefiniteLdlt ldlt;                           // of m_bb_sparse when it is symmetric
+  Eigen::MatrixXd m_bb_factorized;                 // the M_BB qr holds (qr_valid)
+  bool qr_valid = false;
+  CompressedColumns m_bb_sparse;  // M_BB of sparse bases
+  SemidefiniteLdlt ldlt;          // of m_bb_sparse when it is symmetric
   std::vector<int> cursor;
 };
 
@@ -74,10 +79,11 @@ inline constexpr int kDenseWarmBasisMax = 48;
 /// z_B = guess_B + δ with M_BB δ = −(M_BB guess_B + q_B) (anchored at the guess, so a singular
 /// M_BB keeps the guessed values in its null space), accepted iff z_B ≥ −τ, w_N ≥ −τ,
 /// LcpResidual ≤ τ(z) and the scale-aware residual (lcp_acceptance.h) ≤
-/// kLcpAcceptanceTolerance, with τ(z) of `options` (lemke.h) and M's ‖M‖∞. Work: one
-/// NormInf, two products, the |B| × |B| block and its factorization (dense up to
-/// kDenseWarmBasisMax, sparse above) — no pass over a dense n × n matrix. The result does not
-/// depend on what the scratch solved before.
+/// kLcpAcceptanceTolerance, with τ(z) of `options` (lemke.h) and M's ‖M‖∞. Work: NormInfBounds
+/// (NormInf only if the outcome could differ within the bounds), two products, the |B| × |B|
+/// block and its factorization (dense up to kDenseWarmBasisMax, sparse above; a dense block with
+/// the same bits as the scratch's previous one reuses its QR) — no pass over a dense n × n
+/// matrix. The result does not depend on what the scratch solved before.
 ///
 /// Returns true with *z and *report (kSolved, 0 iterations, residual, tolerance, message as
 /// LemkeSolver's) if z = 0 or the guessed basis is accepted; false otherwise (then *z and
