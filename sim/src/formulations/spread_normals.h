@@ -30,6 +30,19 @@ void SpreadIndeterminateNormals(const Scene& model, const StewartTrinkle::Assemb
                                 const VectorXd& v1, double h, bool velocity_level, double w_tol,
                                 VectorXd* z);
 
+/// SpreadIndeterminateNormals over the whole contact network instead of one body pair at a
+/// time: a box resting on several boxes (a pile) has a load split among whole pairs that G p
+/// does not fix, and a pivoting solver returns a vertex with some supporting pairs unloaded
+/// (then the supported box rocks about the loaded ones, and the rocking grows). If some
+/// eligible contact (as SpreadIndeterminateNormals') is unloaded, the eligible normal impulses
+/// p go towards the minimum-norm p* = Jᵀ (J Jᵀ)⁺ J p, J = G_n's eligible columns (rows of J below
+/// 1e-8 of the largest row norm left out, J Jᵀ by SemidefiniteLdlt with drop tolerance 1e-10),
+/// as far as p ≥ 0 and the friction rows allow; z is left unchanged if J (p* − p) exceeds 1e-9
+/// of ‖J p‖∞. Work: one sparse LDLᵀ of J Jᵀ (nv × nv, a body-pair block pattern).
+void SpreadIndeterminateNormalsGlobally(const Scene& model, const StewartTrinkle::Assembly& a,
+                                        const VectorXd& v1, double h, bool velocity_level,
+                                        double w_tol, VectorXd* z);
+
 }  // namespace vinci::sim::internal
 
 namespace vinci::sim::internal {
