@@ -21,6 +21,8 @@ constexpr double kDropTolerance = 1e-10;
 constexpr double kKeepVelocityTol = 1e-9;
 // Rounds of the active-set loop (fixing negative minimum-norm impulses at 0).
 constexpr int kMaxRounds = 12;
+// An unloaded member whose (Jᵀy)_i is at most this fraction of ‖p‖∞ would take no load.
+constexpr double kDualTol = 1e-9;
 
 struct GlobalSpreadScratch {
   std::vector<int> members, row_of, rows, cursor;
@@ -33,7 +35,7 @@ struct GlobalSpreadScratch {
   std::vector<std::vector<std::pair<int, double>>> a_cols;
   SemidefiniteLdlt ldlt;
   std::vector<char> free;
-  VectorXd p, target, b, y, check;
+  VectorXd p, target, dual, b, y, check;
 };
 
 }  // namespace
@@ -139,24 +141,35 @@ void SpreadIndeterminateNormalsGlobally(const Scene& model, const StewartTrinkle
     if (!s.ldlt.Factorize(s.A, kDropTolerance)) return false;
     s.ldlt.Solve(s.b, &s.y);
     s.target.setZero(m);
+    s.dual.resize(m);
     s.check = -s.b;
     for (int i = 0; i < m; ++i) {
-      if (!s.free[i]) continue;
       double t = 0.0;
       for (int k = s.col_start[i]; k < s.col_start[i + 1]; ++k)
         t += s.col_value[k] * s.y[s.col_row[k]];
+      s.dual[i] = t;
+      if (!s.free[i]) continue;
       s.target[i] = t;
       for (int k = s.col_start[i]; k < s.col_start[i + 1]; ++k)
         s.check[s.col_row[k]] += s.col_value[k] * t;
     }
     return s.target.allFinite() && s.check.lpNorm<Eigen::Infinity>() <= kKeepVelocityTol * b_norm;
   };
-  // Active set: members whose minimum-norm impulse is negative are fixed at 0 and the rest
-  // re-solved, until the minimum-norm impulse of the free ones is nonnegative.
-  s.free.assign(m, 1);
-  bool found = false;
-  int round = 0;
-  for (; round < kMaxRounds; ++round) {
+  // First the loaded members alone: if their minimum-norm impulse is nonnegative and no
+  // unloaded member would take load ((Jᵀy)_i ≤ 0 there: the optimality conditions of
+  // min ‖p‖² s.t. J p = b, p ≥ 0), that is the answer (one factorization: a resting pile whose
+  // previous step was spread).
+  const double p_max = s.p.lpNorm<Eigen::Infinity>();
+  s.free.resize(m);
+  for (int i = 0; i < m; ++i) s.free[i] = s.p[i] > 0.0;
+  bool found = min_norm();
+  for (int i = 0; i < m && found; ++i)
+    found = s.free[i] ? s.target[i] >= 0.0 : s.dual[i] <= kDualTol * p_max;
+  // Else an active set from all members: those whose minimum-norm impulse is negative are
+  // fixed at 0 and the rest re-solved, until the minimum-norm impulse of the free ones is
+  // nonnegative.
+  if (!found) s.free.assign(m, 1);
+  for (int round = 0; !found && round < kMaxRounds; ++round) {
     if (!min_norm()) break;
     int negative = 0;
     for (int i = 0; i < m; ++i)
@@ -170,12 +183,12 @@ void SpreadIndeterminateNormalsGlobally(const Scene& model, const StewartTrinkle
     }
   }
   if (!found) return;
-  // The friction rows μ p_n − Σ p_f ≥ 0 must hold at the target too.
+  // The friction rows μ p_n − Σ p_f ≥ 0 must hold at the target too (or be no worse).
   for (int i = 0; i < m; ++i) {
     const int c = s.members[i];
-    double slack = a.mu[c] * s.target[i];
-    for (int j = 0; j < a.nd; ++j) slack -= (*z)[nc + c * a.nd + j];
-    if (slack < 0.0 && slack < a.mu[c] * s.p[i] - ((*z).segment(nc + c * a.nd, a.nd).sum())) return;
+    double friction = 0.0;
+    for (int j = 0; j < a.nd; ++j) friction += (*z)[nc + c * a.nd + j];
+    if (a.mu[c] * s.target[i] < std::min(friction, a.mu[c] * s.p[i])) return;
   }
   for (int i = 0; i < m; ++i) (*z)[s.members[i]] = s.target[i];
 }
