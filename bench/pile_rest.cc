@@ -2,8 +2,11 @@
 // contact: per-step diagnostics of its rest (largest body speed, deepest penetration, how the
 // LCP was solved), every `--every` steps and at every step not solved on the warm basis.
 //
-//   pile_rest [--steps N] [--every K] [--layers L --side S]
+//   pile_rest [--steps N] [--every K] [--layers L --side S] [--digits D] [--gap G]
 //
+// --digits D: the start poses written with D significant digits (default 17: exact contact;
+// fewer: small gaps and overlaps). --gap G: each layer starts G m above the one below (and the
+// first above the floor), so the pile settles through impacts and contact changes.
 // Prints one line per reported step: step, t, CPU ms of the step, contacts, pivots, the largest
 // body speed (m/s, the 6-vector norm), the deepest gap (m), the solver message; at the end the
 // number of failed steps, the worst speed and gap and the mean CPU ms per step after step 0.
@@ -29,7 +32,8 @@ double CpuSeconds() {
 }  // namespace
 
 int main(int argc, char** argv) {
-  int steps = 1000, every = 50, layers = 4, side = 5;
+  int steps = 1000, every = 50, layers = 4, side = 5, digits = 17;
+  double gap = 0.0;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--steps" && i + 1 < argc) {
@@ -40,17 +44,25 @@ int main(int argc, char** argv) {
       layers = std::atoi(argv[++i]);
     } else if (a == "--side" && i + 1 < argc) {
       side = std::atoi(argv[++i]);
+    } else if (a == "--gap" && i + 1 < argc) {
+      gap = std::atof(argv[++i]);
+    } else if (a == "--digits" && i + 1 < argc) {
+      digits = std::atoi(argv[++i]);
     } else {
-      std::fprintf(stderr, "usage: pile_rest [--steps N] [--every K] [--layers L --side S]\n");
+      std::fprintf(stderr,
+                   "usage: pile_rest [--steps N] [--every K] [--layers L --side S] [--digits D] "
+                   "[--gap G]\n");
       return 2;
     }
   }
-  if (steps < 1 || every < 1 || layers < 1 || side < 1) {
-    std::fprintf(stderr, "pile_rest: expected positive --steps, --every, --layers, --side\n");
+  if (steps < 1 || every < 1 || layers < 1 || side < 1 || digits < 1 || digits > 17) {
+    std::fprintf(stderr,
+                 "pile_rest: expected positive --steps, --every, --layers, --side and 1 <= "
+                 "--digits <= 17\n");
     return 2;
   }
   using namespace vinci::sim;
-  const Simulator sim(ParseScene(vinci::bench::PileYaml(17, layers, side), "pile_rest"));
+  const Simulator sim(ParseScene(vinci::bench::PileYaml(digits, layers, side, gap), "pile_rest"));
   const Scene& s = sim.scene();
   const Params params = sim.DefaultParams();
   Workspace ws;
