@@ -36,7 +36,7 @@ inline std::string StackYaml(int k, int digits = 17, double gap = 0.0) {
 /// side × side 0.2 m cubes (1 kg) 5 mm apart (no side contacts), odd layers shifted by (5, 5) cm,
 /// so each cube above the floor rests on one to four cubes below; μ = 0.6, n_d = 4, dt = 1 ms,
 /// envelope 2 mm.
-inline std::string PileYaml(int digits = 17, int layers = 4, int side = 5) {
+inline std::string PileYaml(int digits = 17, int layers = 4, int side = 5, double gap = 0.0) {
   std::ostringstream s;
   s << "name: pile" << layers * side * side << "\ndimension: 3\n"
     << "stepper: {dt: 0.001, duration: 2.0, friction_directions: 4, envelope: 0.002}\n"
@@ -48,7 +48,7 @@ inline std::string PileYaml(int digits = 17, int layers = 4, int side = 5) {
         const double shift = layer % 2 ? 0.05 : 0.0;
         s << "  - {name: b" << layer << "_" << i << "_" << j << ", mass: 1.0, pose: {position: ["
           << Num(0.205 * i + shift, digits) << ", " << Num(0.205 * j + shift, digits) << ", "
-          << Num(0.1 + 0.2 * layer, digits)
+          << Num(0.1 + gap + (0.2 + gap) * layer, digits)
           << "]}, shapes: [{type: box, half_extents: [0.1, 0.1, 0.1]}]}\n";
       }
   return s.str();

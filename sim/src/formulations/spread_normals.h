@@ -30,6 +30,30 @@ void SpreadIndeterminateNormals(const Scene& model, const StewartTrinkle::Assemb
                                 const VectorXd& v1, double h, bool velocity_level, double w_tol,
                                 VectorXd* z);
 
+/// SpreadIndeterminateNormals over the whole contact network instead of one body pair at a
+/// time: a box resting on several boxes (a pile) has a load split among whole pairs that G p
+/// does not fix, and a pivoting solver returns a vertex with some supporting pairs unloaded;
+/// the next step's warm basis (the loaded contacts) then misses some normal directions of the
+/// pile (the 100-box pile: rank 296 of 300), the supported box rocks about the loaded ones, and
+/// the rocking grows until the basis is refused. If some eligible contact (as
+/// SpreadIndeterminateNormals') is unloaded, the eligible normal impulses p are replaced by the
+/// solution of
+///
+///   min ‖p'‖²  s.t.  J p' = J p,  p' ≥ 0,      J = G_n's eligible columns,
+///
+/// found by an active set: the minimum-norm p' = Jᵀ (J Jᵀ)⁺ J p over the free members (J Jᵀ by
+/// SemidefiniteLdlt, drop tolerance 1e-10; rows of J below 1e-8 of the largest row norm, such
+/// as a cube's yaw row, left out), members with p' < 0 fixed at 0, re-solved, at most 12 rounds.
+/// The loaded members alone are tried first and kept if the optimality conditions hold
+/// (p' ≥ 0 on them, (Jᵀy)_i ≤ 1e-9 ‖p‖∞ on the unloaded ones): one factorization on a resting
+/// pile. z is left unchanged if no round succeeds, if J (p' − p) exceeds 1e-9 ‖J p‖∞ (so the
+/// velocity, and every row of w, is unchanged up to that), or if a friction row μ p'_c − Σ p_f
+/// would become negative (or more negative). Work: one sparse LDLᵀ of J Jᵀ (nv × nv, a
+/// body-pair block pattern) per round; no allocation once the scratch (per thread) is sized.
+void SpreadIndeterminateNormalsGlobally(const Scene& model, const StewartTrinkle::Assembly& a,
+                                        const VectorXd& v1, double h, bool velocity_level,
+                                        double w_tol, VectorXd* z);
+
 }  // namespace vinci::sim::internal
 
 namespace vinci::sim::internal {

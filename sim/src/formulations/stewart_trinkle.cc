@@ -770,9 +770,13 @@ void StewartTrinkle::Step(const Scene& model, const State& x, const StepInput& u
   VelocityAfterInto(a, v_star, z, joints, &s.impulse, &s.product, &s.dv, &s.v1);
   // Lemke's basis is the next step's warm start: spread statically indeterminate normal impulses
   // over every touching contact, so that basis holds them all (spread_normals.h).
-  if (lemke != nullptr)
+  if (lemke != nullptr) {
     internal::SpreadIndeterminateNormals(model, a, s.v1, h, velocity_level_, info->solver.tolerance,
                                          &z);
+    if (m_plain >= kSparseStepMinSize && z.size() == m_plain)
+      internal::SpreadIndeterminateNormalsGlobally(model, a, s.v1, h, velocity_level_,
+                                                   info->solver.tolerance, &z);
+  }
   if (!internal::CompleteStep(model, x, s.v1, h, &z, next, info)) return;
   if (ws) ws->contacts = a.contacts;  // a copy into its storage (the assembly is reused)
   info->ok = true;
