@@ -68,6 +68,8 @@ enum class PoseRule {
 ///
 /// A tilt (TiltMotion) may be combined with the dofs: R(t) = R_0 · R_tilt(t) · R_dofs(t),
 /// origin(t) = origin_0 + R_0 (R_tilt(θ) d n − d n) + Δ(x, y, z).
+/// EvaluateMotion memoizes its last evaluations per thread, keyed on every field it reads
+/// (motion.cc, SameMotion): a field added here that evaluation reads must join that key.
 struct PrescribedMotion {
   std::vector<DofMotion> dofs;  ///< 3 (planar) or 6 (spatial); empty = no dof offsets
   TiltMotion tilt;              ///< inactive when tilt.amplitude == 0
