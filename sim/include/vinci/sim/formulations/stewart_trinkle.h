@@ -129,8 +129,7 @@ class StewartTrinkle final : public Formulation {
   LcpProblem BuildLcp(const Scene& model, const Assembly& a, const VectorXd& v, VectorXd* v_star,
                       JointElimination* joints) const;
   /// BuildLcp into *lcp, reusing its storage (M, q, blocks): the same numbers, and no
-  /// allocation when the sizes did not change (plain contacts and support points; joints and
-  /// corner contacts still form temporaries).
+  /// allocation when the sizes did not change (per-thread buffers, *joints' storage reused).
   void BuildLcpInto(const Scene& model, const Assembly& a, const VectorXd& v, VectorXd* v_star,
                     JointElimination* joints, LcpProblem* lcp) const;
   /// ν_ℓ+1 = ν* + W G_c p_c for the LCP solution z.
