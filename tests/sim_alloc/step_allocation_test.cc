@@ -29,18 +29,39 @@ void* __libc_realloc(void* p, std::size_t size);
 namespace {
 std::atomic<long> g_allocations{0};
 }  // namespace
+long SurveyAllocCount() { return g_allocations.load(); }
+#include <execinfo.h>
+#include <unistd.h>
+std::atomic<bool> g_trace{false};
+thread_local bool g_in_trace = false;
+void SurveyTrace(bool on) { g_trace = on; }
+static void MaybeTrace() {
+  if (!g_trace || g_in_trace) return;
+  g_in_trace = true;
+  void* buf[40];
+  int n = backtrace(buf, 40);
+  static int fd = -1;
+  if (fd < 0) fd = 2;
+  write(fd, "BT-BEGIN\n", 9);
+  backtrace_symbols_fd(buf, n, fd);
+  write(fd, "BT-END\n", 7);
+  g_in_trace = false;
+}
 
 extern "C" {
 void* malloc(std::size_t size) {
   g_allocations.fetch_add(1, std::memory_order_relaxed);
+  MaybeTrace();
   return __libc_malloc(size);
 }
 void* calloc(std::size_t n, std::size_t size) {
   g_allocations.fetch_add(1, std::memory_order_relaxed);
+  MaybeTrace();
   return __libc_calloc(n, size);
 }
 void* realloc(void* p, std::size_t size) {
   g_allocations.fetch_add(1, std::memory_order_relaxed);
+  MaybeTrace();
   return __libc_realloc(p, size);
 }
 }

@@ -47,4 +47,17 @@ void LdltSolveInto(const Eigen::LDLT<MatrixXd>& ldlt, const Rhs& rhs, Out* out) 
   LdltSolveInPlace(ldlt, *out);
 }
 
+/// *dst ← A⁻¹ for A = *a (square, dynamic size), factored into *lu: MatrixXd::inverse()'s steps
+/// for a dynamic size (its PartialPivLU, then P·I and the two triangular solves in place, as
+/// PartialPivLU::_solve_impl). Bitwise `dst = a.inverse()`; `dst` may be a block.
+template <typename Dst>
+void LuInverseInto(const MatrixXd& a, Eigen::PartialPivLU<MatrixXd>* lu, Dst&& dst) {
+  lu->compute(a);
+  const auto& perm = lu->permutationP().indices();
+  dst.setZero();
+  for (Eigen::Index i = 0; i < perm.size(); ++i) dst(perm(i), i) = 1.0;
+  lu->matrixLU().template triangularView<Eigen::UnitLower>().solveInPlace(dst);
+  lu->matrixLU().template triangularView<Eigen::Upper>().solveInPlace(dst);
+}
+
 }  // namespace vinci::sim::internal

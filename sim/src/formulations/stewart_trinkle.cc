@@ -351,7 +351,11 @@ void StewartTrinkle::Fill(const Scene& model, const State& x, const StepInput& u
       const Body& b = model.bodies[bi];
       const int o = model.index(bi).v;
       a.M.BlockAt(o) = h * b.damping;
-      a.M_inv.BlockAt(o) = (h * b.damping).inverse();
+      // (h C)⁻¹ as inverse() forms it, in this thread's storage (dense_solve.h).
+      thread_local MatrixXd hC;
+      thread_local Eigen::PartialPivLU<MatrixXd> lu;
+      hC = h * b.damping;
+      internal::LuInverseInto(hC, &lu, a.M_inv.BlockAt(o));
       if (dim == Dim::kSpatial) {
         const Vector3d w_B = x.v.segment<3>(o + 3);
         a.p_ext.segment<3>(o + 3) += h * w_B.cross(b.inertia * w_B);
