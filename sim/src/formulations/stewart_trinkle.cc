@@ -696,7 +696,7 @@ namespace {
 
 // ν_ℓ+1 = ν* + W G_c p_c into *v1, with the intermediate vectors in *impulse, *product and *dv
 // (their storage reused).
-void VelocityAfterInto(const StewartTrinkle::Assembly& a, const VectorXd& v_star, const VectorXd& z,
+void VelocityAfterWith(const StewartTrinkle::Assembly& a, const VectorXd& v_star, const VectorXd& z,
                        const StewartTrinkle::JointElimination& joints, VectorXd* impulse,
                        VectorXd* product, VectorXd* dv, VectorXd* v1) {
   const int nc = static_cast<int>(a.contacts.size());
@@ -726,8 +726,14 @@ void VelocityAfterInto(const StewartTrinkle::Assembly& a, const VectorXd& v_star
 VectorXd StewartTrinkle::VelocityAfter(const Assembly& a, const VectorXd& v_star, const VectorXd& z,
                                        const JointElimination& joints) const {
   VectorXd impulse, product, dv, v1;
-  VelocityAfterInto(a, v_star, z, joints, &impulse, &product, &dv, &v1);
+  VelocityAfterWith(a, v_star, z, joints, &impulse, &product, &dv, &v1);
   return v1;
+}
+
+void StewartTrinkle::VelocityAfterInto(const Assembly& a, const VectorXd& v_star, const VectorXd& z,
+                                       const JointElimination& joints, VectorXd* v1) const {
+  thread_local VectorXd impulse, product, dv;
+  VelocityAfterWith(a, v_star, z, joints, &impulse, &product, &dv, v1);
 }
 
 void StewartTrinkle::Step(const Scene& model, const State& x, const StepInput& u, Workspace* ws,
@@ -821,7 +827,7 @@ void StewartTrinkle::Step(const Scene& model, const State& x, const StepInput& u
     }
   }
 
-  VelocityAfterInto(a, v_star, z, joints, &s.impulse, &s.product, &s.dv, &s.v1);
+  VelocityAfterWith(a, v_star, z, joints, &s.impulse, &s.product, &s.dv, &s.v1);
   // Lemke's basis is the next step's warm start: spread statically indeterminate normal impulses
   // over every touching contact, so that basis holds them all (spread_normals.h).
   if (lemke != nullptr)

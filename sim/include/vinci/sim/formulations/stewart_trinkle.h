@@ -135,6 +135,10 @@ class StewartTrinkle final : public Formulation {
   /// ν_ℓ+1 = ν* + W G_c p_c for the LCP solution z.
   VectorXd VelocityAfter(const Assembly& a, const VectorXd& v_star, const VectorXd& z,
                          const JointElimination& joints) const;
+  /// VelocityAfter into *v1 (its intermediate vectors in per-thread storage): the same numbers,
+  /// no allocation when the sizes did not change. v1 must not alias the inputs.
+  void VelocityAfterInto(const Assembly& a, const VectorXd& v_star, const VectorXd& z,
+                         const JointElimination& joints, VectorXd* v1) const;
 
   const StepperOptions& options() const { return options_; }
 
