@@ -51,7 +51,8 @@ void StepFunction(const StepData& d, const VectorXd& y, VectorXd* F, MatrixXd* J
   // Every product into a buffer first, then the sums in the expression's order: what Eigen does
   // for the whole expression (it evaluates each product, and the product's vector argument
   // ν − ν₀, into a temporary), in this thread's storage.
-  thread_local VectorXd dnu, t_m, t_n, t_f, t_b, t_s;
+  thread_local VectorXd dnu, t_m, t_n, t_f, t_b, t_s, w_n, w_f, w_b,
+      w_s;  // t: ν rows, w: the others
   dnu = nu - d.v0;
   t_m.noalias() = d.eps_M * dnu;
   t_n.noalias() = a.G_n * y.segment(o.pn(), o.nc);
@@ -59,10 +60,10 @@ void StepFunction(const StepData& d, const VectorXd& y, VectorXd* F, MatrixXd* J
   t_b.noalias() = a.G_b * y.segment(o.pb(), o.nb);
   t_s.noalias() = sup.G_s * y.segment(o.ps(), o.nps);
   F->segment(o.v(), o.nv) = t_m - t_n - t_f - t_b - t_s - a.p_ext;
-  t_n.noalias() = a.G_n.transpose() * nu;
-  F->segment(o.pn(), o.nc) = t_n + a.psi_n / d.h + a.dpsi_n;
-  t_f.noalias() = a.G_f.transpose() * nu;
-  F->segment(o.pf(), o.nf) = t_f + a.dpsi_f;
+  w_n.noalias() = a.G_n.transpose() * nu;
+  F->segment(o.pn(), o.nc) = w_n + a.psi_n / d.h + a.dpsi_n;
+  w_f.noalias() = a.G_f.transpose() * nu;
+  F->segment(o.pf(), o.nf) = w_f + a.dpsi_f;
   for (int c = 0; c < o.nc; ++c) {
     double sum_pf = 0.0;
     for (int j = 0; j < nd; ++j) {
@@ -72,12 +73,12 @@ void StepFunction(const StepData& d, const VectorXd& y, VectorXd* F, MatrixXd* J
     (*F)[o.sigma() + c] = a.mu[c] * y[o.pn() + c] - sum_pf;
   }
   if (o.nb > 0) {
-    t_b.noalias() = a.G_b.transpose() * nu;
-    F->segment(o.pb(), o.nb) = t_b + a.dpsi_b;
+    w_b.noalias() = a.G_b.transpose() * nu;
+    F->segment(o.pb(), o.nb) = w_b + a.dpsi_b;
     if (d.joint_stabilization) F->segment(o.pb(), o.nb) += a.psi_b / d.h;
   }
-  t_s.noalias() = sup.G_s.transpose() * nu;
-  F->segment(o.ps(), o.nps) = t_s;
+  w_s.noalias() = sup.G_s.transpose() * nu;
+  F->segment(o.ps(), o.nps) = w_s;
   for (int k = 0; k < o.ns; ++k) {
     const double L = sup.limit[k];
     const int first = o.ps() + sup.first[k], n = sup.count[k];
