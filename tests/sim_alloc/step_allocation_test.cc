@@ -29,7 +29,6 @@ void* __libc_realloc(void* p, std::size_t size);
 namespace {
 std::atomic<long> g_allocations{0};
 }  // namespace
-
 extern "C" {
 void* malloc(std::size_t size) {
   g_allocations.fetch_add(1, std::memory_order_relaxed);
@@ -79,6 +78,14 @@ long StepAllocations(const Simulator& sim, const Params& params) {
   return count;
 }
 long StepAllocations(const Simulator& sim) { return StepAllocations(sim, sim.DefaultParams()); }
+
+// StepAllocations of a scene file run with another formulation (SimulatorOptions).
+long StepAllocations(const std::string& path, FormulationType formulation) {
+  const Scene scene = LoadSceneFile(std::string(VINCI_SOURCE_DIR) + "/" + path);
+  SimulatorOptions options = SimulatorOptions::FromScene(scene);
+  options.formulation = formulation;
+  return StepAllocations(Simulator(scene, options));
+}
 
 // Allocations of kSteps steps of Simulator::Rollout: the difference between a rollout of 2·kSteps
 // and one of kSteps steps from the same settled state (what a rollout allocates once — its
@@ -184,6 +191,84 @@ TEST(StepAllocationTest, FeederPartStepAllocatesNothing) {
   // polygon against the chute's polygons): support rows and the concave collision's polygons
   // are assembled into per-thread storage.
   EXPECT_EQ(StepAllocations(Load("examples/design/feeder_scene.yaml")), 0);
+}
+
+// Joints (the dense path's joint elimination S = G_bᵀ M⁻¹ G_b, its LDLᵀ solves and the velocity
+// correction): two revolute joints without contact; a pendulum on a block (a revolute joint on
+// a body in contact); the full planar model (joints, contacts, a prescribed pusher).
+TEST(StepAllocationTest, JointStepsAllocateNothing) {
+  for (const char* path :
+       {"examples/scenes/pendulum_2bar.yaml", "examples/scenes/pendulum_on_block.yaml",
+        "examples/scenes/full_planar.yaml"})
+    EXPECT_EQ(StepAllocations(Load(path)), 0) << path;
+}
+
+// Corner contacts (docs/formulations.md §7): a block at rest with its bottom-left vertex on the
+// convex top corner of a trench in a concave floor (the corner rows D = G_1 − G_2 and W D).
+TEST(StepAllocationTest, CornerContactStepsAllocateNothing) {
+  const std::string yaml = R"(name: corner
+dimension: 2
+gravity: [0, -9.81]
+stepper: {formulation: FORMULATION, dt: 0.001, duration: 1.0, envelope: 0.002}
+friction: {default: 0.3}
+bodies:
+  - name: ground
+    kind: static
+    shapes:
+      - type: concave_polygon
+        vertices: [[-5, -1], [5, -1], [5, 0], [0.5, 0], [0.5, -0.3], [-0.5, -0.3], [-0.5, 0],
+                   [-5, 0]]
+  - name: block
+    mass: 1.0
+    pose: {position: [2.0, 0.1]}
+    shapes: [{type: polygon, vertices: [[-1.5, -0.1], [1.5, -0.1], [1.5, 0.1], [-1.5, 0.1]]}]
+)";
+  for (const char* formulation : {"stewart-trinkle", "anitescu-potra"}) {
+    std::string text = yaml;
+    text.replace(text.find("FORMULATION"), 11, formulation);
+    const Simulator sim(ParseScene(text, "corner"));
+    // The block rests on the vertex: the step has a corner contact (its LCP has one unknown
+    // beyond the 4 per planar contact).
+    const State x = sim.Rollout(sim.DefaultParams(), sim.InitialState(), 10).states.back();
+    ASSERT_NE(x.warm_start.size() % 4, 0) << formulation << ": no corner contact";
+    EXPECT_EQ(StepAllocations(sim), 0) << formulation;
+  }
+}
+
+// Anitescu–Potra with 2.5D support friction and a concave part (the feeder).
+TEST(StepAllocationTest, AnitescuPotraSupportStepAllocatesNothing) {
+  EXPECT_EQ(StepAllocations("examples/design/feeder_scene.yaml", FormulationType::kAnitescuPotra),
+            0);
+}
+
+// First order (M → h C, inverted in place) on its pushing scene.
+TEST(StepAllocationTest, FirstOrderStepAllocatesNothing) {
+  EXPECT_EQ(StepAllocations(Load("examples/scenes/first_order_push.yaml")), 0);
+}
+
+// The statically indeterminate pile: SpreadIndeterminateNormals' SVD per contact pair.
+TEST(StepAllocationTest, PileStepAllocatesNothing) {
+  EXPECT_EQ(StepAllocations(Load("examples/scenes/box_pile.yaml")), 0);
+}
+
+// NCP (quadratic cone, the dense semismooth Newton MCP): a box pushed diagonally (sliding), the
+// box at rest, a pendulum on a block (joints).
+TEST(StepAllocationTest, NcpStepsAllocateNothing) {
+  EXPECT_EQ(StepAllocations(Load("examples/scenes/box_diagonal_push.yaml")), 0);
+  EXPECT_EQ(StepAllocations("examples/scenes/box_on_plane.yaml", FormulationType::kNcp), 0);
+  EXPECT_EQ(StepAllocations("examples/scenes/pendulum_on_block.yaml", FormulationType::kNcp), 0);
+}
+
+// Quasistatic DQC (an MCP) and DLC (an LCP) with support friction, and dynamic DQC with joints.
+TEST(StepAllocationTest, QuasistaticStepsAllocateNothing) {
+  EXPECT_EQ(StepAllocations(Load("examples/scenes/fence_particle.yaml")), 0);
+  EXPECT_EQ(StepAllocations(Load("examples/scenes/planar_pushing.yaml")), 0);
+  EXPECT_EQ(
+      StepAllocations("examples/scenes/planar_pushing.yaml", FormulationType::kQuasistaticDlc), 0);
+  EXPECT_EQ(StepAllocations("examples/scenes/planar_pushing.yaml", FormulationType::kDynamicDqc),
+            0);
+  EXPECT_EQ(StepAllocations("examples/scenes/pendulum_on_block.yaml", FormulationType::kDynamicDqc),
+            0);
 }
 
 }  // namespace

@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "scratch_lease.h"
 #include "step_util.h"
 #include "vinci/sim/model/kinematics.h"
 
@@ -32,9 +33,14 @@ StepperOptions AssemblyOptions(StepperOptions o) {
   return o;
 }
 
+}  // namespace
+
+namespace internal {
+
 // The numbers the MCP function needs: u = b + A P for P = z.head(3 n_c) (normal, then (t, o)
 // per contact), the velocity of each row's direction (normal rows: the full normal row).
 struct NcpData {
+  std::vector<int> sel;  // Build's LCP index of each MCP force (storage only)
   int nc = 0;
   bool planar = false;
   MatrixXd A;   // 3 n_c × 3 n_c, ε_n on the normal diagonal included
@@ -44,6 +50,12 @@ struct NcpData {
   double eps_t = 0.0, eps_s = 0.0;                        // ε_t (m/s) and ε_σ (N²·s³/m)
   Eigen::SparseMatrix<double, Eigen::RowMajor> A_sparse;  // A without its zeros (sparse path)
 };
+
+}  // namespace internal
+
+namespace {
+
+using internal::NcpData;
 
 // The same Jacobian as EvaluateNcp, as a sparse matrix with a z-independent pattern.
 void SparseJacobianNcp(const NcpData& d, const VectorXd& z, Eigen::SparseMatrix<double>* J) {
@@ -77,7 +89,12 @@ void SparseJacobianNcp(const NcpData& d, const VectorXd& z, Eigen::SparseMatrix<
 
 void EvaluateNcp(const NcpData& d, const VectorXd& z, VectorXd* F, MatrixXd* J) {
   const int nc = d.nc, m = 3 * nc;
-  const VectorXd u = d.b + d.A * z.head(m);
+  // u = b + A P with the product in a buffer first (as Eigen evaluates the sum), in this
+  // thread's storage.
+  thread_local VectorXd Az, u_buffer;
+  Az.noalias() = d.A * z.head(m);
+  VectorXd& u = u_buffer;
+  u = d.b + Az;
   F->resize(4 * nc);
   if (J) J->setZero(4 * nc, 4 * nc);
   for (int c = 0; c < nc; ++c) {
@@ -138,10 +155,22 @@ NcpStepper::NcpStepper(StepperOptions options, NcpOptions ncp)
 NcpStepper::StepProblem NcpStepper::Build(const Scene& model, const State& x,
                                           const StepInput& u) const {
   StepProblem sp;
-  sp.assembly = st_.Assemble(model, x, u);
-  const StewartTrinkle::Assembly& a = sp.assembly;
-  sp.lcp = st_.BuildLcp(model, a, x.v, &sp.v_star, &sp.joints);
   auto d = std::make_shared<NcpData>();
+  BuildInto(model, x, u, &sp, d.get());
+  sp.mcp.evaluate = [d](const VectorXd& z, VectorXd* F, MatrixXd* J) { EvaluateNcp(*d, z, F, J); };
+  d->A_sparse = d->A.sparseView();
+  sp.mcp.sparse_jacobian = [d](const VectorXd& z, Eigen::SparseMatrix<double>* J) {
+    SparseJacobianNcp(*d, z, J);
+  };
+  return sp;
+}
+
+void NcpStepper::BuildInto(const Scene& model, const State& x, const StepInput& u,
+                           StepProblem* sp_out, NcpData* d) const {
+  StepProblem& sp = *sp_out;
+  st_.AssembleInto(model, x, u, &sp.assembly);
+  const StewartTrinkle::Assembly& a = sp.assembly;
+  st_.BuildLcpInto(model, a, x.v, &sp.v_star, &sp.joints, &sp.lcp);
   const int nc = static_cast<int>(a.contacts.size()), nd = a.nd;
   d->nc = nc;
   d->planar = model.dim == Dim::kPlanar;
@@ -149,14 +178,15 @@ NcpStepper::StepProblem NcpStepper::Build(const Scene& model, const State& x,
   d->et2 = ncp_.e_t * ncp_.e_t;
   d->eo2 = ncp_.e_o * ncp_.e_o;
   // LCP index of each MCP force: normal c, t: column 0, o: column 1 (−1 planar).
-  std::vector<int> sel(3 * nc, -1);
+  std::vector<int>& sel = d->sel;
+  sel.assign(3 * nc, -1);
   for (int c = 0; c < nc; ++c) {
     sel[c] = c;
     sel[nc + 2 * c] = nc + c * nd;
     if (!d->planar) sel[nc + 2 * c + 1] = nc + c * nd + 1;
   }
-  d->A = MatrixXd::Zero(3 * nc, 3 * nc);
-  d->b = VectorXd::Zero(3 * nc);
+  d->A.setZero(3 * nc, 3 * nc);
+  d->b.setZero(3 * nc);
   for (int i = 0; i < 3 * nc; ++i) {
     if (sel[i] < 0) continue;
     d->b[i] = sp.lcp.q[sel[i]];
@@ -183,20 +213,14 @@ NcpStepper::StepProblem NcpStepper::Build(const Scene& model, const State& x,
   d->eps_t = ncp_.tangent_regularization / V;
   d->eps_s = ncp_.scale_rows ? ncp_.cone_regularization
                              : ncp_.cone_regularization * ImpulseScale(a) * ImpulseScale(a);
-  sp.scale = VectorXd::Constant(4 * nc, P);
+  sp.scale.setConstant(4 * nc, P);
   sp.scale.tail(nc).setConstant(V);
 
-  sp.mcp.lower = VectorXd::Zero(4 * nc);
-  sp.mcp.upper = VectorXd::Constant(4 * nc, kInf);
+  sp.mcp.lower.setZero(4 * nc);
+  sp.mcp.upper.setConstant(4 * nc, kInf);
   sp.mcp.lower.segment(nc, 2 * nc).setConstant(-kInf);
   if (d->planar)
     for (int c = 0; c < nc; ++c) sp.mcp.lower[nc + 2 * c + 1] = sp.mcp.upper[nc + 2 * c + 1] = 0;
-  sp.mcp.evaluate = [d](const VectorXd& z, VectorXd* F, MatrixXd* J) { EvaluateNcp(*d, z, F, J); };
-  d->A_sparse = d->A.sparseView();
-  sp.mcp.sparse_jacobian = [d](const VectorXd& z, Eigen::SparseMatrix<double>* J) {
-    SparseJacobianNcp(*d, z, J);
-  };
-  return sp;
 }
 
 VectorXd NcpStepper::VelocityAfter(const StepProblem& sp, const VectorXd& z) const {
@@ -241,19 +265,45 @@ VectorXd NcpStepper::FreeSlipStart(const StepProblem& sp) const {
   return z;
 }
 
+namespace {
+
+// NcpStepper::Step's storage, one per thread (scratch_lease.h).
+struct NcpStepScratch {
+  NcpStepper::StepProblem sp;
+  NcpData d;
+  VectorXd z, z_lcp, v1;
+};
+
+}  // namespace
+
 void NcpStepper::Step(const Scene& model, const State& x, const StepInput& u, Workspace* ws,
                       State* next, StepInfo* info) const {
   internal::BeginStep(x, next, info);
   const double h = options_.dt;
-  StepProblem sp = Build(model, x, u);
+  internal::ScratchLease<NcpStepScratch> lease;
+  NcpStepScratch& scratch = lease.get();
+  StepProblem& sp = scratch.sp;
+  NcpData* d = &scratch.d;
+  BuildInto(model, x, u, &sp, d);
+  // Bound to this thread's data (a pointer: the std::function holds it without allocating).
+  sp.mcp.evaluate = [d](const VectorXd& z, VectorXd* F, MatrixXd* J) { EvaluateNcp(*d, z, F, J); };
   const StewartTrinkle::Assembly& a = sp.assembly;
   const int nc = static_cast<int>(a.contacts.size());
   info->contacts = nc;
   info->joint_rows = static_cast<int>(a.psi_b.size());
   info->min_gap = nc > 0 ? a.psi_n.minCoeff() : 0.0;
   if (!internal::CheckStartPenetration(nc, options_.max_penetration, info)) return;
+  if (nc >= ncp_.sparse_min_contacts) {
+    d->A_sparse = d->A.sparseView();
+    sp.mcp.sparse_jacobian = [d](const VectorXd& z, Eigen::SparseMatrix<double>* J) {
+      SparseJacobianNcp(*d, z, J);
+    };
+  } else {
+    sp.mcp.sparse_jacobian = nullptr;  // (the dense solver does not read it)
+  }
 
-  VectorXd z = VectorXd::Zero(4 * nc);
+  VectorXd& z = scratch.z;
+  z.setZero(4 * nc);
   if (nc > 0) {
     // Starts, in order: the previous step's solution, zero, the Stewart–Trinkle LCP solution
     // of this step. The first converged attempt is accepted; each failure is reported.
@@ -366,9 +416,17 @@ void NcpStepper::Step(const Scene& model, const State& x, const StepInput& u, Wo
     info->solver.status = SolverStatus::kSolved;
   }
 
-  const VectorXd v1 = VelocityAfter(sp, z);
-  if (!internal::CompleteStep(model, x, v1, h, z, next, info)) return;
-  if (ws) ws->contacts = std::move(sp.assembly.contacts);
+  // VelocityAfter, in this thread's storage.
+  VectorXd& z_lcp = scratch.z_lcp;
+  z_lcp.setZero(sp.lcp.size());
+  for (int c = 0; c < nc; ++c) {
+    z_lcp[c] = z[c];
+    z_lcp[nc + c * a.nd] = z[nc + 2 * c];
+    if (a.nd == 4) z_lcp[nc + c * a.nd + 1] = z[nc + 2 * c + 1];
+  }
+  st_.VelocityAfterInto(a, sp.v_star, z_lcp, sp.joints, &scratch.v1);
+  if (!internal::CompleteStep(model, x, scratch.v1, h, &z, next, info)) return;
+  if (ws) ws->contacts = sp.assembly.contacts;  // a copy into its storage (the assembly is reused)
   info->ok = true;
   info->status = StepStatus::kOk;
 }

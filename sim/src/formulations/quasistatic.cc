@@ -5,6 +5,7 @@
 #include <memory>
 #include <stdexcept>
 
+#include "scratch_lease.h"
 #include "step_util.h"
 #include "vinci/sim/model/kinematics.h"
 
@@ -47,11 +48,22 @@ void StepFunction(const StepData& d, const VectorXd& y, VectorXd* F, MatrixXd* J
   const int nd = d.layout.nd;
   const auto nu = y.segment(o.v(), o.nv);
   F->resize(o.size());
-  F->segment(o.v(), o.nv) = d.eps_M * (nu - d.v0) - a.G_n * y.segment(o.pn(), o.nc) -
-                            a.G_f * y.segment(o.pf(), o.nf) - a.G_b * y.segment(o.pb(), o.nb) -
-                            sup.G_s * y.segment(o.ps(), o.nps) - a.p_ext;
-  F->segment(o.pn(), o.nc) = a.G_n.transpose() * nu + a.psi_n / d.h + a.dpsi_n;
-  F->segment(o.pf(), o.nf) = a.G_f.transpose() * nu + a.dpsi_f;
+  // Every product into a buffer first, then the sums in the expression's order: what Eigen does
+  // for the whole expression (it evaluates each product, and the product's vector argument
+  // ν − ν₀, into a temporary), in this thread's storage.
+  thread_local VectorXd dnu, t_m, t_n, t_f, t_b, t_s, w_n, w_f, w_b,
+      w_s;  // t: ν rows, w: the others
+  dnu = nu - d.v0;
+  t_m.noalias() = d.eps_M * dnu;
+  t_n.noalias() = a.G_n * y.segment(o.pn(), o.nc);
+  t_f.noalias() = a.G_f * y.segment(o.pf(), o.nf);
+  t_b.noalias() = a.G_b * y.segment(o.pb(), o.nb);
+  t_s.noalias() = sup.G_s * y.segment(o.ps(), o.nps);
+  F->segment(o.v(), o.nv) = t_m - t_n - t_f - t_b - t_s - a.p_ext;
+  w_n.noalias() = a.G_n.transpose() * nu;
+  F->segment(o.pn(), o.nc) = w_n + a.psi_n / d.h + a.dpsi_n;
+  w_f.noalias() = a.G_f.transpose() * nu;
+  F->segment(o.pf(), o.nf) = w_f + a.dpsi_f;
   for (int c = 0; c < o.nc; ++c) {
     double sum_pf = 0.0;
     for (int j = 0; j < nd; ++j) {
@@ -61,10 +73,12 @@ void StepFunction(const StepData& d, const VectorXd& y, VectorXd* F, MatrixXd* J
     (*F)[o.sigma() + c] = a.mu[c] * y[o.pn() + c] - sum_pf;
   }
   if (o.nb > 0) {
-    F->segment(o.pb(), o.nb) = a.G_b.transpose() * nu + a.dpsi_b;
+    w_b.noalias() = a.G_b.transpose() * nu;
+    F->segment(o.pb(), o.nb) = w_b + a.dpsi_b;
     if (d.joint_stabilization) F->segment(o.pb(), o.nb) += a.psi_b / d.h;
   }
-  F->segment(o.ps(), o.nps) = sup.G_s.transpose() * nu;
+  w_s.noalias() = sup.G_s.transpose() * nu;
+  F->segment(o.ps(), o.nps) = w_s;
   for (int k = 0; k < o.ns; ++k) {
     const double L = sup.limit[k];
     const int first = o.ps() + sup.first[k], n = sup.count[k];
@@ -125,11 +139,10 @@ void StepFunction(const StepData& d, const VectorXd& y, VectorXd* F, MatrixXd* J
   }
 }
 
-// The MCP of the step data d, whose assembly is set: fills its layout *l (= d->layout) and the
-// rest of d from the assembly; *layout (if non-null) receives the layout.
-McpProblem MakeStepMcp(const Scene& model, const State& x, const StepperOptions& options,
-                       bool dynamic, bool quadratic, const std::shared_ptr<StepData>& d,
-                       StepLayout* l, StepLayout* layout) {
+// The MCP of the step data d, whose assembly is set, into *mcp (its storage reused; evaluate is
+// left to the caller): fills its layout *l (= d->layout) and the rest of d from the assembly.
+void FillStepMcp(const Scene& model, const State& x, const StepperOptions& options, bool dynamic,
+                 bool quadratic, StepData* d, StepLayout* l, McpProblem* mcp_out) {
   l->nq = model.num_positions();
   l->nv = model.num_velocities();
   l->nc = static_cast<int>(d->a.contacts.size());
@@ -137,22 +150,48 @@ McpProblem MakeStepMcp(const Scene& model, const State& x, const StepperOptions&
   l->nb = static_cast<int>(d->a.psi_b.size());
   l->ns = d->a.support.points();
   l->nps = d->a.support.columns();
-  d->eps_M = dynamic ? d->a.M.ToDense() : MatrixXd(kQuasistaticRegularization * d->a.M.ToDense());
-  d->v0 = dynamic ? x.v : VectorXd::Zero(l->nv);
+  // M.ToDense() (ε_M times it for the quasistatic models), in d's storage.
+  const BlockDiagonal& M = d->a.M;
+  d->eps_M.setZero(M.rows(), M.cols());
+  for (int o = 0; o < M.rows(); o += M.block_size())
+    d->eps_M.block(o, o, M.block_size(), M.block_size()) = M.BlockAt(o);
+  if (!dynamic) d->eps_M = kQuasistaticRegularization * d->eps_M;
+  if (dynamic)
+    d->v0 = x.v;
+  else
+    d->v0.setZero(l->nv);
   d->h = options.dt;
   d->quadratic = quadratic;
   d->joint_stabilization = options.joint_stabilization;
   const Offsets o = OffsetsOf(*l);
-  McpProblem mcp;
-  mcp.lower = VectorXd::Zero(o.size());
-  mcp.upper = VectorXd::Constant(o.size(), kInf);
+  McpProblem& mcp = *mcp_out;
+  mcp.lower.setZero(o.size());
+  mcp.upper.setConstant(o.size(), kInf);
   mcp.lower.segment(o.v(), o.nv).setConstant(-kInf);
   mcp.lower.segment(o.pb(), o.nb).setConstant(-kInf);
   if (quadratic) mcp.lower.segment(o.ps(), o.nps).setConstant(-kInf);
+}
+
+McpProblem MakeStepMcp(const Scene& model, const State& x, const StepperOptions& options,
+                       bool dynamic, bool quadratic, const std::shared_ptr<StepData>& d,
+                       StepLayout* l, StepLayout* layout) {
+  McpProblem mcp;
+  FillStepMcp(model, x, options, dynamic, quadratic, d.get(), l, &mcp);
   mcp.evaluate = [d](const VectorXd& y, VectorXd* F, MatrixXd* J) { StepFunction(*d, y, F, J); };
   if (layout) *layout = *l;
   return mcp;
 }
+
+// Quasistatic::Step's storage, one per thread (scratch_lease.h). The linearized support rows
+// that StewartTrinkle::AssembleInto writes and the quadratic ones of the DQC models are kept
+// in two SupportRows swapped in and out of the assembly, so neither is resized every step.
+struct QuasistaticStepScratch {
+  StepData d;
+  SupportRows other_support;
+  bool swapped = false;
+  McpProblem mcp;
+  VectorXd y, v1;
+};
 
 }  // namespace
 
@@ -224,20 +263,32 @@ McpProblem Quasistatic::MakeMcpFrom(const Scene& model, const State& x, StewartT
 
 SolverReport Quasistatic::SolveDlc(const McpProblem& mcp, const VectorXd* warm, VectorXd* y) const {
   // F(y) = J y + F(0) is affine for DLC. Free unknowns (ν, p_b) are split y = y⁺ − y⁻.
+  // (Buffers in this thread's storage: allocation reuse only.)
+  thread_local struct DlcScratch {
+    VectorXd y0, F0, z, z_warm;
+    MatrixXd J;
+    std::vector<int> free_rows, nonneg_rows;
+    std::vector<std::pair<int, double>> cols;
+    LcpProblem lcp;
+  } scratch;
   const int n = mcp.size();
-  VectorXd F0;
-  MatrixXd J;
-  mcp.evaluate(VectorXd::Zero(n), &F0, &J);
-  std::vector<int> free_rows, nonneg_rows;
+  VectorXd& F0 = scratch.F0;
+  MatrixXd& J = scratch.J;
+  scratch.y0.setZero(n);
+  mcp.evaluate(scratch.y0, &F0, &J);
+  std::vector<int>&free_rows = scratch.free_rows, &nonneg_rows = scratch.nonneg_rows;
+  free_rows.clear();
+  nonneg_rows.clear();
   for (int i = 0; i < n; ++i) (std::isinf(mcp.lower[i]) ? free_rows : nonneg_rows).push_back(i);
   const int nf = static_cast<int>(free_rows.size()), nn = static_cast<int>(nonneg_rows.size());
   // LCP unknowns: [y⁺_free (nf); y⁻_free (nf); y_nonneg (nn)].
-  std::vector<std::pair<int, double>> cols;  // (y index, sign) per LCP unknown
+  std::vector<std::pair<int, double>>& cols = scratch.cols;  // (y index, sign) per LCP unknown
+  cols.clear();
   for (int i : free_rows) cols.push_back({i, 1.0});
   for (int i : free_rows) cols.push_back({i, -1.0});
   for (int i : nonneg_rows) cols.push_back({i, 1.0});
   const int m = 2 * nf + nn;
-  LcpProblem lcp;
+  LcpProblem& lcp = scratch.lcp;
   lcp.M.resize(m, m);
   lcp.q.resize(m);
   for (int r = 0; r < m; ++r) {
@@ -246,7 +297,9 @@ SolverReport Quasistatic::SolveDlc(const McpProblem& mcp, const VectorXd* warm, 
     for (int c = 0; c < m; ++c) lcp.M(r, c) = rs * cols[c].second * J(ri, cols[c].first);
   }
   // A warm start y_w (the previous step's solution) maps to z = [max(y_w, 0); max(−y_w, 0); y_w].
-  VectorXd z = VectorXd::Zero(m), z_warm(m);
+  VectorXd &z = scratch.z, &z_warm = scratch.z_warm;
+  z.setZero(m);
+  z_warm.resize(m);
   if (warm && warm->size() == n && warm->allFinite())
     for (int c = 0; c < m; ++c) z_warm[c] = std::max(0.0, cols[c].second * (*warm)[cols[c].first]);
   const SolverReport report =
@@ -260,23 +313,39 @@ void Quasistatic::Step(const Scene& model, const State& x, const StepInput& u, W
                        State* next, StepInfo* info) const {
   internal::BeginStep(x, next, info);
   const double h = options_.dt;
-  StepLayout l;
-  std::vector<Contact> contacts;  // the assembly's (for the report)
-  const McpProblem mcp = MakeMcp(model, x, u, quadratic_, &l, &contacts);
+  // MakeMcp(model, x, u, quadratic_, ...) in this thread's storage.
+  if (model.dim != Dim::kPlanar)
+    throw std::invalid_argument(std::string(name()) + ": quasistatic models need a planar scene");
+  internal::ScratchLease<QuasistaticStepScratch> lease;
+  QuasistaticStepScratch& scratch = lease.get();
+  StepData* d = &scratch.d;
+  if (scratch.swapped) std::swap(d->a.support, scratch.other_support);
+  scratch.swapped = false;
+  assembler_.AssembleInto(model, x, u, &d->a);
+  if (quadratic_) {
+    AssembleSupportInto(model, x, options_.dt, /*quadratic=*/true, &scratch.other_support);
+    std::swap(d->a.support, scratch.other_support);
+    scratch.swapped = true;
+  }
+  const std::vector<Contact>& contacts = d->a.contacts;  // (for the report)
+  StepLayout& l = d->layout;
+  McpProblem& mcp = scratch.mcp;
+  FillStepMcp(model, x, options_, dynamic_, quadratic_, d, &l, &mcp);
+  mcp.evaluate = [d](const VectorXd& y, VectorXd* F, MatrixXd* J) { StepFunction(*d, y, F, J); };
   info->contacts = l.nc;
   info->joint_rows = l.nb;
   info->min_gap = 0.0;
   for (std::size_t c = 0; c < contacts.size(); ++c)
     info->min_gap = c == 0 ? contacts[c].point.gap : std::min(info->min_gap, contacts[c].point.gap);
   if (!internal::CheckStartPenetration(l.nc, options_.max_penetration, info)) return;
-  VectorXd y;
-  std::string solver_name;
+  VectorXd& y = scratch.y;
   if (!quadratic_) {
-    solver_name = "LCP solver '" + std::string(lcp_solver_->name()) + "'";
     info->solver = SolveDlc(mcp, &x.warm_start, &y);
   } else {
-    solver_name = "MCP solver '" + std::string(solver_.name()) + "'";
-    y = x.warm_start.size() == mcp.size() ? x.warm_start : VectorXd::Zero(mcp.size());
+    if (x.warm_start.size() == mcp.size())
+      y = x.warm_start;
+    else
+      y.setZero(mcp.size());
     if (!y.allFinite()) y.setZero();
     info->solver = solver_.Solve(mcp, &y);
     if (!info->solver.ok()) {
@@ -305,12 +374,14 @@ void Quasistatic::Step(const Scene& model, const State& x, const StepInput& u, W
     }
   }
   if (!info->solver.ok()) {
-    internal::SolverFailed(solver_name, info);
+    internal::SolverFailed(quadratic_ ? "MCP solver '" + std::string(solver_.name()) + "'"
+                                      : "LCP solver '" + std::string(lcp_solver_->name()) + "'",
+                           info);
     return;
   }
-  const VectorXd v1 = y.head(l.nv);
-  if (!internal::CompleteStep(model, x, v1, h, y, next, info)) return;
-  if (ws) ws->contacts = std::move(contacts);
+  scratch.v1 = y.head(l.nv);
+  if (!internal::CompleteStep(model, x, scratch.v1, h, &y, next, info)) return;
+  if (ws) ws->contacts = contacts;  // a copy into its storage (the assembly is reused)
   info->ok = true;
   info->status = StepStatus::kOk;
 }

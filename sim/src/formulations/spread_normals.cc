@@ -14,11 +14,25 @@ namespace {
 constexpr double kNullSpaceTol = 1e-10;
 
 struct SpreadScratch {
+  // One pair's buffers, kept per shape of its J (rows × members) so that pairs of different
+  // shapes do not reallocate each other's (Eigen's matrices and SVD have no spare capacity).
+  struct PairBuffers {
+    int rows = 0, m = 0;
+    Eigen::MatrixXd J;
+    Eigen::VectorXd p, target, projected;
+    Eigen::JacobiSVD<Eigen::MatrixXd> svd;
+  };
   std::vector<int> members;
   std::vector<char> is_corner;
-  Eigen::MatrixXd J;
-  Eigen::VectorXd p, target;
-  Eigen::JacobiSVD<Eigen::MatrixXd> svd;
+  std::vector<PairBuffers> pairs;
+  PairBuffers& For(int rows, int m) {
+    for (PairBuffers& b : pairs)
+      if (b.rows == rows && b.m == m) return b;
+    pairs.emplace_back();
+    pairs.back().rows = rows;
+    pairs.back().m = m;
+    return pairs.back();
+  }
 };
 
 // The pair's normal columns of `members` restricted to its dynamic bodies' velocity blocks
@@ -107,15 +121,20 @@ void SpreadIndeterminateNormals(const Scene& model, const StewartTrinkle::Assemb
     int loaded = 0;
     for (int c : s.members) loaded += (*z)[c] > 0.0;
     if (loaded == m) continue;
-    if (!PairColumns(model, a, ba, bb, s.members, &s.J)) continue;
-    s.p.resize(m);
+    int rows = 0;  // PairColumns' row count
+    for (int body : {ba, bb})
+      if (body >= 0 && model.bodies[body].kind == BodyKind::kDynamic)
+        rows += VelocitySize(model.dim);
+    SpreadScratch::PairBuffers& b = s.For(rows, m);
+    if (!PairColumns(model, a, ba, bb, s.members, &b.J)) continue;
+    b.p.resize(m);
     double p_sum = 0.0;
     for (int i = 0; i < m; ++i) {
-      s.p[i] = (*z)[s.members[i]];
-      p_sum += s.p[i];
+      b.p[i] = (*z)[s.members[i]];
+      p_sum += b.p[i];
     }
     if (!(p_sum > 0.0)) continue;
-    const Eigen::JacobiSVD<Eigen::MatrixXd>& svd = s.svd.compute(s.J, Eigen::ComputeFullV);
+    const Eigen::JacobiSVD<Eigen::MatrixXd>& svd = b.svd.compute(b.J, Eigen::ComputeFullV);
     const auto& sv = svd.singularValues();
     if (sv.size() == 0 || !(sv[0] > 0.0)) continue;
     int rank = 0;
@@ -123,15 +142,17 @@ void SpreadIndeterminateNormals(const Scene& model, const StewartTrinkle::Assemb
     if (rank >= m) continue;  // the pair's impulses are determined: nothing to choose
     // Minimum-norm impulses with the same G p: the projection of p on the row space of J.
     const auto V_r = svd.matrixV().leftCols(rank);
-    s.target = V_r * (V_r.transpose() * s.p);
+    // (The inner product into a buffer first, as Eigen evaluates the nested product.)
+    b.projected.noalias() = V_r.transpose() * b.p;
+    b.target.noalias() = V_r * b.projected;
     // Go from p towards it as far as p ≥ 0 and every friction row μ p_n − Σ p_f ≥ 0 allow.
     double t = 1.0;
     for (int i = 0; i < m && t > 0.0; ++i) {
-      const double d = s.target[i] - s.p[i];
+      const double d = b.target[i] - b.p[i];
       if (!(d < 0.0)) continue;
-      t = std::min(t, s.p[i] / -d);
+      t = std::min(t, b.p[i] / -d);
       const int c = s.members[i];
-      double slack = a.mu[c] * s.p[i];
+      double slack = a.mu[c] * b.p[i];
       for (int j = 0; j < a.nd; ++j) slack -= (*z)[nc + c * a.nd + j];
       if (a.mu[c] > 0.0)
         t = std::min(t, std::max(0.0, slack) / (a.mu[c] * -d));
@@ -140,7 +161,7 @@ void SpreadIndeterminateNormals(const Scene& model, const StewartTrinkle::Assemb
     }
     if (!(t > 0.0)) continue;
     for (int i = 0; i < m; ++i)
-      (*z)[s.members[i]] = std::max(0.0, s.p[i] + t * (s.target[i] - s.p[i]));
+      (*z)[s.members[i]] = std::max(0.0, b.p[i] + t * (b.target[i] - b.p[i]));
   }
 }
 

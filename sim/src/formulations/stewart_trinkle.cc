@@ -8,6 +8,7 @@
 #include <utility>
 #include <vector>
 
+#include "dense_solve.h"
 #include "sparse_lcp.h"
 #include "spread_normals.h"
 #include "step_util.h"
@@ -350,7 +351,11 @@ void StewartTrinkle::Fill(const Scene& model, const State& x, const StepInput& u
       const Body& b = model.bodies[bi];
       const int o = model.index(bi).v;
       a.M.BlockAt(o) = h * b.damping;
-      a.M_inv.BlockAt(o) = (h * b.damping).inverse();
+      // (h C)⁻¹ as inverse() forms it, in this thread's storage (dense_solve.h).
+      thread_local MatrixXd hC;
+      thread_local Eigen::PartialPivLU<MatrixXd> lu;
+      hC = h * b.damping;
+      internal::LuInverseInto(hC, &lu, a.M_inv.BlockAt(o));
       if (dim == Dim::kSpatial) {
         const Vector3d w_B = x.v.segment<3>(o + 3);
         a.p_ext.segment<3>(o + 3) += h * w_B.cross(b.inertia * w_B);
@@ -487,9 +492,18 @@ namespace {
 
 // BuildLcpInto's per-thread buffers (allocation reuse only: every call overwrites what it uses).
 struct DenseLcpScratch {
+  // One body's contact columns G_b (nvb × k), M_b⁻¹ G_b and G_bᵀ M_b⁻¹ G_b: one set per column
+  // count k, so that bodies with different counts do not reallocate each other's.
+  struct BodyBlocks {
+    MatrixXd Gb_cols, MinvG, block;
+  };
   std::vector<std::vector<int>> columns;
-  MatrixXd Gb_cols, MinvG, block;
+  std::vector<BodyBlocks> by_count;
   VectorXd Minv_p, Gv_n, Gv_f;
+  // Joint elimination and corner rows: G_b dense, S's matrix, the right-hand sides and products.
+  MatrixXd Gb_dense, S_matrix, GbMinvGc, solved, correction, D, WD, GbtD;
+  MatrixXd product_n, product_f, product_s;
+  VectorXd rhs, solved_rhs, v_correction, col_1, col_n, e, Dv;
 };
 
 }  // namespace
@@ -532,11 +546,13 @@ void StewartTrinkle::BuildLcpInto(const Scene& model, const Assembly& a, const V
   }
   for (int k = 0; k < ns; ++k)
     for (int j = 0; j < sup.count[k]; ++j) columns[sup.body[k]].push_back(s0 + sup.first[k] + j);
-  MatrixXd &Gb_cols = scratch.Gb_cols, &MinvG = scratch.MinvG, &block = scratch.block;
   for (int body : model.dynamic_bodies()) {
     const std::vector<int>& cols = columns[body];
     if (cols.empty()) continue;
     const int o = model.index(body).v, k = static_cast<int>(cols.size());
+    if (scratch.by_count.size() <= static_cast<std::size_t>(k)) scratch.by_count.resize(k + 1);
+    MatrixXd &Gb_cols = scratch.by_count[k].Gb_cols, &MinvG = scratch.by_count[k].MinvG,
+             &block = scratch.by_count[k].block;
     Gb_cols.resize(nvb, k);
     for (int i = 0; i < k; ++i) {
       if (cols[i] < nc)
@@ -556,21 +572,37 @@ void StewartTrinkle::BuildLcpInto(const Scene& model, const Assembly& a, const V
     // Eliminate p_b with S = G_bᵀ M⁻¹ G_b:
     //   S p_b = −(G_bᵀ ν* + ψ_b/h + ∂ψ_b/∂t + G_bᵀ M⁻¹ G_c p_c),
     // which subtracts (G_bᵀM⁻¹G_c)ᵀ S⁻¹ (G_bᵀM⁻¹G_c) from the contact block.
-    joints->MinvGb = a.M_inv * MatrixXd(a.G_b);
-    joints->S.compute(a.G_b.transpose() * joints->MinvGb);
-    VectorXd rhs = a.G_b.transpose() * *v_star + a.dpsi_b;
+    // Every product is formed into a buffer before it is summed or subtracted, and the LDLᵀ
+    // solves run in place (dense_solve.h): the operations and their order of the plain
+    // expressions (Eigen evaluates a product inside a sum into a temporary), in kept storage.
+    scratch.Gb_dense = a.G_b;
+    a.M_inv.Multiply(scratch.Gb_dense, &joints->MinvGb);
+    scratch.S_matrix.noalias() = a.G_b.transpose() * joints->MinvGb;
+    joints->S.compute(scratch.S_matrix);
+    VectorXd& rhs = scratch.rhs;
+    rhs.noalias() = a.G_b.transpose() * *v_star;
+    rhs += a.dpsi_b;
     if (options_.joint_stabilization) rhs += a.psi_b / h;
-    *v_star -= joints->MinvGb * joints->S.solve(rhs);
+    internal::LdltSolveInto(joints->S, rhs, &scratch.solved_rhs);
+    scratch.v_correction.noalias() = joints->MinvGb * scratch.solved_rhs;
+    *v_star -= scratch.v_correction;
+    MatrixXd& GbMinvGc = scratch.GbMinvGc;
     if (nc > 0 && nps == 0) {
-      MatrixXd GbMinvGc(nb, nc + nf);
-      GbMinvGc << joints->MinvGb.transpose() * a.G_n, joints->MinvGb.transpose() * a.G_f;
-      lcp.M.topLeftCorner(nc + nf, nc + nf) -= GbMinvGc.transpose() * joints->S.solve(GbMinvGc);
+      GbMinvGc.resize(nb, nc + nf);
+      GbMinvGc.leftCols(nc).noalias() = joints->MinvGb.transpose() * a.G_n;
+      GbMinvGc.rightCols(nf).noalias() = joints->MinvGb.transpose() * a.G_f;
+      internal::LdltSolveInto(joints->S, GbMinvGc, &scratch.solved);
+      scratch.correction.noalias() = GbMinvGc.transpose() * scratch.solved;
+      lcp.M.topLeftCorner(nc + nf, nc + nf) -= scratch.correction;
     } else if (nps > 0) {
       // Same correction over the impulse columns (p_n, p_f, p_s), skipping the σ rows/columns.
-      MatrixXd GbMinvGc(nb, nc + nf + nps);
-      GbMinvGc << joints->MinvGb.transpose() * a.G_n, joints->MinvGb.transpose() * a.G_f,
-          joints->MinvGb.transpose() * sup.G_s;
-      const MatrixXd C = GbMinvGc.transpose() * joints->S.solve(GbMinvGc);
+      GbMinvGc.resize(nb, nc + nf + nps);
+      GbMinvGc.leftCols(nc).noalias() = joints->MinvGb.transpose() * a.G_n;
+      GbMinvGc.middleCols(nc, nf).noalias() = joints->MinvGb.transpose() * a.G_f;
+      GbMinvGc.rightCols(nps).noalias() = joints->MinvGb.transpose() * sup.G_s;
+      internal::LdltSolveInto(joints->S, GbMinvGc, &scratch.solved);
+      MatrixXd& C = scratch.correction;
+      C.noalias() = GbMinvGc.transpose() * scratch.solved;
       const auto at = [&](int i) { return i < nc + nf ? i : i + nc; };
       for (int i = 0; i < nc + nf + nps; ++i)
         for (int j = 0; j < nc + nf + nps; ++j) lcp.M(at(i), at(j)) -= C(i, j);
@@ -608,27 +640,43 @@ void StewartTrinkle::BuildLcpInto(const Scene& model, const Assembly& a, const V
   // its contact's normal row.
   if (nk > 0) {
     const int o = m - nk;  // the corner unknowns are the last nk
-    MatrixXd D(a.G_1.rows(), nk);
-    VectorXd e(nk);
+    // (Buffers as the joint elimination above: the same operations as the plain expressions.)
+    MatrixXd& D = scratch.D;
+    VectorXd& e = scratch.e;
+    D.resize(a.G_1.rows(), nk);
+    e.resize(nk);
     for (int k = 0; k < nk; ++k) {
       const int c = a.corner_contact[k];
-      D.col(k) = a.G_1.col(k).toDense() - a.G_n.col(c).toDense();
+      scratch.col_1 = a.G_1.col(k);  // toDense()
+      scratch.col_n = a.G_n.col(c);
+      D.col(k) = scratch.col_1 - scratch.col_n;
       e[k] = (a.psi_1[k] - a.psi_n[c]) / h + a.dpsi_1[k] - a.dpsi_n[c];
     }
     // Dᵀ W G = (W D)ᵀ G (W symmetric): W D is dense nv × nk, G stays sparse.
-    MatrixXd WD = a.M_inv * D;
-    if (nb > 0) WD -= joints->MinvGb * joints->S.solve(joints->MinvGb.transpose() * D);
-    lcp.M.block(o, 0, nk, nc) = -(a.G_n.transpose() * WD).transpose();
-    lcp.M.block(o, nc, nk, nf) = -(a.G_f.transpose() * WD).transpose();
-    if (nps > 0)  // ν also depends on the support impulses p_s
-      lcp.M.block(o, s0, nk, nps) = -WD.transpose() * sup.G_s;
+    MatrixXd& WD = scratch.WD;
+    a.M_inv.Multiply(D, &WD);
+    if (nb > 0) {
+      scratch.GbtD.noalias() = joints->MinvGb.transpose() * D;
+      internal::LdltSolveInto(joints->S, scratch.GbtD, &scratch.solved);
+      scratch.correction.noalias() = joints->MinvGb * scratch.solved;
+      WD -= scratch.correction;
+    }
+    scratch.product_n.noalias() = a.G_n.transpose() * WD;
+    lcp.M.block(o, 0, nk, nc) = -scratch.product_n.transpose();
+    scratch.product_f.noalias() = a.G_f.transpose() * WD;
+    lcp.M.block(o, nc, nk, nf) = -scratch.product_f.transpose();
+    if (nps > 0) {  // ν also depends on the support impulses p_s
+      scratch.product_s.noalias() = -WD.transpose() * sup.G_s;
+      lcp.M.block(o, s0, nk, nps) = scratch.product_s;
+    }
     for (int k = 0; k < nk; ++k) {
       lcp.M(o + k, o + k) = 1.0;
       lcp.M(a.corner_contact[k], o + k) = 1.0;
       // Anitescu–Potra: corner rows stay position-level (header comment).
       if (velocity_level_) lcp.q[a.corner_contact[k]] += a.psi_n[a.corner_contact[k]] / h;
     }
-    lcp.q.segment(o, nk) = -(D.transpose() * *v_star + e);
+    scratch.Dv.noalias() = D.transpose() * *v_star;
+    lcp.q.segment(o, nk) = -(scratch.Dv + e);
   }
   // Support friction rows: 0 ≤ p_s ⊥ G_sᵀν + E_s σ_s, 0 ≤ σ_s ⊥ h μ_s N − E_sᵀ p_s.
   for (int k = 0; k < ns; ++k) {
@@ -648,7 +696,7 @@ namespace {
 
 // ν_ℓ+1 = ν* + W G_c p_c into *v1, with the intermediate vectors in *impulse, *product and *dv
 // (their storage reused).
-void VelocityAfterInto(const StewartTrinkle::Assembly& a, const VectorXd& v_star, const VectorXd& z,
+void VelocityAfterWith(const StewartTrinkle::Assembly& a, const VectorXd& v_star, const VectorXd& z,
                        const StewartTrinkle::JointElimination& joints, VectorXd* impulse,
                        VectorXd* product, VectorXd* dv, VectorXd* v1) {
   const int nc = static_cast<int>(a.contacts.size());
@@ -662,8 +710,14 @@ void VelocityAfterInto(const StewartTrinkle::Assembly& a, const VectorXd& v_star
     *impulse += *product;
   }
   a.M_inv.Multiply(*impulse, dv);
-  if (a.psi_b.size() > 0)
-    *dv -= joints.MinvGb * joints.S.solve(joints.MinvGb.transpose() * *impulse);
+  if (a.psi_b.size() > 0) {
+    // The products into buffers, the solve in place (as BuildLcpInto's joint elimination).
+    thread_local VectorXd gb_impulse, solved, correction;
+    gb_impulse.noalias() = joints.MinvGb.transpose() * *impulse;
+    internal::LdltSolveInto(joints.S, gb_impulse, &solved);
+    correction.noalias() = joints.MinvGb * solved;
+    *dv -= correction;
+  }
   *v1 = v_star + *dv;
 }
 
@@ -672,8 +726,14 @@ void VelocityAfterInto(const StewartTrinkle::Assembly& a, const VectorXd& v_star
 VectorXd StewartTrinkle::VelocityAfter(const Assembly& a, const VectorXd& v_star, const VectorXd& z,
                                        const JointElimination& joints) const {
   VectorXd impulse, product, dv, v1;
-  VelocityAfterInto(a, v_star, z, joints, &impulse, &product, &dv, &v1);
+  VelocityAfterWith(a, v_star, z, joints, &impulse, &product, &dv, &v1);
   return v1;
+}
+
+void StewartTrinkle::VelocityAfterInto(const Assembly& a, const VectorXd& v_star, const VectorXd& z,
+                                       const JointElimination& joints, VectorXd* v1) const {
+  thread_local VectorXd impulse, product, dv;
+  VelocityAfterWith(a, v_star, z, joints, &impulse, &product, &dv, v1);
 }
 
 void StewartTrinkle::Step(const Scene& model, const State& x, const StepInput& u, Workspace* ws,
@@ -767,7 +827,7 @@ void StewartTrinkle::Step(const Scene& model, const State& x, const StepInput& u
     }
   }
 
-  VelocityAfterInto(a, v_star, z, joints, &s.impulse, &s.product, &s.dv, &s.v1);
+  VelocityAfterWith(a, v_star, z, joints, &s.impulse, &s.product, &s.dv, &s.v1);
   // Lemke's basis is the next step's warm start: spread statically indeterminate normal impulses
   // over every touching contact, so that basis holds them all (spread_normals.h).
   if (lemke != nullptr) {

@@ -15,6 +15,7 @@
 #include <cstdint>
 #include <exception>
 #include <limits>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -153,10 +154,14 @@ void ProjectInPlace(const VectorXd& l, const VectorXd& u, VectorXd* z) {
 
 // McpScaledResidual (mcp.h) from F and the dense or sparse Jacobian at z: c = F − J z,
 // row terms |c_i| + Σ_j |J_ij z_j|, row norms Σ_j |J_ij|.
+// Its vectors in this thread's storage (allocation reuse only: each call overwrites them).
 double ScaledResidual(const VectorXd& z, const VectorXd& F, const VectorXd& l, const VectorXd& u,
                       const MatrixXd* J, const SparseMatrixd* Js) {
   const Eigen::Index n = z.size();
-  VectorXd jz = VectorXd::Zero(n), terms = VectorXd::Zero(n), norms = VectorXd::Zero(n);
+  thread_local VectorXd jz, terms, norms, c_buffer;
+  jz.setZero(n);
+  terms.setZero(n);
+  norms.setZero(n);
   const auto add = [&](Eigen::Index i, Eigen::Index j, double v) {
     jz(i) += v * z(j);
     terms(i) += std::abs(v * z(j));
@@ -169,7 +174,8 @@ double ScaledResidual(const VectorXd& z, const VectorXd& F, const VectorXd& l, c
     for (Eigen::Index j = 0; j < n; ++j)
       for (Eigen::Index i = 0; i < n; ++i) add(i, j, (*J)(i, j));
   }
-  const VectorXd c = F - jz;
+  VectorXd& c = c_buffer;
+  c = F - jz;
   terms += c.cwiseAbs();
   return internal::ScaledNaturalResidual(z, F, &l, &u, terms, norms, c.lpNorm<Eigen::Infinity>());
 }
@@ -226,14 +232,135 @@ class Perturbation {
   std::uint64_t state_;
 };
 
+// PartialPivLU::rcond() (Eigen's rcond_estimate_helper and rcond_invmatrix_L1_norm_estimate:
+// Hager's algorithm with Higham's alternating vector) with its vectors in *v, *sign, *old_sign
+// and *tmp: the same operations in the same order, so the same value, without the temporaries
+// of each dec.solve. `l1_norm` is the factored matrix's max column sum of |entries| (PartialPivLU
+// keeps it privately; the caller forms it by the same expression).
+double PartialPivLuRcond(const Eigen::PartialPivLU<MatrixXd>& dec, double l1_norm, VectorXd* v,
+                         VectorXd* sign, VectorXd* old_sign, VectorXd* tmp) {
+  const Eigen::Index n = dec.rows();
+  if (n == 0) return kInf;
+  if (l1_norm == 0.0) return 0.0;
+  if (n == 1) return 1.0;
+  const auto& perm = dec.permutationP().indices();
+  const auto& lu = dec.matrixLU();
+  // *out = dec.solve(*in) (PartialPivLU::_solve_impl: P b, L⁻¹, U⁻¹); in and out distinct.
+  const auto solve = [&](const VectorXd& in, VectorXd* out) {
+    out->resize(n);
+    for (Eigen::Index i = 0; i < n; ++i) (*out)(perm(i)) = in(i);
+    lu.template triangularView<Eigen::UnitLower>().solveInPlace(*out);
+    lu.template triangularView<Eigen::Upper>().solveInPlace(*out);
+  };
+  // *out = dec.adjoint().solve(in) for real scalars (_solve_impl_transposed: U⁻ᵀ, L⁻ᵀ, Pᵀ).
+  const auto solve_transposed = [&](const VectorXd& in, VectorXd* out) {
+    *tmp = in;
+    lu.template triangularView<Eigen::Upper>().transpose().solveInPlace(*tmp);
+    lu.template triangularView<Eigen::UnitLower>().transpose().solveInPlace(*tmp);
+    out->resize(n);
+    for (Eigen::Index i = 0; i < n; ++i) (*out)(i) = (*tmp)(perm(i));
+  };
+  tmp->resize(n);
+  for (Eigen::Index i = 0; i < n; ++i) (*tmp)(i) = 1.0 / static_cast<double>(n);
+  solve(*tmp, v);
+  double lower_bound = v->lpNorm<1>();
+  double old_lower_bound = lower_bound;
+  Eigen::Index v_max_abs_index = -1, old_v_max_abs_index = -1;
+  for (int k = 0; k < 4; ++k) {
+    sign->resize(n);
+    for (Eigen::Index i = 0; i < n; ++i) (*sign)(i) = (*v)(i) < 0.0 ? -1.0 : 1.0;
+    if (k > 0 && *sign == *old_sign) break;
+    solve_transposed(*sign, v);
+    v->cwiseAbs().maxCoeff(&v_max_abs_index);
+    if (v_max_abs_index == old_v_max_abs_index) break;
+    tmp->setZero(n);  // e_j, j = v_max_abs_index
+    (*tmp)(v_max_abs_index) = 1.0;
+    solve(*tmp, v);
+    lower_bound = v->lpNorm<1>();
+    if (lower_bound <= old_lower_bound) break;
+    *old_sign = *sign;
+    old_v_max_abs_index = v_max_abs_index;
+    old_lower_bound = lower_bound;
+  }
+  double alternating_sign = 1.0;
+  tmp->resize(n);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    (*tmp)(i) = alternating_sign * (1.0 + (static_cast<double>(i) / static_cast<double>(n - 1)));
+    alternating_sign = -alternating_sign;
+  }
+  solve(*tmp, v);
+  const double alternate_lower_bound = (2 * v->lpNorm<1>()) / (3 * static_cast<double>(n));
+  const double inverse_norm = std::max(lower_bound, alternate_lower_bound);
+  return inverse_norm == 0.0 ? 0.0 : (1.0 / inverse_norm) / l1_norm;
+}
+
+// The dense solve's storage: one per thread, reused by every solve of that thread (allocation
+// reuse only: every solve sets what it reads). The sparse path keeps its matrices per solve.
+struct McpScratch {
+  std::vector<RowKind> kinds;
+  VectorXd F, phi, alpha, beta, grad, dir, rhs, d, jd, zt, Ft, phit, tmp;
+  VectorXd z0, zc, best, F0;
+  VectorXd rcond_v, rcond_sign, rcond_old_sign, rcond_tmp;
+  std::vector<double> merits;
+  MatrixXd jf, h;
+  Eigen::PartialPivLU<MatrixXd> lu;
+};
+
+// The calling thread's McpScratch while the lease lives; a nested solve (an evaluate that
+// solves another MCP) gets a scratch of its own.
+class McpScratchLease {
+ public:
+  McpScratchLease() {
+    thread_local McpScratch shared;
+    thread_local bool in_use = false;
+    if (!in_use) {
+      in_use = true;
+      in_use_ = &in_use;
+      scratch_ = &shared;
+    } else {
+      own_ = std::make_unique<McpScratch>();
+      scratch_ = own_.get();
+    }
+  }
+  ~McpScratchLease() {
+    if (in_use_ != nullptr) *in_use_ = false;
+  }
+  McpScratchLease(const McpScratchLease&) = delete;
+  McpScratchLease& operator=(const McpScratchLease&) = delete;
+  McpScratch* get() { return scratch_; }
+
+ private:
+  McpScratch* scratch_ = nullptr;
+  bool* in_use_ = nullptr;
+  std::unique_ptr<McpScratch> own_;
+};
+
 // The whole solve: workspace and the steps of the algorithm.
 class SemismoothNewton {
  public:
-  SemismoothNewton(const McpProblem& problem, const McpOptions& options)
+  SemismoothNewton(const McpProblem& problem, const McpOptions& options, McpScratch* s)
       : p_(problem),
         o_(options),
         n_(problem.size()),
-        sparse_(options.sparse && static_cast<bool>(problem.sparse_jacobian)) {
+        sparse_(options.sparse && static_cast<bool>(problem.sparse_jacobian)),
+        s_(*s),
+        kinds_(s->kinds),
+        F_(s->F),
+        phi_(s->phi),
+        alpha_(s->alpha),
+        beta_(s->beta),
+        grad_(s->grad),
+        dir_(s->dir),
+        rhs_(s->rhs),
+        d_(s->d),
+        jd_(s->jd),
+        zt_(s->zt),
+        Ft_(s->Ft),
+        phit_(s->phit),
+        tmp_(s->tmp),
+        jf_(s->jf),
+        h_(s->h),
+        lu_(s->lu) {
     kinds_.resize(n_);
     for (int i = 0; i < n_; ++i) kinds_[i] = Classify(p_.lower(i), p_.upper(i));
     for (VectorXd* v : {&F_, &phi_, &alpha_, &beta_, &grad_, &dir_, &rhs_, &d_, &jd_, &zt_, &Ft_,
@@ -243,7 +370,8 @@ class SemismoothNewton {
     if (!sparse_) {
       jf_.setZero(n_, n_);
       h_.setZero(n_, n_);
-      lu_ = Eigen::PartialPivLU<MatrixXd>(n_);
+    } else {
+      sp_ = std::make_unique<SparseParts>();
     }
   }
 
@@ -252,9 +380,9 @@ class SemismoothNewton {
  private:
   enum class Eval { kOk, kNonFinite, kThrew };
 
-  // F (and the Jacobian if `jacobian`) at x into *F (jf_ / jfs_). Catches user exceptions.
+  // F (and the Jacobian if `jacobian`) at x into *F (jf_ / sp_->jfs). Catches user exceptions.
   Eval Evaluate(const VectorXd& x, VectorXd* F, bool jacobian);
-  // Φ at x from F; with `jacobian` also H (h_ / hs_).
+  // Φ at x from F; with `jacobian` also H (h_ / sp_->hs).
   void Reformulate(const VectorXd& x, const VectorXd& F, VectorXd* phi, bool jacobian);
   void AssembleSparseH();
   // Newton direction into dir_; false if H is singular or the solution is not finite.
@@ -270,7 +398,7 @@ class SemismoothNewton {
                     VectorXd* z);
   // McpScaledResidual at x from F and the Jacobian last evaluated (at x).
   double ScaledAt(const VectorXd& x, const VectorXd& F) const {
-    return sparse_ ? ScaledResidual(x, F, p_.lower, p_.upper, nullptr, &jfs_)
+    return sparse_ ? ScaledResidual(x, F, p_.lower, p_.upper, nullptr, &sp_->jfs)
                    : ScaledResidual(x, F, p_.lower, p_.upper, &jf_, nullptr);
   }
 
@@ -278,16 +406,21 @@ class SemismoothNewton {
   const McpOptions& o_;
   const int n_;
   const bool sparse_;
-  std::vector<RowKind> kinds_;
-  VectorXd F_, phi_, alpha_, beta_, grad_, dir_, rhs_, d_, jd_, zt_, Ft_, phit_, tmp_;
-  MatrixXd jf_, h_;
-  Eigen::PartialPivLU<MatrixXd> lu_;
-  SparseMatrixd jfs_, hs_;
-  Eigen::SparseLU<SparseMatrixd, Eigen::COLAMDOrdering<int>> slu_;
+  McpScratch& s_;
+  std::vector<RowKind>& kinds_;
+  VectorXd &F_, &phi_, &alpha_, &beta_, &grad_, &dir_, &rhs_, &d_, &jd_, &zt_, &Ft_, &phit_, &tmp_;
+  MatrixXd &jf_, &h_;
+  Eigen::PartialPivLU<MatrixXd>& lu_;
+  // The sparse path's matrices, per solve (allocated only when sparse_).
+  struct SparseParts {
+    SparseMatrixd jfs, hs;
+    Eigen::SparseLU<SparseMatrixd, Eigen::COLAMDOrdering<int>> slu;
+  };
+  std::unique_ptr<SparseParts> sp_;
   // Sparse H pattern cache: J_F's pattern, where each of its entries lands in H, H's diagonal.
   std::vector<int> cached_outer_, cached_inner_, entry_pos_, diag_pos_;
   bool pattern_valid_ = false;
-  // True iff jf_ / jfs_ hold the Jacobian at the last trial point zt_ (else at the iterate).
+  // True iff jf_ / sp_->jfs hold the Jacobian at the last trial point zt_ (else at the iterate).
   bool trial_has_jacobian_ = false;
   McpSolveStats stats_;
   std::string message_;
@@ -300,7 +433,7 @@ SemismoothNewton::Eval SemismoothNewton::Evaluate(const VectorXd& x, VectorXd* F
       p_.evaluate(x, F, &jf_);
     } else {
       p_.evaluate(x, F, nullptr);
-      if (jacobian) p_.sparse_jacobian(x, &jfs_);
+      if (jacobian) p_.sparse_jacobian(x, &sp_->jfs);
     }
   } catch (const std::exception& e) {
     message_ = std::string("McpProblem::evaluate threw: ") + e.what();
@@ -314,8 +447,8 @@ SemismoothNewton::Eval SemismoothNewton::Evaluate(const VectorXd& x, VectorXd* F
                                 std::to_string(F->size()) + "; expected " + std::to_string(n_));
   }
   if (jacobian) {
-    const Eigen::Index rows = sparse_ ? jfs_.rows() : jf_.rows();
-    const Eigen::Index cols = sparse_ ? jfs_.cols() : jf_.cols();
+    const Eigen::Index rows = sparse_ ? sp_->jfs.rows() : jf_.rows();
+    const Eigen::Index cols = sparse_ ? sp_->jfs.cols() : jf_.cols();
     if (rows != n_ || cols != n_) {
       throw std::invalid_argument("McpSolver: the Jacobian is " + std::to_string(rows) + "x" +
                                   std::to_string(cols) + "; expected " + std::to_string(n_) + "x" +
@@ -325,9 +458,9 @@ SemismoothNewton::Eval SemismoothNewton::Evaluate(const VectorXd& x, VectorXd* F
   if (!F->allFinite()) return Eval::kNonFinite;
   if (jacobian) {
     if (sparse_) {
-      jfs_.makeCompressed();
-      for (Eigen::Index k = 0; k < jfs_.nonZeros(); ++k) {
-        if (!std::isfinite(jfs_.valuePtr()[k])) return Eval::kNonFinite;
+      sp_->jfs.makeCompressed();
+      for (Eigen::Index k = 0; k < sp_->jfs.nonZeros(); ++k) {
+        if (!std::isfinite(sp_->jfs.valuePtr()[k])) return Eval::kNonFinite;
       }
     } else if (!jf_.allFinite()) {
       return Eval::kNonFinite;
@@ -341,7 +474,7 @@ void SemismoothNewton::Reformulate(const VectorXd& x, const VectorXd& F, VectorX
   const auto jf_times = [&](const VectorXd& d, VectorXd* out) {
     if (!jacobian) return;  // only the Jacobian depends on the direction
     if (sparse_) {
-      out->noalias() = jfs_ * d;
+      out->noalias() = sp_->jfs * d;
     } else {
       out->noalias() = jf_ * d;
     }
@@ -358,9 +491,9 @@ void SemismoothNewton::Reformulate(const VectorXd& x, const VectorXd& F, VectorX
 }
 
 void SemismoothNewton::AssembleSparseH() {
-  const int nnz = static_cast<int>(jfs_.nonZeros());
-  const int* outer = jfs_.outerIndexPtr();
-  const int* inner = jfs_.innerIndexPtr();
+  const int nnz = static_cast<int>(sp_->jfs.nonZeros());
+  const int* outer = sp_->jfs.outerIndexPtr();
+  const int* inner = sp_->jfs.innerIndexPtr();
   const bool same = pattern_valid_ && static_cast<int>(cached_inner_.size()) == nnz &&
                     std::equal(outer, outer + n_ + 1, cached_outer_.begin()) &&
                     std::equal(inner, inner + nnz, cached_inner_.begin());
@@ -372,11 +505,11 @@ void SemismoothNewton::AssembleSparseH() {
       for (int k = outer[j]; k < outer[j + 1]; ++k) triplets.emplace_back(inner[k], j, 0.0);
       triplets.emplace_back(j, j, 0.0);
     }
-    hs_.resize(n_, n_);
-    hs_.setFromTriplets(triplets.begin(), triplets.end());
-    hs_.makeCompressed();
-    const int* houter = hs_.outerIndexPtr();
-    const int* hinner = hs_.innerIndexPtr();
+    sp_->hs.resize(n_, n_);
+    sp_->hs.setFromTriplets(triplets.begin(), triplets.end());
+    sp_->hs.makeCompressed();
+    const int* houter = sp_->hs.outerIndexPtr();
+    const int* hinner = sp_->hs.innerIndexPtr();
     const auto position = [&](int row, int col) {
       return static_cast<int>(
           std::lower_bound(hinner + houter[col], hinner + houter[col + 1], row) - hinner);
@@ -390,11 +523,11 @@ void SemismoothNewton::AssembleSparseH() {
     cached_outer_.assign(outer, outer + n_ + 1);
     cached_inner_.assign(inner, inner + nnz);
     pattern_valid_ = true;
-    slu_.analyzePattern(hs_);
+    sp_->slu.analyzePattern(sp_->hs);
   }
-  double* values = hs_.valuePtr();
-  std::fill(values, values + hs_.nonZeros(), 0.0);
-  const double* jv = jfs_.valuePtr();
+  double* values = sp_->hs.valuePtr();
+  std::fill(values, values + sp_->hs.nonZeros(), 0.0);
+  const double* jv = sp_->jfs.valuePtr();
   for (int j = 0; j < n_; ++j) {
     for (int k = outer[j]; k < outer[j + 1]; ++k) values[entry_pos_[k]] += beta_(inner[k]) * jv[k];
     values[diag_pos_[j]] += alpha_(j);
@@ -404,14 +537,17 @@ void SemismoothNewton::AssembleSparseH() {
 bool SemismoothNewton::NewtonDirection() {
   rhs_ = -phi_;
   if (sparse_) {
-    slu_.factorize(hs_);
-    if (slu_.info() != Eigen::Success) return false;
-    dir_ = slu_.solve(rhs_);
-    if (slu_.info() != Eigen::Success) return false;
+    sp_->slu.factorize(sp_->hs);
+    if (sp_->slu.info() != Eigen::Success) return false;
+    dir_ = sp_->slu.solve(rhs_);
+    if (sp_->slu.info() != Eigen::Success) return false;
   } else {
+    // ‖H‖₁ as PartialPivLU::compute forms it (for rcond()).
+    const double l1_norm = n_ > 0 ? h_.cwiseAbs().colwise().sum().maxCoeff() : 0.0;
     lu_.compute(h_);
     // PartialPivLU does not detect singularity; reject a numerically singular H.
-    const double rcond = lu_.rcond();
+    const double rcond = PartialPivLuRcond(lu_, l1_norm, &s_.rcond_v, &s_.rcond_sign,
+                                           &s_.rcond_old_sign, &s_.rcond_tmp);
     if (!(rcond > 1e-15 * n_)) return false;
     dir_ = lu_.solve(rhs_);
   }
@@ -421,7 +557,7 @@ bool SemismoothNewton::NewtonDirection() {
 bool SemismoothNewton::LevenbergMarquardtDirection() {
   const double phi_norm = phi_.norm();
   if (sparse_) {
-    SparseMatrixd hth = hs_.transpose() * hs_;
+    SparseMatrixd hth = sp_->hs.transpose() * sp_->hs;
     double scale = 0.0;
     for (int j = 0; j < n_; ++j) scale = std::max(scale, hth.coeff(j, j));
     const double m = std::min(1.0, phi_norm * phi_norm) * std::max(scale, kLmFloor);
@@ -496,14 +632,18 @@ SolverReport SemismoothNewton::Run(VectorXd* z, McpSolveStats* stats_out) {
   const VectorXd& l = p_.lower;
   const VectorXd& u = p_.upper;
 
-  VectorXd z0 = *z;
+  VectorXd& z0 = s_.z0;
+  z0 = *z;
   ProjectInPlace(l, u, &z0);
-  VectorXd zc = z0;
-  VectorXd best = z0;
+  VectorXd& zc = s_.zc;
+  zc = z0;
+  VectorXd& best = s_.best;
+  best = z0;
   double best_residual = kInf;
   double best_merit = kInf;
-  VectorXd F0;
-  std::vector<double> merits;
+  VectorXd& F0 = s_.F0;
+  std::vector<double>& merits = s_.merits;
+  merits.clear();
   merits.reserve(std::max(1, o_.nonmonotone_memory));
 
   enum class End { kSolved, kBudget, kStalled, kFailure } end = End::kStalled;
@@ -514,7 +654,7 @@ SolverReport SemismoothNewton::Run(VectorXd* z, McpSolveStats* stats_out) {
 
   // Evaluates F, J, Φ, H at zc (into F_, phi_, ...) and updates the best point. Returns false
   // (with end/message set) on a numerical failure. `evaluated`: F and J at zc are already in
-  // F_ and jf_ / jfs_.
+  // F_ and jf_ / sp_->jfs.
   const auto accept = [&](bool evaluated) {
     if (!evaluated) {
       const Eval e = Evaluate(zc, &F_, true);
@@ -569,7 +709,7 @@ SolverReport SemismoothNewton::Run(VectorXd* z, McpSolveStats* stats_out) {
         }
         ++iterations;
         if (sparse_) {
-          grad_.noalias() = hs_.transpose() * phi_;
+          grad_.noalias() = sp_->hs.transpose() * phi_;
         } else {
           grad_.noalias() = h_.transpose() * phi_;
         }
@@ -593,7 +733,7 @@ SolverReport SemismoothNewton::Run(VectorXd* z, McpSolveStats* stats_out) {
         if (!accepted && !threw) {
           // Projected gradient; first trial at the Cauchy step of the linearized model.
           if (sparse_) {
-            tmp_.noalias() = hs_ * grad_;
+            tmp_.noalias() = sp_->hs * grad_;
           } else {
             tmp_.noalias() = h_ * grad_;
           }
@@ -772,21 +912,27 @@ SolverReport McpSolver::Solve(const McpProblem& problem, VectorXd* z, McpSolveSt
     }
   }
   const McpOptions& o = options_;
-  const auto require = [](bool ok, const std::string& what) {
-    if (!ok) throw std::invalid_argument("McpSolver: invalid option " + what);
+  // The message is formed only for an invalid option (a valid solve allocates nothing here).
+  const auto require = [](bool ok, const auto& what) {
+    if (!ok) throw std::invalid_argument("McpSolver: invalid option " + what());
   };
-  require(o.max_iterations >= 0,
-          "max_iterations = " + std::to_string(o.max_iterations) + "; expected >= 0");
-  require(o.tolerance >= 0.0, "tolerance = " + std::to_string(o.tolerance) + "; expected >= 0");
+  require(o.max_iterations >= 0, [&] {
+    return "max_iterations = " + std::to_string(o.max_iterations) + "; expected >= 0";
+  });
+  require(o.tolerance >= 0.0,
+          [&] { return "tolerance = " + std::to_string(o.tolerance) + "; expected >= 0"; });
   require(o.lambda > 0.0 && o.lambda <= 1.0,
-          "lambda = " + std::to_string(o.lambda) + "; expected 0 < lambda <= 1");
-  require(o.nonmonotone_memory >= 1,
-          "nonmonotone_memory = " + std::to_string(o.nonmonotone_memory) + "; expected >= 1");
+          [&] { return "lambda = " + std::to_string(o.lambda) + "; expected 0 < lambda <= 1"; });
+  require(o.nonmonotone_memory >= 1, [&] {
+    return "nonmonotone_memory = " + std::to_string(o.nonmonotone_memory) + "; expected >= 1";
+  });
   require(o.max_restarts >= 0,
-          "max_restarts = " + std::to_string(o.max_restarts) + "; expected >= 0");
-  require(o.stall_iterations >= 1,
-          "stall_iterations = " + std::to_string(o.stall_iterations) + "; expected >= 1");
-  SemismoothNewton solver(problem, options_);
+          [&] { return "max_restarts = " + std::to_string(o.max_restarts) + "; expected >= 0"; });
+  require(o.stall_iterations >= 1, [&] {
+    return "stall_iterations = " + std::to_string(o.stall_iterations) + "; expected >= 1";
+  });
+  McpScratchLease lease;
+  SemismoothNewton solver(problem, options_, lease.get());
   return solver.Run(z, stats);
 }
 

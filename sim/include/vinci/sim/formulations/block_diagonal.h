@@ -52,6 +52,14 @@ class BlockDiagonal {
       y->segment(o, block_size_).noalias() = BlockAt(o) * x.segment(o, block_size_);
   }
 
+  /// *y = this · x for a matrix x (rows() × k), the product operator* forms, into y's storage (no
+  /// allocation when y already has that shape). y must not alias x.
+  void Multiply(const MatrixXd& x, MatrixXd* y) const {
+    y->resize(rows(), x.cols());
+    for (int o = 0; o < rows(); o += block_size_)
+      y->middleRows(o, block_size_).noalias() = BlockAt(o) * x.middleRows(o, block_size_);
+  }
+
   MatrixXd ToDense() const;
 
  private:

@@ -40,6 +40,10 @@
 
 namespace vinci::sim {
 
+namespace internal {
+struct NcpData;  // the MCP function's numbers (ncp.cc)
+}  // namespace internal
+
 struct NcpOptions {
   double e_t = 1.0;  ///< elliptic-cone ratio along t (1: isotropic); > 0
   double e_o = 1.0;  ///< elliptic-cone ratio along o; > 0
@@ -105,6 +109,10 @@ class NcpStepper final : public Formulation {
   const NcpOptions& ncp_options() const { return ncp_; }
 
  private:
+  // Build's problem into *sp and *d (storage reused; the MCP's evaluate and sparse_jacobian are
+  // left for the caller to bind to *d, and d->A_sparse is not formed).
+  void BuildInto(const Scene& model, const State& x, const StepInput& u, StepProblem* sp,
+                 internal::NcpData* d) const;
   StepperOptions options_;
   NcpOptions ncp_;
   StewartTrinkle st_;  // assembly and the fallback LCP (n_d = 4)

@@ -130,13 +130,16 @@ class StewartTrinkle final : public Formulation {
   LcpProblem BuildLcp(const Scene& model, const Assembly& a, const VectorXd& v, VectorXd* v_star,
                       JointElimination* joints) const;
   /// BuildLcp into *lcp, reusing its storage (M, q, blocks): the same numbers, and no
-  /// allocation when the sizes did not change (plain contacts and support points; joints and
-  /// corner contacts still form temporaries).
+  /// allocation when the sizes did not change (per-thread buffers, *joints' storage reused).
   void BuildLcpInto(const Scene& model, const Assembly& a, const VectorXd& v, VectorXd* v_star,
                     JointElimination* joints, LcpProblem* lcp) const;
   /// ν_ℓ+1 = ν* + W G_c p_c for the LCP solution z.
   VectorXd VelocityAfter(const Assembly& a, const VectorXd& v_star, const VectorXd& z,
                          const JointElimination& joints) const;
+  /// VelocityAfter into *v1 (its intermediate vectors in per-thread storage): the same numbers,
+  /// no allocation when the sizes did not change. v1 must not alias the inputs.
+  void VelocityAfterInto(const Assembly& a, const VectorXd& v_star, const VectorXd& z,
+                         const JointElimination& joints, VectorXd* v1) const;
 
   const StepperOptions& options() const { return options_; }
 
