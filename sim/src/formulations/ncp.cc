@@ -7,7 +7,7 @@
 #include <stdexcept>
 #include <vector>
 
-#include "scratch_lease.h"
+#include "../solvers/scratch_lease.h"
 #include "step_util.h"
 #include "vinci/sim/model/kinematics.h"
 

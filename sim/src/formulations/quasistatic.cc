@@ -5,7 +5,7 @@
 #include <memory>
 #include <stdexcept>
 
-#include "scratch_lease.h"
+#include "../solvers/scratch_lease.h"
 #include "step_util.h"
 #include "vinci/sim/model/kinematics.h"
 
