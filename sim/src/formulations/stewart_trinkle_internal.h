@@ -1,7 +1,9 @@
-// Helpers shared by the two halves of the Stewart–Trinkle stepper: stewart_trinkle.cc (assembly
-// and the step) and stewart_trinkle_residuals.cc (Layout, Evaluate: the step model). Private.
+// Helpers shared by the parts of the Stewart–Trinkle stepper: stewart_trinkle.cc (assembly
+// and the step), stewart_trinkle_lcp.cc (the LCP, the velocity update) and
+// stewart_trinkle_residuals.cc (Layout, Evaluate: the step model). Private.
 #pragma once
 
+#include "vinci/sim/formulations/stewart_trinkle.h"
 #include "vinci/sim/model/kinematics.h"
 #include "vinci/sim/model/scene.h"
 
@@ -13,5 +15,11 @@ BodyKinematics PrescribedKinematics(const Scene& model, int body, double t, doub
 /// Throws std::invalid_argument for a scene with a shape this stepper cannot collide (the smooth
 /// GI-only kinds), so the error does not depend on whether such a shape is near another one.
 void CheckShapesSupported(const Scene& model);
+
+// ν_ℓ+1 = ν* + W G_c p_c (+ the joints' correction) into *v1, with the intermediate vectors in
+// *impulse, *product and *dv (their storage reused): StewartTrinkle::VelocityAfter's body.
+void VelocityAfterWith(const StewartTrinkle::Assembly& a, const VectorXd& v_star, const VectorXd& z,
+                       const StewartTrinkle::JointElimination& joints, VectorXd* impulse,
+                       VectorXd* product, VectorXd* dv, VectorXd* v1);
 
 }  // namespace vinci::sim::internal
