@@ -1,0 +1,289 @@
+// The active equations of a step at its solution and their factorization K (internal to
+// sensitivity.cc): Linearization holds the step model's residual Jacobians, decides which side
+// of each complementarity pair is held, and solves K for the derivative columns.
+#pragma once
+
+#include <Eigen/LU>
+#include <Eigen/QR>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "sensitivity_internal.h"
+#include "vinci/sim/formulations/step_model.h"
+
+namespace vinci::sim::internal {
+
+// A column whose held active set stays feasible (to first order) only for perturbations below
+// this (relative to the column variable, at least 1) is flagged: its derivative is that of the
+// step's branch, which steps perturbed by any practical amount have left. Happens where K is
+// nearly singular and the solver form's small compliances decide the impulse split (a GI sphere
+// resting in the groove between two spheres: ∂p_n/∂z_ℓ ~ 1e8, the cone reached at ~1e-11 m).
+constexpr double kMinStableRadius = 1e-6;
+
+// The residual derivative of one column: ∂(equality, comp_a, comp_b)/∂(column).
+struct ResidualColumn {
+  VectorXd eq, a, b;
+  bool contact_set_changed = false;
+};
+
+// The step's active equations at the linearization point and their factorization.
+class Linearization {
+ public:
+  // `vals` holds the step equations and their dense Jacobians at the linearization point, the
+  // first `nz` columns those of the unknowns z. `gi`: the step layout if the model is the
+  // geometrically implicit stepper's (its unloaded candidate pairs are pinned, below), else null.
+  Linearization(const StepResiduals& vals, int nz, const SensitivityOptions& options, bool smoothed,
+                const StepLayout* gi) {
+    const auto E = vals.d_equality.leftCols(nz);
+    A_ = vals.d_comp_a.leftCols(nz);
+    B_ = vals.d_comp_b.leftCols(nz);
+    nz_ = nz;
+    const int ne = static_cast<int>(E.rows()), np = static_cast<int>(A_.rows());
+    if (ne + np != nz_) {
+      message_ = "the step equations are not square (" + std::to_string(ne) + " equalities + " +
+                 std::to_string(np) + " pairs for " + std::to_string(nz_) + " unknowns)";
+      return;
+    }
+    const VectorXd& a = vals.comp_a;
+    const VectorXd& b = vals.comp_b;
+    const double scale = std::max(a.size() ? a.cwiseAbs().maxCoeff() : 0.0,
+                                  b.size() ? b.cwiseAbs().maxCoeff() : 0.0);
+    const double tol = options.active_tol * scale + 10.0 * vals.Violation();
+    a_ = a;
+    b_ = b;
+    tol_ = tol;
+    smoothed_ = smoothed;
+    side_.assign(np, 'a');
+    weight_a_ = VectorXd::Zero(np);
+    weight_b_ = VectorXd::Zero(np);
+    const double inert_tol =
+        gi ? options.active_tol * std::max(1.0, B_.size() ? B_.cwiseAbs().maxCoeff() : 0.0) : 0.0;
+    std::vector<int> inert;  // GI pairs whose cone pair is inert
+    for (int i = 0; i < np; ++i) {
+      const bool a0 = a[i] <= tol, b0 = b[i] <= tol;
+      if (gi && !smoothed && a0 && b0 && B_.row(i).cwiseAbs().maxCoeff() <= inert_tol) {
+        // A GI cone pair (σ, μ² p_n² − ‖p_t‖²) of an unloaded pair, p_n = p_t = 0: b has no
+        // first-order variation and the pair's friction rows μ p_n v_t' + σ p_t are 0 = 0 to
+        // first order, leaving p_t free in K. The cone with p_n at 0 allows no p_t: the pair is
+        // held at dσ = 0 and its friction rows are replaced by dp_t = 0 (below). Not a kink of
+        // the solution map where p_n is held at 0 (if p_n is degenerate, its own pair is).
+        Eigen::Index col = 0;
+        A_.row(i).cwiseAbs().maxCoeff(&col);
+        const int k = static_cast<int>(col) - gi->sigma();
+        if (k >= 0 && k < gi->nc) {
+          side_[i] = 'i';
+          inert.push_back(k);
+          continue;
+        }
+      }
+      if (a0 && b0) {
+        ++degenerate_;
+        switch (options.degenerate) {
+          case DegenerateRule::kDirectional:
+            side_[i] = 'd';
+            deg_.push_back(i);
+            break;
+          case DegenerateRule::kHoldA:
+            side_[i] = 'a';
+            break;
+          case DegenerateRule::kHoldB:
+            side_[i] = 'b';
+            break;
+        }
+      } else {
+        side_[i] = a[i] <= b[i] ? 'a' : 'b';
+      }
+    }
+    K_.resize(nz_, nz_);
+    K_.topRows(ne) = E;
+    for (int i = 0; i < np; ++i) {
+      if (smoothed) {
+        // ∂φ_ε = (1 − a/r) da + (1 − b/r) db,  r = √(a² + b² + 2ε) > 0.
+        const double r = std::sqrt(a[i] * a[i] + b[i] * b[i] + 2.0 * options.smoothing);
+        weight_a_[i] = 1.0 - a[i] / r;
+        weight_b_[i] = 1.0 - b[i] / r;
+      } else if (side_[i] == 'b') {
+        weight_b_[i] = 1.0;
+      } else {
+        weight_a_[i] = 1.0;  // held a, or a degenerate pair's λ = da row
+      }
+    }
+    K_.bottomRows(np) = weight_a_.asDiagonal() * A_ + weight_b_.asDiagonal() * B_;
+    // GI equality rows (geometrically_implicit.h): [dynamics (nv); kinematics (nq); per pair:
+    // separation (d), normals (d), A side, B side, friction (d − 1 = nd)].
+    for (int k : inert) {
+      for (int j = 0; j < gi->nd; ++j) {
+        const int row = gi->nv + gi->nq + k * (3 * gi->nd + 4) + 2 * gi->nd + 4 + j;
+        if (row >= ne) continue;
+        K_.row(row).setZero();
+        K_(row, gi->pf() + k * gi->nd + j) = 1.0;
+        pinned_.push_back(row);
+      }
+    }
+    if (smoothed) deg_.clear();
+    // K factored structurally (StructuredSolver): the held impulses and the end positions
+    // eliminated, the small core by LU with complete pivoting, and by the rank-revealing
+    // complete orthogonal decomposition only where the core is singular (redundant contacts: a
+    // box face on a plane, four corners all loaded: impulses not unique; the solutions' state
+    // part is still unique where consistent). Partial-pivoting LU, tried earlier for speed, took
+    // such a K as regular — its rcond estimate was above a 1e-10 cut-off — and returned wrong
+    // state derivatives (SensitivityTest.RedundantRestingContacts…).
+    solver_.Compute(K_);
+    k_norm_ = K_.size() ? K_.cwiseAbs().maxCoeff() : 0.0;
+    if (!deg_.empty()) {
+      const int nd = static_cast<int>(deg_.size());
+      BD_.resize(nd, nz_);
+      for (int j = 0; j < nd; ++j) BD_.row(j) = B_.row(deg_[j]);
+    }
+    ne_ = ne;
+    ok_ = true;
+  }
+
+  Linearization(const Linearization&) = delete;  // solver_ points to K_
+  Linearization& operator=(const Linearization&) = delete;
+
+  bool ok() const { return ok_; }
+  const std::string& message() const { return message_; }
+  int degenerate() const { return degenerate_; }
+  int nz() const { return nz_; }
+
+  // dz for one residual column (the derivative of the residuals along the column). Returns
+  // false if the active system is inconsistent along it; *unsolved is set if the sensitivity
+  // LCP could not be solved (the λ = 0 branch is returned).
+  bool Solve(const ResidualColumn& r, VectorXd* dz, bool* unsolved) const {
+    *unsolved = false;
+    VectorXd rhs(nz_);
+    rhs.head(ne_) = r.eq;
+    rhs.tail(nz_ - ne_) = weight_a_.cwiseProduct(r.a) + weight_b_.cwiseProduct(r.b);
+    for (int row : pinned_) rhs[row] = 0.0;
+    *dz = solver_.Solve(VectorXd(-rhs));
+    VectorXd Kdz;
+    solver_.Multiply(*dz, &Kdz);
+    const double resid = (Kdz + rhs).cwiseAbs().maxCoeff();
+    const double ref = rhs.cwiseAbs().maxCoeff() + k_norm_ * dz->cwiseAbs().maxCoeff();
+    if (!std::isfinite(resid) || resid > 1e-6 * ref + 1e-300) return false;
+    if (deg_.empty()) return true;
+    const int nd = static_cast<int>(deg_.size());
+    LcpProblem p;
+    p.q.resize(nd);
+    for (int j = 0; j < nd; ++j) p.q[j] = B_.row(deg_[j]).dot(*dz) + r.b[deg_[j]];
+    // λ = 0 is the solution unless some q_j is negative beyond the round-off of its terms.
+    const double qscale = (BD_.cwiseAbs() * dz->cwiseAbs()).maxCoeff() + r.b.cwiseAbs().maxCoeff();
+    if (p.q.minCoeff() >= -1e-10 * qscale) return true;
+    if (W_.cols() != nd) {
+      // K⁻¹ E_D and the sensitivity LCP's matrix, once per step and only when some column needs
+      // them (most columns of a sticking step keep λ = 0).
+      MatrixXd ED = MatrixXd::Zero(nz_, nd);
+      for (int j = 0; j < nd; ++j) ED(ne_ + deg_[j], j) = 1.0;
+      W_ = solver_.Solve(ED);
+      lcp_M_ = BD_ * W_;
+    }
+    p.M = lcp_M_;
+    VectorXd lambda;
+    const SolverReport rep = LemkeSolver().Solve(p, nullptr, &lambda);
+    if (rep.status != SolverStatus::kSolved) {
+      *unsolved = true;
+      return true;
+    }
+    *dz += W_ * lambda;
+    return true;
+  }
+
+  // A move of the unknowns within the step's solution set toward its relative interior, or an
+  // empty vector. With redundant contacts (K singular) the solver's impulse split is one point of
+  // a set of solutions with the same velocities, and it may put a contact exactly at its friction
+  // cone edge (a degenerate pair) while a redundant contact is strictly inside its cone: held
+  // there, the sensitivity LCP lets the first slide where the true step moves load to the other
+  // (docs/sensitivity.md, "Redundant contacts"). Along a null vector n of K (the held rows, the
+  // degenerate pairs' a rows included, stay as they are; q_ℓ+1 and ν_ℓ+1 must not move) whose
+  // rates B_i n are ≥ 0 on every degenerate pair and > 0 on some, half the step to the first held
+  // side that reaches 0 makes those pairs strictly complementary. Greedy over K's null vectors
+  // (each direction tried with both signs), the move accumulated. `nx_rows`: the leading unknowns
+  // (q_ℓ+1, ν_ℓ+1) that must not move.
+  VectorXd InteriorShift(int nx_rows, const VectorXd& z) const {
+    if (deg_.empty() || smoothed_ || !solver_.singular()) return VectorXd();
+    const MatrixXd N = solver_.NullSpace();
+    if (N.cols() == 0) return VectorXd();
+    VectorXd shift = VectorXd::Zero(nz_);
+    VectorXd a = a_, b = b_;
+    std::vector<char> side = side_;
+    const double zmax = std::max(1e-300, z.tail(nz_ - nx_rows).cwiseAbs().maxCoeff());
+    bool moved = false;
+    for (int k = 0; k < N.cols(); ++k) {
+      const double nn = N.col(k).cwiseAbs().maxCoeff();
+      if (!(nn > 0.0) || N.col(k).head(nx_rows).cwiseAbs().maxCoeff() > 1e-10 * nn) continue;
+      for (double sign : {1.0, -1.0}) {
+        const VectorXd n = sign * N.col(k) / nn;
+        const VectorXd ra = A_ * n, rb = B_ * n;
+        const double eps = 1e-9;
+        int gain = 0;
+        bool allowed = true;
+        double t = zmax;  // no farther than the impulses' own scale
+        for (int i = 0; i < static_cast<int>(side.size()) && allowed; ++i) {
+          if (side[i] == 'd') {
+            if (std::abs(ra[i]) > eps) allowed = false;  // a_D is held: must not move
+            if (rb[i] < -eps) allowed = false;
+            if (rb[i] > eps) ++gain;
+          } else if (side[i] == 'a') {
+            if (rb[i] < -eps) t = std::min(t, b[i] / -rb[i]);
+          } else if (side[i] == 'b') {
+            if (ra[i] < -eps) t = std::min(t, a[i] / -ra[i]);
+          }
+        }
+        if (!allowed || gain == 0 || !(t > 0.0)) continue;
+        t *= 0.5;
+        shift += t * n;
+        a += t * ra;
+        b += t * rb;
+        for (int i = 0; i < static_cast<int>(side.size()); ++i)
+          if (side[i] == 'd' && rb[i] > eps) side[i] = 'a';
+        moved = true;
+        break;
+      }
+    }
+    return moved ? shift : VectorXd();
+  }
+
+  // How far along a column (dz its solution, r its residual column) the held active set stays
+  // feasible to first order: the smallest t at which a strictly positive side of a held pair
+  // (b where a is held at 0, a where b is) reaches 0. +∞ for the smoothed step, and where no
+  // positive side decreases. Degenerate pairs are excluded (their side is chosen per column).
+  double StableRadius(const ResidualColumn& r, const VectorXd& dz) const {
+    double rho = std::numeric_limits<double>::infinity();
+    if (smoothed_) return rho;
+    for (int i = 0; i < static_cast<int>(side_.size()); ++i) {
+      double slack = 0.0, rate = 0.0;
+      if (side_[i] == 'a') {
+        slack = b_[i];
+        rate = B_.row(i).dot(dz) + r.b[i];
+      } else if (side_[i] == 'b') {
+        slack = a_[i];
+        rate = A_.row(i).dot(dz) + r.a[i];
+      } else {
+        continue;
+      }
+      if (rate < 0.0 && slack > tol_) rho = std::min(rho, slack / -rate);
+    }
+    return rho;
+  }
+
+ private:
+  bool ok_ = false;
+  std::string message_;
+  int nz_ = 0, ne_ = 0, degenerate_ = 0;
+  MatrixXd A_, B_, K_, BD_;
+  mutable MatrixXd W_, lcp_M_;  // K⁻¹ E_D and B_D K⁻¹ E_D, computed on first need
+  VectorXd weight_a_, weight_b_;
+  VectorXd a_, b_;    // the pairs' sides at the linearization point
+  double tol_ = 0.0;  // a side at most this is 0 (active)
+  bool smoothed_ = false;
+  std::vector<char> side_;  // per pair: 'a' / 'b' held, 'd' degenerate, 'i' inert GI pair
+  std::vector<int> deg_;
+  std::vector<int> pinned_;  // equality rows replaced by dp_t = 0 (inert GI pairs)
+  StructuredSolver solver_;  // of K_ (keeps a pointer to it: Linearization is not copied)
+  double k_norm_ = 0.0;
+};
+
+}  // namespace vinci::sim::internal
