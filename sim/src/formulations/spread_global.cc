@@ -26,7 +26,7 @@ constexpr double kDualTol = 1e-9;
 
 struct GlobalSpreadScratch {
   std::vector<int> members, row_of, rows, cursor;
-  std::vector<char> is_corner;
+  SpreadEligibility eligibility;
   std::vector<double> row_norm2;
   // J's columns (one per member) as (compressed row, value) over the kept rows.
   std::vector<int> col_start, col_row;
@@ -48,19 +48,9 @@ void SpreadIndeterminateNormalsGlobally(const Scene& model, const StewartTrinkle
   const int nf = nc * a.nd;
   if (nc < 2 || z->size() < nc + nf + nc) return;
   thread_local GlobalSpreadScratch s;
-  s.is_corner.clear();
-  if (!a.corner_contact.empty()) {
-    s.is_corner.assign(nc, 0);
-    for (int c : a.corner_contact) s.is_corner[c] = 1;
-  }
+  s.eligibility.Reset(a);
   const auto eligible = [&](int c) {
-    if (!s.is_corner.empty() && s.is_corner[c]) return false;
-    if (c < static_cast<int>(a.compliance.size()) && a.compliance[c].compliant) return false;
-    if ((*z)[nc + nf + c] != 0.0) return false;  // sliding: μ p_n = Σ p_f must stay exact
-    if ((*z)[c] > 0.0) return true;
-    double w = a.G_n.col(c).dot(v1) + a.dpsi_n[c];
-    if (!velocity_level) w += a.psi_n[c] / h;
-    return std::abs(w) <= w_tol;
+    return s.eligibility.Eligible(a, v1, *z, c, h, velocity_level, w_tol);
   };
   s.members.clear();
   int unloaded = 0;

@@ -23,7 +23,7 @@ struct SpreadScratch {
     Eigen::JacobiSVD<Eigen::MatrixXd> svd;
   };
   std::vector<int> members;
-  std::vector<char> is_corner;
+  SpreadEligibility eligibility;
   std::vector<PairBuffers> pairs;
   PairBuffers& For(int rows, int m) {
     for (PairBuffers& b : pairs)
@@ -91,20 +91,9 @@ void SpreadIndeterminateNormals(const Scene& model, const StewartTrinkle::Assemb
   if (nc < 2 || z->size() < nc + nf + nc) return;
   // Buffers only (no result depends on them): one set per thread.
   thread_local SpreadScratch s;
-  std::vector<char>& is_corner = s.is_corner;  // corner contacts carry a second edge row: left
-  is_corner.clear();                           // alone
-  if (!a.corner_contact.empty()) {
-    is_corner.assign(nc, 0);
-    for (int c : a.corner_contact) is_corner[c] = 1;
-  }
+  s.eligibility.Reset(a);
   const auto eligible = [&](int c) {
-    if (!is_corner.empty() && is_corner[c]) return false;
-    if (c < static_cast<int>(a.compliance.size()) && a.compliance[c].compliant) return false;
-    if ((*z)[nc + nf + c] != 0.0) return false;  // sliding: μ p_n = Σ p_f must stay exact
-    if ((*z)[c] > 0.0) return true;
-    double w = a.G_n.col(c).dot(v1) + a.dpsi_n[c];
-    if (!velocity_level) w += a.psi_n[c] / h;
-    return std::abs(w) <= w_tol;
+    return s.eligibility.Eligible(a, v1, *z, c, h, velocity_level, w_tol);
   };
   // Runs of consecutive contacts of one body pair (FindContacts orders contacts by body pair).
   for (int begin = 0; begin < nc;) {

@@ -11,10 +11,45 @@
 // in the basis, so the next step holds w_n = 0 on all of them and nothing can rock.
 #pragma once
 
+#include <cmath>
+#include <vector>
+
 #include "vinci/sim/formulations/stewart_trinkle.h"
 #include "vinci/sim/model/scene.h"
 
 namespace vinci::sim::internal {
+
+/// The contacts whose normal impulse the spreads below may change: rigid, not a corner contact
+/// (it carries a second edge row), not sliding (σ_c = 0: μ p_n = Σ p_f must stay exact), and
+/// loaded (p_c > 0) or touching (|w_c| ≤ w_tol, w_c = G_n,cᵀ v1 + ∂ψ_c/∂t (+ ψ_c/h unless
+/// velocity_level)). Reset marks the step's corner contacts (storage reused: no allocation once
+/// sized).
+class SpreadEligibility {
+ public:
+  void Reset(const StewartTrinkle::Assembly& a) {
+    nc_ = static_cast<int>(a.contacts.size());
+    nf_ = nc_ * a.nd;
+    is_corner_.clear();
+    if (!a.corner_contact.empty()) {
+      is_corner_.assign(nc_, 0);
+      for (int c : a.corner_contact) is_corner_[c] = 1;
+    }
+  }
+  bool Eligible(const StewartTrinkle::Assembly& a, const VectorXd& v1, const VectorXd& z, int c,
+                double h, bool velocity_level, double w_tol) const {
+    if (!is_corner_.empty() && is_corner_[c]) return false;
+    if (c < static_cast<int>(a.compliance.size()) && a.compliance[c].compliant) return false;
+    if (z[nc_ + nf_ + c] != 0.0) return false;
+    if (z[c] > 0.0) return true;
+    double w = a.G_n.col(c).dot(v1) + a.dpsi_n[c];
+    if (!velocity_level) w += a.psi_n[c] / h;
+    return std::abs(w) <= w_tol;
+  }
+
+ private:
+  int nc_ = 0, nf_ = 0;
+  std::vector<char> is_corner_;
+};
 
 /// If some of a body pair's touching contacts carry no load, replaces the normal impulses
 /// z[0, nc) of the pair's touching contacts by the point of
