@@ -260,11 +260,13 @@ def scan_ring(a):
     return best
 
 
-def write_scene(base, out, motion, note):
+def write_scene(base, out, motion, note, frequency=None, tool="circle_model_search.py"):
+    """Writes scene `base` with its prescribed body's motion replaced by `motion` (a list of
+    (dof, order, amplitude, phase)) at `frequency` (default the model's pm.F) to `out`."""
     import yaml
     scene = yaml.safe_load(open(base))
     plate = next(b for b in scene["bodies"] if b.get("kind") == "prescribed")
-    mm = {"frequency": pm.F}
+    mm = {"frequency": float(pm.F if frequency is None else frequency)}
     for d in pm.DOFS:
         hs = [{"order": k, "amplitude": float(amp), "phase": float(phi)}
               for dd, k, amp, phi in motion if dd == d]
@@ -272,7 +274,7 @@ def write_scene(base, out, motion, note):
             mm[d] = {"harmonics": hs}
     plate["motion"] = mm
     with open(out, "w") as f:
-        f.write("# Written by scripts/circle_model_search.py: %s\n" % note)
+        f.write("# Written by scripts/%s: %s\n" % (tool, note))
         yaml.safe_dump(scene, f, sort_keys=False, default_flow_style=None, width=100)
 
 

@@ -35,6 +35,7 @@ import argparse
 import numpy as np
 from scipy.optimize import differential_evolution, minimize
 
+import circle_model_search
 import plate_point_model as pm
 
 DT = 1.0 / 4800.0
@@ -332,21 +333,10 @@ def run_refine(a):
 
 def write_scene(out, motion, f, note):
     import os
-    import yaml
     base = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..",
                         "examples/field_design/found/circle.yaml")
-    scene = yaml.safe_load(open(base))
-    plate = next(b for b in scene["bodies"] if b.get("kind") == "prescribed")
-    mm = {"frequency": float(f)}
-    for d in pm.DOFS:
-        hs = [{"order": k, "amplitude": float(amp), "phase": float(phi)}
-              for dd, k, amp, phi in motion if dd == d]
-        if hs:
-            mm[d] = {"harmonics": hs}
-    plate["motion"] = mm
-    with open(out, "w") as fh:
-        fh.write("# Written by scripts/circle_rich_search.py: %s\n" % note)
-        yaml.safe_dump(scene, fh, sort_keys=False, default_flow_style=None, width=100)
+    circle_model_search.write_scene(base, out, motion, note, frequency=f,
+                                    tool="circle_rich_search.py")
 
 
 def main():
