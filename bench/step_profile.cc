@@ -1,12 +1,17 @@
 // A plain driver for profilers (perf, callgrind): a resting k-box stack (or the 100-box pile of
-// vinci_vs_mujoco), settled, then N timed steps; prints CPU µs per step, contacts, LCP size and
-// Lemke pivots per step and operator-new allocations per step (Eigen's own malloc calls are not
-// counted: callgrind's call counts of malloc have those). No benchmark framework, so a profile
-// shows only the simulator.
+// vinci_vs_mujoco, or a scene file), settled, then N timed steps; prints CPU µs per step,
+// contacts, LCP size and Lemke pivots per step and operator-new allocations per step (Eigen's own
+// malloc calls are not counted: callgrind's call counts of malloc have those). No benchmark
+// framework, so a profile shows only the simulator.
 //
 //   step_profile [--k K [--gap G] | --pile] [--settle N] [--steps N] [--digits D]
-//   valgrind --tool=callgrind --toggle-collect='TimedStep*' step_profile --k 10 [--dense]
+//   step_profile --scene FILE.yaml [--mu MU] [--settle N] [--steps N]
+//   valgrind --tool=callgrind --toggle-collect='Timed*' step_profile --k 10 [--dense]
 //   (counts the timed steps only, not the settling ones)
+//
+// --scene: the scene file's own formulation, stepped by Simulator::Step (as vinci_vs_mujoco and
+// the velocity field step it: the end-of-step penetration check included); --mu sets the
+// parameter mu.default (block_on_incline.yaml sticks with --mu 0.3248 = 1.05 tan 0.3).
 //
 // --digits D: the start poses written with D significant digits (default 17: exact).
 // --dense: the step through the dense LCP (as before the structured warm-basis solve and the
@@ -14,6 +19,7 @@
 // through impacts (Lemke pivots).
 #include <algorithm>
 #include <atomic>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <ctime>
@@ -79,13 +85,68 @@ __attribute__((noinline)) vinci::sim::StepInfo TimedStep(const vinci::sim::Stewa
   return info;
 }
 
+// One timed Simulator::Step (--scene).
+__attribute__((noinline)) vinci::sim::StepInfo TimedSimStep(const vinci::sim::Simulator& sim,
+                                                            const vinci::sim::Params& params,
+                                                            const vinci::sim::State& x,
+                                                            vinci::sim::Workspace* ws,
+                                                            vinci::sim::State* next) {
+  return sim.Step(params, x, vinci::sim::StepInput{}, ws, next);
+}
+
+namespace {
+
+// --scene: settle, then `steps` timed Simulator::Step calls.
+int RunScene(const std::string& file, double mu, int settle, int steps) {
+  using namespace vinci::sim;
+  const Simulator sim(LoadSceneFile(file));
+  Params params = sim.DefaultParams();
+  if (!std::isnan(mu)) params.values[sim.scene().param_table().Index("mu.default")] = mu;
+  State x = sim.InitialState(), next;
+  Workspace ws;
+  for (int i = 0; i < settle; ++i) {
+    const StepInfo info = sim.Step(params, x, StepInput{}, &ws, &next);
+    if (!info.ok) {
+      std::fprintf(stderr, "settling failed at t = %g: %s\n", x.t, info.failure.c_str());
+      return 1;
+    }
+    std::swap(x, next);
+  }
+  double contacts = 0.0, pivots = 0.0;
+  const long allocations0 = g_allocations.load();
+  const double t0 = CpuSeconds();
+  for (int i = 0; i < steps; ++i) {
+    const StepInfo info = TimedSimStep(sim, params, x, &ws, &next);
+    if (!info.ok) {
+      std::fprintf(stderr, "step failed at t = %g: %s\n", x.t, info.failure.c_str());
+      return 1;
+    }
+    contacts += info.contacts;
+    pivots += info.solver.iterations;
+    std::swap(x, next);
+  }
+  const double t1 = CpuSeconds();
+  const double allocations =
+      static_cast<double>(g_allocations.load() - allocations0) / static_cast<double>(steps);
+  std::printf("%s: %.2f CPU us/step, %.1f contacts, %.3f pivots/step, %.1f allocations/step\n",
+              file.c_str(), 1e6 * (t1 - t0) / steps, contacts / steps, pivots / steps, allocations);
+  return 0;
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
   int k = 10, settle = 300, steps = 1000, digits = 17;
   bool pile = false, dense = false;
-  double gap = 0.0;
+  double gap = 0.0, mu = std::nan("");
+  std::string scene;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    if (a == "--k" && i + 1 < argc) {
+    if (a == "--scene" && i + 1 < argc) {
+      scene = argv[++i];
+    } else if (a == "--mu" && i + 1 < argc) {
+      mu = std::atof(argv[++i]);
+    } else if (a == "--k" && i + 1 < argc) {
       k = std::atoi(argv[++i]);
     } else if (a == "--pile") {
       pile = true;
@@ -102,8 +163,8 @@ int main(int argc, char** argv) {
     } else {
       std::fprintf(
           stderr,
-          "usage: step_profile [--k K [--gap G] | --pile] [--settle N] [--steps N] [--digits D] "
-          "[--dense]\n");
+          "usage: step_profile [--k K [--gap G] | --pile | --scene FILE [--mu MU]] [--settle N] "
+          "[--steps N] [--digits D] [--dense]\n");
       return 2;
     }
   }
@@ -112,6 +173,7 @@ int main(int argc, char** argv) {
                  "step_profile: expected k >= 1, settle >= 0, steps >= 1, 1 <= digits <= 17\n");
     return 2;
   }
+  if (!scene.empty()) return RunScene(scene, mu, settle, steps);
   using namespace vinci::sim;
   const Simulator sim(
       ParseScene(pile ? vinci::bench::PileYaml(digits) : vinci::bench::StackYaml(k, digits, gap),

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstddef>
 #include <limits>
 #include <utility>
 
@@ -60,6 +61,69 @@ inline double LowerEntry(const MatrixXd& Gb, const MatrixXd& WG, int i, int j) {
         .dot(Eigen::Map<const Eigen::Matrix<double, 6, 1>>(WG.col(j).data()));
   else
     return Gb.col(i).dot(WG.col(j));
+}
+
+// column_sum[r] += Σ_j |G(r, j)| over the k columns of a column-major N × k G, j in order.
+template <int N>
+void AddColumnAbs(const double* G, int k, double* column_sum) {
+  for (int j = 0; j < k; ++j)
+    for (int r = 0; r < N; ++r) column_sum[r] += std::abs(G[j * N + r]);
+}
+
+// sum + Σ_r |g_r| u_r, r in order.
+template <int N>
+double AddAbsDot(const double* g, const double* u, double sum) {
+  for (int r = 0; r < N; ++r) sum += std::abs(g[r]) * u[r];
+  return sum;
+}
+
+// *out = G x (assign) or *out += G x for a column-major G (nv rows), as Eigen's
+// `out.noalias() = G * x` / `+= G * x` forms it: zeroed (assign), then x_j · column j added
+// in column order. With skip_zero, columns with x_j = 0 are skipped: the same bits for a finite
+// G (a skipped term is ±0, added to a sum that is never −0).
+void SparseTimes(const SparseMatrixd& G, const double* x, bool assign, bool skip_zero,
+                 VectorXd* out) {
+  if (assign) out->setZero(G.rows());
+  if (!G.isCompressed()) {
+    const Eigen::Map<const VectorXd> xv(x, G.cols());
+    out->noalias() += G * xv;
+    return;
+  }
+  const int* outer = G.outerIndexPtr();
+  const int* inner = G.innerIndexPtr();
+  const double* value = G.valuePtr();
+  double* o = out->data();
+  for (Eigen::Index j = 0; j < G.cols(); ++j) {
+    const double xj = x[j];
+    if (skip_zero && xj == 0.0) continue;
+    for (int p = outer[j]; p < outer[j + 1]; ++p) o[inner[p]] += value[p] * xj;
+  }
+}
+
+// out[j] = column j · x (assign) or out[j] += column j · x, as Eigen's
+// `out.noalias() = G.transpose() * x` / `+=` forms it: each dot product summed from 0 over the
+// column's entries in order, then added to out[j] (zeroed for assign).
+void SparseTransposeTimes(const SparseMatrixd& G, const VectorXd& x, bool assign, double* out) {
+  if (!G.isCompressed()) {
+    Eigen::Map<VectorXd> ov(out, G.cols());
+    if (assign) ov.setZero();
+    ov.noalias() += G.transpose() * x;
+    return;
+  }
+  const int* outer = G.outerIndexPtr();
+  const int* inner = G.innerIndexPtr();
+  const double* value = G.valuePtr();
+  const double* xd = x.data();
+  for (Eigen::Index j = 0; j < G.cols(); ++j) {
+    double tmp = 0.0;
+    for (int p = outer[j]; p < outer[j + 1]; ++p) tmp += value[p] * xd[inner[p]];
+    out[j] = (assign ? 0.0 : out[j]) + tmp;
+  }
+}
+
+// Whether every stored value of G is finite.
+bool ValuesFinite(const SparseMatrixd& G) {
+  return Eigen::Map<const VectorXd>(G.valuePtr(), G.nonZeros()).allFinite();
 }
 
 }  // namespace
@@ -141,8 +205,10 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
     wg_ready_[body].assign(static_cast<std::size_t>(k), 0);
     if (!bounds_) continue;
     double column_sum[6] = {0, 0, 0, 0, 0, 0};
-    for (int j = 0; j < k; ++j)
-      for (int r = 0; r < nvb; ++r) column_sum[r] += std::abs(Gb(r, j));
+    if (nvb == 6)
+      AddColumnAbs<6>(Gb.data(), k, column_sum);
+    else
+      AddColumnAbs<3>(Gb.data(), k, column_sum);
     const auto W = a.M_inv.BlockAt(o);
     std::array<double, 6>& u = bound_u_[body];
     for (int r = 0; r < nvb; ++r) {
@@ -162,9 +228,9 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
       for (int side = 0; side < 2; ++side) {
         if (first_[2 * c + side] < 0) continue;
         const int b = bodies[side], p = first_[2 * c + side] + t;
-        const MatrixXd& Gb = Gb_[b];
-        const std::array<double, 6>& u = bound_u_[b];
-        for (int r = 0; r < nvb; ++r) sum += std::abs(Gb(r, p)) * u[r];
+        const double* g = Gb_[b].data() + static_cast<std::ptrdiff_t>(p) * nvb;
+        const double* u = bound_u_[b].data();
+        sum = nvb == 6 ? AddAbsDot<6>(g, u, sum) : AddAbsDot<3>(g, u, sum);
       }
       finite = finite && std::isfinite(sum);
       hi = std::max(hi, sum);
@@ -175,9 +241,11 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
   norm_lo_ = lo;
   norm_hi_ = finite ? std::max(lo, hi * (1.0 + 1e-8)) : std::numeric_limits<double>::infinity();
 
+  g_finite_ = ValuesFinite(a.G_n) && ValuesFinite(a.G_f);
+
   // q as BuildLcp.
   q_.setZero(m_);
-  q_.head(nc).noalias() = a.G_n.transpose() * v_star_;
+  SparseTransposeTimes(a.G_n, v_star_, /*assign=*/true, q_.data());
   q_.head(nc) += a.dpsi_n;
   if (!velocity_level) q_.head(nc) += a.psi_n / h;
   for (int c = 0; c < nc; ++c) {
@@ -185,7 +253,7 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
     if (!law.compliant) continue;
     q_[c] = a.G_n.col(c).dot(v_star_) + a.dpsi_n[c] + law.vel_psi * a.psi_n[c] + law.vel_constant;
   }
-  q_.segment(nc, nf).noalias() = a.G_f.transpose() * v_star_;
+  SparseTransposeTimes(a.G_f, v_star_, /*assign=*/true, q_.data() + nc);
   q_.segment(nc, nf) += a.dpsi_f;
   return true;
 }
@@ -354,14 +422,14 @@ void ContactLcpOperator::MultiplyAdd(const VectorXd& z, const VectorXd& q, Vecto
   const StewartTrinkle::Assembly& a = *a_;
   const int nc = nc_, nd = nd_, nf = nf_, s0 = nc + nf;
   const int nvb = a.M_inv.block_size();
-  impulse_.noalias() = a.G_n * z.head(nc);
-  impulse_.noalias() += a.G_f * z.segment(nc, nf);
+  SparseTimes(a.G_n, z.data(), /*assign=*/true, g_finite_, &impulse_);
+  SparseTimes(a.G_f, z.data() + nc, /*assign=*/false, g_finite_, &impulse_);
   dv_.resize(impulse_.size());
   for (int o = 0; o < a.M_inv.rows(); o += nvb)
     dv_.segment(o, nvb).noalias() = a.M_inv.BlockAt(o) * impulse_.segment(o, nvb);
   *w = q;
-  w->head(nc).noalias() += a.G_n.transpose() * dv_;
-  w->segment(nc, nf).noalias() += a.G_f.transpose() * dv_;
+  SparseTransposeTimes(a.G_n, dv_, /*assign=*/false, w->data());
+  SparseTransposeTimes(a.G_f, dv_, /*assign=*/false, w->data() + nc);
   for (int c = 0; c < nc; ++c) {
     if (a.compliance[c].compliant) (*w)[c] += a.compliance[c].vel_diagonal * z[c];
     double sum_f = 0.0;
@@ -371,6 +439,15 @@ void ContactLcpOperator::MultiplyAdd(const VectorXd& z, const VectorXd& q, Vecto
     }
     (*w)[s0 + c] += a.mu[c] * z[c] - sum_f;
   }
+}
+
+void ContactLcpOperator::VelocityAfter(const VectorXd& z, VectorXd* impulse, VectorXd* dv,
+                                       VectorXd* v1) const {
+  const StewartTrinkle::Assembly& a = *a_;
+  SparseTimes(a.G_n, z.data(), /*assign=*/true, g_finite_, impulse);
+  SparseTimes(a.G_f, z.data() + nc_, /*assign=*/false, g_finite_, impulse);
+  a.M_inv.Multiply(*impulse, dv);
+  *v1 = v_star_ + *dv;
 }
 
 void ContactLcpOperator::ToSparse(SparseMatrixd* out) const {

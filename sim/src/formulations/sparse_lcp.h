@@ -48,6 +48,10 @@ class ContactLcpOperator final : public LcpMatrixOperator {
   /// The entries of PrincipalBlock (same bits) on the pattern of M's structure: where two impulse
   /// columns share a body, E, U and −Eᵀ (zeros included). O(Σ_body k_body · |B ∩ body|).
   void PrincipalBlockSparse(const std::vector<int>& index, CompressedColumns* out) const override;
+  /// ν_ℓ+1 = ν* + W (G_n p_n + G_f p_f) for z = [p_n; p_f; σ] into *v1, with the bits of
+  /// VelocityAfterWith (stewart_trinkle_internal.h) on this assembly; *impulse and *dv are its
+  /// buffers.
+  void VelocityAfter(const VectorXd& z, VectorXd* impulse, VectorXd* dv, VectorXd* v1) const;
   /// M_ij.
   double Entry(int i, int j) const;
   /// *out = M as a sparse matrix (column major): the body blocks where two impulse columns share
@@ -81,6 +85,7 @@ class ContactLcpOperator final : public LcpMatrixOperator {
   // Builds that skip the bounds after one whose bounds did not spare the exact norm.
   static constexpr int kBoundsSkip = 15;
   bool bounds_ = false;                              // this Build formed the bounds
+  bool g_finite_ = false;                            // G_n and G_f have finite values only
   mutable int bounds_skip_ = 0;                      // Builds left without them
   mutable bool full_ = false;                        // blocks_ and norm_inf_ formed
   mutable double norm_inf_ = 0.0;                    // ‖M‖∞

@@ -546,9 +546,9 @@ void StewartTrinkle::Step(const Scene& model, const State& x, const StepInput& u
         }
         solved = true;
       }
-      if (solved) v_star = s.lcp.v_star();
     }
   }
+  const bool structured = solved;  // z solves s.lcp's LCP
   if (!solved) {
     LcpProblem& lcp = s.dense_lcp;
     BuildLcpInto(model, a, v_l, &v_star, &joints, &lcp);
@@ -565,7 +565,10 @@ void StewartTrinkle::Step(const Scene& model, const State& x, const StepInput& u
     }
   }
 
-  internal::VelocityAfterWith(a, v_star, z, joints, &s.impulse, &s.product, &s.dv, &s.v1);
+  if (structured)
+    s.lcp.VelocityAfter(z, &s.impulse, &s.dv, &s.v1);
+  else
+    internal::VelocityAfterWith(a, v_star, z, joints, &s.impulse, &s.product, &s.dv, &s.v1);
   // Lemke's basis is the next step's warm start: spread statically indeterminate normal impulses
   // over every touching contact, so that basis holds them all (spread_normals.h).
   if (lemke != nullptr) {
