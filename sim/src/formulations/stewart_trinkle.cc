@@ -175,17 +175,52 @@ ContactSide MakeContactSide(const Scene& model, int body, const BodyKinematics& 
   return side;
 }
 
-// Scatter for a precomputed side.
-void ScatterSide(Dim dim, const ContactSide& side, const BodyKinematics& k, const Vector3d& p,
-                 const Vector3d& d, double sign, JacobianColumns* G, int col, double* dpsi) {
-  if (side.dynamic) {
-    const int nvb = VelocitySize(dim);
-    const auto row = PointVelocityRow(dim, k.X_WB, p, d);
-    double* block = G->Block(col, side.o);
-    for (int i = 0; i < nvb; ++i) block[i] += sign * row[i];
+// *G sized nv × cols, compressed, with nnz entries, its storage reused (as JacobianColumns::Finish
+// sizes it).
+void ResizeCompressed(int nv, int cols, Eigen::Index nnz, SparseMatrixd* G) {
+  if (G->rows() != nv || G->cols() != cols || !G->isCompressed()) G->resize(nv, cols);
+  G->resizeNonZeros(nnz);
+}
+
+// PointVelocityRow(dim, X_WB, p, d) into row[0..N), N = ν block size, given r = p − o_WB (the
+// same operations, so the same bits).
+template <int N>
+void PointVelocityRowInto(const Isometry3d& X_WB, const Vector3d& r, const Vector3d& d,
+                          double* row) {
+  if constexpr (N == 3) {
+    row[0] = d.x();
+    row[1] = d.y();
+    row[2] = r.x() * d.y() - r.y() * d.x();
   } else {
-    *dpsi += sign * d.dot(side.v_p);
+    row[0] = d.x();
+    row[1] = d.y();
+    row[2] = d.z();
+    Eigen::Map<Vector3d>(row + 3) = X_WB.linear().transpose() * r.cross(d);
   }
+}
+
+// A dynamic side's block of a contact column, written straight into compressed storage: the
+// entries JacobianColumns forms for it (a zeroed block plus sign · row, so the same bits), rows
+// o..o+N−1. `merge`: the contact's other side is the same body (one block, sides a then b).
+struct DynamicSide {
+  const BodyKinematics* k;
+  Vector3d r;  // p − o_WB
+  double sign;
+  int o;
+};
+
+template <int N>
+void WriteSideBlock(const DynamicSide& side, const DynamicSide* merge, const Vector3d& d,
+                    int* inner, double* value) {
+  double row[N];
+  PointVelocityRowInto<N>(side.k->X_WB, side.r, d, row);
+  for (int i = 0; i < N; ++i) {
+    inner[i] = side.o + i;
+    value[i] = 0.0 + side.sign * row[i];
+  }
+  if (!merge) return;
+  PointVelocityRowInto<N>(merge->k->X_WB, merge->r, d, row);
+  for (int i = 0; i < N; ++i) value[i] += merge->sign * row[i];
 }
 
 // The same contribution to the predicted gap rate: sign·row·ν_body (dynamic body, ν = v) into
@@ -205,7 +240,7 @@ void ScatterDot(const Scene& model, int body, const BodyKinematics& k, const Vec
 struct AssemblyScratch {
   std::vector<BodyKinematics> kin;
   std::vector<Vector3d> dirs;
-  JacobianColumns G_n, G_f, G_b, G_1;
+  JacobianColumns G_b, G_1;
   JointRows joint_rows;
   VectorXd zero_v;
 };
@@ -403,9 +438,17 @@ void StewartTrinkle::Fill(const Scene& model, const State& x, const StepInput& u
     }
   }
 
-  // Contacts.
-  scratch.G_n.Start(nc);
-  scratch.G_f.Start(nc * nd);
+  // Contacts. G_n and G_f are written straight into their compressed storage: a column holds
+  // the block of each dynamic side, in ν order (as JacobianColumns::Finish orders them).
+  Eigen::Index nnz_n = 0;
+  for (const Contact& ct : a.contacts) {
+    const bool dynamic_a = model.bodies[ct.body_a].kind == BodyKind::kDynamic;
+    const bool dynamic_b = model.bodies[ct.body_b].kind == BodyKind::kDynamic;
+    nnz_n += nvb * ((dynamic_a ? 1 : 0) + (dynamic_b && ct.body_b != ct.body_a ? 1 : 0));
+  }
+  ResizeCompressed(nv, nc, nnz_n, &a.G_n);
+  ResizeCompressed(nv, nc * nd, nnz_n * nd, &a.G_f);
+  int k_n = 0, k_f = 0;  // entries written
   a.psi_n.resize(nc);
   a.dpsi_n.setZero(nc);
   a.dpsi_f.setZero(nc * nd);
@@ -423,15 +466,39 @@ void StewartTrinkle::Fill(const Scene& model, const State& x, const StepInput& u
     const BodyKinematics &ka = kin[ct.body_a], &kb = kin[ct.body_b];
     const ContactSide side_a = MakeContactSide(model, ct.body_a, ka, p.p_A_W);
     const ContactSide side_b = MakeContactSide(model, ct.body_b, kb, p.p_B_W);
-    ScatterSide(dim, side_a, ka, p.p_A_W, p.n_W, 1.0, &scratch.G_n, c, &a.dpsi_n[c]);
-    ScatterSide(dim, side_b, kb, p.p_B_W, p.n_W, -1.0, &scratch.G_n, c, &a.dpsi_n[c]);
+    // The dynamic sides in ν order (a contact of a body with itself: one merged block).
+    DynamicSide sides[2];
+    int ns = 0;
+    if (side_a.dynamic) sides[ns++] = {&ka, p.p_A_W - ka.X_WB.translation(), 1.0, side_a.o};
+    if (side_b.dynamic) sides[ns++] = {&kb, p.p_B_W - kb.X_WB.translation(), -1.0, side_b.o};
+    const bool merged = ns == 2 && sides[0].o == sides[1].o;
+    if (ns == 2 && sides[1].o < sides[0].o) std::swap(sides[0], sides[1]);
+    const int blocks = merged ? 1 : ns;
+    // One column of direction d: the dynamic blocks, then the non-dynamic sides' ∂ψ/∂t (a, b).
+    const auto column = [&](const Vector3d& d, int* outer, int* inner, double* value, int* k,
+                            double* dpsi) {
+      *outer = *k;
+      for (int b = 0; b < blocks; ++b, *k += nvb) {
+        const DynamicSide* merge = merged ? &sides[1] : nullptr;
+        if (nvb == 6)
+          WriteSideBlock<6>(sides[b], merge, d, inner + *k, value + *k);
+        else
+          WriteSideBlock<3>(sides[b], merge, d, inner + *k, value + *k);
+      }
+      if (!side_a.dynamic) *dpsi += d.dot(side_a.v_p);
+      if (!side_b.dynamic) *dpsi += -1.0 * d.dot(side_b.v_p);
+    };
+    column(p.n_W, a.G_n.outerIndexPtr() + c, a.G_n.innerIndexPtr(), a.G_n.valuePtr(), &k_n,
+           &a.dpsi_n[c]);
     FrictionDirections(dim, p.n_W, nd, &dirs);
     for (int j = 0; j < nd; ++j) {
       const int col = c * nd + j;
-      ScatterSide(dim, side_a, ka, p.p_A_W, dirs[j], 1.0, &scratch.G_f, col, &a.dpsi_f[col]);
-      ScatterSide(dim, side_b, kb, p.p_B_W, dirs[j], -1.0, &scratch.G_f, col, &a.dpsi_f[col]);
+      column(dirs[j], a.G_f.outerIndexPtr() + col, a.G_f.innerIndexPtr(), a.G_f.valuePtr(), &k_f,
+             &a.dpsi_f[col]);
     }
   }
+  a.G_n.outerIndexPtr()[nc] = k_n;
+  a.G_f.outerIndexPtr()[nc * nd] = k_f;
 
   // Joints.
   int nb = 0;
@@ -466,8 +533,6 @@ void StewartTrinkle::Fill(const Scene& model, const State& x, const StepInput& u
   }
 
   scratch.G_1.Finish(nv, nvb, &a.G_1);
-  scratch.G_n.Finish(nv, nvb, &a.G_n);
-  scratch.G_f.Finish(nv, nvb, &a.G_f);
   scratch.G_b.Finish(nv, nvb, &a.G_b);
 
   // 2.5D support friction (support.h): empty without support points.
