@@ -77,53 +77,89 @@ double AddAbsDot(const double* g, const double* u, double sum) {
   return sum;
 }
 
-// *out = G x (assign) or *out += G x for a column-major G (nv rows), as Eigen's
-// `out.noalias() = G * x` / `+= G * x` forms it: zeroed (assign), then x_j · column j added
-// in column order. With skip_zero, columns with x_j = 0 are skipped: the same bits for a finite
-// G (a skipped term is ±0, added to a sum that is never −0).
-void SparseTimes(const SparseMatrixd& G, const double* x, bool assign, bool skip_zero,
+// Runs of N consecutive rows in a column's entries [p, end) (the assembly stores each body's
+// ν block whole): true if [p, p + N) is one.
+template <int N>
+inline bool IsRun(const int* inner, int p, int end) {
+  return p + N <= end && inner[p + N - 1] == inner[p] + (N - 1);
+}
+
+// *out = G x (assign) or *out += G x for a column-major G, as Eigen's `out.noalias() = G * x` /
+// `+= G * x` forms it: zeroed (assign), then x_j · column j added in column order (each row of
+// a column once, so the order within a column does not matter). With skip_zero, columns with
+// x_j = 0 are skipped: the same bits for a finite G (a skipped term is ±0, added to a sum that
+// is never −0). N: the ν block size (runs of N rows unrolled).
+template <int N>
+void SparseTimesN(const SparseMatrixd& G, const double* x, bool skip_zero, double* o) {
+  const int* outer = G.outerIndexPtr();
+  const int* inner = G.innerIndexPtr();
+  const double* value = G.valuePtr();
+  for (Eigen::Index j = 0; j < G.cols(); ++j) {
+    const double xj = x[j];
+    if (skip_zero && xj == 0.0) continue;
+    const int end = outer[j + 1];
+    for (int p = outer[j]; p < end;) {
+      if (IsRun<N>(inner, p, end)) {
+        double* out = o + inner[p];
+        for (int i = 0; i < N; ++i) out[i] += value[p + i] * xj;
+        p += N;
+      } else {
+        o[inner[p]] += value[p] * xj;
+        ++p;
+      }
+    }
+  }
+}
+
+void SparseTimes(const SparseMatrixd& G, const double* x, bool assign, bool skip_zero, int nvb,
                  VectorXd* out) {
   if (assign) out->setZero(G.rows());
   if (!G.isCompressed()) {
     const Eigen::Map<const VectorXd> xv(x, G.cols());
     out->noalias() += G * xv;
-    return;
-  }
-  const int* outer = G.outerIndexPtr();
-  const int* inner = G.innerIndexPtr();
-  const double* value = G.valuePtr();
-  double* o = out->data();
-  for (Eigen::Index j = 0; j < G.cols(); ++j) {
-    const double xj = x[j];
-    if (skip_zero && xj == 0.0) continue;
-    for (int p = outer[j]; p < outer[j + 1]; ++p) o[inner[p]] += value[p] * xj;
+  } else if (nvb == 6) {
+    SparseTimesN<6>(G, x, skip_zero, out->data());
+  } else {
+    SparseTimesN<3>(G, x, skip_zero, out->data());
   }
 }
 
 // out[j] = column j · x (assign) or out[j] += column j · x, as Eigen's
 // `out.noalias() = G.transpose() * x` / `+=` forms it: each dot product summed from 0 over the
-// column's entries in order, then added to out[j] (zeroed for assign).
-void SparseTransposeTimes(const SparseMatrixd& G, const VectorXd& x, bool assign, double* out) {
-  if (!G.isCompressed()) {
-    Eigen::Map<VectorXd> ov(out, G.cols());
-    if (assign) ov.setZero();
-    ov.noalias() += G.transpose() * x;
-    return;
-  }
+// column's entries in order, then added to out[j] (zeroed for assign). N as SparseTimesN.
+template <int N>
+void SparseTransposeTimesN(const SparseMatrixd& G, const double* x, bool assign, double* out) {
   const int* outer = G.outerIndexPtr();
   const int* inner = G.innerIndexPtr();
   const double* value = G.valuePtr();
-  const double* xd = x.data();
   for (Eigen::Index j = 0; j < G.cols(); ++j) {
     double tmp = 0.0;
-    for (int p = outer[j]; p < outer[j + 1]; ++p) tmp += value[p] * xd[inner[p]];
+    const int end = outer[j + 1];
+    for (int p = outer[j]; p < end;) {
+      if (IsRun<N>(inner, p, end)) {
+        const double* xs = x + inner[p];
+        for (int i = 0; i < N; ++i) tmp += value[p + i] * xs[i];
+        p += N;
+      } else {
+        tmp += value[p] * x[inner[p]];
+        ++p;
+      }
+    }
     out[j] = (assign ? 0.0 : out[j]) + tmp;
   }
 }
 
-// Whether every stored value of G is finite.
-bool ValuesFinite(const SparseMatrixd& G) {
-  return Eigen::Map<const VectorXd>(G.valuePtr(), G.nonZeros()).allFinite();
+void SparseTransposeTimes(const SparseMatrixd& G, const VectorXd& x, bool assign, int nvb,
+                          double* out) {
+  if (!G.isCompressed()) {
+    Eigen::Map<VectorXd> ov(out, G.cols());
+    if (assign) ov.setZero();
+    ov.noalias() += G.transpose() * x;
+  } else if (nvb == 6) {
+    SparseTransposeTimesN<6>(G, x.data(), assign, out);
+  } else {
+    SparseTransposeTimesN<3>(G, x.data(), assign, out);
+  }
 }
 
 }  // namespace
@@ -176,6 +212,10 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
   bounds_ = bounds_skip_ == 0;
   if (!bounds_) --bounds_skip_;
   bool finite = bounds_;
+  // G_n and G_f finite: every stored entry gathered into some G_b, and each G_b's column sums
+  // of |entries| finite.
+  bool g_finite = true;
+  Eigen::Index gathered = 0;
   for (int body : model.dynamic_bodies()) {
     const std::vector<int>& cols = columns_[body];
     if (cols.empty()) continue;
@@ -195,20 +235,25 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
         while (p < end && inner[p] < o) ++p;
         if (p + nvb <= end && inner[p] == o && inner[p + nvb - 1] == o + nvb - 1) {
           std::copy(G.valuePtr() + p, G.valuePtr() + p + nvb, Gb.col(i).data());
+          gathered += nvb;
           continue;
         }
       }
       for (SparseMatrixd::InnerIterator it(G, col); it; ++it)
-        if (it.row() >= o && it.row() < o + nvb) Gb(it.row() - o, i) = it.value();
+        if (it.row() >= o && it.row() < o + nvb) {
+          Gb(it.row() - o, i) = it.value();
+          ++gathered;
+        }
     }
     WG_[body].resize(nvb, k);
     wg_ready_[body].assign(static_cast<std::size_t>(k), 0);
-    if (!bounds_) continue;
     double column_sum[6] = {0, 0, 0, 0, 0, 0};
     if (nvb == 6)
       AddColumnAbs<6>(Gb.data(), k, column_sum);
     else
       AddColumnAbs<3>(Gb.data(), k, column_sum);
+    for (int r = 0; r < nvb; ++r) g_finite = g_finite && std::isfinite(column_sum[r]);
+    if (!bounds_) continue;
     const auto W = a.M_inv.BlockAt(o);
     std::array<double, 6>& u = bound_u_[body];
     for (int r = 0; r < nvb; ++r) {
@@ -241,11 +286,11 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
   norm_lo_ = lo;
   norm_hi_ = finite ? std::max(lo, hi * (1.0 + 1e-8)) : std::numeric_limits<double>::infinity();
 
-  g_finite_ = ValuesFinite(a.G_n) && ValuesFinite(a.G_f);
+  g_finite_ = g_finite && gathered == a.G_n.nonZeros() + a.G_f.nonZeros();
 
   // q as BuildLcp.
   q_.setZero(m_);
-  SparseTransposeTimes(a.G_n, v_star_, /*assign=*/true, q_.data());
+  SparseTransposeTimes(a.G_n, v_star_, /*assign=*/true, nvb, q_.data());
   q_.head(nc) += a.dpsi_n;
   if (!velocity_level) q_.head(nc) += a.psi_n / h;
   for (int c = 0; c < nc; ++c) {
@@ -253,7 +298,7 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
     if (!law.compliant) continue;
     q_[c] = a.G_n.col(c).dot(v_star_) + a.dpsi_n[c] + law.vel_psi * a.psi_n[c] + law.vel_constant;
   }
-  SparseTransposeTimes(a.G_f, v_star_, /*assign=*/true, q_.data() + nc);
+  SparseTransposeTimes(a.G_f, v_star_, /*assign=*/true, nvb, q_.data() + nc);
   q_.segment(nc, nf) += a.dpsi_f;
   return true;
 }
@@ -422,14 +467,14 @@ void ContactLcpOperator::MultiplyAdd(const VectorXd& z, const VectorXd& q, Vecto
   const StewartTrinkle::Assembly& a = *a_;
   const int nc = nc_, nd = nd_, nf = nf_, s0 = nc + nf;
   const int nvb = a.M_inv.block_size();
-  SparseTimes(a.G_n, z.data(), /*assign=*/true, g_finite_, &impulse_);
-  SparseTimes(a.G_f, z.data() + nc, /*assign=*/false, g_finite_, &impulse_);
+  SparseTimes(a.G_n, z.data(), /*assign=*/true, g_finite_, nvb, &impulse_);
+  SparseTimes(a.G_f, z.data() + nc, /*assign=*/false, g_finite_, nvb, &impulse_);
   dv_.resize(impulse_.size());
   for (int o = 0; o < a.M_inv.rows(); o += nvb)
     dv_.segment(o, nvb).noalias() = a.M_inv.BlockAt(o) * impulse_.segment(o, nvb);
   *w = q;
-  SparseTransposeTimes(a.G_n, dv_, /*assign=*/false, w->data());
-  SparseTransposeTimes(a.G_f, dv_, /*assign=*/false, w->data() + nc);
+  SparseTransposeTimes(a.G_n, dv_, /*assign=*/false, nvb, w->data());
+  SparseTransposeTimes(a.G_f, dv_, /*assign=*/false, nvb, w->data() + nc);
   for (int c = 0; c < nc; ++c) {
     if (a.compliance[c].compliant) (*w)[c] += a.compliance[c].vel_diagonal * z[c];
     double sum_f = 0.0;
@@ -444,8 +489,8 @@ void ContactLcpOperator::MultiplyAdd(const VectorXd& z, const VectorXd& q, Vecto
 void ContactLcpOperator::VelocityAfter(const VectorXd& z, VectorXd* impulse, VectorXd* dv,
                                        VectorXd* v1) const {
   const StewartTrinkle::Assembly& a = *a_;
-  SparseTimes(a.G_n, z.data(), /*assign=*/true, g_finite_, impulse);
-  SparseTimes(a.G_f, z.data() + nc_, /*assign=*/false, g_finite_, impulse);
+  SparseTimes(a.G_n, z.data(), /*assign=*/true, g_finite_, nvb_, impulse);
+  SparseTimes(a.G_f, z.data() + nc_, /*assign=*/false, g_finite_, nvb_, impulse);
   a.M_inv.Multiply(*impulse, dv);
   *v1 = v_star_ + *dv;
 }
