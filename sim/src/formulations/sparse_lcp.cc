@@ -89,7 +89,7 @@ inline bool IsRun(const int* inner, int p, int end) {
 // a column once, so the order within a column does not matter). With skip_zero, columns with
 // x_j = 0 are skipped: the same bits for a finite G (a skipped term is ±0, added to a sum that
 // is never −0). N: the ν block size (runs of N rows unrolled).
-template <int N>
+template <int N, bool kRuns>
 void SparseTimesN(const SparseMatrixd& G, const double* x, bool skip_zero, double* o) {
   const int* outer = G.outerIndexPtr();
   const int* inner = G.innerIndexPtr();
@@ -99,7 +99,7 @@ void SparseTimesN(const SparseMatrixd& G, const double* x, bool skip_zero, doubl
     if (skip_zero && xj == 0.0) continue;
     const int end = outer[j + 1];
     for (int p = outer[j]; p < end;) {
-      if (IsRun<N>(inner, p, end)) {
+      if (kRuns || IsRun<N>(inner, p, end)) {
         double* out = o + inner[p];
         for (int i = 0; i < N; ++i) out[i] += value[p + i] * xj;
         p += N;
@@ -111,23 +111,30 @@ void SparseTimesN(const SparseMatrixd& G, const double* x, bool skip_zero, doubl
   }
 }
 
+// runs: every column of G is known to be whole runs of nvb rows (no test per run).
 void SparseTimes(const SparseMatrixd& G, const double* x, bool assign, bool skip_zero, int nvb,
-                 VectorXd* out) {
+                 bool runs, VectorXd* out) {
   if (assign) out->setZero(G.rows());
   if (!G.isCompressed()) {
     const Eigen::Map<const VectorXd> xv(x, G.cols());
     out->noalias() += G * xv;
   } else if (nvb == 6) {
-    SparseTimesN<6>(G, x, skip_zero, out->data());
+    if (runs)
+      SparseTimesN<6, true>(G, x, skip_zero, out->data());
+    else
+      SparseTimesN<6, false>(G, x, skip_zero, out->data());
   } else {
-    SparseTimesN<3>(G, x, skip_zero, out->data());
+    if (runs)
+      SparseTimesN<3, true>(G, x, skip_zero, out->data());
+    else
+      SparseTimesN<3, false>(G, x, skip_zero, out->data());
   }
 }
 
 // out[j] = column j · x (assign) or out[j] += column j · x, as Eigen's
 // `out.noalias() = G.transpose() * x` / `+=` forms it: each dot product summed from 0 over the
 // column's entries in order, then added to out[j] (zeroed for assign). N as SparseTimesN.
-template <int N>
+template <int N, bool kRuns>
 void SparseTransposeTimesN(const SparseMatrixd& G, const double* x, bool assign, double* out) {
   const int* outer = G.outerIndexPtr();
   const int* inner = G.innerIndexPtr();
@@ -136,7 +143,7 @@ void SparseTransposeTimesN(const SparseMatrixd& G, const double* x, bool assign,
     double tmp = 0.0;
     const int end = outer[j + 1];
     for (int p = outer[j]; p < end;) {
-      if (IsRun<N>(inner, p, end)) {
+      if (kRuns || IsRun<N>(inner, p, end)) {
         const double* xs = x + inner[p];
         for (int i = 0; i < N; ++i) tmp += value[p + i] * xs[i];
         p += N;
@@ -150,15 +157,21 @@ void SparseTransposeTimesN(const SparseMatrixd& G, const double* x, bool assign,
 }
 
 void SparseTransposeTimes(const SparseMatrixd& G, const VectorXd& x, bool assign, int nvb,
-                          double* out) {
+                          bool runs, double* out) {
   if (!G.isCompressed()) {
     Eigen::Map<VectorXd> ov(out, G.cols());
     if (assign) ov.setZero();
     ov.noalias() += G.transpose() * x;
   } else if (nvb == 6) {
-    SparseTransposeTimesN<6>(G, x.data(), assign, out);
+    if (runs)
+      SparseTransposeTimesN<6, true>(G, x.data(), assign, out);
+    else
+      SparseTransposeTimesN<6, false>(G, x.data(), assign, out);
   } else {
-    SparseTransposeTimesN<3>(G, x.data(), assign, out);
+    if (runs)
+      SparseTransposeTimesN<3, true>(G, x.data(), assign, out);
+    else
+      SparseTransposeTimesN<3, false>(G, x.data(), assign, out);
   }
 }
 
@@ -215,7 +228,7 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
   // G_n and G_f finite: every stored entry gathered into some G_b, and each G_b's column sums
   // of |entries| finite.
   bool g_finite = true;
-  Eigen::Index gathered = 0;
+  Eigen::Index gathered = 0, gathered_runs = 0;
   for (int body : model.dynamic_bodies()) {
     const std::vector<int>& cols = columns_[body];
     if (cols.empty()) continue;
@@ -236,6 +249,7 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
         if (p + nvb <= end && inner[p] == o && inner[p + nvb - 1] == o + nvb - 1) {
           std::copy(G.valuePtr() + p, G.valuePtr() + p + nvb, Gb.col(i).data());
           gathered += nvb;
+          gathered_runs += nvb;
           continue;
         }
       }
@@ -286,11 +300,13 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
   norm_lo_ = lo;
   norm_hi_ = finite ? std::max(lo, hi * (1.0 + 1e-8)) : std::numeric_limits<double>::infinity();
 
-  g_finite_ = g_finite && gathered == a.G_n.nonZeros() + a.G_f.nonZeros();
+  const Eigen::Index nnz = a.G_n.nonZeros() + a.G_f.nonZeros();
+  g_finite_ = g_finite && gathered == nnz;
+  runs_ = gathered_runs == nnz;
 
   // q as BuildLcp.
   q_.setZero(m_);
-  SparseTransposeTimes(a.G_n, v_star_, /*assign=*/true, nvb, q_.data());
+  SparseTransposeTimes(a.G_n, v_star_, /*assign=*/true, nvb, runs_, q_.data());
   q_.head(nc) += a.dpsi_n;
   if (!velocity_level) q_.head(nc) += a.psi_n / h;
   for (int c = 0; c < nc; ++c) {
@@ -298,7 +314,7 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
     if (!law.compliant) continue;
     q_[c] = a.G_n.col(c).dot(v_star_) + a.dpsi_n[c] + law.vel_psi * a.psi_n[c] + law.vel_constant;
   }
-  SparseTransposeTimes(a.G_f, v_star_, /*assign=*/true, nvb, q_.data() + nc);
+  SparseTransposeTimes(a.G_f, v_star_, /*assign=*/true, nvb, runs_, q_.data() + nc);
   q_.segment(nc, nf) += a.dpsi_f;
   return true;
 }
@@ -467,14 +483,14 @@ void ContactLcpOperator::MultiplyAdd(const VectorXd& z, const VectorXd& q, Vecto
   const StewartTrinkle::Assembly& a = *a_;
   const int nc = nc_, nd = nd_, nf = nf_, s0 = nc + nf;
   const int nvb = a.M_inv.block_size();
-  SparseTimes(a.G_n, z.data(), /*assign=*/true, g_finite_, nvb, &impulse_);
-  SparseTimes(a.G_f, z.data() + nc, /*assign=*/false, g_finite_, nvb, &impulse_);
+  SparseTimes(a.G_n, z.data(), /*assign=*/true, g_finite_, nvb, runs_, &impulse_);
+  SparseTimes(a.G_f, z.data() + nc, /*assign=*/false, g_finite_, nvb, runs_, &impulse_);
   dv_.resize(impulse_.size());
   for (int o = 0; o < a.M_inv.rows(); o += nvb)
     dv_.segment(o, nvb).noalias() = a.M_inv.BlockAt(o) * impulse_.segment(o, nvb);
   *w = q;
-  SparseTransposeTimes(a.G_n, dv_, /*assign=*/false, nvb, w->data());
-  SparseTransposeTimes(a.G_f, dv_, /*assign=*/false, nvb, w->data() + nc);
+  SparseTransposeTimes(a.G_n, dv_, /*assign=*/false, nvb, runs_, w->data());
+  SparseTransposeTimes(a.G_f, dv_, /*assign=*/false, nvb, runs_, w->data() + nc);
   for (int c = 0; c < nc; ++c) {
     if (a.compliance[c].compliant) (*w)[c] += a.compliance[c].vel_diagonal * z[c];
     double sum_f = 0.0;
@@ -489,8 +505,8 @@ void ContactLcpOperator::MultiplyAdd(const VectorXd& z, const VectorXd& q, Vecto
 void ContactLcpOperator::VelocityAfter(const VectorXd& z, VectorXd* impulse, VectorXd* dv,
                                        VectorXd* v1) const {
   const StewartTrinkle::Assembly& a = *a_;
-  SparseTimes(a.G_n, z.data(), /*assign=*/true, g_finite_, nvb_, impulse);
-  SparseTimes(a.G_f, z.data() + nc_, /*assign=*/false, g_finite_, nvb_, impulse);
+  SparseTimes(a.G_n, z.data(), /*assign=*/true, g_finite_, nvb_, runs_, impulse);
+  SparseTimes(a.G_f, z.data() + nc_, /*assign=*/false, g_finite_, nvb_, runs_, impulse);
   a.M_inv.Multiply(*impulse, dv);
   *v1 = v_star_ + *dv;
 }

@@ -84,8 +84,9 @@ class ContactLcpOperator final : public LcpMatrixOperator {
   // Formed on demand (caches of what Build was given: the same values whenever formed).
   // Builds that skip the bounds after one whose bounds did not spare the exact norm.
   static constexpr int kBoundsSkip = 15;
-  bool bounds_ = false;                              // this Build formed the bounds
-  bool g_finite_ = false;                            // G_n and G_f have finite values only
+  bool bounds_ = false;    // this Build formed the bounds
+  bool g_finite_ = false;  // G_n and G_f have finite values only
+  bool runs_ = false;      // G_n's and G_f's columns are whole body blocks (runs of nvb_ rows)
   mutable int bounds_skip_ = 0;                      // Builds left without them
   mutable bool full_ = false;                        // blocks_ and norm_inf_ formed
   mutable double norm_inf_ = 0.0;                    // ‖M‖∞
