@@ -48,6 +48,7 @@ void BlockTimesColumn(const double* W, const double* g, double* out) {
   double acc[N];
   for (int i = 0; i < N; ++i) acc[i] = 0.0;
   for (int e = 0; e < N; ++e)
+#pragma GCC unroll 6
     for (int i = 0; i < N; ++i) acc[i] += W[e * N + i] * g[e];
   for (int i = 0; i < N; ++i) out[i] = acc[i];
 }
@@ -67,12 +68,14 @@ inline double LowerEntry(const MatrixXd& Gb, const MatrixXd& WG, int i, int j) {
 template <int N>
 void AddColumnAbs(const double* G, int k, double* column_sum) {
   for (int j = 0; j < k; ++j)
+#pragma GCC unroll 6
     for (int r = 0; r < N; ++r) column_sum[r] += std::abs(G[j * N + r]);
 }
 
 // sum + Σ_r |g_r| u_r, r in order.
 template <int N>
 double AddAbsDot(const double* g, const double* u, double sum) {
+#pragma GCC unroll 6
   for (int r = 0; r < N; ++r) sum += std::abs(g[r]) * u[r];
   return sum;
 }
@@ -101,6 +104,7 @@ void SparseTimesN(const SparseMatrixd& G, const double* x, bool skip_zero, doubl
     for (int p = outer[j]; p < end;) {
       if (kRuns || IsRun<N>(inner, p, end)) {
         double* out = o + inner[p];
+#pragma GCC unroll 6
         for (int i = 0; i < N; ++i) out[i] += value[p + i] * xj;
         p += N;
       } else {
@@ -145,6 +149,7 @@ void SparseTransposeTimesN(const SparseMatrixd& G, const double* x, bool assign,
     for (int p = outer[j]; p < end;) {
       if (kRuns || IsRun<N>(inner, p, end)) {
         const double* xs = x + inner[p];
+#pragma GCC unroll 6
         for (int i = 0; i < N; ++i) tmp += value[p + i] * xs[i];
         p += N;
       } else {

@@ -77,9 +77,10 @@ void FrictionDirections(Dim dim, const Vector3d& n, int nd, std::vector<Vector3d
   const Vector3d a = std::abs(n.x()) < 0.9 ? Vector3d::UnitX() : Vector3d::UnitY();
   const Vector3d t1 = n.cross(a).normalized();
   const Vector3d t2 = n.cross(t1);
+  d->resize(static_cast<std::size_t>(nd));
   for (int j = 0; j < nd; ++j) {
     const auto& [c, s] = table[static_cast<std::size_t>(j)];
-    d->push_back(c * t1 + s * t2);
+    (*d)[static_cast<std::size_t>(j)] = c * t1 + s * t2;
   }
 }
 
@@ -214,12 +215,13 @@ void WriteSideBlock(const DynamicSide& side, const DynamicSide* merge, const Vec
                     int* inner, double* value) {
   double row[N];
   PointVelocityRowInto<N>(side.k->X_WB, side.r, d, row);
-  for (int i = 0; i < N; ++i) {
-    inner[i] = side.o + i;
-    value[i] = 0.0 + side.sign * row[i];
-  }
+#pragma GCC unroll 6
+  for (int i = 0; i < N; ++i) inner[i] = side.o + i;
+#pragma GCC unroll 6
+  for (int i = 0; i < N; ++i) value[i] = 0.0 + side.sign * row[i];
   if (!merge) return;
   PointVelocityRowInto<N>(merge->k->X_WB, merge->r, d, row);
+#pragma GCC unroll 6
   for (int i = 0; i < N; ++i) value[i] += merge->sign * row[i];
 }
 
