@@ -372,8 +372,15 @@ void ContactLcpOperator::EnsureBlocks() const {
     B.resize(k, k);
     // The lower triangle, mirrored (as BlockEntry).
     if (nvb_ == 6) {
-      for (int j = 0; j < k; ++j)
-        for (int i = j; i < k; ++i) B(j, i) = B(i, j) = LowerEntry<6>(Gb, WG, i, j);
+      // LowerEntry<6>'s expression, with the column pointers hoisted.
+      using Map6 = Eigen::Map<const Eigen::Matrix<double, 6, 1>>;
+      double* Bd = B.data();
+      for (int j = 0; j < k; ++j) {
+        const Map6 wg(WG.col(j).data());
+        double* Bj = Bd + static_cast<std::ptrdiff_t>(j) * k;
+        for (int i = j; i < k; ++i)
+          Bd[static_cast<std::ptrdiff_t>(i) * k + j] = Bj[i] = Map6(Gb.col(i).data()).dot(wg);
+      }
     } else {
       for (int j = 0; j < k; ++j)
         for (int i = j; i < k; ++i) B(j, i) = B(i, j) = LowerEntry<3>(Gb, WG, i, j);
@@ -409,22 +416,36 @@ void ContactLcpOperator::EnsureBlocks() const {
         }
         continue;
       }
+      // Row p of B and row p_other of the other body's block, read as columns (both blocks are
+      // symmetric bit for bit).
+      const double* Bp = B.col(p).data();
+      const double* Bo = blocks_[other].col(p_other).data();
       const int groups = static_cast<int>(cols.size()) / group;
       for (int g = 0; g < groups; ++g) {
-        const Contact& cj = a.contacts[cols[g * group]];
+        const int cg = cols[g * group];
+        const Contact& cj = a.contacts[cg];
         // Position of contact cj's group in the other body's columns, if it touches it.
         int shared = -1;
-        if (other >= 0) {
-          if (cj.body_a == other) shared = first_[2 * cols[g * group] + 0];
-          if (cj.body_b == other) shared = first_[2 * cols[g * group] + 1];
-        }
+        if (cj.body_a == other) shared = first_[2 * cg + 0];
+        if (cj.body_b == other) shared = first_[2 * cg + 1];
         if (shared >= 0 && side == 1) continue;  // summed at side 0
-        for (int t = 0; t < group; ++t) {
-          const int jj = g * group + t;
-          double value = B(p, jj);
-          if (shared >= 0) value += blocks_[other](p_other, shared + t);
-          if (compliant && cols[jj] == r) value += a.compliance[r].vel_diagonal;
-          sum += std::abs(value);
+        const double* bg = Bp + g * group;
+        const int* cols_g = cols.data() + g * group;
+        if (shared >= 0) {
+          const double* og = Bo + shared;
+          for (int t = 0; t < group; ++t) {
+            double value = bg[t] + og[t];
+            if (compliant && cols_g[t] == r) value += a.compliance[r].vel_diagonal;
+            sum += std::abs(value);
+          }
+        } else if (compliant) {
+          for (int t = 0; t < group; ++t) {
+            double value = bg[t];
+            if (cols_g[t] == r) value += a.compliance[r].vel_diagonal;
+            sum += std::abs(value);
+          }
+        } else {
+          for (int t = 0; t < group; ++t) sum += std::abs(bg[t]);
         }
       }
     }
