@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "collision_internal.h"
 
@@ -594,17 +595,30 @@ void EdgeEdge(const Polytope& A, const Isometry3d& X_WA, const Polytope& B, cons
     const Vector3d n_B = X_BA.linear() * n_A;
     face_sep = std::max(face_sep, -B.MaxDot(-n_B) - n_B.dot(p_BA) - A.face_offset(f));
   }
+  // B's edges (start, direction, length) once, not once per edge of A (the same values).
+  struct EdgeB {
+    Vector3d b0, db;
+    double length;
+  };
+  thread_local std::vector<EdgeB> edges_b;
+  edges_b.clear();
+  B.ForEachEdge([&](const Vector3d& b0, const Vector3d& b1) {
+    const Vector3d db = b1 - b0;
+    edges_b.push_back({b0, db, db.norm()});
+  });
   A.ForEachEdge([&](const Vector3d& a0_A, const Vector3d& a1_A) {
     const Vector3d a0 = X_BA * a0_A;
     const Vector3d da = X_BA.linear() * (a1_A - a0_A);
-    B.ForEachEdge([&](const Vector3d& b0, const Vector3d& b1) {
-      const Vector3d db = b1 - b0;
+    const double da_norm = da.norm();
+    for (const EdgeB& edge : edges_b) {
+      const Vector3d& b0 = edge.b0;
+      const Vector3d& db = edge.db;
       const Vector3d c = da.cross(db);
       const double c_norm = c.norm();
-      if (c_norm <= kEdgeParallelSin * da.norm() * db.norm()) return;
+      if (c_norm <= kEdgeParallelSin * da_norm * edge.length) continue;
       double s, t;
       LineLineParams(a0, da, b0, db, &s, &t);
-      if (!Interior(s) || !Interior(t)) return;
+      if (!Interior(s) || !Interior(t)) continue;
       const Vector3d pa = a0 + s * da;
       const Vector3d pb = b0 + t * db;
       const Vector3d axis = c / c_norm;
@@ -620,7 +634,7 @@ void EdgeEdge(const Polytope& A, const Isometry3d& X_WA, const Polytope& B, cons
         out->push_back({X_WB * pa, X_WB * pb, R_WB * n, gap});
         break;
       }
-    });
+    }
   });
 }
 
