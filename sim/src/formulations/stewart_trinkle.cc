@@ -225,6 +225,48 @@ void WriteSideBlock(const DynamicSide& side, const DynamicSide* merge, const Vec
   for (int i = 0; i < N; ++i) value[i] += merge->sign * row[i];
 }
 
+// A contact's sides for its columns: the dynamic ones in ν order (`blocks` blocks; `merged`: one
+// body on both sides) and both sides as MakeContactSide gives them.
+struct ContactColumns {
+  const DynamicSide* sides;
+  int blocks;
+  bool merged;
+  const ContactSide* side_a;
+  const ContactSide* side_b;
+};
+
+// One column of direction d at entry *k of a compressed G: the dynamic blocks, then the
+// non-dynamic sides' ∂ψ/∂t (a, then b) into *dpsi.
+template <int N>
+inline void WriteContactColumn(const ContactColumns& cc, const Vector3d& d, int* outer, int* inner,
+                               double* value, int* k, double* dpsi) {
+  *outer = *k;
+  const DynamicSide* merge = cc.merged ? &cc.sides[1] : nullptr;
+  for (int b = 0; b < cc.blocks; ++b, *k += N)
+    WriteSideBlock<N>(cc.sides[b], merge, d, inner + *k, value + *k);
+  if (!cc.side_a->dynamic) *dpsi += d.dot(cc.side_a->v_p);
+  if (!cc.side_b->dynamic) *dpsi += -1.0 * d.dot(cc.side_b->v_p);
+}
+
+// Contact c's normal column (direction n) into a->G_n and its nd friction columns (dirs) into
+// a->G_f, at entries *k_n and *k_f.
+template <int N>
+void WriteContactColumns(const ContactColumns& cc, const Vector3d& n,
+                         const std::vector<Vector3d>& dirs, int c, int nd,
+                         StewartTrinkle::Assembly* a, int* k_n, int* k_f) {
+  WriteContactColumn<N>(cc, n, a->G_n.outerIndexPtr() + c, a->G_n.innerIndexPtr(),
+                        a->G_n.valuePtr(), k_n, &a->dpsi_n[c]);
+  int* outer = a->G_f.outerIndexPtr();
+  int* inner = a->G_f.innerIndexPtr();
+  double* value = a->G_f.valuePtr();
+  double* dpsi = a->dpsi_f.data();
+  for (int j = 0; j < nd; ++j) {
+    const int col = c * nd + j;
+    WriteContactColumn<N>(cc, dirs[static_cast<std::size_t>(j)], outer + col, inner, value, k_f,
+                          dpsi + col);
+  }
+}
+
 // The same contribution to the predicted gap rate: sign·row·ν_body (dynamic body, ν = v) into
 // *gv, or into *dpsi for a non-dynamic body.
 void ScatterDot(const Scene& model, int body, const BodyKinematics& k, const Vector3d& p,
@@ -475,28 +517,12 @@ void StewartTrinkle::Fill(const Scene& model, const State& x, const StepInput& u
     if (side_b.dynamic) sides[ns++] = {&kb, p.p_B_W - kb.X_WB.translation(), -1.0, side_b.o};
     const bool merged = ns == 2 && sides[0].o == sides[1].o;
     if (ns == 2 && sides[1].o < sides[0].o) std::swap(sides[0], sides[1]);
-    const int blocks = merged ? 1 : ns;
-    // One column of direction d: the dynamic blocks, then the non-dynamic sides' ∂ψ/∂t (a, b).
-    const auto column = [&](const Vector3d& d, int* outer, int* inner, double* value, int* k,
-                            double* dpsi) {
-      *outer = *k;
-      for (int b = 0; b < blocks; ++b, *k += nvb) {
-        const DynamicSide* merge = merged ? &sides[1] : nullptr;
-        if (nvb == 6)
-          WriteSideBlock<6>(sides[b], merge, d, inner + *k, value + *k);
-        else
-          WriteSideBlock<3>(sides[b], merge, d, inner + *k, value + *k);
-      }
-      if (!side_a.dynamic) *dpsi += d.dot(side_a.v_p);
-      if (!side_b.dynamic) *dpsi += -1.0 * d.dot(side_b.v_p);
-    };
-    column(p.n_W, a.G_n.outerIndexPtr() + c, a.G_n.innerIndexPtr(), a.G_n.valuePtr(), &k_n,
-           &a.dpsi_n[c]);
+    const ContactColumns cc{sides, merged ? 1 : ns, merged, &side_a, &side_b};
     FrictionDirections(dim, p.n_W, nd, &dirs);
-    for (int j = 0; j < nd; ++j) {
-      const int col = c * nd + j;
-      column(dirs[j], a.G_f.outerIndexPtr() + col, a.G_f.innerIndexPtr(), a.G_f.valuePtr(), &k_f,
-             &a.dpsi_f[col]);
+    if (nvb == 6) {
+      WriteContactColumns<6>(cc, p.n_W, dirs, c, nd, &a, &k_n, &k_f);
+    } else {
+      WriteContactColumns<3>(cc, p.n_W, dirs, c, nd, &a, &k_n, &k_f);
     }
   }
   a.G_n.outerIndexPtr()[nc] = k_n;
