@@ -4,6 +4,7 @@
 
 #include <Eigen/OrderingMethods>
 #include <Eigen/SparseLU>
+#include <Eigen/SparseQR>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -30,6 +31,11 @@ constexpr int kDefaultRefactorInterval = 40;
 // A pivot below this fraction of its column's largest entry is followed by a refactorization
 // (the eta factor divides by it).
 constexpr double kUnstablePivot = 1e-9;
+// A warm basis's column of A(S, S) whose part outside the span of the columns kept before it
+// is below this fraction of the largest column norm is dependent (StartBasisRepair).
+constexpr double kDependentColumnTol = 1e-10;
+// Rounds of StartBasisRepair (each drops at least one column).
+constexpr int kRepairRounds = 4;
 // The lexicographic rule reads rows of B⁻¹ (one transposed solve each) while at most this many
 // rows are tied, columns of B⁻¹ (one solve each) while more are.
 constexpr int kLexRowSolves = 16;
@@ -187,6 +193,69 @@ class SparseBasis {
   std::vector<Eta> etas_;
   VectorXd rhs_, sol_, tmp_, vpos_;
 };
+
+// A warm start's complementary basis {z_i : i ∈ S} ∪ {w_i : i ∉ S} is singular iff A(S, S) is.
+// Contact LCPs give such bases readily: the loaded normals of a box resting on four others, or
+// of two boxes that touch through eight corners, are linearly dependent, and a factorization
+// of a numerically singular K returns basic values of 1e2 where the impulses are 1e-2 (and
+// Lemke's first pivots, on entries of 1e17, destroy the eta file). StartBasisRepair makes the
+// basis nonsingular while staying complementary: a rank-revealing sparse QR of A(S, S) (its
+// columns in COLAMD order, each kept iff its part outside the span of the kept ones exceeds
+// kDependentColumnTol of the largest column norm) gives dependent columns j, whose z_j leave for
+// w_j; repeated while the principal block of the kept set is itself rank deficient (A need not
+// be symmetric). Returns the number of z dropped (0: `basis` unchanged), or −1 if the rounds
+// run out. The scratch is the caller's.
+struct RepairScratch {
+  std::vector<int> set, index;
+  std::vector<Eigen::Triplet<double>> triplets;
+  SpMat K;
+  Eigen::SparseQR<SpMat, Eigen::COLAMDOrdering<int>> qr;
+};
+
+int StartBasisRepair(const SpMat& A, std::vector<int>* basis, RepairScratch* s) {
+  const int n = static_cast<int>(A.rows());
+  int dropped = 0;
+  for (int round = 0; round < kRepairRounds; ++round) {
+    s->set.clear();
+    s->index.assign(n, -1);
+    for (int i = 0; i < n; ++i) {
+      if ((*basis)[i] == n + i) {
+        s->index[i] = static_cast<int>(s->set.size());
+        s->set.push_back(i);
+      }
+    }
+    const int m = static_cast<int>(s->set.size());
+    if (m == 0) return dropped;
+    s->triplets.clear();
+    double max_norm = 0.0;
+    for (int t = 0; t < m; ++t) {
+      double norm2 = 0.0;
+      for (SpMat::InnerIterator it(A, s->set[t]); it; ++it) {
+        if (const int ri = s->index[it.row()]; ri >= 0) {
+          s->triplets.emplace_back(ri, t, it.value());
+          norm2 += it.value() * it.value();
+        }
+      }
+      max_norm = std::max(max_norm, std::sqrt(norm2));
+    }
+    s->K.resize(m, m);
+    s->K.setFromTriplets(s->triplets.begin(), s->triplets.end());
+    s->K.makeCompressed();
+    s->qr.setPivotThreshold(kDependentColumnTol * max_norm);
+    s->qr.compute(s->K);
+    if (s->qr.info() != Eigen::Success) return -1;
+    const int rank = static_cast<int>(s->qr.rank());
+    if (rank == m) return dropped;
+    // K P = Q R with the rank-deficient columns last: P's entries past the rank.
+    const auto& perm = s->qr.colsPermutation().indices();
+    for (int k = rank; k < m; ++k) {
+      const int i = s->set[perm(k)];
+      (*basis)[i] = i;
+      ++dropped;
+    }
+  }
+  return -1;
+}
 
 struct CoreOutcome {
   SolverStatus status = SolverStatus::kNumericalFailure;
@@ -479,7 +548,10 @@ SolverReport SolveSparseLemke(const SpMat& M, const VectorXd& q, const VectorXd*
   // One run from `basis` (variables per position) with its covering vector; true if z passes.
   VectorXd cover(n), candidate, w;
   std::string first_message;
-  auto run = [&](const std::vector<int>& basis, const char* label) {
+  RepairScratch repair;
+  auto run = [&](std::vector<int>& basis, const char* label) {
+    // (A basis the rounds did not repair is run as it is: its factorization decides.)
+    StartBasisRepair(A, &basis, &repair);
     cover.setZero();
     for (Eigen::Index k = 0; k < n; ++k) {
       if (basis[k] < n) {

@@ -33,10 +33,13 @@ inline constexpr int kSparseLemkeMinSize = 64;
 ///   scale-aware check of lcp_acceptance.h, computed in O(nnz(M))).
 /// - Warm start: with `warm_start` of size n, B = {i : warm_i > 0} (z_i basic, w_i otherwise)
 ///   and the covering vector d = B·1, so that z0's column in basis coordinates is −1 and the
-///   first pivot makes the basis feasible (a cold start is B = I, d = 1). If B⁻¹q ≥ 0 the
-///   warm basis is the answer (0 pivots); if B_0 is singular or the warm run fails, a cold run
-///   follows. A step whose active set changed a little needs a few pivots instead of a cold
-///   run's hundreds.
+///   first pivot makes the basis feasible (a cold start is B = I, d = 1). A numerically
+///   singular guess (the spread normal impulses of a box resting on several others are
+///   linearly dependent) is first made nonsingular: the z_i whose columns of M(S, S),
+///   S = {i : warm_i > 0}, a rank-revealing sparse QR finds dependent (relative 1e-10) leave
+///   for their w_i. If B⁻¹q ≥ 0 the warm basis is the answer (0 pivots); if B_0 is singular
+///   or the warm run fails, a cold run follows. A step whose active set changed a little
+///   needs a few pivots instead of a cold run's hundreds.
 ///
 /// Returns kSolved (iterations = pivots of all runs) iff z passes both acceptance tests. There
 /// are no regularized retries, Fischer–Burmeister polish or Newton fallback: on failure the
