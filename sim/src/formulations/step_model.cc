@@ -14,6 +14,7 @@
 #include "vinci/sim/formulations/ncp.h"
 #include "vinci/sim/formulations/quasistatic.h"
 #include "vinci/sim/formulations/stewart_trinkle.h"
+#include "vinci/sim/geometry/contact_rate.h"
 #include "vinci/sim/model/kinematics.h"
 
 namespace vinci::sim {
@@ -134,6 +135,67 @@ std::string Sizes(const char* what, Eigen::Index got, Eigen::Index want) {
 
 // --- Stewart–Trinkle, Anitescu–Potra, first order -----------------------------------------------
 
+// The rigid motion rate of each body along the state direction s at the poses k0 (x_ℓ): dynamic
+// bodies from s's q block (planar [x, y, θ]; spatial [p, raw quaternion Q], R(Q/|Q|), so
+// ω = 2 vec(u̇ ⊗ ū) with u̇ = (I − u uᵀ) Q̇ / |Q|), prescribed and static ones at rest (time is
+// fixed at the freeze).
+std::vector<BodyRate> BodyRates(const Scene& model, const State& x0,
+                                const std::vector<BodyKinematics>& k0, const VectorXd& s) {
+  std::vector<BodyRate> rates(model.bodies.size());
+  for (std::size_t i = 0; i < rates.size(); ++i) rates[i].o_W = k0[i].X_WB.translation();
+  for (int bi : model.dynamic_bodies()) {
+    const int o = model.index(bi).q;
+    BodyRate& r = rates[bi];
+    if (model.dim == Dim::kPlanar) {
+      r.v_W = Vector3d(s[o], s[o + 1], 0.0);
+      r.w_W = Vector3d(0.0, 0.0, s[o + 2]);
+      continue;
+    }
+    r.v_W = s.segment<3>(o);
+    const Eigen::Vector4d Q = x0.q.segment<4>(o + 3), dQ = s.segment<4>(o + 3);
+    const double norm = Q.norm();
+    const Eigen::Vector4d u = Q / norm, du = (dQ - u * u.dot(dQ)) / norm;
+    const Quaterniond uq(u[0], u[1], u[2], u[3]), duq(du[0], du[1], du[2], du[3]);
+    r.w_W = 2.0 * (duq * uq.conjugate()).vec();
+  }
+  return rates;
+}
+
+// The frozen contacts at x = x0 + t s: those whose shape pair has a closed-form rate
+// (geometry/contact_rate.h) moved to first order, c + t ċ (central differences along s then
+// give the derivative of the re-collided contacts to O(t²)); the others as MoveContacts. μ from
+// `model`. `k0`: ComputeBodyKinematics(model, x0).
+std::vector<Contact> MoveContactsAlong(const Scene& model, const std::vector<Contact>& frozen,
+                                       const State& x0, const State& x, const VectorXd& s, double t,
+                                       double h, const std::vector<BodyKinematics>& k0) {
+  const std::vector<BodyRate> rates = BodyRates(model, x0, k0, s);
+  std::vector<Contact> out = frozen;
+  std::vector<char> moved(out.size(), 0);
+  bool all = true;
+  for (std::size_t i = 0; i < out.size(); ++i) {
+    Contact& c = out[i];
+    const Shape& sa = model.bodies[c.body_a].shapes[c.shape_a];
+    const Shape& sb = model.bodies[c.body_b].shapes[c.shape_b];
+    c.mu = model.Mu(sa.material, sb.material);
+    ContactPointRate d;
+    if (!ContactRate(sa, sb, c.point, rates[c.body_a], rates[c.body_b], &d)) {
+      all = false;
+      continue;
+    }
+    ContactPoint& p = c.point;
+    p.p_A_W += t * d.p_A_W;
+    p.p_B_W += t * d.p_B_W;
+    p.n_W += t * d.n_W;
+    p.gap += t * d.gap;
+    moved[i] = 1;
+  }
+  if (all) return out;
+  const std::vector<Contact> recollided = MoveContacts(model, frozen, x0, x, h, &k0);
+  for (std::size_t i = 0; i < out.size(); ++i)
+    if (!moved[i]) out[i] = recollided[i];
+  return out;
+}
+
 class StewartTrinkleModel final : public StepModel {
  public:
   StewartTrinkleModel(const StewartTrinkle& st, std::shared_ptr<const Scene> model, Params params,
@@ -161,6 +223,14 @@ class StewartTrinkleModel final : public StepModel {
     if (&model == model_.get() && SameStateAndInput(x, u, x_, u_))
       return st_.EvaluateAssembly(model, theta, freeze_, x, z, jacobians);
     return st_.EvaluateAssembly(model, theta, AssembleAt(model, x, u), x, z, jacobians);
+  }
+  StepResiduals ResidualsAlong(const VectorXd& z, const StepInput& u, const VectorXd& s,
+                               double t) const override {
+    const State x = StateAlong(s, t);
+    const StewartTrinkle::Assembly a =
+        st_.AssembleAt(*model_, x, u, MoveContactsAlong(*model_, contacts_, x_, x, s, t, dt_, k0_),
+                       /*select_corner_edges=*/false);
+    return st_.EvaluateAssembly(*model_, params_, a, x, z, false);
   }
   VectorXd Unknowns(const State& next) const override {
     const StepLayout& l = layout_;
@@ -212,6 +282,7 @@ class NcpModel final : public StepModel {
     freeze_ = ncp_.assembler().Assemble(*model_, x_, u_);  // as StewartTrinkleModel
     contacts_ = freeze_.contacts;
     G_b_ = freeze_.G_b;
+    k0_ = ComputeBodyKinematics(*model_, x_);
     Init(ncp_.Layout(*model_, x_).size());  // the contact set at x_ℓ is the frozen one
   }
 
@@ -221,6 +292,16 @@ class NcpModel final : public StepModel {
     if (&model == model_.get() && SameStateAndInput(x, u, x_, u_))
       return ncp_.EvaluateAssembly(model, theta, freeze_, x, z);
     return ncp_.EvaluateAssembly(model, theta, AssembleAt(model, x, u), x, z);
+  }
+  StepResiduals ResidualsAlong(const VectorXd& z, const StepInput& u, const VectorXd& s,
+                               double t) const override {
+    const State x = StateAlong(s, t);
+    return ncp_.EvaluateAssembly(
+        *model_, params_,
+        ncp_.assembler().AssembleAt(*model_, x, u,
+                                    MoveContactsAlong(*model_, contacts_, x_, x, s, t, dt_, k0_),
+                                    /*select_corner_edges=*/false),
+        x, z);
   }
   // The MCP solution [p_n (nc); (p_t, p_o) per contact (2 nc); σ (nc)] is z's p_n, p_f, σ.
   VectorXd Unknowns(const State& next) const override {
@@ -243,11 +324,13 @@ class NcpModel final : public StepModel {
  private:
   StewartTrinkle::Assembly AssembleAt(const Scene& model, const State& x,
                                       const StepInput& u) const {
-    return ncp_.assembler().AssembleAt(model, x, u, MoveContacts(model, contacts_, x_, x, dt_),
+    return ncp_.assembler().AssembleAt(model, x, u,
+                                       MoveContacts(model, contacts_, x_, x, dt_, &k0_),
                                        /*select_corner_edges=*/false);
   }
   const NcpStepper& ncp_;
   std::vector<Contact> contacts_;
+  std::vector<BodyKinematics> k0_;   // at x_
   StewartTrinkle::Assembly freeze_;  // at (model_, x_, u_)
   MatrixXd G_b_;
 };
@@ -431,6 +514,37 @@ StepModelValues StepModel::Evaluate(const VectorXd& z, const Params& theta, cons
   out.d_comp_a.d_x = Da.sparseView(0.0, 0.0);
   out.d_comp_b.d_x = Db.sparseView(0.0, 0.0);
   return out;
+}
+
+State StepModel::StateAlong(const VectorXd& s, double t) const {
+  State x = x_;
+  const Eigen::Index nq = x.q.size();
+  x.q += t * s.head(nq);
+  x.v += t * s.tail(s.size() - nq);
+  return x;
+}
+
+StepResiduals StepModel::ResidualsAlong(const VectorXd& z, const StepInput& u, const VectorXd& s,
+                                        double t) const {
+  return Residuals(*model_, params_, StateAlong(s, t), u, z, false);
+}
+
+StepResiduals StepModel::StateDirectionalDerivative(const VectorXd& z, const StepInput& u,
+                                                    const VectorXd& s, double step) const {
+  if (z.size() != layout_.size())
+    throw std::invalid_argument("StepModel::StateDirectionalDerivative: z " +
+                                Sizes("", z.size(), layout_.size()));
+  if (s.size() != x_.q.size() + x_.v.size())
+    throw std::invalid_argument("StepModel::StateDirectionalDerivative: s " +
+                                Sizes("", s.size(), x_.q.size() + x_.v.size()));
+  if (!(step > 0.0))
+    throw std::invalid_argument("StepModel::StateDirectionalDerivative: step must be > 0");
+  StepResiduals p = ResidualsAlong(z, u, s, step);
+  const StepResiduals m = ResidualsAlong(z, u, s, -step);
+  p.equality = (p.equality - m.equality) / (2 * step);
+  p.comp_a = (p.comp_a - m.comp_a) / (2 * step);
+  p.comp_b = (p.comp_b - m.comp_b) / (2 * step);
+  return p;
 }
 
 StepResiduals StepModel::EvaluateResiduals(const VectorXd& z, const Params& theta, const State& x,

@@ -98,6 +98,16 @@ class StepModel {
   StepResiduals EvaluateResiduals(const VectorXd& z, const Params& theta, const State& x,
                                   const StepInput& u, bool jacobians) const;
 
+  /// ∂r/∂x_ℓ · s at (z, the freeze parameters, x_freeze(), u): central differences of the
+  /// frozen equations along s = [q; ν] direction with step `step` (values only: the value fields
+  /// of the result hold the derivative, the Jacobians are empty). Stewart–Trinkle family and
+  /// NCP: contacts whose shape pair has a closed-form rate (geometry/contact_rate.h) move along
+  /// it, c ± step ċ — the derivative of the re-collided contacts, to O(step²) — and are not
+  /// re-collided; the others are, as in Evaluate. Throws std::invalid_argument for sizes that
+  /// do not match or step ≤ 0.
+  StepResiduals StateDirectionalDerivative(const VectorXd& z, const StepInput& u, const VectorXd& s,
+                                           double step) const;
+
   /// The unknowns z of a step the simulator took from x_freeze() to `next` (read from next.q,
   /// next.v and next.warm_start, the step's solver solution; impulses the solver eliminates,
   /// the joint impulses p_b, are recovered from the dynamics rows by least squares). Throws
@@ -122,6 +132,11 @@ class StepModel {
   /// `jacobians` false: the values are enough (a model may skip the Jacobians then).
   virtual StepResiduals Residuals(const Scene& model, const Params& theta, const State& x,
                                   const StepInput& u, const VectorXd& z, bool jacobians) const = 0;
+  /// The residual values at x_freeze() + t s with the freeze θ (default: Residuals there).
+  virtual StepResiduals ResidualsAlong(const VectorXd& z, const StepInput& u, const VectorXd& s,
+                                       double t) const;
+  /// x_freeze() + t s (s = [q; ν] direction).
+  State StateAlong(const VectorXd& s, double t) const;
   virtual VectorXd Unknowns(const State& next) const = 0;
   virtual VectorXd WarmStart(const VectorXd& z) const = 0;
   /// ν_ℓ+1, q_ℓ+1 written from z with start state x (default: the z blocks; GI overrides).

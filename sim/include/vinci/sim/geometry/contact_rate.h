@@ -1,0 +1,42 @@
+// The rate of change of a contact's witness points, normal and gap when its two bodies move
+// (the analytic form of re-running CollideShapes at a moved pose, to first order), for the shape
+// pairs where it has a closed form. Used by the step sensitivities' derivative along a state
+// direction (formulations/step_model.h), which re-collides the other pairs.
+#pragma once
+
+#include "vinci/sim/geometry/shape.h"
+
+namespace vinci::sim {
+
+/// A body's rigid motion rate in world: the velocity of its origin o_W (m/s, or m per unit of
+/// the direction) and its angular velocity (rad/s).
+struct BodyRate {
+  Vector3d o_W = Vector3d::Zero();  ///< the body origin (m): where v_W is taken
+  Vector3d v_W = Vector3d::Zero();  ///< velocity of the body origin
+  Vector3d w_W = Vector3d::Zero();  ///< angular velocity
+  /// Velocity of the material point at p_W.
+  Vector3d PointVelocity(const Vector3d& p_W) const { return v_W + w_W.cross(p_W - o_W); }
+};
+
+/// d/dt of ContactPoint's p_A_W, p_B_W, n_W and gap.
+struct ContactPointRate {
+  Vector3d p_A_W = Vector3d::Zero();
+  Vector3d p_B_W = Vector3d::Zero();
+  Vector3d n_W = Vector3d::Zero();
+  double gap = 0.0;
+};
+
+/// The rate of contact `c` (as CollideShapes(a, ·, b, ·) reports it, a ordered first) when the
+/// bodies carrying a and b move at rates `ra` and `rb`. Closed forms (c's features stay the
+/// same):
+/// - a ball of radius r (sphere, disc, a capsule's or segment's end; r = 0: a vertex of a box,
+///   polyhedron or polygon) against a half-space/half-plane (either order): the ball's centre
+///   x = p_A + r n is a material point of A and n is B's face normal, so
+///   ṅ = ω_B × n, ψ̇ = n·(ẋ − v_B(p_B)), ṗ_A = ẋ − r ṅ, ṗ_B = ẋ − (ψ + r) ṅ − ψ̇ n;
+/// - sphere–sphere, disc–disc (centres c_A, c_B at distance d > 0): ṅ = (I − n nᵀ)(ċ_A − ċ_B)/d,
+///   ψ̇ = n·(ċ_A − ċ_B), ṗ_A = ċ_A − r_A ṅ, ṗ_B = ċ_B + r_B ṅ.
+/// Returns false (out untouched) for other pairs and for corner contacts: the caller re-collides.
+bool ContactRate(const Shape& a, const Shape& b, const ContactPoint& c, const BodyRate& ra,
+                 const BodyRate& rb, ContactPointRate* out);
+
+}  // namespace vinci::sim
