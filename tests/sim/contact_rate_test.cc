@@ -161,5 +161,84 @@ TEST(ContactRateTest, PairsWithoutClosedFormAreLeftToTheCaller) {
       ContactRate(sphere, Make(ShapeType::kHalfSpace), corner, BodyRate{}, BodyRate{}, &d));
 }
 
+// A box's vertices on a larger box's top face (small tilts, both bodies moving), either order:
+// ClassifyPolytopeContact finds which body carries the vertex, and VertexFaceRate (the vertex a
+// material point, the face's plane moving with its body) matches differences of CollideShapes.
+void ExpectBoxOnBoxRatesMatch(bool small_first) {
+  const Shape small = Make(ShapeType::kBox, 0.0, Vector3d(0.1, 0.08, 0.06));
+  const Shape large = Make(ShapeType::kBox, 0.0, Vector3d(0.2, 0.15, 0.1));
+  std::mt19937 gen(11);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int trial = 0; trial < 5; ++trial) {
+    Moving ms, ml;
+    ms.X_WB = Isometry3d::Identity();
+    ms.X_WB.linear() = Eigen::AngleAxisd(0.02 * u(gen), Vector3d(u(gen), u(gen), 0.1).normalized())
+                           .toRotationMatrix();
+    ms.X_WB.translation() = Vector3d(0.03 * u(gen), 0.03 * u(gen), 0.1 + 0.06 + 0.01);
+    ml.X_WB = Isometry3d::Identity();
+    ms.X_BS = ml.X_BS = Isometry3d::Identity();
+    for (Moving* m : {&ms, &ml}) {
+      m->rate.v_W = Vector3d(u(gen), u(gen), u(gen));
+      m->rate.w_W = Vector3d(u(gen), u(gen), u(gen));
+      m->rate.o_W = m->X_WB.translation();
+    }
+    const Shape& a = small_first ? small : large;
+    const Shape& b = small_first ? large : small;
+    const Moving& ma = small_first ? ms : ml;
+    const Moving& mb = small_first ? ml : ms;
+    std::vector<ContactPoint> c0, cp, cm;
+    CollideShapes(a, ma.ShapeAt(0.0), b, mb.ShapeAt(0.0), 0.05, &c0);
+    CollideShapes(a, ma.ShapeAt(kStep), b, mb.ShapeAt(kStep), 0.05, &cp);
+    CollideShapes(a, ma.ShapeAt(-kStep), b, mb.ShapeAt(-kStep), 0.05, &cm);
+    ASSERT_EQ(c0.size(), 4u) << "the small box's bottom vertices";
+    ASSERT_EQ(cp.size(), c0.size());
+    ASSERT_EQ(cm.size(), c0.size());
+    for (std::size_t i = 0; i < c0.size(); ++i) {
+      const PolytopeFeature f =
+          ClassifyPolytopeContact(a, ma.ShapeAt(0.0), b, mb.ShapeAt(0.0), c0[i], 1e-6);
+      EXPECT_EQ(f.side, small_first ? VertexSide::kA : VertexSide::kB);
+      EXPECT_FALSE(f.near_face_boundary);
+      ContactPointRate d;
+      ASSERT_TRUE(VertexFaceRate(f.side, c0[i], ma.rate, mb.rate, &d));
+      const auto fd = [&](const Vector3d& p, const Vector3d& m) { return (p - m) / (2 * kStep); };
+      EXPECT_LE((d.p_A_W - fd(cp[i].p_A_W, cm[i].p_A_W)).norm(), kTol) << "trial " << trial;
+      EXPECT_LE((d.p_B_W - fd(cp[i].p_B_W, cm[i].p_B_W)).norm(), kTol) << "trial " << trial;
+      EXPECT_LE((d.n_W - fd(cp[i].n_W, cm[i].n_W)).norm(), kTol) << "trial " << trial;
+      EXPECT_NEAR(d.gap, (cp[i].gap - cm[i].gap) / (2 * kStep), kTol) << "trial " << trial;
+    }
+  }
+}
+
+TEST(ContactRateTest, BoxVerticesOnBoxFace) { ExpectBoxOnBoxRatesMatch(true); }
+TEST(ContactRateTest, BoxFaceUnderBoxVertices) { ExpectBoxOnBoxRatesMatch(false); }
+
+// Flush equal boxes: each contact is a vertex of a on a vertex of b — both readings fit; a's
+// vertex is taken (as the collision routine keeps it) and the contact is flagged near the face
+// boundary. Edge–edge contacts are not vertex–face contacts.
+TEST(ContactRateTest, FlushBoxesAreFlaggedAtTheFeatureSwitch) {
+  const Shape box = Make(ShapeType::kBox, 0.0, Vector3d(0.1, 0.1, 0.1));
+  const Isometry3d below = Isometry3d::Identity();
+  const Isometry3d above(Eigen::Translation3d(0, 0, 0.2005));
+  std::vector<ContactPoint> c;
+  CollideShapes(box, above, box, below, 0.002, &c);
+  ASSERT_EQ(c.size(), 4u);
+  for (const ContactPoint& p : c) {
+    const PolytopeFeature f = ClassifyPolytopeContact(box, above, box, below, p, 1e-6);
+    EXPECT_EQ(f.side, VertexSide::kA);
+    EXPECT_TRUE(f.near_face_boundary);
+  }
+  c.clear();  // crossed boxes: four edge–edge contacts plus vertices inside the other's face
+  const Isometry3d crossed(Eigen::Translation3d(0.03, 0.02, 0.2005));
+  CollideShapes(box, crossed, box, below, 0.002, &c);
+  int vertex_face = 0;
+  for (const ContactPoint& p : c) {
+    const PolytopeFeature f = ClassifyPolytopeContact(box, crossed, box, below, p, 1e-6);
+    vertex_face += f.side != VertexSide::kNone;
+    EXPECT_FALSE(f.near_face_boundary);
+  }
+  EXPECT_EQ(vertex_face, 2);
+  EXPECT_EQ(static_cast<int>(c.size()), 4);
+}
+
 }  // namespace
 }  // namespace vinci::sim

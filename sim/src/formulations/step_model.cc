@@ -49,8 +49,12 @@ std::vector<BodyKinematics> DetectionKinematics(const Scene& model, const State&
 // (a rolling disc's contact stays at its bottom) and normals follow the face that carries them.
 // False if no candidate is within 10× the witness points' rigid displacement `disp` (another
 // feature would be taken): the rigid motion is kept then.
+// `side`: a polytope vertex–face contact keeps its vertex (ClassifyPolytopeContact): only
+// candidates whose witness on that side is the rigidly moved vertex are taken, so the features
+// cannot switch with the direction of the move (flush boxes, where a's vertex on b's face and
+// b's vertex on a's face coincide).
 bool Recollide(const Scene& model, const std::vector<BodyKinematics>& k, const Contact& c,
-               const ContactPoint& moved, double disp, ContactPoint* out) {
+               const ContactPoint& moved, double disp, VertexSide side, ContactPoint* out) {
   const Shape& sa = model.bodies[c.body_a].shapes[c.shape_a];
   const Shape& sb = model.bodies[c.body_b].shapes[c.shape_b];
   const double envelope = model.options.envelope + std::max(0.0, moved.gap) + disp;
@@ -68,14 +72,17 @@ bool Recollide(const Scene& model, const std::vector<BodyKinematics>& k, const C
     points.push_back(second);
   }
   double best = std::numeric_limits<double>::infinity();
+  const double scale = moved.p_A_W.norm() + moved.p_B_W.norm();
+  const double vertex_tol = 1e-9 * (1.0 + scale);
   for (const ContactPoint& p : points) {
+    if (side == VertexSide::kA && (p.p_A_W - moved.p_A_W).norm() > vertex_tol) continue;
+    if (side == VertexSide::kB && (p.p_B_W - moved.p_B_W).norm() > vertex_tol) continue;
     const double d = (p.p_A_W - moved.p_A_W).norm() + (p.p_B_W - moved.p_B_W).norm();
     if (d < best && p.n_W.dot(moved.n_W) > 0.9) {
       best = d;
       *out = p;
     }
   }
-  const double scale = moved.p_A_W.norm() + moved.p_B_W.norm();
   return best <= 10.0 * disp + 1e-12 * scale;
 }
 
@@ -84,9 +91,11 @@ bool Recollide(const Scene& model, const std::vector<BodyKinematics>& k, const C
 // finds none, and for corner contacts), gaps by the change of n·(p_A − p_B); μ from `model`. At
 // the freeze pose the contacts are returned unchanged.
 // `k0`: ComputeBodyKinematics(model, x0), if the caller has it (null: computed here).
+// `sides`: per frozen contact, the vertex it keeps (FrozenSides; null: none).
 std::vector<Contact> MoveContacts(const Scene& model, const std::vector<Contact>& frozen,
                                   const State& x0, const State& x, double h,
-                                  const std::vector<BodyKinematics>* k0_known = nullptr) {
+                                  const std::vector<BodyKinematics>* k0_known = nullptr,
+                                  const std::vector<VertexSide>* sides = nullptr) {
   std::vector<Contact> out = frozen;
   for (Contact& c : out)
     c.mu = model.Mu(model.bodies[c.body_a].shapes[c.shape_a].material,
@@ -105,7 +114,8 @@ std::vector<Contact> MoveContacts(const Scene& model, const std::vector<Contact>
     *n = Tb.linear() * *n;
     *gap += n->dot(*pa - *pb) - before;
   };
-  for (Contact& c : out) {
+  for (std::size_t i = 0; i < out.size(); ++i) {
+    Contact& c = out[i];
     ContactPoint& p = c.point;
     const Isometry3d& Ta = T[c.body_a];
     const Isometry3d& Tb = T[c.body_b];
@@ -118,7 +128,8 @@ std::vector<Contact> MoveContacts(const Scene& model, const std::vector<Contact>
     move(Ta, Tb, &p.p_A_W, &p.p_B_W, &p.n_W, &p.gap);
     const double disp = (p.p_A_W - before.p_A_W).norm() + (p.p_B_W - before.p_B_W).norm();
     ContactPoint found;
-    if (!Recollide(model, detect, c, p, disp, &found)) continue;
+    const VertexSide side = sides ? (*sides)[i] : VertexSide::kNone;
+    if (!Recollide(model, detect, c, p, disp, side, &found)) continue;
     p.p_A_W = found.p_A_W;
     p.p_B_W = found.p_B_W;
     p.n_W = found.n_W;
@@ -167,7 +178,8 @@ std::vector<BodyRate> BodyRates(const Scene& model, const State& x0,
 // `model`. `k0`: ComputeBodyKinematics(model, x0).
 std::vector<Contact> MoveContactsAlong(const Scene& model, const std::vector<Contact>& frozen,
                                        const State& x0, const State& x, const VectorXd& s, double t,
-                                       double h, const std::vector<BodyKinematics>& k0) {
+                                       double h, const std::vector<BodyKinematics>& k0,
+                                       const std::vector<VertexSide>& sides) {
   const std::vector<BodyRate> rates = BodyRates(model, x0, k0, s);
   std::vector<Contact> out = frozen;
   std::vector<char> moved(out.size(), 0);
@@ -178,7 +190,8 @@ std::vector<Contact> MoveContactsAlong(const Scene& model, const std::vector<Con
     const Shape& sb = model.bodies[c.body_b].shapes[c.shape_b];
     c.mu = model.Mu(sa.material, sb.material);
     ContactPointRate d;
-    if (!ContactRate(sa, sb, c.point, rates[c.body_a], rates[c.body_b], &d)) {
+    if (!VertexFaceRate(sides[i], c.point, rates[c.body_a], rates[c.body_b], &d) &&
+        !ContactRate(sa, sb, c.point, rates[c.body_a], rates[c.body_b], &d)) {
       all = false;
       continue;
     }
@@ -190,10 +203,30 @@ std::vector<Contact> MoveContactsAlong(const Scene& model, const std::vector<Con
     moved[i] = 1;
   }
   if (all) return out;
-  const std::vector<Contact> recollided = MoveContacts(model, frozen, x0, x, h, &k0);
+  const std::vector<Contact> recollided = MoveContacts(model, frozen, x0, x, h, &k0, &sides);
   for (std::size_t i = 0; i < out.size(); ++i)
     if (!moved[i]) out[i] = recollided[i];
   return out;
+}
+
+// Per frozen contact at the poses k0: the vertex a polytope vertex–face contact keeps
+// (ClassifyPolytopeContact); *near counts those whose face witness lies within kNearFeature of
+// its face's boundary (the features switch within that move: a kink of the step in x_ℓ).
+constexpr double kNearFeature = 1e-6;  // m; the state columns' near-kink radius (sensitivity.h)
+std::vector<VertexSide> FrozenSides(const Scene& model, const std::vector<Contact>& contacts,
+                                    const std::vector<BodyKinematics>& k0, int* near) {
+  std::vector<VertexSide> sides(contacts.size(), VertexSide::kNone);
+  *near = 0;
+  for (std::size_t i = 0; i < contacts.size(); ++i) {
+    const Contact& c = contacts[i];
+    const Shape& sa = model.bodies[c.body_a].shapes[c.shape_a];
+    const Shape& sb = model.bodies[c.body_b].shapes[c.shape_b];
+    const PolytopeFeature f = ClassifyPolytopeContact(
+        sa, k0[c.body_a].X_WB * sa.X_BS, sb, k0[c.body_b].X_WB * sb.X_BS, c.point, kNearFeature);
+    sides[i] = f.side;
+    *near += f.near_face_boundary;
+  }
+  return sides;
 }
 
 class StewartTrinkleModel final : public StepModel {
@@ -207,6 +240,7 @@ class StewartTrinkleModel final : public StepModel {
     freeze_ = st_.Assemble(*model_, x_, u_);
     contacts_ = freeze_.contacts;
     k0_ = ComputeBodyKinematics(*model_, x_);
+    sides_ = FrozenSides(*model_, contacts_, k0_, &feature_kinks_);
     const StewartTrinkle::Assembly& a = freeze_;
     lcp_size_ = a.psi_n.size() * (2 + a.nd) + a.support.points() + a.support.columns() +
                 static_cast<Eigen::Index>(a.corner_contact.size());
@@ -227,9 +261,9 @@ class StewartTrinkleModel final : public StepModel {
   StepResiduals ResidualsAlong(const VectorXd& z, const StepInput& u, const VectorXd& s,
                                double t) const override {
     const State x = StateAlong(s, t);
-    const StewartTrinkle::Assembly a =
-        st_.AssembleAt(*model_, x, u, MoveContactsAlong(*model_, contacts_, x_, x, s, t, dt_, k0_),
-                       /*select_corner_edges=*/false);
+    const StewartTrinkle::Assembly a = st_.AssembleAt(
+        *model_, x, u, MoveContactsAlong(*model_, contacts_, x_, x, s, t, dt_, k0_, sides_),
+        /*select_corner_edges=*/false);
     return st_.EvaluateAssembly(*model_, params_, a, x, z, false);
   }
   VectorXd Unknowns(const State& next) const override {
@@ -259,12 +293,13 @@ class StewartTrinkleModel final : public StepModel {
  private:
   StewartTrinkle::Assembly AssembleAt(const Scene& model, const State& x,
                                       const StepInput& u) const {
-    return st_.AssembleAt(model, x, u, MoveContacts(model, contacts_, x_, x, dt_, &k0_),
+    return st_.AssembleAt(model, x, u, MoveContacts(model, contacts_, x_, x, dt_, &k0_, &sides_),
                           /*select_corner_edges=*/false);
   }
   const StewartTrinkle& st_;
   std::vector<Contact> contacts_;
   std::vector<BodyKinematics> k0_;   // at x_
+  std::vector<VertexSide> sides_;    // per contact: the vertex a box–box contact keeps
   StewartTrinkle::Assembly freeze_;  // at (model_, x_, u_)
   Eigen::Index lcp_size_ = 0;
   MatrixXd G_b_;
@@ -283,6 +318,7 @@ class NcpModel final : public StepModel {
     contacts_ = freeze_.contacts;
     G_b_ = freeze_.G_b;
     k0_ = ComputeBodyKinematics(*model_, x_);
+    sides_ = FrozenSides(*model_, contacts_, k0_, &feature_kinks_);
     Init(ncp_.Layout(*model_, x_).size());  // the contact set at x_ℓ is the frozen one
   }
 
@@ -298,9 +334,9 @@ class NcpModel final : public StepModel {
     const State x = StateAlong(s, t);
     return ncp_.EvaluateAssembly(
         *model_, params_,
-        ncp_.assembler().AssembleAt(*model_, x, u,
-                                    MoveContactsAlong(*model_, contacts_, x_, x, s, t, dt_, k0_),
-                                    /*select_corner_edges=*/false),
+        ncp_.assembler().AssembleAt(
+            *model_, x, u, MoveContactsAlong(*model_, contacts_, x_, x, s, t, dt_, k0_, sides_),
+            /*select_corner_edges=*/false),
         x, z);
   }
   // The MCP solution [p_n (nc); (p_t, p_o) per contact (2 nc); σ (nc)] is z's p_n, p_f, σ.
@@ -325,12 +361,13 @@ class NcpModel final : public StepModel {
   StewartTrinkle::Assembly AssembleAt(const Scene& model, const State& x,
                                       const StepInput& u) const {
     return ncp_.assembler().AssembleAt(model, x, u,
-                                       MoveContacts(model, contacts_, x_, x, dt_, &k0_),
+                                       MoveContacts(model, contacts_, x_, x, dt_, &k0_, &sides_),
                                        /*select_corner_edges=*/false);
   }
   const NcpStepper& ncp_;
   std::vector<Contact> contacts_;
   std::vector<BodyKinematics> k0_;   // at x_
+  std::vector<VertexSide> sides_;    // per contact: the vertex a box–box contact keeps
   StewartTrinkle::Assembly freeze_;  // at (model_, x_, u_)
   MatrixXd G_b_;
 };

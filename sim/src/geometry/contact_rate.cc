@@ -1,5 +1,10 @@
 #include "vinci/sim/geometry/contact_rate.h"
 
+#include <algorithm>
+#include <limits>
+
+#include "collision_internal.h"
+
 namespace vinci::sim {
 namespace {
 
@@ -39,7 +44,85 @@ void BallOnHalf(const ContactPoint& c, double r, const BodyRate& ra, const BodyR
   out->p_B_W = dx - (c.gap + r) * dn - dgap * n;
 }
 
+// b's vertex (as witness p_B) on a's face: the flipped ball-on-half form.
+void FlippedBallOnHalf(const ContactPoint& c, double r, const BodyRate& ra, const BodyRate& rb,
+                       ContactPointRate* out) {
+  ContactPoint f = c;
+  f.p_A_W = c.p_B_W;
+  f.p_B_W = c.p_A_W;
+  f.n_W = -c.n_W;
+  ContactPointRate d;
+  BallOnHalf(f, r, rb, ra, &d);
+  out->p_A_W = d.p_B_W;
+  out->p_B_W = d.p_A_W;
+  out->n_W = -d.n_W;
+  out->gap = d.gap;
+}
+
+bool IsPolytopeType(ShapeType t) { return t == ShapeType::kBox || t == ShapeType::kPolyhedron; }
+
+// The face of P (shape frame) whose normal is n_P within tol, or −1.
+int FaceWithNormal(const collision_internal::Polytope& P, const Vector3d& n_P, double tol) {
+  for (int f = 0; f < P.num_faces(); ++f)
+    if ((P.face_normal(f) - n_P).norm() <= tol) return f;
+  return -1;
+}
+
+bool IsVertex(const collision_internal::Polytope& P, const Vector3d& x_P, double tol) {
+  for (int i = 0; i < P.num_vertices(); ++i)
+    if ((P.vertex(i) - x_P).norm() <= tol) return true;
+  return false;
+}
+
+// Distance from y (in face f's plane, shape frame) to the boundary of face f.
+double DistanceToFaceBoundary(const collision_internal::Polytope& P, int f, const Vector3d& y) {
+  double d = std::numeric_limits<double>::infinity();
+  const int m = P.face_size(f);
+  for (int k = 0; k < m; ++k) {
+    const Vector3d v0 = P.face_vertex(f, k), e = P.face_vertex(f, (k + 1) % m) - v0;
+    const double t = std::clamp(e.dot(y - v0) / e.squaredNorm(), 0.0, 1.0);
+    d = std::min(d, (v0 + t * e - y).norm());
+  }
+  return d;
+}
+
 }  // namespace
+
+PolytopeFeature ClassifyPolytopeContact(const Shape& a, const Isometry3d& X_WA, const Shape& b,
+                                        const Isometry3d& X_WB, const ContactPoint& c,
+                                        double near) {
+  PolytopeFeature out;
+  if (c.corner || !IsPolytopeType(a.type) || !IsPolytopeType(b.type)) return out;
+  collision_internal::HullScratch sa, sb;
+  const collision_internal::Polytope A = collision_internal::MakePolytope(a, &sa);
+  const collision_internal::Polytope B = collision_internal::MakePolytope(b, &sb);
+  const double tol = 1e-9 * (A.radius() + B.radius());
+  const Isometry3d X_AW = X_WA.inverse(Eigen::Isometry), X_BW = X_WB.inverse(Eigen::Isometry);
+  // a's vertex on b's face (checked first, as the collision routine keeps it).
+  int f = FaceWithNormal(B, X_BW.linear() * c.n_W, 1e-9);
+  if (f >= 0 && IsVertex(A, X_AW * c.p_A_W, tol)) {
+    out.side = VertexSide::kA;
+    out.near_face_boundary = DistanceToFaceBoundary(B, f, X_BW * c.p_B_W) <= near;
+    return out;
+  }
+  f = FaceWithNormal(A, -(X_AW.linear() * c.n_W), 1e-9);
+  if (f >= 0 && IsVertex(B, X_BW * c.p_B_W, tol)) {
+    out.side = VertexSide::kB;
+    out.near_face_boundary = DistanceToFaceBoundary(A, f, X_AW * c.p_A_W) <= near;
+  }
+  return out;
+}
+
+bool VertexFaceRate(VertexSide side, const ContactPoint& c, const BodyRate& ra, const BodyRate& rb,
+                    ContactPointRate* out) {
+  if (c.corner || side == VertexSide::kNone) return false;
+  if (side == VertexSide::kA) {
+    BallOnHalf(c, 0.0, ra, rb, out);
+  } else {
+    FlippedBallOnHalf(c, 0.0, ra, rb, out);
+  }
+  return true;
+}
 
 bool ContactRate(const Shape& a, const Shape& b, const ContactPoint& c, const BodyRate& ra,
                  const BodyRate& rb, ContactPointRate* out) {
@@ -54,16 +137,7 @@ bool ContactRate(const Shape& a, const Shape& b, const ContactPoint& c, const Bo
     // CollideShapes(b, a) flipped: witnesses swapped, normal negated.
     const double r = BallRadius(b.type, b.radius);
     if (r < 0.0) return false;
-    ContactPoint f = c;
-    f.p_A_W = c.p_B_W;
-    f.p_B_W = c.p_A_W;
-    f.n_W = -c.n_W;
-    ContactPointRate d;
-    BallOnHalf(f, r, rb, ra, &d);
-    out->p_A_W = d.p_B_W;
-    out->p_B_W = d.p_A_W;
-    out->n_W = -d.n_W;
-    out->gap = d.gap;
+    FlippedBallOnHalf(c, r, ra, rb, out);
     return true;
   }
   const bool balls = (a.type == ShapeType::kSphere && b.type == ShapeType::kSphere) ||

@@ -176,6 +176,7 @@ class StepDifferentiator {
   bool ok() const { return ok_; }
   const std::string& message() const { return message_; }
   int degenerate() const { return lin_ ? lin_->degenerate() : 0; }
+  int feature_kinks() const { return frozen_ ? frozen_->feature_kinks() : 0; }
   bool contact_set_changed() const { return contact_set_changed_; }
   int nx() const { return static_cast<int>(x_.q.size() + x_.v.size()); }
 
@@ -400,6 +401,10 @@ std::string Describe(const StepDifferentiator& d, int unsolved, int kinks) {
     m += std::string(m.empty() ? "" : "; ") + std::to_string(kinks) +
          " column(s) whose active set holds only within a perturbation below 1e-6 (near-singular "
          "active block: the derivative of the step's own branch)";
+  if (d.feature_kinks() > 0)
+    m += std::string(m.empty() ? "" : "; ") + std::to_string(d.feature_kinks()) +
+         " contact(s) at a feature switch (a vertex on another polytope's face edge or vertex: "
+         "the derivative of the features found at x_l, held)";
   return m;
 }
 
@@ -473,7 +478,8 @@ StepSensitivity StepDerivatives(const Simulator& sim, const Params& params,
   out.unsolved_columns = unsolved;
   out.near_kink_columns = kinks;
   out.contact_set_changed = changed;
-  out.status = Classify(failed, changed, d.degenerate() + kinks);
+  out.feature_kink_contacts = d.feature_kinks();
+  out.status = Classify(failed, changed, d.degenerate() + kinks + d.feature_kinks());
   out.message = failed ? "the active system is inconsistent along some column (NaN)"
                        : Describe(d, unsolved, kinks);
   return out;
@@ -531,7 +537,8 @@ StepSensitivity PropagateStep(const Simulator& sim, const Params& params,
   st.unsolved_columns = unsolved;
   st.near_kink_columns = kinks;
   st.contact_set_changed = changed;
-  st.status = Classify(failed, changed, d.degenerate() + kinks);
+  st.feature_kink_contacts = d.feature_kinks();
+  st.status = Classify(failed, changed, d.degenerate() + kinks + d.feature_kinks());
   st.message = failed ? "the active system is inconsistent along some column (NaN)"
                       : Describe(d, unsolved, kinks);
   return st;

@@ -79,6 +79,12 @@ class StepModel {
   const StepInput& input() const { return u_; }
   /// Contacts (GI: candidate pairs) held fixed.
   int num_contacts() const { return layout_.nc; }
+  /// Frozen contacts at a feature switch of the contact geometry (Stewart–Trinkle family and
+  /// NCP; 0 otherwise): polytope vertex–face contacts whose face witness lies within 1e-6 m of
+  /// that face's boundary — e.g. flush equal boxes, a vertex of one on a vertex of the other.
+  /// The frozen model holds each such contact's vertex (smooth in x_ℓ), but the collision
+  /// routine at a moved x_ℓ may report other features there: the step is one-sided in x_ℓ.
+  int feature_kinks() const { return feature_kinks_; }
 
   /// The step equations at (z, θ, x_ℓ) with the frozen input. Throws std::invalid_argument for
   /// sizes that do not match (z: layout().size(); θ: the scene's ParamTable; x: the scene's
@@ -151,6 +157,7 @@ class StepModel {
   double dt_ = 0.0;
   StepLayout layout_;
   std::vector<int> param_columns_;
+  int feature_kinks_ = 0;
 };
 
 /// Freezes `formulation`'s step at x (contacts / GI pairs found once at x). `model` is the scene

@@ -39,4 +39,35 @@ struct ContactPointRate {
 bool ContactRate(const Shape& a, const Shape& b, const ContactPoint& c, const BodyRate& ra,
                  const BodyRate& rb, ContactPointRate* out);
 
+/// Which body carries the vertex of a polytope–polytope (box, polyhedron) vertex–face contact.
+enum class VertexSide : signed char {
+  kNone,  ///< not a vertex–face contact of two polytopes (edge–edge, corner, other shapes)
+  kA,     ///< p_A is a vertex of a, n is (the world image of) a face normal of b
+  kB,     ///< p_B is a vertex of b, −n is a face normal of a
+};
+
+/// A polytope–polytope contact's features at the shape poses X_WA, X_WB (world).
+struct PolytopeFeature {
+  VertexSide side = VertexSide::kNone;
+  /// The witness on the face lies within `near` (m) of that face's boundary (an edge or vertex
+  /// of the face-carrying body): moving the bodies by more than that can switch the features
+  /// the collision routine reports (flush equal boxes: a vertex of a on a vertex of b, where
+  /// "a's vertex on b's face" and "b's vertex on a's face" coincide) — a kink of the contact
+  /// geometry in the poses.
+  bool near_face_boundary = false;
+};
+
+/// Classifies contact `c` of shapes a (pose X_WA) and b (X_WB) as CollideShapes(a, ·, b, ·)
+/// reports it. A vertex of a is preferred where both sides fit (the collision routine emits
+/// a's vertices first and drops the later duplicate). Tolerance for "is a vertex" / "is a face
+/// normal": 1e-9 of the shapes' size.
+PolytopeFeature ClassifyPolytopeContact(const Shape& a, const Isometry3d& X_WA, const Shape& b,
+                                        const Isometry3d& X_WB, const ContactPoint& c, double near);
+
+/// The rate of a polytope vertex–face contact (side kA: a's vertex on b's face; kB: b's vertex
+/// on a's face) with its features held: the ball-on-half-space form above with r = 0 and the
+/// face's plane moving with its body. False for side kNone or corner contacts.
+bool VertexFaceRate(VertexSide side, const ContactPoint& c, const BodyRate& ra, const BodyRate& rb,
+                    ContactPointRate* out);
+
 }  // namespace vinci::sim
