@@ -236,9 +236,8 @@ TEST_P(StepModelTest, DenseResidualsAreTheSparseEvaluation) {
 // The derivative along a state direction (StepModel::StateDirectionalDerivative: closed-form
 // contact rates where the shape pair has one, re-collision elsewhere) is the central difference
 // of Evaluate (every contact re-collided) at x_ℓ ± h s. Both are differences with h = 1e-7:
-// they agree to ~1e-11 here. (Evaluate's x_ℓ block times s is not a reference: on the stack its
-// coordinate-wise differences of the re-collided box–box contacts differ from the directional one
-// by 2.5e-2.)
+// they agree to ~1e-11 here. (Evaluate's x_ℓ block times s is checked against both on box–box
+// stacks in box_box_state_jacobian_test.cc.)
 TEST_P(StepModelTest, DirectionalDerivativeMatchesRecollidedDifferences) {
   const Case& c = GetParam();
   const Simulator sim = Make(c);

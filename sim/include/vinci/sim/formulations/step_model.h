@@ -14,7 +14,10 @@
 // points and normal are those the collision routine finds at x for the same pair of shapes,
 // nearest the rigidly moved ones (so a rolling disc's contact point stays at its bottom and a
 // normal follows the face that carries it; rigidly moved — points with their bodies, normal(s)
-// with body B — for corner contacts and where no such contact is found), and its gap becomes
+// with body B — for corner contacts and where no such contact is found; a polytope vertex–face
+// contact, e.g. box on box, keeps its vertex: only candidates at that rigidly moved vertex are
+// taken, so flush boxes, where "a's vertex on b's face" and "b's vertex on a's face" coincide,
+// do not switch features with the direction of the move), and its gap becomes
 //   ψ(x) = ψ_ℓ + n(x)·(p_A(x) − p_B(x)) − n_ℓ·(p_A,ℓ − p_B,ℓ),
 // which has the exact first derivative of the signed distance for any contact whose features
 // stay active. The contact Jacobians G(x) then have the derivatives of the re-detected ones.
