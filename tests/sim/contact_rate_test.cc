@@ -230,14 +230,60 @@ TEST(ContactRateTest, FlushBoxesAreFlaggedAtTheFeatureSwitch) {
   c.clear();  // crossed boxes: four edge–edge contacts plus vertices inside the other's face
   const Isometry3d crossed(Eigen::Translation3d(0.03, 0.02, 0.2005));
   CollideShapes(box, crossed, box, below, 0.002, &c);
-  int vertex_face = 0;
+  int vertex_face = 0, edge_edge = 0;
   for (const ContactPoint& p : c) {
     const PolytopeFeature f = ClassifyPolytopeContact(box, crossed, box, below, p, 1e-6);
     vertex_face += f.side != VertexSide::kNone;
+    edge_edge += f.edge_edge;
     EXPECT_FALSE(f.near_face_boundary);
   }
   EXPECT_EQ(vertex_face, 2);
+  EXPECT_EQ(edge_edge, 2);
   EXPECT_EQ(static_cast<int>(c.size()), 4);
+}
+
+// Equal boxes crossed (offset, small random tilts, both moving): vertex–face and edge–edge
+// contacts, each classified and moved by its closed form, against differences of CollideShapes.
+TEST(ContactRateTest, CrossedBoxesVertexFaceAndEdgeEdge) {
+  const Shape box = Make(ShapeType::kBox, 0.0, Vector3d(0.1, 0.1, 0.1));
+  std::mt19937 gen(13);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int trial = 0; trial < 5; ++trial) {
+    Moving ma, mb;
+    ma.X_WB = Isometry3d::Identity();
+    ma.X_WB.linear() = Eigen::AngleAxisd(0.002 * u(gen), Vector3d(u(gen), u(gen), 0.1).normalized())
+                           .toRotationMatrix();
+    ma.X_WB.translation() = Vector3d(0.03, 0.02, 0.2 + 0.0005);
+    mb.X_WB = Isometry3d::Identity();
+    ma.X_BS = mb.X_BS = Isometry3d::Identity();
+    for (Moving* m : {&ma, &mb}) {
+      m->rate.v_W = Vector3d(u(gen), u(gen), u(gen));
+      m->rate.w_W = Vector3d(u(gen), u(gen), u(gen));
+      m->rate.o_W = m->X_WB.translation();
+    }
+    std::vector<ContactPoint> c0, cp, cm;
+    CollideShapes(box, ma.ShapeAt(0.0), box, mb.ShapeAt(0.0), 0.002, &c0);
+    CollideShapes(box, ma.ShapeAt(kStep), box, mb.ShapeAt(kStep), 0.002, &cp);
+    CollideShapes(box, ma.ShapeAt(-kStep), box, mb.ShapeAt(-kStep), 0.002, &cm);
+    ASSERT_EQ(cp.size(), c0.size());
+    ASSERT_EQ(cm.size(), c0.size());
+    int edge_edge = 0;
+    for (std::size_t i = 0; i < c0.size(); ++i) {
+      const PolytopeFeature f =
+          ClassifyPolytopeContact(box, ma.ShapeAt(0.0), box, mb.ShapeAt(0.0), c0[i], 1e-6);
+      ContactPointRate d;
+      ASSERT_TRUE(VertexFaceRate(f.side, c0[i], ma.rate, mb.rate, &d) ||
+                  EdgeEdgeRate(f, c0[i], ma.rate, mb.rate, &d))
+          << "contact " << i << " has a closed form";
+      edge_edge += f.edge_edge;
+      const auto fd = [&](const Vector3d& p, const Vector3d& m) { return (p - m) / (2 * kStep); };
+      EXPECT_LE((d.p_A_W - fd(cp[i].p_A_W, cm[i].p_A_W)).norm(), kTol) << "trial " << trial;
+      EXPECT_LE((d.p_B_W - fd(cp[i].p_B_W, cm[i].p_B_W)).norm(), kTol) << "trial " << trial;
+      EXPECT_LE((d.n_W - fd(cp[i].n_W, cm[i].n_W)).norm(), kTol) << "trial " << trial;
+      EXPECT_NEAR(d.gap, (cp[i].gap - cm[i].gap) / (2 * kStep), kTol) << "trial " << trial;
+    }
+    EXPECT_EQ(edge_edge, 2) << "trial " << trial;
+  }
 }
 
 }  // namespace

@@ -95,7 +95,7 @@ bool Recollide(const Scene& model, const std::vector<BodyKinematics>& k, const C
 std::vector<Contact> MoveContacts(const Scene& model, const std::vector<Contact>& frozen,
                                   const State& x0, const State& x, double h,
                                   const std::vector<BodyKinematics>* k0_known = nullptr,
-                                  const std::vector<VertexSide>* sides = nullptr) {
+                                  const std::vector<PolytopeFeature>* sides = nullptr) {
   std::vector<Contact> out = frozen;
   for (Contact& c : out)
     c.mu = model.Mu(model.bodies[c.body_a].shapes[c.shape_a].material,
@@ -128,7 +128,7 @@ std::vector<Contact> MoveContacts(const Scene& model, const std::vector<Contact>
     move(Ta, Tb, &p.p_A_W, &p.p_B_W, &p.n_W, &p.gap);
     const double disp = (p.p_A_W - before.p_A_W).norm() + (p.p_B_W - before.p_B_W).norm();
     ContactPoint found;
-    const VertexSide side = sides ? (*sides)[i] : VertexSide::kNone;
+    const VertexSide side = sides ? (*sides)[i].side : VertexSide::kNone;
     if (!Recollide(model, detect, c, p, disp, side, &found)) continue;
     p.p_A_W = found.p_A_W;
     p.p_B_W = found.p_B_W;
@@ -179,7 +179,7 @@ std::vector<BodyRate> BodyRates(const Scene& model, const State& x0,
 std::vector<Contact> MoveContactsAlong(const Scene& model, const std::vector<Contact>& frozen,
                                        const State& x0, const State& x, const VectorXd& s, double t,
                                        double h, const std::vector<BodyKinematics>& k0,
-                                       const std::vector<VertexSide>& sides) {
+                                       const std::vector<PolytopeFeature>& sides) {
   const std::vector<BodyRate> rates = BodyRates(model, x0, k0, s);
   std::vector<Contact> out = frozen;
   std::vector<char> moved(out.size(), 0);
@@ -190,7 +190,8 @@ std::vector<Contact> MoveContactsAlong(const Scene& model, const std::vector<Con
     const Shape& sb = model.bodies[c.body_b].shapes[c.shape_b];
     c.mu = model.Mu(sa.material, sb.material);
     ContactPointRate d;
-    if (!VertexFaceRate(sides[i], c.point, rates[c.body_a], rates[c.body_b], &d) &&
+    if (!VertexFaceRate(sides[i].side, c.point, rates[c.body_a], rates[c.body_b], &d) &&
+        !EdgeEdgeRate(sides[i], c.point, rates[c.body_a], rates[c.body_b], &d) &&
         !ContactRate(sa, sb, c.point, rates[c.body_a], rates[c.body_b], &d)) {
       all = false;
       continue;
@@ -213,9 +214,9 @@ std::vector<Contact> MoveContactsAlong(const Scene& model, const std::vector<Con
 // (ClassifyPolytopeContact); *near counts those whose face witness lies within kNearFeature of
 // its face's boundary (the features switch within that move: a kink of the step in x_ℓ).
 constexpr double kNearFeature = 1e-6;  // m; the state columns' near-kink radius (sensitivity.h)
-std::vector<VertexSide> FrozenSides(const Scene& model, const std::vector<Contact>& contacts,
-                                    const std::vector<BodyKinematics>& k0, int* near) {
-  std::vector<VertexSide> sides(contacts.size(), VertexSide::kNone);
+std::vector<PolytopeFeature> FrozenSides(const Scene& model, const std::vector<Contact>& contacts,
+                                         const std::vector<BodyKinematics>& k0, int* near) {
+  std::vector<PolytopeFeature> sides(contacts.size());
   *near = 0;
   for (std::size_t i = 0; i < contacts.size(); ++i) {
     const Contact& c = contacts[i];
@@ -223,7 +224,7 @@ std::vector<VertexSide> FrozenSides(const Scene& model, const std::vector<Contac
     const Shape& sb = model.bodies[c.body_b].shapes[c.shape_b];
     const PolytopeFeature f = ClassifyPolytopeContact(
         sa, k0[c.body_a].X_WB * sa.X_BS, sb, k0[c.body_b].X_WB * sb.X_BS, c.point, kNearFeature);
-    sides[i] = f.side;
+    sides[i] = f;
     *near += f.near_face_boundary;
   }
   return sides;
@@ -298,9 +299,9 @@ class StewartTrinkleModel final : public StepModel {
   }
   const StewartTrinkle& st_;
   std::vector<Contact> contacts_;
-  std::vector<BodyKinematics> k0_;   // at x_
-  std::vector<VertexSide> sides_;    // per contact: the vertex a box–box contact keeps
-  StewartTrinkle::Assembly freeze_;  // at (model_, x_, u_)
+  std::vector<BodyKinematics> k0_;      // at x_
+  std::vector<PolytopeFeature> sides_;  // per contact: the vertex a box–box contact keeps
+  StewartTrinkle::Assembly freeze_;     // at (model_, x_, u_)
   Eigen::Index lcp_size_ = 0;
   MatrixXd G_b_;
 };
@@ -366,9 +367,9 @@ class NcpModel final : public StepModel {
   }
   const NcpStepper& ncp_;
   std::vector<Contact> contacts_;
-  std::vector<BodyKinematics> k0_;   // at x_
-  std::vector<VertexSide> sides_;    // per contact: the vertex a box–box contact keeps
-  StewartTrinkle::Assembly freeze_;  // at (model_, x_, u_)
+  std::vector<BodyKinematics> k0_;      // at x_
+  std::vector<PolytopeFeature> sides_;  // per contact: the vertex a box–box contact keeps
+  StewartTrinkle::Assembly freeze_;     // at (model_, x_, u_)
   MatrixXd G_b_;
 };
 

@@ -1,6 +1,8 @@
 #include "vinci/sim/geometry/contact_rate.h"
 
+#include <Eigen/LU>
 #include <algorithm>
+#include <cmath>
 #include <limits>
 
 #include "collision_internal.h"
@@ -86,6 +88,18 @@ double DistanceToFaceBoundary(const collision_internal::Polytope& P, int f, cons
   return d;
 }
 
+// The unit direction of an edge of P (shape frame) that has x_P in its interior, or zero.
+Vector3d EdgeThrough(const collision_internal::Polytope& P, const Vector3d& x_P, double tol) {
+  Vector3d found = Vector3d::Zero();
+  P.ForEachEdge([&](const Vector3d& e0, const Vector3d& e1) {
+    const Vector3d e = e1 - e0;
+    const double t = e.dot(x_P - e0) / e.squaredNorm();
+    if (t <= 0.0 || t >= 1.0 || (e0 + t * e - x_P).norm() > tol) return;
+    found = e.normalized();
+  });
+  return found;
+}
+
 }  // namespace
 
 PolytopeFeature ClassifyPolytopeContact(const Shape& a, const Isometry3d& X_WA, const Shape& b,
@@ -109,8 +123,39 @@ PolytopeFeature ClassifyPolytopeContact(const Shape& a, const Isometry3d& X_WA, 
   if (f >= 0 && IsVertex(B, X_BW * c.p_B_W, tol)) {
     out.side = VertexSide::kB;
     out.near_face_boundary = DistanceToFaceBoundary(A, f, X_AW * c.p_A_W) <= near;
+    return out;
   }
+  const Vector3d e_A = EdgeThrough(A, X_AW * c.p_A_W, tol);
+  const Vector3d e_B = EdgeThrough(B, X_BW * c.p_B_W, tol);
+  if (e_A.isZero() || e_B.isZero()) return out;
+  out.e_A_W = X_WA.linear() * e_A;
+  out.e_B_W = X_WB.linear() * e_B;
+  const Vector3d axis = out.e_A_W.cross(out.e_B_W);
+  // Not parallel, and n is ±their common normal (else another feature pair).
+  out.edge_edge =
+      axis.norm() > 1e-6 && std::abs(std::abs(axis.normalized().dot(c.n_W)) - 1.0) <= 1e-9;
   return out;
+}
+
+bool EdgeEdgeRate(const PolytopeFeature& f, const ContactPoint& c, const BodyRate& ra,
+                  const BodyRate& rb, ContactPointRate* out) {
+  if (c.corner || !f.edge_edge) return false;
+  const Vector3d& eA = f.e_A_W;
+  const Vector3d& eB = f.e_B_W;
+  const Vector3d& n = c.n_W;
+  const Vector3d axis = eA.cross(eB);
+  const double sign = axis.dot(n) >= 0.0 ? 1.0 : -1.0;
+  const Vector3d daxis = ra.w_W.cross(eA).cross(eB) + eA.cross(rb.w_W.cross(eB));
+  const Vector3d dn = sign * (daxis - n * n.dot(daxis)) / axis.norm();
+  const Vector3d vA = ra.PointVelocity(c.p_A_W), vB = rb.PointVelocity(c.p_B_W);
+  Eigen::Matrix3d M;
+  M << eA, -eB, -n;
+  const Vector3d st = M.partialPivLu().solve(c.gap * dn - vA + vB);
+  out->n_W = dn;
+  out->gap = st[2];
+  out->p_A_W = vA + st[0] * eA;
+  out->p_B_W = vB + st[1] * eB;
+  return true;
 }
 
 bool VertexFaceRate(VertexSide side, const ContactPoint& c, const BodyRate& ra, const BodyRate& rb,

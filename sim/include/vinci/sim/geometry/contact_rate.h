@@ -55,6 +55,10 @@ struct PolytopeFeature {
   /// "a's vertex on b's face" and "b's vertex on a's face" coincide) — a kink of the contact
   /// geometry in the poses.
   bool near_face_boundary = false;
+  /// Edge–edge (side kNone): p_A interior to an edge of a with unit direction e_A_W, p_B
+  /// interior to an edge of b with direction e_B_W, not parallel.
+  bool edge_edge = false;
+  Vector3d e_A_W = Vector3d::Zero(), e_B_W = Vector3d::Zero();
 };
 
 /// Classifies contact `c` of shapes a (pose X_WA) and b (X_WB) as CollideShapes(a, ·, b, ·)
@@ -69,5 +73,14 @@ PolytopeFeature ClassifyPolytopeContact(const Shape& a, const Isometry3d& X_WA, 
 /// face's plane moving with its body. False for side kNone or corner contacts.
 bool VertexFaceRate(VertexSide side, const ContactPoint& c, const BodyRate& ra, const BodyRate& rb,
                     ContactPointRate* out);
+
+/// The rate of a polytope edge–edge contact (f.edge_edge) with its edges held: the edges turn
+/// with their bodies (ė_A = ω_A × e_A, ė_B = ω_B × e_B), n = ±(e_A × e_B)/|e_A × e_B| (the sign
+/// of c.n_W), so ṅ = (I − n nᵀ) ±(ė_A × e_B + e_A × ė_B)/|e_A × e_B|; the witnesses slide along
+/// their edges, p_A = a + s e_A, p_B = b + t e_B with p_A − p_B = ψ n, so
+/// [e_A, −e_B, −n] (ṡ, ṫ, ψ̇) = ψ ṅ − v_A(p_A) + v_B(p_B) and ṗ_A = v_A(p_A) + ṡ e_A,
+/// ṗ_B = v_B(p_B) + ṫ e_B. False if !f.edge_edge or c is a corner contact.
+bool EdgeEdgeRate(const PolytopeFeature& f, const ContactPoint& c, const BodyRate& ra,
+                  const BodyRate& rb, ContactPointRate* out);
 
 }  // namespace vinci::sim
