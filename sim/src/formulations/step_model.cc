@@ -50,11 +50,13 @@ std::vector<BodyKinematics> DetectionKinematics(const Scene& model, const State&
 // False if no candidate is within 10× the witness points' rigid displacement `disp` (another
 // feature would be taken): the rigid motion is kept then.
 // `side`: a polytope vertex–face contact keeps its vertex (ClassifyPolytopeContact): only
-// candidates whose witness on that side is the rigidly moved vertex are taken, so the features
-// cannot switch with the direction of the move (flush boxes, where a's vertex on b's face and
-// b's vertex on a's face coincide).
+// candidates whose witness on that side is the rigidly moved vertex and whose normal is
+// `face_n_W` (the face normal moved with the face's body) are taken, so the features cannot
+// switch with the direction of the move (flush boxes, where a's vertex on b's face and b's vertex
+// on a's face coincide, and a vertex just past the face's edge also has vertex–edge candidates).
 bool Recollide(const Scene& model, const std::vector<BodyKinematics>& k, const Contact& c,
-               const ContactPoint& moved, double disp, VertexSide side, ContactPoint* out) {
+               const ContactPoint& moved, double disp, VertexSide side, const Vector3d& face_n_W,
+               ContactPoint* out) {
   const Shape& sa = model.bodies[c.body_a].shapes[c.shape_a];
   const Shape& sb = model.bodies[c.body_b].shapes[c.shape_b];
   const double envelope = model.options.envelope + std::max(0.0, moved.gap) + disp;
@@ -77,6 +79,7 @@ bool Recollide(const Scene& model, const std::vector<BodyKinematics>& k, const C
   for (const ContactPoint& p : points) {
     if (side == VertexSide::kA && (p.p_A_W - moved.p_A_W).norm() > vertex_tol) continue;
     if (side == VertexSide::kB && (p.p_B_W - moved.p_B_W).norm() > vertex_tol) continue;
+    if (side != VertexSide::kNone && (p.n_W - face_n_W).norm() > 1e-9) continue;
     const double d = (p.p_A_W - moved.p_A_W).norm() + (p.p_B_W - moved.p_B_W).norm();
     if (d < best && p.n_W.dot(moved.n_W) > 0.9) {
       best = d;
@@ -129,7 +132,9 @@ std::vector<Contact> MoveContacts(const Scene& model, const std::vector<Contact>
     const double disp = (p.p_A_W - before.p_A_W).norm() + (p.p_B_W - before.p_B_W).norm();
     ContactPoint found;
     const VertexSide side = sides ? (*sides)[i].side : VertexSide::kNone;
-    if (!Recollide(model, detect, c, p, disp, side, &found)) continue;
+    // The face normal moves with the body carrying the face (b's for a's vertex, a's for b's).
+    const Vector3d face_n = (side == VertexSide::kB ? Ta : Tb).linear() * before.n_W;
+    if (!Recollide(model, detect, c, p, disp, side, face_n, &found)) continue;
     p.p_A_W = found.p_A_W;
     p.p_B_W = found.p_B_W;
     p.n_W = found.n_W;
