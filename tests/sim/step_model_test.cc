@@ -233,6 +233,48 @@ TEST_P(StepModelTest, DenseResidualsAreTheSparseEvaluation) {
   EXPECT_THROW(frozen->EvaluateResiduals(z, other, x, StepInput{}, false), std::invalid_argument);
 }
 
+// The derivative along a state direction (StepModel::StateDirectionalDerivative: closed-form
+// contact rates where the shape pair has one, re-collision elsewhere) is the central difference
+// of Evaluate (every contact re-collided) at x_ℓ ± h s. Both are differences with h = 1e-7:
+// they agree to ~1e-11 here. (Evaluate's x_ℓ block times s is checked against both on box–box
+// stacks in box_box_state_jacobian_test.cc.)
+TEST_P(StepModelTest, DirectionalDerivativeMatchesRecollidedDifferences) {
+  const Case& c = GetParam();
+  const Simulator sim = Make(c);
+  const Params p = sim.DefaultParams();
+  const Trajectory tr = sim.Rollout(p, sim.InitialState(), c.steps);
+  ASSERT_TRUE(tr.ok) << tr.failure;
+  const Scene model = sim.scene().ApplyParams(p);
+  int k = c.steps - 1;
+  while (k > 0 && Freeze(sim.formulation(), model, p, tr.states[k])->num_contacts() == 0) --k;
+  const State& x = tr.states[k];
+  const auto frozen = Freeze(sim.formulation(), model, p, x);
+  const VectorXd z = frozen->UnknownsFromStep(tr.states[k + 1]);
+  const int nx = static_cast<int>(x.q.size() + x.v.size()), nq = static_cast<int>(x.q.size());
+  VectorXd s(nx);
+  for (int i = 0; i < nx; ++i) s[i] = std::sin(1.0 + 3.7 * i);  // a fixed generic direction
+  const double h = 1e-7;
+  const StepResiduals d = frozen->StateDirectionalDerivative(z, StepInput{}, s, h);
+  State xp = x, xm = x;
+  xp.q += h * s.head(nq);
+  xm.q -= h * s.head(nq);
+  xp.v += h * s.tail(nx - nq);
+  xm.v -= h * s.tail(nx - nq);
+  const Rows want =
+      Diff(frozen->Evaluate(z, p, xp, ValuesOnly()), frozen->Evaluate(z, p, xm, ValuesOnly()), h);
+  const auto expect_near = [&](const VectorXd& got, const VectorXd& ref, const char* what) {
+    ASSERT_EQ(got.size(), ref.size()) << what;
+    for (int i = 0; i < ref.size(); ++i)
+      EXPECT_NEAR(got[i], ref[i], 1e-6 * std::max(1.0, std::abs(ref[i]))) << what << " " << i;
+  };
+  expect_near(d.equality, want.e, "equality");
+  expect_near(d.comp_a, want.a, "comp_a");
+  expect_near(d.comp_b, want.b, "comp_b");
+  EXPECT_THROW(frozen->StateDirectionalDerivative(z, StepInput{}, s.head(nx - 1), 1e-7),
+               std::invalid_argument);
+  EXPECT_THROW(frozen->StateDirectionalDerivative(z, StepInput{}, s, 0.0), std::invalid_argument);
+}
+
 INSTANTIATE_TEST_SUITE_P(AllFormulations, StepModelTest, ::testing::ValuesIn(kCases),
                          [](const ::testing::TestParamInfo<Case>& i) { return i.param.name; });
 

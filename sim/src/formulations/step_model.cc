@@ -14,6 +14,7 @@
 #include "vinci/sim/formulations/ncp.h"
 #include "vinci/sim/formulations/quasistatic.h"
 #include "vinci/sim/formulations/stewart_trinkle.h"
+#include "vinci/sim/geometry/contact_rate.h"
 #include "vinci/sim/model/kinematics.h"
 
 namespace vinci::sim {
@@ -48,8 +49,14 @@ std::vector<BodyKinematics> DetectionKinematics(const Scene& model, const State&
 // (a rolling disc's contact stays at its bottom) and normals follow the face that carries them.
 // False if no candidate is within 10× the witness points' rigid displacement `disp` (another
 // feature would be taken): the rigid motion is kept then.
+// `side`: a polytope vertex–face contact keeps its vertex (ClassifyPolytopeContact): only
+// candidates whose witness on that side is the rigidly moved vertex and whose normal is
+// `face_n_W` (the face normal moved with the face's body) are taken, so the features cannot
+// switch with the direction of the move (flush boxes, where a's vertex on b's face and b's vertex
+// on a's face coincide, and a vertex just past the face's edge also has vertex–edge candidates).
 bool Recollide(const Scene& model, const std::vector<BodyKinematics>& k, const Contact& c,
-               const ContactPoint& moved, double disp, ContactPoint* out) {
+               const ContactPoint& moved, double disp, VertexSide side, const Vector3d& face_n_W,
+               ContactPoint* out) {
   const Shape& sa = model.bodies[c.body_a].shapes[c.shape_a];
   const Shape& sb = model.bodies[c.body_b].shapes[c.shape_b];
   const double envelope = model.options.envelope + std::max(0.0, moved.gap) + disp;
@@ -67,14 +74,18 @@ bool Recollide(const Scene& model, const std::vector<BodyKinematics>& k, const C
     points.push_back(second);
   }
   double best = std::numeric_limits<double>::infinity();
+  const double scale = moved.p_A_W.norm() + moved.p_B_W.norm();
+  const double vertex_tol = 1e-9 * (1.0 + scale);
   for (const ContactPoint& p : points) {
+    if (side == VertexSide::kA && (p.p_A_W - moved.p_A_W).norm() > vertex_tol) continue;
+    if (side == VertexSide::kB && (p.p_B_W - moved.p_B_W).norm() > vertex_tol) continue;
+    if (side != VertexSide::kNone && (p.n_W - face_n_W).norm() > 1e-9) continue;
     const double d = (p.p_A_W - moved.p_A_W).norm() + (p.p_B_W - moved.p_B_W).norm();
     if (d < best && p.n_W.dot(moved.n_W) > 0.9) {
       best = d;
       *out = p;
     }
   }
-  const double scale = moved.p_A_W.norm() + moved.p_B_W.norm();
   return best <= 10.0 * disp + 1e-12 * scale;
 }
 
@@ -83,9 +94,11 @@ bool Recollide(const Scene& model, const std::vector<BodyKinematics>& k, const C
 // finds none, and for corner contacts), gaps by the change of n·(p_A − p_B); μ from `model`. At
 // the freeze pose the contacts are returned unchanged.
 // `k0`: ComputeBodyKinematics(model, x0), if the caller has it (null: computed here).
+// `sides`: per frozen contact, the vertex it keeps (FrozenSides; null: none).
 std::vector<Contact> MoveContacts(const Scene& model, const std::vector<Contact>& frozen,
                                   const State& x0, const State& x, double h,
-                                  const std::vector<BodyKinematics>* k0_known = nullptr) {
+                                  const std::vector<BodyKinematics>* k0_known = nullptr,
+                                  const std::vector<PolytopeFeature>* sides = nullptr) {
   std::vector<Contact> out = frozen;
   for (Contact& c : out)
     c.mu = model.Mu(model.bodies[c.body_a].shapes[c.shape_a].material,
@@ -104,7 +117,8 @@ std::vector<Contact> MoveContacts(const Scene& model, const std::vector<Contact>
     *n = Tb.linear() * *n;
     *gap += n->dot(*pa - *pb) - before;
   };
-  for (Contact& c : out) {
+  for (std::size_t i = 0; i < out.size(); ++i) {
+    Contact& c = out[i];
     ContactPoint& p = c.point;
     const Isometry3d& Ta = T[c.body_a];
     const Isometry3d& Tb = T[c.body_b];
@@ -117,7 +131,10 @@ std::vector<Contact> MoveContacts(const Scene& model, const std::vector<Contact>
     move(Ta, Tb, &p.p_A_W, &p.p_B_W, &p.n_W, &p.gap);
     const double disp = (p.p_A_W - before.p_A_W).norm() + (p.p_B_W - before.p_B_W).norm();
     ContactPoint found;
-    if (!Recollide(model, detect, c, p, disp, &found)) continue;
+    const VertexSide side = sides ? (*sides)[i].side : VertexSide::kNone;
+    // The face normal moves with the body carrying the face (b's for a's vertex, a's for b's).
+    const Vector3d face_n = (side == VertexSide::kB ? Ta : Tb).linear() * before.n_W;
+    if (!Recollide(model, detect, c, p, disp, side, face_n, &found)) continue;
     p.p_A_W = found.p_A_W;
     p.p_B_W = found.p_B_W;
     p.n_W = found.n_W;
@@ -134,6 +151,90 @@ std::string Sizes(const char* what, Eigen::Index got, Eigen::Index want) {
 
 // --- Stewart–Trinkle, Anitescu–Potra, first order -----------------------------------------------
 
+// The rigid motion rate of each body along the state direction s at the poses k0 (x_ℓ): dynamic
+// bodies from s's q block (planar [x, y, θ]; spatial [p, raw quaternion Q], R(Q/|Q|), so
+// ω = 2 vec(u̇ ⊗ ū) with u̇ = (I − u uᵀ) Q̇ / |Q|), prescribed and static ones at rest (time is
+// fixed at the freeze).
+std::vector<BodyRate> BodyRates(const Scene& model, const State& x0,
+                                const std::vector<BodyKinematics>& k0, const VectorXd& s) {
+  std::vector<BodyRate> rates(model.bodies.size());
+  for (std::size_t i = 0; i < rates.size(); ++i) rates[i].o_W = k0[i].X_WB.translation();
+  for (int bi : model.dynamic_bodies()) {
+    const int o = model.index(bi).q;
+    BodyRate& r = rates[bi];
+    if (model.dim == Dim::kPlanar) {
+      r.v_W = Vector3d(s[o], s[o + 1], 0.0);
+      r.w_W = Vector3d(0.0, 0.0, s[o + 2]);
+      continue;
+    }
+    r.v_W = s.segment<3>(o);
+    const Eigen::Vector4d Q = x0.q.segment<4>(o + 3), dQ = s.segment<4>(o + 3);
+    const double norm = Q.norm();
+    const Eigen::Vector4d u = Q / norm, du = (dQ - u * u.dot(dQ)) / norm;
+    const Quaterniond uq(u[0], u[1], u[2], u[3]), duq(du[0], du[1], du[2], du[3]);
+    r.w_W = 2.0 * (duq * uq.conjugate()).vec();
+  }
+  return rates;
+}
+
+// The frozen contacts at x = x0 + t s: those whose shape pair has a closed-form rate
+// (geometry/contact_rate.h) moved to first order, c + t ċ (central differences along s then
+// give the derivative of the re-collided contacts to O(t²)); the others as MoveContacts. μ from
+// `model`. `k0`: ComputeBodyKinematics(model, x0).
+std::vector<Contact> MoveContactsAlong(const Scene& model, const std::vector<Contact>& frozen,
+                                       const State& x0, const State& x, const VectorXd& s, double t,
+                                       double h, const std::vector<BodyKinematics>& k0,
+                                       const std::vector<PolytopeFeature>& sides) {
+  const std::vector<BodyRate> rates = BodyRates(model, x0, k0, s);
+  std::vector<Contact> out = frozen;
+  std::vector<char> moved(out.size(), 0);
+  bool all = true;
+  for (std::size_t i = 0; i < out.size(); ++i) {
+    Contact& c = out[i];
+    const Shape& sa = model.bodies[c.body_a].shapes[c.shape_a];
+    const Shape& sb = model.bodies[c.body_b].shapes[c.shape_b];
+    c.mu = model.Mu(sa.material, sb.material);
+    ContactPointRate d;
+    if (!VertexFaceRate(sides[i].side, c.point, rates[c.body_a], rates[c.body_b], &d) &&
+        !EdgeEdgeRate(sides[i], c.point, rates[c.body_a], rates[c.body_b], &d) &&
+        !ContactRate(sa, sb, c.point, rates[c.body_a], rates[c.body_b], &d)) {
+      all = false;
+      continue;
+    }
+    ContactPoint& p = c.point;
+    p.p_A_W += t * d.p_A_W;
+    p.p_B_W += t * d.p_B_W;
+    p.n_W += t * d.n_W;
+    p.gap += t * d.gap;
+    moved[i] = 1;
+  }
+  if (all) return out;
+  const std::vector<Contact> recollided = MoveContacts(model, frozen, x0, x, h, &k0, &sides);
+  for (std::size_t i = 0; i < out.size(); ++i)
+    if (!moved[i]) out[i] = recollided[i];
+  return out;
+}
+
+// Per frozen contact at the poses k0: the vertex a polytope vertex–face contact keeps
+// (ClassifyPolytopeContact); *near counts those whose face witness lies within kNearFeature of
+// its face's boundary (the features switch within that move: a kink of the step in x_ℓ).
+constexpr double kNearFeature = 1e-6;  // m; the state columns' near-kink radius (sensitivity.h)
+std::vector<PolytopeFeature> FrozenSides(const Scene& model, const std::vector<Contact>& contacts,
+                                         const std::vector<BodyKinematics>& k0, int* near) {
+  std::vector<PolytopeFeature> sides(contacts.size());
+  *near = 0;
+  for (std::size_t i = 0; i < contacts.size(); ++i) {
+    const Contact& c = contacts[i];
+    const Shape& sa = model.bodies[c.body_a].shapes[c.shape_a];
+    const Shape& sb = model.bodies[c.body_b].shapes[c.shape_b];
+    const PolytopeFeature f = ClassifyPolytopeContact(
+        sa, k0[c.body_a].X_WB * sa.X_BS, sb, k0[c.body_b].X_WB * sb.X_BS, c.point, kNearFeature);
+    sides[i] = f;
+    *near += f.near_face_boundary;
+  }
+  return sides;
+}
+
 class StewartTrinkleModel final : public StepModel {
  public:
   StewartTrinkleModel(const StewartTrinkle& st, std::shared_ptr<const Scene> model, Params params,
@@ -145,6 +246,7 @@ class StewartTrinkleModel final : public StepModel {
     freeze_ = st_.Assemble(*model_, x_, u_);
     contacts_ = freeze_.contacts;
     k0_ = ComputeBodyKinematics(*model_, x_);
+    sides_ = FrozenSides(*model_, contacts_, k0_, &feature_kinks_);
     const StewartTrinkle::Assembly& a = freeze_;
     lcp_size_ = a.psi_n.size() * (2 + a.nd) + a.support.points() + a.support.columns() +
                 static_cast<Eigen::Index>(a.corner_contact.size());
@@ -161,6 +263,14 @@ class StewartTrinkleModel final : public StepModel {
     if (&model == model_.get() && SameStateAndInput(x, u, x_, u_))
       return st_.EvaluateAssembly(model, theta, freeze_, x, z, jacobians);
     return st_.EvaluateAssembly(model, theta, AssembleAt(model, x, u), x, z, jacobians);
+  }
+  StepResiduals ResidualsAlong(const VectorXd& z, const StepInput& u, const VectorXd& s,
+                               double t) const override {
+    const State x = StateAlong(s, t);
+    const StewartTrinkle::Assembly a = st_.AssembleAt(
+        *model_, x, u, MoveContactsAlong(*model_, contacts_, x_, x, s, t, dt_, k0_, sides_),
+        /*select_corner_edges=*/false);
+    return st_.EvaluateAssembly(*model_, params_, a, x, z, false);
   }
   VectorXd Unknowns(const State& next) const override {
     const StepLayout& l = layout_;
@@ -189,13 +299,14 @@ class StewartTrinkleModel final : public StepModel {
  private:
   StewartTrinkle::Assembly AssembleAt(const Scene& model, const State& x,
                                       const StepInput& u) const {
-    return st_.AssembleAt(model, x, u, MoveContacts(model, contacts_, x_, x, dt_, &k0_),
+    return st_.AssembleAt(model, x, u, MoveContacts(model, contacts_, x_, x, dt_, &k0_, &sides_),
                           /*select_corner_edges=*/false);
   }
   const StewartTrinkle& st_;
   std::vector<Contact> contacts_;
-  std::vector<BodyKinematics> k0_;   // at x_
-  StewartTrinkle::Assembly freeze_;  // at (model_, x_, u_)
+  std::vector<BodyKinematics> k0_;      // at x_
+  std::vector<PolytopeFeature> sides_;  // per contact: the vertex a box–box contact keeps
+  StewartTrinkle::Assembly freeze_;     // at (model_, x_, u_)
   Eigen::Index lcp_size_ = 0;
   MatrixXd G_b_;
 };
@@ -212,6 +323,8 @@ class NcpModel final : public StepModel {
     freeze_ = ncp_.assembler().Assemble(*model_, x_, u_);  // as StewartTrinkleModel
     contacts_ = freeze_.contacts;
     G_b_ = freeze_.G_b;
+    k0_ = ComputeBodyKinematics(*model_, x_);
+    sides_ = FrozenSides(*model_, contacts_, k0_, &feature_kinks_);
     Init(ncp_.Layout(*model_, x_).size());  // the contact set at x_ℓ is the frozen one
   }
 
@@ -221,6 +334,16 @@ class NcpModel final : public StepModel {
     if (&model == model_.get() && SameStateAndInput(x, u, x_, u_))
       return ncp_.EvaluateAssembly(model, theta, freeze_, x, z);
     return ncp_.EvaluateAssembly(model, theta, AssembleAt(model, x, u), x, z);
+  }
+  StepResiduals ResidualsAlong(const VectorXd& z, const StepInput& u, const VectorXd& s,
+                               double t) const override {
+    const State x = StateAlong(s, t);
+    return ncp_.EvaluateAssembly(
+        *model_, params_,
+        ncp_.assembler().AssembleAt(
+            *model_, x, u, MoveContactsAlong(*model_, contacts_, x_, x, s, t, dt_, k0_, sides_),
+            /*select_corner_edges=*/false),
+        x, z);
   }
   // The MCP solution [p_n (nc); (p_t, p_o) per contact (2 nc); σ (nc)] is z's p_n, p_f, σ.
   VectorXd Unknowns(const State& next) const override {
@@ -243,12 +366,15 @@ class NcpModel final : public StepModel {
  private:
   StewartTrinkle::Assembly AssembleAt(const Scene& model, const State& x,
                                       const StepInput& u) const {
-    return ncp_.assembler().AssembleAt(model, x, u, MoveContacts(model, contacts_, x_, x, dt_),
+    return ncp_.assembler().AssembleAt(model, x, u,
+                                       MoveContacts(model, contacts_, x_, x, dt_, &k0_, &sides_),
                                        /*select_corner_edges=*/false);
   }
   const NcpStepper& ncp_;
   std::vector<Contact> contacts_;
-  StewartTrinkle::Assembly freeze_;  // at (model_, x_, u_)
+  std::vector<BodyKinematics> k0_;      // at x_
+  std::vector<PolytopeFeature> sides_;  // per contact: the vertex a box–box contact keeps
+  StewartTrinkle::Assembly freeze_;     // at (model_, x_, u_)
   MatrixXd G_b_;
 };
 
@@ -431,6 +557,37 @@ StepModelValues StepModel::Evaluate(const VectorXd& z, const Params& theta, cons
   out.d_comp_a.d_x = Da.sparseView(0.0, 0.0);
   out.d_comp_b.d_x = Db.sparseView(0.0, 0.0);
   return out;
+}
+
+State StepModel::StateAlong(const VectorXd& s, double t) const {
+  State x = x_;
+  const Eigen::Index nq = x.q.size();
+  x.q += t * s.head(nq);
+  x.v += t * s.tail(s.size() - nq);
+  return x;
+}
+
+StepResiduals StepModel::ResidualsAlong(const VectorXd& z, const StepInput& u, const VectorXd& s,
+                                        double t) const {
+  return Residuals(*model_, params_, StateAlong(s, t), u, z, false);
+}
+
+StepResiduals StepModel::StateDirectionalDerivative(const VectorXd& z, const StepInput& u,
+                                                    const VectorXd& s, double step) const {
+  if (z.size() != layout_.size())
+    throw std::invalid_argument("StepModel::StateDirectionalDerivative: z " +
+                                Sizes("", z.size(), layout_.size()));
+  if (s.size() != x_.q.size() + x_.v.size())
+    throw std::invalid_argument("StepModel::StateDirectionalDerivative: s " +
+                                Sizes("", s.size(), x_.q.size() + x_.v.size()));
+  if (!(step > 0.0))
+    throw std::invalid_argument("StepModel::StateDirectionalDerivative: step must be > 0");
+  StepResiduals p = ResidualsAlong(z, u, s, step);
+  const StepResiduals m = ResidualsAlong(z, u, s, -step);
+  p.equality = (p.equality - m.equality) / (2 * step);
+  p.comp_a = (p.comp_a - m.comp_a) / (2 * step);
+  p.comp_b = (p.comp_b - m.comp_b) / (2 * step);
+  return p;
 }
 
 StepResiduals StepModel::EvaluateResiduals(const VectorXd& z, const Params& theta, const State& x,

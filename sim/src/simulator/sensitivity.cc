@@ -145,27 +145,20 @@ class StepDifferentiator {
       }
     }
     if (full_state) {
-      // ∂r/∂x_ℓ by central differences of the frozen equations (values only), as
-      // StepModel::Evaluate's x_ℓ block: step state_step · max(1, |x_i|).
+      // ∂r/∂x_ℓ by central differences of the frozen equations (values only) along each
+      // coordinate, as StepModel::Evaluate's x_ℓ block: step state_step · max(1, |x_i|).
       const int nq = static_cast<int>(x.q.size()), n = nx();
       d_eq_x_.resize(vals_.equality.size(), n);
       d_a_x_.resize(vals_.comp_a.size(), n);
       d_b_x_.resize(vals_.comp_b.size(), n);
-      State xp = x, xm = x;
       for (int j = 0; j < n; ++j) {
-        double& cp = j < nq ? xp.q[j] : xp.v[j - nq];
-        double& cm = j < nq ? xm.q[j] : xm.v[j - nq];
-        const double c0 = cp;
+        const double c0 = j < nq ? x.q[j] : x.v[j - nq];
         const double step = options.state_step * std::max(1.0, std::abs(c0));
-        cp = c0 + step;
-        cm = c0 - step;
-        const StepResiduals rp = frozen_->EvaluateResiduals(z_, params, xp, u, false);
-        const StepResiduals rm = frozen_->EvaluateResiduals(z_, params, xm, u, false);
-        d_eq_x_.col(j) = (rp.equality - rm.equality) / (2 * step);
-        d_a_x_.col(j) = (rp.comp_a - rm.comp_a) / (2 * step);
-        d_b_x_.col(j) = (rp.comp_b - rm.comp_b) / (2 * step);
-        cp = c0;
-        cm = c0;
+        const StepResiduals d =
+            frozen_->StateDirectionalDerivative(z_, u, VectorXd::Unit(n, j), step);
+        d_eq_x_.col(j) = d.equality;
+        d_a_x_.col(j) = d.comp_a;
+        d_b_x_.col(j) = d.comp_b;
       }
     }
     // A mode change within the step: the contact set found at the end differs. GI finds its
@@ -183,6 +176,7 @@ class StepDifferentiator {
   bool ok() const { return ok_; }
   const std::string& message() const { return message_; }
   int degenerate() const { return lin_ ? lin_->degenerate() : 0; }
+  int feature_kinks() const { return frozen_ ? frozen_->feature_kinks() : 0; }
   bool contact_set_changed() const { return contact_set_changed_; }
   int nx() const { return static_cast<int>(x_.q.size() + x_.v.size()); }
 
@@ -254,20 +248,16 @@ class StepDifferentiator {
     ResidualColumn r;
     const double sn = s.cwiseAbs().maxCoeff();
     if (!(sn > 0.0)) return ZeroColumn();
-    const int nq = static_cast<int>(x_.q.size());
     double xn = std::max(x_.q.size() ? x_.q.cwiseAbs().maxCoeff() : 0.0,
                          x_.v.size() ? x_.v.cwiseAbs().maxCoeff() : 0.0);
-    const double h = options_.state_step * std::max(1.0, xn) / sn;
-    State xp = x_, xm = x_;
-    xp.q += h * s.head(nq);
-    xm.q -= h * s.head(nq);
-    xp.v += h * s.tail(s.size() - nq);
-    xm.v -= h * s.tail(s.size() - nq);
-    const StepResiduals p = frozen_->EvaluateResiduals(z_, params_, xp, u_, false);
-    const StepResiduals m = frozen_->EvaluateResiduals(z_, params_, xm, u_, false);
-    r.eq = (p.equality - m.equality) / (2 * h);
-    r.a = (p.comp_a - m.comp_a) / (2 * h);
-    r.b = (p.comp_b - m.comp_b) / (2 * h);
+    // Along the unit direction s / |s|_∞, scaled back: a step h / |s|_∞ overflows to ∞ for a
+    // carried column that decayed to denormals (~1e-317), and ∞ · 0 poisons the state with NaN.
+    const double h = options_.state_step * std::max(1.0, xn);
+    // Contacts with a closed-form rate move along it instead of being re-collided.
+    const StepResiduals d = frozen_->StateDirectionalDerivative(z_, u_, s / sn, h);
+    r.eq = sn * d.equality;
+    r.a = sn * d.comp_a;
+    r.b = sn * d.comp_b;
     return r;
   }
 
@@ -411,6 +401,10 @@ std::string Describe(const StepDifferentiator& d, int unsolved, int kinks) {
     m += std::string(m.empty() ? "" : "; ") + std::to_string(kinks) +
          " column(s) whose active set holds only within a perturbation below 1e-6 (near-singular "
          "active block: the derivative of the step's own branch)";
+  if (d.feature_kinks() > 0)
+    m += std::string(m.empty() ? "" : "; ") + std::to_string(d.feature_kinks()) +
+         " contact(s) at a feature switch (a vertex on another polytope's face edge or vertex: "
+         "the derivative of the features found at x_l, held)";
   return m;
 }
 
@@ -484,7 +478,8 @@ StepSensitivity StepDerivatives(const Simulator& sim, const Params& params,
   out.unsolved_columns = unsolved;
   out.near_kink_columns = kinks;
   out.contact_set_changed = changed;
-  out.status = Classify(failed, changed, d.degenerate() + kinks);
+  out.feature_kink_contacts = d.feature_kinks();
+  out.status = Classify(failed, changed, d.degenerate() + kinks + d.feature_kinks());
   out.message = failed ? "the active system is inconsistent along some column (NaN)"
                        : Describe(d, unsolved, kinks);
   return out;
@@ -542,7 +537,8 @@ StepSensitivity PropagateStep(const Simulator& sim, const Params& params,
   st.unsolved_columns = unsolved;
   st.near_kink_columns = kinks;
   st.contact_set_changed = changed;
-  st.status = Classify(failed, changed, d.degenerate() + kinks);
+  st.feature_kink_contacts = d.feature_kinks();
+  st.status = Classify(failed, changed, d.degenerate() + kinks + d.feature_kinks());
   st.message = failed ? "the active system is inconsistent along some column (NaN)"
                       : Describe(d, unsolved, kinks);
   return st;

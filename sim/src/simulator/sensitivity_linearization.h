@@ -214,6 +214,15 @@ class Linearization {
     for (int k = 0; k < N.cols(); ++k) {
       const double nn = N.col(k).cwiseAbs().maxCoeff();
       if (!(nn > 0.0) || N.col(k).head(nx_rows).cwiseAbs().maxCoeff() > 1e-10 * nn) continue;
+      // A sign can gain only if the degenerate pairs' rates B_D n are all ≥ −eps along it and
+      // some > eps: screened on the degenerate rows alone before the full products below (a
+      // resting box's null vectors redistribute normal impulses and move no degenerate pair).
+      // Until a move changes which pairs are degenerate (side[]), BD_'s rows are exactly those.
+      if (!moved) {
+        const VectorXd rd = BD_ * (N.col(k) / nn);
+        const double lo = rd.size() ? rd.minCoeff() : 0.0, hi = rd.size() ? rd.maxCoeff() : 0.0;
+        if ((hi <= 1e-9 && lo >= -1e-9) || (hi > 1e-9 && lo < -1e-9)) continue;
+      }
       for (double sign : {1.0, -1.0}) {
         const VectorXd n = sign * N.col(k) / nn;
         const VectorXd ra = A_ * n, rb = B_ * n;

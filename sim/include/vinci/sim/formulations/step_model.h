@@ -14,7 +14,10 @@
 // points and normal are those the collision routine finds at x for the same pair of shapes,
 // nearest the rigidly moved ones (so a rolling disc's contact point stays at its bottom and a
 // normal follows the face that carries it; rigidly moved — points with their bodies, normal(s)
-// with body B — for corner contacts and where no such contact is found), and its gap becomes
+// with body B — for corner contacts and where no such contact is found; a polytope vertex–face
+// contact, e.g. box on box, keeps its vertex: only candidates at that rigidly moved vertex are
+// taken, so flush boxes, where "a's vertex on b's face" and "b's vertex on a's face" coincide,
+// do not switch features with the direction of the move), and its gap becomes
 //   ψ(x) = ψ_ℓ + n(x)·(p_A(x) − p_B(x)) − n_ℓ·(p_A,ℓ − p_B,ℓ),
 // which has the exact first derivative of the signed distance for any contact whose features
 // stay active. The contact Jacobians G(x) then have the derivatives of the re-detected ones.
@@ -79,6 +82,12 @@ class StepModel {
   const StepInput& input() const { return u_; }
   /// Contacts (GI: candidate pairs) held fixed.
   int num_contacts() const { return layout_.nc; }
+  /// Frozen contacts at a feature switch of the contact geometry (Stewart–Trinkle family and
+  /// NCP; 0 otherwise): polytope vertex–face contacts whose face witness lies within 1e-6 m of
+  /// that face's boundary — e.g. flush equal boxes, a vertex of one on a vertex of the other.
+  /// The frozen model holds each such contact's vertex (smooth in x_ℓ), but the collision
+  /// routine at a moved x_ℓ may report other features there: the step is one-sided in x_ℓ.
+  int feature_kinks() const { return feature_kinks_; }
 
   /// The step equations at (z, θ, x_ℓ) with the frozen input. Throws std::invalid_argument for
   /// sizes that do not match (z: layout().size(); θ: the scene's ParamTable; x: the scene's
@@ -97,6 +106,16 @@ class StepModel {
   /// than the freeze parameters or x.t ≠ x_freeze().t.
   StepResiduals EvaluateResiduals(const VectorXd& z, const Params& theta, const State& x,
                                   const StepInput& u, bool jacobians) const;
+
+  /// ∂r/∂x_ℓ · s at (z, the freeze parameters, x_freeze(), u): central differences of the
+  /// frozen equations along s = [q; ν] direction with step `step` (values only: the value fields
+  /// of the result hold the derivative, the Jacobians are empty). Stewart–Trinkle family and
+  /// NCP: contacts whose shape pair has a closed-form rate (geometry/contact_rate.h) move along
+  /// it, c ± step ċ — the derivative of the re-collided contacts, to O(step²) — and are not
+  /// re-collided; the others are, as in Evaluate. Throws std::invalid_argument for sizes that
+  /// do not match or step ≤ 0.
+  StepResiduals StateDirectionalDerivative(const VectorXd& z, const StepInput& u, const VectorXd& s,
+                                           double step) const;
 
   /// The unknowns z of a step the simulator took from x_freeze() to `next` (read from next.q,
   /// next.v and next.warm_start, the step's solver solution; impulses the solver eliminates,
@@ -122,6 +141,11 @@ class StepModel {
   /// `jacobians` false: the values are enough (a model may skip the Jacobians then).
   virtual StepResiduals Residuals(const Scene& model, const Params& theta, const State& x,
                                   const StepInput& u, const VectorXd& z, bool jacobians) const = 0;
+  /// The residual values at x_freeze() + t s with the freeze θ (default: Residuals there).
+  virtual StepResiduals ResidualsAlong(const VectorXd& z, const StepInput& u, const VectorXd& s,
+                                       double t) const;
+  /// x_freeze() + t s (s = [q; ν] direction).
+  State StateAlong(const VectorXd& s, double t) const;
   virtual VectorXd Unknowns(const State& next) const = 0;
   virtual VectorXd WarmStart(const VectorXd& z) const = 0;
   /// ν_ℓ+1, q_ℓ+1 written from z with start state x (default: the z blocks; GI overrides).
@@ -136,6 +160,7 @@ class StepModel {
   double dt_ = 0.0;
   StepLayout layout_;
   std::vector<int> param_columns_;
+  int feature_kinks_ = 0;
 };
 
 /// Freezes `formulation`'s step at x (contacts / GI pairs found once at x). `model` is the scene

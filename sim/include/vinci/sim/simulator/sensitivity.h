@@ -99,6 +99,11 @@ struct StepSensitivity {
   /// of the step's own branch, which any practically perturbed step has left. The step is
   /// flagged kDegenerate.
   int near_kink_columns = 0;
+  /// Contacts at a feature switch of the contact geometry (StepModel::feature_kinks(): a box's
+  /// vertex on another box's face edge or vertex, e.g. flush equal boxes): the derivative is
+  /// that of the features the collision routine chose at x_ℓ (held fixed); a move of x_ℓ by
+  /// ~1e-6 m can make it report others. The step is flagged kDegenerate.
+  int feature_kink_contacts = 0;
   bool contact_set_changed = false;
   std::string message;  ///< what was degenerate, changed or failed
 };
