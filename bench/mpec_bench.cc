@@ -3,7 +3,11 @@
 // plate (μ = 0.2), without and with noise — for both complementarity treatments and 1 / 2
 // threads (checking that the two give bit-identical estimates). Prints a table (and writes it as
 // CSV with --csv FILE). --quick: 50 samples, one configuration (the ctest smoke run);
-// --case NAME: only that case (block, block_noisy, plate, plate_noisy).
+// --case NAME: only that case (block, block_noisy, plate, plate_noisy); --method scholtes|penalty;
+// --threads 1,2; --raw-guess: the initial guess from the raw log (MpecOptions::
+// smooth_initial_guess off); --penalty START (the first ρ); --epsilon START FACTOR; --stall N.
+// Unknown flags are ignored. Environment: MPEC_BENCH_VERBOSE=1 (progress lines),
+// MPEC_BENCH_IPOPT_PRINT=N (Ipopt's print_level), MPEC_BENCH_SAMPLES=N (N samples instead of 500).
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -72,8 +76,12 @@ int main(int argc, char** argv) {
   std::vector<int> thread_counts{1, 2};
   double epsilon_start = 0.0, epsilon_factor = 0.0;  // 0: the estimator's defaults
   int stall = -1;                                    // < 0: the estimator's default
+  double penalty_start = 0.0;  // --penalty START: MpecSolverOptions::penalty_start (0: default)
+  bool raw_guess = false;      // --raw-guess: MpecOptions::smooth_initial_guess off
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--quick")) quick = true;
+    if (!std::strcmp(argv[i], "--raw-guess")) raw_guess = true;
+    if (!std::strcmp(argv[i], "--penalty") && i + 1 < argc) penalty_start = std::atof(argv[++i]);
     if (!std::strcmp(argv[i], "--csv") && i + 1 < argc) csv = argv[++i];
     if (!std::strcmp(argv[i], "--case") && i + 1 < argc) only = argv[++i];
     if (!std::strcmp(argv[i], "--method") && i + 1 < argc) only_method = argv[++i];
@@ -92,7 +100,9 @@ int main(int argc, char** argv) {
       }
     }
   }
-  const int samples = quick ? 50 : 500;
+  // MPEC_BENCH_SAMPLES=N: N samples instead of 500 (experiments).
+  const char* ns = std::getenv("MPEC_BENCH_SAMPLES");
+  const int samples = quick ? 50 : ns ? std::atoi(ns) : 500;
   const std::string dir = std::filesystem::temp_directory_path().string();
   struct Case {
     const char* name;
@@ -133,6 +143,10 @@ int main(int argc, char** argv) {
         o.noise_sigma = c.sigma > 0 ? c.sigma : (c.plate ? 1e-4 : 1e-3);
         o.threads = threads;
         o.solver.method = method;
+        o.smooth_initial_guess = !raw_guess;
+        if (const char* pl = std::getenv("MPEC_BENCH_IPOPT_PRINT"))
+          o.solver.print_level = std::atoi(pl);
+        if (penalty_start > 0) o.solver.penalty_start = penalty_start;
         if (epsilon_start > 0) o.solver.epsilon_start = epsilon_start;
         if (epsilon_factor > 0) o.solver.epsilon_factor = epsilon_factor;
         if (stall >= 0) o.solver.stall_iterations = stall;

@@ -26,7 +26,8 @@
 // the full study (20 trials); --trials and --methods cut it down (scripts/estimation_studies.sh
 // runs all four studies). --threads N (default 1) is passed to lsq/lsq_ms (episodes in
 // parallel) and mpec/mpec_pen (steps in parallel); --mpec-substeps N (default 0: the scene's
-// dt) the MPEC's steps per log interval (MpecOptions::substeps). Plots:
+// dt) the MPEC's steps per log interval (MpecOptions::substeps); --mpec-raw-guess 1 the MPEC's
+// initial guess from the raw log (MpecOptions::smooth_initial_guess off). Plots:
 // scripts/plot_estimation_study.py FILE.csv.
 //
 // To add a method, add one line to Methods() below.
@@ -64,6 +65,9 @@ using Estimator = std::function<EstimateResult(const sim::Simulator&, const Log&
 int g_threads = 1;
 // MPEC steps per log interval (MpecOptions::substeps; 0: the scene's dt); --mpec-substeps.
 int g_mpec_substeps = 0;
+// --mpec-raw-guess: the MPEC's initial guess from the raw log (MpecOptions::smooth_initial_guess
+// off; the estimator before 2026-11-25's smoothing, for comparisons).
+bool g_mpec_raw_guess = false;
 // --verbose 1: the MPEC's progress lines (setup, each NLP) on stderr; ≥ 2: also Ipopt's output
 // at that print_level.
 int g_verbose = 0;
@@ -89,6 +93,7 @@ std::vector<std::pair<std::string, Estimator>> Methods() {
       o.solver.method = method;
       o.threads = g_threads;
       o.substeps = g_mpec_substeps;
+      o.smooth_initial_guess = !g_mpec_raw_guess;
       if (g_verbose > 0)
         o.progress = [](const std::string& line) { std::cerr << "  " << line << "\n"; };
       if (g_verbose > 1) o.solver.print_level = g_verbose;
@@ -259,7 +264,8 @@ constexpr const char* kUsage =
     "usage: estimation_study plate|particles|block|cube [--trials N] [--first-trial K]\n"
     "         [--noise S1,S2] [--windows W1,W2] [--particles N1,N2] [--episodes N]\n"
     "         [--methods lsq,lsq_ms,filter,mpec,mpec_pen] [--guess MU] [--threads N]\n"
-    "         [--mpec-substeps N] [--verbose 0|1|IPOPT_PRINT_LEVEL] [--out F.csv]\n";
+    "         [--mpec-substeps N] [--mpec-raw-guess 1] [--verbose 0|1|IPOPT_PRINT_LEVEL] [--out "
+    "F.csv]\n";
 
 int Run(int argc, char** argv) {
   if (argc < 2 || std::string(argv[1]) == "--help") {
@@ -330,6 +336,8 @@ int Run(int argc, char** argv) {
       method_names = ParseNames(value);
     } else if (flag == "--threads") {
       g_threads = std::stoi(value);
+    } else if (flag == "--mpec-raw-guess") {
+      g_mpec_raw_guess = value != "0";
     } else if (flag == "--mpec-substeps") {
       g_mpec_substeps = std::stoi(value);
     } else if (flag == "--verbose") {

@@ -87,6 +87,9 @@ struct MpecOptions {
   /// problem k/N times smaller for a log every k-th step, at the cost of the model error of the
   /// coarser step (docs/estimation.md, "Time grid").
   int substeps = 0;
+  /// Initial guess of the states from the log smoothed by local quadratic fits whose width is
+  /// chosen from the log's own noise (an exact log is used as is); false: the raw poses.
+  bool smooth_initial_guess = true;
   int threads = 1;  ///< threads evaluating the step equations (the result is bitwise the same)
   /// Bootstrap over episodes: with B > 0 and at least two episodes, the estimation is repeated
   /// on B resamples of the episodes (drawn with replacement, seeded by bootstrap_seed), each
