@@ -7,6 +7,7 @@ and the first two harmonics of z and yaw, within the issue's actuator limits.
 usage: scripts/circle_rich_search.py symmetric [--frequencies 20,25,30] [--alphas 35,44.5]
        scripts/circle_rich_search.py refine --start SCENE.yaml [--extras z,yaw,2,3,z4] [--evals N]
                                      [--write-scene OUT.yaml] [--frequency F] [--exact]
+                                     [--normal-lag]
        scripts/circle_rich_search.py de [--frequency F] [--generations N] [--popsize P]
        scripts/circle_rich_search.py tradeoff [--frequencies 20,30] [--ratios 1.0,1.25,1.5]
 
@@ -40,6 +41,7 @@ import plate_point_model as pm
 
 DT = 1.0 / 4800.0
 EXACT = [False]  # --exact: the vertical limit on the peak itself (vertical_peak: exact)
+NORMAL_LAG = [False]  # --normal-lag: the normal force from the acceleration at the step's start
 
 
 def exact_peak(motion, f, samples=512):
@@ -83,6 +85,8 @@ def fields(motions, f, cycles=20, average=5):
     angle = {d: np.zeros((t.size, P, 1)) for d in ("roll", "pitch")}
     for j, m in enumerate(motions):
         r_, a_, g_ = pm.plate_signals(m, t, f)
+        if NORMAL_LAG[0]:
+            a_ = pm.plate_signals(m, t - h, f)[1]
         for d in pm.DOFS:
             rate[d][:, j, 0] = r_[d]
             acc[d][:, j, 0] = a_[d]
@@ -361,8 +365,13 @@ def main():
     ap.add_argument("--exact", action="store_true",
                     help="refine, de: the vertical limit on the plate's peak normal acceleration "
                     "itself (the spec's vertical_peak: exact) instead of the default bound")
+    ap.add_argument("--normal-lag", action="store_true",
+                    help="the model's normal force from the plate's acceleration at the start of "
+                    "each step, as the simulator's normal impulse (plate_point_model.py "
+                    "--normal-lag; docs/planning.md, \"The friction cone and the time step\")")
     a = ap.parse_args()
     EXACT[0] = a.exact
+    NORMAL_LAG[0] = a.normal_lag
     if a.mode == "symmetric":
         e, f, amp, alpha, psi, sense = run_symmetric(a)
         if a.write_scene:

@@ -3,7 +3,8 @@
 and its floor"): the cheap stand-in for `vinci field` used to screen circle motions.
 
 usage: scripts/plate_point_model.py SCENE.yaml [--field FIELD.csv] [--cycles K] [--average N]
-                                               [--steps S] [--profile]
+                                               [--steps S] [--profile] [--sides N]
+                                               [--normal-lag]
                                                [--trajectories SECONDS [--plot PNG]]
 
 For SCENE's plate motion (a `vinci field-design` best.yaml or any plate scene with harmonics) it
@@ -24,6 +25,10 @@ the tilt adds n (pitch, -roll) to the part's horizontal acceleration; the fricti
 unit mass is at most mu n h: if the part's velocity relative to the plate after the tilt impulse
 is within that, it sticks (v = v_p), else it slides with the relative velocity reduced by mu n h
 along itself. Every DOF is A (sin(2 pi k f t + phi) - sin(phi)) as in the scene format.
+--sides N replaces the disc by the regular N-gon inscribed in it (a `friction_directions: N`
+pyramid); --normal-lag takes the normal force from the plate's acceleration at the start of the
+step instead of its end: like the simulator's normal impulse, which the model then reproduces to
+~1% on the round cone (docs/planning.md, "The friction cone and the time step").
 """
 import argparse
 
@@ -57,6 +62,13 @@ def circle_error(v, x=GX, y=GY, radius=0.05):
     inside = x**2 + y**2 < radius**2
     return float(np.sqrt(0.5 * (shape_error(v[inside], t[inside])**2 +
                                 shape_error(v[~inside], t[~inside])**2)))
+
+
+def circle_sides(v, x=GX, y=GY, radius=0.05):
+    """The circle's shape error inside (rho < R) and outside, each on its own."""
+    t = circle_target(x, y, radius)
+    inside = x**2 + y**2 < radius**2
+    return shape_error(v[inside], t[inside]), shape_error(v[~inside], t[~inside])
 
 
 def radial_profile(v, x=GX, y=GY):
@@ -134,12 +146,15 @@ def friction_step(vx, vy, vpx, vpy, cap, sides=0):
 
 
 def transient_field(motion, x0=GX, y0=GY, cycles=20, average=5, steps=160, f=F, mu=MU,
-                    sides=0):
+                    sides=0, normal_lag=False):
     """The transient point model (module docstring): average velocity over the last `average` of
-    `cycles` cycles of a part started at rest at (x0, y0); also its mean position there."""
+    `cycles` cycles of a part started at rest at (x0, y0); also its mean position there. With
+    normal_lag the normal force uses the plate's acceleration at the start of each step."""
     h = 1.0 / f / steps
     t = (np.arange(cycles * steps) + 1) * h  # the end of each step (the simulator's velocities)
     rate, acc, angle = plate_signals(motion, t, f)
+    if normal_lag:
+        acc = plate_signals(motion, t - h, f)[1]
     x, y = np.array(x0, float), np.array(y0, float)
     vx, vy = np.zeros_like(x), np.zeros_like(x)
     sx, sy, px, py, n_avg = 0.0, 0.0, 0.0, 0.0, 0
@@ -217,6 +232,11 @@ def main():
                     "transient model, print their distance from the centre and (with --plot PNG) "
                     "draw their paths with the circle R = 5 cm")
     ap.add_argument("--plot", metavar="PNG")
+    ap.add_argument("--sides", type=int, default=0,
+                    help="friction polygon of N sides (a friction_directions: N pyramid) instead "
+                    "of the disc (0)")
+    ap.add_argument("--normal-lag", action="store_true",
+                    help="normal force from the plate's acceleration at the start of each step")
     a = ap.parse_args()
     motion, f = scene_motion(a.scene)
     if a.trajectories:
@@ -250,9 +270,10 @@ def main():
         return
     tg = circle_target(GX, GY)
     th = theory_field(motion, f=f)
-    tr, where = transient_field(motion, cycles=a.cycles, average=a.average, steps=a.steps, f=f)
-    print("circle error (inside/outside): theory %.3f, transient model %.3f" %
-          (circle_error(th), circle_error(tr)))
+    tr, where = transient_field(motion, cycles=a.cycles, average=a.average, steps=a.steps, f=f,
+                                sides=a.sides, normal_lag=a.normal_lag)
+    print("circle error (inside/outside): theory %.3f, transient model %.3f (inside %.3f, "
+          "outside %.3f)" % (circle_error(th), circle_error(tr), *circle_sides(tr)))
     print("whole-field shape error: theory %.3f, transient model %.3f" %
           (shape_error(th, tg), shape_error(tr, tg)))
     if a.profile:
@@ -264,8 +285,9 @@ def main():
     if a.field:
         pts, sim = read_field(a.field)
         s = np.sqrt((sim**2).sum(1).mean())
-        print("simulation: circle error %.3f (whole-field shape error %.3f), RMS speed %.4f m/s" %
-              (circle_error(sim, pts[:, 0], pts[:, 1]),
+        print("simulation: circle error %.3f (inside %.3f, outside %.3f; whole-field shape error "
+              "%.3f), RMS speed %.4f m/s" %
+              (circle_error(sim, pts[:, 0], pts[:, 1]), *circle_sides(sim, pts[:, 0], pts[:, 1]),
                shape_error(sim, circle_target(pts[:, 0], pts[:, 1])), s))
         if a.profile:
             print_profile("simulation", sim, pts[:, 0], pts[:, 1])
