@@ -105,7 +105,9 @@ void ExpectRatesMatch(const Shape& a, const Shape& b, bool planar, const Vector3
       EXPECT_LE((d.p_B_W - fd(cp[i].p_B_W, cm[i].p_B_W)).norm(), kTol) << "trial " << trial;
       EXPECT_LE((d.n_W - fd(cp[i].n_W, cm[i].n_W)).norm(), kTol) << "trial " << trial;
       EXPECT_NEAR(d.gap, (cp[i].gap - cm[i].gap) / (2 * kStep), kTol) << "trial " << trial;
-      if (planar) EXPECT_EQ(d.p_A_W.z(), 0.0);
+      if (planar) {
+        EXPECT_EQ(d.p_A_W.z(), 0.0);
+      }
     }
   }
 }
