@@ -54,8 +54,8 @@ std::string MpecJson(const EstimateOptions& o, const estimation::MpecEstimateRes
     << "      \"num_complementarity_pairs\": " << r.num_pairs << ",\n"
     << "      \"num_steps\": " << r.num_steps << ",\n"
     << "      \"substeps\": " << std::max(0, o.mpec_substeps) << ",\n"
-    << "      \"episode_mode\": \""
-    << (o.mpec_episodes.empty() ? "joint" : o.mpec_episodes) << "\",\n";
+    << "      \"episode_mode\": \"" << (o.mpec_episodes.empty() ? "joint" : o.mpec_episodes)
+    << "\",\n";
   if (holdout) j << HoldoutJson(o, *holdout);
   j << "      \"episodes\": [";
   for (size_t e = 0; e < r.episodes.size(); ++e) {

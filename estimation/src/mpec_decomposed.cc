@@ -34,12 +34,22 @@ constexpr double kStepTolerance = 1e-9;
 // near the optimum its changes are noise.
 constexpr double kNoiseDecrement = 1e-2;
 
-// An episode's MPEC with θ fixed (its bounds set to the given values) and a chosen start.
+// An episode's MPEC with θ fixed (its bounds set to the given values) and a chosen start. With
+// keep_active_set, the NLP of the start's active set instead (the polish NLP of mpec.h: no
+// pairs; of every pair the smaller side at the start fixed at 0, the other ≥ 0).
 class FixedThetaProblem final : public MpecProblem {
  public:
-  FixedThetaProblem(const MpecEstimationProblem& p, const VectorXd& theta, const VectorXd& start)
-      : p_(p), theta_(theta), start_(start) {
+  FixedThetaProblem(const MpecEstimationProblem& p, const VectorXd& theta, const VectorXd& start,
+                    bool keep_active_set = false)
+      : p_(p), theta_(theta), start_(start), keep_(keep_active_set) {
     start_.head(theta.size()) = theta;
+    if (keep_) {
+      for (const auto& [a, b] : p.ComplementarityPairs()) {
+        const int zero = start_[a] <= start_[b] ? a : b;
+        zero_.push_back(zero);
+        start_[zero] = 0.0;
+      }
+    }
   }
   int num_variables() const override { return p_.num_variables(); }
   int num_constraints() const override { return p_.num_constraints(); }
@@ -47,9 +57,17 @@ class FixedThetaProblem final : public MpecProblem {
     p_.Bounds(x_l, x_u, g_l, g_u);
     x_l->head(theta_.size()) = theta_;
     x_u->head(theta_.size()) = theta_;
+    if (keep_) {
+      for (const auto& [a, b] : p_.ComplementarityPairs()) {
+        (*x_l)[a] = std::max((*x_l)[a], 0.0);
+        (*x_l)[b] = std::max((*x_l)[b], 0.0);
+      }
+      for (int i : zero_) (*x_l)[i] = (*x_u)[i] = 0.0;
+    }
   }
   VectorXd StartingPoint() const override { return start_; }
   std::vector<std::pair<int, int>> ComplementarityPairs() const override {
+    if (keep_) return {};
     return p_.ComplementarityPairs();
   }
   bool Objective(const VectorXd& x, double* f) const override { return p_.Objective(x, f); }
@@ -69,16 +87,18 @@ class FixedThetaProblem final : public MpecProblem {
  private:
   const MpecEstimationProblem& p_;
   VectorXd theta_, start_;
+  bool keep_ = false;
+  std::vector<int> zero_;  // keep_active_set: the sides fixed at 0
 };
 
 // One episode: its problem, and its solution at the current θ.
 struct EpisodeFit {
   std::unique_ptr<MpecEstimationProblem> problem;
-  VectorXd x;             // solution at the current θ (empty: none yet)
-  double f = 0.0;         // objective (χ²) at x
-  VectorXd gradient;      // ∂f/∂θ (envelope theorem)
-  MatrixXd hessian;       // 2 C⁻¹ (the Laplace covariance with θ free)
-  MatrixXd covariance;    // C
+  VectorXd x;           // solution at the current θ (empty: none yet)
+  double f = 0.0;       // objective (χ²) at x
+  VectorXd gradient;    // ∂f/∂θ (envelope theorem)
+  MatrixXd hessian;     // 2 C⁻¹ (the Laplace covariance with θ free)
+  MatrixXd covariance;  // C
   bool converged = false;
   std::string reason;
 };
@@ -102,11 +122,25 @@ VectorXd EnvelopeGradient(const MpecEstimationProblem& p, int ntheta, const Vect
 EpisodeFit SolveEpisode(EpisodeFit&& fit, const VectorXd& theta, const MpecSolverOptions& so,
                         int* iterations, int* stages) {
   const int nt = static_cast<int>(theta.size());
-  const VectorXd start = fit.x.size() > 0 ? fit.x : fit.problem->StartingPoint();
-  const FixedThetaProblem fixed(*fit.problem, theta, start);
-  const MpecSolution sol = SolveMpec(fixed, so);
-  *iterations += sol.iterations;
-  *stages += sol.stages;
+  MpecSolution sol;
+  bool done = false;
+  if (fit.x.size() > 0) {
+    // From a solution at a nearby θ: its active set's NLP first (one smooth NLP, no homotopy);
+    // the homotopy only if that fails.
+    const FixedThetaProblem kept(*fit.problem, theta, fit.x, true);
+    sol = SolveMpec(kept, so);
+    *iterations += sol.iterations;
+    *stages += sol.stages;
+    done = sol.converged && sol.x.allFinite();
+    if (done) sol.reason = "polished (active set kept): " + sol.reason;
+  }
+  if (!done) {
+    const VectorXd start = fit.x.size() > 0 ? fit.x : fit.problem->StartingPoint();
+    const FixedThetaProblem fixed(*fit.problem, theta, start);
+    sol = SolveMpec(fixed, so);
+    *iterations += sol.iterations;
+    *stages += sol.stages;
+  }
   fit.converged = sol.converged && sol.x.allFinite();
   fit.reason = sol.reason;
   if (!sol.x.allFinite()) return std::move(fit);
@@ -130,8 +164,7 @@ EpisodeFit SolveEpisode(EpisodeFit&& fit, const VectorXd& theta, const MpecSolve
     if (ldlt.info() == Eigen::Success && ldlt.isPositive()) {
       const MatrixXd inv = ldlt.solve(MatrixXd::Identity(c.rows(), c.cols()));
       for (std::size_t i = 0; i < free.size(); ++i)
-        for (std::size_t j = 0; j < free.size(); ++j)
-          fit.hessian(free[i], free[j]) = 2 * inv(i, j);
+        for (std::size_t j = 0; j < free.size(); ++j) fit.hessian(free[i], free[j]) = 2 * inv(i, j);
     }
   }
   if (!fit.gradient.allFinite()) fit.converged = false;
@@ -188,9 +221,8 @@ MpecEstimateResult EstimateMpecDecomposed(const sim::Simulator& simulator, const
   r.initial_values = fits[0].problem->Parameters(fits[0].problem->StartingPoint());
   {
     std::ostringstream s;
-    s << "mpec decomposed: " << ne << " episodes, " << r.num_steps << " steps, "
-      << r.num_unknowns << " unknowns, " << r.num_pairs << " complementarity pairs ("
-      << r.complementarity << ")";
+    s << "mpec decomposed: " << ne << " episodes, " << r.num_steps << " steps, " << r.num_unknowns
+      << " unknowns, " << r.num_pairs << " complementarity pairs (" << r.complementarity << ")";
     say(s.str());
   }
   MpecSolverOptions so = options.solver;
@@ -250,9 +282,9 @@ MpecEstimateResult EstimateMpecDecomposed(const sim::Simulator& simulator, const
       const VectorXd th = sol.x.head(nt);
       MatrixXd cov;
       const bool have_cov =
-          sol.converged && fit.problem->ParameterCovariance(
-                               sol.x, fit.problem->ClassifyPairs(sol.x, mpec_internal::kBiactive),
-                               &cov);
+          sol.converged &&
+          fit.problem->ParameterCovariance(
+              sol.x, fit.problem->ClassifyPairs(sol.x, mpec_internal::kBiactive), &cov);
       std::ostringstream s;
       s << "mpec decomposed: episode " << e << " alone: theta";
       for (int i = 0; i < nt; ++i) s << " " << th[i];
@@ -365,8 +397,8 @@ MpecEstimateResult EstimateMpecDecomposed(const sim::Simulator& simulator, const
   r.estimates = theta;
   r.converged = ok && outer_converged;
   std::ostringstream reason;
-  reason << "decomposed over " << ne << " episodes, " << outer << " Newton steps: "
-         << (ok ? outer_reason : "an episode failed: " + failure);
+  reason << "decomposed over " << ne << " episodes, " << outer
+         << " Newton steps: " << (ok ? outer_reason : "an episode failed: " + failure);
   r.polished = true;
   double ss = 0.0;
   MatrixXd info = MatrixXd::Zero(nt, nt);  // Σ C_e⁻¹
@@ -391,8 +423,7 @@ MpecEstimateResult EstimateMpecDecomposed(const sim::Simulator& simulator, const
     ee.file = log.episodes[e].file;
     ee.x0 = p.InitialState(fit.x, 0);
     const int per_sample = ResidualsPerSample(log.episodes[e], simulator.scene().dim);
-    ee.rms_residual =
-        std::sqrt(per[0] / std::max(1, per_sample * log.episodes[e].num_samples()));
+    ee.rms_residual = std::sqrt(per[0] / std::max(1, per_sample * log.episodes[e].num_samples()));
     r.episodes.push_back(ee);
   }
   r.reason = reason.str();
