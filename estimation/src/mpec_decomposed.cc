@@ -226,7 +226,8 @@ MpecEstimateResult EstimateMpecDecomposed(const sim::Simulator& simulator, const
     say(s.str());
   }
   MpecSolverOptions so = options.solver;
-  so.progress = nullptr;
+  // Each NLP's summary line (as EstimateMpec's), unless a solver callback was given.
+  if (!so.progress) so.progress = options.progress;
   if (!stated) so.early_polish_tolerance = -1.0;  // the objective's scale is unknown
 
   // Solves every episode at θ from `base` (in episode order); false if one failed.
