@@ -33,6 +33,8 @@ constexpr double kStepTolerance = 1e-9;
 // only to the episodes' solver tolerances (the early polish accepts 1e-3 per episode), so
 // near the optimum its changes are noise.
 constexpr double kNoiseDecrement = 1e-2;
+// MpecSolverOptions::early_polish_max_iterations of the episodes' NLPs (unless set).
+constexpr int kEarlyPolishIterations = 200;
 
 // An episode's MPEC with θ fixed (its bounds set to the given values) and a chosen start. With
 // keep_active_set, the NLP of the start's active set instead (the polish NLP of mpec.h: no
@@ -229,6 +231,9 @@ MpecEstimateResult EstimateMpecDecomposed(const sim::Simulator& simulator, const
   // Each NLP's summary line (as EstimateMpec's), unless a solver callback was given.
   if (!so.progress) so.progress = options.progress;
   if (!stated) so.early_polish_tolerance = -1.0;  // the objective's scale is unknown
+  // A failing early-polish attempt ends after 200 iterations (measured: the second tossed cube
+  // of the study's trial 0 crept > 2 000 iterations before failing); the joint path keeps 0.
+  if (so.early_polish_max_iterations == 0) so.early_polish_max_iterations = kEarlyPolishIterations;
 
   // Solves every episode at θ from `base` (in episode order); false if one failed.
   auto evaluate = [&](const VectorXd& th, std::vector<EpisodeFit>* base, double* F, VectorXd* G,
