@@ -10,9 +10,10 @@
 // measured-pose guess, as EstimateMpec would), giving θ̂_e and its Laplace covariance C_e; the
 // profile starts at θ_0 = (Σ_e C_e⁻¹)⁻¹ Σ_e C_e⁻¹ θ̂_e. For a fixed θ every episode's MPEC (an
 // MpecEstimationProblem of that episode alone with θ's bounds set to θ) is solved by SolveMpec,
-// warm-started from the episode's solution at the previous θ. At an episode's
-// solution (a polished NLP, its active set fixed) the envelope theorem gives the profile's
-// gradient from the multipliers λ_e of the step equations g_e:
+// warm-started from the episode's solution at the previous θ (first the NLP of that solution's
+// active set alone, the homotopy only if it fails; early-polish attempts capped at 200 Ipopt
+// iterations). At an episode's solution (a polished NLP, its active set fixed) the envelope
+// theorem gives the profile's gradient from the multipliers λ_e of the step equations g_e:
 //
 //   ∂f_e/∂θ = ∂L_e/∂θ = λ_eᵀ ∂g_e/∂θ    (the objective does not depend on θ),
 //
