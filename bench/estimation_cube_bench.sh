@@ -7,8 +7,9 @@
 #   bench/estimation_cube_bench.sh [BUILD_DIR] [METHODS] [EPISODES] [THREADS] [SUBSTEPS]
 #
 # BUILD_DIR defaults to build (estimation_study must be built there: cmake --build BUILD_DIR
-# --target estimation_study); METHODS a comma list of lsq,lsq_ms,filter,mpec,mpec_pen (default
-# all); EPISODES default 50; THREADS (default 2) evaluate lsq's episodes and mpec's steps in
+# --target estimation_study); METHODS a comma list of lsq,lsq_ms,filter,mpec,mpec_pen,mpec_dec
+# (default all but mpec_dec; mpec_dec = mpec with --mpec-episodes decomposed: per-toss NLPs at a
+# shared μ, docs/estimation.md); EPISODES default 50; THREADS (default 2) evaluate lsq's episodes and mpec's steps in
 # parallel; SUBSTEPS (default 1) the MPEC's steps per logged sample (--mpec-substeps: 1 = one
 # step of 7 ms per sample, 99 steps and ~7000 unknowns per toss; 0 = the simulator's 1 ms grid,
 # 7× larger). Writes estimation_cube_bench_<METHODS>_<EPISODES>.csv in the current directory and

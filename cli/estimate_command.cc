@@ -160,6 +160,8 @@ ExitCode RunEstimateCommand(const EstimateOptions& o) {
         "linearized standard errors)");
   if (o.mpec_substeps >= 0 && o.method != "mpec")
     throw std::invalid_argument("--mpec-substeps: only for --method mpec");
+  if (!o.mpec_episodes.empty() && o.method != "mpec")
+    throw std::invalid_argument("--mpec-episodes: only for --method mpec");
   if (!o.jacobian.empty() && o.method != "lsq")
     throw std::invalid_argument("--jacobian: only for --method lsq");
   if (o.method == "mpec") return RunEstimateMpec(o);
@@ -250,6 +252,11 @@ Command RegisterEstimateCommand(CLI::App& app) {
                   "grid; 1: one step per sample, a smaller problem with the coarser step's model "
                   "error, docs/estimation.md)")
       ->type_name("N");
+  sub->add_option("--mpec-episodes", options->mpec_episodes,
+                  "mpec: joint (one NLP over all episodes; default) or decomposed (a profile "
+                  "over the shared parameters: each episode's NLP at fixed θ, Newton steps on θ; "
+                  "docs/estimation.md)")
+      ->type_name("joint|decomposed");
   sub->add_option("--shooting", options->shooting,
                   "lsq: single (one rollout per episode; default) or multiple (segments of "
                   "--segment-samples samples from their own start states, with continuity)")

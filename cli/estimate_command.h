@@ -32,6 +32,7 @@ struct EstimateOptions {
   std::string jacobian;  ///< lsq: sensitivity | fd ("": sensitivity)
   /// mpec: steps per log interval (MpecOptions::substeps; 0: the scene's dt); −1: not given.
   int mpec_substeps = -1;
+  std::string mpec_episodes;  ///< "" (joint), "joint" or "decomposed"; mpec only
 };
 
 /// Adds the `estimate` subcommand to `app`.

@@ -53,7 +53,9 @@ std::string MpecJson(const EstimateOptions& o, const estimation::MpecEstimateRes
     << "      \"num_constraints\": " << r.num_constraints << ",\n"
     << "      \"num_complementarity_pairs\": " << r.num_pairs << ",\n"
     << "      \"num_steps\": " << r.num_steps << ",\n"
-    << "      \"substeps\": " << std::max(0, o.mpec_substeps) << ",\n";
+    << "      \"substeps\": " << std::max(0, o.mpec_substeps) << ",\n"
+    << "      \"episode_mode\": \"" << (o.mpec_episodes.empty() ? "joint" : o.mpec_episodes)
+    << "\",\n";
   if (holdout) j << HoldoutJson(o, *holdout);
   j << "      \"episodes\": [";
   for (size_t e = 0; e < r.episodes.size(); ++e) {
@@ -85,6 +87,7 @@ ExitCode RunEstimateMpec(const EstimateOptions& o) {
   mo.process_noise = o.process_noise;
   mo.threads = o.threads;
   mo.substeps = std::max(0, o.mpec_substeps);
+  if (!o.mpec_episodes.empty()) mo.episodes = estimation::ParseMpecEpisodes(o.mpec_episodes);
   mo.solver.method = estimation::ParseComplementarityMethod(o.complementarity);
   mo.solver.max_iterations = o.max_iterations;
   mo.Validate();

@@ -331,6 +331,8 @@ void MpecSolverOptions::Validate() const {
     fail("complementarity_tolerance", complementarity_tolerance, "> 0");
   if (!(tolerance > 0)) fail("tolerance", tolerance, "> 0");
   if (max_iterations < 1) fail("max_iterations", max_iterations, "≥ 1");
+  if (early_polish_max_iterations < 0)
+    fail("early_polish_max_iterations", early_polish_max_iterations, "≥ 0");
   if (stall_iterations < 0) fail("stall_iterations", stall_iterations, "≥ 0");
   if (!(stall_objective_change > 0)) fail("stall_objective_change", stall_objective_change, "> 0");
   if (!(stall_constraint_violation > 0))
@@ -360,6 +362,7 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o) {
   VectorXd lambda, zl, zu;
   bool have_multipliers = false;
   Ipopt::ApplicationReturnStatus last = Ipopt::Internal_Error;
+  int max_iter_override = 0;  // > 0: the early-polish attempt's iteration cap
 
   auto run = [&](Stage stage, double param, const std::vector<bool>& fixed,
                  bool warm) -> Ipopt::SmartPtr<RelaxedNlp> {
@@ -369,7 +372,7 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o) {
     opt.SetStringValue("sb", "yes");  // no banner
     opt.SetNumericValue("tol", o.tolerance);
     opt.SetNumericValue("acceptable_tol", std::max(o.tolerance * 1e3, 1e-8));
-    opt.SetIntegerValue("max_iter", o.max_iterations);
+    opt.SetIntegerValue("max_iter", max_iter_override > 0 ? max_iter_override : o.max_iterations);
     opt.SetStringValue("mu_strategy", "adaptive");
     // MUMPS' automatic ordering picks SCOTCH on large KKT systems, whose random generator
     // continues from call to call within a process: the same problem solved twice in one
@@ -454,7 +457,9 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o) {
     const double f_keep = sol.objective;
     // The Scholtes rows' multipliers are dropped: lambda keeps the problem's rows.
     lambda.conservativeResize(problem.num_constraints());
+    if (std::isfinite(lower_bound)) max_iter_override = o.early_polish_max_iterations;
     Ipopt::SmartPtr<RelaxedNlp> nlp = run(Stage::kPolish, 0.0, fixed, true);
+    max_iter_override = 0;
     const bool solved = Solved(last) && nlp->x_.size() == n && nlp->x_.allFinite();
     const bool close =
         !std::isfinite(lower_bound) || nlp->objective_ <= lower_bound + o.early_polish_tolerance;

@@ -89,8 +89,18 @@ bool SolveRefined(const sim::SparseMatrixXd& K, const Factor& kr, const VectorXd
 bool MpecEstimationProblem::ParameterVariances(const VectorXd& x,
                                                const std::vector<PairTreatment>& treatment,
                                                VectorXd* variances) const {
+  variances->setConstant(impl_->ntheta, std::numeric_limits<double>::quiet_NaN());
+  sim::MatrixXd cov;
+  if (!ParameterCovariance(x, treatment, &cov)) return false;
+  *variances = cov.diagonal();
+  return true;
+}
+
+bool MpecEstimationProblem::ParameterCovariance(const VectorXd& x,
+                                                const std::vector<PairTreatment>& treatment,
+                                                sim::MatrixXd* covariance) const {
   const Impl& I = *impl_;
-  variances->setConstant(I.ntheta, std::numeric_limits<double>::quiet_NaN());
+  covariance->setConstant(I.ntheta, I.ntheta, std::numeric_limits<double>::quiet_NaN());
   std::vector<char> fixed(I.n, 0);
   for (std::size_t k = 0; k < I.pairs.size() && k < treatment.size(); ++k) {
     const auto [a, b] = I.pairs[k];
@@ -162,7 +172,8 @@ bool MpecEstimationProblem::ParameterVariances(const VectorXd& x,
     Eigen::SimplicialLDLT<sim::SparseMatrixXd, Eigen::Lower> ldlt;
     ldlt.compute(Kr);
     if (ldlt.info() != Eigen::Success) continue;
-    VectorXd out = VectorXd::Constant(I.ntheta, std::numeric_limits<double>::quiet_NaN());
+    sim::MatrixXd out =
+        sim::MatrixXd::Constant(I.ntheta, I.ntheta, std::numeric_limits<double>::quiet_NaN());
     bool ok = true;
     for (int i = 0; i < I.ntheta && ok; ++i) {
       const int fi = map[i];
@@ -171,10 +182,11 @@ bool MpecEstimationProblem::ParameterVariances(const VectorXd& x,
       b[fi] = d[fi];
       VectorXd y;
       ok = SolveRefined(Ks, ldlt, b, &y);
-      if (ok) out[i] = d[fi] * y[fi];
+      for (int j = 0; j < I.ntheta && ok; ++j)
+        if (map[j] >= 0) out(j, i) = d[map[j]] * y[map[j]];
     }
     if (!ok) continue;
-    *variances = out;
+    *covariance = out;
     return true;
   }
   return false;

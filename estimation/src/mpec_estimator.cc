@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "mpec_problem.h"
+#include "vinci/estimation/mpec_decomposed.h"
 
 namespace vinci::estimation {
 
@@ -23,6 +24,8 @@ MpecEstimateResult EstimateMpec(const sim::Simulator& simulator, const Log& log,
                                 const MpecOptions& options) {
   const auto start = std::chrono::steady_clock::now();
   options.Validate();
+  if (options.episodes == MpecEpisodes::kDecomposed && log.episodes.size() >= 2)
+    return EstimateMpecDecomposed(simulator, log, options);
   const bool stated = options.noise_sigma > 0;
   const double sigma_w = stated ? options.noise_sigma : kDefaultSigma;
   MpecEstimationProblem problem(simulator, log, options, sigma_w);

@@ -3,7 +3,7 @@
 //
 //   estimation_study STUDY [--trials N] [--noise S1,S2,..] [--windows W1,W2,..]
 //                    [--particles N1,N2,..] [--episodes N] [--methods
-//                    lsq,lsq_ms,filter,mpec,mpec_pen]
+//                    lsq,lsq_ms,filter,mpec,mpec_pen,mpec_dec]
 //                    [--guess MU] [--first-trial K] [--threads N] [--mpec-substeps N]
 //                    [--out FILE.csv]
 //
@@ -22,7 +22,8 @@
 // iterations, time_s (wall), samples, cpu_s (the process's CPU time: meaningful on a loaded
 // machine, summed over threads). Methods: lsq (single shooting), lsq_ms (multiple shooting,
 // 25-sample segments), filter (the UKF with μ in the state), mpec (Ipopt, Scholtes relaxation
-// homotopy), mpec_pen (Ipopt, ℓ1 penalty homotopy). The defaults are
+// homotopy), mpec_pen (Ipopt, ℓ1 penalty homotopy), mpec_dec (mpec with the episodes decomposed:
+// MpecEpisodes::kDecomposed, mpec_decomposed.h). The defaults are
 // the full study (20 trials); --trials and --methods cut it down (scripts/estimation_studies.sh
 // runs all four studies). --threads N (default 1) is passed to lsq/lsq_ms (episodes in
 // parallel) and mpec/mpec_pen (steps in parallel); --mpec-substeps N (default 0: the scene's
@@ -85,9 +86,12 @@ std::vector<std::pair<std::string, Estimator>> Methods() {
       return est::EstimateLeastSquares(s, log, o);
     };
   };
-  auto mpec = [](est::ComplementarityMethod method) {
-    return [method](const sim::Simulator& s, const Log& log, double sigma) -> EstimateResult {
+  auto mpec = [](est::ComplementarityMethod method,
+                 est::MpecEpisodes episodes = est::MpecEpisodes::kJoint) {
+    return [method, episodes](const sim::Simulator& s, const Log& log,
+                              double sigma) -> EstimateResult {
       est::MpecOptions o;
+      o.episodes = episodes;
       o.params = {"mu.default"};
       o.noise_sigma = sigma;
       o.solver.method = method;
@@ -112,6 +116,7 @@ std::vector<std::pair<std::string, Estimator>> Methods() {
        }},
       {"mpec", mpec(est::ComplementarityMethod::kScholtes)},
       {"mpec_pen", mpec(est::ComplementarityMethod::kPenalty)},
+      {"mpec_dec", mpec(est::ComplementarityMethod::kScholtes, est::MpecEpisodes::kDecomposed)},
   };
 }
 
@@ -263,9 +268,9 @@ std::vector<std::string> ParseNames(const std::string& s) {
 constexpr const char* kUsage =
     "usage: estimation_study plate|particles|block|cube [--trials N] [--first-trial K]\n"
     "         [--noise S1,S2] [--windows W1,W2] [--particles N1,N2] [--episodes N]\n"
-    "         [--methods lsq,lsq_ms,filter,mpec,mpec_pen] [--guess MU] [--threads N]\n"
-    "         [--mpec-substeps N] [--mpec-raw-guess 1] [--verbose 0|1|IPOPT_PRINT_LEVEL] [--out "
-    "F.csv]\n";
+    "         [--methods lsq,lsq_ms,filter,mpec,mpec_pen,mpec_dec] [--guess MU] [--threads N]\n"
+    "         [--mpec-substeps N] [--mpec-raw-guess 1] [--verbose 0|1|IPOPT_PRINT_LEVEL]\n"
+    "         [--out F.csv]\n";
 
 int Run(int argc, char** argv) {
   if (argc < 2 || std::string(argv[1]) == "--help") {
@@ -356,7 +361,7 @@ int Run(int argc, char** argv) {
     for (const auto& k : Methods()) known |= k.first == m;
     if (!known) {
       std::cerr << "--methods: unknown method '" << m
-                << "' (lsq, lsq_ms, filter, mpec, mpec_pen)\n";
+                << "' (lsq, lsq_ms, filter, mpec, mpec_pen, mpec_dec)\n";
       return 1;
     }
   }

@@ -96,6 +96,11 @@ struct MpecSolverOptions {
   /// of what the remaining stages could reach). After one rejected attempt the homotopy
   /// continues without further ones. < 0: off (every stage run).
   double early_polish_tolerance = -1.0;
+  /// Ipopt iterations of the early-polish attempt at most (0: max_iterations). From a stage
+  /// whose active set is not yet identified the polish NLP can creep for thousands of
+  /// iterations before failing (measured on a tossed cube: > 2 100 iterations, > 500 s of CPU);
+  /// a capped attempt that fails keeps the relaxed iterate and the homotopy goes on.
+  int early_polish_max_iterations = 0;
   /// Stall exit of the relaxation / penalty stages (not the polish): a stage also ends, as
   /// solved to an acceptable level, after this many consecutive iterations in which the
   /// objective changed by at most stall_objective_change relative (max(1, |f|)) and the

@@ -68,6 +68,16 @@ inline MpecSolverOptions EstimatorSolverDefaults() {
   return o;
 }
 
+/// How the episodes (log files) of a log, which share only θ, are estimated together.
+enum class MpecEpisodes {
+  kJoint,       ///< one NLP over θ and every episode's unknowns
+  kDecomposed,  ///< a profile over θ: per-episode NLPs at fixed θ (mpec_decomposed.h)
+};
+/// "joint" or "decomposed".
+const char* ToString(MpecEpisodes episodes);
+/// Parses "joint" / "decomposed"; throws std::invalid_argument naming the value otherwise.
+MpecEpisodes ParseMpecEpisodes(const std::string& name);
+
 struct MpecOptions {
   std::vector<std::string> params;  ///< names in the scene's ParamTable, differentiable
   /// Measurement noise σ_R (m); 0: the fit is weighted with 1 mm and σ_R estimated afterwards.
@@ -91,6 +101,9 @@ struct MpecOptions {
   /// chosen from the log's own noise (an exact log is used as is); false: the raw poses.
   bool smooth_initial_guess = true;
   int threads = 1;  ///< threads evaluating the step equations (the result is bitwise the same)
+  /// Several episodes: one joint NLP, or the decomposition over episodes (EstimateMpecDecomposed
+  /// in mpec_decomposed.h; with one episode both are the joint NLP).
+  MpecEpisodes episodes = MpecEpisodes::kJoint;
   /// Bootstrap over episodes: with B > 0 and at least two episodes, the estimation is repeated
   /// on B resamples of the episodes (drawn with replacement, seeded by bootstrap_seed), each
   /// from the scene's values, and the standard errors are the resamples' standard deviation
@@ -189,6 +202,10 @@ class MpecEstimationProblem final : public MpecProblem {
   /// held. false if the KKT matrix is singular.
   bool ParameterVariances(const sim::VectorXd& x, const std::vector<PairTreatment>& treatment,
                           sim::VectorXd* variances) const;
+  /// The chosen parameters' covariance matrix at x (as ParameterVariances; rows and columns of
+  /// a held θ are NaN). false if the KKT matrix is singular.
+  bool ParameterCovariance(const sim::VectorXd& x, const std::vector<PairTreatment>& treatment,
+                           sim::MatrixXd* covariance) const;
 
  private:
   struct Impl;

@@ -1,0 +1,496 @@
+// The MPEC estimator decomposed by episode: a profile over the shared θ, per-episode NLPs at
+// fixed θ, Newton steps from the envelope gradients and the episodes' reduced Hessians
+// (mpec_decomposed.h).
+#include "vinci/estimation/mpec_decomposed.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <random>
+#include <sstream>
+#include <stdexcept>
+
+#include "mpec_problem.h"
+
+namespace vinci::estimation {
+
+using sim::MatrixXd;
+using sim::VectorXd;
+
+namespace {
+
+// Outer (θ) iterations at most, and step halvings per iteration.
+constexpr int kMaxOuterIterations = 30;
+constexpr int kMaxHalvings = 6;
+// Converged when the Newton decrement ½ ∇Fᵀ H⁻¹ ∇F is below this (χ² units; the decrement is
+// ½ (Δθ / s.e.)²: 1e-8 is a step of ~1e-4 standard errors) or the step below
+// kStepTolerance (1 + |θ|).
+constexpr double kDecrementTolerance = 1e-8;
+constexpr double kStepTolerance = 1e-9;
+// Below this decrement a full Newton step is taken without asking F to decrease: F is known
+// only to the episodes' solver tolerances (the early polish accepts 1e-3 per episode), so
+// near the optimum its changes are noise.
+constexpr double kNoiseDecrement = 1e-2;
+// MpecSolverOptions::early_polish_max_iterations of the episodes' NLPs (unless set).
+constexpr int kEarlyPolishIterations = 200;
+
+// An episode's MPEC with θ fixed (its bounds set to the given values) and a chosen start. With
+// keep_active_set, the NLP of the start's active set instead (the polish NLP of mpec.h: no
+// pairs; of every pair the smaller side at the start fixed at 0, the other ≥ 0).
+class FixedThetaProblem final : public MpecProblem {
+ public:
+  FixedThetaProblem(const MpecEstimationProblem& p, const VectorXd& theta, const VectorXd& start,
+                    bool keep_active_set = false)
+      : p_(p), theta_(theta), start_(start), keep_(keep_active_set) {
+    start_.head(theta.size()) = theta;
+    if (keep_) {
+      for (const auto& [a, b] : p.ComplementarityPairs()) {
+        const int zero = start_[a] <= start_[b] ? a : b;
+        zero_.push_back(zero);
+        start_[zero] = 0.0;
+      }
+    }
+  }
+  int num_variables() const override { return p_.num_variables(); }
+  int num_constraints() const override { return p_.num_constraints(); }
+  void Bounds(VectorXd* x_l, VectorXd* x_u, VectorXd* g_l, VectorXd* g_u) const override {
+    p_.Bounds(x_l, x_u, g_l, g_u);
+    x_l->head(theta_.size()) = theta_;
+    x_u->head(theta_.size()) = theta_;
+    if (keep_) {
+      for (const auto& [a, b] : p_.ComplementarityPairs()) {
+        (*x_l)[a] = std::max((*x_l)[a], 0.0);
+        (*x_l)[b] = std::max((*x_l)[b], 0.0);
+      }
+      for (int i : zero_) (*x_l)[i] = (*x_u)[i] = 0.0;
+    }
+  }
+  VectorXd StartingPoint() const override { return start_; }
+  std::vector<std::pair<int, int>> ComplementarityPairs() const override {
+    if (keep_) return {};
+    return p_.ComplementarityPairs();
+  }
+  bool Objective(const VectorXd& x, double* f) const override { return p_.Objective(x, f); }
+  bool Gradient(const VectorXd& x, VectorXd* g) const override { return p_.Gradient(x, g); }
+  bool Constraints(const VectorXd& x, VectorXd* g) const override { return p_.Constraints(x, g); }
+  std::vector<Entry> JacobianStructure() const override { return p_.JacobianStructure(); }
+  bool JacobianValues(const VectorXd& x, VectorXd* v) const override {
+    return p_.JacobianValues(x, v);
+  }
+  bool has_hessian() const override { return p_.has_hessian(); }
+  std::vector<Entry> HessianStructure() const override { return p_.HessianStructure(); }
+  bool HessianValues(const VectorXd& x, double obj_factor, const VectorXd& lambda,
+                     VectorXd* values) const override {
+    return p_.HessianValues(x, obj_factor, lambda, values);
+  }
+
+ private:
+  const MpecEstimationProblem& p_;
+  VectorXd theta_, start_;
+  bool keep_ = false;
+  std::vector<int> zero_;  // keep_active_set: the sides fixed at 0
+};
+
+// One episode: its problem, and its solution at the current θ.
+struct EpisodeFit {
+  std::unique_ptr<MpecEstimationProblem> problem;
+  VectorXd x;           // solution at the current θ (empty: none yet)
+  double f = 0.0;       // objective (χ²) at x
+  VectorXd gradient;    // ∂f/∂θ (envelope theorem)
+  MatrixXd hessian;     // 2 C⁻¹ (the Laplace covariance with θ free)
+  MatrixXd covariance;  // C
+  bool converged = false;
+  std::string reason;
+};
+
+// The envelope gradient λᵀ ∂g/∂θ at a solution x with constraint multipliers lambda.
+VectorXd EnvelopeGradient(const MpecEstimationProblem& p, int ntheta, const VectorXd& x,
+                          const VectorXd& lambda) {
+  VectorXd grad = VectorXd::Zero(ntheta);
+  VectorXd obj;
+  if (p.Gradient(x, &obj)) grad = obj.head(ntheta);  // zero: the objective has no θ term
+  VectorXd J;
+  if (!p.JacobianValues(x, &J)) return VectorXd::Constant(ntheta, std::nan(""));
+  const std::vector<Entry> s = p.JacobianStructure();
+  for (std::size_t k = 0; k < s.size(); ++k)
+    if (s[k].col < ntheta) grad[s[k].col] += lambda[s[k].row] * J[static_cast<int>(k)];
+  return grad;
+}
+
+// Solves episode `fit` at θ from `start` (its previous solution, or its guess); fills f,
+// gradient, curvature. Returns the NLP's iterations and stages through the pointers.
+EpisodeFit SolveEpisode(EpisodeFit&& fit, const VectorXd& theta, const MpecSolverOptions& so,
+                        int* iterations, int* stages) {
+  const int nt = static_cast<int>(theta.size());
+  MpecSolution sol;
+  bool done = false;
+  if (fit.x.size() > 0) {
+    // From a solution at a nearby θ: its active set's NLP first (one smooth NLP, no homotopy);
+    // the homotopy only if that fails.
+    const FixedThetaProblem kept(*fit.problem, theta, fit.x, true);
+    sol = SolveMpec(kept, so);
+    *iterations += sol.iterations;
+    *stages += sol.stages;
+    done = sol.converged && sol.x.allFinite();
+    if (done) sol.reason = "polished (active set kept): " + sol.reason;
+  }
+  if (!done) {
+    const VectorXd start = fit.x.size() > 0 ? fit.x : fit.problem->StartingPoint();
+    const FixedThetaProblem fixed(*fit.problem, theta, start);
+    sol = SolveMpec(fixed, so);
+    *iterations += sol.iterations;
+    *stages += sol.stages;
+  }
+  fit.converged = sol.converged && sol.x.allFinite();
+  fit.reason = sol.reason;
+  if (!sol.x.allFinite()) return std::move(fit);
+  fit.x = sol.x;
+  fit.problem->Objective(sol.x, &fit.f);
+  fit.gradient = EnvelopeGradient(*fit.problem, nt, sol.x, sol.lambda);
+  fit.covariance = MatrixXd::Constant(nt, nt, std::nan(""));
+  fit.hessian = MatrixXd::Zero(nt, nt);
+  MatrixXd cov;
+  if (fit.problem->ParameterCovariance(
+          sol.x, fit.problem->ClassifyPairs(sol.x, mpec_internal::kBiactive), &cov)) {
+    fit.covariance = cov;
+    // θ held (at a bound) has NaN rows: its curvature stays 0 (the projection handles it).
+    std::vector<int> free;
+    for (int i = 0; i < nt; ++i)
+      if (std::isfinite(cov(i, i))) free.push_back(i);
+    MatrixXd c(free.size(), free.size());
+    for (std::size_t i = 0; i < free.size(); ++i)
+      for (std::size_t j = 0; j < free.size(); ++j) c(i, j) = cov(free[i], free[j]);
+    Eigen::LDLT<MatrixXd> ldlt(c);
+    if (ldlt.info() == Eigen::Success && ldlt.isPositive()) {
+      const MatrixXd inv = ldlt.solve(MatrixXd::Identity(c.rows(), c.cols()));
+      for (std::size_t i = 0; i < free.size(); ++i)
+        for (std::size_t j = 0; j < free.size(); ++j) fit.hessian(free[i], free[j]) = 2 * inv(i, j);
+    }
+  }
+  if (!fit.gradient.allFinite()) fit.converged = false;
+  return std::move(fit);
+}
+
+}  // namespace
+
+const char* ToString(MpecEpisodes episodes) {
+  return episodes == MpecEpisodes::kJoint ? "joint" : "decomposed";
+}
+
+MpecEpisodes ParseMpecEpisodes(const std::string& name) {
+  if (name == "joint") return MpecEpisodes::kJoint;
+  if (name == "decomposed") return MpecEpisodes::kDecomposed;
+  throw std::invalid_argument("mpec episodes '" + name + "': expected joint or decomposed");
+}
+
+MpecEstimateResult EstimateMpecDecomposed(const sim::Simulator& simulator, const Log& log,
+                                          const MpecOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  options.Validate();
+  if (log.episodes.empty()) throw std::invalid_argument("no log episode");
+  const bool stated = options.noise_sigma > 0;
+  const double sigma_w = stated ? options.noise_sigma : mpec_internal::kDefaultSigma;
+  const int ne = static_cast<int>(log.episodes.size());
+  const int nt = static_cast<int>(options.params.size());
+  auto say = [&](const std::string& line) {
+    if (options.progress) options.progress(line);
+  };
+
+  std::vector<EpisodeFit> fits(ne);
+  MpecEstimateResult r;
+  r.method = "mpec";
+  r.names = options.params;
+  r.complementarity = ToString(options.solver.method);
+  for (int e = 0; e < ne; ++e) {
+    Log one;
+    one.episodes.push_back(log.episodes[e]);
+    fits[e].problem = std::make_unique<MpecEstimationProblem>(simulator, one, options, sigma_w);
+    const MpecEstimationProblem& p = *fits[e].problem;
+    r.num_constraints += p.num_constraints();
+    r.num_pairs += static_cast<int>(p.ComplementarityPairs().size());
+    r.num_steps += p.num_steps();
+    r.num_unknowns += p.num_variables() - (e > 0 ? nt : 0);
+    r.num_residuals += p.num_residuals();
+    r.initial_cost += 0.5 * p.SquaredResiduals(p.StartingPoint());
+    r.process_noise = p.process_noise();
+  }
+  VectorXd x_l, x_u, g_l, g_u;
+  fits[0].problem->Bounds(&x_l, &x_u, &g_l, &g_u);
+  const VectorXd lo = x_l.head(nt), hi = x_u.head(nt);
+  VectorXd theta = fits[0].problem->StartingPoint().head(nt).cwiseMax(lo).cwiseMin(hi);
+  r.initial_values = fits[0].problem->Parameters(fits[0].problem->StartingPoint());
+  {
+    std::ostringstream s;
+    s << "mpec decomposed: " << ne << " episodes, " << r.num_steps << " steps, " << r.num_unknowns
+      << " unknowns, " << r.num_pairs << " complementarity pairs (" << r.complementarity << ")";
+    say(s.str());
+  }
+  MpecSolverOptions so = options.solver;
+  // Each NLP's summary line (as EstimateMpec's), unless a solver callback was given.
+  if (!so.progress) so.progress = options.progress;
+  if (!stated) so.early_polish_tolerance = -1.0;  // the objective's scale is unknown
+  // A failing early-polish attempt ends after 200 iterations (measured on the study's tossed
+  // cube: > 2 100 creeping iterations in the 2-toss joint NLP, > 500 s of CPU on its second toss
+  // alone); the joint path keeps 0 (no cap).
+  if (so.early_polish_max_iterations == 0) so.early_polish_max_iterations = kEarlyPolishIterations;
+
+  // Solves every episode at θ from `base` (in episode order); false if one failed.
+  auto evaluate = [&](const VectorXd& th, std::vector<EpisodeFit>* base, double* F, VectorXd* G,
+                      MatrixXd* H, std::string* failure) {
+    *F = 0.0;
+    G->setZero(nt);
+    H->setZero(nt, nt);
+    bool ok = true;
+    for (int e = 0; e < ne; ++e) {
+      EpisodeFit& fit = (*base)[e];
+      int it = 0, st = 0;
+      fit = SolveEpisode(std::move(fit), th, so, &it, &st);
+      r.iterations += it;
+      r.stages += st;
+      if (!fit.converged) {
+        ok = false;
+        if (failure->empty()) *failure = log.episodes[e].file + ": " + fit.reason;
+      }
+      *F += fit.f;
+      if (fit.gradient.size() == nt) *G += fit.gradient;
+      if (fit.hessian.rows() == nt) *H += fit.hessian;
+    }
+    return ok;
+  };
+  auto describe = [&](int k, const VectorXd& th, double F, const VectorXd& G) {
+    std::ostringstream s;
+    s << "mpec decomposed " << k << ": theta";
+    for (int i = 0; i < nt; ++i) s << " " << th[i];
+    s << ", objective " << F << ", gradient";
+    for (int i = 0; i < nt; ++i) s << " " << G[i];
+    s << ", " << r.iterations << " Ipopt iterations so far";
+    say(s.str());
+  };
+
+  // Start: every episode's own MPEC with θ free (from its measured-pose guess), θ_0 their
+  // information-weighted mean (Σ C_e⁻¹)⁻¹ Σ C_e⁻¹ θ̂_e — near the optimum when the episodes
+  // agree — and the profile's first solutions warm-started from theirs. (Starting the profile
+  // at the scene's θ instead carried the active sets of a far θ along the warm starts: on
+  // noise-free block logs it ended at μ̂ − μ = −4e-6 with χ² = 0.14 where the joint NLP
+  // reaches 3e-12 and 0.)
+  {
+    MatrixXd info = MatrixXd::Zero(nt, nt);
+    VectorXd weighted = VectorXd::Zero(nt);
+    int used = 0;
+    for (int e = 0; e < ne; ++e) {
+      EpisodeFit& fit = fits[e];
+      const MpecSolution sol = SolveMpec(*fit.problem, so);
+      r.iterations += sol.iterations;
+      r.stages += sol.stages;
+      if (!sol.x.allFinite()) continue;
+      fit.x = sol.x;
+      const VectorXd th = sol.x.head(nt);
+      MatrixXd cov;
+      const bool have_cov =
+          sol.converged &&
+          fit.problem->ParameterCovariance(
+              sol.x, fit.problem->ClassifyPairs(sol.x, mpec_internal::kBiactive), &cov);
+      std::ostringstream s;
+      s << "mpec decomposed: episode " << e << " alone: theta";
+      for (int i = 0; i < nt; ++i) s << " " << th[i];
+      s << ", " << sol.iterations << " Ipopt iterations, " << sol.reason;
+      say(s.str());
+      if (!have_cov || !cov.allFinite()) continue;
+      Eigen::LDLT<MatrixXd> ldlt(cov);
+      if (ldlt.info() != Eigen::Success || !ldlt.isPositive()) continue;
+      const MatrixXd inv = ldlt.solve(MatrixXd::Identity(nt, nt));
+      info += inv;
+      weighted += inv * th;
+      ++used;
+    }
+    if (used > 0) {
+      Eigen::LDLT<MatrixXd> ldlt(info);
+      if (ldlt.info() == Eigen::Success && ldlt.isPositive())
+        theta = ldlt.solve(weighted).cwiseMax(lo).cwiseMin(hi);
+    }
+  }
+  double F = 0.0;
+  VectorXd G;
+  MatrixXd H;
+  std::string failure;
+  bool ok = evaluate(theta, &fits, &F, &G, &H, &failure);
+  describe(0, theta, F, G);
+  bool outer_converged = false;
+  std::string outer_reason;
+  int outer = 0;
+  for (; ok && outer < kMaxOuterIterations; ++outer) {
+    // Newton step on the free θ (a θ at a bound with the gradient pushing outward is held).
+    std::vector<int> free;
+    for (int i = 0; i < nt; ++i) {
+      const bool at_lo = theta[i] <= lo[i] + 1e-12 && G[i] > 0;
+      const bool at_hi = theta[i] >= hi[i] - 1e-12 && G[i] < 0;
+      if (!at_lo && !at_hi) free.push_back(i);
+    }
+    if (free.empty()) {
+      outer_converged = true;
+      outer_reason = "every parameter at a bound";
+      break;
+    }
+    const int nf = static_cast<int>(free.size());
+    MatrixXd Hf(nf, nf);
+    VectorXd Gf(nf);
+    for (int i = 0; i < nf; ++i) {
+      Gf[i] = G[free[i]];
+      for (int j = 0; j < nf; ++j) Hf(i, j) = H(free[i], free[j]);
+    }
+    Eigen::LDLT<MatrixXd> ldlt(Hf);
+    VectorXd df;
+    if (ldlt.info() == Eigen::Success && ldlt.isPositive() && Hf.diagonal().minCoeff() > 0) {
+      df = -ldlt.solve(Gf);
+    } else {
+      outer_reason = "the profile's curvature is not positive definite";
+      break;
+    }
+    const double decrement = -0.5 * Gf.dot(df);
+    VectorXd d = VectorXd::Zero(nt);
+    for (int i = 0; i < nf; ++i) d[free[i]] = df[i];
+    if (decrement <= kDecrementTolerance ||
+        d.cwiseAbs().maxCoeff() <= kStepTolerance * (1 + theta.cwiseAbs().maxCoeff())) {
+      outer_converged = true;
+      outer_reason = "Newton decrement " + std::to_string(decrement);
+      break;
+    }
+    // Projected step, halved while F does not decrease (unless the decrement is at F's noise).
+    bool accepted = false;
+    double t = 1.0;
+    for (int h = 0; h <= kMaxHalvings && !accepted; ++h, t *= 0.5) {
+      const VectorXd trial = (theta + t * d).cwiseMax(lo).cwiseMin(hi);
+      std::vector<EpisodeFit> next(ne);
+      for (int e = 0; e < ne; ++e) {
+        // Warm start from the accepted solutions; the problems are shared (moved back below).
+        next[e].problem = std::move(fits[e].problem);
+        next[e].x = fits[e].x;
+      }
+      double Ft = 0.0;
+      VectorXd Gt;
+      MatrixXd Ht;
+      std::string ft;
+      const bool okt = evaluate(trial, &next, &Ft, &Gt, &Ht, &ft);
+      const bool better = Ft <= F - 1e-4 * t * 2 * decrement;
+      if (okt && (better || decrement <= kNoiseDecrement)) {
+        accepted = true;
+        fits = std::move(next);
+        theta = trial;
+        F = Ft;
+        G = Gt;
+        H = Ht;
+      } else {
+        for (int e = 0; e < ne; ++e) fits[e].problem = std::move(next[e].problem);
+        std::ostringstream s;
+        s << "mpec decomposed: step " << t << " rejected ("
+          << (okt ? "objective " + std::to_string(Ft) + " not below " + std::to_string(F)
+                  : "episode failed: " + ft)
+          << ")";
+        say(s.str());
+      }
+    }
+    describe(outer + 1, theta, F, G);
+    if (!accepted) {
+      outer_reason = "no decrease along the Newton step";
+      break;
+    }
+  }
+  if (ok && !outer_converged && outer_reason.empty())
+    outer_reason = "outer iteration limit " + std::to_string(kMaxOuterIterations);
+
+  // Results at the final θ.
+  r.estimates = theta;
+  r.converged = ok && outer_converged;
+  std::ostringstream reason;
+  reason << "decomposed over " << ne << " episodes, " << outer
+         << " Newton steps: " << (ok ? outer_reason : "an episode failed: " + failure);
+  r.polished = true;
+  double ss = 0.0;
+  MatrixXd info = MatrixXd::Zero(nt, nt);  // Σ C_e⁻¹
+  for (int e = 0; e < ne; ++e) {
+    const EpisodeFit& fit = fits[e];
+    const MpecEstimationProblem& p = *fit.problem;
+    if (fit.x.size() != p.num_variables()) {
+      r.converged = false;
+      continue;
+    }
+    std::vector<double> per;
+    double max_w = 0.0, eq = 0.0, comp = 0.0;
+    ss += p.SquaredResiduals(fit.x, &per, &max_w);
+    r.max_process_noise = std::max(r.max_process_noise, max_w);
+    p.StepViolation(fit.x, &eq, &comp);
+    r.equality_violation = std::max(r.equality_violation, eq);
+    r.complementarity_violation = std::max(r.complementarity_violation, comp);
+    r.dropped_jacobian = std::max(r.dropped_jacobian, p.dropped_jacobian());
+    r.polished = r.polished && fit.reason.rfind("polished", 0) == 0;
+    info += 0.5 * fit.hessian;
+    EpisodeEstimate ee;
+    ee.file = log.episodes[e].file;
+    ee.x0 = p.InitialState(fit.x, 0);
+    const int per_sample = ResidualsPerSample(log.episodes[e], simulator.scene().dim);
+    ee.rms_residual = std::sqrt(per[0] / std::max(1, per_sample * log.episodes[e].num_samples()));
+    r.episodes.push_back(ee);
+  }
+  r.reason = reason.str();
+  r.final_cost = 0.5 * ss;
+  const bool planar = simulator.scene().dim == sim::Dim::kPlanar;
+  int p_count = nt;
+  for (const Episode& ep : log.episodes)
+    for (const BodyTrack& b : ep.bodies) p_count += b.dynamic ? (planar ? 6 : 12) : 0;
+  r.sigma = stated ? options.noise_sigma : std::sqrt(ss / std::max(1, r.num_residuals - p_count));
+  r.std_errors = VectorXd::Constant(nt, std::numeric_limits<double>::quiet_NaN());
+  {
+    // C = (Σ_e C_e⁻¹)⁻¹ over the free θ (a θ with no information, e.g. at a bound: NaN).
+    std::vector<int> free;
+    for (int i = 0; i < nt; ++i)
+      if (info(i, i) > 0) free.push_back(i);
+    MatrixXd c(free.size(), free.size());
+    for (std::size_t i = 0; i < free.size(); ++i)
+      for (std::size_t j = 0; j < free.size(); ++j) c(i, j) = info(free[i], free[j]);
+    Eigen::LDLT<MatrixXd> ldlt(c);
+    if (!free.empty() && ldlt.info() == Eigen::Success && ldlt.isPositive()) {
+      const MatrixXd cov = ldlt.solve(MatrixXd::Identity(c.rows(), c.cols()));
+      const double scale = stated ? 1.0 : (r.sigma * r.sigma) / (sigma_w * sigma_w);
+      for (std::size_t i = 0; i < free.size(); ++i)
+        if (cov(i, i) > 0) r.std_errors[free[i]] = std::sqrt(cov(i, i) * scale);
+    }
+  }
+
+  if (options.bootstrap > 0 && ne >= 2) {
+    // Resamples of the episodes (as EstimateMpec), each decomposed.
+    std::mt19937 rng(options.bootstrap_seed);
+    std::uniform_int_distribution<int> pick(0, ne - 1);
+    MpecOptions bo = options;
+    bo.bootstrap = 0;
+    bo.progress = nullptr;
+    bo.solver.progress = nullptr;
+    std::vector<VectorXd> draws;
+    for (int b = 0; b < options.bootstrap; ++b) {
+      Log resample;
+      for (int k = 0; k < ne; ++k) resample.episodes.push_back(log.episodes[pick(rng)]);
+      const MpecEstimateResult rb = EstimateMpecDecomposed(simulator, resample, bo);
+      r.bootstrap_converged += rb.converged;
+      if (rb.converged) draws.push_back(rb.estimates);
+      std::ostringstream s;
+      s << "mpec bootstrap " << b + 1 << "/" << options.bootstrap << ": "
+        << (rb.converged ? "converged" : "not converged");
+      say(s.str());
+    }
+    r.std_error_method = "bootstrap";
+    r.std_errors = VectorXd::Constant(nt, std::numeric_limits<double>::quiet_NaN());
+    if (draws.size() >= 2) {
+      VectorXd mean = VectorXd::Zero(nt);
+      for (const VectorXd& d : draws) mean += d;
+      mean /= static_cast<double>(draws.size());
+      VectorXd spread = VectorXd::Zero(nt);
+      for (const VectorXd& d : draws) spread += (d - mean).cwiseAbs2();
+      r.std_errors = (spread / static_cast<double>(draws.size() - 1)).cwiseSqrt();
+    }
+  }
+  r.time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return r;
+}
+
+}  // namespace vinci::estimation
