@@ -8,7 +8,6 @@
 #include <cmath>
 #include <limits>
 #include <memory>
-#include <random>
 #include <sstream>
 #include <stdexcept>
 
@@ -458,37 +457,8 @@ MpecEstimateResult EstimateMpecDecomposed(const sim::Simulator& simulator, const
     }
   }
 
-  if (options.bootstrap > 0 && ne >= 2) {
-    // Resamples of the episodes (as EstimateMpec), each decomposed.
-    std::mt19937 rng(options.bootstrap_seed);
-    std::uniform_int_distribution<int> pick(0, ne - 1);
-    MpecOptions bo = options;
-    bo.bootstrap = 0;
-    bo.progress = nullptr;
-    bo.solver.progress = nullptr;
-    std::vector<VectorXd> draws;
-    for (int b = 0; b < options.bootstrap; ++b) {
-      Log resample;
-      for (int k = 0; k < ne; ++k) resample.episodes.push_back(log.episodes[pick(rng)]);
-      const MpecEstimateResult rb = EstimateMpecDecomposed(simulator, resample, bo);
-      r.bootstrap_converged += rb.converged;
-      if (rb.converged) draws.push_back(rb.estimates);
-      std::ostringstream s;
-      s << "mpec bootstrap " << b + 1 << "/" << options.bootstrap << ": "
-        << (rb.converged ? "converged" : "not converged");
-      say(s.str());
-    }
-    r.std_error_method = "bootstrap";
-    r.std_errors = VectorXd::Constant(nt, std::numeric_limits<double>::quiet_NaN());
-    if (draws.size() >= 2) {
-      VectorXd mean = VectorXd::Zero(nt);
-      for (const VectorXd& d : draws) mean += d;
-      mean /= static_cast<double>(draws.size());
-      VectorXd spread = VectorXd::Zero(nt);
-      for (const VectorXd& d : draws) spread += (d - mean).cwiseAbs2();
-      r.std_errors = (spread / static_cast<double>(draws.size() - 1)).cwiseSqrt();
-    }
-  }
+  if (options.bootstrap > 0 && ne >= 2)
+    mpec_internal::BootstrapOverEpisodes(simulator, log, options, EstimateMpecDecomposed, &r);
   r.time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return r;
 }

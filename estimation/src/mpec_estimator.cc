@@ -92,42 +92,50 @@ MpecEstimateResult EstimateMpec(const sim::Simulator& simulator, const Log& log,
         std::sqrt(per_episode[e] / std::max(1, per_sample * log.episodes[e].num_samples()));
     r.episodes.push_back(ee);
   }
-  if (options.bootstrap > 0 && log.episodes.size() >= 2) {
-    // Resamples of the episodes; their estimates' standard deviation (ordered sums).
-    const int ne = static_cast<int>(log.episodes.size());
-    std::mt19937 rng(options.bootstrap_seed);
-    std::uniform_int_distribution<int> pick(0, ne - 1);
-    MpecOptions bo = options;
-    bo.bootstrap = 0;
-    bo.progress = nullptr;
-    bo.solver.progress = nullptr;
-    std::vector<VectorXd> draws;
-    for (int b = 0; b < options.bootstrap; ++b) {
-      Log resample;
-      for (int k = 0; k < ne; ++k) resample.episodes.push_back(log.episodes[pick(rng)]);
-      const MpecEstimateResult rb = EstimateMpec(simulator, resample, bo);
-      r.bootstrap_converged += rb.converged;
-      if (rb.converged) draws.push_back(rb.estimates);
-      if (options.progress) {
-        std::ostringstream s;
-        s << "mpec bootstrap " << b + 1 << "/" << options.bootstrap << ": "
-          << (rb.converged ? "converged" : "not converged");
-        options.progress(s.str());
-      }
-    }
-    r.std_error_method = "bootstrap";
-    r.std_errors = VectorXd::Constant(r.estimates.size(), std::numeric_limits<double>::quiet_NaN());
-    if (draws.size() >= 2) {
-      VectorXd mean = VectorXd::Zero(r.estimates.size());
-      for (const VectorXd& d : draws) mean += d;
-      mean /= static_cast<double>(draws.size());
-      VectorXd spread = VectorXd::Zero(r.estimates.size());
-      for (const VectorXd& d : draws) spread += (d - mean).cwiseAbs2();
-      r.std_errors = (spread / static_cast<double>(draws.size() - 1)).cwiseSqrt();
-    }
-  }
+  if (options.bootstrap > 0 && log.episodes.size() >= 2)
+    mpec_internal::BootstrapOverEpisodes(simulator, log, options, EstimateMpec, &r);
   r.time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return r;
+}
+
+void mpec_internal::BootstrapOverEpisodes(
+    const sim::Simulator& simulator, const Log& log, const MpecOptions& options,
+    const std::function<MpecEstimateResult(const sim::Simulator&, const Log&, const MpecOptions&)>&
+        estimate,
+    MpecEstimateResult* r) {
+  // Resamples of the episodes; their estimates' standard deviation (ordered sums).
+  const int ne = static_cast<int>(log.episodes.size());
+  const Eigen::Index nt = r->estimates.size();
+  std::mt19937 rng(options.bootstrap_seed);
+  std::uniform_int_distribution<int> pick(0, ne - 1);
+  MpecOptions bo = options;
+  bo.bootstrap = 0;
+  bo.progress = nullptr;
+  bo.solver.progress = nullptr;
+  std::vector<VectorXd> draws;
+  for (int b = 0; b < options.bootstrap; ++b) {
+    Log resample;
+    for (int k = 0; k < ne; ++k) resample.episodes.push_back(log.episodes[pick(rng)]);
+    const MpecEstimateResult rb = estimate(simulator, resample, bo);
+    r->bootstrap_converged += rb.converged;
+    if (rb.converged) draws.push_back(rb.estimates);
+    if (options.progress) {
+      std::ostringstream s;
+      s << "mpec bootstrap " << b + 1 << "/" << options.bootstrap << ": "
+        << (rb.converged ? "converged" : "not converged");
+      options.progress(s.str());
+    }
+  }
+  r->std_error_method = "bootstrap";
+  r->std_errors = VectorXd::Constant(nt, std::numeric_limits<double>::quiet_NaN());
+  if (draws.size() >= 2) {
+    VectorXd mean = VectorXd::Zero(nt);
+    for (const VectorXd& d : draws) mean += d;
+    mean /= static_cast<double>(draws.size());
+    VectorXd spread = VectorXd::Zero(nt);
+    for (const VectorXd& d : draws) spread += (d - mean).cwiseAbs2();
+    r->std_errors = (spread / static_cast<double>(draws.size() - 1)).cwiseSqrt();
+  }
 }
 
 }  // namespace vinci::estimation

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <algorithm>
+#include <functional>
 #include <map>
 #include <memory>
 #include <string>
@@ -63,6 +64,17 @@ void ParallelFor(int n, int threads, const F& f) {
   }
   for (std::thread& th : pool) th.join();
 }
+
+/// Bootstrap standard errors over episodes (MpecOptions::bootstrap ≥ 1, ≥ 2 episodes): B
+/// resamples of the episodes with replacement (seeded by options.bootstrap_seed), each estimated
+/// by `estimate` with bootstrap and progress off; r->std_errors the converged resamples'
+/// standard deviation (NaN with fewer than 2), r->std_error_method "bootstrap",
+/// r->bootstrap_converged their count. Progress lines go to options.progress.
+void BootstrapOverEpisodes(const sim::Simulator& simulator, const Log& log,
+                           const MpecOptions& options,
+                           const std::function<MpecEstimateResult(const sim::Simulator&, const Log&,
+                                                                  const MpecOptions&)>& estimate,
+                           MpecEstimateResult* r);
 
 }  // namespace mpec_internal
 
