@@ -4,6 +4,7 @@
 // ("Allocations per step") lists the counts and what remains on the paths that are not at zero.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstdio>
@@ -15,6 +16,7 @@
 #include "box_scenes.h"
 #include "vinci/sim/model/scene_file.h"
 #include "vinci/sim/simulator/batch.h"
+#include "vinci/sim/simulator/sensitivity.h"
 #include "vinci/sim/simulator/simulator.h"
 
 // Every heap allocation goes through malloc (operator new, Eigen's aligned_malloc, std::string):
@@ -269,6 +271,55 @@ TEST(StepAllocationTest, QuasistaticStepsAllocateNothing) {
             0);
   EXPECT_EQ(StepAllocations("examples/scenes/pendulum_on_block.yaml", FormulationType::kDynamicDqc),
             0);
+}
+
+// Allocations of each one-parameter forward step derivative (PropagateStep with the step's
+// workspace, as RolloutForward) along a rollout whose active set does not change: every
+// derivative after the first allocates the same count (the per-thread linearization and the
+// directional evaluations' assembly keep their storage; nothing accumulates from step to step).
+std::vector<long> DerivativeAllocations(const std::string& path, const std::string& param) {
+  const Simulator sim = Load(path);
+  const Params p = sim.DefaultParams();
+  const ParamSelection one(sim.scene().param_table(), {param});
+  constexpr int kWarm = 100, kDerivatives = 40;  // the box has landed and rests after kWarm
+  const Trajectory tr =
+      sim.Rollout(p, sim.InitialState(), std::vector<StepInput>(kWarm + kDerivatives));
+  EXPECT_TRUE(tr.ok) << tr.failure;
+  const int nx = static_cast<int>(tr.states[0].q.size() + tr.states[0].v.size());
+  MatrixXd S = MatrixXd::Zero(nx, 1), S_next;
+  S(0, 0) = 1.0;
+  Workspace ws;
+  const StepInput u;
+  std::vector<long> counts;
+  for (int k = kWarm; k < kWarm + kDerivatives; ++k) {
+    const long before = g_allocations.load();
+    const StepSensitivity st =
+        PropagateStep(sim, p, one, tr.states[k], u, tr.states[k + 1], S, &S_next, {}, &ws);
+    counts.push_back(g_allocations.load() - before);
+    EXPECT_NE(st.status, SensitivityStatus::kFailed) << st.message;
+  }
+  return counts;
+}
+
+TEST(StepAllocationTest, StepDerivativeAllocationsDoNotGrow) {
+  // A column that needs the sensitivity LCP of the degenerate pairs (a Lemke solve, its K⁻¹ E_D)
+  // allocates a few more on its step (the resting box, now and then).
+  constexpr long kLcpBranch = 8;
+  for (const auto& [path, param] : std::vector<std::pair<std::string, std::string>>{
+           {"examples/scenes/block_sliding.yaml", "mu.default"},
+           {"examples/scenes/box_on_plane.yaml", "mu.default"}}) {
+    const std::vector<long> counts = DerivativeAllocations(path, param);
+    ASSERT_GE(counts.size(), 4u);
+    // After the first derivative (the per-thread storage sized): the same steady count in the
+    // first and the second half, never more than the LCP branch above it.
+    const std::size_t half = counts.size() / 2;
+    const long first = *std::min_element(counts.begin() + 1, counts.begin() + half);
+    const long second = *std::min_element(counts.begin() + half, counts.end());
+    std::printf("%s: %ld allocations per derivative\n", path.c_str(), second);
+    EXPECT_EQ(second, first) << path;
+    for (std::size_t k = 1; k < counts.size(); ++k)
+      EXPECT_LE(counts[k], first + kLcpBranch) << path << ", derivative " << k;
+  }
 }
 
 }  // namespace

@@ -8,6 +8,7 @@
 #include <string>
 #include <utility>
 
+#include "../solvers/scratch_lease.h"
 #include "step_util.h"
 #include "vinci/sim/formulations/contact.h"
 #include "vinci/sim/formulations/geometrically_implicit.h"
@@ -242,8 +243,10 @@ class StewartTrinkleModel final : public StepModel {
       : StepModel(std::move(model), std::move(params), std::move(x), std::move(u), st.options().dt),
         st_(st) {
     // Assemble() selects each corner's edge in its contacts: AssembleAt of those contacts
-    // (without selection) is the same assembly, kept for evaluations at the freeze point.
-    freeze_ = st_.Assemble(*model_, x_, u_);
+    // (without selection) is the same assembly, kept for evaluations at the freeze point. Built
+    // in place: assigning Assemble()'s result would copy its sparse matrices (Eigen 3.4's
+    // SparseMatrix has no move assignment).
+    st_.AssembleInto(*model_, x_, u_, &freeze_);
     contacts_ = freeze_.contacts;
     k0_ = ComputeBodyKinematics(*model_, x_);
     sides_ = FrozenSides(*model_, contacts_, k0_, &feature_kinks_);
@@ -267,9 +270,11 @@ class StewartTrinkleModel final : public StepModel {
   StepResiduals ResidualsAlong(const VectorXd& z, const StepInput& u, const VectorXd& s,
                                double t) const override {
     const State x = StateAlong(s, t);
-    const StewartTrinkle::Assembly a = st_.AssembleAt(
-        *model_, x, u, MoveContactsAlong(*model_, contacts_, x_, x, s, t, dt_, k0_, sides_),
-        /*select_corner_edges=*/false);
+    // The calling thread's assembly storage (same values as a fresh AssembleAt).
+    internal::ScratchLease<StewartTrinkle::Assembly> lease;
+    StewartTrinkle::Assembly& a = lease.get();
+    a.contacts = MoveContactsAlong(*model_, contacts_, x_, x, s, t, dt_, k0_, sides_);
+    st_.AssembleAtInto(*model_, x, u, /*select_corner_edges=*/false, &a);
     return st_.EvaluateAssembly(*model_, params_, a, x, z, false);
   }
   VectorXd Unknowns(const State& next) const override {
@@ -320,7 +325,7 @@ class NcpModel final : public StepModel {
       : StepModel(std::move(model), std::move(params), std::move(x), std::move(u),
                   ncp.assembler().options().dt),
         ncp_(ncp) {
-    freeze_ = ncp_.assembler().Assemble(*model_, x_, u_);  // as StewartTrinkleModel
+    ncp_.assembler().AssembleInto(*model_, x_, u_, &freeze_);  // as StewartTrinkleModel
     contacts_ = freeze_.contacts;
     G_b_ = freeze_.G_b;
     k0_ = ComputeBodyKinematics(*model_, x_);
@@ -338,12 +343,11 @@ class NcpModel final : public StepModel {
   StepResiduals ResidualsAlong(const VectorXd& z, const StepInput& u, const VectorXd& s,
                                double t) const override {
     const State x = StateAlong(s, t);
-    return ncp_.EvaluateAssembly(
-        *model_, params_,
-        ncp_.assembler().AssembleAt(
-            *model_, x, u, MoveContactsAlong(*model_, contacts_, x_, x, s, t, dt_, k0_, sides_),
-            /*select_corner_edges=*/false),
-        x, z);
+    internal::ScratchLease<StewartTrinkle::Assembly> lease;  // as StewartTrinkleModel's
+    StewartTrinkle::Assembly& a = lease.get();
+    a.contacts = MoveContactsAlong(*model_, contacts_, x_, x, s, t, dt_, k0_, sides_);
+    ncp_.assembler().AssembleAtInto(*model_, x, u, /*select_corner_edges=*/false, &a);
+    return ncp_.EvaluateAssembly(*model_, params_, a, x, z);
   }
   // The MCP solution [p_n (nc); (p_t, p_o) per contact (2 nc); σ (nc)] is z's p_n, p_f, σ.
   VectorXd Unknowns(const State& next) const override {

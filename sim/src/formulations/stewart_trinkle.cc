@@ -364,6 +364,11 @@ StewartTrinkle::Assembly StewartTrinkle::AssembleAt(const Scene& model, const St
   return a;
 }
 
+void StewartTrinkle::AssembleAtInto(const Scene& model, const State& x, const StepInput& u,
+                                    bool select_corner_edges, Assembly* a) const {
+  Fill(model, x, u, select_corner_edges, a);
+}
+
 void StewartTrinkle::Fill(const Scene& model, const State& x, const StepInput& u,
                           bool select_corner_edges, Assembly* assembly,
                           bool kinematics_ready) const {

@@ -11,6 +11,7 @@
 #include <utility>
 #include <vector>
 
+#include "../solvers/scratch_lease.h"
 #include "sensitivity_internal.h"
 #include "sensitivity_linearization.h"
 #include "vinci/sim/formulations/geometrically_implicit.h"
@@ -123,8 +124,8 @@ class StepDifferentiator {
     const int nz = frozen_->layout().size();
     vals_ = frozen_->EvaluateResiduals(z_, params, x, u, true);
     const bool gi = dynamic_cast<const GeometricallyImplicit*>(&sim.formulation()) != nullptr;
-    lin_ = std::make_unique<Linearization>(vals_, nz, options, options.smoothing > 0.0,
-                                           gi ? &frozen_->layout() : nullptr);
+    lin_->Compute(vals_, nz, options, options.smoothing > 0.0, gi ? &frozen_->layout() : nullptr);
+    lin_computed_ = true;
     if (!lin_->ok()) {
       message_ = lin_->message();
       return;
@@ -137,7 +138,7 @@ class StepDifferentiator {
       if (shift.size() == z_.size()) {
         z_ += shift;
         vals_ = frozen_->EvaluateResiduals(z_, params, x, u, true);
-        lin_ = std::make_unique<Linearization>(vals_, nz, options, false, nullptr);
+        lin_->Compute(vals_, nz, options, false, nullptr);
         if (!lin_->ok()) {
           message_ = lin_->message();
           return;
@@ -175,7 +176,7 @@ class StepDifferentiator {
 
   bool ok() const { return ok_; }
   const std::string& message() const { return message_; }
-  int degenerate() const { return lin_ ? lin_->degenerate() : 0; }
+  int degenerate() const { return lin_computed_ ? lin_->degenerate() : 0; }
   int feature_kinks() const { return frozen_ ? frozen_->feature_kinks() : 0; }
   bool contact_set_changed() const { return contact_set_changed_; }
   int nx() const { return static_cast<int>(x_.q.size() + x_.v.size()); }
@@ -334,7 +335,10 @@ class StepDifferentiator {
   VectorXd z_;
   StepResiduals vals_;               // at z_: values and dense [z, θ] Jacobians
   MatrixXd d_eq_x_, d_a_x_, d_b_x_;  // ∂r/∂x_ℓ (full state only)
-  std::unique_ptr<Linearization> lin_;
+  // The calling thread's linearization storage (scratch_lease.h), recomputed for this step.
+  internal::ScratchLease<Linearization> lin_lease_;
+  Linearization* lin_ = &lin_lease_.get();
+  bool lin_computed_ = false;
   bool ok_ = false, contact_set_changed_ = false;
   bool explicit_start_ = false;  // the end state depends on x_ℓ explicitly (GI)
   std::string message_;

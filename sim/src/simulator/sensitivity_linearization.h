@@ -34,8 +34,18 @@ class Linearization {
   // `vals` holds the step equations and their dense Jacobians at the linearization point, the
   // first `nz` columns those of the unknowns z. `gi`: the step layout if the model is the
   // geometrically implicit stepper's (its unloaded candidate pairs are pinned, below), else null.
-  Linearization(const StepResiduals& vals, int nz, const SensitivityOptions& options, bool smoothed,
-                const StepLayout* gi) {
+  Linearization() = default;
+
+  // (Re)computes everything from `vals`, reusing this object's storage (no result depends on an
+  // earlier Compute: every member read later is overwritten or reset here).
+  void Compute(const StepResiduals& vals, int nz, const SensitivityOptions& options, bool smoothed,
+               const StepLayout* gi) {
+    ok_ = false;
+    message_.clear();
+    degenerate_ = 0;
+    deg_.clear();
+    pinned_.clear();
+    w_ready_ = false;
     const auto E = vals.d_equality.leftCols(nz);
     A_ = vals.d_comp_a.leftCols(nz);
     B_ = vals.d_comp_b.leftCols(nz);
@@ -60,7 +70,8 @@ class Linearization {
     weight_b_ = VectorXd::Zero(np);
     const double inert_tol =
         gi ? options.active_tol * std::max(1.0, B_.size() ? B_.cwiseAbs().maxCoeff() : 0.0) : 0.0;
-    std::vector<int> inert;  // GI pairs whose cone pair is inert
+    std::vector<int>& inert = inert_;  // GI pairs whose cone pair is inert
+    inert.clear();
     for (int i = 0; i < np; ++i) {
       const bool a0 = a[i] <= tol, b0 = b[i] <= tol;
       if (gi && !smoothed && a0 && b0 && B_.row(i).cwiseAbs().maxCoeff() <= inert_tol) {
@@ -172,13 +183,14 @@ class Linearization {
     // λ = 0 is the solution unless some q_j is negative beyond the round-off of its terms.
     const double qscale = (BD_.cwiseAbs() * dz->cwiseAbs()).maxCoeff() + r.b.cwiseAbs().maxCoeff();
     if (p.q.minCoeff() >= -1e-10 * qscale) return true;
-    if (W_.cols() != nd) {
+    if (!w_ready_) {
       // K⁻¹ E_D and the sensitivity LCP's matrix, once per step and only when some column needs
       // them (most columns of a sticking step keep λ = 0).
       MatrixXd ED = MatrixXd::Zero(nz_, nd);
       for (int j = 0; j < nd; ++j) ED(ne_ + deg_[j], j) = 1.0;
       W_ = solver_.Solve(ED);
       lcp_M_ = BD_ * W_;
+      w_ready_ = true;
     }
     p.M = lcp_M_;
     VectorXd lambda;
@@ -283,7 +295,8 @@ class Linearization {
   std::string message_;
   int nz_ = 0, ne_ = 0, degenerate_ = 0;
   MatrixXd A_, B_, K_, BD_;
-  mutable MatrixXd W_, lcp_M_;  // K⁻¹ E_D and B_D K⁻¹ E_D, computed on first need
+  mutable MatrixXd W_, lcp_M_;    // K⁻¹ E_D and B_D K⁻¹ E_D, computed on first need
+  mutable bool w_ready_ = false;  // W_, lcp_M_ hold this Compute's
   VectorXd weight_a_, weight_b_;
   VectorXd a_, b_;    // the pairs' sides at the linearization point
   double tol_ = 0.0;  // a side at most this is 0 (active)
@@ -291,6 +304,7 @@ class Linearization {
   std::vector<char> side_;  // per pair: 'a' / 'b' held, 'd' degenerate, 'i' inert GI pair
   std::vector<int> deg_;
   std::vector<int> pinned_;  // equality rows replaced by dp_t = 0 (inert GI pairs)
+  std::vector<int> inert_;   // Compute's storage
   StructuredSolver solver_;  // of K_ (keeps a pointer to it: Linearization is not copied)
   double k_norm_ = 0.0;
 };

@@ -86,6 +86,10 @@ class StewartTrinkle final : public Formulation {
   /// (Assemble()'s choice at the freeze), so the rows stay the same functions of x.
   Assembly AssembleAt(const Scene& model, const State& x, const StepInput& u,
                       std::vector<Contact> contacts, bool select_corner_edges) const;
+  /// AssembleAt() of the contacts already in a->contacts, into *a (its storage reused; every
+  /// field is overwritten, same result).
+  void AssembleAtInto(const Scene& model, const State& x, const StepInput& u,
+                      bool select_corner_edges, Assembly* a) const;
   /// The step layout of an assembly (its contacts, joint rows, corners and support points).
   static StepLayout LayoutOf(const Scene& model, const Assembly& a);
   /// Evaluate() for an assembly made at x (Evaluate = EvaluateAssembly(Assemble(x))).
