@@ -416,14 +416,16 @@ int Run(int argc, char** argv) {
               continue;
             }
             csv << which << "," << name << "," << sigma << "," << w << "," << n_particles << ","
-                << episodes << "," << trial << "," << st.true_mu << "," << r.estimates[0] << ","
-                << r.std_errors[0] << "," << (r.converged ? 1 : 0) << "," << r.iterations << ","
-                << r.time_s << "," << static_cast<int>(w) * episodes << ","
+                << log.episodes.size() << "," << trial << "," << st.true_mu << "," << r.estimates[0]
+                << "," << r.std_errors[0] << "," << (r.converged ? 1 : 0) << "," << r.iterations
+                << "," << r.time_s << "," << static_cast<int>(w * log.episodes.size()) << ","
                 << static_cast<double>(std::clock() - cpu0) / CLOCKS_PER_SEC << std::endl;
             std::fprintf(
                 stderr, "%s %-7s σ=%g w=%g n=%d e=%d trial %2d: μ̂ = %.5f ± %.5f %s %d it %.2f s\n",
-                which.c_str(), name.c_str(), sigma, w, n_particles, episodes, trial, r.estimates[0],
-                r.std_errors[0], r.converged ? "" : "(not converged)", r.iterations, r.time_s);
+                which.c_str(), name.c_str(), sigma, w, n_particles,
+                static_cast<int>(log.episodes.size()), trial, r.estimates[0], r.std_errors[0],
+                r.converged ? "" : "(not converged)", r.iterations, r.time_s);
+            if (!r.converged) std::cerr << "  reason: " << r.reason << "\n";
           }
         }
       }
