@@ -200,10 +200,25 @@ class RelaxedNlp : public Ipopt::TNLP {
     return true;
   }
 
-  bool intermediate_callback(Ipopt::AlgorithmMode, Index iter, Number, Number, Number, Number,
-                             Number, Number, Number, Number, Index, const Ipopt::IpoptData*,
+  // Records the iteration count; with a stall window (> 0) stops the NLP (Ipopt's "user
+  // requested stop", stalled_ set) once the best error max(inf_pr, inf_du) over the last
+  // `stall_window_` iterations is not below stall_reduction_ times the best before them.
+  bool intermediate_callback(Ipopt::AlgorithmMode, Index iter, Number, Number inf_pr, Number inf_du,
+                             Number, Number, Number, Number, Number, Index, const Ipopt::IpoptData*,
                              Ipopt::IpoptCalculatedQuantities*) override {
     iterations_ = iter;
+    if (stall_window_ <= 0) return true;
+    const double err = std::max(inf_pr, inf_du);
+    errors_.push_back(std::isfinite(err) ? err : std::numeric_limits<double>::max());
+    const int k = static_cast<int>(errors_.size());
+    if (k <= stall_window_) return true;
+    const double before = *std::min_element(errors_.begin(), errors_.end() - stall_window_);
+    const double recent = *std::min_element(errors_.end() - stall_window_, errors_.end());
+    if (recent > stall_reduction_ * before) {
+      stalled_ = true;
+      stall_error_ = recent;
+      return false;
+    }
     return true;
   }
 
@@ -223,8 +238,13 @@ class RelaxedNlp : public Ipopt::TNLP {
   VectorXd x_, z_l_, z_u_, lambda_;
   double objective_ = 0.0;
   int iterations_ = 0;
+  int stall_window_ = 0;          // > 0: the stall exit of intermediate_callback
+  double stall_reduction_ = 0.1;  // required reduction of the error over the window
+  bool stalled_ = false;
+  double stall_error_ = 0.0;  // the best error of the last window when stalled
 
  private:
+  std::vector<double> errors_;
   const MpecProblem& p_;
   const std::vector<std::pair<int, int>>& pairs_;
   Stage stage_;
@@ -334,6 +354,9 @@ void MpecSolverOptions::Validate() const {
   if (early_polish_max_iterations < 0)
     fail("early_polish_max_iterations", early_polish_max_iterations, "≥ 0");
   if (stall_iterations < 0) fail("stall_iterations", stall_iterations, "≥ 0");
+  if (polish_stall_iterations < 0) fail("polish_stall_iterations", polish_stall_iterations, "≥ 0");
+  if (!(polish_stall_reduction > 0) || !(polish_stall_reduction < 1))
+    fail("polish_stall_reduction", polish_stall_reduction, "in (0, 1)");
   if (!(stall_objective_change > 0)) fail("stall_objective_change", stall_objective_change, "> 0");
   if (!(stall_constraint_violation > 0))
     fail("stall_constraint_violation", stall_constraint_violation, "> 0");
@@ -423,10 +446,22 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o) {
         setenv("SCOTCH_PTHREAD_NUMBER", "1", 1);
       scotch_seed(1);
     }
+    if (stage == Stage::kPolish && !pairs.empty()) {
+      nlp->stall_window_ = o.polish_stall_iterations;
+      nlp->stall_reduction_ = o.polish_stall_reduction;
+    }
     if (last == Ipopt::Solve_Succeeded) last = app->OptimizeTNLP(nlp);
     sol.iterations += nlp->iterations_;
     ++sol.stages;
     return nlp;
+  };
+  // How an NLP ended: Ipopt's status, or the polish's stall exit.
+  auto ended = [&](const Ipopt::SmartPtr<RelaxedNlp>& nlp) -> std::string {
+    if (!nlp->stalled_) return StatusText(last);
+    std::ostringstream s;
+    s << "stalled (error max(inf_pr, inf_du) " << nlp->stall_error_ << " not reduced "
+      << 1.0 / o.polish_stall_reduction << "x in " << o.polish_stall_iterations << " iterations)";
+    return s.str();
   };
   auto accept = [&](const Ipopt::SmartPtr<RelaxedNlp>& nlp, const std::string& what) {
     const bool ok = nlp->x_.size() == n && nlp->x_.allFinite();
@@ -439,7 +474,7 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o) {
       sol.objective = nlp->objective_;
     }
     std::ostringstream line;
-    line << what << ": " << StatusText(last) << ", " << nlp->iterations_
+    line << what << ": " << ended(nlp) << ", " << nlp->iterations_
          << " iterations, complementarity " << Violation(pairs, x);
     if (o.progress) o.progress(line.str());
     return ok;
@@ -449,6 +484,7 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o) {
   // Accepted (x, multipliers and sol.first_at_zero replaced) if it solves and, when
   // `lower_bound` is finite, its objective is at most lower_bound + early_polish_tolerance;
   // otherwise the iterate is restored.
+  std::string polish_failure;  // how the last rejected polish ended
   auto try_polish = [&](double lower_bound, const std::string& what) {
     std::vector<bool> fixed(pairs.size());
     for (std::size_t k = 0; k < pairs.size(); ++k)
@@ -470,10 +506,12 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o) {
     }
     if (o.progress) {
       std::ostringstream line;
-      line << what << ": " << StatusText(last) << ", " << nlp->iterations_ << " iterations";
+      line << what << ": " << ended(nlp) << ", " << nlp->iterations_ << " iterations";
       if (solved) line << ", objective " << nlp->objective_ << " above the relaxed " << lower_bound;
       o.progress(line.str() + ", kept the relaxed iterate");
     }
+    polish_failure = what + ": " + ended(nlp) + " after " + std::to_string(nlp->iterations_) +
+                     " iterations, kept the relaxed iterate";
     x = x_keep;
     lambda = l_keep;
     zl = zl_keep;
@@ -532,11 +570,14 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o) {
       sol.first_at_zero[k] = x[pairs[k].first] <= x[pairs[k].second];
   }
   bool relaxed_ok = stage_failure.empty() || sol.polished;
+  bool final_polish_failed = false;
   if (o.polish && !pairs.empty() && !sol.polished) {
     if (try_polish(std::numeric_limits<double>::infinity(), "polish")) {
       sol.polished = true;
       relaxed_ok = true;
       stage_failure.clear();
+    } else {
+      final_polish_failed = true;
     }
   }
   sol.x = x;
@@ -551,6 +592,7 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o) {
   reason << (sol.polished ? "polished: " : "") << StatusText(last) << ", complementarity violation "
          << sol.complementarity_violation;
   if (!stage_failure.empty()) reason << "; " << stage_failure;
+  if (final_polish_failed) reason << "; " << polish_failure;
   if (!sol.converged && relaxed_ok)
     reason << "; above the tolerance " << o.complementarity_tolerance;
   sol.reason = reason.str();

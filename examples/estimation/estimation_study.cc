@@ -17,7 +17,8 @@
 // and runs each method from the scene's μ (the initial guess). With --episodes N (default 1) a
 // trial is N episodes estimated together (shared μ, per-episode initial states); the cube's
 // episodes are different tosses (seeded launch velocities around the scene's), the planar
-// studies' differ only in their noise. One CSV row per trial and method: study, method,
+// studies' differ only in their noise; --only-episode K estimates the K-th of them alone (the
+// same seeded log). One CSV row per trial and method: study, method,
 // noise_m, window, particles, episodes, trial, true_mu, mu_hat, std_error, converged,
 // iterations, time_s (wall), samples, cpu_s (the process's CPU time: meaningful on a loaded
 // machine, summed over threads). Methods: lsq (single shooting), lsq_ms (multiple shooting,
@@ -270,6 +271,7 @@ constexpr const char* kUsage =
     "         [--noise S1,S2] [--windows W1,W2] [--particles N1,N2] [--episodes N]\n"
     "         [--methods lsq,lsq_ms,filter,mpec,mpec_pen,mpec_dec] [--guess MU] [--threads N]\n"
     "         [--mpec-substeps N] [--mpec-raw-guess 1] [--verbose 0|1|IPOPT_PRINT_LEVEL]\n"
+    "         [--only-episode K]\n"
     "         [--out F.csv]\n";
 
 int Run(int argc, char** argv) {
@@ -315,6 +317,7 @@ int Run(int argc, char** argv) {
     return 1;
   }
   int trials = 20, first_trial = 0, episodes = 1;
+  int only_episode = -1;  // ≥ 0: of the trial's episodes keep only this one (--only-episode)
   std::string out = "estimation_study_" + which + ".csv";
   std::vector<std::string> method_names;
   for (const auto& m : Methods()) method_names.push_back(m.first);
@@ -331,6 +334,8 @@ int Run(int argc, char** argv) {
       first_trial = std::stoi(value);
     } else if (flag == "--episodes") {
       episodes = std::stoi(value);
+    } else if (flag == "--only-episode") {
+      only_episode = std::stoi(value);
     } else if (flag == "--noise") {
       noise = ParseList(value);
     } else if (flag == "--windows") {
@@ -365,6 +370,11 @@ int Run(int argc, char** argv) {
       return 1;
     }
   }
+  if (only_episode >= episodes) {
+    std::cerr << "--only-episode " << only_episode << ": expected < --episodes " << episodes
+              << "\n";
+    return 1;
+  }
   if (trials < 1 || episodes < 1 || first_trial < 0 || g_threads < 1 || g_mpec_substeps < 0) {
     std::cerr << "--trials, --episodes and --threads must be ≥ 1, --first-trial and "
                  "--mpec-substeps ≥ 0\n";
@@ -386,7 +396,13 @@ int Run(int argc, char** argv) {
       for (double w : windows) {
         for (int trial = first_trial; trial < first_trial + trials; ++trial) {
           const unsigned seed = 1000u * static_cast<unsigned>(w) + static_cast<unsigned>(trial);
-          const Log log = MakeLog(truth, st, static_cast<int>(w), episodes, sigma, seed);
+          Log log = MakeLog(truth, st, static_cast<int>(w), episodes, sigma, seed);
+          if (only_episode >= 0) {
+            // The same seeded episode as in the N-episode trial, estimated alone.
+            est::Episode kept = std::move(log.episodes.at(only_episode));
+            log.episodes.clear();
+            log.episodes.push_back(std::move(kept));
+          }
           for (const auto& [name, estimator] : Methods()) {
             bool wanted = false;
             for (const std::string& m : method_names) wanted |= m == name;
@@ -400,14 +416,16 @@ int Run(int argc, char** argv) {
               continue;
             }
             csv << which << "," << name << "," << sigma << "," << w << "," << n_particles << ","
-                << episodes << "," << trial << "," << st.true_mu << "," << r.estimates[0] << ","
-                << r.std_errors[0] << "," << (r.converged ? 1 : 0) << "," << r.iterations << ","
-                << r.time_s << "," << static_cast<int>(w) * episodes << ","
+                << log.episodes.size() << "," << trial << "," << st.true_mu << "," << r.estimates[0]
+                << "," << r.std_errors[0] << "," << (r.converged ? 1 : 0) << "," << r.iterations
+                << "," << r.time_s << "," << static_cast<int>(w * log.episodes.size()) << ","
                 << static_cast<double>(std::clock() - cpu0) / CLOCKS_PER_SEC << std::endl;
             std::fprintf(
                 stderr, "%s %-7s σ=%g w=%g n=%d e=%d trial %2d: μ̂ = %.5f ± %.5f %s %d it %.2f s\n",
-                which.c_str(), name.c_str(), sigma, w, n_particles, episodes, trial, r.estimates[0],
-                r.std_errors[0], r.converged ? "" : "(not converged)", r.iterations, r.time_s);
+                which.c_str(), name.c_str(), sigma, w, n_particles,
+                static_cast<int>(log.episodes.size()), trial, r.estimates[0], r.std_errors[0],
+                r.converged ? "" : "(not converged)", r.iterations, r.time_s);
+            if (!r.converged) std::cerr << "  reason: " << r.reason << "\n";
           }
         }
       }

@@ -198,6 +198,76 @@ TEST(MpecSolver, RejectsBadOptionsAndPairs) {
   EXPECT_EQ(ParseComplementarityMethod("penalty"), ComplementarityMethod::kPenalty);
 }
 
+// scholtes3 whose Hessian is 1e4 times too large wherever a side of its pair is exactly 0 —
+// only at the polish NLP's iterates (the fixed side is 0; a relaxed iterate is interior). Its
+// steps are 1e-4 of Newton's: the polish creeps (the error falls by ~1e-4 per iteration), as a
+// polish whose model is poor near a wrongly fixed active set does (docs/estimation.md).
+class CreepingPolish : public QuadraticMpec {
+ public:
+  CreepingPolish() : QuadraticMpec(Scholtes3()) {}
+  bool HessianValues(const VectorXd& x, double s, const VectorXd& l, VectorXd* v) const override {
+    QuadraticMpec::HessianValues(x, s, l, v);
+    if (std::min(x[0], x[1]) == 0.0) *v *= 1e4;
+    return true;
+  }
+};
+
+// The symmetric relaxed iterate x1 = x2 = √0.1 (one stage, ε = 0.1) is far from either
+// polished optimum, so the polish must move x2 (or x1) by ~0.7 with 1e-4 steps.
+MpecSolverOptions OneStage() {
+  MpecSolverOptions o;
+  o.epsilon_start = 0.1;
+  o.epsilon_end = 0.1;
+  o.max_iterations = 3000;
+  return o;
+}
+
+TEST(MpecSolver, CreepingPolishCreepsWithoutTheStallExit) {
+  MpecSolverOptions o = OneStage();
+  o.polish_stall_iterations = 0;
+  o.max_iterations = 1000;
+  const MpecSolution s = SolveMpec(CreepingPolish(), o);
+  EXPECT_FALSE(s.polished) << s.reason;
+  EXPECT_GE(s.iterations, 1000) << s.reason;  // the polish ran to its iteration limit
+}
+
+TEST(MpecSolver, StalledPolishStopsEarlyAndIsNotConverged) {
+  MpecSolverOptions o = OneStage();
+  int stage_iterations = 0;
+  {
+    MpecSolverOptions relaxed = o;
+    relaxed.polish = false;
+    stage_iterations = SolveMpec(CreepingPolish(), relaxed).iterations;
+  }
+  const MpecSolution s = SolveMpec(CreepingPolish(), o);
+  EXPECT_FALSE(s.polished);
+  EXPECT_FALSE(s.converged) << s.reason;  // the relaxed iterate is far from complementary
+  EXPECT_GT(s.complementarity_violation, 0.1);
+  EXPECT_NE(s.reason.find("polish: stalled"), std::string::npos) << s.reason;
+  // The polish stopped one window (100 iterations) after its best error, not at 3 000.
+  EXPECT_LE(s.iterations - stage_iterations, o.polish_stall_iterations + 2) << s.reason;
+  EXPECT_GE(s.iterations - stage_iterations, o.polish_stall_iterations) << s.reason;
+}
+
+TEST(MpecSolver, StalledEarlyPolishContinuesTheHomotopy) {
+  MpecSolverOptions o;  // ε = 0.1 … 1e-8
+  o.early_polish_tolerance = 1e-3;
+  std::vector<std::string> lines;
+  o.progress = [&](const std::string& line) { lines.push_back(line); };
+  const MpecSolution s = SolveMpec(CreepingPolish(), o);
+  ASSERT_FALSE(lines.empty());
+  int stalled_early = 0, stages_after = 0;
+  for (const std::string& line : lines) {
+    if (line.rfind("early polish: stalled", 0) == 0) ++stalled_early;
+    if (stalled_early > 0 && line.rfind("scholtes eps", 0) == 0) ++stages_after;
+  }
+  EXPECT_EQ(stalled_early, 1);
+  EXPECT_EQ(stages_after, 7) << "ε = 1e-2 … 1e-8 after the stalled attempt";
+  EXPECT_LT(s.iterations, 1000);
+  // Whatever the final polish does, the result is converged only if complementary.
+  if (s.converged) EXPECT_LE(s.complementarity_violation, o.complementarity_tolerance);
+}
+
 // --- the estimator -------------------------------------------------------------------------
 
 constexpr double kTrueMu = 0.3;

@@ -111,6 +111,17 @@ struct MpecSolverOptions {
   /// the polish that follows restores the tight tolerance. 0: off (Ipopt's default, 15
   /// iterations at 1e3 × tolerance).
   int stall_iterations = 0;
+  /// Stall exit of the polish NLPs (early and final): a polish stops, as failed, once the best
+  /// error max(primal, dual infeasibility) of Ipopt's last polish_stall_iterations iterations is
+  /// not below polish_stall_reduction times the best before them. A polish whose fixed active
+  /// set is wrong (its NLP infeasible or degenerate near the iterate) creeps with tiny steps
+  /// instead of failing (measured on a tossed cube: thousands of iterations at dual
+  /// infeasibility ~1–10); a polish from an identified active set converges in a few
+  /// iterations. A stalled early polish keeps the relaxed iterate and the homotopy goes on; a
+  /// stalled final polish leaves the relaxed iterate, converged only if its complementarity
+  /// violation is within complementarity_tolerance, and the reason says so. 0: off.
+  int polish_stall_iterations = 100;
+  double polish_stall_reduction = 0.1;  ///< in (0, 1)
   double stall_objective_change = 1e-7;
   double stall_constraint_violation = 1e-6;
   bool limited_memory = false;  ///< Ipopt's L-BFGS Hessian instead of the problem's
