@@ -265,7 +265,9 @@ TEST(MpecSolver, StalledEarlyPolishContinuesTheHomotopy) {
   EXPECT_EQ(stages_after, 7) << "ε = 1e-2 … 1e-8 after the stalled attempt";
   EXPECT_LT(s.iterations, 1000);
   // Whatever the final polish does, the result is converged only if complementary.
-  if (s.converged) EXPECT_LE(s.complementarity_violation, o.complementarity_tolerance);
+  if (s.converged) {
+    EXPECT_LE(s.complementarity_violation, o.complementarity_tolerance);
+  }
 }
 
 // --- the estimator -------------------------------------------------------------------------
