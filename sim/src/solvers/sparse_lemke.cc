@@ -644,6 +644,8 @@ SolverReport SolveSparseLemke(const SpMat& M, const VectorXd& q, const VectorXd*
   };
 
   std::vector<int> basis(n);
+  const bool warm_run = warm_start != nullptr && warm_start->size() == n &&
+                        warm_start->allFinite() && (warm_start->array() > 0.0).any();
   if (warm_start != nullptr && warm_start->size() == n && warm_start->allFinite() &&
       (warm_start->array() > 0.0).any()) {
     for (Eigen::Index i = 0; i < n; ++i)
@@ -662,6 +664,14 @@ SolverReport SolveSparseLemke(const SpMat& M, const VectorXd& q, const VectorXd*
   }
   for (Eigen::Index i = 0; i < n; ++i) basis[i] = static_cast<int>(i);
   if (run(basis, "cold", false)) return finish();
+  if (!warm_run) {  // without a warm start, the shifted retry from the cold basis
+    for (Eigen::Index i = 0; i < n; ++i) basis[i] = static_cast<int>(i);
+    if (run(basis, "shifted cold", true)) {
+      report.message =
+          "cold with shifts of q" + (report.message.empty() ? "" : " (" + report.message + ")");
+      return finish();
+    }
+  }
   report.message = "sparse Lemke failed (" + first_message + ")";
   return finish();
 }
