@@ -38,9 +38,8 @@ constexpr double kDependentColumnTol = 1e-10;
 constexpr int kRepairRounds = 4;
 // The shifted retry (RunSparseLemke with shift): basic values in [−kShiftFeasibility·b, 0)
 // (b = max(1, ‖q‖∞)) are set to 0 by a shift of q, and pivots below kShiftPivotFraction of the
-// column's largest entry do not block (unless no other entry does). On the gap-dropped
-// 100-box pile's step 24 (bench/README.md) 1e-9 or 1e-12 end on secondary rays, 1e-7 and 1e-5
-// solve; a feasibility band of 1e-4 ends on secondary rays.
+// column's largest entry do not block (unless no other entry does). How the two values were
+// chosen: bench/README.md, "Sparse Lemke: the shifted retry, step 24 of the gap-dropped pile".
 constexpr double kShiftFeasibility = 1e-6;
 constexpr double kShiftPivotFraction = 1e-7;
 // The lexicographic rule reads rows of B⁻¹ (one transposed solve each) while at most this many
