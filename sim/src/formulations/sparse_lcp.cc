@@ -41,6 +41,9 @@ StepScratchLease::~StepScratchLease() {
 
 namespace {
 
+// EnsureBlocks sums the rows of up to this many columns per contact (1 + n_d) together.
+constexpr int kRowGroupMax = 9;
+
 // out = W g for an N × N column-major W: every entry accumulated from 0 over the inner index in
 // order (the order of Eigen's GEMM kernel at depth N ≤ 6, hence its bits).
 template <int N>
@@ -392,8 +395,62 @@ void ContactLcpOperator::EnsureBlocks() const {
   // columns of body b come in groups of 1 + n_d (one contact's normal and friction columns).
   const int group = 1 + nd;
   norm_inf_ = 0.0;
+  const auto add_row_sum = [&](double sum) {
+    norm_inf_ = std::max(norm_inf_, sum);
+    if (std::isnan(sum)) norm_inf_ = sum;
+  };
+  // A contact without compliance: its 1 + n_d rows (normal, friction directions; E starts the
+  // friction rows' sums) at once, each summed in the order of the general loop below (the same
+  // terms in the same order, so the same bits; the rows' sums interleaved).
+  const bool grouped = group <= kRowGroupMax;
+  for (int c = 0; c < (grouped ? nc : 0); ++c) {
+    if (a.compliance[c].compliant) continue;
+    const int bodies[2] = {a.contacts[c].body_a, a.contacts[c].body_b};
+    double sums[kRowGroupMax];
+    const double* column[kRowGroupMax];
+    const double* column_other[kRowGroupMax];
+    sums[0] = 0.0;
+    for (int t = 1; t < group; ++t) sums[t] = 1.0;  // E
+    for (int side = 0; side < 2; ++side) {
+      if (first_[2 * c + side] < 0) continue;
+      const int b = bodies[side], other = first_[2 * c + 1 - side] >= 0 ? bodies[1 - side] : -1;
+      const int p = first_[2 * c + side];
+      const std::vector<int>& cols = columns_[b];
+      const MatrixXd& B = blocks_[b];
+      for (int t = 0; t < group; ++t) column[t] = B.col(p + t).data();
+      const int k = static_cast<int>(cols.size());
+      if (other < 0) {
+        for (int jj = 0; jj < k; ++jj)
+          for (int t = 0; t < group; ++t) sums[t] += std::abs(column[t][jj]);
+        continue;
+      }
+      const MatrixXd& Bo = blocks_[other];
+      const int p_other = first_[2 * c + 1 - side];
+      for (int t = 0; t < group; ++t) column_other[t] = Bo.col(p_other + t).data();
+      for (int g = 0; g < k / group; ++g) {
+        const int cg = cols[g * group];
+        const Contact& cj = a.contacts[cg];
+        int shared = -1;
+        if (cj.body_a == other) shared = first_[2 * cg + 0];
+        if (cj.body_b == other) shared = first_[2 * cg + 1];
+        if (shared >= 0 && side == 1) continue;  // summed at side 0
+        const int o = g * group;
+        if (shared >= 0) {
+          for (int u = 0; u < group; ++u)
+            for (int t = 0; t < group; ++t)
+              sums[t] += std::abs(column[t][o + u] + column_other[t][shared + u]);
+        } else {
+          for (int u = 0; u < group; ++u)
+            for (int t = 0; t < group; ++t) sums[t] += std::abs(column[t][o + u]);
+        }
+      }
+    }
+    for (int t = 0; t < group; ++t) add_row_sum(sums[t]);
+  }
+  // Every other row (a compliant contact's, or all if n_d is large).
   for (int r = 0; r < nc + nf; ++r) {
     const int c = ContactOf(r);
+    if (grouped && !a.compliance[c].compliant) continue;
     const int bodies[2] = {a.contacts[c].body_a, a.contacts[c].body_b};
     double sum = r >= nc ? 1.0 : 0.0;  // E
     const bool compliant = r < nc && a.compliance[r].compliant;
@@ -449,8 +506,7 @@ void ContactLcpOperator::EnsureBlocks() const {
         }
       }
     }
-    norm_inf_ = std::max(norm_inf_, sum);
-    if (std::isnan(sum)) norm_inf_ = sum;
+    add_row_sum(sum);
   }
   for (int c = 0; c < nc; ++c) norm_inf_ = std::max(norm_inf_, std::abs(a.mu[c]) + nd);  // σ rows
   full_ = true;

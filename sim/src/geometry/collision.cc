@@ -510,12 +510,21 @@ void VertexFeatures(const Polytope& P, const Isometry3d& X_WP, const Polytope& Q
       out->push_back({X_WQ * y, X_WQ * x, -n_W, gap});
     }
   };
+  // Per face of Q: n_f · x of the current vertex, and min_p(n_f) (formed once per call, on first
+  // use: it does not depend on the vertex).
+  thread_local std::vector<double> face_dot, face_min_p;
+  thread_local std::vector<char> face_min_p_ready;
+  face_dot.resize(static_cast<std::size_t>(num_faces));
+  face_min_p.resize(static_cast<std::size_t>(num_faces));
+  face_min_p_ready.assign(static_cast<std::size_t>(num_faces), 0);
   for (int i = 0; i < P.num_vertices(); ++i) {
     const Vector3d x = X_QP * P.vertex(i);
     int f_max = -1;
     double s_max = -kInf;
     for (int f = 0; f < num_faces; ++f) {
-      const double s = Q.face_normal(f).dot(x) - Q.face_offset(f);
+      const double dot = Q.face_normal(f).dot(x);
+      face_dot[static_cast<std::size_t>(f)] = dot;
+      const double s = dot - Q.face_offset(f);
       if (s > s_max) {
         s_max = s;
         f_max = f;
@@ -526,10 +535,14 @@ void VertexFeatures(const Polytope& P, const Isometry3d& X_WP, const Polytope& Q
     int best = -1;
     double best_s = -kInf;
     for (int f = 0; f < num_faces; ++f) {
-      const Vector3d n = Q.face_normal(f);
-      const double s = n.dot(x) - Q.face_offset(f);
+      const std::size_t fi = static_cast<std::size_t>(f);
+      const double s = face_dot[fi] - Q.face_offset(f);
       if (s < s_max - support_tol || s <= best_s) continue;
-      if (n.dot(x) - min_p(n) > support_tol) continue;
+      if (!face_min_p_ready[fi]) {
+        face_min_p[fi] = min_p(Q.face_normal(f));
+        face_min_p_ready[fi] = 1;
+      }
+      if (face_dot[fi] - face_min_p[fi] > support_tol) continue;
       best = f;
       best_s = s;
     }
@@ -595,27 +608,45 @@ void EdgeEdge(const Polytope& A, const Isometry3d& X_WA, const Polytope& B, cons
     const Vector3d n_B = X_BA.linear() * n_A;
     face_sep = std::max(face_sep, -B.MaxDot(-n_B) - n_B.dot(p_BA) - A.face_offset(f));
   }
-  // B's edges (start, direction, length) once, not once per edge of A (the same values).
+  // A contact needs |gap| ≤ reach (gap ≤ envelope if gap ≥ 0, gap ≥ face_sep − support_tol if
+  // not), and |gap| = |n · (pa − pb)| with pa, pb on the two segments (interior parameters). For
+  // edges at an angle θ with sin θ ≥ 1/2 the computed s and t are within ~1e-13 (scale) of the
+  // exact closest points, so |gap| ≥ |pa − pb| − 1e-13 scale ≥ (separation of the segments'
+  // bounding boxes) − 1e-13 scale: a pair whose boxes are farther apart than `cull` along an axis
+  // cannot give a contact and is skipped before LineLineParams (the margin is 1e4× round-off).
+  const double reach = std::max(envelope, support_tol - face_sep);
+  const double cull = reach * (1.0 + 1e-9) + 1e-9 * (A.radius() + B.radius() + p_BA.norm());
+  // B's edges (start, direction, length, bounding box) once, not once per edge of A (the same
+  // values).
   struct EdgeB {
     Vector3d b0, db;
     double length;
+    Vector3d lo, hi;
   };
   thread_local std::vector<EdgeB> edges_b;
   edges_b.clear();
   B.ForEachEdge([&](const Vector3d& b0, const Vector3d& b1) {
     const Vector3d db = b1 - b0;
-    edges_b.push_back({b0, db, db.norm()});
+    const Vector3d end = b0 + db;
+    edges_b.push_back({b0, db, db.norm(), b0.cwiseMin(end), b0.cwiseMax(end)});
   });
   A.ForEachEdge([&](const Vector3d& a0_A, const Vector3d& a1_A) {
     const Vector3d a0 = X_BA * a0_A;
     const Vector3d da = X_BA.linear() * (a1_A - a0_A);
     const double da_norm = da.norm();
+    const Vector3d a_end = a0 + da;
+    const Vector3d lo_a = a0.cwiseMin(a_end), hi_a = a0.cwiseMax(a_end);
+    const double da_sq = da.squaredNorm();
     for (const EdgeB& edge : edges_b) {
       const Vector3d& b0 = edge.b0;
       const Vector3d& db = edge.db;
       const Vector3d c = da.cross(db);
       const double c_norm = c.norm();
       if (c_norm <= kEdgeParallelSin * da_norm * edge.length) continue;
+      // Separation of the bounding boxes along their farthest-apart axis (NaN: never skipped).
+      const Vector3d apart = (lo_a - edge.hi).cwiseMax(edge.lo - hi_a);
+      if (apart.maxCoeff() > cull && c_norm * c_norm >= 0.25 * da_sq * (edge.length * edge.length))
+        continue;
       double s, t;
       LineLineParams(a0, da, b0, db, &s, &t);
       if (!Interior(s) || !Interior(t)) continue;
