@@ -183,6 +183,63 @@ void SparseTransposeTimes(const SparseMatrixd& G, const VectorXd& x, bool assign
   }
 }
 
+// The ‖M‖∞ row sums of contact c's 1 + n_d = group rows (normal, then friction directions; E
+// starts the friction rows) into sums[0..group), each summed in the order of EnsureBlocks'
+// row-by-row loop (the same terms in the same order: the same bits), the rows interleaved. G:
+// group as a compile-time constant, or 0.
+template <int G>
+void ContactRowSums(const StewartTrinkle::Assembly& a, const std::vector<int>& first,
+                    const std::vector<std::vector<int>>& columns,
+                    const std::vector<MatrixXd>& blocks, int c, int runtime_group, double* sums) {
+  const int group = G > 0 ? G : runtime_group;
+  const int bodies[2] = {a.contacts[c].body_a, a.contacts[c].body_b};
+  double acc[kRowGroupMax];  // local: kept in registers when G is fixed
+  acc[0] = 0.0;
+  for (int t = 1; t < group; ++t) acc[t] = 1.0;  // E
+  // Row p + t of a block is read as column p + t's entries in column jj, i.e. rows p..p+group−1
+  // of column jj: contiguous (the blocks are symmetric bit for bit).
+  for (int side = 0; side < 2; ++side) {
+    if (first[2 * c + side] < 0) continue;
+    const int b = bodies[side], other = first[2 * c + 1 - side] >= 0 ? bodies[1 - side] : -1;
+    const int p = first[2 * c + side];
+    const std::vector<int>& cols = columns[b];
+    const int k = static_cast<int>(cols.size());
+    const double* B = blocks[b].data() + p;
+    if (other < 0) {
+      for (int jj = 0; jj < k; ++jj) {
+        const double* x = B + static_cast<std::ptrdiff_t>(jj) * k;
+        for (int t = 0; t < group; ++t) acc[t] += std::abs(x[t]);
+      }
+      continue;
+    }
+    const int p_other = first[2 * c + 1 - side];
+    const int k_other = static_cast<int>(blocks[other].rows());
+    const double* O = blocks[other].data() + p_other;
+    for (int g = 0; g < k / group; ++g) {
+      const int cg = cols[g * group];
+      const Contact& cj = a.contacts[cg];
+      int shared = -1;
+      if (cj.body_a == other) shared = first[2 * cg + 0];
+      if (cj.body_b == other) shared = first[2 * cg + 1];
+      if (shared >= 0 && side == 1) continue;  // summed at side 0
+      const int o = g * group;
+      if (shared >= 0) {
+        for (int u = 0; u < group; ++u) {
+          const double* x = B + static_cast<std::ptrdiff_t>(o + u) * k;
+          const double* y = O + static_cast<std::ptrdiff_t>(shared + u) * k_other;
+          for (int t = 0; t < group; ++t) acc[t] += std::abs(x[t] + y[t]);
+        }
+      } else {
+        for (int u = 0; u < group; ++u) {
+          const double* x = B + static_cast<std::ptrdiff_t>(o + u) * k;
+          for (int t = 0; t < group; ++t) acc[t] += std::abs(x[t]);
+        }
+      }
+    }
+  }
+  for (int t = 0; t < group; ++t) sums[t] = acc[t];
+}
+
 }  // namespace
 
 bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembly& a,
@@ -399,52 +456,15 @@ void ContactLcpOperator::EnsureBlocks() const {
     norm_inf_ = std::max(norm_inf_, sum);
     if (std::isnan(sum)) norm_inf_ = sum;
   };
-  // A contact without compliance: its 1 + n_d rows (normal, friction directions; E starts the
-  // friction rows' sums) at once, each summed in the order of the general loop below (the same
-  // terms in the same order, so the same bits; the rows' sums interleaved).
+  // A contact without compliance: its 1 + n_d rows at once (ContactRowSums).
   const bool grouped = group <= kRowGroupMax;
   for (int c = 0; c < (grouped ? nc : 0); ++c) {
     if (a.compliance[c].compliant) continue;
-    const int bodies[2] = {a.contacts[c].body_a, a.contacts[c].body_b};
     double sums[kRowGroupMax];
-    const double* column[kRowGroupMax];
-    const double* column_other[kRowGroupMax];
-    sums[0] = 0.0;
-    for (int t = 1; t < group; ++t) sums[t] = 1.0;  // E
-    for (int side = 0; side < 2; ++side) {
-      if (first_[2 * c + side] < 0) continue;
-      const int b = bodies[side], other = first_[2 * c + 1 - side] >= 0 ? bodies[1 - side] : -1;
-      const int p = first_[2 * c + side];
-      const std::vector<int>& cols = columns_[b];
-      const MatrixXd& B = blocks_[b];
-      for (int t = 0; t < group; ++t) column[t] = B.col(p + t).data();
-      const int k = static_cast<int>(cols.size());
-      if (other < 0) {
-        for (int jj = 0; jj < k; ++jj)
-          for (int t = 0; t < group; ++t) sums[t] += std::abs(column[t][jj]);
-        continue;
-      }
-      const MatrixXd& Bo = blocks_[other];
-      const int p_other = first_[2 * c + 1 - side];
-      for (int t = 0; t < group; ++t) column_other[t] = Bo.col(p_other + t).data();
-      for (int g = 0; g < k / group; ++g) {
-        const int cg = cols[g * group];
-        const Contact& cj = a.contacts[cg];
-        int shared = -1;
-        if (cj.body_a == other) shared = first_[2 * cg + 0];
-        if (cj.body_b == other) shared = first_[2 * cg + 1];
-        if (shared >= 0 && side == 1) continue;  // summed at side 0
-        const int o = g * group;
-        if (shared >= 0) {
-          for (int u = 0; u < group; ++u)
-            for (int t = 0; t < group; ++t)
-              sums[t] += std::abs(column[t][o + u] + column_other[t][shared + u]);
-        } else {
-          for (int u = 0; u < group; ++u)
-            for (int t = 0; t < group; ++t) sums[t] += std::abs(column[t][o + u]);
-        }
-      }
-    }
+    if (group == 5)
+      ContactRowSums<5>(a, first_, columns_, blocks_, c, group, sums);
+    else
+      ContactRowSums<0>(a, first_, columns_, blocks_, c, group, sums);
     for (int t = 0; t < group; ++t) add_row_sum(sums[t]);
   }
   // Every other row (a compliant contact's, or all if n_d is large).
