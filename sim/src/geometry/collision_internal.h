@@ -97,6 +97,11 @@ struct HullScratch {
   std::vector<int> hull_vertices;
 };
 
+/// Box faces in the order +x, −x, +y, −y, +z, −z; corner i has coordinate signs
+/// (bit 0 → x, bit 1 → y, bit 2 → z). Loops are counter-clockwise about the outward normal.
+inline constexpr int kBoxFaceLoops[6][4] = {{1, 3, 7, 5}, {0, 4, 6, 2}, {2, 6, 7, 3},
+                                            {0, 1, 5, 4}, {4, 5, 7, 6}, {0, 2, 3, 1}};
+
 /// Read-only view of a convex polytope in its shape frame: a box (8 corners, 6 faces, from
 /// static tables, no allocation) or a polyhedron's hull.
 class Polytope {
@@ -110,14 +115,26 @@ class Polytope {
     return is_box_ ? box_vertices_[i] : (*vertices_)[(*hull_vertices_)[i]];
   }
   int num_faces() const { return is_box_ ? 6 : static_cast<int>(faces_->size()); }
-  Vector3d face_normal(int f) const;
+  Vector3d face_normal(int f) const {
+    if (!is_box_) return (*faces_)[f].normal_S;
+    Vector3d n = Vector3d::Zero();
+    n[f / 2] = (f % 2 == 0) ? 1.0 : -1.0;
+    return n;
+  }
   double face_offset(int f) const { return is_box_ ? h_[f / 2] : (*faces_)[f].offset; }
   int face_size(int f) const {
     return is_box_ ? 4 : static_cast<int>((*faces_)[f].vertices.size());
   }
-  Vector3d face_vertex(int f, int k) const;
+  Vector3d face_vertex(int f, int k) const {
+    return is_box_ ? box_vertices_[kBoxFaceLoops[f][k]] : (*vertices_)[(*faces_)[f].vertices[k]];
+  }
   /// max over the polytope of d · x.
-  double MaxDot(const Vector3d& d) const;
+  double MaxDot(const Vector3d& d) const {
+    if (is_box_) return h_.dot(d.cwiseAbs());
+    double m = -kInf;
+    for (int i : *hull_vertices_) m = std::max(m, d.dot((*vertices_)[i]));
+    return m;
+  }
   /// Radius of a ball about the frame origin that contains the polytope (m).
   double radius() const { return radius_; }
 

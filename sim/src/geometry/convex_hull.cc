@@ -18,11 +18,6 @@ namespace vinci::sim {
 namespace collision_internal {
 namespace {
 
-// Box faces in the order +x, −x, +y, −y, +z, −z; corner i has coordinate signs
-// (bit 0 → x, bit 1 → y, bit 2 → z). Loops are counter-clockwise about the outward normal.
-constexpr int kBoxFaceLoops[6][4] = {{1, 3, 7, 5}, {0, 4, 6, 2}, {2, 6, 7, 3},
-                                     {0, 1, 5, 4}, {4, 5, 7, 6}, {0, 2, 3, 1}};
-
 // Counter-clockwise 2D hull (Andrew's monotone chain) of the points `idx` with plane coordinates
 // (u · p, v · p); collinear and duplicate points are dropped (tolerance `tol`, m).
 std::vector<int> PlanarHull(const std::vector<Vector3d>& points, std::vector<int> idx,
@@ -237,24 +232,6 @@ Polytope::Polytope(const std::vector<Vector3d>& vertices, const std::vector<int>
                    const std::vector<HullFace>& faces)
     : is_box_(false), vertices_(&vertices), hull_vertices_(&hull_vertices), faces_(&faces) {
   for (int i : hull_vertices) radius_ = std::max(radius_, vertices[i].norm());
-}
-
-Vector3d Polytope::face_normal(int f) const {
-  if (!is_box_) return (*faces_)[f].normal_S;
-  Vector3d n = Vector3d::Zero();
-  n[f / 2] = (f % 2 == 0) ? 1.0 : -1.0;
-  return n;
-}
-
-Vector3d Polytope::face_vertex(int f, int k) const {
-  return is_box_ ? box_vertices_[kBoxFaceLoops[f][k]] : (*vertices_)[(*faces_)[f].vertices[k]];
-}
-
-double Polytope::MaxDot(const Vector3d& d) const {
-  if (is_box_) return h_.dot(d.cwiseAbs());
-  double m = -kInf;
-  for (int i : *hull_vertices_) m = std::max(m, d.dot((*vertices_)[i]));
-  return m;
 }
 
 Polytope MakePolytope(const Shape& shape, HullScratch* scratch) {
