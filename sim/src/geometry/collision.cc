@@ -643,7 +643,8 @@ void EdgeEdge(const Polytope& A, const Isometry3d& X_WA, const Polytope& B, cons
       const Vector3d c = da.cross(db);
       const double c_norm = c.norm();
       if (c_norm <= kEdgeParallelSin * da_norm * edge.length) continue;
-      // Separation of the bounding boxes along their farthest-apart axis (NaN: never skipped).
+      // Separation of the bounding boxes along their farthest-apart axis (a NaN coordinate gives
+      // no contact either way).
       const Vector3d apart = (lo_a - edge.hi).cwiseMax(edge.lo - hi_a);
       if (apart.maxCoeff() > cull && c_norm * c_norm >= 0.25 * da_sq * (edge.length * edge.length))
         continue;
