@@ -261,6 +261,20 @@ TEST(StepAllocationTest, NcpStepsAllocateNothing) {
   EXPECT_EQ(StepAllocations("examples/scenes/pendulum_on_block.yaml", FormulationType::kNcp), 0);
 }
 
+// The geometrically implicit stepper (one MCP a step whose function builds each pair's local
+// Jacobian blocks: kept per thread and per pair): a disc rolling on a plane, an ellipsoid at rest,
+// a sphere held by two spheres, and a resting box and a sliding block (planar and spatial boxes:
+// six functions against a half-space) run as gi.
+TEST(StepAllocationTest, GeometricallyImplicitStepsAllocateNothing) {
+  for (const char* path :
+       {"examples/scenes/disc_on_plane.yaml", "examples/scenes/ellipsoid_drop.yaml",
+        "examples/scenes/sphere_on_two_spheres.yaml"})
+    EXPECT_EQ(StepAllocations(Load(path)), 0) << path;
+  for (const char* path :
+       {"examples/scenes/box_on_plane.yaml", "examples/scenes/block_on_incline.yaml"})
+    EXPECT_EQ(StepAllocations(path, FormulationType::kGeometricallyImplicit), 0) << path;
+}
+
 // Quasistatic DQC (an MCP) and DLC (an LCP) with support friction, and dynamic DQC with joints.
 TEST(StepAllocationTest, QuasistaticStepsAllocateNothing) {
   EXPECT_EQ(StepAllocations(Load("examples/scenes/fence_particle.yaml")), 0);
