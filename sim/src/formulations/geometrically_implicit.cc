@@ -5,6 +5,7 @@
 #include <limits>
 #include <stdexcept>
 
+#include "../geometry/implicit_set_into.h"
 #include "../solvers/scratch_lease.h"
 #include "step_util.h"
 #include "vinci/sim/formulations/contact.h"

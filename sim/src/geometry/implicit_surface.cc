@@ -8,6 +8,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "implicit_set_into.h"
 #include "vinci/sim/solvers/mcp.h"
 #include "vinci/sim/solvers/text_format.h"
 

@@ -96,9 +96,6 @@ struct ImplicitSet {
 /// superellipse) once shape.h has them. Throws std::invalid_argument for shapes without one
 /// (capsule, segment, polyhedron) naming the shape.
 ImplicitSet MakeImplicitSet(const Shape& shape);
-/// MakeImplicitSet into *out, reusing the storage of its vectors (*out is unspecified if it
-/// throws).
-void MakeImplicitSetInto(const Shape& shape, ImplicitSet* out);
 
 /// Closest points of two implicit sets posed in the world (for initial guesses of GI contacts
 /// and for tests). Witness points a1_W ∈ A, a2_W ∈ B (world), signed distance (negative if
