@@ -261,6 +261,58 @@ TEST(StepAllocationTest, NcpStepsAllocateNothing) {
   EXPECT_EQ(StepAllocations("examples/scenes/pendulum_on_block.yaml", FormulationType::kNcp), 0);
 }
 
+// The geometrically implicit stepper (one MCP a step whose function builds each pair's local
+// Jacobian blocks: kept per thread and per pair): a disc rolling on a plane, an ellipsoid at rest,
+// a sphere held by two spheres, and a resting box and a sliding block (planar and spatial boxes:
+// six functions against a half-space) run as gi.
+TEST(StepAllocationTest, GeometricallyImplicitStepsAllocateNothing) {
+  for (const char* path :
+       {"examples/scenes/disc_on_plane.yaml", "examples/scenes/ellipsoid_drop.yaml",
+        "examples/scenes/sphere_on_two_spheres.yaml"})
+    EXPECT_EQ(StepAllocations(Load(path)), 0) << path;
+  for (const char* path :
+       {"examples/scenes/box_on_plane.yaml", "examples/scenes/block_on_incline.yaml"})
+    EXPECT_EQ(StepAllocations(path, FormulationType::kGeometricallyImplicit), 0) << path;
+}
+
+// NCP with at least NcpOptions::sparse_min_contacts contacts takes the sparse MCP path (the
+// 10-box stack as ncp: 40 contacts). The Jacobian is refilled in place and H's pattern and its
+// SparseLU analysis are kept while the pattern holds; what remains is inside Eigen's SparseLU,
+// which allocates its work storage in every factorize (uncompress, column permutation, memInit,
+// work vectors) and solve: 18.2 per Newton iteration measured (bench/README.md, alloc12), bounded
+// here by kSparseLuAllocations per iteration (the per-evaluation triplet Jacobian this replaced
+// made it 120).
+TEST(StepAllocationTest, SparseNcpStepAllocatesOnlyInSparseLu) {
+  constexpr long kSparseLuAllocations = 25;
+  const Scene scene =
+      LoadSceneFile(std::string(VINCI_SOURCE_DIR) + "/examples/scenes/box_stack.yaml");
+  SimulatorOptions options = SimulatorOptions::FromScene(scene);
+  options.formulation = FormulationType::kNcp;
+  const Simulator sim(scene, options);
+  const Params params = sim.DefaultParams();
+  Workspace ws;
+  State x = sim.InitialState(), next;
+  const StepInput u;
+  for (int i = 0; i < kSettle; ++i) {
+    const StepInfo info = sim.Step(params, x, u, &ws, &next);
+    ASSERT_TRUE(info.ok) << info.failure;
+    std::swap(x, next);
+  }
+  long iterations = 0, allocations = 0;
+  for (int i = 0; i < kSteps; ++i) {
+    const long before = g_allocations.load();
+    const StepInfo info = sim.Step(params, x, u, &ws, &next);
+    allocations += g_allocations.load() - before;
+    ASSERT_TRUE(info.ok) << info.failure;
+    ASSERT_EQ(info.contacts, 40);
+    iterations += info.solver.iterations;
+    std::swap(x, next);
+  }
+  std::printf("sparse NCP: %ld allocations, %ld Newton iterations in %d steps\n", allocations,
+              iterations, kSteps);
+  EXPECT_LE(allocations, kSparseLuAllocations * iterations);
+}
+
 // Quasistatic DQC (an MCP) and DLC (an LCP) with support friction, and dynamic DQC with joints.
 TEST(StepAllocationTest, QuasistaticStepsAllocateNothing) {
   EXPECT_EQ(StepAllocations(Load("examples/scenes/fence_particle.yaml")), 0);

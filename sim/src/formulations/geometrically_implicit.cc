@@ -5,6 +5,8 @@
 #include <limits>
 #include <stdexcept>
 
+#include "../geometry/implicit_set_into.h"
+#include "../solvers/scratch_lease.h"
 #include "step_util.h"
 #include "vinci/sim/formulations/contact.h"
 #include "vinci/sim/model/compliance.h"
@@ -84,6 +86,60 @@ struct BodyAt {
   Matrix6Xd P, V;  // (δp, δω) per pose unknown; (v, ω) per ν entry
 };
 
+// The pair's unknowns read from z (3D embedding; λ ≡ 1 for a single function).
+struct PairUnknowns {
+  double pn = 0.0, sigma = 0.0, l1 = 0.0, l2 = 0.0;
+  Vector2d pt = Vector2d::Zero();
+  Vector3d a1 = Vector3d::Zero(), a2 = Vector3d::Zero();
+  VectorXd lam, mu;
+};
+
+// Values and local Jacobians of one pair's geometric, kinematic and wrench quantities.
+struct PairEval {
+  Vector3d sep, par, n, vrel;
+  double psi = 0.0, side_a = 0.0, side_b = 0.0;
+  Eigen::Matrix<double, 3, 2> T = Eigen::Matrix<double, 3, 2>::Zero();
+  Vector2d vt = Vector2d::Zero();
+  VectorXd fa, fb;
+  Vector6d WA, WB;
+  MatrixXd d_sep, d_par, d_psi, d_vt, d_fa, d_fb, d_side_a, d_side_b, d_WA, d_WB;
+};
+
+using Matrix3Xd = Eigen::Matrix<double, 3, Eigen::Dynamic>;
+
+// One pair's storage for an evaluation of the step's equations: its unknowns, values and local
+// Jacobians, and EvalPair's and SolverResidual's intermediate products, each of the type Eigen
+// gives the temporary it replaces (so every product is evaluated by the same kernel). Kept per
+// pair: the local column count L differs between pairs.
+struct PairScratch {
+  PairUnknowns u;
+  PairEval e;
+  MatrixXd dnA, dnB, dn, dv, dP, dt[2];
+  Matrix3Xd t3a, t3b;
+  Eigen::RowVectorXd row_a, row_b;
+  VectorXd pt, vt, w, wh, fric;
+  MatrixXd d_vt, d_w, d_rho, d_fric, d_sig, outer, proj, prod, wrench;
+  std::vector<MatrixXd> rows;  // local rows passed to Scatter, by row count
+};
+
+// The storage of the evaluations of one step's equations (Context::buf): reused by every
+// evaluation of the step's solve and, in the stepper's per-thread scratch, by later steps.
+// Allocation reuse only: every buffer is written before it is read.
+struct EvalBuffers {
+  std::vector<BodyAt> bodies;
+  std::vector<PairScratch> pairs;  // grows only
+  std::vector<MatrixXd> products;  // Scatter's products (r × k_q), by row count r
+  VectorXd v1, dv, Mdv, VW;
+  // Pair k's storage with room for local rows of up to `max_rows` rows.
+  PairScratch& Pair(int k, int max_rows) {
+    if (static_cast<int>(pairs.size()) <= k) pairs.resize(k + 1);
+    PairScratch& ps = pairs[k];
+    if (static_cast<int>(ps.rows.size()) <= max_rows) ps.rows.resize(max_rows + 1);
+    if (static_cast<int>(products.size()) <= max_rows) products.resize(max_rows + 1);
+    return ps;
+  }
+};
+
 // Everything a step's equations need besides the unknowns.
 struct Context {
   const Scene* model = nullptr;
@@ -108,46 +164,45 @@ struct Context {
   std::vector<bool> compliant;  // per pair: the law is not rigid
   MatrixXd M;
   VectorXd p_ext;
+  mutable EvalBuffers buf;  // evaluation storage (one thread evaluates a Context at a time)
 };
 
 int LocalSize(const GiPair& p) { return kLam + p.m_a + p.m_b; }
 
-// The pair's unknowns read from z (3D embedding; λ ≡ 1 for a single function).
-struct PairUnknowns {
-  double pn = 0.0, sigma = 0.0, l1 = 0.0, l2 = 0.0;
-  Vector2d pt = Vector2d::Zero();
-  Vector3d a1 = Vector3d::Zero(), a2 = Vector3d::Zero();
-  VectorXd lam, mu;
-};
-
-PairUnknowns ReadPair(const Context& c, int k, const VectorXd& z) {
+// Pair k's unknowns from z into *u (every field written).
+void ReadPair(const Context& c, int k, const VectorXd& z, PairUnknowns* out) {
   const GiPair& p = c.pairs[k];
   const StepLayout& l = c.layout;
-  PairUnknowns u;
+  PairUnknowns& u = *out;
   u.pn = z[l.pn() + k];
+  u.pt.setZero();
   for (int j = 0; j < c.nd; ++j) u.pt[j] = z[l.pf() + k * c.nd + j];
   u.sigma = z[l.sigma() + k];
   int o = c.geo[k];
+  u.a1.setZero();
+  u.a2.setZero();
   u.a1.head(c.d) = z.segment(o, c.d);
   u.a2.head(c.d) = z.segment(o + c.d, c.d);
   u.l1 = z[o + 2 * c.d];
   u.l2 = z[o + 2 * c.d + 1];
   o += 2 * c.d + 2;
-  u.lam = VectorXd::Ones(p.m_a);
-  u.mu = VectorXd::Ones(p.m_b);
+  u.lam.setOnes(p.m_a);
+  u.mu.setOnes(p.m_b);
   if (p.m_a > 1) {
     u.lam = z.segment(o, p.m_a);
     o += p.m_a;
   }
   if (p.m_b > 1) u.mu = z.segment(o, p.m_b);
-  return u;
 }
 
-std::vector<BodyAt> BodiesAt(const Context& c, const VectorXd& z) {
+// The bodies at z into *out (one per scene body).
+void BodiesAt(const Context& c, const VectorXd& z, std::vector<BodyAt>* out) {
   const Scene& s = *c.model;
-  std::vector<BodyAt> out(s.bodies.size());
+  out->resize(s.bodies.size());
   for (std::size_t i = 0; i < s.bodies.size(); ++i) {
-    BodyAt& b = out[i];
+    BodyAt& b = (*out)[i];
+    b.dynamic = false;
+    b.q_col = b.v_col = -1;
     if (s.bodies[i].kind != BodyKind::kDynamic) {
       b.X = c.moving[i].X_WB;
       b.v = c.moving[i].v_WB;
@@ -181,7 +236,6 @@ std::vector<BodyAt> BodiesAt(const Context& c, const VectorXd& z) {
       b.V.bottomRightCorner<3, 3>() = R0;
     }
   }
-  return out;
 }
 
 // One implicit function at a world point: value, world gradient and Hessian.
@@ -202,17 +256,6 @@ FnAt EvalFn(const ImplicitFunction& fn, const Isometry3d& X_WS, const Vector3d& 
   r.H = R * H_S * R.transpose();
   return r;
 }
-
-// Values and local Jacobians of one pair's geometric, kinematic and wrench quantities.
-struct PairEval {
-  Vector3d sep, par, n, vrel;
-  double psi = 0.0, side_a = 0.0, side_b = 0.0;
-  Eigen::Matrix<double, 3, 2> T = Eigen::Matrix<double, 3, 2>::Zero();
-  Vector2d vt = Vector2d::Zero();
-  VectorXd fa, fb;
-  Vector6d WA, WB;
-  MatrixXd d_sep, d_par, d_psi, d_vt, d_fa, d_fb, d_side_a, d_side_b, d_WA, d_WB;
-};
 
 // One side of a pair: the normal n_S = Σ λ_i ∇f_i(a) and the values f_i(a), with derivatives
 // with respect to the point (column ca), the body displacement (cd) and the multipliers (cl).
@@ -239,8 +282,10 @@ void EvalSide(const ImplicitSet& set, const Isometry3d& X_WS, const BodyAt& body
   }
 }
 
-void EvalPair(const Context& c, int k, const std::vector<BodyAt>& bodies, const PairUnknowns& u,
-              PairEval* e) {
+// Pair k's values and local Jacobians at its unknowns ps->u into ps->e.
+void EvalPair(const Context& c, int k, const std::vector<BodyAt>& bodies, PairScratch* ps) {
+  const PairUnknowns& u = ps->u;
+  PairEval* e = &ps->e;
   const GiPair& p = c.pairs[k];
   const BodyAt& A = bodies[p.body_a];
   const BodyAt& B = bodies[p.body_b];
@@ -251,7 +296,7 @@ void EvalPair(const Context& c, int k, const std::vector<BodyAt>& bodies, const 
   const int cl = kLam, cm = kLam + p.m_a;
 
   Vector3d nA, nB;
-  MatrixXd dnA, dnB;
+  MatrixXd &dnA = ps->dnA, &dnB = ps->dnB;
   EvalSide(c.sets[p.body_a][p.shape_a], X_WSA, A, u.a1, u.lam, kA1, kDA, cl, L, &nA, &dnA, &e->fa,
            &e->d_fa);
   EvalSide(c.sets[p.body_b][p.shape_b], X_WSB, B, u.a2, u.mu, kA2, kDB, cm, L, &nB, &dnB, &e->fb,
@@ -285,17 +330,21 @@ void EvalPair(const Context& c, int k, const std::vector<BodyAt>& bodies, const 
   const double nn = nA.norm();
   const Vector3d nhat = nA / nn;
   e->psi = u.l1 * nn;
-  e->d_psi = u.l1 * nhat.transpose() * dnA;
+  ps->row_a.noalias() = u.l1 * nhat.transpose() * dnA;
+  e->d_psi = ps->row_a;
   e->d_psi(0, kL1) += nn;
 
   // Contact frame: n from B to A, tangents.
   e->n = -nhat;
   const Matrix3d proj = Matrix3d::Identity() - e->n * e->n.transpose();
-  const MatrixXd dn = -(proj / nn) * dnA;
-  std::vector<MatrixXd> dt(c.nd);
+  MatrixXd& dn = ps->dn;
+  dn.noalias() = -(proj / nn) * dnA;
+  MatrixXd* dt = ps->dt;
+  e->T.setZero();
   if (c.dim == Dim::kPlanar) {
     e->T.col(0) = Vector3d::UnitZ().cross(e->n);
-    dt[0] = Skew(Vector3d::UnitZ()) * dn;
+    ps->t3a.noalias() = Skew(Vector3d::UnitZ()) * dn;
+    dt[0] = ps->t3a;
   } else {
     const Vector3d& ref = p.tangent_reference;
     const Vector3d w = e->n.cross(ref);
@@ -304,14 +353,20 @@ void EvalPair(const Context& c, int k, const std::vector<BodyAt>& bodies, const 
     const Vector3d t2 = e->n.cross(t1);
     e->T.col(0) = t1;
     e->T.col(1) = t2;
-    dt[0] = ((Matrix3d::Identity() - t1 * t1.transpose()) / wn) * (-Skew(ref) * dn);
-    dt[1] = -Skew(t1) * dn + Skew(e->n) * dt[0];
+    // (the inner product is evaluated first, as Eigen evaluates a nested product)
+    ps->t3a.noalias() = -Skew(ref) * dn;
+    ps->t3b.noalias() = ((Matrix3d::Identity() - t1 * t1.transpose()) / wn) * ps->t3a;
+    dt[0] = ps->t3b;
+    ps->t3a.noalias() = -Skew(t1) * dn;
+    ps->t3b.noalias() = Skew(e->n) * dt[0];
+    dt[1] = ps->t3a + ps->t3b;
   }
 
   // Relative velocity of the material points at ℓ+1.
   const Vector3d rA = u.a1 - A.X.translation(), rB = u.a2 - B.X.translation();
   e->vrel = A.v + A.w.cross(rA) - B.v - B.w.cross(rB);
-  MatrixXd dv = MatrixXd::Zero(3, L);
+  MatrixXd& dv = ps->dv;
+  dv.setZero(3, L);
   dv.middleCols<3>(kVA) = Matrix3d::Identity();
   dv.middleCols<3>(kVA + 3) = -Skew(rA);
   dv.middleCols<3>(kA1) += Skew(A.w);
@@ -324,12 +379,15 @@ void EvalPair(const Context& c, int k, const std::vector<BodyAt>& bodies, const 
   e->vt.setZero();
   for (int j = 0; j < c.nd; ++j) {
     e->vt[j] = e->T.col(j).dot(e->vrel);
-    e->d_vt.row(j) = e->T.col(j).transpose() * dv + e->vrel.transpose() * dt[j];
+    ps->row_a.noalias() = e->T.col(j).transpose() * dv;
+    ps->row_b.noalias() = e->vrel.transpose() * dt[j];
+    e->d_vt.row(j) = ps->row_a + ps->row_b;
   }
 
   // Impulse on A at a_1 (and −P on B at a_2) and the world wrenches.
   Vector3d P = e->n * u.pn;
-  MatrixXd dP = u.pn * dn;
+  MatrixXd& dP = ps->dP;
+  dP = u.pn * dn;
   dP.col(kPn) += e->n;
   for (int j = 0; j < c.nd; ++j) {
     P += e->T.col(j) * u.pt[j];
@@ -340,19 +398,22 @@ void EvalPair(const Context& c, int k, const std::vector<BodyAt>& bodies, const 
   e->WA.tail<3>() = rA.cross(P);
   e->d_WA = MatrixXd::Zero(6, L);
   e->d_WA.topRows<3>() = dP;
-  e->d_WA.bottomRows<3>() = Skew(rA) * dP;
+  ps->t3a.noalias() = Skew(rA) * dP;
+  e->d_WA.bottomRows<3>() = ps->t3a;
   e->d_WA.block<3, 3>(3, kA1) -= Skew(P);
   e->d_WA.block<3, 3>(3, kDA) += Skew(P);
   e->WB.head<3>() = -P;
   e->WB.tail<3>() = -rB.cross(P);
   e->d_WB = MatrixXd::Zero(6, L);
   e->d_WB.topRows<3>() = -dP;
-  e->d_WB.bottomRows<3>() = -Skew(rB) * dP;
+  ps->t3a.noalias() = -Skew(rB) * dP;
+  e->d_WB.bottomRows<3>() = ps->t3a;
   e->d_WB.block<3, 3>(3, kA2) += Skew(P);
   e->d_WB.block<3, 3>(3, kDB) -= Skew(P);
 }
 
 // Adds local-column Jacobian rows Jl (r × L) into J's rows [row, row + r) at the pair's columns.
+// The products go through c.buf.products[r] (Jl is not one of them).
 void Scatter(const Context& c, int k, const std::vector<BodyAt>& bodies, const MatrixXd& Jl,
              int row, MatrixXd* J) {
   const GiPair& p = c.pairs[k];
@@ -360,13 +421,19 @@ void Scatter(const Context& c, int k, const std::vector<BodyAt>& bodies, const M
   const StepLayout& l = c.layout;
   const BodyAt& A = bodies[p.body_a];
   const BodyAt& B = bodies[p.body_b];
+  if (static_cast<int>(c.buf.products.size()) <= r) c.buf.products.resize(r + 1);
+  MatrixXd& prod = c.buf.products[r];
   if (A.dynamic) {
-    J->block(row, A.q_col, r, c.kq) += Jl.middleCols<6>(kDA) * A.P;
-    J->block(row, A.v_col, r, c.nvb) += Jl.middleCols<6>(kVA) * A.V;
+    prod.noalias() = Jl.middleCols<6>(kDA) * A.P;
+    J->block(row, A.q_col, r, c.kq) += prod;
+    prod.noalias() = Jl.middleCols<6>(kVA) * A.V;
+    J->block(row, A.v_col, r, c.nvb) += prod;
   }
   if (B.dynamic) {
-    J->block(row, B.q_col, r, c.kq) += Jl.middleCols<6>(kDB) * B.P;
-    J->block(row, B.v_col, r, c.nvb) += Jl.middleCols<6>(kVB) * B.V;
+    prod.noalias() = Jl.middleCols<6>(kDB) * B.P;
+    J->block(row, B.q_col, r, c.kq) += prod;
+    prod.noalias() = Jl.middleCols<6>(kVB) * B.V;
+    J->block(row, B.v_col, r, c.nvb) += prod;
   }
   J->col(l.pn() + k).segment(row, r) += Jl.col(kPn);
   for (int j = 0; j < c.nd; ++j) J->col(l.pf() + k * c.nd + j).segment(row, r) += Jl.col(kPt + j);
@@ -385,17 +452,24 @@ void Scatter(const Context& c, int k, const std::vector<BodyAt>& bodies, const M
 }
 
 // Contact wrench rows: F[ν_b] −= V_bᵀ W for both bodies of pair k (with Jacobian).
-void AddWrenches(const Context& c, int k, const std::vector<BodyAt>& bodies, const PairEval& e,
+void AddWrenches(const Context& c, int k, const std::vector<BodyAt>& bodies, PairScratch* ps,
                  int dyn_row0, VectorXd* F, MatrixXd* J) {
   const GiPair& p = c.pairs[k];
+  const PairEval& e = ps->e;
   for (int side = 0; side < 2; ++side) {
     const BodyAt& b = bodies[side == 0 ? p.body_a : p.body_b];
     if (!b.dynamic) continue;
     const Vector6d& W = side == 0 ? e.WA : e.WB;
     const MatrixXd& dW = side == 0 ? e.d_WA : e.d_WB;
     const int row = dyn_row0 + (b.v_col - c.layout.v1());
-    F->segment(row, c.nvb) -= b.V.transpose() * W;
-    if (J) Scatter(c, k, bodies, -(b.V.transpose() * dW), row, J);
+    c.buf.VW.noalias() = b.V.transpose() * W;
+    F->segment(row, c.nvb) -= c.buf.VW;
+    if (J) {
+      ps->wrench.noalias() = b.V.transpose() * dW;
+      MatrixXd& jl = ps->rows[c.nvb];
+      jl = -ps->wrench;
+      Scatter(c, k, bodies, jl, row, J);
+    }
   }
 }
 
@@ -406,8 +480,12 @@ void AddWrenches(const Context& c, int k, const std::vector<BodyAt>& bodies, con
 void BodyRows(const Context& c, const VectorXd& z, int dyn_row0, int kin_row0, double kin_scale,
               VectorXd* F, MatrixXd* J) {
   const StepLayout& l = c.layout;
-  const VectorXd v1 = z.segment(l.v1(), l.nv);
-  F->segment(dyn_row0, l.nv) = c.M * (v1 - c.x.v) - c.p_ext;
+  VectorXd& v1 = c.buf.v1;
+  v1 = z.segment(l.v1(), l.nv);
+  // (M (ν − ν_ℓ) evaluated into a buffer first, as Eigen evaluates the product of the sum)
+  c.buf.dv = v1 - c.x.v;
+  c.buf.Mdv.noalias() = c.M * c.buf.dv;
+  F->segment(dyn_row0, l.nv) = c.buf.Mdv - c.p_ext;
   if (J) J->block(dyn_row0, l.v1(), l.nv, l.nv) += c.M;
   const Scene& s = *c.model;
   for (int bi : s.dynamic_bodies()) {
@@ -429,6 +507,12 @@ void BodyRows(const Context& c, const VectorXd& z, int dyn_row0, int kin_row0, d
   }
 }
 
+// Pair k's storage in c.buf, with room for its local row counts (d, d − 1, 1, ν_b, m_a, m_b).
+PairScratch& PairBuffers(const Context& c, int k) {
+  const GiPair& p = c.pairs[k];
+  return c.buf.Pair(k, std::max({6, p.m_a, p.m_b}));
+}
+
 // The solver form of the step: F(z) (in z's order) and its Jacobian.
 void SolverResidual(const Context& c, const VectorXd& z, VectorXd* F, MatrixXd* J) {
   const StepLayout& l = c.layout;
@@ -436,15 +520,24 @@ void SolverResidual(const Context& c, const VectorXd& z, VectorXd* F, MatrixXd* 
   F->setZero(nz);
   if (J) J->setZero(nz, nz);
   BodyRows(c, z, l.v1(), l.q1(), 1.0 / c.h, F, J);
-  const std::vector<BodyAt> bodies = BodiesAt(c, z);
-  PairEval e;
+  std::vector<BodyAt>& bodies = c.buf.bodies;
+  BodiesAt(c, z, &bodies);
   for (int k = 0; k < static_cast<int>(c.pairs.size()); ++k) {
     const GiPair& p = c.pairs[k];
-    const PairUnknowns u = ReadPair(c, k, z);
-    EvalPair(c, k, bodies, u, &e);
-    AddWrenches(c, k, bodies, e, l.v1(), F, J);
+    PairScratch& ps = PairBuffers(c, k);
+    ReadPair(c, k, z, &ps.u);
+    EvalPair(c, k, bodies, &ps);
+    const PairUnknowns& u = ps.u;
+    const PairEval& e = ps.e;
+    AddWrenches(c, k, bodies, &ps, l.v1(), F, J);
     const int L = LocalSize(p);
     int o = c.geo[k];
+    // Local rows passed to Scatter, r × L (the expression it was given, evaluated).
+    const auto rows = [&ps](const auto& expr) -> const MatrixXd& {
+      MatrixXd& m = ps.rows[expr.rows()];
+      m = expr;
+      return m;
+    };
     // Geometry rows, paired with a_1, a_2, l_1, l_2, λ, μ, divided by h like the kinematics
     // rows: a pose change h Δν then changes them by O(Δν), which keeps the Jacobian well scaled
     // when contact forces trade against tiny velocity changes.
@@ -457,21 +550,21 @@ void SolverResidual(const Context& c, const VectorXd& z, VectorXd* F, MatrixXd* 
     (*F)[o + 2 * c.d] = g * e.side_a;
     (*F)[o + 2 * c.d + 1] = g * e.side_b;
     if (J) {
-      Scatter(c, k, bodies, g * e.d_sep.topRows(c.d), o, J);
+      Scatter(c, k, bodies, rows(g * e.d_sep.topRows(c.d)), o, J);
       for (int i = 0; i < c.d; ++i) (*J)(o + i, o + i) += g * kPointTieBreak;
-      Scatter(c, k, bodies, g * e.d_par.topRows(c.d), o + c.d, J);
-      Scatter(c, k, bodies, g * e.d_side_a, o + 2 * c.d, J);
-      Scatter(c, k, bodies, g * e.d_side_b, o + 2 * c.d + 1, J);
+      Scatter(c, k, bodies, rows(g * e.d_par.topRows(c.d)), o + c.d, J);
+      Scatter(c, k, bodies, rows(g * e.d_side_a), o + 2 * c.d, J);
+      Scatter(c, k, bodies, rows(g * e.d_side_b), o + 2 * c.d + 1, J);
     }
     o += 2 * c.d + 2;
     if (p.m_a > 1) {
       F->segment(o, p.m_a) = -g * e.fa;
-      if (J) Scatter(c, k, bodies, -g * e.d_fa, o, J);
+      if (J) Scatter(c, k, bodies, rows(-g * e.d_fa), o, J);
       o += p.m_a;
     }
     if (p.m_b > 1) {
       F->segment(o, p.m_b) = -g * e.fb;
-      if (J) Scatter(c, k, bodies, -g * e.d_fb, o, J);
+      if (J) Scatter(c, k, bodies, rows(-g * e.d_fb), o, J);
     }
     // Normal: 0 ≤ p_n ⊥ ψ + ε_n p_n ≥ 0 (ε_n = h κ_n / r, see kNormalCompliance).
     const double eps_n = c.h * kNormalCompliance / c.scale[k];
@@ -480,7 +573,7 @@ void SolverResidual(const Context& c, const VectorXd& z, VectorXd* F, MatrixXd* 
     const double diag = c.law_diagonal[k] + eps_n;
     (*F)[l.pn() + k] = (e.psi + diag * u.pn + c.law_constant[k]) / c.h;
     if (J) {
-      Scatter(c, k, bodies, e.d_psi / c.h, l.pn() + k, J);
+      Scatter(c, k, bodies, rows(e.d_psi / c.h), l.pn() + k, J);
       (*J)(l.pn() + k, l.pn() + k) += diag / c.h;
     }
     // Friction (semismooth projection form), rows paired with p_t and σ.
@@ -490,29 +583,47 @@ void SolverResidual(const Context& c, const VectorXd& z, VectorXd* F, MatrixXd* 
     // v_t + ε p_t: the stick compliance ε = kStickCompliance / r makes statically
     // indeterminate sticking contacts (a sphere in a groove) non-singular.
     const double eps = kStickCompliance / r;
-    const VectorXd pt = u.pt.head(nd), vt = e.vt.head(nd) + eps * pt;
-    MatrixXd d_vt = e.d_vt.topRows(nd);
+    VectorXd &pt = ps.pt, &vt = ps.vt, &w = ps.w, &wh = ps.wh, &fric = ps.fric;
+    pt = u.pt.head(nd);
+    vt = e.vt.head(nd) + eps * pt;
+    MatrixXd& d_vt = ps.d_vt;
+    d_vt = e.d_vt.topRows(nd);
     for (int j = 0; j < nd; ++j) d_vt(j, kPt + j) += eps;
-    const VectorXd w = pt - r * vt;
+    w = pt - r * vt;
     const double nw = w.norm();
-    MatrixXd d_w = -r * d_vt, d_rho = MatrixXd::Zero(1, L);
+    MatrixXd &d_w = ps.d_w, &d_rho = ps.d_rho, &d_fric = ps.d_fric, &d_sig = ps.d_sig;
+    d_w = -r * d_vt;
+    d_rho.setZero(1, L);
     for (int j = 0; j < nd; ++j) d_w(j, kPt + j) += 1.0;
     d_rho(0, kPn) = p.mu;
-    MatrixXd d_fric(nd, L), d_sig = MatrixXd::Zero(1, L);
-    VectorXd fric(nd);
+    d_fric.resize(nd, L);
+    d_sig.setZero(1, L);
+    fric.resize(nd);
     double sig;
     if (rho > 0.0 && nw <= rho) {  // sticking: p_t − w = r v_t
       fric = r * vt;
       d_fric = r * d_vt;
       sig = r * u.sigma;
     } else {  // sliding or no normal impulse: p_t = ρ ŵ, r σ = ‖w‖ − ρ
-      const VectorXd wh = nw > 0.0 ? VectorXd(w / nw) : VectorXd::Zero(nd);
+      if (nw > 0.0) {
+        wh = w / nw;
+      } else {
+        wh.setZero(nd);
+      }
       fric = pt - rho * wh;
       sig = r * u.sigma - (nw - rho);
-      d_fric = -wh * d_rho;
+      ps.prod.noalias() = -wh * d_rho;
+      d_fric = ps.prod;
       for (int j = 0; j < nd; ++j) d_fric(j, kPt + j) += 1.0;
-      if (nw > 0.0) d_fric -= (rho / nw) * (MatrixXd::Identity(nd, nd) - wh * wh.transpose()) * d_w;
-      d_sig = -(wh.transpose() * d_w) + d_rho;
+      if (nw > 0.0) {
+        // (ρ/‖w‖) (I − ŵ ŵᵀ) ∂w, its factors evaluated as Eigen evaluates the nested product
+        ps.outer.noalias() = wh * wh.transpose();
+        ps.proj = MatrixXd::Identity(nd, nd) - ps.outer;
+        ps.prod.noalias() = (rho / nw) * ps.proj * d_w;
+        d_fric -= ps.prod;
+      }
+      ps.row_a.noalias() = wh.transpose() * d_w;
+      d_sig = -ps.row_a + d_rho;
     }
     d_sig(0, kSig) += r;
     F->segment(l.pf() + k * nd, nd) = fric;
@@ -549,27 +660,54 @@ BodyKinematics MovingKinematics(const Scene& s, int body, double t, double h) {
 GeometricallyImplicit::GeometricallyImplicit(StepperOptions options, McpOptions mcp)
     : options_(std::move(options)), mcp_(mcp) {}
 
-std::vector<GiPair> GeometricallyImplicit::Pairs(const Scene& model, const State& x,
-                                                 std::string* failure) const {
+namespace {
+
+// The storage of a step's candidate-pair search (PairsInto), reused between steps.
+struct PairSearch {
+  std::vector<BodyKinematics> kin;
+  std::vector<double> speed, spin, accel;
+};
+
+void CheckNoJoints(const Scene& model) {
   if (!model.joints.empty())
     throw std::invalid_argument(
         "formulation gi: joints are not supported by the geometrically implicit stepper (joint '" +
         model.joints[0].name + "')");
+}
+
+// The implicit sets of every body's shapes into *sets (per body, per shape).
+void ImplicitSetsInto(const Scene& model, std::vector<std::vector<ImplicitSet>>* sets) {
   const int n = static_cast<int>(model.bodies.size());
-  const double h = options_.dt;
-  const std::vector<BodyKinematics> kin = ComputeBodyKinematics(model, x);
-  std::vector<std::vector<ImplicitSet>> sets(n);
-  std::vector<double> speed(n, 0.0), spin(n, 0.0), accel(n, 0.0);
+  sets->resize(n);
   for (int i = 0; i < n; ++i) {
     const Body& b = model.bodies[i];
+    (*sets)[i].resize(b.shapes.size());
     for (std::size_t s = 0; s < b.shapes.size(); ++s) {
       try {
-        sets[i].push_back(MakeImplicitSet(b.shapes[s]));
+        MakeImplicitSetInto(b.shapes[s], &(*sets)[i][s]);
       } catch (const std::invalid_argument& e) {
         throw std::invalid_argument("formulation gi: " + Describe(model, i, static_cast<int>(s)) +
                                     " has no implicit form: " + e.what());
       }
     }
+  }
+}
+
+// GeometricallyImplicit::Pairs with the scene's implicit sets given (ImplicitSetsInto), into
+// *pairs, with its storage in *search.
+void PairsInto(const GeometricallyImplicit& gi, const Scene& model, const State& x,
+               const std::vector<std::vector<ImplicitSet>>& sets, std::string* failure,
+               PairSearch* search, std::vector<GiPair>* pairs_out) {
+  const int n = static_cast<int>(model.bodies.size());
+  const double h = gi.options().dt;
+  ComputeBodyKinematics(model, x, &search->kin);
+  const std::vector<BodyKinematics>& kin = search->kin;
+  std::vector<double>&speed = search->speed, &spin = search->spin, &accel = search->accel;
+  speed.assign(n, 0.0);
+  spin.assign(n, 0.0);
+  accel.assign(n, 0.0);
+  for (int i = 0; i < n; ++i) {
+    const Body& b = model.bodies[i];
     if (b.kind == BodyKind::kDynamic) {
       speed[i] = kin[i].v_WB.norm();
       spin[i] = kin[i].w_WB.norm();
@@ -584,7 +722,8 @@ std::vector<GiPair> GeometricallyImplicit::Pairs(const Scene& model, const State
     const double rho = std::isfinite(radius) ? radius : 0.0;
     return 2.0 * h * (speed[body] + spin[body] * rho) + h * h * accel[body];
   };
-  std::vector<GiPair> pairs;
+  std::vector<GiPair>& pairs = *pairs_out;
+  pairs.clear();
   for (int ia = 0; ia < n; ++ia) {
     for (int ib = ia + 1; ib < n; ++ib) {
       const Body& BA0 = model.bodies[ia];
@@ -603,7 +742,7 @@ std::vector<GiPair> GeometricallyImplicit::Pairs(const Scene& model, const State
           if (!std::isfinite(ra) && !std::isfinite(rb)) continue;  // two half-spaces
           const Isometry3d X_WA = kin[a].X_WB * BA.shapes[sa].X_BS;
           const Isometry3d X_WB = kin[b].X_WB * BB.shapes[sb].X_BS;
-          const double margin = options_.envelope + bound(a, ra) + bound(b, rb);
+          const double margin = gi.options().envelope + bound(a, ra) + bound(b, rb);
           if (std::isfinite(ra) && std::isfinite(rb) &&
               (X_WA.translation() - X_WB.translation()).norm() - ra - rb > margin)
             continue;
@@ -635,17 +774,30 @@ std::vector<GiPair> GeometricallyImplicit::Pairs(const Scene& model, const State
       }
     }
   }
+}
+
+}  // namespace
+
+std::vector<GiPair> GeometricallyImplicit::Pairs(const Scene& model, const State& x,
+                                                 std::string* failure) const {
+  CheckNoJoints(model);
+  std::vector<std::vector<ImplicitSet>> sets;
+  ImplicitSetsInto(model, &sets);
+  PairSearch search;
+  std::vector<GiPair> pairs;
+  PairsInto(*this, model, x, sets, failure, &search, &pairs);
   return pairs;
 }
 
 namespace {
 
-// The step's context at x; `frozen` (the frozen step model) gives the pairs instead of
+// The step's context at x into *out (every field but the evaluation buffers written, reusing
+// the storage of its vectors); `frozen` (the frozen step model) gives the pairs instead of
 // Pairs(x), with μ re-read from `model` (its parameters may differ from the freeze's).
-Context MakeContext(const GeometricallyImplicit& gi, const Scene& model, const State& x,
-                    const StepInput& u, std::string* failure,
-                    const std::vector<GiPair>* frozen = nullptr) {
-  Context c;
+void FillContext(const GeometricallyImplicit& gi, const Scene& model, const State& x,
+                 const StepInput& u, std::string* failure, const std::vector<GiPair>* frozen,
+                 PairSearch* search, Context* out) {
+  Context& c = *out;
   c.model = &model;
   c.dim = model.dim;
   c.d = model.dim == Dim::kPlanar ? 2 : 3;
@@ -654,21 +806,20 @@ Context MakeContext(const GeometricallyImplicit& gi, const Scene& model, const S
   c.nvb = VelocitySize(model.dim);
   c.h = gi.options().dt;
   c.x = x;
+  if (!frozen) CheckNoJoints(model);
+  ImplicitSetsInto(model, &c.sets);
   if (frozen) {
     c.pairs = *frozen;
     for (GiPair& p : c.pairs)
       p.mu = model.Mu(model.bodies[p.body_a].shapes[p.shape_a].material,
                       model.bodies[p.body_b].shapes[p.shape_b].material);
   } else {
-    c.pairs = gi.Pairs(model, x, failure);
+    PairsInto(gi, model, x, c.sets, failure, search, &c.pairs);
   }
   const int n = static_cast<int>(model.bodies.size());
-  c.sets.resize(n);
-  for (int i = 0; i < n; ++i)
-    for (const Shape& s : model.bodies[i].shapes) c.sets[i].push_back(MakeImplicitSet(s));
   c.pose_offset.assign(n, -1);
-  c.X_start.resize(n);
-  c.moving.resize(n);
+  c.X_start.assign(n, Isometry3d::Identity());
+  c.moving.assign(n, BodyKinematics{});
   int nq = 0;
   for (int i = 0; i < n; ++i) {
     if (model.bodies[i].kind == BodyKind::kDynamic) {
@@ -686,6 +837,13 @@ Context MakeContext(const GeometricallyImplicit& gi, const Scene& model, const S
   l.nd = c.nd;
   l.nb = 0;
   for (const GiPair& p : c.pairs) l.nb += p.GeometrySize(model.dim);
+  c.geo.clear();
+  c.compliant.clear();
+  c.law_diagonal.clear();
+  c.law_constant.clear();
+  c.scale.clear();
+  c.scale_body.clear();
+  c.a1_start.clear();
   int o = l.pb();
   for (const GiPair& p : c.pairs) {
     c.geo.push_back(o);
@@ -737,14 +895,25 @@ Context MakeContext(const GeometricallyImplicit& gi, const Scene& model, const S
     }
   }
   if (u.generalized_force.size() == nv) c.p_ext += h * u.generalized_force;
+}
+
+// FillContext into a new Context.
+Context MakeContext(const GeometricallyImplicit& gi, const Scene& model, const State& x,
+                    const StepInput& u, std::string* failure,
+                    const std::vector<GiPair>* frozen = nullptr) {
+  Context c;
+  PairSearch search;
+  FillContext(gi, model, x, u, failure, frozen, &search, &c);
   return c;
 }
 
-// Starting point: ν_ℓ, q_ℓ + h ν_ℓ, pair records from the warm start or closest points at ℓ.
-VectorXd InitialGuess(const Context& c) {
+// Starting point into *z_out: ν_ℓ, q_ℓ + h ν_ℓ, pair records from the warm start or closest
+// points at ℓ. *record_at is storage.
+void InitialGuessInto(const Context& c, std::vector<int>* record_at_out, VectorXd* z_out) {
   const StepLayout& l = c.layout;
   const Scene& s = *c.model;
-  VectorXd z = VectorXd::Zero(l.size());
+  VectorXd& z = *z_out;
+  z.setZero(l.size());
   z.segment(l.v1(), l.nv) = c.x.v;
   for (int bi : s.dynamic_bodies()) {
     const int qo = l.q1() + c.pose_offset[bi];
@@ -759,7 +928,8 @@ VectorXd InitialGuess(const Context& c) {
   }
   // Index the warm-start records by pair identity.
   const VectorXd& ws = c.x.warm_start;
-  std::vector<int> record_at;
+  std::vector<int>& record_at = *record_at_out;
+  record_at.clear();
   if (ws.size() >= 1) {
     const int count = static_cast<int>(ws[0]);
     int o = 1;
@@ -853,19 +1023,27 @@ VectorXd InitialGuess(const Context& c) {
     }
     if (p.m_b > 1) z[o + ib] = 1.0;
   }
+}
+
+VectorXd InitialGuess(const Context& c) {
+  std::vector<int> record_at;
+  VectorXd z;
+  InitialGuessInto(c, &record_at, &z);
   return z;
 }
 
-// The warm-start vector of the solution z (format in the header).
-VectorXd WarmStartOf(const Context& c, const VectorXd& z) {
+// The warm-start vector of the solution z (format in the header) into *ws_out.
+void WarmStartOfInto(const Context& c, const VectorXd& z, VectorXd* ws_out) {
   int len = 1;
   for (const GiPair& p : c.pairs) len += kRecordFixed + p.m_a + p.m_b;
-  VectorXd ws = VectorXd::Zero(len);
+  VectorXd& ws = *ws_out;
+  ws.setZero(len);
   ws[0] = static_cast<double>(c.pairs.size());
   int o = 1;
   for (int k = 0; k < c.layout.nc; ++k) {
     const GiPair& p = c.pairs[k];
-    const PairUnknowns u = ReadPair(c, k, z);
+    PairUnknowns& u = PairBuffers(c, k).u;
+    ReadPair(c, k, z, &u);
     ws[o] = p.body_a;
     ws[o + 1] = p.shape_a;
     ws[o + 2] = p.body_b;
@@ -883,16 +1061,22 @@ VectorXd WarmStartOf(const Context& c, const VectorXd& z) {
     ws.segment(o + kRecordFixed + p.m_a, p.m_b) = u.mu;
     o += kRecordFixed + p.m_a + p.m_b;
   }
+}
+
+VectorXd WarmStartOf(const Context& c, const VectorXd& z) {
+  VectorXd ws;
+  WarmStartOfInto(c, z, &ws);
   return ws;
 }
 
-McpProblem MakeProblem(std::shared_ptr<const Context> c) {
-  McpProblem prob;
+// The step's MCP bounds into *prob (its evaluate is left to the caller).
+void FillBounds(const Context* c, McpProblem* out) {
+  McpProblem& prob = *out;
   const StepLayout& l = c->layout;
   const int n = l.size();
   const double inf = std::numeric_limits<double>::infinity();
-  prob.lower = VectorXd::Constant(n, -inf);
-  prob.upper = VectorXd::Constant(n, inf);
+  prob.lower.setConstant(n, -inf);
+  prob.upper.setConstant(n, inf);
   prob.lower.segment(l.pn(), l.nc).setZero();
   for (int k = 0; k < l.nc; ++k) {
     const GiPair& p = c->pairs[k];
@@ -906,6 +1090,11 @@ McpProblem MakeProblem(std::shared_ptr<const Context> c) {
     }
     if (p.m_b > 1) prob.lower.segment(o, p.m_b).setZero();
   }
+}
+
+McpProblem MakeProblem(std::shared_ptr<const Context> c) {
+  McpProblem prob;
+  FillBounds(c.get(), &prob);
   prob.evaluate = [c](const VectorXd& z, VectorXd* F, MatrixXd* J) { SolverResidual(*c, z, F, J); };
   return prob;
 }
@@ -933,11 +1122,25 @@ StepLayout GeometricallyImplicit::Layout(const Scene& model, const State& x) con
   return MakeContext(*this, model, x, StepInput{}, &failure).layout;
 }
 
+namespace {
+// GeometricallyImplicit::Step's storage, one per thread (scratch_lease.h).
+struct GiStepScratch {
+  Context c;
+  PairSearch search;
+  std::vector<int> record_at;
+  VectorXd z;
+  McpProblem prob;
+};
+}  // namespace
+
 void GeometricallyImplicit::Step(const Scene& model, const State& x, const StepInput& u,
                                  Workspace* ws, State* next, StepInfo* info) const {
   internal::BeginStep(x, next, info);
   std::string failure;
-  auto c = std::make_shared<Context>(MakeContext(*this, model, x, u, &failure));
+  internal::ScratchLease<GiStepScratch> lease;
+  GiStepScratch& scratch = lease.get();
+  Context* c = &scratch.c;
+  FillContext(*this, model, x, u, &failure, nullptr, &scratch.search, c);
   const StepLayout& l = c->layout;
   info->contacts = l.nc;
   info->min_gap = 0.0;
@@ -949,7 +1152,8 @@ void GeometricallyImplicit::Step(const Scene& model, const State& x, const StepI
     return;
   }
   if (!internal::CheckStartPenetration(l.nc, options_.max_penetration, info)) return;
-  VectorXd z = InitialGuess(*c);
+  VectorXd& z = scratch.z;
+  InitialGuessInto(*c, &scratch.record_at, &z);
   if (!z.allFinite()) {  // e.g. q_ℓ + h ν_ℓ beyond the range of doubles
     internal::FailStep(StepStatus::kNonFinite,
                        "geometrically implicit step: non-finite starting point (the predicted "
@@ -957,8 +1161,13 @@ void GeometricallyImplicit::Step(const Scene& model, const State& x, const StepI
                        info);
     return;
   }
-  SetStart(c.get(), z);
-  const McpProblem prob = MakeProblem(c);
+  SetStart(c, z);
+  McpProblem& prob = scratch.prob;
+  FillBounds(c, &prob);
+  // Bound to this thread's context (a pointer: the std::function holds it without allocating).
+  prob.evaluate = [c](const VectorXd& zi, VectorXd* F, MatrixXd* J) {
+    SolverResidual(*c, zi, F, J);
+  };
   info->solver = McpSolver(mcp_).Solve(prob, &z);
   if (!info->solver.ok() && x.warm_start.size() > 0) {
     // Retry from a cold start (closest points at ℓ for every pair, ν_ℓ): a warm start from the
@@ -1021,9 +1230,8 @@ void GeometricallyImplicit::Step(const Scene& model, const State& x, const StepI
                       pose(p.body_b) * model.bodies[p.body_b].shapes[p.shape_b].X_BS);
     // A compliant pair may overlap by its law's overlap a p_n + b ψ_ℓ + e at the solution.
     const double law_overlap =
-        c->compliant[k]
-            ? std::max(0.0, c->law_diagonal[k] * ReadPair(*c, k, z).pn + c->law_constant[k])
-            : 0.0;
+        c->compliant[k] ? std::max(0.0, c->law_diagonal[k] * z[l.pn() + k] + c->law_constant[k])
+                        : 0.0;
     if (end.ok && end.distance < -(law_overlap + kEndPenetrationCheck)) {
       internal::FailStep(StepStatus::kPenetration,
                          "geometrically implicit step: the solution penetrates by " +
@@ -1036,15 +1244,18 @@ void GeometricallyImplicit::Step(const Scene& model, const State& x, const StepI
       return;
     }
   }
-  next->warm_start = WarmStartOf(*c, z);
+  WarmStartOfInto(*c, z, &next->warm_start);
   if (ws) {
     ws->contacts.clear();
-    const std::vector<BodyAt> bodies = BodiesAt(*c, z);
-    PairEval e;
+    std::vector<BodyAt>& bodies = c->buf.bodies;
+    BodiesAt(*c, z, &bodies);
     for (int k = 0; k < l.nc; ++k) {
       const GiPair& p = c->pairs[k];
-      const PairUnknowns pu = ReadPair(*c, k, z);
-      EvalPair(*c, k, bodies, pu, &e);
+      PairScratch& ps = PairBuffers(*c, k);
+      ReadPair(*c, k, z, &ps.u);
+      EvalPair(*c, k, bodies, &ps);
+      const PairUnknowns& pu = ps.u;
+      const PairEval& e = ps.e;
       Contact ct;
       ct.body_a = p.body_a;
       ct.body_b = p.body_b;
@@ -1100,15 +1311,18 @@ StepResiduals EvaluateContext(const Context& c, const Params& params, const Vect
   r.d_comp_b = MatrixXd::Zero(n_comp, ncol);
   MatrixXd Jb = MatrixXd::Zero(n_comp, nz);
   BodyRows(c, z, 0, l.nv, 1.0, &r.equality, &Jeq);
-  const std::vector<BodyAt> bodies = BodiesAt(c, z);
-  PairEval e;
+  std::vector<BodyAt>& bodies = c.buf.bodies;
+  BodiesAt(c, z, &bodies);
   int row = l.nv + l.nq, crow = 0;
   r.d_equality = MatrixXd::Zero(n_eq, ncol);
   for (int k = 0; k < l.nc; ++k) {
     const GiPair& p = c.pairs[k];
-    const PairUnknowns pu = ReadPair(c, k, z);
-    EvalPair(c, k, bodies, pu, &e);
-    AddWrenches(c, k, bodies, e, 0, &r.equality, &Jeq);
+    PairScratch& ps = PairBuffers(c, k);
+    ReadPair(c, k, z, &ps.u);
+    EvalPair(c, k, bodies, &ps);
+    const PairUnknowns& pu = ps.u;
+    const PairEval& e = ps.e;
+    AddWrenches(c, k, bodies, &ps, 0, &r.equality, &Jeq);
     r.equality.segment(row, d) = e.sep.head(d) + kPointTieBreak * (pu.a1 - c.a1_start[k]).head(d);
     Scatter(c, k, bodies, e.d_sep.topRows(d), row, &Jeq);
     for (int i = 0; i < d; ++i) Jeq(row + i, c.geo[k] + i) += kPointTieBreak;

@@ -49,6 +49,16 @@ struct NcpData {
   double et2 = 1.0, eo2 = 1.0;
   double eps_t = 0.0, eps_s = 0.0;                        // ε_t (m/s) and ε_σ (N²·s³/m)
   Eigen::SparseMatrix<double, Eigen::RowMajor> A_sparse;  // A without its zeros (sparse path)
+  // SparseJacobianNcp's storage: J's terms in the order setFromTriplets sums them, and for the
+  // patterns of A_sparse (a_outer, a_inner) and J (j_outer, j_inner) they were found for, each
+  // term's index in J's values and whether it is the first term of its entry.
+  struct SparseJacobianCache {
+    std::vector<Eigen::Triplet<double>> terms;
+    std::vector<int> pos, a_outer, a_inner, j_outer, j_inner;
+    std::vector<char> first;
+    VectorXd Az, u;
+  };
+  mutable SparseJacobianCache jac;  // (one thread evaluates an NcpData at a time)
 };
 
 }  // namespace internal
@@ -57,13 +67,48 @@ namespace {
 
 using internal::NcpData;
 
-// The same Jacobian as EvaluateNcp, as a sparse matrix with a z-independent pattern.
+// A.sparseView() (A's entries that are not 0, row by row) into *S, reusing its storage.
+void SparseViewInto(const MatrixXd& A, Eigen::SparseMatrix<double, Eigen::RowMajor>* S) {
+  const Eigen::Index rows = A.rows(), cols = A.cols();
+  const auto kept = [](double a) { return !(std::abs(a) <= 0.0); };  // (NaN is kept)
+  Eigen::Index nnz = 0;
+  for (Eigen::Index j = 0; j < cols; ++j)
+    for (Eigen::Index i = 0; i < rows; ++i) nnz += kept(A(i, j)) ? 1 : 0;
+  S->resize(rows, cols);
+  S->resizeNonZeros(nnz);
+  int* outer = S->outerIndexPtr();
+  int* inner = S->innerIndexPtr();
+  double* values = S->valuePtr();
+  int k = 0;
+  for (Eigen::Index i = 0; i < rows; ++i) {
+    outer[i] = k;
+    for (Eigen::Index j = 0; j < cols; ++j) {
+      if (!kept(A(i, j))) continue;
+      inner[k] = static_cast<int>(j);
+      values[k++] = A(i, j);
+    }
+  }
+  outer[rows] = k;
+}
+
+// Whether v holds the n ints at p.
+bool SameInts(const std::vector<int>& v, const int* p, Eigen::Index n) {
+  return static_cast<Eigen::Index>(v.size()) == n && std::equal(p, p + n, v.begin());
+}
+
+// The same Jacobian as EvaluateNcp, as a sparse matrix with a z-independent pattern. When A's
+// pattern and *J's are those of the last call, the values are written in place (the same sums
+// in the same order as setFromTriplets), else J is built from triplets.
 void SparseJacobianNcp(const NcpData& d, const VectorXd& z, Eigen::SparseMatrix<double>* J) {
   using RowIt = Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator;
   const int nc = d.nc, m = 3 * nc;
-  const VectorXd u = d.b + d.A_sparse * z.head(m);
-  std::vector<Eigen::Triplet<double>> t;
-  t.reserve(d.A_sparse.nonZeros() + 12 * nc);
+  NcpData::SparseJacobianCache& cache = d.jac;
+  // u = b + A P with the product in a buffer first (as Eigen evaluates the sum).
+  cache.Az.noalias() = d.A_sparse * z.head(m);
+  cache.u = d.b + cache.Az;
+  const VectorXd& u = cache.u;
+  std::vector<Eigen::Triplet<double>>& t = cache.terms;
+  t.clear();
   for (int c = 0; c < nc; ++c) {
     const int in = c, it = nc + 2 * c, io = it + 1, is = m + c;
     const double pn = z[in], pt = z[it], po = z[io], s = z[is], mu = d.mu[c];
@@ -83,8 +128,43 @@ void SparseJacobianNcp(const NcpData& d, const VectorXd& z, Eigen::SparseMatrix<
     t.emplace_back(is, io, -2.0 * po / d.eo2);
     t.emplace_back(is, is, d.eps_s);
   }
+  const Eigen::SparseMatrix<double, Eigen::RowMajor>& A = d.A_sparse;
+  const bool same = J->rows() == 4 * nc && J->cols() == 4 * nc && J->isCompressed() &&
+                    cache.pos.size() == t.size() &&
+                    SameInts(cache.a_outer, A.outerIndexPtr(), A.outerSize() + 1) &&
+                    SameInts(cache.a_inner, A.innerIndexPtr(), A.nonZeros()) &&
+                    SameInts(cache.j_outer, J->outerIndexPtr(), J->outerSize() + 1) &&
+                    SameInts(cache.j_inner, J->innerIndexPtr(), J->nonZeros());
+  if (same) {
+    double* values = J->valuePtr();
+    for (std::size_t k = 0; k < t.size(); ++k) {
+      if (cache.first[k])
+        values[cache.pos[k]] = t[k].value();
+      else
+        values[cache.pos[k]] += t[k].value();
+    }
+    return;
+  }
   J->resize(4 * nc, 4 * nc);
   J->setFromTriplets(t.begin(), t.end());  // duplicates (diagonal of A and the σ term) add
+  // Where each term lands (J is compressed, rows sorted within each column).
+  const int* outer = J->outerIndexPtr();
+  const int* inner = J->innerIndexPtr();
+  cache.pos.resize(t.size());
+  cache.first.assign(t.size(), 0);
+  std::vector<char> seen(J->nonZeros(), 0);
+  for (std::size_t k = 0; k < t.size(); ++k) {
+    const int col = t[k].col();
+    const int p = static_cast<int>(
+        std::lower_bound(inner + outer[col], inner + outer[col + 1], t[k].row()) - inner);
+    cache.pos[k] = p;
+    cache.first[k] = seen[p] ? 0 : 1;
+    seen[p] = 1;
+  }
+  cache.a_outer.assign(A.outerIndexPtr(), A.outerIndexPtr() + A.outerSize() + 1);
+  cache.a_inner.assign(A.innerIndexPtr(), A.innerIndexPtr() + A.nonZeros());
+  cache.j_outer.assign(outer, outer + J->outerSize() + 1);
+  cache.j_inner.assign(inner, inner + J->nonZeros());
 }
 
 void EvaluateNcp(const NcpData& d, const VectorXd& z, VectorXd* F, MatrixXd* J) {
@@ -294,7 +374,7 @@ void NcpStepper::Step(const Scene& model, const State& x, const StepInput& u, Wo
   info->min_gap = nc > 0 ? a.psi_n.minCoeff() : 0.0;
   if (!internal::CheckStartPenetration(nc, options_.max_penetration, info)) return;
   if (nc >= ncp_.sparse_min_contacts) {
-    d->A_sparse = d->A.sparseView();
+    SparseViewInto(d->A, &d->A_sparse);
     sp.mcp.sparse_jacobian = [d](const VectorXd& z, Eigen::SparseMatrix<double>* J) {
       SparseJacobianNcp(*d, z, J);
     };

@@ -8,6 +8,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "implicit_set_into.h"
 #include "vinci/sim/solvers/mcp.h"
 #include "vinci/sim/solvers/text_format.h"
 
@@ -179,8 +180,12 @@ bool ImplicitSet::Contains(const Vector3d& p_S, double tol) const {
 // ---------------------------------------------------------------------------------------------
 // MakeImplicitSet
 
-ImplicitSet MakeImplicitSet(const Shape& s) {
-  ImplicitSet set;
+void MakeImplicitSetInto(const Shape& s, ImplicitSet* set_out) {
+  ImplicitSet& set = *set_out;
+  set.functions.clear();
+  set.vertices_S.clear();
+  set.bounding_radius = 0.0;
+  set.center_S.setZero();
   set.from_shape = true;
   set.shape_type = s.type;
   set.dim = IsPlanar(s.type) ? Dim::kPlanar : Dim::kSpatial;
@@ -189,11 +194,11 @@ ImplicitSet MakeImplicitSet(const Shape& s) {
     case ShapeType::kHalfSpace:
       set.functions.push_back(Function(ImplicitType::kHalfspace, I, Vector3d::Ones()));
       set.bounding_radius = kInf;
-      return set;
+      return;
     case ShapeType::kHalfPlane:
       set.functions.push_back(Function(ImplicitType::kHalfPlane, I, Vector3d::Ones()));
       set.bounding_radius = kInf;
-      return set;
+      return;
     case ShapeType::kSphere:
     case ShapeType::kDisc: {
       RequirePositive(s, "radius", s.radius);
@@ -201,7 +206,7 @@ ImplicitSet MakeImplicitSet(const Shape& s) {
           s.type == ShapeType::kSphere ? ImplicitType::kSphere : ImplicitType::kDisc;
       set.functions.push_back(Function(t, I, Vector3d::Constant(s.radius)));
       set.bounding_radius = s.radius;
-      return set;
+      return;
     }
     case ShapeType::kBox: {
       for (int c = 0; c < 3; ++c) RequirePositive(s, "half_extents", s.half_extents[c]);
@@ -216,7 +221,7 @@ ImplicitSet MakeImplicitSet(const Shape& s) {
         set.vertices_S.push_back(s.half_extents.cwiseProduct(
             Vector3d(k & 1 ? 1.0 : -1.0, k & 2 ? 1.0 : -1.0, k & 4 ? 1.0 : -1.0)));
       set.bounding_radius = s.half_extents.norm();
-      return set;
+      return;
     }
     case ShapeType::kPolyhedron: {
       Shape prepared = s;
@@ -234,7 +239,7 @@ ImplicitSet MakeImplicitSet(const Shape& s) {
                                          FrameWithAxis(f.normal_S, f.offset * f.normal_S, 2),
                                          Vector3d::Ones()));
       set.bounding_radius = r;
-      return set;
+      return;
     }
     case ShapeType::kPolygon: {
       const int n = static_cast<int>(s.vertices.size());
@@ -260,7 +265,7 @@ ImplicitSet MakeImplicitSet(const Shape& s) {
       set.center_S = c / n;
       for (const Vector3d& v : s.vertices) set.vertices_S.emplace_back(v.x(), v.y(), 0.0);
       set.bounding_radius = r;
-      return set;
+      return;
     }
     case ShapeType::kEllipsoid:
     case ShapeType::kSuperquadric:
@@ -282,7 +287,7 @@ ImplicitSet MakeImplicitSet(const Shape& s) {
       // The superball Σ|u_i|^e ≤ 1 lies in the ball of radius n^(1/2 − 1/e).
       const double amax = radii.head(n).maxCoeff();
       set.bounding_radius = amax * (super ? std::pow(n, 0.5 - 1.0 / s.exponent) : 1.0);
-      return set;
+      return;
     }
     case ShapeType::kCylinder: {
       RequirePositive(s, "radius", s.radius);
@@ -295,7 +300,7 @@ ImplicitSet MakeImplicitSet(const Shape& s) {
             FrameWithAxis(sign * Vector3d::UnitZ(), sign * s.half_length * Vector3d::UnitZ(), 2),
             Vector3d::Ones()));
       set.bounding_radius = std::hypot(s.radius, s.half_length);
-      return set;
+      return;
     }
     case ShapeType::kLens: {
       RequirePositive(s, "radius", s.radius);
@@ -309,7 +314,7 @@ ImplicitSet MakeImplicitSet(const Shape& s) {
                                          Translation(sign * c * Vector3d::UnitZ()),
                                          Vector3d::Constant(R)));
       set.bounding_radius = std::sqrt(std::max(0.0, R * R - c * c));
-      return set;
+      return;
     }
     case ShapeType::kCapsule:
     case ShapeType::kSegment:
@@ -318,6 +323,12 @@ ImplicitSet MakeImplicitSet(const Shape& s) {
       ThrowShape(s, "has no implicit form (it is not convex)");
   }
   throw std::logic_error("MakeImplicitSet: unknown ShapeType");
+}
+
+ImplicitSet MakeImplicitSet(const Shape& shape) {
+  ImplicitSet set;
+  MakeImplicitSetInto(shape, &set);
+  return set;
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -133,8 +133,18 @@ double PartialPivLuRcond(const Eigen::PartialPivLU<MatrixXd>& dec, double l1_nor
   return inverse_norm == 0.0 ? 0.0 : (1.0 / inverse_norm) / l1_norm;
 }
 
-// The dense solve's storage: one per thread, reused by every solve of that thread (allocation
-// reuse only: every solve sets what it reads). The sparse path keeps its matrices per solve.
+// The sparse path's matrices, its SparseLU (with the analysis of H's pattern) and H's pattern
+// cache: J_F's pattern, where each of its entries lands in H, H's diagonal. Kept between solves:
+// the cache is compared with each J_F's pattern before it is used.
+struct McpSparseParts {
+  SparseMatrixd jfs, hs;
+  Eigen::SparseLU<SparseMatrixd, Eigen::COLAMDOrdering<int>> slu;
+  std::vector<int> cached_outer, cached_inner, entry_pos, diag_pos;
+  bool pattern_valid = false;
+};
+
+// The solve's storage: one per thread, reused by every solve of that thread (allocation reuse
+// only: every solve sets what it reads; the sparse path's pattern cache is checked).
 struct McpScratch {
   std::vector<RowKind> kinds;
   VectorXd F, phi, alpha, beta, grad, dir, rhs, d, jd, zt, Ft, phit, tmp;
@@ -143,6 +153,7 @@ struct McpScratch {
   std::vector<double> merits;
   MatrixXd jf, h;
   Eigen::PartialPivLU<MatrixXd> lu;
+  std::unique_ptr<McpSparseParts> sparse;  // made by the first sparse solve
 };
 
 // The whole solve: workspace and the steps of the algorithm.
@@ -181,7 +192,8 @@ class SemismoothNewton {
       jf_.setZero(n_, n_);
       h_.setZero(n_, n_);
     } else {
-      sp_ = std::make_unique<SparseParts>();
+      if (!s->sparse) s->sparse = std::make_unique<McpSparseParts>();
+      sp_ = s->sparse.get();
     }
   }
 
@@ -221,15 +233,7 @@ class SemismoothNewton {
   VectorXd &F_, &phi_, &alpha_, &beta_, &grad_, &dir_, &rhs_, &d_, &jd_, &zt_, &Ft_, &phit_, &tmp_;
   MatrixXd &jf_, &h_;
   Eigen::PartialPivLU<MatrixXd>& lu_;
-  // The sparse path's matrices, per solve (allocated only when sparse_).
-  struct SparseParts {
-    SparseMatrixd jfs, hs;
-    Eigen::SparseLU<SparseMatrixd, Eigen::COLAMDOrdering<int>> slu;
-  };
-  std::unique_ptr<SparseParts> sp_;
-  // Sparse H pattern cache: J_F's pattern, where each of its entries lands in H, H's diagonal.
-  std::vector<int> cached_outer_, cached_inner_, entry_pos_, diag_pos_;
-  bool pattern_valid_ = false;
+  McpSparseParts* sp_ = nullptr;  // the sparse path's storage (s_.sparse) when sparse_
   // True iff jf_ / sp_->jfs hold the Jacobian at the last trial point zt_ (else at the iterate).
   bool trial_has_jacobian_ = false;
   McpSolveStats stats_;
@@ -304,9 +308,12 @@ void SemismoothNewton::AssembleSparseH() {
   const int nnz = static_cast<int>(sp_->jfs.nonZeros());
   const int* outer = sp_->jfs.outerIndexPtr();
   const int* inner = sp_->jfs.innerIndexPtr();
-  const bool same = pattern_valid_ && static_cast<int>(cached_inner_.size()) == nnz &&
-                    std::equal(outer, outer + n_ + 1, cached_outer_.begin()) &&
-                    std::equal(inner, inner + nnz, cached_inner_.begin());
+  std::vector<int>&cached_outer = sp_->cached_outer, &cached_inner = sp_->cached_inner;
+  std::vector<int>&entry_pos = sp_->entry_pos, &diag_pos = sp_->diag_pos;
+  const bool same = sp_->pattern_valid && static_cast<int>(cached_inner.size()) == nnz &&
+                    static_cast<int>(cached_outer.size()) == n_ + 1 &&
+                    std::equal(outer, outer + n_ + 1, cached_outer.begin()) &&
+                    std::equal(inner, inner + nnz, cached_inner.begin());
   if (!same) {
     // H's pattern: J_F's plus the diagonal.
     std::vector<Eigen::Triplet<double>> triplets;
@@ -324,23 +331,23 @@ void SemismoothNewton::AssembleSparseH() {
       return static_cast<int>(
           std::lower_bound(hinner + houter[col], hinner + houter[col + 1], row) - hinner);
     };
-    entry_pos_.resize(nnz);
-    diag_pos_.resize(n_);
+    entry_pos.resize(nnz);
+    diag_pos.resize(n_);
     for (int j = 0; j < n_; ++j) {
-      for (int k = outer[j]; k < outer[j + 1]; ++k) entry_pos_[k] = position(inner[k], j);
-      diag_pos_[j] = position(j, j);
+      for (int k = outer[j]; k < outer[j + 1]; ++k) entry_pos[k] = position(inner[k], j);
+      diag_pos[j] = position(j, j);
     }
-    cached_outer_.assign(outer, outer + n_ + 1);
-    cached_inner_.assign(inner, inner + nnz);
-    pattern_valid_ = true;
+    cached_outer.assign(outer, outer + n_ + 1);
+    cached_inner.assign(inner, inner + nnz);
+    sp_->pattern_valid = true;
     sp_->slu.analyzePattern(sp_->hs);
   }
   double* values = sp_->hs.valuePtr();
   std::fill(values, values + sp_->hs.nonZeros(), 0.0);
   const double* jv = sp_->jfs.valuePtr();
   for (int j = 0; j < n_; ++j) {
-    for (int k = outer[j]; k < outer[j + 1]; ++k) values[entry_pos_[k]] += beta_(inner[k]) * jv[k];
-    values[diag_pos_[j]] += alpha_(j);
+    for (int k = outer[j]; k < outer[j + 1]; ++k) values[entry_pos[k]] += beta_(inner[k]) * jv[k];
+    values[diag_pos[j]] += alpha_(j);
   }
 }
 
