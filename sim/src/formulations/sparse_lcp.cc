@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <cstring>
 #include <limits>
 #include <utility>
 
@@ -258,7 +259,8 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
 
   v_star_ = v;
   for (int o = 0; o < a.M_inv.rows(); o += nvb)
-    v_star_.segment(o, nvb).noalias() += a.M_inv.BlockAt(o) * a.p_ext.segment(o, nvb);
+    a.M_inv.BlockMultiply(o, a.p_ext.data() + o, v_star_.data() + o, /*add=*/true);
+  last_z_valid_ = false;
 
   // The impulse columns touching each dynamic body, and each contact's position in them.
   const std::size_t nbody = model.bodies.size();
@@ -587,9 +589,9 @@ void ContactLcpOperator::MultiplyAdd(const VectorXd& z, const VectorXd& q, Vecto
   const int nvb = a.M_inv.block_size();
   SparseTimes(a.G_n, z.data(), /*assign=*/true, g_finite_, nvb, runs_, &impulse_);
   SparseTimes(a.G_f, z.data() + nc, /*assign=*/false, g_finite_, nvb, runs_, &impulse_);
-  dv_.resize(impulse_.size());
-  for (int o = 0; o < a.M_inv.rows(); o += nvb)
-    dv_.segment(o, nvb).noalias() = a.M_inv.BlockAt(o) * impulse_.segment(o, nvb);
+  a.M_inv.Multiply(impulse_, &dv_);
+  last_z_ = z;
+  last_z_valid_ = true;
   *w = q;
   SparseTransposeTimes(a.G_n, dv_, /*assign=*/false, nvb, runs_, w->data());
   SparseTransposeTimes(a.G_f, dv_, /*assign=*/false, nvb, runs_, w->data() + nc);
@@ -607,9 +609,16 @@ void ContactLcpOperator::MultiplyAdd(const VectorXd& z, const VectorXd& q, Vecto
 void ContactLcpOperator::VelocityAfter(const VectorXd& z, VectorXd* impulse, VectorXd* dv,
                                        VectorXd* v1) const {
   const StewartTrinkle::Assembly& a = *a_;
-  SparseTimes(a.G_n, z.data(), /*assign=*/true, g_finite_, nvb_, runs_, impulse);
-  SparseTimes(a.G_f, z.data() + nc_, /*assign=*/false, g_finite_, nvb_, runs_, impulse);
-  a.M_inv.Multiply(*impulse, dv);
+  if (last_z_valid_ && last_z_.size() == z.size() &&
+      std::memcmp(last_z_.data(), z.data(), sizeof(double) * z.size()) == 0) {
+    // MultiplyAdd formed G z and M⁻¹ G z for this z (the warm basis' final candidate).
+    *impulse = impulse_;
+    *dv = dv_;
+  } else {
+    SparseTimes(a.G_n, z.data(), /*assign=*/true, g_finite_, nvb_, runs_, impulse);
+    SparseTimes(a.G_f, z.data() + nc_, /*assign=*/false, g_finite_, nvb_, runs_, impulse);
+    a.M_inv.Multiply(*impulse, dv);
+  }
   *v1 = v_star_ + *dv;
 }
 

@@ -93,7 +93,9 @@ class ContactLcpOperator final : public LcpMatrixOperator {
   mutable std::vector<MatrixXd> blocks_;             // per body: G_bᵀ W_b G_b over columns_[body]
   mutable std::vector<MatrixXd> WG_;                 // per body: W_b G_b
   mutable std::vector<std::vector<char>> wg_ready_;  // per body and column: WG_ column formed
-  mutable VectorXd impulse_, dv_;
+  mutable VectorXd impulse_, dv_;  // MultiplyAdd: G z and M⁻¹ G z for z = last_z_
+  mutable VectorXd last_z_;        // the last MultiplyAdd's z (valid since Build if set)
+  mutable bool last_z_valid_ = false;
   mutable std::vector<Eigen::Triplet<double>> triplets_;
   mutable std::vector<int> position_;                 // PrincipalBlock: index → basis position
   mutable std::vector<std::pair<int, int>> members_;  // PrincipalBlock: (column in body, position)

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <map>
 #include <stdexcept>
 #include <string>
@@ -84,6 +85,11 @@ void FrictionDirections(Dim dim, const Vector3d& n, int nd, std::vector<Vector3d
   }
 }
 
+// a and b have the same bits (FrictionDirections is then the same).
+bool SameBits(const Vector3d& a, const Vector3d& b) {
+  return std::memcmp(a.data(), b.data(), sizeof(double) * 3) == 0;
+}
+
 // A constraint Jacobian (nv × cols) built column by column. A column touches at most two
 // dynamic bodies, so it is held as at most two blocks of nvb rows (a body's ν block) and written
 // into the compressed SparseMatrix at the end, blocks in row order: the entries (explicit zeros
@@ -161,6 +167,10 @@ void Scatter(const Scene& model, int body, const BodyKinematics& k, const Vector
 // once per contact instead of once per column (the same values, so the same bits).
 struct ContactSide {
   bool dynamic = false;
+  // A static side (v = ω = +0, so v_p = +0 for a finite p − o_WB) opposite a dynamic side, with a
+  // finite normal: each of its terms ±d·v_p is ±0, added to ∂ψ/∂t = +0, which stays +0, so the
+  // terms are not formed.
+  bool zero_term = false;
   int o = 0;
   Vector3d v_p = Vector3d::Zero();
 };
@@ -244,8 +254,8 @@ inline void WriteContactColumn(const ContactColumns& cc, const Vector3d& d, int*
   const DynamicSide* merge = cc.merged ? &cc.sides[1] : nullptr;
   for (int b = 0; b < cc.blocks; ++b, *k += N)
     WriteSideBlock<N>(cc.sides[b], merge, d, inner + *k, value + *k);
-  if (!cc.side_a->dynamic) *dpsi += d.dot(cc.side_a->v_p);
-  if (!cc.side_b->dynamic) *dpsi += -1.0 * d.dot(cc.side_b->v_p);
+  if (!cc.side_a->dynamic && !cc.side_a->zero_term) *dpsi += d.dot(cc.side_a->v_p);
+  if (!cc.side_b->dynamic && !cc.side_b->zero_term) *dpsi += -1.0 * d.dot(cc.side_b->v_p);
 }
 
 // Contact c's normal column (direction n) into a->G_n and its nd friction columns (dirs) into
@@ -513,8 +523,14 @@ void StewartTrinkle::Fill(const Scene& model, const State& x, const StepInput& u
         CombineCompliance(model.bodies[ct.body_a].compliance, model.bodies[ct.body_b].compliance),
         p.gap, h);
     const BodyKinematics &ka = kin[ct.body_a], &kb = kin[ct.body_b];
-    const ContactSide side_a = MakeContactSide(model, ct.body_a, ka, p.p_A_W);
-    const ContactSide side_b = MakeContactSide(model, ct.body_b, kb, p.p_B_W);
+    ContactSide side_a = MakeContactSide(model, ct.body_a, ka, p.p_A_W);
+    ContactSide side_b = MakeContactSide(model, ct.body_b, kb, p.p_B_W);
+    if (p.n_W.allFinite()) {
+      side_a.zero_term = side_b.dynamic && model.bodies[ct.body_a].kind == BodyKind::kStatic &&
+                         (p.p_A_W - ka.X_WB.translation()).allFinite();
+      side_b.zero_term = side_a.dynamic && model.bodies[ct.body_b].kind == BodyKind::kStatic &&
+                         (p.p_B_W - kb.X_WB.translation()).allFinite();
+    }
     // The dynamic sides in ν order (a contact of a body with itself: one merged block).
     DynamicSide sides[2];
     int ns = 0;
@@ -523,7 +539,9 @@ void StewartTrinkle::Fill(const Scene& model, const State& x, const StepInput& u
     const bool merged = ns == 2 && sides[0].o == sides[1].o;
     if (ns == 2 && sides[1].o < sides[0].o) std::swap(sides[0], sides[1]);
     const ContactColumns cc{sides, merged ? 1 : ns, merged, &side_a, &side_b};
-    FrictionDirections(dim, p.n_W, nd, &dirs);
+    // Contacts in a row with the same normal bits (a face resting on a face) share directions.
+    if (c == 0 || !SameBits(p.n_W, a.contacts[c - 1].point.n_W))
+      FrictionDirections(dim, p.n_W, nd, &dirs);
     if (nvb == 6) {
       WriteContactColumns<6>(cc, p.n_W, dirs, c, nd, &a, &k_n, &k_f);
     } else {

@@ -49,7 +49,27 @@ class BlockDiagonal {
   void Multiply(const VectorXd& x, VectorXd* y) const {
     y->resize(rows());
     for (int o = 0; o < rows(); o += block_size_)
-      y->segment(o, block_size_).noalias() = BlockAt(o) * x.segment(o, block_size_);
+      BlockMultiply(o, x.data() + o, y->data() + o, /*add=*/false);
+  }
+
+  /// y[0..bs) = B x[0..bs) (add: y += B x) for the block B at `offset`, bs = block_size(); y
+  /// must not alias x. The operations of Eigen's matrix–vector kernel for
+  /// `y.noalias() = BlockAt(offset) * x` (or `+=`), hence its bits: per row, c = 0, c = B_ij x_j +
+  /// c for j in order, then y_i = c + y_i (y_i = +0 when assigning) — without its per-call setup.
+  void BlockMultiply(int offset, const double* x, double* y, bool add) const {
+    const double* B = blocks_.data() + static_cast<Eigen::Index>(offset) * block_size_;
+    if (block_size_ == 6) {
+      BlockMultiplyN<6>(B, x, y, add);
+    } else if (block_size_ == 3) {
+      BlockMultiplyN<3>(B, x, y, add);
+    } else {
+      const int n = block_size_;
+      for (int i = 0; i < n; ++i) {
+        double c = 0.0;
+        for (int j = 0; j < n; ++j) c = B[j * n + i] * x[j] + c;
+        y[i] = c + (add ? y[i] : 0.0);
+      }
+    }
   }
 
   /// *y = this · x for a matrix x (rows() × k), the product operator* forms, into y's storage (no
@@ -63,6 +83,16 @@ class BlockDiagonal {
   MatrixXd ToDense() const;
 
  private:
+  template <int N>
+  static void BlockMultiplyN(const double* B, const double* x, double* y, bool add) {
+    double c[N];
+    for (int i = 0; i < N; ++i) c[i] = 0.0;
+    for (int j = 0; j < N; ++j)
+#pragma GCC unroll 6
+      for (int i = 0; i < N; ++i) c[i] = B[j * N + i] * x[j] + c[i];
+    for (int i = 0; i < N; ++i) y[i] = c[i] + (add ? y[i] : 0.0);
+  }
+
   int block_size_ = 1;
   MatrixXd blocks_;  // block_size × n: block i in columns [i·bs, (i + 1)·bs)
 };
