@@ -55,7 +55,8 @@ void AppendSupportPairs(const SupportRows& sup, const StepLayout& l, const Vecto
 // setZero's element loop was ~10 % of a resting box's step derivative.
 void SetZero(int rows, int cols, MatrixXd* m) {
   m->resize(rows, cols);
-  if (m->size() > 0) std::memset(m->data(), 0, sizeof(double) * static_cast<std::size_t>(m->size()));
+  if (m->size() > 0)
+    std::memset(m->data(), 0, sizeof(double) * static_cast<std::size_t>(m->size()));
 }
 
 }  // namespace
