@@ -10,7 +10,9 @@
 // --scene S runs only the scenes whose file name contains S; --fwd-only measures only step and
 // fwd1 (for a profiler: `perf record build/bench/sensitivity_bench --scene box --fwd-only`);
 // --once makes each per-step measurement one pass over the N states (for instruction counts:
-// `valgrind --tool=callgrind ... --once`, then the inclusive counts of Step and PropagateStep).
+// `valgrind --tool=callgrind ... --once`, then the inclusive counts of Step and PropagateStep;
+// the "roll" pass calls both: --roll-only measures step and roll only, --fwd-only without
+// --roll-only step, fwd1 and roll).
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -33,7 +35,7 @@ struct Case {
   int warmup;  // steps simulated before the measured ones
 };
 
-void Run(const Case& c, int steps, bool fwd_only, bool once) {
+void Run(const Case& c, int steps, bool fwd_only, bool once, bool roll_only) {
   const Simulator sim(LoadSceneFile(std::string(VINCI_SOURCE_DIR) + "/examples/scenes/" + c.scene));
   const Params p = sim.DefaultParams();
   const ParamSelection sel(sim.scene().param_table(), c.params);
@@ -67,12 +69,21 @@ void Run(const Case& c, int steps, bool fwd_only, bool once) {
   MatrixXd S = MatrixXd::Zero(nx, 1), S_next;
   S(0, 0) = 1.0;  // a generic carried sensitivity
   // With a workspace, as RolloutForward / RolloutReverse pass the step's own.
-  const double t_fwd = per_step([&](int k, Workspace* ws) {
+  const double t_fwd = roll_only ? 0.0 : per_step([&](int k, Workspace* ws) {
     PropagateStep(sim, p, one, tr.states[k], inputs[k], tr.states[k + 1], S, &S_next, {}, ws);
   });
+  // As RolloutForward: each step, then its derivative in the same workspace (which reuses what
+  // the step assembled, Workspace::step_record); the derivative's cost there is this minus the
+  // step's.
+  const double t_pair = per_step([&](int k, Workspace* ws) {
+    State next;
+    sim.Step(p, tr.states[k], inputs[k], ws, &next);
+    PropagateStep(sim, p, one, tr.states[k], inputs[k], next, S, &S_next, {}, ws);
+  });
+  const double t_roll = t_pair - t_step;
   if (fwd_only) {
-    std::printf("%-26s %2d %5d | %9.1f %9.1f %5.2f |\n", c.scene, sel.size(), steps, 1e6 * t_step,
-                1e6 * t_fwd, t_fwd / t_step);
+    std::printf("%-26s %2d %5d | %9.1f %9.1f %5.2f | %9.1f %5.2f |\n", c.scene, sel.size(), steps,
+                1e6 * t_step, 1e6 * t_fwd, t_fwd / t_step, 1e6 * t_roll, t_roll / t_step);
     return;
   }
   const double t_full = per_step([&](int k, Workspace* ws) {
@@ -97,17 +108,18 @@ void Run(const Case& c, int steps, bool fwd_only, bool once) {
       sink += sim.Rollout(sel.Set(p, v), x0, inputs).states.back().q[0];
     }
   const double t_fd = CpuSeconds() - t0;
-  std::printf("%-26s %2d %5d | %9.1f %9.1f %5.2f | %9.1f %6.2f | %8.3f %8.3f %6.2f | %s%s\n",
-              c.scene, sel.size(), steps, 1e6 * t_step, 1e6 * t_fwd, t_fwd / t_step, 1e6 * t_full,
-              t_full / t_step, t_rev, t_fd, t_rev / t_fd, rev.ok ? "ok" : "FAILED",
-              std::isfinite(sink) ? "" : " (nan)");
+  std::printf(
+      "%-26s %2d %5d | %9.1f %9.1f %5.2f | %9.1f %5.2f | %9.1f %6.2f | %8.3f %8.3f %6.2f | %s%s\n",
+      c.scene, sel.size(), steps, 1e6 * t_step, 1e6 * t_fwd, t_fwd / t_step, 1e6 * t_roll,
+      t_roll / t_step, 1e6 * t_full, t_full / t_step, t_rev, t_fd, t_rev / t_fd,
+      rev.ok ? "ok" : "FAILED", std::isfinite(sink) ? "" : " (nan)");
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
   int steps = 1000;
-  bool quick = false, fwd_only = false, once = false;
+  bool quick = false, fwd_only = false, once = false, roll_only = false;
   std::string only;
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--quick") == 0) {
@@ -117,6 +129,8 @@ int main(int argc, char** argv) {
       fwd_only = true;
     } else if (std::strcmp(argv[i], "--once") == 0) {
       once = true;
+    } else if (std::strcmp(argv[i], "--roll-only") == 0) {
+      fwd_only = roll_only = true;
     } else if (std::strcmp(argv[i], "--scene") == 0 && i + 1 < argc) {
       only = argv[++i];
     } else if (std::strcmp(argv[i], "--steps") == 0 && i + 1 < argc) {
@@ -124,7 +138,8 @@ int main(int argc, char** argv) {
     } else {
       std::fprintf(
           stderr,
-          "usage: sensitivity_bench [--steps N] [--quick] [--scene S] [--fwd-only] [--once]\n");
+          "usage: sensitivity_bench [--steps N] [--quick] [--scene S] [--fwd-only] [--roll-only] "
+          "[--once]\n");
       return 2;
     }
   }
@@ -144,13 +159,15 @@ int main(int argc, char** argv) {
   };
   std::printf(
       "CPU time. step: Simulator::Step; fwd1: one-parameter forward step derivative "
-      "(PropagateStep, 1 column); full: StepDerivatives with the state Jacobian; rev: "
+      "(PropagateStep, 1 column); roll: fwd1 right after its step in the same workspace, as in "
+      "RolloutForward (step + fwd1 - step); full: StepDerivatives with the state Jacobian; rev: "
       "RolloutReverse gradient; fd: 2p+1 rollouts\n");
-  std::printf("%-26s %2s %5s | %9s %9s %5s | %9s %6s | %8s %8s %6s |\n", "scene", "p", "N",
-              "step(us)", "fwd1(us)", "ratio", "full(us)", "ratio", "rev(s)", "fd(s)", "ratio");
+  std::printf("%-26s %2s %5s | %9s %9s %5s | %9s %5s | %9s %6s | %8s %8s %6s |\n", "scene", "p",
+              "N", "step(us)", "fwd1(us)", "ratio", "roll(us)", "ratio", "full(us)", "ratio",
+              "rev(s)", "fd(s)", "ratio");
   for (const Case& c : cases) {
     if (!only.empty() && std::string(c.scene).find(only) == std::string::npos) continue;
-    Run(c, steps, fwd_only, once);
+    Run(c, steps, fwd_only, once, roll_only);
     if (quick) break;
   }
   return 0;

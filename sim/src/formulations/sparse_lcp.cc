@@ -11,15 +11,18 @@ namespace vinci::sim {
 
 namespace internal {
 
+namespace {
 // One scratch per thread, leased for the duration of a step (a nested step on the same thread,
 // if any, gets its own): reused allocations only, so results do not depend on the thread.
+thread_local StepScratch t_scratch;
+thread_local bool t_scratch_in_use = false;
+}  // namespace
+
 StepScratchLease::StepScratchLease() {
-  thread_local StepScratch per_thread;
-  thread_local bool in_use = false;
-  if (!in_use) {
-    in_use = true;
-    in_use_ = &in_use;
-    scratch_ = &per_thread;
+  if (!t_scratch_in_use) {
+    t_scratch_in_use = true;
+    in_use_ = &t_scratch_in_use;
+    scratch_ = &t_scratch;
   } else {
     own_ = std::make_unique<StepScratch>();
     scratch_ = own_.get();
@@ -39,6 +42,13 @@ WarmBasisScratch& StepScratch::BasisFor(const VectorXd& guess) {
 StepScratchLease::~StepScratchLease() {
   if (in_use_) *in_use_ = false;
 }
+
+void StampStepOwner(const std::shared_ptr<const Scene>& scene) {
+  StepRecord& r = t_scratch.record;
+  if (!t_scratch_in_use && r.valid && r.model == scene.get()) r.owner = scene;
+}
+
+const StepScratch* IdleThreadStepScratch() { return t_scratch_in_use ? nullptr : &t_scratch; }
 
 namespace {
 

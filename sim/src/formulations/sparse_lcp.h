@@ -9,6 +9,7 @@
 #include <utility>
 #include <vector>
 
+#include "step_record.h"
 #include "vinci/sim/formulations/formulation.h"
 #include "vinci/sim/formulations/stewart_trinkle.h"
 #include "vinci/sim/solvers/warm_basis.h"
@@ -105,6 +106,7 @@ class ContactLcpOperator final : public LcpMatrixOperator {
 /// Buffers kept between steps (allocation reuse only: a step overwrites everything it reads).
 struct StepScratch {
   StewartTrinkle::Assembly assembly;  // the step's assembly (AssembleInto)
+  StepRecord record;                  // what `assembly` was made from (step_record.h)
   ContactLcpOperator lcp;
   WarmBasisScratch basis;  // bases above kDenseWarmBasisMax members
   // Dense bases, one scratch per basis size: a step whose basis size differs from the previous
@@ -118,6 +120,9 @@ struct StepScratch {
   StewartTrinkle::JointElimination joints;  // the dense path's joint elimination
   VectorXd gaps, v_l, v_star, z, impulse, product, dv, v1;
 };
+
+/// The calling thread's StepScratch if no step holds it (for reading its step record), else null.
+const StepScratch* IdleThreadStepScratch();
 
 /// The calling thread's StepScratch for the lifetime of the lease.
 class StepScratchLease {

@@ -9,7 +9,10 @@
 #include <utility>
 
 #include "../solvers/scratch_lease.h"
+#include "sparse_lcp.h"
+#include "step_record.h"
 #include "step_util.h"
+#include "stewart_trinkle_internal.h"
 #include "vinci/sim/formulations/contact.h"
 #include "vinci/sim/formulations/geometrically_implicit.h"
 #include "vinci/sim/formulations/ncp.h"
@@ -220,9 +223,11 @@ std::vector<Contact> MoveContactsAlong(const Scene& model, const std::vector<Con
 // (ClassifyPolytopeContact); *near counts those whose face witness lies within kNearFeature of
 // its face's boundary (the features switch within that move: a kink of the step in x_ℓ).
 constexpr double kNearFeature = 1e-6;  // m; the state columns' near-kink radius (sensitivity.h)
-std::vector<PolytopeFeature> FrozenSides(const Scene& model, const std::vector<Contact>& contacts,
-                                         const std::vector<BodyKinematics>& k0, int* near) {
-  std::vector<PolytopeFeature> sides(contacts.size());
+void FrozenSidesInto(const Scene& model, const std::vector<Contact>& contacts,
+                     const std::vector<BodyKinematics>& k0, std::vector<PolytopeFeature>* out,
+                     int* near) {
+  std::vector<PolytopeFeature>& sides = *out;
+  sides.resize(contacts.size());
   *near = 0;
   for (std::size_t i = 0; i < contacts.size(); ++i) {
     const Contact& c = contacts[i];
@@ -233,31 +238,35 @@ std::vector<PolytopeFeature> FrozenSides(const Scene& model, const std::vector<C
     sides[i] = f;
     *near += f.near_face_boundary;
   }
+}
+
+std::vector<PolytopeFeature> FrozenSides(const Scene& model, const std::vector<Contact>& contacts,
+                                         const std::vector<BodyKinematics>& k0, int* near) {
+  std::vector<PolytopeFeature> sides;
+  FrozenSidesInto(model, contacts, k0, &sides, near);
   return sides;
 }
 
 class StewartTrinkleModel final : public StepModel {
  public:
+  // `assembled`: st.AssembleInto(*model, x, u) made by the step (step_record.h), or null.
   StewartTrinkleModel(const StewartTrinkle& st, std::shared_ptr<const Scene> model, Params params,
-                      State x, StepInput u)
+                      State x, StepInput u, const StewartTrinkle::Assembly* assembled)
       : StepModel(std::move(model), std::move(params), std::move(x), std::move(u), st.options().dt),
         st_(st) {
-    // Assemble() selects each corner's edge in its contacts: AssembleAt of those contacts
-    // (without selection) is the same assembly, kept for evaluations at the freeze point. Built
-    // in place: assigning Assemble()'s result would copy its sparse matrices (Eigen 3.4's
-    // SparseMatrix has no move assignment).
-    st_.AssembleInto(*model_, x_, u_, &freeze_);
-    contacts_ = freeze_.contacts;
-    k0_ = ComputeBodyKinematics(*model_, x_);
-    sides_ = FrozenSides(*model_, contacts_, k0_, &feature_kinks_);
-    const StewartTrinkle::Assembly& a = freeze_;
-    lcp_size_ = a.psi_n.size() * (2 + a.nd) + a.support.points() + a.support.columns() +
-                static_cast<Eigen::Index>(a.corner_contact.size());
-    G_b_ = a.G_b;
-    // The layout and θ columns straight from the assembly (no evaluation at z = 0).
-    std::vector<int> columns;
-    internal::DifferentiableParamColumns(model_->param_table(), 0, &columns);
-    InitLayout(StewartTrinkle::LayoutOf(*model_, a), std::move(columns));
+    Build(assembled);
+  }
+  const StewartTrinkle& formulation() const { return st_; }
+  // The model frozen at (model, params, x, u) in this object's storage: every member a new
+  // model sets is overwritten.
+  void Refreeze(std::shared_ptr<const Scene> model, const Params& params, const State& x,
+                const StepInput& u, const StewartTrinkle::Assembly* assembled) {
+    model_ = std::move(model);
+    params_ = params;
+    x_ = x;
+    u_ = u;
+    dt_ = st_.options().dt;
+    Build(assembled);
   }
 
  protected:
@@ -269,14 +278,39 @@ class StewartTrinkleModel final : public StepModel {
   }
   StepResiduals ResidualsAlong(const VectorXd& z, const StepInput& u, const VectorXd& s,
                                double t) const override {
-    const State x = StateAlong(s, t);
+    StepResiduals r;
+    AlongInto(z, u, s, t, &r);
+    return r;
+  }
+
+ public:
+  // EvaluateResiduals(z, θ, x, u, true) into *out, if θ, x and u are the freeze's (bitwise):
+  // else false (nothing written).
+  bool FreezeResidualsInto(const VectorXd& z, const Params& theta, const State& x,
+                           const StepInput& u, StepResiduals* out) const {
+    if (z.size() != layout_.size() || !(theta == params_) || !SameStateAndInput(x, u, x_, u_))
+      return false;
+    internal::EvaluateAssemblyInto(st_, *model_, theta, freeze_, x, z, true, out);
+    return true;
+  }
+  // ResidualsAlong into *out (values only), in the calling thread's storage.
+  void AlongInto(const VectorXd& z, const StepInput& u, const VectorXd& s, double t,
+                 StepResiduals* out) const {
+    internal::ScratchLease<State> x_lease;
+    State& x = x_lease.get();
+    x.t = x_.t;
+    x.q = x_.q + t * s.head(x_.q.size());
+    x.v = x_.v + t * s.tail(s.size() - x_.q.size());
+    x.warm_start = x_.warm_start;
     // The calling thread's assembly storage (same values as a fresh AssembleAt).
     internal::ScratchLease<StewartTrinkle::Assembly> lease;
     StewartTrinkle::Assembly& a = lease.get();
     a.contacts = MoveContactsAlong(*model_, contacts_, x_, x, s, t, dt_, k0_, sides_);
     st_.AssembleAtInto(*model_, x, u, /*select_corner_edges=*/false, &a);
-    return st_.EvaluateAssembly(*model_, params_, a, x, z, false);
+    internal::EvaluateAssemblyInto(st_, *model_, params_, a, x, z, false, out);
   }
+
+ protected:
   VectorXd Unknowns(const State& next) const override {
     const StepLayout& l = layout_;
     const VectorXd& w = next.warm_start;
@@ -306,6 +340,27 @@ class StewartTrinkleModel final : public StepModel {
                                       const StepInput& u) const {
     return st_.AssembleAt(model, x, u, MoveContacts(model, contacts_, x_, x, dt_, &k0_, &sides_),
                           /*select_corner_edges=*/false);
+  }
+  void Build(const StewartTrinkle::Assembly* assembled) {
+    // Assemble() selects each corner's edge in its contacts: AssembleAt of those contacts
+    // (without selection) is the same assembly, kept for evaluations at the freeze point. Built
+    // (or copied from the step's) in place: assigning Assemble()'s result would copy its sparse
+    // matrices (Eigen 3.4's SparseMatrix has no move assignment).
+    if (assembled)
+      freeze_ = *assembled;
+    else
+      st_.AssembleInto(*model_, x_, u_, &freeze_);
+    contacts_ = freeze_.contacts;
+    ComputeBodyKinematics(*model_, x_, &k0_);
+    FrozenSidesInto(*model_, contacts_, k0_, &sides_, &feature_kinks_);
+    const StewartTrinkle::Assembly& a = freeze_;
+    lcp_size_ = a.psi_n.size() * (2 + a.nd) + a.support.points() + a.support.columns() +
+                static_cast<Eigen::Index>(a.corner_contact.size());
+    G_b_ = a.G_b;
+    // The layout and θ columns straight from the assembly (no evaluation at z = 0).
+    param_columns_.clear();
+    internal::DifferentiableParamColumns(model_->param_table(), 0, &param_columns_);
+    layout_ = StewartTrinkle::LayoutOf(*model_, a);
   }
   const StewartTrinkle& st_;
   std::vector<Contact> contacts_;
@@ -654,18 +709,79 @@ std::unique_ptr<StepModel> Freeze(const Formulation& formulation, const Scene& m
   return Freeze(formulation, std::make_shared<const Scene>(model), params, x, u);
 }
 
+namespace {
+
+void CheckFreezeInputs(const Scene* model, const Params& params, const State& x) {
+  if (!model) throw std::invalid_argument("Freeze: null scene");
+  if (params.values.size() != model->param_table().size())
+    throw std::invalid_argument("Freeze: params " +
+                                Sizes("", params.values.size(), model->param_table().size()));
+  if (x.q.size() != model->num_positions() || x.v.size() != model->num_velocities())
+    throw std::invalid_argument("Freeze: x has the wrong size for the scene");
+}
+
+}  // namespace
+
+namespace internal {
+
+void FreezeInto(const Formulation& formulation, std::shared_ptr<const Scene> scene,
+                const Params& params, const State& x, const StepInput& u,
+                std::unique_ptr<StepModel>* frozen) {
+  const auto* st = dynamic_cast<const StewartTrinkle*>(&formulation);
+  if (!st) {
+    *frozen = Freeze(formulation, std::move(scene), params, x, u);
+    return;
+  }
+  CheckFreezeInputs(scene.get(), params, x);
+  const StepScratch* step = IdleThreadStepScratch();
+  const StewartTrinkle::Assembly* assembled =
+      step && step->record.Holds(*st, scene, x, u) ? &step->assembly : nullptr;
+  auto* reuse = dynamic_cast<StewartTrinkleModel*>(frozen->get());
+  if (reuse && &reuse->formulation() == st) {
+    reuse->Refreeze(std::move(scene), params, x, u, assembled);
+    return;
+  }
+  *frozen = std::make_unique<StewartTrinkleModel>(*st, std::move(scene), params, x, u, assembled);
+}
+
+void EvaluateResidualsInto(const StepModel& m, const VectorXd& z, const Params& theta,
+                           const State& x, const StepInput& u, StepResiduals* out) {
+  const auto* st = dynamic_cast<const StewartTrinkleModel*>(&m);
+  if (st && st->FreezeResidualsInto(z, theta, x, u, out)) return;
+  *out = m.EvaluateResiduals(z, theta, x, u, true);
+}
+
+void StateDirectionalDerivativeInto(const StepModel& m, const VectorXd& z, const StepInput& u,
+                                    const VectorXd& s, double step, StepResiduals* out) {
+  const auto* st = dynamic_cast<const StewartTrinkleModel*>(&m);
+  const StepLayout& l = m.layout();
+  const State& x0 = m.x_freeze();
+  if (!st || z.size() != l.size() || s.size() != x0.q.size() + x0.v.size() || !(step > 0.0)) {
+    *out = m.StateDirectionalDerivative(z, u, s, step);
+    return;
+  }
+  // As StepModel::StateDirectionalDerivative (the same operations), in the thread's storage.
+  struct Minus {
+    StepResiduals r;
+  };
+  ScratchLease<Minus> minus;
+  StepResiduals& p = *out;
+  StepResiduals& mr = minus.get().r;
+  st->AlongInto(z, u, s, step, &p);
+  st->AlongInto(z, u, s, -step, &mr);
+  p.equality = (p.equality - mr.equality) / (2 * step);
+  p.comp_a = (p.comp_a - mr.comp_a) / (2 * step);
+  p.comp_b = (p.comp_b - mr.comp_b) / (2 * step);
+}
+
+}  // namespace internal
+
 std::unique_ptr<StepModel> Freeze(const Formulation& formulation,
                                   std::shared_ptr<const Scene> scene, const Params& params,
                                   const State& x, const StepInput& u) {
-  if (!scene) throw std::invalid_argument("Freeze: null scene");
-  const Scene& model = *scene;
-  if (params.values.size() != model.param_table().size())
-    throw std::invalid_argument("Freeze: params " +
-                                Sizes("", params.values.size(), model.param_table().size()));
-  if (x.q.size() != model.num_positions() || x.v.size() != model.num_velocities())
-    throw std::invalid_argument("Freeze: x has the wrong size for the scene");
+  CheckFreezeInputs(scene.get(), params, x);
   if (const auto* st = dynamic_cast<const StewartTrinkle*>(&formulation))
-    return std::make_unique<StewartTrinkleModel>(*st, scene, params, x, u);
+    return std::make_unique<StewartTrinkleModel>(*st, scene, params, x, u, nullptr);
   if (const auto* ncp = dynamic_cast<const NcpStepper*>(&formulation))
     return std::make_unique<NcpModel>(*ncp, scene, params, x, u);
   if (const auto* qs = dynamic_cast<const Quasistatic*>(&formulation))

@@ -599,7 +599,10 @@ void StewartTrinkle::Step(const Scene& model, const State& x, const StepInput& u
   internal::StepScratchLease lease;
   internal::StepScratch& s = lease.get();
   Assembly& a = s.assembly;
+  // Kept for the step derivative's frozen model, with what it was made from (step_record.h).
+  s.record.Clear();
   AssembleInto(model, x, u, &a);
+  s.record.Stamp(*this, model, x, u);
   const int nc = static_cast<int>(a.contacts.size());
   info->contacts = nc;
   info->joint_rows = static_cast<int>(a.psi_b.size());

@@ -22,4 +22,10 @@ void VelocityAfterWith(const StewartTrinkle::Assembly& a, const VectorXd& v_star
                        const StewartTrinkle::JointElimination& joints, VectorXd* impulse,
                        VectorXd* product, VectorXd* dv, VectorXd* v1);
 
+/// StewartTrinkle::EvaluateAssembly into *r, its storage reused (every field overwritten; the
+/// same numbers). Without `jacobians` the d_ matrices are left empty.
+void EvaluateAssemblyInto(const StewartTrinkle& st, const Scene& model, const Params& params,
+                          const StewartTrinkle::Assembly& a, const State& x, const VectorXd& z,
+                          bool jacobians, StepResiduals* r);
+
 }  // namespace vinci::sim::internal

@@ -1,5 +1,6 @@
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <map>
 #include <stdexcept>
 #include <utility>
@@ -50,15 +51,25 @@ void AppendSupportPairs(const SupportRows& sup, const StepLayout& l, const Vecto
   }
 }
 
+// *m = 0 (rows × cols), its storage reused: one memset (+0.0 has all bits zero), where
+// setZero's element loop was ~10 % of a resting box's step derivative.
+void SetZero(int rows, int cols, MatrixXd* m) {
+  m->resize(rows, cols);
+  if (m->size() > 0)
+    std::memset(m->data(), 0, sizeof(double) * static_cast<std::size_t>(m->size()));
+}
+
 }  // namespace
 
 StepLayout StewartTrinkle::Layout(const Scene& model, const State& x) const {
-  std::vector<BodyKinematics> kin = ComputeBodyKinematics(model, x);
+  // Kept per thread between calls (allocation reuse only: both are overwritten by every call).
+  thread_local std::vector<BodyKinematics> kin;
+  thread_local std::vector<Contact> contacts;
+  ComputeBodyKinematics(model, x, &kin);
   for (std::size_t i = 0; i < kin.size(); ++i)  // as in Assemble
     if (model.bodies[i].kind == BodyKind::kPrescribed &&
         model.bodies[i].motion.pose == PoseRule::kIntegrated)
       kin[i] = PrescribedKinematics(model, static_cast<int>(i), x.t, options_.dt);
-  std::vector<Contact> contacts;
   CheckShapesSupported(model);
   FindContacts(model, kin, options_.envelope, &contacts);
   StepLayout l;
@@ -97,9 +108,21 @@ StepResiduals StewartTrinkle::Evaluate(const Scene& model, const Params& params,
 StepResiduals StewartTrinkle::EvaluateAssembly(const Scene& model, const Params& params,
                                                const Assembly& a, const State& x, const VectorXd& z,
                                                bool jacobians) const {
-  const double h = options_.dt;
   StepResiduals r;
-  r.layout = LayoutOf(model, a);
+  internal::EvaluateAssemblyInto(*this, model, params, a, x, z, jacobians, &r);
+  return r;
+}
+
+void internal::EvaluateAssemblyInto(const StewartTrinkle& st, const Scene& model,
+                                    const Params& params, const StewartTrinkle::Assembly& a,
+                                    const State& x, const VectorXd& z, bool jacobians,
+                                    StepResiduals* out) {
+  const StepperOptions& options = st.options();
+  const bool velocity_level = options.formulation == FormulationType::kAnitescuPotra;
+  const bool first_order = options.formulation == FormulationType::kFirstOrder;
+  const double h = options.dt;
+  StepResiduals& r = *out;
+  r.layout = StewartTrinkle::LayoutOf(model, a);
   const StepLayout& l = r.layout;
   if (z.size() != l.size())
     throw std::invalid_argument("StewartTrinkle::Evaluate: z has " + std::to_string(z.size()) +
@@ -107,6 +130,7 @@ StepResiduals StewartTrinkle::EvaluateAssembly(const Scene& model, const Params&
   if (params.values.size() != model.param_table().size())
     throw std::invalid_argument("StewartTrinkle::Evaluate: params do not match the scene");
   // Differentiable parameters: friction coefficients, support friction and masses.
+  r.param_columns.clear();
   const std::vector<int> column_of =
       internal::DifferentiableParamColumns(model.param_table(), l.size(), &r.param_columns);
   const int np = static_cast<int>(r.param_columns.size());
@@ -124,8 +148,11 @@ StepResiduals StewartTrinkle::EvaluateAssembly(const Scene& model, const Params&
   // Without Jacobians (values only: the sensitivities' directional differences) the d_ blocks
   // stay empty and every write to them below is skipped.
   const bool jac = jacobians;
-  if (jac) r.d_equality = MatrixXd::Zero(nv + nq + nb, ncol);
-  const VectorXd v_l = first_order_ ? VectorXd::Zero(nv) : x.v;  // first order: no ν_ℓ
+  if (jac)
+    SetZero(nv + nq + nb, ncol, &r.d_equality);
+  else
+    r.d_equality.resize(0, 0);
+  const VectorXd v_l = first_order ? VectorXd::Zero(nv) : x.v;  // first order: no ν_ℓ
   r.equality.head(nv) = a.M * (v1 - v_l) - a.G_n * pn - a.G_f * pf - a.G_b * pb - a.p_ext;
   if (jac) {
     r.d_equality.block(0, l.v1(), nv, nv) = a.M.ToDense();
@@ -146,12 +173,12 @@ StepResiduals StewartTrinkle::EvaluateAssembly(const Scene& model, const Params&
     const VectorXd dv = v1.segment(o, nvb) - x.v.segment(o, nvb);
     // First order: h C does not scale with the mass, only the weight does.
     VectorXd d =
-        first_order_ ? VectorXd(VectorXd::Zero(nvb)) : VectorXd(a.M.BlockAt(o) * dv / b.mass);
+        first_order ? VectorXd(VectorXd::Zero(nvb)) : VectorXd(a.M.BlockAt(o) * dv / b.mass);
     if (b.gravity) {
       d.head(model.dim == Dim::kPlanar ? 2 : 3) -=
           h * model.gravity_W.head(model.dim == Dim::kPlanar ? 2 : 3);
     }
-    if (model.dim == Dim::kSpatial && !first_order_) {
+    if (model.dim == Dim::kSpatial && !first_order) {
       const Vector3d w_B = x.v.segment<3>(o + 3);
       d.tail<3>() += h * w_B.cross(b.inertia * w_B) / b.mass;
     }
@@ -187,7 +214,7 @@ StepResiduals StewartTrinkle::EvaluateAssembly(const Scene& model, const Params&
   }
   if (nb > 0) {
     VectorXd jr = a.G_b.transpose() * v1 + a.dpsi_b;
-    if (options_.joint_stabilization) jr += a.psi_b / h;
+    if (options.joint_stabilization) jr += a.psi_b / h;
     r.equality.tail(nb) = jr;
     if (jac) r.d_equality.block(nv + nq, l.v1(), nb, nv) = a.G_b.transpose();
   }
@@ -199,15 +226,18 @@ StepResiduals StewartTrinkle::EvaluateAssembly(const Scene& model, const Params&
   r.comp_a.resize(ncomp);
   r.comp_b.resize(ncomp);
   r.comp_a << pn, pf, sigma, cc;
-  if (jac) {
-    r.d_comp_a = MatrixXd::Zero(ncomp, ncol);
-    r.d_comp_b = MatrixXd::Zero(ncomp, ncol);
+  if (!jac) {
+    r.d_comp_a.resize(0, 0);
+    r.d_comp_b.resize(0, 0);
+  } else {
+    SetZero(ncomp, ncol, &r.d_comp_a);
+    SetZero(ncomp, ncol, &r.d_comp_b);
     r.d_comp_a.block(0, l.pn(), nc + nf + nc, nc + nf + nc).setIdentity();  // contiguous
     r.d_comp_a.block(ncomp - nk, l.corner(), nk, nk).setIdentity();
   }
 
   r.comp_b.head(nc) = a.G_n.transpose() * v1 + a.dpsi_n;
-  if (!velocity_level_) r.comp_b.head(nc) += a.psi_n / h;
+  if (!velocity_level) r.comp_b.head(nc) += a.psi_n / h;
   if (jac) r.d_comp_b.block(0, l.v1(), nc, nv) = a.G_n.transpose();
   for (int c = 0; c < nc; ++c) {
     const CompliantNormalRow& law = a.compliance[c];
@@ -240,7 +270,7 @@ StepResiduals StewartTrinkle::EvaluateAssembly(const Scene& model, const Params&
     const VectorXd D = a.G_1.col(k).toDense() - a.G_n.col(c).toDense();
     r.comp_b[row] = cc[k] - ((a.psi_1[k] - a.psi_n[c]) / h + D.dot(v1) + a.dpsi_1[k] - a.dpsi_n[c]);
     r.comp_b[c] += cc[k];
-    if (velocity_level_) r.comp_b[c] += a.psi_n[c] / h;  // corners stay position-level
+    if (velocity_level) r.comp_b[c] += a.psi_n[c] / h;  // corners stay position-level
     if (!jac) continue;
     r.d_comp_b(row, l.corner() + k) = 1.0;
     r.d_comp_b.block(row, l.v1(), 1, nv) = -D.transpose();
@@ -264,7 +294,6 @@ StepResiduals StewartTrinkle::EvaluateAssembly(const Scene& model, const Params&
               a.support.limit[k] / model.bodies[info.a].mass;
     }
   }
-  return r;
 }
 
 double StepResiduals::Violation() const {

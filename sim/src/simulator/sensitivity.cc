@@ -11,6 +11,7 @@
 #include <utility>
 #include <vector>
 
+#include "../formulations/step_record.h"
 #include "../solvers/scratch_lease.h"
 #include "sensitivity_internal.h"
 #include "sensitivity_linearization.h"
@@ -99,6 +100,15 @@ bool SmoothedSolution(const StepModel& model, const Params& theta, const State& 
   return g.cwiseAbs().maxCoeff() <= 1e3 * tol;
 }
 
+// Per-thread storage of the residuals at the linearization point and along s (distinct types:
+// distinct ScratchLease slots).
+struct ValsStorage {
+  StepResiduals r;
+};
+struct AlongStorage {
+  StepResiduals r;
+};
+
 // Everything one step's derivative needs, built once per step.
 class StepDifferentiator {
  public:
@@ -110,8 +120,10 @@ class StepDifferentiator {
     // these parameters), shared by the frozen model.
     Workspace* w = ws ? ws : &own_ws_;
     const Scene& model = sim.ResolveWithInputs(params, u, w);
-    frozen_ =
-        Freeze(sim.formulation(), u.motions.empty() ? w->model : w->motion_model, params, x, u);
+    // The frozen model in the calling thread's storage, from the step's own assembly where the
+    // workspace's last step was this one (FreezeInto).
+    internal::FreezeInto(sim.formulation(), u.motions.empty() ? w->model : w->motion_model, params,
+                         x, u, &frozen_);
     z_ = frozen_->UnknownsFromStep(next);
     if (options.smoothing > 0.0) {
       if (!SmoothedSolution(*frozen_, params, x, u, options.smoothing, &z_)) {
@@ -122,7 +134,7 @@ class StepDifferentiator {
     // The residuals with their dense z and θ Jacobians; the x_ℓ block (central differences of
     // the frozen equations) only for the full state Jacobian.
     const int nz = frozen_->layout().size();
-    vals_ = frozen_->EvaluateResiduals(z_, params, x, u, true);
+    internal::EvaluateResidualsInto(*frozen_, z_, params, x, u, &vals_);
     const bool gi = dynamic_cast<const GeometricallyImplicit*>(&sim.formulation()) != nullptr;
     lin_->Compute(vals_, nz, options, options.smoothing > 0.0, gi ? &frozen_->layout() : nullptr);
     lin_computed_ = true;
@@ -137,7 +149,7 @@ class StepDifferentiator {
       const VectorXd shift = lin_->InteriorShift(l.nq + l.nv, z_);
       if (shift.size() == z_.size()) {
         z_ += shift;
-        vals_ = frozen_->EvaluateResiduals(z_, params, x, u, true);
+        internal::EvaluateResidualsInto(*frozen_, z_, params, x, u, &vals_);
         lin_->Compute(vals_, nz, options, false, nullptr);
         if (!lin_->ok()) {
           message_ = lin_->message();
@@ -255,7 +267,9 @@ class StepDifferentiator {
     // carried column that decayed to denormals (~1e-317), and ∞ · 0 poisons the state with NaN.
     const double h = options_.state_step * std::max(1.0, xn);
     // Contacts with a closed-form rate move along it instead of being re-collided.
-    const StepResiduals d = frozen_->StateDirectionalDerivative(z_, u_, s / sn, h);
+    internal::ScratchLease<AlongStorage> along;
+    StepResiduals& d = along.get().r;
+    internal::StateDirectionalDerivativeInto(*frozen_, z_, u_, s / sn, h, &d);
     r.eq = sn * d.equality;
     r.a = sn * d.comp_a;
     r.b = sn * d.comp_b;
@@ -331,9 +345,13 @@ class StepDifferentiator {
   const StepInput& u_;
   SensitivityOptions options_;
   Workspace own_ws_;  // when the caller passes none
-  std::unique_ptr<StepModel> frozen_;
+  // The calling thread's frozen model (its storage reused from step to step; FreezeInto).
+  internal::ScratchLease<std::unique_ptr<StepModel>> frozen_lease_;
+  std::unique_ptr<StepModel>& frozen_ = frozen_lease_.get();
   VectorXd z_;
-  StepResiduals vals_;               // at z_: values and dense [z, θ] Jacobians
+  // At z_: values and dense [z, θ] Jacobians, in the calling thread's storage.
+  internal::ScratchLease<ValsStorage> vals_lease_;
+  StepResiduals& vals_ = vals_lease_.get().r;
   MatrixXd d_eq_x_, d_a_x_, d_b_x_;  // ∂r/∂x_ℓ (full state only)
   // The calling thread's linearization storage (scratch_lease.h), recomputed for this step.
   internal::ScratchLease<Linearization> lin_lease_;

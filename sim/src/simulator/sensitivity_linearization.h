@@ -47,9 +47,10 @@ class Linearization {
     pinned_.clear();
     w_ready_ = false;
     const auto E = vals.d_equality.leftCols(nz);
-    A_ = vals.d_comp_a.leftCols(nz);
-    B_ = vals.d_comp_b.leftCols(nz);
+    da_ = &vals.d_comp_a;
+    db_ = &vals.d_comp_b;
     nz_ = nz;
+    const auto A_ = A(), B_ = B();
     const int ne = static_cast<int>(E.rows()), np = static_cast<int>(A_.rows());
     if (ne + np != nz_) {
       message_ = "the step equations are not square (" + std::to_string(ne) + " equalities + " +
@@ -121,7 +122,12 @@ class Linearization {
         weight_a_[i] = 1.0;  // held a, or a degenerate pair's λ = da row
       }
     }
-    K_.bottomRows(np) = weight_a_.asDiagonal() * A_ + weight_b_.asDiagonal() * B_;
+    if (smoothed) {
+      K_.bottomRows(np) = weight_a_.asDiagonal() * A_ + weight_b_.asDiagonal() * B_;
+    } else {
+      // Weights 1 and 0: each held row is A's or B's row as it is.
+      for (int i = 0; i < np; ++i) K_.row(ne + i) = weight_a_[i] == 1.0 ? A_.row(i) : B_.row(i);
+    }
     // GI equality rows (geometrically_implicit.h): [dynamics (nv); kinematics (nq); per pair:
     // separation (d), normals (d), A side, B side, friction (d − 1 = nd)].
     for (int k : inert) {
@@ -179,7 +185,7 @@ class Linearization {
     const int nd = static_cast<int>(deg_.size());
     LcpProblem p;
     p.q.resize(nd);
-    for (int j = 0; j < nd; ++j) p.q[j] = B_.row(deg_[j]).dot(*dz) + r.b[deg_[j]];
+    for (int j = 0; j < nd; ++j) p.q[j] = B().row(deg_[j]).dot(*dz) + r.b[deg_[j]];
     // λ = 0 is the solution unless some q_j is negative beyond the round-off of its terms.
     const double qscale = (BD_.cwiseAbs() * dz->cwiseAbs()).maxCoeff() + r.b.cwiseAbs().maxCoeff();
     if (p.q.minCoeff() >= -1e-10 * qscale) return true;
@@ -237,7 +243,7 @@ class Linearization {
       }
       for (double sign : {1.0, -1.0}) {
         const VectorXd n = sign * N.col(k) / nn;
-        const VectorXd ra = A_ * n, rb = B_ * n;
+        const VectorXd ra = A() * n, rb = B() * n;
         const double eps = 1e-9;
         int gain = 0;
         bool allowed = true;
@@ -278,10 +284,10 @@ class Linearization {
       double slack = 0.0, rate = 0.0;
       if (side_[i] == 'a') {
         slack = b_[i];
-        rate = B_.row(i).dot(dz) + r.b[i];
+        rate = B().row(i).dot(dz) + r.b[i];
       } else if (side_[i] == 'b') {
         slack = a_[i];
-        rate = A_.row(i).dot(dz) + r.a[i];
+        rate = A().row(i).dot(dz) + r.a[i];
       } else {
         continue;
       }
@@ -294,7 +300,13 @@ class Linearization {
   bool ok_ = false;
   std::string message_;
   int nz_ = 0, ne_ = 0, degenerate_ = 0;
-  MatrixXd A_, B_, K_, BD_;
+  // The pairs' Jacobians A = ∂comp_a/∂z, B = ∂comp_b/∂z: the leading nz columns of the residuals
+  // Compute was given (which must outlive this linearization's use; no copy).
+  const MatrixXd *da_ = nullptr, *db_ = nullptr;
+  using Cols = Eigen::Block<const MatrixXd, Eigen::Dynamic, Eigen::Dynamic, true>;
+  Cols A() const { return da_->leftCols(nz_); }
+  Cols B() const { return db_->leftCols(nz_); }
+  MatrixXd K_, BD_;
   mutable MatrixXd W_, lcp_M_;    // K⁻¹ E_D and B_D K⁻¹ E_D, computed on first need
   mutable bool w_ready_ = false;  // W_, lcp_M_ hold this Compute's
   VectorXd weight_a_, weight_b_;

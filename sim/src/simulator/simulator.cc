@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <stdexcept>
 
+#include "../formulations/step_record.h"
 #include "vinci/sim/formulations/capabilities.h"
 #include "vinci/sim/formulations/first_order.h"
 #include "vinci/sim/formulations/geometrically_implicit.h"
@@ -100,7 +101,11 @@ StepInfo Simulator::Step(const Params& params, const State& x, const StepInput& 
         std::to_string(scene_->num_positions()) + " / " + std::to_string(scene_->num_velocities()));
   if (u.generalized_force.size() != 0 && u.generalized_force.size() != scene_->num_velocities())
     throw std::invalid_argument("Simulator::Step: input force has the wrong size");
-  return RunStep(*formulation_, ResolveWithInputs(params, u, ws), x, u, ws, next);
+  const Scene& model = ResolveWithInputs(params, u, ws);
+  StepInfo info = RunStep(*formulation_, model, x, u, ws, next);
+  // The step's assembly is now known to be of the workspace's scene (step_record.h).
+  internal::StampStepOwner(u.motions.empty() ? ws->model : ws->motion_model);
+  return info;
 }
 
 Trajectory Simulator::Rollout(const Params& params, const State& x0,

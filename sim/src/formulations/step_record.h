@@ -1,0 +1,79 @@
+// What the calling thread's last Stewart–Trinkle-family step assembled (internal header), so
+// that the step derivative's frozen model (step_model.h) reuses that assembly instead of
+// assembling the same step again.
+//
+// The step assembles into its thread's StepScratch (sparse_lcp.h) and stamps the scratch's
+// StepRecord with what the assembly is a function of: the formulation, the scene, x (t, q, ν)
+// and the input force (the input's motions are part of the scene). Simulator::Step then names
+// the scene's owner (the workspace's shared scene): a scene is identified by its owner, not by
+// its address, which a later scene may reuse. A derivative on the same thread, with the same
+// owner, x and u bitwise, may copy the assembly (FreezeInto); anything else assembles again.
+#pragma once
+
+#include <memory>
+
+#include "vinci/sim/formulations/formulation.h"
+#include "vinci/sim/formulations/step_model.h"
+#include "vinci/sim/formulations/stewart_trinkle.h"
+
+namespace vinci::sim::internal {
+
+struct StepRecord {
+  bool valid = false;  // the key below describes the scratch's assembly
+  const StewartTrinkle* formulation = nullptr;
+  const Scene* model = nullptr;
+  std::weak_ptr<const Scene> owner;  // set by Simulator::Step (StampStepOwner)
+  double t = 0.0;
+  VectorXd q, v, force;
+
+  /// Before the step assembles: nothing is held.
+  void Clear() {
+    valid = false;
+    owner.reset();
+  }
+  /// After the step assembled AssembleInto(m, x, u) with `st` (x, u copied into kept storage).
+  void Stamp(const StewartTrinkle& st, const Scene& m, const State& x, const StepInput& u) {
+    formulation = &st;
+    model = &m;
+    t = x.t;
+    q = x.q;
+    v = x.v;
+    force = u.generalized_force;
+    valid = true;
+  }
+  /// The assembly is AssembleInto(*scene, x, u) of `st`.
+  bool Holds(const StewartTrinkle& st, const std::shared_ptr<const Scene>& scene, const State& x,
+             const StepInput& u) const {
+    return valid && formulation == &st && model == scene.get() && !owner.expired() &&
+           !owner.owner_before(scene) && !scene.owner_before(owner) && t == x.t && Same(q, x.q) &&
+           Same(v, x.v) && Same(force, u.generalized_force);
+  }
+
+ private:
+  static bool Same(const VectorXd& a, const VectorXd& b) {
+    return a.size() == b.size() && (a.array() == b.array()).all();
+  }
+};
+
+/// Names `scene` as the owner of the calling thread's step record if its last step was
+/// assembled on *scene (Simulator::Step, after the step).
+void StampStepOwner(const std::shared_ptr<const Scene>& scene);
+
+/// *frozen = Freeze(formulation, model, params, x, u): the same model (same results), made
+/// cheaper for the Stewart–Trinkle family: where *frozen already holds a model of this
+/// formulation its storage is reused, and where the calling thread's last step assembled
+/// (*model, x, u) (its StepRecord) that assembly is copied instead of assembled again.
+void FreezeInto(const Formulation& formulation, std::shared_ptr<const Scene> model,
+                const Params& params, const State& x, const StepInput& u,
+                std::unique_ptr<StepModel>* frozen);
+
+/// *out = m.EvaluateResiduals(z, θ, x, u, true), its storage reused where m is a
+/// Stewart–Trinkle-family model evaluated at its freeze point.
+void EvaluateResidualsInto(const StepModel& m, const VectorXd& z, const Params& theta,
+                           const State& x, const StepInput& u, StepResiduals* out);
+/// *out = m.StateDirectionalDerivative(z, u, s, step), the same numbers, in storage reused for
+/// the Stewart–Trinkle family.
+void StateDirectionalDerivativeInto(const StepModel& m, const VectorXd& z, const StepInput& u,
+                                    const VectorXd& s, double step, StepResiduals* out);
+
+}  // namespace vinci::sim::internal
