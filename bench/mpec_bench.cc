@@ -5,9 +5,10 @@
 // CSV with --csv FILE). --quick: 50 samples, one configuration (the ctest smoke run);
 // --case NAME: only that case (block, block_noisy, plate, plate_noisy); --method scholtes|penalty;
 // --threads 1,2; --raw-guess: the initial guess from the raw log (MpecOptions::
-// smooth_initial_guess off); --penalty START (the first ρ); --epsilon START FACTOR; --stall N.
-// Unknown flags are ignored. Environment: MPEC_BENCH_VERBOSE=1 (progress lines),
-// MPEC_BENCH_IPOPT_PRINT=N (Ipopt's print_level), MPEC_BENCH_SAMPLES=N (N samples instead of 500).
+// smooth_initial_guess off); --tracking-guess (MpecOptions::tracking_guess); --penalty START (the
+// first ρ); --epsilon START FACTOR; --stall N. Unknown flags are ignored. Environment:
+// MPEC_BENCH_VERBOSE=1 (progress lines), MPEC_BENCH_IPOPT_PRINT=N (Ipopt's print_level),
+// MPEC_BENCH_SAMPLES=N (N samples instead of 500).
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -78,9 +79,11 @@ int main(int argc, char** argv) {
   int stall = -1;                                    // < 0: the estimator's default
   double penalty_start = 0.0;  // --penalty START: MpecSolverOptions::penalty_start (0: default)
   bool raw_guess = false;      // --raw-guess: MpecOptions::smooth_initial_guess off
+  bool tracking = false;       // --tracking-guess: MpecOptions::tracking_guess on
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--quick")) quick = true;
     if (!std::strcmp(argv[i], "--raw-guess")) raw_guess = true;
+    if (!std::strcmp(argv[i], "--tracking-guess")) tracking = true;
     if (!std::strcmp(argv[i], "--penalty") && i + 1 < argc) penalty_start = std::atof(argv[++i]);
     if (!std::strcmp(argv[i], "--csv") && i + 1 < argc) csv = argv[++i];
     if (!std::strcmp(argv[i], "--case") && i + 1 < argc) only = argv[++i];
@@ -144,6 +147,7 @@ int main(int argc, char** argv) {
         o.threads = threads;
         o.solver.method = method;
         o.smooth_initial_guess = !raw_guess;
+        o.tracking_guess = tracking;
         if (const char* pl = std::getenv("MPEC_BENCH_IPOPT_PRINT"))
           o.solver.print_level = std::atoi(pl);
         if (penalty_start > 0) o.solver.penalty_start = penalty_start;

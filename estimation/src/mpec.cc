@@ -475,7 +475,8 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o) {
     }
     std::ostringstream line;
     line << what << ": " << ended(nlp) << ", " << nlp->iterations_
-         << " iterations, complementarity " << Violation(pairs, x);
+         << " iterations, complementarity " << Violation(pairs, x) << ", objective "
+         << nlp->objective_;
     if (o.progress) o.progress(line.str());
     return ok;
   };

@@ -223,6 +223,11 @@ struct MpecEstimationProblem::Impl {
   }
 
   void Build(const Log& log);
+  // MpecOptions::tracking_guess: replaces guess[1..] by a simulation from guess[0] tracking the
+  // observed bodies' guessed poses; returns each step's tracking force (the guess of w). A
+  // failed step ends the tracking there (the later nodes keep their guess, their w is 0).
+  std::vector<VectorXd> TrackGuess(const Episode& ep, const std::vector<double>& step_h,
+                                   std::vector<State>* guess);
   void BuildStructure();
 };
 

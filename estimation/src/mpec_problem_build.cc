@@ -182,6 +182,9 @@ void MpecEstimationProblem::Impl::Build(const Log& log) {
         guess[0].v.segment(ix.v, planar ? 3 : 6) = guess[1].v.segment(ix.v, planar ? 3 : 6);
       }
     }
+    const std::vector<VectorXd> w_guess =
+        opts.tracking_guess ? TrackGuess(ep, step_h, &guess)
+                            : std::vector<VectorXd>(nodes - 1, VectorXd::Zero(nv));
 
     // Variables and step blocks.
     x0_col.push_back(add_vars(nx, -kInf, kInf));
@@ -215,6 +218,7 @@ void MpecEstimationProblem::Impl::Build(const Log& log) {
       blk.z_col = add_vars(blk.nz, -kInf, kInf);
       node_col.back().push_back(blk.z_col);
       blk.w_col = add_vars(nv, -kInf, kInf, sigma_q);
+      for (int i = 0; i < nv; ++i) x0[blk.w_col + i] = w_guess[l][i];
       {
         const sim::StepLayout& lay = blk.model->layout();
         const double impulse = m_min * g_ref * step_h[l];
@@ -228,7 +232,9 @@ void MpecEstimationProblem::Impl::Build(const Log& log) {
         sim::Workspace ws;
         State next;
         sim::StepInfo info;
-        form.Step(*model, guess[l], sim::StepInput{}, &ws, &next, &info);
+        sim::StepInput u;
+        u.generalized_force = w_guess[l];
+        form.Step(*model, guess[l], u, &ws, &next, &info);
         if (info.ok) {
           try {
             z = blk.model->UnknownsFromStep(next);
@@ -427,6 +433,70 @@ void MpecEstimationProblem::Impl::Build(const Log& log) {
   x_u = Eigen::Map<VectorXd>(xu.data(), n).cwiseQuotient(scale);
   start = Eigen::Map<VectorXd>(x0.data(), n).cwiseQuotient(scale);
   BuildStructure();
+}
+
+std::vector<VectorXd> MpecEstimationProblem::Impl::TrackGuess(const Episode& ep,
+                                                              const std::vector<double>& step_h,
+                                                              std::vector<State>* guess) {
+  const bool planar = scene.dim == sim::Dim::kPlanar;
+  const int num = static_cast<int>(step_h.size());
+  std::vector<VectorXd> w(num, VectorXd::Zero(nv));
+  State s = (*guess)[0];
+  for (int l = 0; l < num; ++l) {
+    const double h = step_h[l];
+    const State& target = (*guess)[l + 1];
+    const sim::Scene* model = nullptr;
+    const sim::Formulation& form = FormulationFor(h, &model);
+    // ν*: the velocity that reaches the guessed pose in one step (ν_ℓ+1 = (q_ℓ+1 − q_ℓ)/h).
+    std::vector<std::pair<int, VectorXd>> want;  // (first velocity index, ν* of the body)
+    for (const BodyTrack& b : ep.bodies) {
+      if (!b.dynamic) continue;
+      const sim::BodyIndex& ix = scene.index(b.body_index);
+      VectorXd v(planar ? 3 : 6);
+      v.head<3>() = (target.q.segment<3>(ix.q) - s.q.segment<3>(ix.q)) / h;
+      if (!planar) {
+        const Eigen::Quaterniond q0(s.q[ix.q + 3], s.q[ix.q + 4], s.q[ix.q + 5], s.q[ix.q + 6]);
+        const Eigen::Quaterniond q1(target.q[ix.q + 3], target.q[ix.q + 4], target.q[ix.q + 5],
+                                    target.q[ix.q + 6]);
+        v.tail<3>() = RotationLog(q0.conjugate() * q1) / h;
+      }
+      want.emplace_back(ix.v, v);
+    }
+    sim::StepInput u;
+    u.generalized_force = VectorXd::Zero(nv);
+    State next;
+    bool ok = false;
+    for (int k = 0; k < 3; ++k) {
+      sim::Workspace ws;
+      sim::StepInfo info;
+      form.Step(*model, s, u, &ws, &next, &info);
+      ok = info.ok && next.q.allFinite() && next.v.allFinite();
+      if (!ok || k == 2) break;
+      // u += M (ν* − ν_ℓ+1) / h per observed body (planar: m, m, I_zz; spatial: m I, the
+      // body-frame inertia).
+      int j = 0;
+      for (const BodyTrack& b : ep.bodies) {
+        if (!b.dynamic) continue;
+        const sim::Body& body = scene.bodies[b.body_index];
+        const auto& [vi, vstar] = want[j++];
+        const VectorXd dv = (vstar - next.v.segment(vi, vstar.size())) / h;
+        if (planar) {
+          u.generalized_force.segment<2>(vi) += body.mass * dv.head<2>();
+          u.generalized_force[vi + 2] += body.inertia(2, 2) * dv[2];
+        } else {
+          u.generalized_force.segment<3>(vi) += body.mass * dv.head<3>();
+          u.generalized_force.segment<3>(vi + 3) += body.inertia * dv.tail<3>();
+        }
+      }
+    }
+    if (!ok) break;
+    next.t = target.t;
+    next.warm_start.resize(0);
+    w[l] = u.generalized_force;
+    (*guess)[l + 1] = next;
+    s = next;
+  }
+  return w;
 }
 
 void MpecEstimationProblem::Impl::BuildStructure() {

@@ -100,6 +100,12 @@ struct MpecOptions {
   /// Initial guess of the states from the log smoothed by local quadratic fits whose width is
   /// chosen from the log's own noise (an exact log is used as is); false: the raw poses.
   bool smooth_initial_guess = true;
+  /// Initial guess of the states, impulses and process noise from a simulation that tracks the
+  /// guessed poses (from each state, the generalized force on the observed bodies that reaches
+  /// the next guessed pose in one step, refined twice against the step's contact response), so
+  /// that every step equation and complementarity pair holds exactly at the start and the frozen
+  /// contact sets come from non-penetrating states; false: the guessed poses themselves.
+  bool tracking_guess = false;
   int threads = 1;  ///< threads evaluating the step equations (the result is bitwise the same)
   /// Several episodes: one joint NLP, or the decomposition over episodes (EstimateMpecDecomposed
   /// in mpec_decomposed.h; with one episode both are the joint NLP).
