@@ -357,6 +357,8 @@ void MpecSolverOptions::Validate() const {
   if (polish_stall_iterations < 0) fail("polish_stall_iterations", polish_stall_iterations, "≥ 0");
   if (!(polish_stall_reduction > 0) || !(polish_stall_reduction < 1))
     fail("polish_stall_reduction", polish_stall_reduction, "in (0, 1)");
+  if (!(epsilon_floor >= 0) || !(epsilon_floor <= epsilon_end))
+    fail("epsilon_floor", epsilon_floor, "in [0, epsilon_end]");
   if (!(stall_objective_change > 0)) fail("stall_objective_change", stall_objective_change, "> 0");
   if (!(stall_constraint_violation > 0))
     fail("stall_constraint_violation", stall_constraint_violation, "> 0");
@@ -415,6 +417,9 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o) {
     // followed such a ray (objective −338 after 60 iterations, |x| ~ 1e8) to its iteration
     // limit. Exact bounds keep the penalty ≥ 0.
     if (stage == Stage::kPenalty) opt.SetNumericValue("bound_relax_factor", 0.0);
+    // The continuation below epsilon_end: ε is below Ipopt's bound relaxation (1e-8).
+    if (stage == Stage::kScholtes && param < o.epsilon_end * (1 - 1e-9))
+      opt.SetNumericValue("bound_relax_factor", 0.0);
     if (stage != Stage::kPolish && o.stall_iterations > 0) {
       // Ipopt's acceptable level, made a stall test: the overall error bound is loose (the
       // dual infeasibility oscillates at a degenerate solution), the objective change and the
@@ -579,6 +584,25 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o) {
     } else {
       final_polish_failed = true;
     }
+  }
+  // The continuation below epsilon_end (MpecSolverOptions::epsilon_floor).
+  if (final_polish_failed && relaxed_ok && o.method == ComplementarityMethod::kScholtes &&
+      o.epsilon_floor > 0) {
+    for (double eps = o.epsilon_end * o.epsilon_factor;
+         eps >= o.epsilon_floor * (1 - 1e-9) && Violation(pairs, x) > o.complementarity_tolerance;
+         eps *= o.epsilon_factor) {
+      std::ostringstream what;
+      what << "scholtes eps " << eps;
+      auto nlp = run(Stage::kScholtes, eps, {}, true);
+      if (!Solved(last)) {
+        stage_failure = what.str() + ": " + StatusText(last);
+        if (o.progress) o.progress(stage_failure + ", stopped the continuation");
+        break;
+      }
+      accept(nlp, what.str());
+    }
+    for (std::size_t k = 0; k < pairs.size(); ++k)
+      sol.first_at_zero[k] = x[pairs[k].first] <= x[pairs[k].second];
   }
   sol.x = x;
   sol.lambda = lambda.size() >= problem.num_constraints()

@@ -191,6 +191,9 @@ TEST(MpecSolver, RejectsBadOptionsAndPairs) {
   MpecSolverOptions o;
   o.epsilon_factor = 1.5;
   EXPECT_THROW(SolveMpec(p, o), std::invalid_argument);
+  o = MpecSolverOptions{};
+  o.epsilon_floor = 2 * o.epsilon_end;  // the continuation's floor must be below epsilon_end
+  EXPECT_THROW(SolveMpec(p, o), std::invalid_argument);
   QuadraticMpec q = Scholtes3();
   q.pairs = {{0, 0}};
   EXPECT_THROW(SolveMpec(q, MpecSolverOptions{}), std::invalid_argument);

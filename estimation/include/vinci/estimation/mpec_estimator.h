@@ -58,7 +58,9 @@ namespace vinci::estimation {
 /// polished point within 1e-3 of the relaxed optimum differs from the full homotopy's by at most
 /// ~0.03 standard errors). Without a stated σ_R the objective's scale is unknown and
 /// EstimateMpec turns the early polish off. Stages that stall at their value end after 5
-/// iterations (MpecSolverOptions::stall_iterations).
+/// iterations (MpecSolverOptions::stall_iterations). The continuation below ε_end
+/// (MpecSolverOptions::epsilon_floor) is off: on the tossed cube it met the violation tolerance
+/// at an unchanged, biased μ̂ without a standard error (docs/estimation.md).
 inline MpecSolverOptions EstimatorSolverDefaults() {
   MpecSolverOptions o;
   o.epsilon_start = 1e-4;
