@@ -43,6 +43,10 @@ StepScratchLease::~StepScratchLease() {
   if (in_use_) *in_use_ = false;
 }
 
+void ClearStepRecord() {
+  if (!t_scratch_in_use) t_scratch.record.Clear();
+}
+
 void StampStepOwner(const std::shared_ptr<const Scene>& scene) {
   StepRecord& r = t_scratch.record;
   if (!t_scratch_in_use && r.valid && r.model == scene.get()) r.owner = scene;

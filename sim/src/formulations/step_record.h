@@ -55,6 +55,9 @@ struct StepRecord {
   }
 };
 
+/// Drops the calling thread's step record (Simulator::Step, before the step): after the step
+/// the record is valid only if that step made it, whatever the formulation.
+void ClearStepRecord();
 /// Names `scene` as the owner of the calling thread's step record if its last step was
 /// assembled on *scene (Simulator::Step, after the step).
 void StampStepOwner(const std::shared_ptr<const Scene>& scene);

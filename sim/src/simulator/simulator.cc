@@ -102,6 +102,7 @@ StepInfo Simulator::Step(const Params& params, const State& x, const StepInput& 
   if (u.generalized_force.size() != 0 && u.generalized_force.size() != scene_->num_velocities())
     throw std::invalid_argument("Simulator::Step: input force has the wrong size");
   const Scene& model = ResolveWithInputs(params, u, ws);
+  internal::ClearStepRecord();
   StepInfo info = RunStep(*formulation_, model, x, u, ws, next);
   // The step's assembly is now known to be of the workspace's scene (step_record.h).
   internal::StampStepOwner(u.motions.empty() ? ws->model : ws->motion_model);
