@@ -624,26 +624,21 @@ StepResiduals EvaluateContext(const Context& c, const Params& params, const Vect
     for (int j = 0; j < nd; ++j) Jb(crow, l.pf() + k * nd + j) = -2.0 * pu.pt[j];
     r.d_comp_b(crow, column_of[p.mu_param]) = 2.0 * p.mu * pu.pn * pu.pn;
     ++crow;
+    // One side's multipliers (λ or μ, at unknown column o) against its constraints −f.
     int o = c.geo[k] + 2 * d + 2;
-    if (p.m_a > 1) {
-      for (int i = 0; i < p.m_a; ++i) {
-        r.comp_a[crow + i] = pu.lam[i];
+    auto side = [&](int m, const auto& mult, const auto& f, const auto& d_f) {
+      if (m <= 1) return;
+      for (int i = 0; i < m; ++i) {
+        r.comp_a[crow + i] = mult[i];
         r.d_comp_a(crow + i, o + i) = 1.0;
       }
-      r.comp_b.segment(crow, p.m_a) = -e.fa;
-      Scatter(c, k, bodies, -e.d_fa, crow, &Jb);
-      crow += p.m_a;
-      o += p.m_a;
-    }
-    if (p.m_b > 1) {
-      for (int j = 0; j < p.m_b; ++j) {
-        r.comp_a[crow + j] = pu.mu[j];
-        r.d_comp_a(crow + j, o + j) = 1.0;
-      }
-      r.comp_b.segment(crow, p.m_b) = -e.fb;
-      Scatter(c, k, bodies, -e.d_fb, crow, &Jb);
-      crow += p.m_b;
-    }
+      r.comp_b.segment(crow, m) = -f;
+      Scatter(c, k, bodies, -d_f, crow, &Jb);
+      crow += m;
+      o += m;
+    };
+    side(p.m_a, pu.lam, e.fa, e.d_fa);
+    side(p.m_b, pu.mu, e.fb, e.d_fb);
   }
   r.d_equality.leftCols(nz) = Jeq;
   r.d_comp_b.leftCols(nz) = Jb;
