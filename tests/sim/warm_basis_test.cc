@@ -5,10 +5,12 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <memory>
 #include <random>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "box_scenes.h"
 #include "test_util.h"
@@ -58,6 +60,37 @@ TEST(WarmBasisTest, AcceptsLemkeSolutionAsLemkeWarmStartDoes) {
   }
   EXPECT_EQ(checked, 20);
   EXPECT_GT(above_dense, 0);  // the sparse QR branch ran
+}
+
+// The scratch keeps the QR of its last two distinct dense basis blocks: problems solved in turn
+// through one scratch (repeats, alternations, a third block replacing one) give the bits of a
+// fresh scratch's solve.
+TEST(WarmBasisTest, KeptFactorizationsGiveTheBitsOfAFreshSolve) {
+  std::mt19937 rng(11);
+  const LemkeSolver lemke;
+  std::vector<LcpProblem> problems;
+  std::vector<VectorXd> guesses;
+  for (int i = 0; i < 3; ++i) {
+    problems.push_back(RandomBandedPLcp(8, &rng));
+    VectorXd z_cold;
+    ASSERT_TRUE(lemke.Solve(problems.back(), nullptr, &z_cold).ok());
+    guesses.push_back(z_cold);
+  }
+  WarmBasisScratch shared;
+  for (int i : {0, 0, 1, 0, 1, 2, 1, 0, 2, 2}) {
+    const Eigen::SparseMatrix<double> Ms = problems[i].M.sparseView();
+    const SparseLcpMatrix op(Ms);
+    WarmBasisScratch fresh;
+    VectorXd z_shared, z_fresh;
+    SolverReport report;
+    ASSERT_TRUE(SolveOnWarmBasis(op, problems[i].q, guesses[i], lemke.options(), &shared, &z_shared,
+                                 &report));
+    ASSERT_TRUE(SolveOnWarmBasis(op, problems[i].q, guesses[i], lemke.options(), &fresh, &z_fresh,
+                                 &report));
+    ASSERT_EQ(z_shared.size(), z_fresh.size());
+    EXPECT_EQ(std::memcmp(z_shared.data(), z_fresh.data(), sizeof(double) * z_fresh.size()), 0)
+        << "problem " << i;
+  }
 }
 
 // A guess whose basis is not feasible for the problem is refused (the caller then pivots), and

@@ -414,14 +414,6 @@ void ContactLcpOperator::EnsureWG(int body, int p) const {
   ready = 1;
 }
 
-double ContactLcpOperator::BlockEntry(int body, int i, int j) const {
-  // W_b is symmetric, so is the block: its lower triangle, entry (i ≥ j) = Gb(:, i) · WG(:, j).
-  if (i < j) std::swap(i, j);
-  EnsureWG(body, j);
-  if (nvb_ == 6) return LowerEntry<6>(Gb_[body], WG_[body], i, j);
-  return LowerEntry<3>(Gb_[body], WG_[body], i, j);
-}
-
 void ContactLcpOperator::EnsureBlocks() const {
   if (full_) return;
   if (bounds_) bounds_skip_ = kBoundsSkip;  // the bounds did not spare this
@@ -446,7 +438,7 @@ void ContactLcpOperator::EnsureBlocks() const {
       ready[static_cast<std::size_t>(j)] = 1;
     }
     B.resize(k, k);
-    // The lower triangle, mirrored (as BlockEntry).
+    // The lower triangle, mirrored (as PrincipalBlock's entries).
     if (nvb_ == 6) {
       // LowerEntry<6>'s expression, with the column pointers hoisted.
       using Map6 = Eigen::Map<const Eigen::Matrix<double, 6, 1>>;
@@ -680,13 +672,22 @@ void ContactLcpOperator::PrincipalBlock(const std::vector<int>& index, MatrixXd*
       for (const auto& [pj, bj] : members_)
         for (const auto& [pi, bi] : members_) (*out)(bi, bj) += B(pi, pj);
     } else {  // only the members' entries (the same bits as the whole block's), each pair once
+      for (const auto& member : members_) EnsureWG(body, member.first);
+      const MatrixXd& Gb = Gb_[body];
+      const MatrixXd& WG = WG_[body];
+      const int stride = static_cast<int>(out->rows());
+      double* o = out->data();
       for (std::size_t x = 0; x < members_.size(); ++x) {
         const auto [pj, bj] = members_[x];
         for (std::size_t y = x; y < members_.size(); ++y) {
           const auto [pi, bi] = members_[y];
-          const double value = BlockEntry(body, pi, pj);
-          (*out)(bi, bj) += value;
-          if (y != x) (*out)(bj, bi) += value;
+          // W_b is symmetric, so is the block: its lower triangle, entry (i ≥ j) =
+          // Gb(:, i) · WG(:, j).
+          const int i = std::max(pi, pj), j = std::min(pi, pj);
+          const double value =
+              nvb_ == 6 ? LowerEntry<6>(Gb, WG, i, j) : LowerEntry<3>(Gb, WG, i, j);
+          o[static_cast<std::ptrdiff_t>(bj) * stride + bi] += value;
+          if (y != x) o[static_cast<std::ptrdiff_t>(bi) * stride + bj] += value;
         }
       }
     }

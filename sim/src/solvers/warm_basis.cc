@@ -151,15 +151,25 @@ bool SolveOnWarmBasis(const LcpMatrixOperator& M, const Eigen::VectorXd& q,
     M.PrincipalBlock(s->active, &s->m_bb);
     s->product.noalias() = s->m_bb * s->guess_b;
     s->rhs = -(s->product + s->rhs);
-    // The QR of the previous call is kept when M_BB has the same bits (a resting contact whose
-    // Jacobian did not change): then only its solve is done.
-    const bool factorized =
-        s->qr_valid && s->m_bb_factorized.rows() == nb && s->m_bb_factorized.cols() == nb &&
-        std::memcmp(s->m_bb_factorized.data(), s->m_bb.data(), sizeof(double) * nb * nb) == 0;
-    internal::SolveBasisBlock(s->m_bb, s->rhs, &s->qr, &s->c, &s->z_b, factorized);
+    // A kept QR of an M_BB with the same bits is reused: then only its solve is done (the QR is
+    // a function of M_BB's bits, so the result does not depend on which calls came before).
+    const auto holds = [&](const WarmBasisScratch::KeptQr& e) {
+      return e.valid && e.m_bb.rows() == nb && e.m_bb.cols() == nb &&
+             std::memcmp(e.m_bb.data(), s->m_bb.data(), sizeof(double) * nb * nb) == 0;
+    };
+    int slot = s->kept_last;
+    bool factorized = holds(s->kept[slot]);
     if (!factorized) {
-      s->m_bb_factorized = s->m_bb;
-      s->qr_valid = true;
+      slot = 1 - slot;
+      factorized = holds(s->kept[slot]);
+    }
+    WarmBasisScratch::KeptQr& kept = s->kept[slot];
+    s->kept_last = slot;
+    if (!factorized) kept.valid = false;  // until kept.m_bb is the block its QR holds
+    internal::SolveBasisBlock(s->m_bb, s->rhs, &kept.qr, &s->c, &s->z_b, factorized);
+    if (!factorized) {
+      kept.m_bb = s->m_bb;
+      kept.valid = true;
     }
   } else {
     CompressedColumns& m_bb = s->m_bb_sparse;

@@ -5,6 +5,7 @@
 
 #include <Eigen/QR>
 #include <Eigen/SparseCore>
+#include <array>
 #include <vector>
 
 #include "vinci/sim/solvers/lemke.h"
@@ -58,9 +59,16 @@ struct WarmBasisScratch {
   std::vector<char> in_basis;
   Eigen::VectorXd guess_b, rhs, z_b, w, candidate, product, c;
   Eigen::MatrixXd m_bb;
-  Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr;  // of m_bb (dense bases)
-  Eigen::MatrixXd m_bb_factorized;                 // the M_BB qr holds (qr_valid)
-  bool qr_valid = false;
+  /// Dense bases: the QR of each of the last two distinct M_BB, with the M_BB it factorizes. A
+  /// resting contact repeats its M_BB's bits every step, a sticking one on an incline every
+  /// other step (the pose's round-off settles into a cycle of two).
+  struct KeptQr {
+    Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr;
+    Eigen::MatrixXd m_bb;  // the M_BB qr holds (if valid)
+    bool valid = false;
+  };
+  std::array<KeptQr, 2> kept;
+  int kept_last = 0;              // the entry used last (a new M_BB replaces the other one)
   CompressedColumns m_bb_sparse;  // M_BB of sparse bases
   SemidefiniteLdlt ldlt;          // of m_bb_sparse when it is symmetric
   std::vector<int> cursor;
@@ -82,8 +90,8 @@ inline constexpr int kDenseWarmBasisMax = 48;
 /// kLcpAcceptanceTolerance, with τ(z) of `options` (lemke.h) and M's ‖M‖∞. Work: NormInfBounds
 /// (NormInf only if the outcome could differ within the bounds), two products, the |B| × |B|
 /// block and its factorization (dense up to kDenseWarmBasisMax, sparse above; a dense block with
-/// the same bits as the scratch's previous one reuses its QR) — no pass over a dense n × n
-/// matrix. The result does not depend on what the scratch solved before.
+/// the same bits as one of the scratch's last two distinct ones reuses its QR) — no pass over a
+/// dense n × n matrix. The result does not depend on what the scratch solved before.
 ///
 /// Returns true with *z and *report (kSolved, 0 iterations, residual, tolerance, message as
 /// LemkeSolver's) if z = 0 or the guessed basis is accepted; false otherwise (then *z and
