@@ -29,14 +29,16 @@ enum class Stage { kScholtes, kPenalty, kPolish };
 class RelaxedNlp : public Ipopt::TNLP {
  public:
   RelaxedNlp(const MpecProblem& p, const std::vector<std::pair<int, int>>& pairs, Stage stage,
-             double param, const std::vector<bool>& first_at_zero, bool hessian, const VectorXd& x0,
-             const VectorXd* lambda0, const VectorXd* zl0, const VectorXd* zu0)
+             double param, const std::vector<bool>& first_at_zero, bool hessian,
+             bool relaxation_curvature, const VectorXd& x0, const VectorXd* lambda0,
+             const VectorXd* zl0, const VectorXd* zu0)
       : p_(p),
         pairs_(pairs),
         stage_(stage),
         param_(param),
         first_at_zero_(first_at_zero),
         hessian_(hessian),
+        relaxation_curvature_(relaxation_curvature),
         x0_(x0),
         lambda0_(lambda0),
         zl0_(zl0),
@@ -193,7 +195,7 @@ class RelaxedNlp : public Ipopt::TNLP {
     for (int e = 0; e < nh; ++e) values[e] = v[e];
     for (std::size_t k = 0; k < pairs_.size(); ++k) {
       double h = 0.0;
-      if (stage_ == Stage::kScholtes) h = lambda[m_ + k];
+      if (stage_ == Stage::kScholtes && relaxation_curvature_) h = lambda[m_ + k];
       if (stage_ == Stage::kPenalty) h = obj_factor * param_;
       values[nh + k] = h;
     }
@@ -251,6 +253,7 @@ class RelaxedNlp : public Ipopt::TNLP {
   double param_;
   std::vector<bool> first_at_zero_;
   bool hessian_;
+  bool relaxation_curvature_;
   VectorXd x0_;
   const VectorXd *lambda0_, *zl0_, *zu0_;
   int n_ = 0, m_ = 0;
@@ -357,6 +360,7 @@ void MpecSolverOptions::Validate() const {
   if (polish_stall_iterations < 0) fail("polish_stall_iterations", polish_stall_iterations, "≥ 0");
   if (!(polish_stall_reduction > 0) || !(polish_stall_reduction < 1))
     fail("polish_stall_reduction", polish_stall_reduction, "in (0, 1)");
+  if (!(early_polish_epsilon > 0)) fail("early_polish_epsilon", early_polish_epsilon, "> 0");
   if (!(stall_objective_change > 0)) fail("stall_objective_change", stall_objective_change, "> 0");
   if (!(stall_constraint_violation > 0))
     fail("stall_constraint_violation", stall_constraint_violation, "> 0");
@@ -397,6 +401,7 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o) {
     opt.SetNumericValue("acceptable_tol", std::max(o.tolerance * 1e3, 1e-8));
     opt.SetIntegerValue("max_iter", max_iter_override > 0 ? max_iter_override : o.max_iterations);
     opt.SetStringValue("mu_strategy", "adaptive");
+    if (o.limited_memory) opt.SetStringValue("hessian_approximation", "limited-memory");
     // MUMPS' automatic ordering picks SCOTCH on large KKT systems, whose random generator
     // continues from call to call within a process: the same problem solved twice in one
     // process can differ in the last digits. QAMD (approximate minimum degree with quasi-dense
@@ -433,9 +438,9 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o) {
       opt.SetNumericValue("warm_start_mult_bound_push", 1e-9);
       opt.SetNumericValue("mu_init", 1e-6);
     }
-    Ipopt::SmartPtr<RelaxedNlp> nlp =
-        new RelaxedNlp(problem, pairs, stage, param, fixed, !o.limited_memory, x,
-                       warm ? &lambda : nullptr, warm ? &zl : nullptr, warm ? &zu : nullptr);
+    Ipopt::SmartPtr<RelaxedNlp> nlp = new RelaxedNlp(
+        problem, pairs, stage, param, fixed, !o.limited_memory, o.relaxation_curvature, x,
+        warm ? &lambda : nullptr, warm ? &zl : nullptr, warm ? &zu : nullptr);
     last = app->Initialize();
     if (scotch_seed) {
       // SCOTCH 7 orders with several threads unless told otherwise (read at every ordering):
@@ -543,7 +548,8 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o) {
         if (o.progress && !first) o.progress(stage_failure + ", stopped the homotopy");
         break;
       }
-      if (early && eps * o.epsilon_factor >= o.epsilon_end * (1 - 1e-9)) {
+      if (early && eps <= o.early_polish_epsilon * (1 + 1e-9) &&
+          eps * o.epsilon_factor >= o.epsilon_end * (1 - 1e-9)) {
         if (try_polish(nlp->objective_, "early polish")) {
           sol.polished = true;
           break;

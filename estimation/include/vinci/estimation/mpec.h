@@ -20,6 +20,7 @@
 #pragma once
 
 #include <functional>
+#include <limits>
 #include <string>
 #include <utility>
 #include <vector>
@@ -96,6 +97,10 @@ struct MpecSolverOptions {
   /// of what the remaining stages could reach). After one rejected attempt the homotopy
   /// continues without further ones. < 0: off (every stage run).
   double early_polish_tolerance = -1.0;
+  /// The early polish is tried only after stages with ε ≤ this (a polish from a loose stage,
+  /// whose active set is not identified yet, was measured to stall: 100 iterations after ε =
+  /// 1e-2 on a noisy block).
+  double early_polish_epsilon = std::numeric_limits<double>::infinity();
   /// Ipopt iterations of the early-polish attempt at most (0: max_iterations). From a stage
   /// whose active set is not yet identified the polish NLP can creep for thousands of
   /// iterations before failing (measured on a tossed cube: > 2 100 iterations, > 500 s of CPU);
@@ -125,9 +130,14 @@ struct MpecSolverOptions {
   double stall_objective_change = 1e-7;
   double stall_constraint_violation = 1e-6;
   bool limited_memory = false;  ///< Ipopt's L-BFGS Hessian instead of the problem's
-  double tolerance = 1e-8;      ///< Ipopt tol of each NLP
-  int max_iterations = 3000;    ///< Ipopt iterations per NLP
-  int print_level = 0;          ///< Ipopt print_level (0 silent … 12)
+  /// Scholtes stages: the Hessian includes the relaxation rows' curvature λ_k (∂²(x_a x_b) =
+  /// [0 1; 1 0], indefinite). false: it is left out, so the relaxation adds nothing to the
+  /// problem's Hessian (a Gauss–Newton-like approximation; the linearized row x_b dx_a + x_a
+  /// dx_b ≤ ε − x_a x_b is an inner approximation of the nonconvex set x_a x_b ≤ ε).
+  bool relaxation_curvature = true;
+  double tolerance = 1e-8;    ///< Ipopt tol of each NLP
+  int max_iterations = 3000;  ///< Ipopt iterations per NLP
+  int print_level = 0;        ///< Ipopt print_level (0 silent … 12)
   /// A deterministic MUMPS ordering: the same problem gives bitwise the same result run after
   /// run in one process and for any thread count of the problem's evaluation. SCOTCH on one
   /// thread (sets the environment variable SCOTCH_PTHREAD_NUMBER=1) with its random generator

@@ -53,15 +53,18 @@
 
 namespace vinci::estimation {
 
-/// MpecSolverOptions with the homotopy start the estimator uses (epsilon_start = 1e-4) and the
-/// early polish on with a tolerance of 1e-3 in the objective's units (χ² with a stated σ_R: a
-/// polished point within 1e-3 of the relaxed optimum differs from the full homotopy's by at most
-/// ~0.03 standard errors). Without a stated σ_R the objective's scale is unknown and
-/// EstimateMpec turns the early polish off. Stages that stall at their value end after 5
-/// iterations (MpecSolverOptions::stall_iterations).
+/// MpecSolverOptions with the homotopy start the estimator uses (epsilon_start = 1e-2), the
+/// early polish on after the ε = 1e-4 stage with a tolerance of 1e-3 in the objective's units
+/// (χ² with a stated σ_R: a polished point within 1e-3 of the relaxed optimum differs from the
+/// full homotopy's by at most ~0.03 standard errors), and the relaxation rows' curvature left
+/// out of the Hessian (MpecSolverOptions::relaxation_curvature). Without a stated σ_R the
+/// objective's scale is unknown and EstimateMpec turns the early polish off. Stages that stall
+/// at their value end after 5 iterations (MpecSolverOptions::stall_iterations).
 inline MpecSolverOptions EstimatorSolverDefaults() {
   MpecSolverOptions o;
-  o.epsilon_start = 1e-4;
+  o.epsilon_start = 1e-2;
+  o.early_polish_epsilon = 1e-4;
+  o.relaxation_curvature = false;
   o.early_polish_tolerance = 1e-3;
   o.stall_iterations = 5;
   o.deterministic_ordering = true;  // results bitwise independent of threads and run order
@@ -116,9 +119,10 @@ struct MpecOptions {
   /// (std_error_method "bootstrap") instead of the Laplace approximation. 0: off.
   int bootstrap = 0;
   unsigned bootstrap_seed = 1;
-  /// Complementarity method, homotopy, Ipopt settings. The Scholtes homotopy starts at ε = 1e-4
+  /// Complementarity method, homotopy, Ipopt settings. The Scholtes homotopy starts at ε = 1e-2
   /// here (the products are impulses per step, ~m g h ≈ 1e-2 N·s, times velocities: ε = 0.1
-  /// would relax complementarity away, and measured, took hundreds of iterations per stage).
+  /// relaxes complementarity away, and measured, took thousands of iterations in its next stage;
+  /// ε = 1e-4 lets a noisy log's wrong guessed active set change only slowly, bench/README.md).
   MpecSolverOptions solver = EstimatorSolverDefaults();
   /// Progress lines (setup, each NLP). May be empty. Must not throw.
   std::function<void(const std::string&)> progress;
