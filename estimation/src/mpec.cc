@@ -431,18 +431,6 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o) {
       opt.SetNumericValue("acceptable_obj_change_tol", o.stall_objective_change);
       opt.SetNumericValue("acceptable_constr_viol_tol", o.stall_constraint_violation);
     }
-    if (!warm && stage == Stage::kPenalty) {
-      // An entry NLP starts at the starting point itself (bounds pushed by 1e-9 instead of 1e-2,
-      // barrier μ_0 = 1e-4 instead of 0.1): Ipopt's default push moves every side of every pair
-      // off zero and its first, large-μ iterations wander; at large ρ they then ended at distant
-      // local solutions (noisy block, trial 26 of MpecNoise: objective 4 478 at ρ = 1e6 against
-      // 78.5 for Scholtes; with this start 88.6 at ρ = 1e3).
-      opt.SetNumericValue("bound_push", 1e-9);
-      opt.SetNumericValue("bound_frac", 1e-9);
-      opt.SetNumericValue("slack_bound_push", 1e-9);
-      opt.SetNumericValue("slack_bound_frac", 1e-9);
-      opt.SetNumericValue("mu_init", 1e-4);
-    }
     if (warm) {
       opt.SetStringValue("warm_start_init_point", "yes");
       opt.SetNumericValue("warm_start_bound_push", 1e-9);
