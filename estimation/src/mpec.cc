@@ -319,6 +319,13 @@ double Violation(const std::vector<std::pair<int, int>>& pairs, const VectorXd& 
   return v;
 }
 
+// max over pairs of x_a x_b (0 without pairs).
+double MaxProduct(const std::vector<std::pair<int, int>>& pairs, const VectorXd& x) {
+  double v = 0.0;
+  for (const auto& [a, b] : pairs) v = std::max(v, x[a] * x[b]);
+  return v;
+}
+
 }  // namespace
 
 const char* ToString(ComplementarityMethod method) {
@@ -350,6 +357,8 @@ void MpecSolverOptions::Validate() const {
     fail("penalty_factor", penalty_factor, "finite > 1");
   if (!(penalty_max >= penalty_start) || !std::isfinite(penalty_max))
     fail("penalty_max", penalty_max, "finite ≥ penalty_start");
+  if (!std::isfinite(penalty_entry_epsilon))
+    fail("penalty_entry_epsilon", penalty_entry_epsilon, "finite (≤ 0: epsilon_start)");
   if (!(complementarity_tolerance > 0))
     fail("complementarity_tolerance", complementarity_tolerance, "> 0");
   if (!(tolerance > 0)) fail("tolerance", tolerance, "> 0");
@@ -558,15 +567,40 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o) {
       }
     }
   } else {
+    // Entry: each ρ solved from the starting point (cold) until a solution satisfies the first
+    // Scholtes relaxation, max x_a x_b ≤ ε_0; a rejected NLP's iterate is discarded. Then ρ
+    // rises warm-started from the entry NLP's solution until complementary.
+    const double entry_bound =
+        o.penalty_entry_epsilon > 0 ? o.penalty_entry_epsilon : o.epsilon_start;
+    const VectorXd x_start = x;
+    bool entered = false;
     for (double rho = o.penalty_start; rho <= o.penalty_max * (1 + 1e-9); rho *= o.penalty_factor) {
       std::ostringstream what;
       what << "penalty rho " << rho;
-      const bool first = !have_multipliers;
-      auto nlp = run(Stage::kPenalty, rho, {}, have_multipliers);
-      if (Solved(last) || first) accept(nlp, what.str());
+      const bool last_rho = rho * o.penalty_factor > o.penalty_max * (1 + 1e-9);
+      auto nlp = run(Stage::kPenalty, rho, {}, entered);
+      if (!entered) {
+        const bool finite = nlp->x_.size() == n && nlp->x_.allFinite();
+        const double product = finite ? MaxProduct(pairs, nlp->x_) : kInf;
+        if (!(Solved(last) && product <= entry_bound) && !last_rho) {
+          if (o.progress) {
+            std::ostringstream line;
+            line << what.str() << ": " << StatusText(last) << ", " << nlp->iterations_
+                 << " iterations, max product " << product << " > " << entry_bound
+                 << ", rejected (next rho from the start)";
+            o.progress(line.str());
+          }
+          x = x_start;
+          continue;
+        }
+        entered = true;
+        accept(nlp, what.str() + " (entry)");
+      } else if (Solved(last)) {
+        accept(nlp, what.str());
+      }
       if (!Solved(last)) {
         stage_failure = what.str() + ": " + StatusText(last);
-        if (o.progress && !first) o.progress(stage_failure + ", stopped the homotopy");
+        if (o.progress) o.progress(stage_failure + ", stopped the homotopy");
         break;
       }
       if (Violation(pairs, x) <= o.complementarity_tolerance) break;

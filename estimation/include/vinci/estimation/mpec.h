@@ -10,7 +10,10 @@
 //
 //   Scholtes relaxation:  x_a ≥ 0, x_b ≥ 0, x_a x_b ≤ ε,  ε = ε_0, ε_0 κ, ε_0 κ², … ≥ ε_end;
 //   ℓ1 penalty:           min f(x) + ρ Σ x_a x_b,  x_a, x_b ≥ 0,  ρ = ρ_0, ρ_0 β, … ≤ ρ_max
-//                         (Σ x_a x_b = Σ |x_a x_b| on the feasible set, an exact penalty),
+//                         (Σ x_a x_b = Σ |x_a x_b| on the feasible set, an exact penalty);
+//                         entry: every ρ is solved from the starting point until a solution
+//                         satisfies the first Scholtes relaxation (max x_a x_b ≤ ε_0), and only
+//                         from there are the larger ρ warm-started,
 //
 // and, optionally, a final "polish" NLP with the active set of the last iterate fixed (for each
 // pair the smaller of x_a, x_b is fixed at 0, the other kept ≥ 0), which restores exact
@@ -79,12 +82,23 @@ ComplementarityMethod ParseComplementarityMethod(const std::string& name);
 
 struct MpecSolverOptions {
   ComplementarityMethod method = ComplementarityMethod::kScholtes;
-  double epsilon_start = 1e-1;   ///< Scholtes: first ε
-  double epsilon_end = 1e-8;     ///< Scholtes: last ε
-  double epsilon_factor = 0.1;   ///< Scholtes: κ, ε ← κ ε; in (0, 1)
-  double penalty_start = 1.0;    ///< penalty: first ρ
+  double epsilon_start = 1e-1;  ///< Scholtes: first ε
+  double epsilon_end = 1e-8;    ///< Scholtes: last ε
+  double epsilon_factor = 0.1;  ///< Scholtes: κ, ε ← κ ε; in (0, 1)
+  /// Penalty: first ρ. The entry NLPs (ρ_0, ρ_0 β, …, each from the starting point; a rejected
+  /// one's iterate is discarded) end at the first whose solution has max x_a x_b ≤
+  /// penalty_entry_epsilon (default epsilon_start) — a point of the first Scholtes relaxation
+  /// — or at ρ_max; the later ρ are
+  /// warm-started from it. Warm-starting from a solution far from complementary (products
+  /// ~0.1–0.5 at ρ = 1, 10 on a noisy block log) led the larger ρ to a distant local solution,
+  /// complementary by the process noise instead of the impulses (objective 190× the Scholtes
+  /// optimum; docs/estimation.md).
+  double penalty_start = 1.0;
   double penalty_factor = 10.0;  ///< penalty: β, ρ ← β ρ; > 1
-  double penalty_max = 1e10;     ///< penalty: last ρ at most
+  /// penalty: the entry's bound on max x_a x_b (each ρ solved cold and rejected until its
+  /// solution meets it, see SolveMpec); ≤ 0: epsilon_start.
+  double penalty_entry_epsilon = 0.0;
+  double penalty_max = 1e10;  ///< penalty: last ρ at most
   /// Converged when the final iterate's complementarity violation max_pairs |min(x_a, x_b)| is
   /// at most this (and the last NLP solved). A relaxed iterate has min(x_a, x_b) ≤ ε / max(x_a,
   /// x_b) (plus Ipopt's bound relaxation, ~1e-8); a polished one is exactly complementary.

@@ -65,6 +65,8 @@ inline MpecSolverOptions EstimatorSolverDefaults() {
   o.epsilon_start = 1e-2;
   o.early_polish_epsilon = 1e-4;
   o.relaxation_curvature = false;
+  o.penalty_start = 10;  // ρ = 1 left products of 0.45–0.67 on noisy block logs: never an entry
+  o.penalty_entry_epsilon = 1e-4;  // the entry's product bound, measured on the noisy block
   o.early_polish_tolerance = 1e-3;
   o.stall_iterations = 5;
   o.deterministic_ordering = true;  // results bitwise independent of threads and run order
