@@ -191,6 +191,9 @@ TEST(MpecSolver, RejectsBadOptionsAndPairs) {
   MpecSolverOptions o;
   o.epsilon_factor = 1.5;
   EXPECT_THROW(SolveMpec(p, o), std::invalid_argument);
+  MpecSolverOptions b;
+  b.biactive_factor = -1;
+  EXPECT_THROW(SolveMpec(p, b), std::invalid_argument);
   QuadraticMpec q = Scholtes3();
   q.pairs = {{0, 0}};
   EXPECT_THROW(SolveMpec(q, MpecSolverOptions{}), std::invalid_argument);
@@ -268,6 +271,65 @@ TEST(MpecSolver, StalledEarlyPolishContinuesTheHomotopy) {
   if (s.converged) {
     EXPECT_LE(s.complementarity_violation, o.complementarity_tolerance);
   }
+}
+
+// A biactive limit: min (x − 1)² + (y − 2)² + c w², x − 2y − w = 0, 0 ≤ x ⊥ y ≥ 0, c = 1e6.
+// The stiff w term holds the relaxed iterates on the ray x = 2y, so the Scholtes path ends at
+// (√(2ε), √(ε/2)), both sides O(√ε): a C-stationary point whose MPEC multipliers are
+// ν_x = ∂f/∂x ≈ −2 and ν_y ≈ −4 (the objective falls as either side leaves 0, faster for y).
+// The smaller side is y; the multipliers fix x instead and release y.
+QuadraticMpec BiactiveRay() {
+  QuadraticMpec p;
+  p.P = sim::MatrixXd::Zero(3, 3);
+  p.P(0, 0) = 2;
+  p.P(1, 1) = 2;
+  p.P(2, 2) = 2e6;
+  p.c = VectorXd(3);
+  p.c << -2, -4, 0;
+  p.f0 = 5;
+  p.A.resize(1, 3);
+  p.A << 1, -2, -1;
+  p.g_l = VectorXd::Zero(1);
+  p.g_u = VectorXd::Zero(1);
+  p.x_l = VectorXd(3);
+  p.x_l << 0, 0, -kBig;
+  p.x_u = VectorXd::Constant(3, kBig);
+  p.x0 = VectorXd(3);
+  p.x0 << 0.2, 0.1, 0;
+  p.pairs = {{0, 1}};
+  return p;
+}
+
+TEST(MpecSolver, BiactivePairBranchFromTheMultipliers) {
+  const QuadraticMpec p = BiactiveRay();
+  MpecSolverOptions relaxed;
+  relaxed.polish = false;
+  const MpecSolution r = SolveMpec(p, relaxed);
+  // The relaxed end point is on the ray, both sides ~√ε_end = 1e-4 (not converged: 1e-4 is
+  // above the complementarity tolerance, as at the tossed cube's biactive impact pair).
+  EXPECT_FALSE(r.converged) << r.reason;
+  // x y = ε_end up to Ipopt's relaxation of the row's bound (1e-8 more), x = 2y + w, w ≈ 0.
+  EXPECT_NEAR(r.x[0] * r.x[1], 1.5e-8, 0.6e-8);
+  EXPECT_NEAR(r.x[0], 2 * r.x[1], 1e-6);
+
+  MpecSolverOptions multipliers;
+  multipliers.biactive_factor = 3;
+  const MpecSolution s = SolveMpec(p, multipliers);
+  ASSERT_TRUE(s.polished) << s.reason;
+  EXPECT_TRUE(s.converged) << s.reason;
+  EXPECT_EQ(s.biactive_pairs, 1);
+  EXPECT_EQ(s.biactive_switched, 1);
+  ASSERT_EQ(s.first_at_zero.size(), 1u);
+  EXPECT_TRUE(s.first_at_zero[0]) << "x fixed at 0, y released";
+  EXPECT_EQ(s.x[0], 0.0);
+  EXPECT_GT(s.x[1], 0.0);
+
+  MpecSolverOptions smaller;  // the default rule: the smaller side (y) fixed
+  const MpecSolution t = SolveMpec(p, smaller);
+  ASSERT_TRUE(t.polished) << t.reason;
+  EXPECT_EQ(t.biactive_pairs, 0);
+  EXPECT_FALSE(t.first_at_zero[0]);
+  EXPECT_EQ(t.x[1], 0.0);
 }
 
 // --- the estimator -------------------------------------------------------------------------

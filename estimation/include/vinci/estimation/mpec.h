@@ -141,6 +141,17 @@ struct MpecSolverOptions {
   /// violation is within complementarity_tolerance, and the reason says so. 0: off.
   int polish_stall_iterations = 100;
   double polish_stall_reduction = 0.1;  ///< in (0, 1)
+  /// The final polish's branch at a biactive pair (Scholtes only; an early polish fixes every
+  /// pair's smaller side). A pair whose two sides are both at most biactive_factor √ε (ε: the
+  /// last relaxation stage's) is biactive; the others fix their smaller side. At a biactive pair
+  /// the relaxation's stationarity gives the MPEC multipliers of the sides' bounds x_a, x_b ≥ 0:
+  /// ν_a = z_a − λ x_b, ν_b = z_b − λ x_a (z: the bound multipliers, λ ≥ 0 the multiplier of x_a
+  /// x_b ≤ ε); ν < 0 means the objective decreases as that side leaves 0. The side with the larger
+  /// ν is fixed at 0 and the other released (the branch with the steeper descent; either is exact
+  /// when both ν ≥ 0, strong stationarity); equal ν: the smaller side is fixed. 0 (default):
+  /// every pair fixes its smaller side. Off by default: measured only on the tossed cube (3: no
+  /// change to its hard toss), not on the noisy-log studies.
+  double biactive_factor = 0.0;
   double stall_objective_change = 1e-7;
   double stall_constraint_violation = 1e-6;
   bool limited_memory = false;  ///< Ipopt's L-BFGS Hessian instead of the problem's
@@ -178,7 +189,11 @@ struct MpecSolution {
   int stages = 0;      ///< NLPs solved (relaxation / penalty stages + polish)
   bool converged = false;
   bool polished = false;  ///< the polish stage succeeded and gave the final iterate
-  std::string reason;     ///< how the last NLP ended, and why not converged
+  /// The last polish attempt's biactive pairs (MpecSolverOptions::biactive_factor) and how
+  /// many of them the multipliers fixed at the larger side instead of the smaller.
+  int biactive_pairs = 0;
+  int biactive_switched = 0;
+  std::string reason;  ///< how the last NLP ended, and why not converged
   double time_s = 0.0;
 };
 
