@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <memory>
@@ -145,15 +146,17 @@ Scene Resolved(const std::string& file) {
 
 // Runs `steps` steps of `model` with the structured path (LemkeSolver) and with the dense LCP
 // (DenseLemke) side by side from the same state each step; returns the largest velocity
-// difference and counts the steps the structured path took with zero pivots.
+// difference and counts the steps the structured path took with zero pivots. With tau_ratio:
+// the range of τ_structured / τ_dense over the steps both solved on the warm basis.
 double CompareStructuredWithDense(const Scene& model, StepperOptions options, int steps,
-                                  int* zero_pivot_steps) {
+                                  int* zero_pivot_steps, double (*tau_ratio)[2] = nullptr) {
   const StewartTrinkle fast(options, std::make_shared<LemkeSolver>());
   const StewartTrinkle dense(options, std::make_shared<DenseLemke>());
   State x = Simulator(model).InitialState();
   Workspace ws_fast, ws_dense;
   double worst = 0.0;
   *zero_pivot_steps = 0;
+  if (tau_ratio) (*tau_ratio)[0] = (*tau_ratio)[1] = 1.0;
   for (int k = 0; k < steps; ++k) {
     State a, b;
     StepInfo ia, ib;
@@ -165,19 +168,30 @@ double CompareStructuredWithDense(const Scene& model, StepperOptions options, in
     worst = std::max(worst, (a.v - b.v).lpNorm<Eigen::Infinity>());
     EXPECT_EQ(a.warm_start.size(), b.warm_start.size());
     if (ia.solver.iterations == 0) ++*zero_pivot_steps;
+    if (tau_ratio && ia.solver.message == "warm basis" && ib.solver.message == "warm basis") {
+      const double r = ia.solver.tolerance / ib.solver.tolerance;
+      (*tau_ratio)[0] = std::min((*tau_ratio)[0], r);
+      (*tau_ratio)[1] = std::max((*tau_ratio)[1], r);
+    }
     x = std::move(b);  // continue from the dense trajectory
   }
   return worst;
 }
 
 // The 10-box stack (40 contacts, 4 directions) settling and resting: the structured path gives
-// the dense LCP's velocities to solver tolerance, and the resting steps take no pivots.
+// the dense LCP's velocities to solver tolerance, and the resting steps take no pivots. Its τ is
+// scaled by a bound on ‖M‖∞ (ContactLcpOperator::NormInfBound), the dense Lemke's by ‖M‖∞: at
+// least as wide and, the bound being close, less than twice (the loaded stack's τ grows with it).
 TEST(StructuredStepTest, BoxStackMatchesDenseLcp) {
   const Scene model = Resolved("box_stack.yaml");
   int zero = 0;
-  const double worst = CompareStructuredWithDense(model, model.options, 300, &zero);
+  double tau_ratio[2];
+  const double worst = CompareStructuredWithDense(model, model.options, 300, &zero, &tau_ratio);
   EXPECT_LT(worst, 1e-9);
   EXPECT_GT(zero, 250);
+  EXPECT_GE(tau_ratio[0], 1.0 - 1e-9);  // z of either path within round-off
+  EXPECT_LT(tau_ratio[1], 2.0);
+  EXPECT_GT(tau_ratio[1], 1.0);  // τ depended on the scale
 }
 
 // Sliding (σ and friction columns basic, the E and U entries), Anitescu–Potra, first order and

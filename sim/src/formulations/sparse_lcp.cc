@@ -295,17 +295,14 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
   // PrincipalBlock). The bound on ‖M‖∞: |(G_bᵀ W_b G_b)_ij| ≤ |g_i|ᵀ |W_b| |g_j|, so a row's sum
   // over j is at most |g_i|ᵀ u_b with u_b = |W_b| Σ_j |g_j| — O(n_vb) per row.
   full_ = false;
+  norm_formed_ = false;
   nvb_ = nvb;
   blocks_.resize(nbody);
   Gb_.resize(nbody);
   WG_.resize(nbody);
   wg_ready_.resize(nbody);
   bound_u_.resize(nbody);
-  // The bounds are skipped for a while after a step that needed the exact norm anyway (a loaded
-  // stack: τ depends on ‖M‖∞ there); this changes the work only, never a result.
-  bounds_ = bounds_skip_ == 0;
-  if (!bounds_) --bounds_skip_;
-  bool finite = bounds_;
+  bool finite = true;
   // G_n and G_f finite: every stored entry gathered into some G_b, and each G_b's column sums
   // of |entries| finite.
   bool g_finite = true;
@@ -348,7 +345,6 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
     else
       AddColumnAbs<3>(Gb.data(), k, column_sum);
     for (int r = 0; r < nvb; ++r) g_finite = g_finite && std::isfinite(column_sum[r]);
-    if (!bounds_) continue;
     const auto W = a.M_inv.BlockAt(o);
     std::array<double, 6>& u = bound_u_[body];
     for (int r = 0; r < nvb; ++r) {
@@ -357,10 +353,10 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
       finite = finite && std::isfinite(u[r]);
     }
   }
-  // The bounds: hi from the rows (contact normals and friction directions), lo and both from the
-  // σ rows (whose sums |μ_c| + n_d NormInf adds the same way).
+  // The bound: from the rows (contact normals and friction directions) and the σ rows (whose
+  // sums |μ_c| + n_d NormInf adds the same way).
   double hi = 0.0;
-  for (int c = 0; c < (bounds_ ? nc : 0); ++c) {
+  for (int c = 0; c < nc; ++c) {
     const int bodies[2] = {a.contacts[c].body_a, a.contacts[c].body_b};
     for (int t = 0; t <= nd; ++t) {    // t = 0: the normal row; 1 + j: friction direction j
       double sum = t > 0 ? 1.0 : 0.0;  // E
@@ -376,10 +372,10 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
       hi = std::max(hi, sum);
     }
   }
-  double lo = 0.0;
-  for (int c = 0; c < nc; ++c) lo = std::max(lo, std::abs(a.mu[c]) + nd);  // as NormInf
-  norm_lo_ = lo;
-  norm_hi_ = finite ? std::max(lo, hi * (1.0 + 1e-8)) : std::numeric_limits<double>::infinity();
+  double sigma = 0.0;
+  for (int c = 0; c < nc; ++c) sigma = std::max(sigma, std::abs(a.mu[c]) + nd);  // as NormInf
+  norm_bound_ =
+      finite ? std::max(sigma, hi * (1.0 + 1e-8)) : std::numeric_limits<double>::infinity();
 
   const Eigen::Index nnz = a.G_n.nonZeros() + a.G_f.nonZeros();
   g_finite_ = g_finite && gathered == nnz;
@@ -416,9 +412,7 @@ void ContactLcpOperator::EnsureWG(int body, int p) const {
 
 void ContactLcpOperator::EnsureBlocks() const {
   if (full_) return;
-  if (bounds_) bounds_skip_ = kBoundsSkip;  // the bounds did not spare this
   const StewartTrinkle::Assembly& a = *a_;
-  const int nc = nc_, nd = nd_, nf = nf_;
   // G_bᵀ W_b G_b per body.
   for (int body : model_->dynamic_bodies()) {
     const std::vector<int>& cols = columns_[body];
@@ -454,7 +448,14 @@ void ContactLcpOperator::EnsureBlocks() const {
         for (int i = j; i < k; ++i) B(j, i) = B(i, j) = LowerEntry<3>(Gb, WG, i, j);
     }
   }
+  full_ = true;
+}
 
+double ContactLcpOperator::NormInf() const {
+  if (norm_formed_) return norm_inf_;
+  EnsureBlocks();
+  const StewartTrinkle::Assembly& a = *a_;
+  const int nc = nc_, nd = nd_, nf = nf_;
   // ‖M‖∞: impulse rows from the body blocks (an entry shared by two dynamic bodies — two
   // contacts between the same pair — summed before its absolute value), plus E, U, −Eᵀ. The
   // columns of body b come in groups of 1 + n_d (one contact's normal and friction columns).
@@ -537,21 +538,8 @@ void ContactLcpOperator::EnsureBlocks() const {
     add_row_sum(sum);
   }
   for (int c = 0; c < nc; ++c) norm_inf_ = std::max(norm_inf_, std::abs(a.mu[c]) + nd);  // σ rows
-  full_ = true;
-}
-
-double ContactLcpOperator::NormInf() const {
-  EnsureBlocks();
+  norm_formed_ = true;
   return norm_inf_;
-}
-
-void ContactLcpOperator::NormInfBounds(double* lo, double* hi) const {
-  if (full_) {
-    *lo = *hi = norm_inf_;
-    return;
-  }
-  *lo = norm_lo_;
-  *hi = norm_hi_;
 }
 
 int ContactLcpOperator::PositionIn(int col, int body) const {
@@ -719,7 +707,7 @@ void ContactLcpOperator::PrincipalBlockSparse(const std::vector<int>& index,
   // Column b: the basis members of the body blocks of the (at most two) bodies its impulse
   // column touches, summed where both bodies hold the row (0 + x + y in either order, as
   // PrincipalBlock), then the compliance; or the E, U, −Eᵀ entries. Rows sorted per column.
-  EnsureBlocks();
+  // Without the whole blocks, only the members' entries are formed (BlockEntry: the same bits).
   const int k = static_cast<int>(index.size());
   const int s0 = nc_ + nf_, n = s0 + nc_;
   position_.resize(n);
@@ -750,7 +738,8 @@ void ContactLcpOperator::PrincipalBlockSparse(const std::vector<int>& index,
         const std::vector<int>& cols = columns_[body];
         const MatrixXd& B = blocks_[body];
         for (int p = 0; p < static_cast<int>(cols.size()); ++p)
-          if (const int r = position_[cols[p]]; r >= 0) add(r, B(p, pj));
+          if (const int r = position_[cols[p]]; r >= 0)
+            add(r, full_ ? B(p, pj) : BlockEntry(body, p, pj));
       }
       if (j < nc_ && a_->compliance[j].compliant) {
         if (slot_[b] < 0) add(b, 0.0);

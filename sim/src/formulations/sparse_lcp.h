@@ -24,10 +24,10 @@ namespace vinci::sim::internal {
 /// W = M⁻¹ (block diagonal), D_c the compliant pairs' diagonals (compliance.h). Kept as the
 /// Jacobians and one dense block G_bᵀ W_b G_b per body over the impulse columns touching it.
 ///
-/// The body blocks are formed lazily: Build forms ν*, q and bounds on ‖M‖∞ only; a dense
-/// principal block forms just the entries it holds (a warm basis of a resting box: 4 of 20
-/// columns); NormInf, Entry, ToSparse and PrincipalBlockSparse form the whole blocks. Every entry
-/// has the same bits however it was formed.
+/// The body blocks are formed lazily: Build forms ν*, q and a bound on ‖M‖∞ only; a principal
+/// block (dense or sparse) forms just the entries it holds (a warm basis of a resting box: 4 of
+/// 20 columns); NormInf, Entry and ToSparse form the whole blocks. Every entry has the same bits
+/// however it was formed.
 class ContactLcpOperator final : public LcpMatrixOperator {
  public:
   /// Builds M, q and ν* = v + W p_ext. Returns false (nothing built) for an assembly with
@@ -40,10 +40,10 @@ class ContactLcpOperator final : public LcpMatrixOperator {
 
   int size() const override { return m_; }
   double NormInf() const override;
-  /// lo = max_c (|μ_c| + n_d) (the σ rows), hi from |M_ij| ≤ |g_i|ᵀ|W_b||g_j| summed over a row
-  /// in O(n_vb) per row (× (1 + 1e-8) for round-off; +inf if not finite, or for kBoundsSkip
-  /// Builds after one whose bounds did not spare the exact norm): no body block formed.
-  void NormInfBounds(double* lo, double* hi) const override;
+  /// max(max_c (|μ_c| + n_d), the impulse rows' Σ_j |g_i|ᵀ|W_b||g_j|) × (1 + 1e-8) (round-off):
+  /// |M_ij| ≤ |g_i|ᵀ|W_b||g_j| summed over a row in O(n_vb) per row, no body block formed; +inf
+  /// if not finite. On resting box stacks ≤ 1.61 ‖M‖∞ (bench/README.md).
+  double NormInfBound() const override { return norm_bound_; }
   void MultiplyAdd(const VectorXd& z, const VectorXd& q, VectorXd* w) const override;
   void PrincipalBlock(const std::vector<int>& index, MatrixXd* out) const override;
   /// The entries of PrincipalBlock (same bits) on the pattern of M's structure: where two impulse
@@ -66,7 +66,7 @@ class ContactLcpOperator final : public LcpMatrixOperator {
   int PositionIn(int col, int body) const;
   double ImpulseEntry(int i, int j) const;
 
-  // Forms every body block and ‖M‖∞ (once per Build).
+  // Forms every body block (once per Build).
   void EnsureBlocks() const;
   // Column p of body's W_b G_b (once per Build).
   void EnsureWG(int body, int p) const;
@@ -74,20 +74,17 @@ class ContactLcpOperator final : public LcpMatrixOperator {
   const StewartTrinkle::Assembly* a_ = nullptr;
   const Scene* model_ = nullptr;
   int nc_ = 0, nd_ = 0, nf_ = 0, m_ = 0, nvb_ = 0;
-  double norm_lo_ = 0.0, norm_hi_ = 0.0;
+  double norm_bound_ = 0.0;
   VectorXd q_, v_star_;
   std::vector<std::vector<int>> columns_;       // per body: the impulse columns touching it
   std::vector<int> first_;                      // per contact and side: its normal's position
   std::vector<MatrixXd> Gb_;                    // per body: its G_b over columns_[body]
-  std::vector<std::array<double, 6>> bound_u_;  // per body: u_b of NormInfBounds
+  std::vector<std::array<double, 6>> bound_u_;  // per body: u_b of NormInfBound
   // Formed on demand (caches of what Build was given: the same values whenever formed).
-  // Builds that skip the bounds after one whose bounds did not spare the exact norm.
-  static constexpr int kBoundsSkip = 15;
-  bool bounds_ = false;    // this Build formed the bounds
-  bool g_finite_ = false;  // G_n and G_f have finite values only
-  bool runs_ = false;      // G_n's and G_f's columns are whole body blocks (runs of nvb_ rows)
-  mutable int bounds_skip_ = 0;                      // Builds left without them
-  mutable bool full_ = false;                        // blocks_ and norm_inf_ formed
+  bool g_finite_ = false;      // G_n and G_f have finite values only
+  bool runs_ = false;          // G_n's and G_f's columns are whole body blocks (runs of nvb_ rows)
+  mutable bool full_ = false;  // blocks_ formed
+  mutable bool norm_formed_ = false;                 // norm_inf_ formed
   mutable double norm_inf_ = 0.0;                    // ‖M‖∞
   mutable std::vector<MatrixXd> blocks_;             // per body: G_bᵀ W_b G_b over columns_[body]
   mutable std::vector<MatrixXd> WG_;                 // per body: W_b G_b

@@ -110,25 +110,16 @@ bool SolveOnWarmBasis(const LcpMatrixOperator& M, const Eigen::VectorXd& q,
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return true;
   };
-  // ‖M‖∞ enters only the acceptance tolerances and scales. An operator that forms M lazily gives
-  // bounds m_lo ≤ ‖M‖∞ ≤ m_hi; the exact norm is formed only if the outcome (accepted or not, and
-  // the reported τ) could differ between them.
-  double m_lo = 0.0, m_hi = 0.0;
-  M.NormInfBounds(&m_lo, &m_hi);
-  if (!(std::isfinite(m_hi) && m_lo <= m_hi)) m_lo = m_hi = M.NormInf();
-  if (!std::isfinite(m_hi)) return false;  // the dense solver reports it
-  if (n == 0 || q.minCoeff() >= 0.0) {     // LemkeSolver's trivial solution
+  // ‖M‖∞ enters only the acceptance tolerances and scales, where a bound m ≥ ‖M‖∞ serves (an
+  // operator that forms M lazily bounds it without forming it).
+  double m = M.NormInfBound();
+  if (!std::isfinite(m)) m = M.NormInf();
+  if (!std::isfinite(m)) return false;  // the dense solver reports it
+  if (n == 0 || q.minCoeff() >= 0.0) {  // LemkeSolver's trivial solution
     z->setZero(n);
     return solved(0.0, options.residual_tolerance, "");
   }
   const double q_norm = q.lpNorm<Eigen::Infinity>();
-  // Where τ will likely depend on ‖M‖∞ (‖M‖∞‖z‖∞ above max(1, ‖q‖∞), the guess standing in for
-  // z: a loaded stack), the exact norm now rather than after forming basis entries twice (only
-  // the work differs, never the result).
-  if (m_lo != m_hi && !(m_hi * guess.lpNorm<Eigen::Infinity>() <= std::max(1.0, q_norm))) {
-    m_lo = m_hi = M.NormInf();
-    if (!std::isfinite(m_hi)) return false;  // not reached: NormInf ≤ the finite bound
-  }
 
   // The guessed basis and M_BB.
   s->active.clear();
@@ -225,53 +216,19 @@ bool SolveOnWarmBasis(const LcpMatrixOperator& M, const Eigen::VectorXd& q,
   const double z_norm = s->candidate.lpNorm<Eigen::Infinity>();
   const double rtol = options.residual_tolerance;
   const auto ratio = [](double x, double scale) { return scale > 0.0 ? x / scale : 0.0; };
-  // The acceptance with ‖M‖∞ = m: z_B ≥ −τ(z_B), w_N ≥ −τ(z_B), LcpResidual ≤ τ(z) (into *tau)
-  // and the scale-aware residual.
-  const auto accepted = [&](double m, double* tau) {
-    const double tolerance = Tolerance(rtol, q_norm, m, z_b_norm);
-    if (z_b_min < -tolerance || w_n_min < -tolerance) return false;
-    *tau = Tolerance(rtol, q_norm, m, z_norm);
-    if (!(residual <= *tau) || !w_finite) return false;
-    const double s_w = std::max(q_norm, m * z_norm);
-    const double s_z = std::max(z_norm, m > 0.0 ? q_norm / m : 0.0);
-    if (!std::isfinite(s_w) || !std::isfinite(s_z)) return false;
-    double scaled = 0.0;
-    for (Eigen::Index i = 0; i < n; ++i)
-      scaled =
-          std::max(scaled, std::abs(std::min(ratio(s->candidate(i), s_z), ratio(s->w(i), s_w))));
-    return scaled <= kLcpAcceptanceTolerance;
-  };
-  // The same for every m in [m_lo, m_hi] with the same τ(z)? Each test is monotone in m
-  // (floating-point products and quotients are): τ grows with m; s_w grows and s_z shrinks, so
-  // each scaled entry lies between its values at the corners.
-  const auto accepted_throughout = [&](double* tau) {
-    if (!(m_lo > 0.0)) return false;
-    const double tolerance = Tolerance(rtol, q_norm, m_lo, z_b_norm);
-    if (z_b_min < -tolerance || w_n_min < -tolerance) return false;
-    *tau = Tolerance(rtol, q_norm, m_lo, z_norm);
-    if (*tau != Tolerance(rtol, q_norm, m_hi, z_norm)) return false;
-    if (!(residual <= *tau) || !w_finite) return false;
-    const double s_w_lo = std::max(q_norm, m_lo * z_norm), s_w_hi = std::max(q_norm, m_hi * z_norm);
-    const double s_z_lo = std::max(z_norm, q_norm / m_hi), s_z_hi = std::max(z_norm, q_norm / m_lo);
-    if (!std::isfinite(s_w_hi) || !std::isfinite(s_z_hi) || !(s_w_lo > 0.0) || !(s_z_lo > 0.0))
-      return false;
-    double scaled = 0.0;
-    for (Eigen::Index i = 0; i < n; ++i) {
-      const double b1 = s->w(i) / s_w_lo, b2 = s->w(i) / s_w_hi;
-      const double low = std::min(s->candidate(i) / s_z_hi, std::min(b1, b2));
-      const double high = std::min(s->candidate(i) / s_z_lo, std::max(b1, b2));
-      scaled = std::max(scaled, std::max(std::abs(low), std::abs(high)));
-    }
-    return scaled <= kLcpAcceptanceTolerance;
-  };
-  double tau = 0.0;
-  if (m_lo == m_hi) {
-    if (!accepted(m_lo, &tau)) return false;
-  } else if (!accepted_throughout(&tau)) {
-    const double m_norm = M.NormInf();
-    if (!std::isfinite(m_norm)) return false;  // the dense solver reports it
-    if (!accepted(m_norm, &tau)) return false;
-  }
+  // The acceptance: z_B ≥ −τ(z_B), w_N ≥ −τ(z_B), LcpResidual ≤ τ(z) and the scale-aware
+  // residual.
+  const double tolerance = Tolerance(rtol, q_norm, m, z_b_norm);
+  if (z_b_min < -tolerance || w_n_min < -tolerance) return false;
+  const double tau = Tolerance(rtol, q_norm, m, z_norm);
+  if (!(residual <= tau) || !w_finite) return false;
+  const double s_w = std::max(q_norm, m * z_norm);
+  const double s_z = std::max(z_norm, m > 0.0 ? q_norm / m : 0.0);
+  if (!std::isfinite(s_w) || !std::isfinite(s_z)) return false;
+  double scaled = 0.0;
+  for (Eigen::Index i = 0; i < n; ++i)
+    scaled = std::max(scaled, std::abs(std::min(ratio(s->candidate(i), s_z), ratio(s->w(i), s_w))));
+  if (!(scaled <= kLcpAcceptanceTolerance)) return false;
   z->swap(s->candidate);
   // A short message (no heap allocation: within std::string's inline buffer).
   return solved(residual, tau, "warm basis");

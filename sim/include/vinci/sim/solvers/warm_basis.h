@@ -22,9 +22,10 @@ class LcpMatrixOperator {
   virtual int size() const = 0;
   /// ‖M‖∞ = max_i Σ_j |M_ij| (+inf or NaN if M has a non-finite entry).
   virtual double NormInf() const = 0;
-  /// Bounds *lo ≤ NormInf() ≤ *hi (on the value NormInf returns), for an operator that can bound
-  /// its norm more cheaply than form it; *hi may be +inf (no bound). Default: both NormInf().
-  virtual void NormInfBounds(double* lo, double* hi) const { *lo = *hi = NormInf(); }
+  /// A bound b ≥ NormInf() (on the value NormInf returns) for an operator that can bound its norm
+  /// more cheaply than form it, +inf if it has none; SolveOnWarmBasis scales its tolerances by
+  /// it, so it should lie within a small factor of ‖M‖∞. Default: NormInf().
+  virtual double NormInfBound() const { return NormInf(); }
   /// *w = M z + q (w sized by the caller's vector; may reallocate).
   virtual void MultiplyAdd(const Eigen::VectorXd& z, const Eigen::VectorXd& q,
                            Eigen::VectorXd* w) const = 0;
@@ -87,8 +88,10 @@ inline constexpr int kDenseWarmBasisMax = 48;
 /// z_B = guess_B + δ with M_BB δ = −(M_BB guess_B + q_B) (anchored at the guess, so a singular
 /// M_BB keeps the guessed values in its null space), accepted iff z_B ≥ −τ, w_N ≥ −τ,
 /// LcpResidual ≤ τ(z) and the scale-aware residual (lcp_acceptance.h) ≤
-/// kLcpAcceptanceTolerance, with τ(z) of `options` (lemke.h) and M's ‖M‖∞. Work: NormInfBounds
-/// (NormInf only if the outcome could differ within the bounds), two products, the |B| × |B|
+/// kLcpAcceptanceTolerance, with τ(z) of `options` (lemke.h) and, in place of ‖M‖∞, the scale
+/// m = M.NormInfBound() (M.NormInf() if that is not finite): LemkeSolver's test for an operator
+/// whose bound is its norm (SparseLcpMatrix); a bound m ≥ ‖M‖∞ makes the tolerances at most
+/// m / ‖M‖∞ times wider. Work: NormInfBound, two products, the |B| × |B|
 /// block and its factorization (dense up to kDenseWarmBasisMax, sparse above; a dense block with
 /// the same bits as one of the scratch's last two distinct ones reuses its QR) — no pass over a
 /// dense n × n matrix. The result does not depend on what the scratch solved before.
