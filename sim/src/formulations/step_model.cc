@@ -546,15 +546,9 @@ void FreezeInto(const Formulation& formulation, std::shared_ptr<const Scene> sce
 void EvaluateResidualsInto(const StepModel& m, const VectorXd& z, const Params& theta,
                            const State& x, const StepInput& u, StepResiduals* out,
                            SparseJacobians* jac) {
-  // Small steps: the dense Jacobians and one scan are cheaper than collecting the entries.
-  constexpr int kByRowsFrom = 40;  // unknowns
-  const bool by_rows = m.layout().size() >= kByRowsFrom;
   const auto* st = dynamic_cast<const StewartTrinkleModel*>(&m);
-  if (st && st->FreezeResidualsInto(z, theta, x, u, out, by_rows ? jac : nullptr)) {
-    if (by_rows) return;
-  } else {
-    *out = m.EvaluateResiduals(z, theta, x, u, true);
-  }
+  if (st && st->FreezeResidualsInto(z, theta, x, u, out, jac)) return;
+  *out = m.EvaluateResiduals(z, theta, x, u, true);
   jac->equality.FromDense(out->d_equality);
   jac->comp_a.FromDense(out->d_comp_a);
   jac->comp_b.FromDense(out->d_comp_b);
