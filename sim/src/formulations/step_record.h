@@ -12,6 +12,7 @@
 
 #include <memory>
 
+#include "sparse_rows.h"
 #include "vinci/sim/formulations/formulation.h"
 #include "vinci/sim/formulations/step_model.h"
 #include "vinci/sim/formulations/stewart_trinkle.h"
@@ -70,10 +71,12 @@ void FreezeInto(const Formulation& formulation, std::shared_ptr<const Scene> mod
                 const Params& params, const State& x, const StepInput& u,
                 std::unique_ptr<StepModel>* frozen);
 
-/// *out = m.EvaluateResiduals(z, θ, x, u, true), its storage reused where m is a
-/// Stewart–Trinkle-family model evaluated at its freeze point.
+/// The values of m.EvaluateResiduals(z, θ, x, u, true) in *out and its Jacobians by rows in
+/// *jac (out's d_ matrices unspecified), storage reused; a Stewart–Trinkle-family model evaluated
+/// at its freeze point writes the Jacobians by rows directly (no dense matrices).
 void EvaluateResidualsInto(const StepModel& m, const VectorXd& z, const Params& theta,
-                           const State& x, const StepInput& u, StepResiduals* out);
+                           const State& x, const StepInput& u, StepResiduals* out,
+                           SparseJacobians* jac);
 /// *out = m.StateDirectionalDerivative(z, u, s, step), the same numbers, in storage reused for
 /// the Stewart–Trinkle family.
 void StateDirectionalDerivativeInto(const StepModel& m, const VectorXd& z, const StepInput& u,

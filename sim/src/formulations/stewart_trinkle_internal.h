@@ -3,6 +3,7 @@
 // stewart_trinkle_residuals.cc (Layout, Evaluate: the step model). Private.
 #pragma once
 
+#include "sparse_rows.h"
 #include "vinci/sim/formulations/stewart_trinkle.h"
 #include "vinci/sim/model/kinematics.h"
 #include "vinci/sim/model/scene.h"
@@ -23,9 +24,10 @@ void VelocityAfterWith(const StewartTrinkle::Assembly& a, const VectorXd& v_star
                        VectorXd* product, VectorXd* dv, VectorXd* v1);
 
 /// StewartTrinkle::EvaluateAssembly into *r, its storage reused (every field overwritten; the
-/// same numbers). Without `jacobians` the d_ matrices are left empty.
+/// same numbers). Without `jacobians` the d_ matrices are left empty; with `sparse` the
+/// Jacobians (the same entries) go to *sparse by rows and r's d_ matrices are left empty.
 void EvaluateAssemblyInto(const StewartTrinkle& st, const Scene& model, const Params& params,
                           const StewartTrinkle::Assembly& a, const State& x, const VectorXd& z,
-                          bool jacobians, StepResiduals* r);
+                          bool jacobians, StepResiduals* r, SparseJacobians* sparse = nullptr);
 
 }  // namespace vinci::sim::internal

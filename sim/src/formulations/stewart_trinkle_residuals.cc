@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "sparse_lcp.h"
+#include "sparse_rows.h"
 #include "step_util.h"
 #include "stewart_trinkle_internal.h"
 #include "vinci/sim/formulations/joint.h"
@@ -22,20 +23,19 @@ using internal::PrescribedKinematics;
 // Appends the support-friction pairs (p_s, G_sᵀν + E_s σ_s) and (σ_s, h μ_s N − E_sᵀ p_s) to
 // the complementarity block of r (after every other pair).
 void AppendSupportPairs(const SupportRows& sup, const StepLayout& l, const VectorXd& z,
-                        bool jacobians, StepResiduals* r) {
-  const int old = static_cast<int>(r->comp_a.size()), ncol = static_cast<int>(r->d_comp_a.cols());
+                        bool jacobians, StepResiduals* r, internal::JacobianWriter* Ja,
+                        internal::JacobianWriter* Jb) {
+  const int old = static_cast<int>(r->comp_a.size());
   const int add = l.nps + l.ns;
   r->comp_a.conservativeResize(old + add);
   r->comp_b.conservativeResize(old + add);
   r->comp_a.tail(add) = z.segment(l.ps(), add);  // p_s, σ_s are contiguous
   r->comp_b.segment(old, l.nps) = sup.G_s.transpose() * z.segment(l.v1(), l.nv);
   if (jacobians) {
-    r->d_comp_a.conservativeResize(old + add, ncol);
-    r->d_comp_b.conservativeResize(old + add, ncol);
-    r->d_comp_a.bottomRows(add).setZero();
-    r->d_comp_b.bottomRows(add).setZero();
-    r->d_comp_a.block(old, l.ps(), add, add).setIdentity();
-    r->d_comp_b.block(old, l.v1(), l.nps, l.nv) = sup.G_s.transpose();
+    Ja->AddRows(add);
+    Jb->AddRows(add);
+    Ja->Identity(old, l.ps(), add);
+    Jb->DenseBlock(old, l.v1(), sup.G_s.transpose());
   }
   for (int k = 0; k < l.ns; ++k) {
     const int row = old + l.nps + k;
@@ -45,18 +45,10 @@ void AppendSupportPairs(const SupportRows& sup, const StepLayout& l, const Vecto
       r->comp_b[old + col] += z[l.sigma_s() + k];
       r->comp_b[row] -= z[l.ps() + col];
       if (!jacobians) continue;
-      r->d_comp_b(old + col, l.sigma_s() + k) = 1.0;
-      r->d_comp_b(row, l.ps() + col) = -1.0;
+      Jb->Set(old + col, l.sigma_s() + k, 1.0);
+      Jb->Set(row, l.ps() + col, -1.0);
     }
   }
-}
-
-// *m = 0 (rows × cols), its storage reused: one memset (+0.0 has all bits zero), where
-// setZero's element loop was ~10 % of a resting box's step derivative.
-void SetZero(int rows, int cols, MatrixXd* m) {
-  m->resize(rows, cols);
-  if (m->size() > 0)
-    std::memset(m->data(), 0, sizeof(double) * static_cast<std::size_t>(m->size()));
 }
 
 }  // namespace
@@ -116,7 +108,7 @@ StepResiduals StewartTrinkle::EvaluateAssembly(const Scene& model, const Params&
 void internal::EvaluateAssemblyInto(const StewartTrinkle& st, const Scene& model,
                                     const Params& params, const StewartTrinkle::Assembly& a,
                                     const State& x, const VectorXd& z, bool jacobians,
-                                    StepResiduals* out) {
+                                    StepResiduals* out, SparseJacobians* sparse) {
   const StepperOptions& options = st.options();
   const bool velocity_level = options.formulation == FormulationType::kAnitescuPotra;
   const bool first_order = options.formulation == FormulationType::kFirstOrder;
@@ -147,22 +139,32 @@ void internal::EvaluateAssemblyInto(const StewartTrinkle& st, const Scene& model
   r.equality.resize(nv + nq + nb);
   // Without Jacobians (values only: the sensitivities' directional differences) the d_ blocks
   // stay empty and every write to them below is skipped.
+  // With `sparse`, the Jacobians go there (by rows) and the d_ matrices stay empty.
   const bool jac = jacobians;
-  if (jac)
-    SetZero(nv + nq + nb, ncol, &r.d_equality);
-  else
+  const int ncomp_all = nc + nc * l.nd + nc + l.nk;
+  JacobianWriter Je, Ja, Jb;
+  if (jac && sparse) {
+    Je.Sparse(nv + nq + nb, ncol);
+    Ja.Sparse(ncomp_all, ncol);
+    Jb.Sparse(ncomp_all, ncol);
+  }
+  if (!jac || sparse) {
     r.d_equality.resize(0, 0);
+    r.d_comp_a.resize(0, 0);
+    r.d_comp_b.resize(0, 0);
+  }
+  if (jac && !sparse) Je.Dense(&r.d_equality, nv + nq + nb, ncol);
   const VectorXd v_l = first_order ? VectorXd::Zero(nv) : x.v;  // first order: no ν_ℓ
   r.equality.head(nv) = a.M * (v1 - v_l) - a.G_n * pn - a.G_f * pf - a.G_b * pb - a.p_ext;
   if (jac) {
-    r.d_equality.block(0, l.v1(), nv, nv) = a.M.ToDense();
-    r.d_equality.block(0, l.pn(), nv, nc) = -a.G_n;
-    r.d_equality.block(0, l.pf(), nv, nf) = -a.G_f;
-    r.d_equality.block(0, l.pb(), nv, nb) = -a.G_b;
+    for (int o = 0; o < nv; o += a.M.block_size()) Je.DenseBlock(o, l.v1() + o, a.M.BlockAt(o));
+    Je.Block(0, l.pn(), a.G_n, -1.0);
+    Je.Block(0, l.pf(), a.G_f, -1.0);
+    Je.Block(0, l.pb(), a.G_b, -1.0);
   }
   if (l.nps > 0) {
     r.equality.head(nv) -= a.support.G_s * z.segment(l.ps(), l.nps);
-    if (jac) r.d_equality.block(0, l.ps(), nv, l.nps) = -a.support.G_s;
+    if (jac) Je.DenseBlock(0, l.ps(), -a.support.G_s);
   }
   // ∂/∂m of body b's rows: M_b and p_ext scale with the mass (inertia ∝ mass, same shape).
   for (int i = 0; jac && i < model.param_table().size(); ++i) {
@@ -182,7 +184,7 @@ void internal::EvaluateAssemblyInto(const StewartTrinkle& st, const Scene& model
       const Vector3d w_B = x.v.segment<3>(o + 3);
       d.tail<3>() += h * w_B.cross(b.inertia * w_B) / b.mass;
     }
-    r.d_equality.block(o, column_of[i], nvb, 1) = d;
+    Je.DenseBlock(o, column_of[i], d);
   }
 
   VectorXd q_pred(nq);
@@ -191,13 +193,13 @@ void internal::EvaluateAssemblyInto(const StewartTrinkle& st, const Scene& model
     IntegratePosition(model.dim, x.q.data() + idx.q, v1.data() + idx.v, h, q_pred.data() + idx.q);
   }
   r.equality.segment(nv, nq) = q1 - q_pred;
-  if (jac) r.d_equality.block(nv, l.q1(), nq, nq).setIdentity();
+  if (jac) Je.Identity(nv, l.q1(), nq);
   // ∂q_pred/∂ν: planar and the position part of spatial bodies are exactly h·I; the quaternion
   // block (exponential map) is differentiated by central differences.
   for (int bi : model.dynamic_bodies()) {
     if (!jac) break;
     const BodyIndex& idx = model.index(bi);
-    for (int k = 0; k < 3; ++k) r.d_equality(nv + idx.q + k, l.v1() + idx.v + k) = -h;
+    for (int k = 0; k < 3; ++k) Je.Set(nv + idx.q + k, l.v1() + idx.v + k, -h);
     if (model.dim == Dim::kSpatial) {
       const double eps = 1e-7;
       for (int k = 3; k < 6; ++k) {
@@ -208,7 +210,7 @@ void internal::EvaluateAssemblyInto(const StewartTrinkle& st, const Scene& model
         IntegratePosition(model.dim, x.q.data() + idx.q, vp.data(), h, qp);
         IntegratePosition(model.dim, x.q.data() + idx.q, vm.data(), h, qm);
         for (int i = 3; i < 7; ++i)
-          r.d_equality(nv + idx.q + i, l.v1() + idx.v + k) = -(qp[i] - qm[i]) / (2 * eps);
+          Je.Set(nv + idx.q + i, l.v1() + idx.v + k, -(qp[i] - qm[i]) / (2 * eps));
       }
     }
   }
@@ -216,7 +218,7 @@ void internal::EvaluateAssemblyInto(const StewartTrinkle& st, const Scene& model
     VectorXd jr = a.G_b.transpose() * v1 + a.dpsi_b;
     if (options.joint_stabilization) jr += a.psi_b / h;
     r.equality.tail(nb) = jr;
-    if (jac) r.d_equality.block(nv + nq, l.v1(), nb, nv) = a.G_b.transpose();
+    if (jac) Je.BlockTransposed(nv + nq, l.v1(), a.G_b);
   }
 
   // Complementarity pairs: (p_n, normal), (p_f, friction), (σ, cone), then (c, corner).
@@ -226,42 +228,41 @@ void internal::EvaluateAssemblyInto(const StewartTrinkle& st, const Scene& model
   r.comp_a.resize(ncomp);
   r.comp_b.resize(ncomp);
   r.comp_a << pn, pf, sigma, cc;
-  if (!jac) {
-    r.d_comp_a.resize(0, 0);
-    r.d_comp_b.resize(0, 0);
-  } else {
-    SetZero(ncomp, ncol, &r.d_comp_a);
-    SetZero(ncomp, ncol, &r.d_comp_b);
-    r.d_comp_a.block(0, l.pn(), nc + nf + nc, nc + nf + nc).setIdentity();  // contiguous
-    r.d_comp_a.block(ncomp - nk, l.corner(), nk, nk).setIdentity();
+  if (jac) {
+    if (!sparse) {
+      Ja.Dense(&r.d_comp_a, ncomp, ncol);
+      Jb.Dense(&r.d_comp_b, ncomp, ncol);
+    }
+    Ja.Identity(0, l.pn(), nc + nf + nc);  // contiguous
+    Ja.Identity(ncomp - nk, l.corner(), nk);
   }
 
   r.comp_b.head(nc) = a.G_n.transpose() * v1 + a.dpsi_n;
   if (!velocity_level) r.comp_b.head(nc) += a.psi_n / h;
-  if (jac) r.d_comp_b.block(0, l.v1(), nc, nv) = a.G_n.transpose();
+  if (jac) Jb.BlockTransposed(0, l.v1(), a.G_n);
   for (int c = 0; c < nc; ++c) {
     const CompliantNormalRow& law = a.compliance[c];
     if (!law.compliant) continue;
     r.comp_b[c] = a.G_n.col(c).dot(v1) + a.dpsi_n[c] + law.vel_psi * a.psi_n[c] +
                   law.vel_diagonal * pn[c] + law.vel_constant;
-    if (jac) r.d_comp_b(c, l.pn() + c) = law.vel_diagonal;
+    if (jac) Jb.Set(c, l.pn() + c, law.vel_diagonal);
   }
 
   r.comp_b.segment(nc, nf) = a.G_f.transpose() * v1 + a.dpsi_f;
-  if (jac) r.d_comp_b.block(nc, l.v1(), nf, nv) = a.G_f.transpose();
+  if (jac) Jb.BlockTransposed(nc, l.v1(), a.G_f);
   for (int c = 0; c < nc; ++c) {
     double sum_pf = 0.0;
     for (int j = 0; j < nd; ++j) {
       r.comp_b[nc + c * nd + j] += sigma[c];
       sum_pf += pf[c * nd + j];
       if (!jac) continue;
-      r.d_comp_b(nc + c * nd + j, l.sigma() + c) = 1.0;
-      r.d_comp_b(nc + nf + c, l.pf() + c * nd + j) = -1.0;
+      Jb.Set(nc + c * nd + j, l.sigma() + c, 1.0);
+      Jb.Set(nc + nf + c, l.pf() + c * nd + j, -1.0);
     }
     r.comp_b[nc + nf + c] = a.mu[c] * pn[c] - sum_pf;
     if (!jac) continue;
-    r.d_comp_b(nc + nf + c, l.pn() + c) = a.mu[c];
-    r.d_comp_b(nc + nf + c, column_of[a.contacts[c].mu_param]) = pn[c];
+    Jb.Set(nc + nf + c, l.pn() + c, a.mu[c]);
+    Jb.Set(nc + nf + c, column_of[a.contacts[c].mu_param], pn[c]);
   }
   // Corner rows: c_k − ((ψ_1 − ψ_2)/h + (G_1 − G_2)ᵀ ν + ∂ψ_1/∂t − ∂ψ_2/∂t), and + c_k in the
   // normal row of its contact.
@@ -272,27 +273,30 @@ void internal::EvaluateAssemblyInto(const StewartTrinkle& st, const Scene& model
     r.comp_b[c] += cc[k];
     if (velocity_level) r.comp_b[c] += a.psi_n[c] / h;  // corners stay position-level
     if (!jac) continue;
-    r.d_comp_b(row, l.corner() + k) = 1.0;
-    r.d_comp_b.block(row, l.v1(), 1, nv) = -D.transpose();
-    r.d_comp_b(c, l.corner() + k) = 1.0;
+    Jb.Set(row, l.corner() + k, 1.0);
+    Jb.DenseBlock(row, l.v1(), -D.transpose());
+    Jb.Set(c, l.corner() + k, 1.0);
   }
   if (l.ns > 0) {
-    AppendSupportPairs(a.support, l, z, jac, &r);
+    AppendSupportPairs(a.support, l, z, jac, &r, &Ja, &Jb);
     // A static distribution scales with the mass: ∂(h μ_s N_k)/∂m = h μ_s N_k / m.
     for (int i = 0; jac && i < model.param_table().size(); ++i) {
       const ParamInfo& info = model.param_table().info(i);
       if (info.kind == ParamKind::kSupportFriction) {  // ∂(h μ_s N_k)/∂μ_s = h N_k
         for (int k = 0; k < l.ns; ++k)
-          if (a.support.body[k] == info.a)
-            r.d_comp_b(ncomp + l.nps + k, column_of[i]) = a.support.hN[k];
+          if (a.support.body[k] == info.a) Jb.Set(ncomp + l.nps + k, column_of[i], a.support.hN[k]);
       }
       if (info.kind != ParamKind::kMass || !model.bodies[info.a].support.static_distribution)
         continue;
       for (int k = 0; k < l.ns; ++k)
         if (a.support.body[k] == info.a)
-          r.d_comp_b(ncomp + l.nps + k, column_of[i]) =
-              a.support.limit[k] / model.bodies[info.a].mass;
+          Jb.Set(ncomp + l.nps + k, column_of[i], a.support.limit[k] / model.bodies[info.a].mass);
     }
+  }
+  if (jac && sparse) {
+    Je.Finish(&sparse->equality);
+    Ja.Finish(&sparse->comp_a);
+    Jb.Finish(&sparse->comp_b);
   }
 }
 

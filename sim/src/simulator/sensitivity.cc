@@ -104,6 +104,7 @@ bool SmoothedSolution(const StepModel& model, const Params& theta, const State& 
 // distinct ScratchLease slots).
 struct ValsStorage {
   StepResiduals r;
+  internal::SparseJacobians J;
 };
 struct AlongStorage {
   StepResiduals r;
@@ -134,9 +135,10 @@ class StepDifferentiator {
     // The residuals with their dense z and θ Jacobians; the x_ℓ block (central differences of
     // the frozen equations) only for the full state Jacobian.
     const int nz = frozen_->layout().size();
-    internal::EvaluateResidualsInto(*frozen_, z_, params, x, u, &vals_);
+    internal::EvaluateResidualsInto(*frozen_, z_, params, x, u, &vals_, &jac_);
     const bool gi = dynamic_cast<const GeometricallyImplicit*>(&sim.formulation()) != nullptr;
-    lin_->Compute(vals_, nz, options, options.smoothing > 0.0, gi ? &frozen_->layout() : nullptr);
+    lin_->Compute(vals_, jac_, nz, options, options.smoothing > 0.0,
+                  gi ? &frozen_->layout() : nullptr);
     lin_computed_ = true;
     if (!lin_->ok()) {
       message_ = lin_->message();
@@ -149,8 +151,8 @@ class StepDifferentiator {
       const VectorXd shift = lin_->InteriorShift(l.nq + l.nv, z_);
       if (shift.size() == z_.size()) {
         z_ += shift;
-        internal::EvaluateResidualsInto(*frozen_, z_, params, x, u, &vals_);
-        lin_->Compute(vals_, nz, options, false, nullptr);
+        internal::EvaluateResidualsInto(*frozen_, z_, params, x, u, &vals_, &jac_);
+        lin_->Compute(vals_, jac_, nz, options, false, nullptr);
         if (!lin_->ok()) {
           message_ = lin_->message();
           return;
@@ -206,9 +208,9 @@ class StepDifferentiator {
         r = ZeroColumn();
       } else {
         const int col = frozen_->layout().size() + c;
-        r.eq = vals_.d_equality.col(col);
-        r.a = vals_.d_comp_a.col(col);
-        r.b = vals_.d_comp_b.col(col);
+        jac_.equality.Column(col, &r.eq);
+        jac_.comp_a.Column(col, &r.a);
+        jac_.comp_b.Column(col, &r.b);
       }
       return r;
     }
@@ -349,9 +351,10 @@ class StepDifferentiator {
   internal::ScratchLease<std::unique_ptr<StepModel>> frozen_lease_;
   std::unique_ptr<StepModel>& frozen_ = frozen_lease_.get();
   VectorXd z_;
-  // At z_: values and dense [z, θ] Jacobians, in the calling thread's storage.
+  // At z_: values and [z, θ] Jacobians (by rows), in the calling thread's storage.
   internal::ScratchLease<ValsStorage> vals_lease_;
   StepResiduals& vals_ = vals_lease_.get().r;
+  internal::SparseJacobians& jac_ = vals_lease_.get().J;
   MatrixXd d_eq_x_, d_a_x_, d_b_x_;  // ∂r/∂x_ℓ (full state only)
   // The calling thread's linearization storage (scratch_lease.h), recomputed for this step.
   internal::ScratchLease<Linearization> lin_lease_;

@@ -7,6 +7,7 @@
 #include <Eigen/QR>
 #include <vector>
 
+#include "../formulations/sparse_rows.h"
 #include "vinci/sim/simulator/sensitivity.h"
 
 namespace vinci::sim::internal {
@@ -28,39 +29,29 @@ void Count(SensitivityStatus s, int* exact, int* degenerate, int* mode_change, i
 // inconsistent singular system is not solvable).
 class StructuredSolver {
  public:
-  void Compute(const MatrixXd& K) {
+  /// Factors K (square, by rows; kept by pointer: it must outlive this solver's use).
+  void Compute(const SparseRows& K) {
     K_ = &K;
-    const int n = static_cast<int>(K.rows());
-    // K's nonzero pattern, by rows (CSR: row_ptr_, row_col_, row_val_) and by columns (col_ptr_,
-    // col_row_): the eliminations, the singleton solves and products are O(nonzeros).
-    col_ptr_.assign(n + 1, 0);
-    col_row_.clear();
-    col_row_.reserve(static_cast<std::size_t>(n) * 8);
+    const int n = K.rows();
+    // K's nonzero pattern by rows (K itself: CSR) and by columns (col_ptr_, col_row_, each
+    // column's rows increasing): the eliminations, the singleton solves and products are
+    // O(nonzeros).
     std::vector<int>& row_count = row_count_;
     std::vector<int>& col_count = col_count_;
     row_count.assign(n, 0);
     col_count.assign(n, 0);
-    for (int j = 0; j < n; ++j) {
-      const double* c = K.data() + static_cast<Eigen::Index>(j) * n;
-      for (int i = 0; i < n; ++i)
-        if (c[i] != 0.0) {
-          col_row_.push_back(i);
-          ++row_count[i];
-        }
-      col_ptr_[j + 1] = static_cast<int>(col_row_.size());
-      col_count[j] = col_ptr_[j + 1] - col_ptr_[j];
+    for (int i = 0; i < n; ++i) {
+      row_count[i] = K.ptr[i + 1] - K.ptr[i];
+      for (int k = K.ptr[i]; k < K.ptr[i + 1]; ++k) ++col_count[K.col[k]];
     }
-    row_ptr_.assign(n + 1, 0);
-    for (int i = 0; i < n; ++i) row_ptr_[i + 1] = row_ptr_[i] + row_count[i];
-    row_col_.resize(col_row_.size());
-    row_val_.resize(col_row_.size());
-    fill_.assign(row_ptr_.begin(), row_ptr_.end() - 1);
-    for (int j = 0; j < n; ++j)  // columns in order: each row's entries sorted by column
-      for (int k = col_ptr_[j]; k < col_ptr_[j + 1]; ++k) {
-        const int i = col_row_[k];
-        row_col_[fill_[i]] = j;
-        row_val_[fill_[i]++] = K(i, j);
-      }
+    col_ptr_.assign(n + 1, 0);
+    for (int j = 0; j < n; ++j) col_ptr_[j + 1] = col_ptr_[j] + col_count[j];
+    col_row_.resize(K.col.size());
+    fill_.assign(col_ptr_.begin(), col_ptr_.end() - 1);
+    for (int i = 0; i < n; ++i)  // rows in order: each column's entries sorted by row
+      for (int k = K.ptr[i]; k < K.ptr[i + 1]; ++k) col_row_[fill_[K.col[k]]++] = i;
+    const std::vector<int>& row_ptr_ = K.ptr;
+    const std::vector<int>& row_col_ = K.col;
     std::vector<char>& row_done = row_done_;
     std::vector<char>& col_done = col_done_;
     row_done.assign(n, 0);
@@ -74,7 +65,7 @@ class StructuredSolver {
         int j = -1;  // the first column not eliminated with K(i, j) ≠ 0
         for (int k = row_ptr_[i]; k < row_ptr_[i + 1] && j < 0; ++k)
           if (!col_done[row_col_[k]]) j = row_col_[k];
-        ops_.push_back({i, j, true});
+        ops_.push_back({i, j, true, K.At(i, j)});
         row_done[i] = col_done[j] = 1;
         for (int k = col_ptr_[j]; k < col_ptr_[j + 1]; ++k)
           if (!row_done[col_row_[k]]) --row_count[col_row_[k]];
@@ -85,7 +76,7 @@ class StructuredSolver {
         int i = -1;  // the first row not eliminated with K(i, j) ≠ 0
         for (int k = col_ptr_[j]; k < col_ptr_[j + 1] && i < 0; ++k)
           if (!row_done[col_row_[k]]) i = col_row_[k];
-        ops_.push_back({i, j, false});
+        ops_.push_back({i, j, false, K.At(i, j)});
         row_done[i] = col_done[j] = 1;
         for (int k = row_ptr_[i]; k < row_ptr_[i + 1]; ++k)
           if (!col_done[row_col_[k]]) --col_count[row_col_[k]];
@@ -101,9 +92,12 @@ class StructuredSolver {
     for (int j = 0; j < n; ++j)
       if (!col_done[j] && col_count[j] > 0) cols_.push_back(j);
     const int nr = static_cast<int>(rows_.size()), nc = static_cast<int>(cols_.size());
-    core_.resize(nr, nc);
-    for (int c = 0; c < nc; ++c)
-      for (int r = 0; r < nr; ++r) core_(r, c) = K(rows_[r], cols_[c]);
+    core_.setZero(nr, nc);
+    core_col_.assign(n, -1);
+    for (int c = 0; c < nc; ++c) core_col_[cols_[c]] = c;
+    for (int r = 0; r < nr; ++r)
+      for (int k = K.ptr[rows_[r]]; k < K.ptr[rows_[r] + 1]; ++k)
+        if (core_col_[K.col[k]] >= 0) core_(r, core_col_[K.col[k]]) = K.val[k];
     use_lu_ = false;
     if (nr == nc && nr > 0) {
       lu_.setThreshold(1e-10);
@@ -118,7 +112,7 @@ class StructuredSolver {
 
   /// K x (over K's nonzeros).
   void Multiply(const VectorXd& x, VectorXd* y) const {
-    const int n = static_cast<int>(row_ptr_.size()) - 1;
+    const int n = K_->rows();
     y->resize(n);
     for (int i = 0; i < n; ++i) (*y)[i] = RowDot(i, x);
   }
@@ -128,10 +122,9 @@ class StructuredSolver {
   bool singular() const { return !use_lu_ && !cols_.empty(); }
 
   VectorXd Solve(const VectorXd& b) const {
-    const MatrixXd& K = *K_;
     VectorXd x = VectorXd::Zero(b.size());
     for (const Op& op : ops_)
-      if (op.row_singleton) x[op.col] = (b[op.row] - RowDot(op.row, x)) / K(op.row, op.col);
+      if (op.row_singleton) x[op.col] = (b[op.row] - RowDot(op.row, x)) / op.pivot;
     if (!cols_.empty() && !rows_.empty()) {
       VectorXd bc(rows_.size());
       for (std::size_t r = 0; r < rows_.size(); ++r) bc[r] = b[rows_[r]] - RowDot(rows_[r], x);
@@ -139,7 +132,7 @@ class StructuredSolver {
       for (std::size_t c = 0; c < cols_.size(); ++c) x[cols_[c]] = xc[c];
     }
     for (auto it = ops_.rbegin(); it != ops_.rend(); ++it)
-      if (!it->row_singleton) x[it->col] = (b[it->row] - RowDot(it->row, x)) / K(it->row, it->col);
+      if (!it->row_singleton) x[it->col] = (b[it->row] - RowDot(it->row, x)) / it->pivot;
     return x;
   }
 
@@ -147,7 +140,7 @@ class StructuredSolver {
   /// square): the core's null vectors with the eliminated unknowns recovered (a singleton row's
   /// unknown is 0, a singleton column's from its row).
   MatrixXd NullSpace() const {
-    const int n = static_cast<int>(K_->rows());
+    const int n = K_->rows();
     if (use_lu_ || cols_.empty() || rows_.size() != cols_.size()) return MatrixXd(n, 0);
     const MatrixXd Nc = lu_.kernel();
     if (lu_.rank() == static_cast<int>(cols_.size())) return MatrixXd(n, 0);
@@ -156,7 +149,7 @@ class StructuredSolver {
       VectorXd x = VectorXd::Zero(n);
       for (std::size_t c = 0; c < cols_.size(); ++c) x[cols_[c]] = Nc(c, k);
       for (auto it = ops_.rbegin(); it != ops_.rend(); ++it)
-        if (!it->row_singleton) x[it->col] = -K_->row(it->row).dot(x) / (*K_)(it->row, it->col);
+        if (!it->row_singleton) x[it->col] = -RowDot(it->row, x) / it->pivot;
       N.col(k) = x;
     }
     return N;
@@ -172,16 +165,16 @@ class StructuredSolver {
   struct Op {
     int row, col;
     bool row_singleton;  // else a column singleton (recovered after the core)
+    double pivot;        // K(row, col)
   };
   // Row i of K times x over its nonzeros (x's entries not yet set are 0).
   double RowDot(int i, const VectorXd& x) const {
     double sum = 0.0;
-    for (int k = row_ptr_[i]; k < row_ptr_[i + 1]; ++k) sum += row_val_[k] * x[row_col_[k]];
+    for (int k = K_->ptr[i]; k < K_->ptr[i + 1]; ++k) sum += K_->val[k] * x[K_->col[k]];
     return sum;
   }
-  const MatrixXd* K_ = nullptr;
-  std::vector<int> row_ptr_, row_col_, col_ptr_, col_row_, fill_, row_count_, col_count_;
-  std::vector<double> row_val_;
+  const SparseRows* K_ = nullptr;
+  std::vector<int> col_ptr_, col_row_, fill_, row_count_, col_count_, core_col_;
   std::vector<char> row_done_, col_done_;
   std::vector<Op> ops_;
   std::vector<int> rows_, cols_;

@@ -31,27 +31,27 @@ struct ResidualColumn {
 // The step's active equations at the linearization point and their factorization.
 class Linearization {
  public:
-  // `vals` holds the step equations and their dense Jacobians at the linearization point, the
-  // first `nz` columns those of the unknowns z. `gi`: the step layout if the model is the
+  // `vals` holds the step equations and `J` their Jacobians (by rows) at the linearization point,
+  // the first `nz` columns those of the unknowns z. `gi`: the step layout if the model is the
   // geometrically implicit stepper's (its unloaded candidate pairs are pinned, below), else null.
   Linearization() = default;
 
   // (Re)computes everything from `vals`, reusing this object's storage (no result depends on an
   // earlier Compute: every member read later is overwritten or reset here).
-  void Compute(const StepResiduals& vals, int nz, const SensitivityOptions& options, bool smoothed,
-               const StepLayout* gi) {
+  void Compute(const StepResiduals& vals, const SparseJacobians& J, int nz,
+               const SensitivityOptions& options, bool smoothed, const StepLayout* gi) {
     ok_ = false;
     message_.clear();
     degenerate_ = 0;
     deg_.clear();
     pinned_.clear();
     w_ready_ = false;
-    const auto E = vals.d_equality.leftCols(nz);
-    da_ = &vals.d_comp_a;
-    db_ = &vals.d_comp_b;
+    const SparseRows& E = J.equality;
+    da_ = &J.comp_a;
+    db_ = &J.comp_b;
     nz_ = nz;
-    const auto A_ = A(), B_ = B();
-    const int ne = static_cast<int>(E.rows()), np = static_cast<int>(A_.rows());
+    const SparseRows &A_ = *da_, &B_ = *db_;
+    const int ne = E.rows(), np = A_.rows();
     if (ne + np != nz_) {
       message_ = "the step equations are not square (" + std::to_string(ne) + " equalities + " +
                  std::to_string(np) + " pairs for " + std::to_string(nz_) + " unknowns)";
@@ -69,21 +69,22 @@ class Linearization {
     side_.assign(np, 'a');
     weight_a_ = VectorXd::Zero(np);
     weight_b_ = VectorXd::Zero(np);
-    const double inert_tol =
-        gi ? options.active_tol * std::max(1.0, B_.size() ? B_.cwiseAbs().maxCoeff() : 0.0) : 0.0;
+    double b_max = 0.0;  // max |B| (GI only)
+    for (int i = 0; gi && i < np; ++i) b_max = std::max(b_max, B_.RowMaxAbs(i, nz_));
+    const double inert_tol = gi ? options.active_tol * std::max(1.0, b_max) : 0.0;
     std::vector<int>& inert = inert_;  // GI pairs whose cone pair is inert
     inert.clear();
     for (int i = 0; i < np; ++i) {
       const bool a0 = a[i] <= tol, b0 = b[i] <= tol;
-      if (gi && !smoothed && a0 && b0 && B_.row(i).cwiseAbs().maxCoeff() <= inert_tol) {
+      if (gi && !smoothed && a0 && b0 && B_.RowMaxAbs(i, nz_) <= inert_tol) {
         // A GI cone pair (σ, μ² p_n² − ‖p_t‖²) of an unloaded pair, p_n = p_t = 0: b has no
         // first-order variation and the pair's friction rows μ p_n v_t' + σ p_t are 0 = 0 to
         // first order, leaving p_t free in K. The cone with p_n at 0 allows no p_t: the pair is
         // held at dσ = 0 and its friction rows are replaced by dp_t = 0 (below). Not a kink of
         // the solution map where p_n is held at 0 (if p_n is degenerate, its own pair is).
-        Eigen::Index col = 0;
-        A_.row(i).cwiseAbs().maxCoeff(&col);
-        const int k = static_cast<int>(col) - gi->sigma();
+        int col = 0;
+        A_.RowMaxAbs(i, nz_, &col);
+        const int k = col - gi->sigma();
         if (k >= 0 && k < gi->nc) {
           side_[i] = 'i';
           inert.push_back(k);
@@ -108,8 +109,6 @@ class Linearization {
         side_[i] = a[i] <= b[i] ? 'a' : 'b';
       }
     }
-    K_.resize(nz_, nz_);
-    K_.topRows(ne) = E;
     for (int i = 0; i < np; ++i) {
       if (smoothed) {
         // ∂φ_ε = (1 − a/r) da + (1 − b/r) db,  r = √(a² + b² + 2ε) > 0.
@@ -122,22 +121,46 @@ class Linearization {
         weight_a_[i] = 1.0;  // held a, or a degenerate pair's λ = da row
       }
     }
-    if (smoothed) {
-      K_.bottomRows(np) = weight_a_.asDiagonal() * A_ + weight_b_.asDiagonal() * B_;
-    } else {
-      // Weights 1 and 0: each held row is A's or B's row as it is.
-      for (int i = 0; i < np; ++i) K_.row(ne + i) = weight_a_[i] == 1.0 ? A_.row(i) : B_.row(i);
-    }
     // GI equality rows (geometrically_implicit.h): [dynamics (nv); kinematics (nq); per pair:
-    // separation (d), normals (d), A side, B side, friction (d − 1 = nd)].
+    // separation (d), normals (d), A side, B side, friction (d − 1 = nd)]. An inert pair's
+    // friction rows are replaced by dp_t = 0.
+    pinned_col_.assign(ne, -1);
     for (int k : inert) {
       for (int j = 0; j < gi->nd; ++j) {
         const int row = gi->nv + gi->nq + k * (3 * gi->nd + 4) + 2 * gi->nd + 4 + j;
         if (row >= ne) continue;
-        K_.row(row).setZero();
-        K_(row, gi->pf() + k * gi->nd + j) = 1.0;
+        pinned_col_[row] = gi->pf() + k * gi->nd + j;
         pinned_.push_back(row);
       }
+    }
+    // K by rows: the equalities, then per pair its held row (A's or B's as it is: weights 1 and
+    // 0), or the smoothed step's weighted sum.
+    K_.Reset(nz_);
+    for (int i = 0; i < ne; ++i) {
+      if (pinned_col_[i] >= 0) {
+        K_.Push(pinned_col_[i], 1.0);
+        K_.EndRow();
+      } else {
+        K_.AppendRow(E, i, nz_);
+      }
+    }
+    for (int i = 0; i < np; ++i) {
+      if (!smoothed) {
+        K_.AppendRow(weight_a_[i] == 1.0 ? A_ : B_, i, nz_);
+        continue;
+      }
+      const double wa = weight_a_[i], wb = weight_b_[i];
+      int ka = A_.ptr[i], kb = B_.ptr[i];
+      const int ea = A_.ptr[i + 1], eb = B_.ptr[i + 1];
+      while (true) {
+        const int ca = ka < ea ? A_.col[ka] : nz_, cb = kb < eb ? B_.col[kb] : nz_;
+        const int c = std::min(ca, cb);
+        if (c >= nz_) break;
+        const double va = ca == c ? A_.val[ka++] : 0.0, vb = cb == c ? B_.val[kb++] : 0.0;
+        const double v = wa * va + wb * vb;
+        if (v != 0.0) K_.Push(c, v);
+      }
+      K_.EndRow();
     }
     if (smoothed) deg_.clear();
     // K factored structurally (StructuredSolver): the held impulses and the end positions
@@ -148,11 +171,14 @@ class Linearization {
     // such a K as regular — its rcond estimate was above a 1e-10 cut-off — and returned wrong
     // state derivatives (SensitivityTest.RedundantRestingContacts…).
     solver_.Compute(K_);
-    k_norm_ = K_.size() ? K_.cwiseAbs().maxCoeff() : 0.0;
+    k_norm_ = 0.0;
+    for (double v : K_.val) k_norm_ = std::max(k_norm_, std::abs(v));
     if (!deg_.empty()) {
       const int nd = static_cast<int>(deg_.size());
-      BD_.resize(nd, nz_);
-      for (int j = 0; j < nd; ++j) BD_.row(j) = B_.row(deg_[j]);
+      BD_.setZero(nd, nz_);
+      for (int j = 0; j < nd; ++j)
+        for (int k = B_.ptr[deg_[j]]; k < B_.ptr[deg_[j] + 1] && B_.col[k] < nz_; ++k)
+          BD_(j, B_.col[k]) = B_.val[k];
     }
     ne_ = ne;
     ok_ = true;
@@ -185,7 +211,7 @@ class Linearization {
     const int nd = static_cast<int>(deg_.size());
     LcpProblem p;
     p.q.resize(nd);
-    for (int j = 0; j < nd; ++j) p.q[j] = B().row(deg_[j]).dot(*dz) + r.b[deg_[j]];
+    for (int j = 0; j < nd; ++j) p.q[j] = db_->RowDot(deg_[j], *dz, nz_) + r.b[deg_[j]];
     // λ = 0 is the solution unless some q_j is negative beyond the round-off of its terms.
     const double qscale = (BD_.cwiseAbs() * dz->cwiseAbs()).maxCoeff() + r.b.cwiseAbs().maxCoeff();
     if (p.q.minCoeff() >= -1e-10 * qscale) return true;
@@ -243,7 +269,11 @@ class Linearization {
       }
       for (double sign : {1.0, -1.0}) {
         const VectorXd n = sign * N.col(k) / nn;
-        const VectorXd ra = A() * n, rb = B() * n;
+        VectorXd ra(side.size()), rb(side.size());
+        for (int i = 0; i < static_cast<int>(side.size()); ++i) {
+          ra[i] = da_->RowDot(i, n, nz_);
+          rb[i] = db_->RowDot(i, n, nz_);
+        }
         const double eps = 1e-9;
         int gain = 0;
         bool allowed = true;
@@ -284,10 +314,10 @@ class Linearization {
       double slack = 0.0, rate = 0.0;
       if (side_[i] == 'a') {
         slack = b_[i];
-        rate = B().row(i).dot(dz) + r.b[i];
+        rate = db_->RowDot(i, dz, nz_) + r.b[i];
       } else if (side_[i] == 'b') {
         slack = a_[i];
-        rate = A().row(i).dot(dz) + r.a[i];
+        rate = da_->RowDot(i, dz, nz_) + r.a[i];
       } else {
         continue;
       }
@@ -300,13 +330,11 @@ class Linearization {
   bool ok_ = false;
   std::string message_;
   int nz_ = 0, ne_ = 0, degenerate_ = 0;
-  // The pairs' Jacobians A = ∂comp_a/∂z, B = ∂comp_b/∂z: the leading nz columns of the residuals
-  // Compute was given (which must outlive this linearization's use; no copy).
-  const MatrixXd *da_ = nullptr, *db_ = nullptr;
-  using Cols = Eigen::Block<const MatrixXd, Eigen::Dynamic, Eigen::Dynamic, true>;
-  Cols A() const { return da_->leftCols(nz_); }
-  Cols B() const { return db_->leftCols(nz_); }
-  MatrixXd K_, BD_;
+  // The pairs' Jacobians A = ∂comp_a/∂z, B = ∂comp_b/∂z: the leading nz columns of the
+  // Jacobians Compute was given (which must outlive this linearization's use; no copy).
+  const SparseRows *da_ = nullptr, *db_ = nullptr;
+  SparseRows K_;
+  MatrixXd BD_;
   mutable MatrixXd W_, lcp_M_;    // K⁻¹ E_D and B_D K⁻¹ E_D, computed on first need
   mutable bool w_ready_ = false;  // W_, lcp_M_ hold this Compute's
   VectorXd weight_a_, weight_b_;
@@ -315,9 +343,10 @@ class Linearization {
   bool smoothed_ = false;
   std::vector<char> side_;  // per pair: 'a' / 'b' held, 'd' degenerate, 'i' inert GI pair
   std::vector<int> deg_;
-  std::vector<int> pinned_;  // equality rows replaced by dp_t = 0 (inert GI pairs)
-  std::vector<int> inert_;   // Compute's storage
-  StructuredSolver solver_;  // of K_ (keeps a pointer to it: Linearization is not copied)
+  std::vector<int> pinned_;      // equality rows replaced by dp_t = 0 (inert GI pairs)
+  std::vector<int> pinned_col_;  // per equality row: its dp_t column if pinned, else −1
+  std::vector<int> inert_;       // Compute's storage
+  StructuredSolver solver_;      // of K_ (keeps a pointer to it: Linearization is not copied)
   double k_norm_ = 0.0;
 };
 
