@@ -42,6 +42,8 @@ constexpr int kRepairRounds = 4;
 // chosen: bench/README.md, "Sparse Lemke: the shifted retry, step 24 of the gap-dropped pile".
 constexpr double kShiftFeasibility = 1e-6;
 constexpr double kShiftPivotFraction = 1e-7;
+// Principal pivots of PolishTerminalBasis (each one sparse LU of the basis block).
+constexpr int kPolishPivots = 32;
 // The lexicographic rule reads rows of B⁻¹ (one transposed solve each) while at most this many
 // rows are tied, columns of B⁻¹ (one solve each) while more are.
 constexpr int kLexRowSolves = 16;
@@ -269,6 +271,7 @@ struct CoreOutcome {
   std::string message;
   double z0 = 0.0;
   double z0_initial = 0.0;
+  std::vector<int> terminal;  // the complementary basis z0 left (kSolved after pivots)
 };
 
 // LcpResidual of z for LCP(A, q) with w = A z + q into *w, NaN-safe.
@@ -478,7 +481,51 @@ CoreOutcome RunSparseLemke(const SpMat& A, const VectorXd& q, const VectorXd& co
     z->swap(z_try);
   }
   out.status = SolverStatus::kSolved;
+  out.terminal = basis;
   return out;
+}
+
+// A terminal basis that misses the tolerance on degenerate rows: Lemke's ties (ratios within
+// the tie tolerance, and z0 leaving at the end) leave basic values of the order of the tie
+// tolerance times |d_i| below 0 (−2e-8 on the 100-box pile, whose pivot columns reach 4e6).
+// Principal pivots from it: the most negative basic value's variable leaves for its
+// complement (w_i ↔ z_i), the basis refactored and B x = q solved with one refinement step,
+// up to kPolishPivots times or until no value is below −tau_x; *z is the iterate (z = max(x, 0)
+// on the basic z) with the smallest LcpResidual. Stops at a singular basis. Returns the number
+// of principal pivots taken before the best iterate (−1: the terminal basis is singular).
+int PolishTerminalBasis(const SpMat& A, const VectorXd& q, std::vector<int> basis, double tau_x,
+                        VectorXd* z) {
+  const int n = static_cast<int>(q.size());
+  const VectorXd cover = VectorXd::Zero(n);  // no z0 in a terminal basis
+  SparseBasis B(A, cover);
+  VectorXd x(n), e(n), z_raw(n), w_raw(n), candidate(n), w;
+  double best = kInf;
+  int best_pivots = -1;
+  for (int pivots = 0; pivots <= kPolishPivots; ++pivots) {
+    if (!B.Factor(basis)) break;
+    x = q;
+    B.Solve(&x);
+    z_raw.setZero();
+    w_raw.setZero();
+    for (int k = 0; k < n; ++k) (basis[k] < n ? w_raw(basis[k]) : z_raw(basis[k] - n)) = x(k);
+    e = q - w_raw;
+    e.noalias() += A * z_raw;
+    B.Solve(&e);
+    x += e;
+    candidate.setZero();
+    for (int k = 0; k < n; ++k)
+      if (basis[k] >= n) candidate(basis[k] - n) = std::max(x(k), 0.0);
+    const double residual = SparseResidual(A, q, candidate, &w);
+    if (residual < best) {
+      best = residual;
+      best_pivots = pivots;
+      *z = candidate;
+    }
+    int k = 0;
+    if (!(x.minCoeff(&k) < -tau_x)) break;
+    basis[k] = basis[k] < n ? basis[k] + n : basis[k] - n;
+  }
+  return best_pivots;
 }
 
 // Row and column maxima of |A| d_i d_j over the nonzeros; the dense SymmetricScaling's sweeps.
@@ -592,6 +639,20 @@ SolverReport SolveSparseLemke(const SpMat& M, const VectorXd& q, const VectorXd*
   VectorXd cover(n), candidate, w;
   std::string first_message;
   RepairScratch repair;
+  // The terminal bases of terminated runs that failed the tests, with their labels.
+  std::vector<std::pair<std::vector<int>, const char*>> terminals;
+  // True with *z and the report if `zc` (unscaled) passes both tests.
+  auto accept = [&](VectorXd& zc, double residual, double tolerance, const std::string& message) {
+    if (!(std::isfinite(residual) && residual <= tolerance &&
+          SparseLcpScaledResidual(M, q, zc) <= kLcpAcceptanceTolerance))
+      return false;
+    z->swap(zc);
+    report.status = SolverStatus::kSolved;
+    report.residual = residual;
+    report.tolerance = tolerance;
+    report.message = message;
+    return true;
+  };
   auto run = [&](std::vector<int>& basis, const char* label, bool shift) {
     // (A basis the rounds did not repair is run as it is: its factorization decides.)
     StartBasisRepair(A, &basis, &repair);
@@ -617,16 +678,8 @@ SolverReport SolveSparseLemke(const SpMat& M, const VectorXd& q, const VectorXd*
         message = "accepted the secondary-ray iterate with z0 = " + FormatDouble(z0);
       }
     }
-    const bool passes = terminated && std::isfinite(residual) && residual <= tolerance &&
-                        SparseLcpScaledResidual(M, q, candidate) <= kLcpAcceptanceTolerance;
-    if (passes) {
-      z->swap(candidate);
-      report.status = SolverStatus::kSolved;
-      report.residual = residual;
-      report.tolerance = tolerance;
-      report.message = message;
-      return true;
-    }
+    if (terminated && accept(candidate, residual, tolerance, message)) return true;
+    if (!core.terminal.empty()) terminals.emplace_back(core.terminal, label);
     // On failure the report and z are those of the run with the smaller residual (a caller may
     // polish that iterate's basis).
     if (first_message.empty() || OrInf(residual) < OrInf(report.residual)) {
@@ -670,6 +723,20 @@ SolverReport SolveSparseLemke(const SpMat& M, const VectorXd& q, const VectorXd*
           "cold with shifts of q" + (report.message.empty() ? "" : " (" + report.message + ")");
       return finish();
     }
+  }
+  // Every run failed: principal pivots from the terminal bases (PolishTerminalBasis), in run
+  // order. Runs that pass are never polished, so their results are unchanged.
+  const double tau_x = kRatioTieTolerance * std::max(1.0, qs.lpNorm<Eigen::Infinity>());
+  for (const auto& [terminal, label] : terminals) {
+    const int pivots = PolishTerminalBasis(A, qs, terminal, tau_x, &candidate);
+    if (pivots < 0) continue;
+    report.iterations += pivots;
+    if (scaled) candidate.array() *= scale.array();
+    const double residual = OrInf(SparseResidual(M, q, candidate, &w));
+    if (accept(candidate, residual, acceptance.For(candidate),
+               std::to_string(pivots) + " principal pivots from the terminal basis (" + label +
+                   "; " + first_message + ")"))
+      return finish();
   }
   report.message = "sparse Lemke failed (" + first_message + ")";
   return finish();

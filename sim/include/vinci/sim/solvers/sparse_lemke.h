@@ -41,6 +41,12 @@ inline constexpr int kSparseLemkeMinSize = 64;
 ///   or the warm run fails, a cold run follows. A step whose active set changed a little
 ///   needs a few pivots instead of a cold run's hundreds.
 ///
+/// - If every run fails the tests, up to 32 principal pivots (w_i ↔ z_i of the most negative
+///   basic value, the basis refactored each time) from each terminated run's terminal basis,
+///   keeping the iterate with the smallest residual: a degenerate terminal basis whose values
+///   are a few tie tolerances below 0 (pivot columns of 1e6) becomes one within the tolerance.
+///   A run that passes is never polished.
+///
 /// Returns kSolved (iterations = pivots of all runs) iff z passes both acceptance tests. There
 /// are no regularized retries, Fischer–Burmeister polish or Newton fallback: on failure the
 /// report says why (z, status, residual: those of the run, warm or cold, whose last iterate,
