@@ -410,6 +410,14 @@ void ContactLcpOperator::EnsureWG(int body, int p) const {
   ready = 1;
 }
 
+double ContactLcpOperator::BlockEntry(int body, int i, int j) const {
+  // W_b is symmetric, so is the block: its lower triangle, entry (i ≥ j) = Gb(:, i) · WG(:, j).
+  if (i < j) std::swap(i, j);
+  EnsureWG(body, j);
+  if (nvb_ == 6) return LowerEntry<6>(Gb_[body], WG_[body], i, j);
+  return LowerEntry<3>(Gb_[body], WG_[body], i, j);
+}
+
 void ContactLcpOperator::EnsureBlocks() const {
   if (full_) return;
   const StewartTrinkle::Assembly& a = *a_;

@@ -70,6 +70,8 @@ class ContactLcpOperator final : public LcpMatrixOperator {
   void EnsureBlocks() const;
   // Column p of body's W_b G_b (once per Build).
   void EnsureWG(int body, int p) const;
+  // Entry (i, j) of body's block G_bᵀ W_b G_b, formed as EnsureBlocks forms it.
+  double BlockEntry(int body, int i, int j) const;
 
   const StewartTrinkle::Assembly* a_ = nullptr;
   const Scene* model_ = nullptr;
