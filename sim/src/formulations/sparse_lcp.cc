@@ -410,14 +410,6 @@ void ContactLcpOperator::EnsureWG(int body, int p) const {
   ready = 1;
 }
 
-double ContactLcpOperator::BlockEntry(int body, int i, int j) const {
-  // W_b is symmetric, so is the block: its lower triangle, entry (i ≥ j) = Gb(:, i) · WG(:, j).
-  if (i < j) std::swap(i, j);
-  EnsureWG(body, j);
-  if (nvb_ == 6) return LowerEntry<6>(Gb_[body], WG_[body], i, j);
-  return LowerEntry<3>(Gb_[body], WG_[body], i, j);
-}
-
 void ContactLcpOperator::EnsureBlocks() const {
   if (full_) return;
   const StewartTrinkle::Assembly& a = *a_;
@@ -715,12 +707,61 @@ void ContactLcpOperator::PrincipalBlockSparse(const std::vector<int>& index,
   // Column b: the basis members of the body blocks of the (at most two) bodies its impulse
   // column touches, summed where both bodies hold the row (0 + x + y in either order, as
   // PrincipalBlock), then the compliance; or the E, U, −Eᵀ entries. Rows sorted per column.
-  // Without the whole blocks, only the members' entries are formed (BlockEntry: the same bits).
+  // Each body's members × members block is formed first, each entry once (Gb(:, i) · WG(:, j),
+  // i ≥ j, as the whole block forms it, or read from the whole block if formed).
   const int k = static_cast<int>(index.size());
   const int s0 = nc_ + nf_, n = s0 + nc_;
   position_.resize(n);
   std::fill(position_.begin(), position_.end(), -1);
   for (int b = 0; b < k; ++b) position_[index[b]] = b;
+  const std::size_t num_bodies = columns_.size();
+  member_begin_.resize(num_bodies);
+  member_count_.resize(num_bodies);
+  member_block_begin_.resize(num_bodies);
+  member_local_.assign(2 * static_cast<std::size_t>(k), -1);
+  member_p_.clear();
+  member_r_.clear();
+  member_block_.clear();
+  for (int body : model_->dynamic_bodies()) {
+    const std::vector<int>& cols = columns_[body];
+    const int begin = static_cast<int>(member_p_.size());
+    for (int p = 0; p < static_cast<int>(cols.size()); ++p) {
+      const int r = position_[cols[p]];
+      if (r < 0) continue;
+      const int side = a_->contacts[ContactOf(cols[p])].body_a == body ? 0 : 1;
+      member_local_[2 * static_cast<std::size_t>(r) + side] =
+          static_cast<int>(member_p_.size()) - begin;
+      member_p_.push_back(p);
+      member_r_.push_back(r);
+    }
+    const int mb = static_cast<int>(member_p_.size()) - begin;
+    const std::size_t block_begin = member_block_.size();
+    member_begin_[body] = begin;
+    member_count_[body] = mb;
+    member_block_begin_[body] = block_begin;
+    if (mb == 0) continue;
+    member_block_.resize(block_begin + static_cast<std::size_t>(mb) * mb);
+    double* blk = member_block_.data() + block_begin;
+    const int* mp = member_p_.data() + begin;
+    if (full_) {
+      const MatrixXd& B = blocks_[body];
+      for (int x = 0; x < mb; ++x)
+        for (int y = 0; y < mb; ++y) blk[static_cast<std::ptrdiff_t>(x) * mb + y] = B(mp[y], mp[x]);
+      continue;
+    }
+    for (int x = 0; x < mb; ++x) EnsureWG(body, mp[x]);
+    const MatrixXd& Gb = Gb_[body];
+    const MatrixXd& WG = WG_[body];
+    for (int x = 0; x < mb; ++x)
+      for (int y = x; y < mb; ++y) {
+        // W_b is symmetric, so is the block: its lower triangle, entry (i ≥ j) = Gb(:, i) · WG(:,
+        // j).
+        const int i = std::max(mp[x], mp[y]), j = std::min(mp[x], mp[y]);
+        const double value = nvb_ == 6 ? LowerEntry<6>(Gb, WG, i, j) : LowerEntry<3>(Gb, WG, i, j);
+        blk[static_cast<std::ptrdiff_t>(x) * mb + y] = value;
+        blk[static_cast<std::ptrdiff_t>(y) * mb + x] = value;
+      }
+  }
   slot_.resize(k);
   std::fill(slot_.begin(), slot_.end(), -1);
   out->Reset(k);
@@ -742,12 +783,11 @@ void ContactLcpOperator::PrincipalBlockSparse(const std::vector<int>& index,
       for (int side = 0; side < 2; ++side) {
         if (first_[2 * c + side] < 0) continue;
         const int body = bodies[side];
-        const int pj = PositionIn(j, body);
-        const std::vector<int>& cols = columns_[body];
-        const MatrixXd& B = blocks_[body];
-        for (int p = 0; p < static_cast<int>(cols.size()); ++p)
-          if (const int r = position_[cols[p]]; r >= 0)
-            add(r, full_ ? B(p, pj) : BlockEntry(body, p, pj));
+        const int mb = member_count_[body];
+        const int* mr = member_r_.data() + member_begin_[body];
+        const double* column = member_block_.data() + member_block_begin_[body] +
+                               static_cast<std::ptrdiff_t>(member_local_[2 * b + side]) * mb;
+        for (int y = 0; y < mb; ++y) add(mr[y], column[y]);
       }
       if (j < nc_ && a_->compliance[j].compliant) {
         if (slot_[b] < 0) add(b, 0.0);
