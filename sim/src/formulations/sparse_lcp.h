@@ -96,10 +96,9 @@ class ContactLcpOperator final : public LcpMatrixOperator {
   mutable std::vector<Eigen::Triplet<double>> triplets_;
   mutable std::vector<int> position_;                 // PrincipalBlock: index → basis position
   mutable std::vector<std::pair<int, int>> members_;  // PrincipalBlock: (column in body, position)
-  mutable std::vector<int> slot_;                     // PrincipalBlockSparse: row → entry, −1
   // PrincipalBlockSparse, per body: its members' range in member_p_ (column in the body's list)
-  // and member_r_ (basis position), and its members × members block (column major) in
-  // member_block_; member_local_[2 b + side]: member b's index among its side's body's members.
+  // and member_r_ (basis position, ascending), and its members × members block (column major)
+  // in member_block_; member_local_[2 b + side]: member b's index among its side's body's.
   mutable std::vector<int> member_begin_, member_count_, member_p_, member_r_, member_local_;
   mutable std::vector<std::size_t> member_block_begin_;
   mutable std::vector<double> member_block_;
