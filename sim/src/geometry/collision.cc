@@ -529,7 +529,8 @@ void VertexFeatures(const Polytope& P, const Isometry3d& X_WP, const Polytope& Q
   for (int i = 0; i < P.num_vertices(); ++i) {
     const Vector3d x = X_QP * P.vertex(i);
     // A vertex with some s_f > envelope is skipped (s_max > envelope), whichever face shows it.
-    if (Q.face_normal(far_face).dot(x) - Q.face_offset(far_face) > envelope) continue;
+    if (num_faces > 0 && Q.face_normal(far_face).dot(x) - Q.face_offset(far_face) > envelope)
+      continue;
     int f_max = -1;
     double s_max = -kInf;
     bool far = false;
