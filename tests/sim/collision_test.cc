@@ -649,6 +649,52 @@ TEST(CollisionTest, CrossedEdgesGiveOneEdgeEdgeContact) {
   }
 }
 
+TEST(CollisionTest, BoxPairsMatchTheirPolyhedronTwins) {
+  // Two boxes near contact (one on the other, tilted, yawed, offset, or edge on crossed edge)
+  // against the same boxes as polyhedra: the box pair prunes edge pairs and vertices that cannot
+  // touch, the polyhedron pair forms them all, so a wrongly pruned contact shows as a
+  // difference.
+  std::mt19937 rng(20261202);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  const auto uniform = [&](double lo, double hi) { return lo + (hi - lo) * unit(rng); };
+  const auto box_twin = [](const Vector3d& h) {
+    std::vector<Vector3d> v;
+    for (int i = 0; i < 8; ++i)
+      v.emplace_back((i & 1) ? h.x() : -h.x(), (i & 2) ? h.y() : -h.y(), (i & 4) ? h.z() : -h.z());
+    return Polyhedron(v, true);
+  };
+  const double envelope = 0.01;
+  int contacts = 0, edge_crossings = 0;
+  for (int trial = 0; trial < 300; ++trial) {
+    SCOPED_TRACE("trial " + std::to_string(trial));
+    const Vector3d h_A(uniform(0.1, 0.4), uniform(0.1, 0.4), uniform(0.1, 0.4));
+    const Vector3d h_B(uniform(0.1, 0.4), uniform(0.1, 0.4), uniform(0.1, 0.4));
+    const int kind = trial % 3;  // 0: resting, 1: tilted, 2: crossed edges
+    Matrix3d R_B = Matrix3d::Identity(), R_A = Rot(uniform(0, 2 * kPi), Vector3d::UnitZ());
+    if (kind == 1) R_A = Rot(uniform(0, 0.5), Xyz(uniform(-1, 1), uniform(-1, 1), 0)) * R_A;
+    if (kind == 2) {
+      R_B = Rot(kPi / 4, Vector3d::UnitX());
+      R_A = Rot(uniform(-0.4, 0.4), Vector3d::UnitZ()) * Rot(kPi / 4, Vector3d::UnitY());
+    }
+    const double top_B = h_B.dot((R_B.transpose() * Vector3d::UnitZ()).cwiseAbs());
+    const double bottom_A = h_A.dot((R_A.transpose() * Vector3d::UnitZ()).cwiseAbs());
+    const double reach = kind == 2 ? 0.1 : h_A.head<2>().norm() + h_B.head<2>().norm();
+    const Vector3d p_A(uniform(-reach, reach), uniform(-reach, reach),
+                       top_B + bottom_A + uniform(-0.004, 0.012));
+    const Isometry3d X_WG = Pose(Xyz(uniform(-1, 1), uniform(-1, 1), uniform(-1, 1)),
+                                 Rot(uniform(0, kPi), Xyz(uniform(-1, 1), uniform(-1, 1), 1)));
+    const Isometry3d X_WA = X_WG * Pose(p_A, R_A), X_WB = X_WG * Pose(Xyz(0, 0, 0), R_B);
+    const Shape box_A = Box(h_A.x(), h_A.y(), h_A.z()), box_B = Box(h_B.x(), h_B.y(), h_B.z());
+    const auto boxes = Collide(box_A, X_WA, box_B, X_WB, envelope);
+    const auto twins = Collide(box_twin(h_A), X_WA, box_twin(h_B), X_WB, envelope);
+    ASSERT_TRUE(SameContactSet(boxes, twins, 1e-9));
+    contacts += static_cast<int>(boxes.size());
+    if (kind == 2) edge_crossings += static_cast<int>(boxes.size());
+  }
+  EXPECT_GT(contacts, 300);  // the poses do reach contact
+  EXPECT_GT(edge_crossings, 20);
+}
+
 TEST(CollisionTest, BoxPolyhedronPairs) {
   for (const bool prepare : {true, false}) {
     SCOPED_TRACE(prepare ? "prepared" : "hull on the fly");

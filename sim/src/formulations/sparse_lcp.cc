@@ -410,14 +410,6 @@ void ContactLcpOperator::EnsureWG(int body, int p) const {
   ready = 1;
 }
 
-double ContactLcpOperator::BlockEntry(int body, int i, int j) const {
-  // W_b is symmetric, so is the block: its lower triangle, entry (i ≥ j) = Gb(:, i) · WG(:, j).
-  if (i < j) std::swap(i, j);
-  EnsureWG(body, j);
-  if (nvb_ == 6) return LowerEntry<6>(Gb_[body], WG_[body], i, j);
-  return LowerEntry<3>(Gb_[body], WG_[body], i, j);
-}
-
 void ContactLcpOperator::EnsureBlocks() const {
   if (full_) return;
   const StewartTrinkle::Assembly& a = *a_;
@@ -713,56 +705,133 @@ void ContactLcpOperator::PrincipalBlock(const std::vector<int>& index, MatrixXd*
 void ContactLcpOperator::PrincipalBlockSparse(const std::vector<int>& index,
                                               CompressedColumns* out) const {
   // Column b: the basis members of the body blocks of the (at most two) bodies its impulse
-  // column touches, summed where both bodies hold the row (0 + x + y in either order, as
-  // PrincipalBlock), then the compliance; or the E, U, −Eᵀ entries. Rows sorted per column.
-  // Without the whole blocks, only the members' entries are formed (BlockEntry: the same bits).
+  // column touches, summed where both bodies hold the row (0 + x + y, side 0 first: in either
+  // order the bits of PrincipalBlock's sum), then the compliance; or the E, U, −Eᵀ entries.
+  // Rows sorted per column. Each body's members (sorted by basis position) × members block is
+  // formed first, each entry once (Gb(:, i) · WG(:, j), i ≥ j, as the whole block forms it, or
+  // read from the whole block if formed); a column merges its two bodies' member lists.
   const int k = static_cast<int>(index.size());
   const int s0 = nc_ + nf_, n = s0 + nc_;
   position_.resize(n);
   std::fill(position_.begin(), position_.end(), -1);
   for (int b = 0; b < k; ++b) position_[index[b]] = b;
-  slot_.resize(k);
-  std::fill(slot_.begin(), slot_.end(), -1);
-  out->Reset(k);
-  const auto add = [&](int r, double value) {
-    if (slot_[r] < 0) {
-      slot_[r] = static_cast<int>(out->row.size());
-      out->row.push_back(r);
-      out->value.push_back(0.0 + value);
-    } else {
-      out->value[slot_[r]] += value;
+  const std::size_t num_bodies = columns_.size();
+  member_begin_.resize(num_bodies);
+  member_count_.resize(num_bodies);
+  member_block_begin_.resize(num_bodies);
+  member_local_.assign(2 * static_cast<std::size_t>(k), -1);
+  member_p_.clear();
+  member_r_.clear();
+  member_block_.clear();
+  for (int body : model_->dynamic_bodies()) {
+    const std::vector<int>& cols = columns_[body];
+    const int begin = static_cast<int>(member_p_.size());
+    for (int p = 0; p < static_cast<int>(cols.size()); ++p) {
+      const int r = position_[cols[p]];
+      if (r < 0) continue;
+      // Insertion by basis position (the list is short).
+      member_p_.push_back(p);
+      member_r_.push_back(r);
+      int q = static_cast<int>(member_r_.size()) - 1;
+      for (; q > begin && member_r_[q - 1] > r; --q) {
+        member_p_[q] = member_p_[q - 1];
+        member_r_[q] = member_r_[q - 1];
+      }
+      member_p_[q] = p;
+      member_r_[q] = r;
     }
+    const int mb = static_cast<int>(member_p_.size()) - begin;
+    const std::size_t block_begin = member_block_.size();
+    member_begin_[body] = begin;
+    member_count_[body] = mb;
+    member_block_begin_[body] = block_begin;
+    if (mb == 0) continue;
+    const int* mp = member_p_.data() + begin;
+    for (int x = 0; x < mb; ++x) {
+      const int side = a_->contacts[ContactOf(cols[mp[x]])].body_a == body ? 0 : 1;
+      member_local_[2 * static_cast<std::size_t>(member_r_[begin + x]) + side] = x;
+    }
+    member_block_.resize(block_begin + static_cast<std::size_t>(mb) * mb);
+    double* blk = member_block_.data() + block_begin;
+    if (full_) {
+      const MatrixXd& B = blocks_[body];
+      for (int x = 0; x < mb; ++x)
+        for (int y = 0; y < mb; ++y) blk[static_cast<std::ptrdiff_t>(x) * mb + y] = B(mp[y], mp[x]);
+      continue;
+    }
+    for (int x = 0; x < mb; ++x) EnsureWG(body, mp[x]);
+    const MatrixXd& Gb = Gb_[body];
+    const MatrixXd& WG = WG_[body];
+    for (int x = 0; x < mb; ++x)
+      for (int y = x; y < mb; ++y) {
+        // W_b is symmetric, so is the block: its lower triangle, entry (i ≥ j) = Gb(:, i) · WG(:,
+        // j).
+        const int i = std::max(mp[x], mp[y]), j = std::min(mp[x], mp[y]);
+        const double value = nvb_ == 6 ? LowerEntry<6>(Gb, WG, i, j) : LowerEntry<3>(Gb, WG, i, j);
+        blk[static_cast<std::ptrdiff_t>(x) * mb + y] = value;
+        blk[static_cast<std::ptrdiff_t>(y) * mb + x] = value;
+      }
+  }
+  out->Reset(k);
+  bool ascending = true;  // the current column's rows, so far
+  std::size_t column_begin = 0;
+  const auto push = [&](int r, double value) {
+    ascending = ascending && (out->row.size() == column_begin || out->row.back() < r);
+    out->row.push_back(r);
+    out->value.push_back(value);
   };
   for (int b = 0; b < k; ++b) {
     const int j = index[b];
     const int begin = static_cast<int>(out->row.size());
+    column_begin = out->row.size();
+    ascending = true;
     if (j < s0) {
       const int c = ContactOf(j);
       const int bodies[2] = {a_->contacts[c].body_a, a_->contacts[c].body_b};
+      const int* rows[2] = {nullptr, nullptr};
+      const double* values[2] = {nullptr, nullptr};
+      int count[2] = {0, 0};
       for (int side = 0; side < 2; ++side) {
         if (first_[2 * c + side] < 0) continue;
         const int body = bodies[side];
-        const int pj = PositionIn(j, body);
-        const std::vector<int>& cols = columns_[body];
-        const MatrixXd& B = blocks_[body];
-        for (int p = 0; p < static_cast<int>(cols.size()); ++p)
-          if (const int r = position_[cols[p]]; r >= 0)
-            add(r, full_ ? B(p, pj) : BlockEntry(body, p, pj));
+        count[side] = member_count_[body];
+        rows[side] = member_r_.data() + member_begin_[body];
+        values[side] = member_block_.data() + member_block_begin_[body] +
+                       static_cast<std::ptrdiff_t>(member_local_[2 * b + side]) * count[side];
+      }
+      int i0 = 0, i1 = 0;
+      while (i0 < count[0] || i1 < count[1]) {
+        if (i1 == count[1] || (i0 < count[0] && rows[0][i0] < rows[1][i1])) {
+          push(rows[0][i0], 0.0 + values[0][i0]);
+          ++i0;
+        } else if (i0 == count[0] || rows[1][i1] < rows[0][i0]) {
+          push(rows[1][i1], 0.0 + values[1][i1]);
+          ++i1;
+        } else {
+          push(rows[0][i0], (0.0 + values[0][i0]) + values[1][i1]);
+          ++i0;
+          ++i1;
+        }
       }
       if (j < nc_ && a_->compliance[j].compliant) {
-        if (slot_[b] < 0) add(b, 0.0);
-        out->value[slot_[b]] += a_->compliance[j].vel_diagonal;
+        int at = -1;
+        for (int p = begin; p < static_cast<int>(out->row.size()); ++p)
+          if (out->row[p] == b) at = p;
+        if (at < 0) {
+          at = static_cast<int>(out->row.size());
+          push(b, 0.0 + 0.0);
+        }
+        out->value[at] += a_->compliance[j].vel_diagonal;
       }
-      if (const int r = position_[s0 + c]; r >= 0) add(r, j < nc_ ? a_->mu[c] : -1.0);  // U, −Eᵀ
+      if (const int r = position_[s0 + c]; r >= 0) push(r, 0.0 + (j < nc_ ? a_->mu[c] : -1.0));
     } else {
       const int c = j - s0;  // column σ_c: E in the friction rows of contact c
       for (int t = 0; t < nd_; ++t)
-        if (const int r = position_[nc_ + c * nd_ + t]; r >= 0) add(r, 1.0);
+        if (const int r = position_[nc_ + c * nd_ + t]; r >= 0) push(r, 0.0 + 1.0);
     }
-    // Insertion sort of the column's entries by row (a few dozen at most).
+    // Insertion sort of the column's entries by row (not needed when index ascends).
     const int end = static_cast<int>(out->row.size());
-    for (int p = begin; p < end; ++p) slot_[out->row[p]] = -1;
-    for (int p = begin + 1; p < end; ++p) {
+    for (int p = ascending ? end : begin + 1; p < end; ++p) {
       const int r = out->row[p];
       const double v = out->value[p];
       int q = p;

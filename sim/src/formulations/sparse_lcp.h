@@ -5,6 +5,7 @@
 #pragma once
 
 #include <array>
+#include <cstddef>
 #include <memory>
 #include <utility>
 #include <vector>
@@ -47,7 +48,7 @@ class ContactLcpOperator final : public LcpMatrixOperator {
   void MultiplyAdd(const VectorXd& z, const VectorXd& q, VectorXd* w) const override;
   void PrincipalBlock(const std::vector<int>& index, MatrixXd* out) const override;
   /// The entries of PrincipalBlock (same bits) on the pattern of M's structure: where two impulse
-  /// columns share a body, E, U and −Eᵀ (zeros included). O(Σ_body k_body · |B ∩ body|).
+  /// columns share a body, E, U and −Eᵀ (zeros included). O(Σ_body k_body + |B ∩ body|²).
   void PrincipalBlockSparse(const std::vector<int>& index, CompressedColumns* out) const override;
   /// ν_ℓ+1 = ν* + W (G_n p_n + G_f p_f) for z = [p_n; p_f; σ] into *v1, with the bits of
   /// VelocityAfterWith (stewart_trinkle_internal.h) on this assembly; *impulse and *dv are its
@@ -70,8 +71,6 @@ class ContactLcpOperator final : public LcpMatrixOperator {
   void EnsureBlocks() const;
   // Column p of body's W_b G_b (once per Build).
   void EnsureWG(int body, int p) const;
-  // Entry (i, j) of body's block G_bᵀ W_b G_b, formed as EnsureBlocks forms it.
-  double BlockEntry(int body, int i, int j) const;
 
   const StewartTrinkle::Assembly* a_ = nullptr;
   const Scene* model_ = nullptr;
@@ -97,7 +96,12 @@ class ContactLcpOperator final : public LcpMatrixOperator {
   mutable std::vector<Eigen::Triplet<double>> triplets_;
   mutable std::vector<int> position_;                 // PrincipalBlock: index → basis position
   mutable std::vector<std::pair<int, int>> members_;  // PrincipalBlock: (column in body, position)
-  mutable std::vector<int> slot_;                     // PrincipalBlockSparse: row → entry, −1
+  // PrincipalBlockSparse, per body: its members' range in member_p_ (column in the body's list)
+  // and member_r_ (basis position, ascending), and its members × members block (column major)
+  // in member_block_; member_local_[2 b + side]: member b's index among its side's body's.
+  mutable std::vector<int> member_begin_, member_count_, member_p_, member_r_, member_local_;
+  mutable std::vector<std::size_t> member_block_begin_;
+  mutable std::vector<double> member_block_;
 };
 
 /// Buffers kept between steps (allocation reuse only: a step overwrites everything it reads).

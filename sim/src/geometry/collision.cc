@@ -3,6 +3,7 @@
 // Every pair function takes its shapes in a canonical order (lower SpatialRank first) and
 // appends contacts with that shape as A; CollideShapes flips the contacts when it swapped.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -75,9 +76,16 @@ void FlipContacts(std::vector<ContactPoint>* out, std::size_t begin) {
 void RemoveDuplicateContacts(std::vector<ContactPoint>* out, std::size_t begin, double tol) {
   std::vector<ContactPoint>& v = *out;
   std::size_t kept = begin;
+  const bool screen = tol >= 1e-100 && tol <= 1e100;
   for (std::size_t i = begin; i < v.size(); ++i) {
     bool duplicate = false;
     for (std::size_t j = begin; j < kept && !duplicate; ++j) {
+      // A coordinate difference above tol rules a pair out without the norms: fl(√fl(Σ x_k²)) ≥
+      // |x_0| when x_0² neither under- nor overflows (fl(√fl(x²)) = |x|), so the test fails.
+      if (screen && (std::abs(v[i].p_A_W[0] - v[j].p_A_W[0]) > tol ||
+                     std::abs(v[i].p_A_W[1] - v[j].p_A_W[1]) > tol ||
+                     std::abs(v[i].p_A_W[2] - v[j].p_A_W[2]) > tol))
+        continue;
       duplicate =
           (v[i].p_A_W - v[j].p_A_W).norm() <= tol && (v[i].p_B_W - v[j].p_B_W).norm() <= tol;
     }
@@ -517,20 +525,30 @@ void VertexFeatures(const Polytope& P, const Isometry3d& X_WP, const Polytope& Q
   face_dot.resize(static_cast<std::size_t>(num_faces));
   face_min_p.resize(static_cast<std::size_t>(num_faces));
   face_min_p_ready.assign(static_cast<std::size_t>(num_faces), 0);
+  int far_face = 0;  // the face that separated the last skipped vertex: tried first
   for (int i = 0; i < P.num_vertices(); ++i) {
     const Vector3d x = X_QP * P.vertex(i);
+    // A vertex with some s_f > envelope is skipped (s_max > envelope), whichever face shows it.
+    if (num_faces > 0 && Q.face_normal(far_face).dot(x) - Q.face_offset(far_face) > envelope)
+      continue;
     int f_max = -1;
     double s_max = -kInf;
+    bool far = false;
     for (int f = 0; f < num_faces; ++f) {
       const double dot = Q.face_normal(f).dot(x);
       face_dot[static_cast<std::size_t>(f)] = dot;
       const double s = dot - Q.face_offset(f);
+      if (s > envelope) {
+        far = true;
+        far_face = f;
+        break;
+      }
       if (s > s_max) {
         s_max = s;
         f_max = f;
       }
     }
-    if (s_max > envelope) continue;
+    if (far) continue;
     // Vertex–face.
     int best = -1;
     double best_s = -kInf;
@@ -616,20 +634,53 @@ void EdgeEdge(const Polytope& A, const Isometry3d& X_WA, const Polytope& B, cons
   // cannot give a contact and is skipped before LineLineParams (the margin is 1e4× round-off).
   const double reach = std::max(envelope, support_tol - face_sep);
   const double cull = reach * (1.0 + 1e-9) + 1e-9 * (A.radius() + B.radius() + p_BA.norm());
-  // B's edges (start, direction, length, bounding box) once, not once per edge of A (the same
-  // values).
+  // Two boxes: a pair is skipped without forming it if one of its edges is farther than `cull`
+  // from the other box (then |gap| > reach by the argument above, had the pair passed the cull)
+  // and the computed angle tests are decided by the edge of A alone (parallel: rejected; sin θ ≥
+  // 1/2: the argument holds, rejected or culled): B's edges lie
+  // along B's axes, so sin² θ = u_k / |d_a|² for B's axis k (u_k: the squared components of d_a
+  // off axis k), and the computed tests give "parallel" where u_k ≤ 0.999e-12 |d_a|² and
+  // c_norm² ≥ 0.25 |d_a|²|d_b|² where u_k ≥ 0.2500001 |d_a|² (margins ≫ the few ulps of
+  // round-off in c, c_norm and the products; the size bounds keep every square normal).
+  // An edge of A is far if its bounding box is beyond `cull` from B's ([−h_B, h_B], which holds
+  // every edge box of B exactly); an edge of B is far if both its ends lie beyond `cull` outside
+  // one face plane of A (n_k · (x − p_BA) ∓ h_A,k, n_k A's axis k in B's frame: a lower bound of
+  // the distance to A within ~1e-15 scale, inside the cull margin).
+  const auto box_ok = [](const Polytope& P) {
+    const Vector3d& h = P.half_extents();
+    return P.is_box() && h.minCoeff() >= 1e-30 && h.maxCoeff() <= 1e30;
+  };
+  const bool prune = box_ok(A) && box_ok(B) && std::isfinite(cull);
+  // B's edges (start, direction, length, bounding box, axis, far from A) once, not once per edge
+  // of A (the same values).
   struct EdgeB {
     Vector3d b0, db;
     double length;
     Vector3d lo, hi;
+    int axis;
+    bool far;
   };
   thread_local std::vector<EdgeB> edges_b;
   edges_b.clear();
   B.ForEachEdge([&](const Vector3d& b0, const Vector3d& b1) {
     const Vector3d db = b1 - b0;
     const Vector3d end = b0 + db;
-    edges_b.push_back({b0, db, db.norm(), b0.cwiseMin(end), b0.cwiseMax(end)});
+    edges_b.push_back({b0, db, db.norm(), b0.cwiseMin(end), b0.cwiseMax(end), 0, false});
   });
+  if (prune) {
+    const Matrix3d& R_BA = X_BA.linear();
+    const Vector3d& h_A = A.half_extents();
+    for (EdgeB& edge : edges_b) {
+      const Vector3d b1 = edge.b0 + edge.db;
+      edge.axis = edge.db[0] != 0.0 ? 0 : (edge.db[1] != 0.0 ? 1 : 2);
+      for (int k = 0; k < 3 && !edge.far; ++k) {
+        const Vector3d n = R_BA.col(k);
+        const double t0 = n.dot(edge.b0 - p_BA), t1 = n.dot(b1 - p_BA);
+        edge.far = std::min(t0, t1) - h_A[k] > cull || -std::max(t0, t1) - h_A[k] > cull;
+      }
+    }
+  }
+  const Vector3d& h_B = B.half_extents();
   A.ForEachEdge([&](const Vector3d& a0_A, const Vector3d& a1_A) {
     const Vector3d a0 = X_BA * a0_A;
     const Vector3d da = X_BA.linear() * (a1_A - a0_A);
@@ -637,7 +688,18 @@ void EdgeEdge(const Polytope& A, const Isometry3d& X_WA, const Polytope& B, cons
     const Vector3d a_end = a0 + da;
     const Vector3d lo_a = a0.cwiseMin(a_end), hi_a = a0.cwiseMax(a_end);
     const double da_sq = da.squaredNorm();
+    bool far_a = false;
+    std::array<bool, 3> decided{false, false, false};  // per axis of B: the angle test is decided
+    if (prune && da_sq >= 1e-60 && da_sq <= 1e60) {
+      const Vector3d sq = da.cwiseAbs2();
+      const double u[3] = {sq[1] + sq[2], sq[0] + sq[2], sq[0] + sq[1]};
+      for (int k = 0; k < 3; ++k) {
+        decided[k] = u[k] >= 0.2500001 * da_sq || u[k] <= 0.999e-12 * da_sq;
+        far_a = far_a || lo_a[k] - h_B[k] > cull || -h_B[k] - hi_a[k] > cull;
+      }
+    }
     for (const EdgeB& edge : edges_b) {
+      if ((far_a || edge.far) && decided[edge.axis]) continue;
       const Vector3d& b0 = edge.b0;
       const Vector3d& db = edge.db;
       const Vector3d c = da.cross(db);

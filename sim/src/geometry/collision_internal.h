@@ -135,6 +135,10 @@ class Polytope {
     for (int i : *hull_vertices_) m = std::max(m, d.dot((*vertices_)[i]));
     return m;
   }
+  /// True for a box: corners ±half_extents(), face normals ±e_k, edges along the axes.
+  bool is_box() const { return is_box_; }
+  /// A box's half extents (m); zero for a polyhedron.
+  const Vector3d& half_extents() const { return h_; }
   /// Radius of a ball about the frame origin that contains the polytope (m).
   double radius() const { return radius_; }
 
