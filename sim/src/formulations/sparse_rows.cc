@@ -85,7 +85,8 @@ void JacobianWriter::Sparse(int rows, int cols) {
   dense_ = nullptr;
   rows_ = rows;
   cols_ = cols;
-  entries_.clear();
+  keys_.clear();
+  vals_.clear();
 }
 
 void JacobianWriter::AddRows(int add) {
@@ -100,7 +101,7 @@ void JacobianWriter::Set(int i, int j, double v) {
   if (dense_)
     (*dense_)(i, j) = v;
   else
-    entries_.push_back({i, j, v});
+    Push(i, j, v);
 }
 
 void JacobianWriter::Block(int i, int j, const SparseMatrixd& S, double sign) {
@@ -110,7 +111,7 @@ void JacobianWriter::Block(int i, int j, const SparseMatrixd& S, double sign) {
   }
   for (int c = 0; c < S.outerSize(); ++c)
     for (SparseMatrixd::InnerIterator it(S, c); it; ++it)
-      entries_.push_back({i + static_cast<int>(it.row()), j + c, sign * it.value()});
+      Push(i + static_cast<int>(it.row()), j + c, sign * it.value());
 }
 
 void JacobianWriter::BlockTransposed(int i, int j, const SparseMatrixd& S) {
@@ -120,7 +121,7 @@ void JacobianWriter::BlockTransposed(int i, int j, const SparseMatrixd& S) {
   }
   for (int c = 0; c < S.outerSize(); ++c)
     for (SparseMatrixd::InnerIterator it(S, c); it; ++it)
-      entries_.push_back({i + c, j + static_cast<int>(it.row()), it.value()});
+      Push(i + c, j + static_cast<int>(it.row()), it.value());
 }
 
 void JacobianWriter::Identity(int i, int j, int n) {
@@ -128,39 +129,62 @@ void JacobianWriter::Identity(int i, int j, int n) {
     dense_->block(i, j, n, n).setIdentity();
     return;
   }
-  for (int k = 0; k < n; ++k) entries_.push_back({i + k, j + k, 1.0});
+  for (int k = 0; k < n; ++k) Push(i + k, j + k, 1.0);
+}
+
+void JacobianWriter::SortPattern() {
+  // Stable counting sort of the writes by row, then each row by column (insertion: short rows,
+  // mostly written in column order already, stable); of equal keys the last write is kept.
+  const int n = static_cast<int>(keys_.size());
+  count_.assign(rows_ + 1, 0);
+  for (const Key& k : keys_) ++count_[k.row + 1];
+  for (int i = 0; i < rows_; ++i) count_[i + 1] += count_[i];
+  pattern_ptr_.assign(count_.begin(), count_.end());  // row starts in order_
+  order_.resize(n);
+  for (int k = 0; k < n; ++k) order_[count_[keys_[k].row]++] = k;
+  pattern_src_.clear();
+  int w = 0;
+  for (int i = 0; i < rows_; ++i) {
+    const int b = pattern_ptr_[i], e = pattern_ptr_[i + 1];
+    for (int k = b + 1; k < e; ++k) {
+      if (keys_[order_[k - 1]].col <= keys_[order_[k]].col) continue;
+      const int x = order_[k], xc = keys_[x].col;
+      int m = k;
+      for (; m > b && keys_[order_[m - 1]].col > xc; --m) order_[m] = order_[m - 1];
+      order_[m] = x;
+    }
+    pattern_ptr_[i] = w;
+    for (int k = b; k < e; ++k) {
+      if (k + 1 < e && keys_[order_[k + 1]].col == keys_[order_[k]].col) continue;
+      pattern_src_.push_back(order_[k]);
+      ++w;
+    }
+  }
+  pattern_ptr_[rows_] = w;
+  pattern_keys_.assign(keys_.begin(), keys_.end());
+  pattern_rows_ = rows_;
+  pattern_cols_ = cols_;
 }
 
 void JacobianWriter::Finish(SparseRows* out) {
-  // Stable counting sort by row, then each row by column (insertion: short rows, mostly written
-  // in column order already, stable), an entry written twice keeping its last value.
-  const int n = static_cast<int>(entries_.size());
-  count_.assign(rows_ + 1, 0);
-  for (const Entry& e : entries_) ++count_[e.row + 1];
-  for (int i = 0; i < rows_; ++i) count_[i + 1] += count_[i];
-  start_.assign(count_.begin(), count_.end());
-  sorted_.resize(n);
-  for (const Entry& e : entries_) sorted_[count_[e.row]++] = e;
+  const std::size_t n = keys_.size();
+  const bool same =
+      rows_ == pattern_rows_ && cols_ == pattern_cols_ && n == pattern_keys_.size() &&
+      (n == 0 || std::memcmp(keys_.data(), pattern_keys_.data(), n * sizeof(Key)) == 0);
+  if (!same) SortPattern();
+  const int slots = static_cast<int>(pattern_src_.size());
   out->cols = cols_;
   out->ptr.resize(rows_ + 1);
-  out->col.resize(n);
-  out->val.resize(n);
+  out->col.resize(slots);
+  out->val.resize(slots);
   int w = 0;
   out->ptr[0] = 0;
   for (int i = 0; i < rows_; ++i) {
-    const int b = start_[i], e = start_[i + 1];
-    for (int k = b + 1; k < e; ++k) {
-      if (sorted_[k - 1].col <= sorted_[k].col) continue;
-      const Entry x = sorted_[k];
-      int m = k;
-      for (; m > b && sorted_[m - 1].col > x.col; --m) sorted_[m] = sorted_[m - 1];
-      sorted_[m] = x;
-    }
-    for (int k = b; k < e; ++k) {
-      if (k + 1 < e && sorted_[k + 1].col == sorted_[k].col) continue;  // a later write wins
-      if (sorted_[k].val == 0.0) continue;
-      out->col[w] = sorted_[k].col;
-      out->val[w++] = sorted_[k].val;
+    for (int k = pattern_ptr_[i]; k < pattern_ptr_[i + 1]; ++k) {
+      const int e = pattern_src_[k];
+      if (vals_[e] == 0.0) continue;
+      out->col[w] = keys_[e].col;
+      out->val[w++] = vals_[e];
     }
     out->ptr[i + 1] = w;
   }

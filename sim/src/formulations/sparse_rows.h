@@ -42,14 +42,15 @@ struct SparseRows {
   double RowMaxAbs(int i, int col_end, int* arg = nullptr) const;
 };
 
-/// The step equations' Jacobians by rows, columns [z; θ] as StepResiduals' d_ matrices.
-struct SparseJacobians {
-  SparseRows equality, comp_a, comp_b;
-};
-
 /// The destination of a Jacobian's entries: a dense matrix, or a triplet list turned into
 /// SparseRows (Finish). Every entry is written at most once (the block writes below overwrite
 /// what the dense matrix holds, which is 0 until then); the same entries in both.
+///
+/// Finish sorts the writes into rows and keeps the result as a row pattern (per output entry,
+/// the write it takes its value from): a later Finish whose writes have the same size and the
+/// same (row, column) sequence gathers the values through that pattern instead of sorting
+/// again. The output is the same either way; only a writer kept between evaluations (one per
+/// thread, SparseJacobians) profits.
 class JacobianWriter {
  public:
   /// Writes go to *m, first set to 0 (rows × cols).
@@ -82,15 +83,35 @@ class JacobianWriter {
   void Finish(SparseRows* out);
 
  private:
-  struct Entry {
+  struct Key {
     int row, col;
-    double val;
   };
+  void Push(int i, int j, double v) {
+    keys_.push_back({i, j});
+    vals_.push_back(v);
+  }
+  /// pattern_* from keys_ (rows_ × cols_): a stable sort by row, then by column, a key written
+  /// twice taking its last write.
+  void SortPattern();
+
   MatrixXd* dense_ = nullptr;
   int rows_ = 0, cols_ = 0;
-  std::vector<Entry> entries_;
-  std::vector<int> count_, start_;
-  std::vector<Entry> sorted_;
+  std::vector<Key> keys_;     // the writes in order
+  std::vector<double> vals_;  // their values
+  // The pattern of the last sorted writes: output row i holds, in column order, the values of
+  // the writes pattern_src_[pattern_ptr_[i] .. pattern_ptr_[i + 1]) (exact zeros dropped).
+  int pattern_rows_ = -1, pattern_cols_ = -1;
+  std::vector<Key> pattern_keys_;
+  std::vector<int> pattern_ptr_, pattern_src_;
+  std::vector<int> count_, order_;
+};
+
+/// The step equations' Jacobians by rows, columns [z; θ] as StepResiduals' d_ matrices, and the
+/// writers that collect them (kept with them: their storage and row patterns are reused by the
+/// next evaluation; results do not depend on them).
+struct SparseJacobians {
+  SparseRows equality, comp_a, comp_b;
+  JacobianWriter equality_writer, comp_a_writer, comp_b_writer;
 };
 
 }  // namespace vinci::sim::internal

@@ -142,7 +142,11 @@ void internal::EvaluateAssemblyInto(const StewartTrinkle& st, const Scene& model
   // With `sparse`, the Jacobians go there (by rows) and the d_ matrices stay empty.
   const bool jac = jacobians;
   const int ncomp_all = nc + nc * l.nd + nc + l.nk;
-  JacobianWriter Je, Ja, Jb;
+  // Sparse: the writers kept with *sparse (their row patterns reused from the last evaluation).
+  JacobianWriter dense_e, dense_a, dense_b;
+  JacobianWriter& Je = sparse ? sparse->equality_writer : dense_e;
+  JacobianWriter& Ja = sparse ? sparse->comp_a_writer : dense_a;
+  JacobianWriter& Jb = sparse ? sparse->comp_b_writer : dense_b;
   if (jac && sparse) {
     Je.Sparse(nv + nq + nb, ncol);
     Ja.Sparse(ncomp_all, ncol);
