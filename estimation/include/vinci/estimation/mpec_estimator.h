@@ -56,18 +56,15 @@ namespace vinci::estimation {
 /// MpecSolverOptions with the homotopy start the estimator uses (epsilon_start = 1e-2), the
 /// early polish on after the ε = 1e-4 stage with a tolerance of 1e-3 in the objective's units
 /// (χ² with a stated σ_R: a polished point within 1e-3 of the relaxed optimum differs from the
-/// full homotopy's by at most ~0.03 standard errors), the relaxation rows' curvature left out
-/// of the Hessian (MpecSolverOptions::relaxation_curvature), and each warm-started stage at ε
-/// started 0.1 ε inside its bounds (MpecSolverOptions::warm_start_push_per_epsilon). Without a
-/// stated σ_R the objective's scale is unknown and EstimateMpec turns the early polish off.
-/// Stages that stall at their value end after 5 iterations
-/// (MpecSolverOptions::stall_iterations).
+/// full homotopy's by at most ~0.03 standard errors), and the relaxation rows' curvature left
+/// out of the Hessian (MpecSolverOptions::relaxation_curvature). Without a stated σ_R the
+/// objective's scale is unknown and EstimateMpec turns the early polish off. Stages that stall
+/// at their value end after 5 iterations (MpecSolverOptions::stall_iterations).
 inline MpecSolverOptions EstimatorSolverDefaults() {
   MpecSolverOptions o;
   o.epsilon_start = 1e-2;
   o.early_polish_epsilon = 1e-4;
   o.relaxation_curvature = false;
-  o.warm_start_push_per_epsilon = 0.1;  // stage ε: starting point ≥ 0.1 ε from its bounds
   o.penalty_start = 10;  // ρ = 1 left products of 0.45–0.67 on noisy block logs: never an entry
   o.penalty_entry_epsilon = 1e-4;  // the entry's product bound, measured on the noisy block
   o.early_polish_tolerance = 1e-3;
