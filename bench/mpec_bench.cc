@@ -7,7 +7,9 @@
 // --threads 1,2; --raw-guess: the initial guess from the raw log (MpecOptions::
 // smooth_initial_guess off); --tracking-guess (MpecOptions::tracking_guess); --penalty START (the
 // first ρ); --epsilon START FACTOR; --stall N; --relaxation-curvature 0|1
-// (MpecSolverOptions::relaxation_curvature). Unknown flags are ignored. Environment:
+// (MpecSolverOptions::relaxation_curvature); --push-per-epsilon X
+// (MpecSolverOptions::warm_start_push_per_epsilon); --predictor 0|1
+// (MpecSolverOptions::epsilon_predictor). Unknown flags are ignored. Environment:
 // MPEC_BENCH_VERBOSE=1 (progress lines), MPEC_BENCH_IPOPT_PRINT=N (Ipopt's print_level),
 // MPEC_BENCH_SAMPLES=N (N samples instead of 500).
 #include <cmath>
@@ -81,6 +83,8 @@ int main(int argc, char** argv) {
   double penalty_start = 0.0;  // --penalty START: MpecSolverOptions::penalty_start (0: default)
   bool raw_guess = false;      // --raw-guess: MpecOptions::smooth_initial_guess off
   bool tracking = false;       // --tracking-guess: MpecOptions::tracking_guess on
+  double push = -1.0;  // --push-per-epsilon X: MpecSolverOptions::warm_start_push_per_epsilon
+  int predictor = -1;  // --predictor 0|1: MpecSolverOptions::epsilon_predictor
   int curvature = -1;  // --relaxation-curvature 0|1: MpecSolverOptions::relaxation_curvature
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--quick")) quick = true;
@@ -95,6 +99,8 @@ int main(int argc, char** argv) {
       epsilon_factor = std::atof(argv[++i]);
     }
     if (!std::strcmp(argv[i], "--stall") && i + 1 < argc) stall = std::atoi(argv[++i]);
+    if (!std::strcmp(argv[i], "--push-per-epsilon") && i + 1 < argc) push = std::atof(argv[++i]);
+    if (!std::strcmp(argv[i], "--predictor") && i + 1 < argc) predictor = std::atoi(argv[++i]);
     if (!std::strcmp(argv[i], "--relaxation-curvature") && i + 1 < argc)
       curvature = std::atoi(argv[++i]);
     if (!std::strcmp(argv[i], "--threads") && i + 1 < argc) {
@@ -158,6 +164,8 @@ int main(int argc, char** argv) {
         if (epsilon_start > 0) o.solver.epsilon_start = epsilon_start;
         if (epsilon_factor > 0) o.solver.epsilon_factor = epsilon_factor;
         if (stall >= 0) o.solver.stall_iterations = stall;
+        if (push >= 0) o.solver.warm_start_push_per_epsilon = push;
+        if (predictor >= 0) o.solver.epsilon_predictor = predictor != 0;
         if (curvature >= 0) o.solver.relaxation_curvature = curvature != 0;
         const std::clock_t cpu0 = std::clock();
         // MPEC_BENCH_VERBOSE=1: the estimator's progress lines with the CPU time so far (setup,

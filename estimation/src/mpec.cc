@@ -403,6 +403,8 @@ void MpecSolverOptions::Validate() const {
   if (!(early_polish_epsilon > 0)) fail("early_polish_epsilon", early_polish_epsilon, "> 0");
   if (!(biactive_factor >= 0) || !std::isfinite(biactive_factor))
     fail("biactive_factor", biactive_factor, "finite ≥ 0");
+  if (!(warm_start_push_per_epsilon >= 0) || !std::isfinite(warm_start_push_per_epsilon))
+    fail("warm_start_push_per_epsilon", warm_start_push_per_epsilon, "finite ≥ 0");
   if (!(stall_objective_change > 0)) fail("stall_objective_change", stall_objective_change, "> 0");
   if (!(stall_constraint_violation > 0))
     fail("stall_constraint_violation", stall_constraint_violation, "> 0");
@@ -473,11 +475,13 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o) {
       opt.SetNumericValue("acceptable_constr_viol_tol", o.stall_constraint_violation);
     }
     if (warm) {
+      const double push =
+          stage == Stage::kScholtes ? std::max(1e-9, o.warm_start_push_per_epsilon * param) : 1e-9;
       opt.SetStringValue("warm_start_init_point", "yes");
-      opt.SetNumericValue("warm_start_bound_push", 1e-9);
-      opt.SetNumericValue("warm_start_bound_frac", 1e-9);
-      opt.SetNumericValue("warm_start_slack_bound_push", 1e-9);
-      opt.SetNumericValue("warm_start_slack_bound_frac", 1e-9);
+      opt.SetNumericValue("warm_start_bound_push", push);
+      opt.SetNumericValue("warm_start_bound_frac", push);
+      opt.SetNumericValue("warm_start_slack_bound_push", push);
+      opt.SetNumericValue("warm_start_slack_bound_frac", push);
       opt.SetNumericValue("warm_start_mult_bound_push", 1e-9);
       opt.SetNumericValue("mu_init", 1e-6);
     }
@@ -594,7 +598,20 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o) {
       std::ostringstream what;
       what << "scholtes eps " << eps;
       const bool first = !have_multipliers;
+      const VectorXd x_keep = x;
+      if (o.epsilon_predictor && !first) {
+        int moved = 0;
+        for (const auto& [a, b] : pairs) {
+          const int lo = x[a] <= x[b] ? a : b, hi = lo == a ? b : a;
+          if (x[a] * x[b] > eps && x[hi] > 0) {
+            x[lo] = eps / x[hi];
+            ++moved;
+          }
+        }
+        what << " (predictor: " << moved << " pairs moved)";
+      }
       auto nlp = run(Stage::kScholtes, eps, {}, have_multipliers);
+      if (!Solved(last) && !first) x = x_keep;  // the last solved stage's iterate
       if (Solved(last) || first) {
         accept(nlp, what.str());
         last_epsilon = eps;

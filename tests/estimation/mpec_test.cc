@@ -186,6 +186,23 @@ INSTANTIATE_TEST_SUITE_P(Toys, MacMpecTest,
                                   (std::get<2>(i.param) ? "_polish" : "_relaxed");
                          });
 
+// The estimator's warm-start push (0.1 ε) and the ε predictor change the homotopy's path, not
+// its end point.
+TEST(MpecSolver, WarmStartPushAndPredictorReachTheKnownOptima) {
+  for (const Toy& toy : kToys) {
+    for (const bool predictor : {false, true}) {
+      MpecSolverOptions o;
+      o.warm_start_push_per_epsilon = 0.1;
+      o.epsilon_predictor = predictor;
+      o.polish = false;
+      const MpecSolution s = SolveMpec(toy.make(), o);
+      EXPECT_TRUE(s.converged) << toy.name << ": " << s.reason;
+      EXPECT_NEAR(s.objective, toy.optimum, 1e-6) << toy.name << " predictor " << predictor;
+      EXPECT_LE(s.complementarity_violation, 3e-8) << toy.name;
+    }
+  }
+}
+
 TEST(MpecSolver, RejectsBadOptionsAndPairs) {
   const QuadraticMpec p = Scholtes3();
   MpecSolverOptions o;
@@ -194,6 +211,9 @@ TEST(MpecSolver, RejectsBadOptionsAndPairs) {
   MpecSolverOptions b;
   b.biactive_factor = -1;
   EXPECT_THROW(SolveMpec(p, b), std::invalid_argument);
+  MpecSolverOptions w;
+  w.warm_start_push_per_epsilon = -0.1;
+  EXPECT_THROW(SolveMpec(p, w), std::invalid_argument);
   QuadraticMpec q = Scholtes3();
   q.pairs = {{0, 0}};
   EXPECT_THROW(SolveMpec(q, MpecSolverOptions{}), std::invalid_argument);

@@ -152,6 +152,18 @@ struct MpecSolverOptions {
   /// every pair fixes its smaller side. Off by default: measured only on the tossed cube (3: no
   /// change to its hard toss), not on the noisy-log studies.
   double biactive_factor = 0.0;
+  /// Scholtes: the warm-started stages' distance of the starting point from its bounds, per ε:
+  /// Ipopt's warm_start_bound_push, _bound_frac, _slack_bound_push and _slack_bound_frac are
+  /// max(1e-9, this × ε) for the stage at ε. 0: 1e-9 at every stage (the polish NLPs: always
+  /// 1e-9). A starting point with its sides ~1e-9 from their bounds made the first
+  /// warm-started stage of a noisy log creep with steps cut by the fraction-to-the-boundary
+  /// rule (measured, docs/estimation.md).
+  double warm_start_push_per_epsilon = 0.0;
+  /// Scholtes: before each warm-started stage ε, every pair with x_a x_b > ε has its smaller
+  /// side moved onto the new hyperbola, x_min ← ε / x_max (a predictor along the relaxation
+  /// path of a pair whose smaller side tends to 0; the step equations, not the relaxation rows,
+  /// are then violated by the change). false: the last stage's iterate as it is.
+  bool epsilon_predictor = false;
   double stall_objective_change = 1e-7;
   double stall_constraint_violation = 1e-6;
   bool limited_memory = false;  ///< Ipopt's L-BFGS Hessian instead of the problem's
