@@ -14,7 +14,12 @@
 #include "vinci/sim/solvers/lcp_acceptance.h"
 
 namespace vinci::sim {
+
 namespace {
+
+// A symmetric M_BB of at least this many members takes the sparse LDLᵀ: about where it overtakes
+// the dense QR on resting k-box stacks (4k normals in the basis; bench/README.md, dense14).
+constexpr int kSparseSymmetricWarmBasisMin = 33;
 
 // As lemke.cc: the cap of the ‖M‖∞‖z‖∞ term of the acceptance scale, relative to max(1, ‖q‖∞).
 constexpr double kMaxAcceptanceGrowth = 1e3;
@@ -137,7 +142,44 @@ bool SolveOnWarmBasis(const LcpMatrixOperator& M, const Eigen::VectorXd& q,
     s->guess_b(a) = guess(s->active[a]);
     s->rhs(a) = q(s->active[a]);
   }
-  if (nb <= kDenseWarmBasisMax) {
+  // From kSparseSymmetricWarmBasisMin members a symmetric M_BB = G_Bᵀ M⁻¹ G_B (+ compliance),
+  // which is semidefinite, is solved by LDLᵀ with the dependent pivots dropped (their unknowns
+  // keep the guess, as kBasisRankTolerance's in the QR); any other by the dense QR up to
+  // kDenseWarmBasisMax members, by a sparse QR above.
+  bool factored = false;
+  if (nb >= kSparseSymmetricWarmBasisMin) {
+    CompressedColumns& m_bb = s->m_bb_sparse;
+    M.PrincipalBlockSparse(s->active, &m_bb);
+    if (m_bb.IsSymmetric(&s->cursor) && s->ldlt.Factorize(m_bb, internal::kBasisRankTolerance)) {
+      m_bb.Multiply(s->guess_b, &s->product);
+      s->rhs = -(s->product + s->rhs);
+      s->ldlt.Solve(s->rhs, &s->z_b);
+      factored = true;
+    } else if (nb > kDenseWarmBasisMax) {
+      m_bb.Multiply(s->guess_b, &s->product);
+      s->rhs = -(s->product + s->rhs);
+      const Eigen::SparseMatrix<double> s_bb = Eigen::Map<const Eigen::SparseMatrix<double>>(
+          nb, nb, static_cast<Eigen::Index>(m_bb.row.size()), m_bb.col_start.data(),
+          m_bb.row.data(), m_bb.value.data());
+      Eigen::SparseQR<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>> qr;
+      // Columns whose remaining norm is at most kBasisRankTolerance of the largest column norm
+      // are dependent (basis_solve.h): their unknowns keep the guess.
+      double max_norm = 0.0;
+      for (int j = 0; j < nb; ++j) {
+        double sum = 0.0;
+        for (int p = m_bb.col_start[j]; p < m_bb.col_start[j + 1]; ++p)
+          sum += m_bb.value[p] * m_bb.value[p];
+        max_norm = std::max(max_norm, std::sqrt(sum));
+      }
+      qr.setPivotThreshold(internal::kBasisRankTolerance * max_norm);
+      qr.compute(s_bb);
+      if (qr.info() != Eigen::Success) return false;
+      s->z_b = qr.solve(s->rhs);
+      if (qr.info() != Eigen::Success) return false;
+      factored = true;
+    }
+  }
+  if (!factored) {
     // As LemkeSolver: column-pivoted Householder QR of the dense M_BB, in the scratch's storage.
     M.PrincipalBlock(s->active, &s->m_bb);
     s->product.noalias() = s->m_bb * s->guess_b;
@@ -161,35 +203,6 @@ bool SolveOnWarmBasis(const LcpMatrixOperator& M, const Eigen::VectorXd& q,
     if (!factorized) {
       kept.m_bb = s->m_bb;
       kept.valid = true;
-    }
-  } else {
-    CompressedColumns& m_bb = s->m_bb_sparse;
-    M.PrincipalBlockSparse(s->active, &m_bb);
-    m_bb.Multiply(s->guess_b, &s->product);
-    s->rhs = -(s->product + s->rhs);
-    // A symmetric M_BB = G_Bᵀ M⁻¹ G_B (+ compliance) is semidefinite: LDLᵀ with the dependent
-    // pivots dropped (their unknowns keep the guess, as kBasisRankTolerance's in the QR).
-    if (m_bb.IsSymmetric(&s->cursor) && s->ldlt.Factorize(m_bb, internal::kBasisRankTolerance)) {
-      s->ldlt.Solve(s->rhs, &s->z_b);
-    } else {
-      const Eigen::SparseMatrix<double> s_bb = Eigen::Map<const Eigen::SparseMatrix<double>>(
-          nb, nb, static_cast<Eigen::Index>(m_bb.row.size()), m_bb.col_start.data(),
-          m_bb.row.data(), m_bb.value.data());
-      Eigen::SparseQR<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>> qr;
-      // Columns whose remaining norm is at most kBasisRankTolerance of the largest column norm
-      // are dependent (basis_solve.h): their unknowns keep the guess.
-      double max_norm = 0.0;
-      for (int j = 0; j < nb; ++j) {
-        double sum = 0.0;
-        for (int p = m_bb.col_start[j]; p < m_bb.col_start[j + 1]; ++p)
-          sum += m_bb.value[p] * m_bb.value[p];
-        max_norm = std::max(max_norm, std::sqrt(sum));
-      }
-      qr.setPivotThreshold(internal::kBasisRankTolerance * max_norm);
-      qr.compute(s_bb);
-      if (qr.info() != Eigen::Success) return false;
-      s->z_b = qr.solve(s->rhs);
-      if (qr.info() != Eigen::Success) return false;
     }
   }
   s->z_b += s->guess_b;

@@ -75,12 +75,13 @@ struct WarmBasisScratch {
   std::vector<int> cursor;
 };
 
-/// Bases with at most this many members are solved densely, by the column-pivoted QR that
-/// LemkeSolver's warm start uses (same bits for the same M_BB); larger ones sparsely: a
-/// symmetric M_BB (a basis of impulse columns only: resting and sticking contacts) by
-/// SemidefiniteLdlt with drop tolerance 1e-10 (its analysis kept between calls while the basis
-/// block's pattern is unchanged), any other (or one whose LDLᵀ finds it indefinite) by a sparse
-/// rank-revealing QR (Eigen::SparseQR, COLAMD ordering).
+/// Bases with fewer than 33 members (warm_basis.cc) are solved densely, by the
+/// column-pivoted QR that LemkeSolver's warm start uses (same bits for the same M_BB). From that
+/// size on, a symmetric M_BB (a basis of impulse columns only: resting and sticking contacts) is
+/// solved by SemidefiniteLdlt with drop tolerance 1e-10 (its analysis kept between calls while
+/// the basis block's pattern is unchanged); any other (or one whose LDLᵀ finds it indefinite) by
+/// the dense QR up to kDenseWarmBasisMax members and by a sparse rank-revealing QR
+/// (Eigen::SparseQR, COLAMD ordering) above.
 inline constexpr int kDenseWarmBasisMax = 48;
 
 /// LemkeSolver's first two stages (lemke.h) on LCP(M, q) with M given as an operator: the
@@ -92,7 +93,7 @@ inline constexpr int kDenseWarmBasisMax = 48;
 /// m = M.NormInfBound() (M.NormInf() if that is not finite): LemkeSolver's test for an operator
 /// whose bound is its norm (SparseLcpMatrix); a bound m ≥ ‖M‖∞ makes the tolerances at most
 /// m / ‖M‖∞ times wider. Work: NormInfBound, two products, the |B| × |B|
-/// block and its factorization (dense up to kDenseWarmBasisMax, sparse above; a dense block with
+/// block and its factorization (dense or sparse by size and symmetry, above; a dense block with
 /// the same bits as one of the scratch's last two distinct ones reuses its QR) — no pass over a
 /// dense n × n matrix. The result does not depend on what the scratch solved before.
 ///
