@@ -598,8 +598,9 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o) {
       std::ostringstream what;
       what << "scholtes eps " << eps;
       const bool first = !have_multipliers;
-      const VectorXd x_keep = x;
+      VectorXd x_keep;  // the last solved stage's iterate, kept if the predictor moves x
       if (o.epsilon_predictor && !first) {
+        x_keep = x;
         int moved = 0;
         for (const auto& [a, b] : pairs) {
           const int lo = x[a] <= x[b] ? a : b, hi = lo == a ? b : a;
@@ -611,7 +612,7 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o) {
         what << " (predictor: " << moved << " pairs moved)";
       }
       auto nlp = run(Stage::kScholtes, eps, {}, have_multipliers);
-      if (!Solved(last) && !first) x = x_keep;  // the last solved stage's iterate
+      if (!Solved(last) && x_keep.size() > 0) x = x_keep;
       if (Solved(last) || first) {
         accept(nlp, what.str());
         last_epsilon = eps;

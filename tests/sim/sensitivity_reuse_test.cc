@@ -62,7 +62,9 @@ TEST_P(SensitivityReuseTest, WarmThreadMatchesColdThreadBitwise) {
     last_contacts = contacts;
   }
   // The scenes whose contact set changes along the rollout exercise a changed pattern.
-  if (GetParam() == "ball_drop.yaml") EXPECT_GT(contact_counts_changed, 0);
+  if (GetParam() == "ball_drop.yaml") {
+    EXPECT_GT(contact_counts_changed, 0);
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(Scenes, SensitivityReuseTest,

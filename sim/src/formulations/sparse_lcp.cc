@@ -12,49 +12,6 @@ namespace vinci::sim {
 namespace internal {
 
 namespace {
-// One scratch per thread, leased for the duration of a step (a nested step on the same thread,
-// if any, gets its own): reused allocations only, so results do not depend on the thread.
-thread_local StepScratch t_scratch;
-thread_local bool t_scratch_in_use = false;
-}  // namespace
-
-StepScratchLease::StepScratchLease() {
-  if (!t_scratch_in_use) {
-    t_scratch_in_use = true;
-    in_use_ = &t_scratch_in_use;
-    scratch_ = &t_scratch;
-  } else {
-    own_ = std::make_unique<StepScratch>();
-    scratch_ = own_.get();
-  }
-}
-
-WarmBasisScratch& StepScratch::BasisFor(const VectorXd& guess) {
-  int nb = 0;
-  for (Eigen::Index i = 0; i < guess.size(); ++i) nb += guess(i) > 0.0 ? 1 : 0;
-  if (nb > kDenseWarmBasisMax) return basis;
-  if (basis_by_size.size() <= static_cast<std::size_t>(nb)) basis_by_size.resize(nb + 1);
-  std::unique_ptr<WarmBasisScratch>& b = basis_by_size[static_cast<std::size_t>(nb)];
-  if (!b) b = std::make_unique<WarmBasisScratch>();
-  return *b;
-}
-
-StepScratchLease::~StepScratchLease() {
-  if (in_use_) *in_use_ = false;
-}
-
-void ClearStepRecord() {
-  if (!t_scratch_in_use) t_scratch.record.Clear();
-}
-
-void StampStepOwner(const std::shared_ptr<const Scene>& scene) {
-  StepRecord& r = t_scratch.record;
-  if (!t_scratch_in_use && r.valid && r.model == scene.get()) r.owner = scene;
-}
-
-const StepScratch* IdleThreadStepScratch() { return t_scratch_in_use ? nullptr : &t_scratch; }
-
-namespace {
 
 // EnsureBlocks sums the rows of up to this many columns per contact (1 + n_d) together.
 constexpr int kRowGroupMax = 9;
@@ -410,6 +367,26 @@ void ContactLcpOperator::EnsureWG(int body, int p) const {
   ready = 1;
 }
 
+void ContactLcpOperator::MemberBlock(int body, const int* p, int m, double* out) const {
+  if (full_) {
+    const MatrixXd& B = blocks_[body];
+    for (int x = 0; x < m; ++x)
+      for (int y = 0; y < m; ++y) out[static_cast<std::ptrdiff_t>(x) * m + y] = B(p[y], p[x]);
+    return;
+  }
+  for (int x = 0; x < m; ++x) EnsureWG(body, p[x]);
+  const MatrixXd& Gb = Gb_[body];
+  const MatrixXd& WG = WG_[body];
+  for (int x = 0; x < m; ++x)
+    for (int y = x; y < m; ++y) {
+      // W_b is symmetric, so is the block: its lower triangle, entry (i ≥ j) = Gb(:, i) · WG(:, j).
+      const int i = std::max(p[x], p[y]), j = std::min(p[x], p[y]);
+      const double value = nvb_ == 6 ? LowerEntry<6>(Gb, WG, i, j) : LowerEntry<3>(Gb, WG, i, j);
+      out[static_cast<std::ptrdiff_t>(x) * m + y] = value;
+      out[static_cast<std::ptrdiff_t>(y) * m + x] = value;
+    }
+}
+
 void ContactLcpOperator::EnsureBlocks() const {
   if (full_) return;
   const StewartTrinkle::Assembly& a = *a_;
@@ -655,30 +632,15 @@ void ContactLcpOperator::PrincipalBlock(const std::vector<int>& index, MatrixXd*
     members_.clear();
     for (int p = 0; p < static_cast<int>(cols.size()); ++p)
       if (position_[cols[p]] >= 0) members_.emplace_back(p, position_[cols[p]]);
-    if (full_) {
-      const MatrixXd& B = blocks_[body];
-      for (const auto& [pj, bj] : members_)
-        for (const auto& [pi, bi] : members_) (*out)(bi, bj) += B(pi, pj);
-    } else {  // only the members' entries (the same bits as the whole block's), each pair once
-      for (const auto& member : members_) EnsureWG(body, member.first);
-      const MatrixXd& Gb = Gb_[body];
-      const MatrixXd& WG = WG_[body];
-      const int stride = static_cast<int>(out->rows());
-      double* o = out->data();
-      for (std::size_t x = 0; x < members_.size(); ++x) {
-        const auto [pj, bj] = members_[x];
-        for (std::size_t y = x; y < members_.size(); ++y) {
-          const auto [pi, bi] = members_[y];
-          // W_b is symmetric, so is the block: its lower triangle, entry (i ≥ j) =
-          // Gb(:, i) · WG(:, j).
-          const int i = std::max(pi, pj), j = std::min(pi, pj);
-          const double value =
-              nvb_ == 6 ? LowerEntry<6>(Gb, WG, i, j) : LowerEntry<3>(Gb, WG, i, j);
-          o[static_cast<std::ptrdiff_t>(bj) * stride + bi] += value;
-          if (y != x) o[static_cast<std::ptrdiff_t>(bi) * stride + bj] += value;
-        }
-      }
-    }
+    const int m = static_cast<int>(members_.size());
+    member_p_.resize(static_cast<std::size_t>(m));
+    for (int x = 0; x < m; ++x) member_p_[x] = members_[x].first;
+    member_block_.resize(static_cast<std::size_t>(m) * m);
+    MemberBlock(body, member_p_.data(), m, member_block_.data());
+    for (int x = 0; x < m; ++x)
+      for (int y = 0; y < m; ++y)
+        (*out)(members_[y].second, members_[x].second) +=
+            member_block_[static_cast<std::size_t>(x) * m + y];
   }
   for (int b = 0; b < k; ++b) {
     const int j = index[b];
@@ -708,8 +670,7 @@ void ContactLcpOperator::PrincipalBlockSparse(const std::vector<int>& index,
   // column touches, summed where both bodies hold the row (0 + x + y, side 0 first: in either
   // order the bits of PrincipalBlock's sum), then the compliance; or the E, U, −Eᵀ entries.
   // Rows sorted per column. Each body's members (sorted by basis position) × members block is
-  // formed first, each entry once (Gb(:, i) · WG(:, j), i ≥ j, as the whole block forms it, or
-  // read from the whole block if formed); a column merges its two bodies' member lists.
+  // formed first (MemberBlock); a column merges its two bodies' member lists.
   const int k = static_cast<int>(index.size());
   const int s0 = nc_ + nf_, n = s0 + nc_;
   position_.resize(n);
@@ -752,39 +713,16 @@ void ContactLcpOperator::PrincipalBlockSparse(const std::vector<int>& index,
       member_local_[2 * static_cast<std::size_t>(member_r_[begin + x]) + side] = x;
     }
     member_block_.resize(block_begin + static_cast<std::size_t>(mb) * mb);
-    double* blk = member_block_.data() + block_begin;
-    if (full_) {
-      const MatrixXd& B = blocks_[body];
-      for (int x = 0; x < mb; ++x)
-        for (int y = 0; y < mb; ++y) blk[static_cast<std::ptrdiff_t>(x) * mb + y] = B(mp[y], mp[x]);
-      continue;
-    }
-    for (int x = 0; x < mb; ++x) EnsureWG(body, mp[x]);
-    const MatrixXd& Gb = Gb_[body];
-    const MatrixXd& WG = WG_[body];
-    for (int x = 0; x < mb; ++x)
-      for (int y = x; y < mb; ++y) {
-        // W_b is symmetric, so is the block: its lower triangle, entry (i ≥ j) = Gb(:, i) · WG(:,
-        // j).
-        const int i = std::max(mp[x], mp[y]), j = std::min(mp[x], mp[y]);
-        const double value = nvb_ == 6 ? LowerEntry<6>(Gb, WG, i, j) : LowerEntry<3>(Gb, WG, i, j);
-        blk[static_cast<std::ptrdiff_t>(x) * mb + y] = value;
-        blk[static_cast<std::ptrdiff_t>(y) * mb + x] = value;
-      }
+    MemberBlock(body, mp, mb, member_block_.data() + block_begin);
   }
   out->Reset(k);
-  bool ascending = true;  // the current column's rows, so far
-  std::size_t column_begin = 0;
   const auto push = [&](int r, double value) {
-    ascending = ascending && (out->row.size() == column_begin || out->row.back() < r);
     out->row.push_back(r);
     out->value.push_back(value);
   };
   for (int b = 0; b < k; ++b) {
     const int j = index[b];
     const int begin = static_cast<int>(out->row.size());
-    column_begin = out->row.size();
-    ascending = true;
     if (j < s0) {
       const int c = ContactOf(j);
       const int bodies[2] = {a_->contacts[c].body_a, a_->contacts[c].body_b};
@@ -829,9 +767,9 @@ void ContactLcpOperator::PrincipalBlockSparse(const std::vector<int>& index,
       for (int t = 0; t < nd_; ++t)
         if (const int r = position_[nc_ + c * nd_ + t]; r >= 0) push(r, 0.0 + 1.0);
     }
-    // Insertion sort of the column's entries by row (not needed when index ascends).
+    // Insertion sort of the column's entries by row (already in order when index ascends).
     const int end = static_cast<int>(out->row.size());
-    for (int p = ascending ? end : begin + 1; p < end; ++p) {
+    for (int p = begin + 1; p < end; ++p) {
       const int r = out->row[p];
       const double v = out->value[p];
       int q = p;

@@ -71,6 +71,10 @@ class ContactLcpOperator final : public LcpMatrixOperator {
   void EnsureBlocks() const;
   // Column p of body's W_b G_b (once per Build).
   void EnsureWG(int body, int p) const;
+  // The entries of body's block G_bᵀ W_b G_b at its columns p[0..m) × p[0..m), column major into
+  // out (m × m): read from the whole block if formed, else each pair formed once, as EnsureBlocks
+  // forms it (the same bits).
+  void MemberBlock(int body, const int* p, int m, double* out) const;
 
   const StewartTrinkle::Assembly* a_ = nullptr;
   const Scene* model_ = nullptr;
@@ -99,6 +103,7 @@ class ContactLcpOperator final : public LcpMatrixOperator {
   // PrincipalBlockSparse, per body: its members' range in member_p_ (column in the body's list)
   // and member_r_ (basis position, ascending), and its members × members block (column major)
   // in member_block_; member_local_[2 b + side]: member b's index among its side's body's.
+  // PrincipalBlock uses member_p_ and member_block_ for one body at a time.
   mutable std::vector<int> member_begin_, member_count_, member_p_, member_r_, member_local_;
   mutable std::vector<std::size_t> member_block_begin_;
   mutable std::vector<double> member_block_;

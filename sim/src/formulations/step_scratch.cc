@@ -1,0 +1,53 @@
+// The per-thread step scratch (sparse_lcp.h): leases, warm-basis scratch by basis size, the
+// step record.
+#include <cstddef>
+#include <memory>
+
+#include "sparse_lcp.h"
+
+namespace vinci::sim::internal {
+
+namespace {
+// One scratch per thread, leased for the duration of a step (a nested step on the same thread,
+// if any, gets its own): reused allocations only, so results do not depend on the thread.
+thread_local StepScratch t_scratch;
+thread_local bool t_scratch_in_use = false;
+}  // namespace
+
+StepScratchLease::StepScratchLease() {
+  if (!t_scratch_in_use) {
+    t_scratch_in_use = true;
+    in_use_ = &t_scratch_in_use;
+    scratch_ = &t_scratch;
+  } else {
+    own_ = std::make_unique<StepScratch>();
+    scratch_ = own_.get();
+  }
+}
+
+WarmBasisScratch& StepScratch::BasisFor(const VectorXd& guess) {
+  int nb = 0;
+  for (Eigen::Index i = 0; i < guess.size(); ++i) nb += guess(i) > 0.0 ? 1 : 0;
+  if (nb > kDenseWarmBasisMax) return basis;
+  if (basis_by_size.size() <= static_cast<std::size_t>(nb)) basis_by_size.resize(nb + 1);
+  std::unique_ptr<WarmBasisScratch>& b = basis_by_size[static_cast<std::size_t>(nb)];
+  if (!b) b = std::make_unique<WarmBasisScratch>();
+  return *b;
+}
+
+StepScratchLease::~StepScratchLease() {
+  if (in_use_) *in_use_ = false;
+}
+
+void ClearStepRecord() {
+  if (!t_scratch_in_use) t_scratch.record.Clear();
+}
+
+void StampStepOwner(const std::shared_ptr<const Scene>& scene) {
+  StepRecord& r = t_scratch.record;
+  if (!t_scratch_in_use && r.valid && r.model == scene.get()) r.owner = scene;
+}
+
+const StepScratch* IdleThreadStepScratch() { return t_scratch_in_use ? nullptr : &t_scratch; }
+
+}  // namespace vinci::sim::internal
