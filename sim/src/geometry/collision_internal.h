@@ -1,4 +1,5 @@
-// Private helpers shared by the narrow phase (collision.cc, collision_planar.cc), the convex
+// Private helpers shared by the narrow phase (collision.cc, collision_polytope.cc,
+// collision_planar.cc), the convex
 // hull (convex_hull.cc) and the mass properties (mass_properties.cc). Not installed.
 #pragma once
 
@@ -193,6 +194,24 @@ void CheckSimplePolygon(const Shape& s);
 /// order; a vertex near a convex corner of a polygon gives a corner contact.
 void CollideConcave(const Shape& a, const Isometry3d& X_WA, const Shape& b, const Isometry3d& X_WB,
                     double envelope, std::vector<ContactPoint>* out);
+
+/// Closest points p0 + s d and q0 + t e of two non-parallel lines.
+inline void LineLineParams(const Vector3d& p0, const Vector3d& d, const Vector3d& q0,
+                           const Vector3d& e, double* s, double* t) {
+  const Vector3d r = p0 - q0;
+  const double aa = d.dot(d), ee = e.dot(e), bb = d.dot(e), cc = d.dot(r), ff = e.dot(r);
+  const double denom = aa * ee - bb * bb;
+  *s = (bb * ff - cc * ee) / denom;
+  *t = (aa * ff - bb * cc) / denom;
+}
+
+/// A segment parameter in (kParamEps, 1 − kParamEps).
+inline bool Interior(double t) { return t > kParamEps && t < 1.0 - kParamEps; }
+
+/// Box or polyhedron A against box or polyhedron B: vertex–face, vertex–edge/vertex and
+/// edge–edge contacts within the envelope, duplicates removed (collision_polytope.cc).
+void PolytopePolytope(const Polytope& A, const Isometry3d& X_WA, const Polytope& B,
+                      const Isometry3d& X_WB, double envelope, std::vector<ContactPoint>* out);
 
 /// Narrow phase for two planar shapes (collision_planar.cc).
 void CollidePlanar(const Shape& a, const Isometry3d& X_WA, const Shape& b, const Isometry3d& X_WB,
