@@ -28,23 +28,26 @@ void BlockTimesColumn(const double* W, const double* g, double* out) {
   for (int i = 0; i < N; ++i) out[i] = acc[i];
 }
 
-// Entry (i, j), i ≥ j, of a body's block G_bᵀ W_b G_b: Gb(:, i) · WG(:, j), N = n_vb rows (the
+// Entry (i, j), i ≥ j, of a body's block G_bᵀ W_b G_b: g_i · (W_b g_j), N = n_vb rows (the
 // one expression every path forms it with, hence the same bits).
 template <int N>
-inline double LowerEntry(const MatrixXd& Gb, const MatrixXd& WG, int i, int j) {
-  if constexpr (N == 6)
-    return Eigen::Map<const Eigen::Matrix<double, 6, 1>>(Gb.col(i).data())
-        .dot(Eigen::Map<const Eigen::Matrix<double, 6, 1>>(WG.col(j).data()));
-  else
-    return Gb.col(i).dot(WG.col(j));
+inline double LowerEntry(const double* g_i, const double* wg_j) {
+  if constexpr (N == 6) {
+    using Map6 = Eigen::Map<const Eigen::Matrix<double, 6, 1>>;
+    return Map6(g_i).dot(Map6(wg_j));
+  } else {
+    // Dynamic size (as a MatrixXd column's dot): Eigen's reduction order for that type.
+    using MapX = Eigen::Map<const VectorXd>;
+    return MapX(g_i, N).dot(MapX(wg_j, N));
+  }
 }
 
-// column_sum[r] += Σ_j |G(r, j)| over the k columns of a column-major N × k G, j in order.
+// column_sum[r] += Σ_j |g_j(r)| over the k columns g_j (N entries each), j in order.
 template <int N>
-void AddColumnAbs(const double* G, int k, double* column_sum) {
+void AddColumnAbs(const double* const* g, int k, double* column_sum) {
   for (int j = 0; j < k; ++j)
 #pragma GCC unroll 6
-    for (int r = 0; r < N; ++r) column_sum[r] += std::abs(G[j * N + r]);
+    for (int r = 0; r < N; ++r) column_sum[r] += std::abs(g[j][r]);
 }
 
 // sum + Σ_r |g_r| u_r, r in order.
@@ -243,9 +246,12 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
     for (int side = 0; side < 2; ++side) {
       if (model.bodies[bodies[side]].kind != BodyKind::kDynamic) continue;
       std::vector<int>& cols = columns_[bodies[side]];
-      first_[2 * c + side] = static_cast<int>(cols.size());
-      cols.push_back(c);
-      for (int j = 0; j < nd; ++j) cols.push_back(nc + c * nd + j);
+      const std::size_t at = cols.size();
+      first_[2 * c + side] = static_cast<int>(at);
+      cols.resize(at + 1 + static_cast<std::size_t>(nd));
+      int* out = cols.data() + at;
+      out[0] = c;
+      for (int j = 0; j < nd; ++j) out[1 + j] = nc + c * nd + j;
     }
   }
   // Per body: G_b gathered; W_b G_b, the block and ‖M‖∞ are formed on demand (EnsureBlocks,
@@ -256,6 +262,7 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
   nvb_ = nvb;
   blocks_.resize(nbody);
   Gb_.resize(nbody);
+  gcol_.resize(nbody);
   WG_.resize(nbody);
   wg_ready_.resize(nbody);
   bound_u_.resize(nbody);
@@ -269,38 +276,50 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
     if (cols.empty()) continue;
     const int o = model.index(body).v, k = static_cast<int>(cols.size());
     // Per body, so that a steady step (same k per body) reuses their storage.
+    std::vector<const double*>& gcol = gcol_[body];
+    gcol.resize(static_cast<std::size_t>(k));
     MatrixXd& Gb = Gb_[body];
-    Gb.setZero(nvb, k);
+    bool gb_sized = false;
     for (int i = 0; i < k; ++i) {
       const SparseMatrixd& G = cols[i] < nc ? a.G_n : a.G_f;
       const int col = cols[i] < nc ? cols[i] : cols[i] - nc;
-      // The assembly stores a body's block whole (rows o..o+nvb−1, explicit zeros included):
-      // copied at once when found so, else entry by entry.
+      // The assembly stores a body's block whole (rows o..o+nvb−1, explicit zeros included, a
+      // column's blocks in row order): read in place when found so, else gathered entry by entry.
       if (G.isCompressed()) {
         const int* inner = G.innerIndexPtr();
         const int end = G.outerIndexPtr()[col + 1];
         int p = G.outerIndexPtr()[col];
+        // Whole blocks before this body's: stepped over a block at a time.
+        while (p + nvb <= end && inner[p] < o && inner[p + nvb - 1] == inner[p] + (nvb - 1) &&
+               inner[p + nvb - 1] < o)
+          p += nvb;
         while (p < end && inner[p] < o) ++p;
         if (p + nvb <= end && inner[p] == o && inner[p + nvb - 1] == o + nvb - 1) {
-          std::copy(G.valuePtr() + p, G.valuePtr() + p + nvb, Gb.col(i).data());
+          gcol[static_cast<std::size_t>(i)] = G.valuePtr() + p;
           gathered += nvb;
           gathered_runs += nvb;
           continue;
         }
       }
+      if (!gb_sized) {
+        Gb.resize(nvb, k);
+        gb_sized = true;
+      }
+      Gb.col(i).setZero();
       for (SparseMatrixd::InnerIterator it(G, col); it; ++it)
         if (it.row() >= o && it.row() < o + nvb) {
           Gb(it.row() - o, i) = it.value();
           ++gathered;
         }
+      gcol[static_cast<std::size_t>(i)] = Gb.col(i).data();
     }
     WG_[body].resize(nvb, k);
     wg_ready_[body].assign(static_cast<std::size_t>(k), 0);
     double column_sum[6] = {0, 0, 0, 0, 0, 0};
     if (nvb == 6)
-      AddColumnAbs<6>(Gb.data(), k, column_sum);
+      AddColumnAbs<6>(gcol.data(), k, column_sum);
     else
-      AddColumnAbs<3>(Gb.data(), k, column_sum);
+      AddColumnAbs<3>(gcol.data(), k, column_sum);
     for (int r = 0; r < nvb; ++r) g_finite = g_finite && std::isfinite(column_sum[r]);
     const auto W = a.M_inv.BlockAt(o);
     std::array<double, 6>& u = bound_u_[body];
@@ -321,7 +340,7 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
       for (int side = 0; side < 2; ++side) {
         if (first_[2 * c + side] < 0) continue;
         const int b = bodies[side], p = first_[2 * c + side] + t;
-        const double* g = Gb_[b].data() + static_cast<std::ptrdiff_t>(p) * nvb;
+        const double* g = gcol_[b][static_cast<std::size_t>(p)];
         const double* u = bound_u_[b].data();
         sum = nvb == 6 ? AddAbsDot<6>(g, u, sum) : AddAbsDot<3>(g, u, sum);
       }
@@ -361,9 +380,9 @@ void ContactLcpOperator::EnsureWG(int body, int p) const {
   // dimension nvb ≤ 6 is below its unrolled depth), so the bits are GEMM's.
   const double* W = a_->M_inv.BlockAt(model_->index(body).v).data();  // nvb × nvb, contiguous
   if (nvb_ == 6)
-    BlockTimesColumn<6>(W, Gb_[body].col(p).data(), WG_[body].col(p).data());
+    BlockTimesColumn<6>(W, gcol_[body][static_cast<std::size_t>(p)], WG_[body].col(p).data());
   else
-    BlockTimesColumn<3>(W, Gb_[body].col(p).data(), WG_[body].col(p).data());
+    BlockTimesColumn<3>(W, gcol_[body][static_cast<std::size_t>(p)], WG_[body].col(p).data());
   ready = 1;
 }
 
@@ -375,13 +394,15 @@ void ContactLcpOperator::MemberBlock(int body, const int* p, int m, double* out)
     return;
   }
   for (int x = 0; x < m; ++x) EnsureWG(body, p[x]);
-  const MatrixXd& Gb = Gb_[body];
+  const std::vector<const double*>& gcol = gcol_[body];
   const MatrixXd& WG = WG_[body];
   for (int x = 0; x < m; ++x)
     for (int y = x; y < m; ++y) {
-      // W_b is symmetric, so is the block: its lower triangle, entry (i ≥ j) = Gb(:, i) · WG(:, j).
+      // W_b is symmetric, so is the block: its lower triangle, entry (i ≥ j) = g_i · (W_b g_j).
       const int i = std::max(p[x], p[y]), j = std::min(p[x], p[y]);
-      const double value = nvb_ == 6 ? LowerEntry<6>(Gb, WG, i, j) : LowerEntry<3>(Gb, WG, i, j);
+      const double* g_i = gcol[static_cast<std::size_t>(i)];
+      const double value = nvb_ == 6 ? LowerEntry<6>(g_i, WG.col(j).data())
+                                     : LowerEntry<3>(g_i, WG.col(j).data());
       out[static_cast<std::ptrdiff_t>(x) * m + y] = value;
       out[static_cast<std::ptrdiff_t>(y) * m + x] = value;
     }
@@ -396,16 +417,16 @@ void ContactLcpOperator::EnsureBlocks() const {
     if (cols.empty()) continue;
     const int k = static_cast<int>(cols.size());
     MatrixXd& B = blocks_[body];
-    const MatrixXd& Gb = Gb_[body];
+    const std::vector<const double*>& gcol = gcol_[body];
     MatrixXd& WG = WG_[body];
     std::vector<char>& ready = wg_ready_[body];
     const double* W = a.M_inv.BlockAt(model_->index(body).v).data();
     for (int j = 0; j < k; ++j) {  // the columns EnsureWG has not formed, as it forms them
       if (ready[static_cast<std::size_t>(j)]) continue;
       if (nvb_ == 6)
-        BlockTimesColumn<6>(W, Gb.col(j).data(), WG.col(j).data());
+        BlockTimesColumn<6>(W, gcol[static_cast<std::size_t>(j)], WG.col(j).data());
       else
-        BlockTimesColumn<3>(W, Gb.col(j).data(), WG.col(j).data());
+        BlockTimesColumn<3>(W, gcol[static_cast<std::size_t>(j)], WG.col(j).data());
       ready[static_cast<std::size_t>(j)] = 1;
     }
     B.resize(k, k);
@@ -418,11 +439,13 @@ void ContactLcpOperator::EnsureBlocks() const {
         const Map6 wg(WG.col(j).data());
         double* Bj = Bd + static_cast<std::ptrdiff_t>(j) * k;
         for (int i = j; i < k; ++i)
-          Bd[static_cast<std::ptrdiff_t>(i) * k + j] = Bj[i] = Map6(Gb.col(i).data()).dot(wg);
+          Bd[static_cast<std::ptrdiff_t>(i) * k + j] = Bj[i] =
+              Map6(gcol[static_cast<std::size_t>(i)]).dot(wg);
       }
     } else {
       for (int j = 0; j < k; ++j)
-        for (int i = j; i < k; ++i) B(j, i) = B(i, j) = LowerEntry<3>(Gb, WG, i, j);
+        for (int i = j; i < k; ++i)
+          B(j, i) = B(i, j) = LowerEntry<3>(gcol[static_cast<std::size_t>(i)], WG.col(j).data());
     }
   }
   full_ = true;

@@ -83,7 +83,10 @@ class ContactLcpOperator final : public LcpMatrixOperator {
   VectorXd q_, v_star_;
   std::vector<std::vector<int>> columns_;       // per body: the impulse columns touching it
   std::vector<int> first_;                      // per contact and side: its normal's position
-  std::vector<MatrixXd> Gb_;                    // per body: its G_b over columns_[body]
+  // Per body, column i of its G_b over columns_[body] (n_vb entries): read in place from G_n's or
+  // G_f's storage where the assembly holds the body's block whole, else gathered into Gb_.
+  std::vector<std::vector<const double*>> gcol_;
+  std::vector<MatrixXd> Gb_;  // per body: the gathered columns of G_b (the others unset)
   std::vector<std::array<double, 6>> bound_u_;  // per body: u_b of NormInfBound
   // Formed on demand (caches of what Build was given: the same values whenever formed).
   bool g_finite_ = false;      // G_n and G_f have finite values only
