@@ -195,9 +195,12 @@ void ResizeCompressed(int nv, int cols, Eigen::Index nnz, SparseMatrixd* G) {
 
 // PointVelocityRow(dim, X_WB, p, d) into row[0..N), N = ν block size, given r = p − o_WB (the
 // same operations, so the same bits).
+// Spatial: row[3..6) = R_WBᵀ (r × d), each entry (R_0i c_0 + R_1i c_1) + R_2i c_2 with
+// c = r × d: the operations and order of Eigen's `X_WB.linear().transpose() * r.cross(d)`
+// (fixed-size 3 × 3 lazy product), hence its bits, without its expression overhead.
 template <int N>
-void PointVelocityRowInto(const Isometry3d& X_WB, const Vector3d& r, const Vector3d& d,
-                          double* row) {
+[[gnu::always_inline]] inline void PointVelocityRowInto(const Isometry3d& X_WB, const Vector3d& r,
+                                                        const Vector3d& d, double* row) {
   if constexpr (N == 3) {
     row[0] = d.x();
     row[1] = d.y();
@@ -206,7 +209,11 @@ void PointVelocityRowInto(const Isometry3d& X_WB, const Vector3d& r, const Vecto
     row[0] = d.x();
     row[1] = d.y();
     row[2] = d.z();
-    Eigen::Map<Vector3d>(row + 3) = X_WB.linear().transpose() * r.cross(d);
+    const double c0 = r.y() * d.z() - r.z() * d.y();
+    const double c1 = r.z() * d.x() - r.x() * d.z();
+    const double c2 = r.x() * d.y() - r.y() * d.x();
+    const double* R = X_WB.matrix().data();  // column major 4 × 4: R_ki = R[4 i + k]
+    for (int i = 0; i < 3; ++i) row[3 + i] = (R[4 * i] * c0 + R[4 * i + 1] * c1) + R[4 * i + 2] * c2;
   }
 }
 
@@ -221,7 +228,7 @@ struct DynamicSide {
 };
 
 template <int N>
-void WriteSideBlock(const DynamicSide& side, const DynamicSide* merge, const Vector3d& d,
+[[gnu::always_inline]] inline void WriteSideBlock(const DynamicSide& side, const DynamicSide* merge, const Vector3d& d,
                     int* inner, double* value) {
   double row[N];
   PointVelocityRowInto<N>(side.k->X_WB, side.r, d, row);
@@ -248,7 +255,7 @@ struct ContactColumns {
 // One column of direction d at entry *k of a compressed G: the dynamic blocks, then the
 // non-dynamic sides' ∂ψ/∂t (a, then b) into *dpsi.
 template <int N>
-inline void WriteContactColumn(const ContactColumns& cc, const Vector3d& d, int* outer, int* inner,
+[[gnu::always_inline]] inline void WriteContactColumn(const ContactColumns& cc, const Vector3d& d, int* outer, int* inner,
                                double* value, int* k, double* dpsi) {
   *outer = *k;
   const DynamicSide* merge = cc.merged ? &cc.sides[1] : nullptr;
