@@ -213,7 +213,9 @@ template <int N>
     const double c1 = r.z() * d.x() - r.x() * d.z();
     const double c2 = r.x() * d.y() - r.y() * d.x();
     const double* R = X_WB.matrix().data();  // column major 4 × 4: R_ki = R[4 i + k]
-    for (int i = 0; i < 3; ++i) row[3 + i] = (R[4 * i] * c0 + R[4 * i + 1] * c1) + R[4 * i + 2] * c2;
+    row[3] = (R[0] * c0 + R[1] * c1) + R[2] * c2;
+    row[4] = (R[4] * c0 + R[5] * c1) + R[6] * c2;
+    row[5] = (R[8] * c0 + R[9] * c1) + R[10] * c2;
   }
 }
 
