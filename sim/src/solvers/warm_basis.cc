@@ -29,6 +29,21 @@ double Tolerance(double rtol, double q_norm, double m_norm, double z_norm) {
   return rtol * std::max(base, std::min(m_norm * z_norm, kMaxAcceptanceGrowth * base));
 }
 
+// x.allFinite() in one pass without early exit: x_i · 0 is ±0 for finite x_i and NaN otherwise,
+// so the sum of them is 0 iff every entry is finite.
+bool AllFinite(const Eigen::VectorXd& x) {
+  const double* p = x.data();
+  const Eigen::Index n = x.size();
+  double acc0 = 0.0, acc1 = 0.0;
+  Eigen::Index i = 0;
+  for (; i + 1 < n; i += 2) {
+    acc0 += p[i] * 0.0;
+    acc1 += p[i + 1] * 0.0;
+  }
+  if (i < n) acc0 += p[i] * 0.0;
+  return acc0 + acc1 == 0.0;
+}
+
 }  // namespace
 
 double SparseLcpMatrix::NormInf() const {
@@ -104,7 +119,7 @@ bool SolveOnWarmBasis(const LcpMatrixOperator& M, const Eigen::VectorXd& q,
                       WarmBasisScratch* s, Eigen::VectorXd* z, SolverReport* report) {
   const auto start = std::chrono::steady_clock::now();
   const Eigen::Index n = q.size();
-  if (M.size() != n || guess.size() != n || !q.allFinite() || !guess.allFinite()) return false;
+  if (M.size() != n || guess.size() != n || !AllFinite(q) || !AllFinite(guess)) return false;
   auto solved = [&](double residual, double tolerance, const char* message) {
     *report = SolverReport{};
     report->status = SolverStatus::kSolved;
@@ -206,7 +221,7 @@ bool SolveOnWarmBasis(const LcpMatrixOperator& M, const Eigen::VectorXd& q,
     }
   }
   s->z_b += s->guess_b;
-  if (!s->z_b.allFinite()) return false;
+  if (!AllFinite(s->z_b)) return false;
   // The candidate z (z_B, 0) and w = M z + q, both independent of ‖M‖∞; then the tests, which
   // depend on it only through the tolerances and scales.
   const double z_b_min = s->z_b.minCoeff();
@@ -217,16 +232,22 @@ bool SolveOnWarmBasis(const LcpMatrixOperator& M, const Eigen::VectorXd& q,
   double w_n_min = std::numeric_limits<double>::infinity();  // min over N of w (NaN skipped)
   for (Eigen::Index i = 0; i < n; ++i)
     if (!s->in_basis[i] && s->w(i) < w_n_min) w_n_min = s->w(i);
-  if (s->candidate.minCoeff() < 0.0) {
-    s->candidate = s->candidate.cwiseMax(0.0);
+  // The candidate's entries off B are +0 and z_B is finite: min(z) < 0 iff min(z_B) < 0, and
+  // ‖z‖∞ = max(0, max_B |z_i|) after the clamp.
+  if (z_b_min < 0.0) {
+    for (int a = 0; a < nb; ++a) {
+      double& c = s->candidate(s->active[a]);
+      c = std::max(c, 0.0);  // as cwiseMax(0.0): c < 0 → 0, else c
+    }
     M.MultiplyAdd(s->candidate, q, &s->w);
   }
+  double z_norm = 0.0;
+  for (int a = 0; a < nb; ++a) z_norm = std::max(z_norm, std::abs(s->candidate(s->active[a])));
   // LcpResidual and the scale-aware residual (lcp_acceptance.h), from this w.
   double residual = 0.0;
   for (Eigen::Index i = 0; i < n; ++i)
     residual = std::max(residual, std::abs(std::min(s->candidate(i), s->w(i))));
-  const bool w_finite = s->w.allFinite();
-  const double z_norm = s->candidate.lpNorm<Eigen::Infinity>();
+  const bool w_finite = AllFinite(s->w);
   const double rtol = options.residual_tolerance;
   const auto ratio = [](double x, double scale) { return scale > 0.0 ? x / scale : 0.0; };
   // The acceptance: z_B ≥ −τ(z_B), w_N ≥ −τ(z_B), LcpResidual ≤ τ(z) and the scale-aware
@@ -238,9 +259,18 @@ bool SolveOnWarmBasis(const LcpMatrixOperator& M, const Eigen::VectorXd& q,
   const double s_w = std::max(q_norm, m * z_norm);
   const double s_z = std::max(z_norm, m > 0.0 ? q_norm / m : 0.0);
   if (!std::isfinite(s_w) || !std::isfinite(s_z)) return false;
+  // max_i |min(z_i / s_z, w_i / s_w)| (each ratio 0 for a zero scale). w is finite here. For
+  // z_i = ±0 the term is |w_i / s_w| if w_i < 0, else 0 (min(±0, x ≥ 0) = ±0): the division is
+  // formed only then.
   double scaled = 0.0;
-  for (Eigen::Index i = 0; i < n; ++i)
-    scaled = std::max(scaled, std::abs(std::min(ratio(s->candidate(i), s_z), ratio(s->w(i), s_w))));
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const double c = s->candidate(i), w = s->w(i);
+    if (c == 0.0) {
+      if (w < 0.0) scaled = std::max(scaled, std::abs(std::min(c, ratio(w, s_w))));
+    } else {
+      scaled = std::max(scaled, std::abs(std::min(ratio(c, s_z), ratio(w, s_w))));
+    }
+  }
   if (!(scaled <= kLcpAcceptanceTolerance)) return false;
   z->swap(s->candidate);
   // A short message (no heap allocation: within std::string's inline buffer).
