@@ -117,10 +117,25 @@ void SparseTimes(const SparseMatrixd& G, const double* x, bool assign, bool skip
 // `out.noalias() = G.transpose() * x` / `+=` forms it: each dot product summed from 0 over the
 // column's entries in order, then added to out[j] (zeroed for assign). N as SparseTimesN.
 template <int N, bool kRuns>
-void SparseTransposeTimesN(const SparseMatrixd& G, const double* x, bool assign, double* out) {
+void SparseTransposeTimesN(const SparseMatrixd& G, const double* x, bool assign, bool single,
+                           double* out) {
   const int* outer = G.outerIndexPtr();
   const int* inner = G.innerIndexPtr();
   const double* value = G.valuePtr();
+  if (kRuns && single) {
+    // Every column is one run of N rows (column j at entries N j..N j+N−1): the same sums,
+    // without the walk over each column's entries.
+    const int cols = static_cast<int>(G.cols());
+    for (int j = 0; j < cols; ++j) {
+      const double* v = value + static_cast<std::ptrdiff_t>(N) * j;
+      const double* xs = x + inner[static_cast<std::ptrdiff_t>(N) * j];
+      double tmp = 0.0;
+#pragma GCC unroll 6
+      for (int i = 0; i < N; ++i) tmp += v[i] * xs[i];
+      out[j] = (assign ? 0.0 : out[j]) + tmp;
+    }
+    return;
+  }
   for (Eigen::Index j = 0; j < G.cols(); ++j) {
     double tmp = 0.0;
     const int end = outer[j + 1];
@@ -139,23 +154,33 @@ void SparseTransposeTimesN(const SparseMatrixd& G, const double* x, bool assign,
   }
 }
 
+// single: every column of G is one run of nvb rows (SingleRuns).
 void SparseTransposeTimes(const SparseMatrixd& G, const VectorXd& x, bool assign, int nvb,
-                          bool runs, double* out) {
+                          bool runs, bool single, double* out) {
   if (!G.isCompressed()) {
     Eigen::Map<VectorXd> ov(out, G.cols());
     if (assign) ov.setZero();
     ov.noalias() += G.transpose() * x;
   } else if (nvb == 6) {
     if (runs)
-      SparseTransposeTimesN<6, true>(G, x.data(), assign, out);
+      SparseTransposeTimesN<6, true>(G, x.data(), assign, single, out);
     else
-      SparseTransposeTimesN<6, false>(G, x.data(), assign, out);
+      SparseTransposeTimesN<6, false>(G, x.data(), assign, single, out);
   } else {
     if (runs)
-      SparseTransposeTimesN<3, true>(G, x.data(), assign, out);
+      SparseTransposeTimesN<3, true>(G, x.data(), assign, single, out);
     else
-      SparseTransposeTimesN<3, false>(G, x.data(), assign, out);
+      SparseTransposeTimesN<3, false>(G, x.data(), assign, single, out);
   }
+}
+
+// Whether every column of a compressed G holds exactly n entries (column j at n j..n j+n−1).
+bool SingleRuns(const SparseMatrixd& G, int n) {
+  if (!G.isCompressed()) return false;
+  const int* outer = G.outerIndexPtr();
+  for (Eigen::Index j = 0; j <= G.cols(); ++j)
+    if (outer[j] != n * j) return false;
+  return true;
 }
 
 // The ‖M‖∞ row sums of contact c's 1 + n_d = group rows (normal, then friction directions; E
@@ -356,10 +381,12 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
   const Eigen::Index nnz = a.G_n.nonZeros() + a.G_f.nonZeros();
   g_finite_ = g_finite && gathered == nnz;
   runs_ = gathered_runs == nnz;
+  single_n_ = runs_ && SingleRuns(a.G_n, nvb);
+  single_f_ = runs_ && SingleRuns(a.G_f, nvb);
 
   // q as BuildLcp.
   q_.setZero(m_);
-  SparseTransposeTimes(a.G_n, v_star_, /*assign=*/true, nvb, runs_, q_.data());
+  SparseTransposeTimes(a.G_n, v_star_, /*assign=*/true, nvb, runs_, single_n_, q_.data());
   q_.head(nc) += a.dpsi_n;
   if (!velocity_level) q_.head(nc) += a.psi_n / h;
   for (int c = 0; c < nc; ++c) {
@@ -367,7 +394,7 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
     if (!law.compliant) continue;
     q_[c] = a.G_n.col(c).dot(v_star_) + a.dpsi_n[c] + law.vel_psi * a.psi_n[c] + law.vel_constant;
   }
-  SparseTransposeTimes(a.G_f, v_star_, /*assign=*/true, nvb, runs_, q_.data() + nc);
+  SparseTransposeTimes(a.G_f, v_star_, /*assign=*/true, nvb, runs_, single_f_, q_.data() + nc);
   q_.segment(nc, nf) += a.dpsi_f;
   return true;
 }
@@ -587,8 +614,8 @@ void ContactLcpOperator::MultiplyAdd(const VectorXd& z, const VectorXd& q, Vecto
   last_z_ = z;
   last_z_valid_ = true;
   *w = q;
-  SparseTransposeTimes(a.G_n, dv_, /*assign=*/false, nvb, runs_, w->data());
-  SparseTransposeTimes(a.G_f, dv_, /*assign=*/false, nvb, runs_, w->data() + nc);
+  SparseTransposeTimes(a.G_n, dv_, /*assign=*/false, nvb, runs_, single_n_, w->data());
+  SparseTransposeTimes(a.G_f, dv_, /*assign=*/false, nvb, runs_, single_f_, w->data() + nc);
   for (int c = 0; c < nc; ++c) {
     if (a.compliance[c].compliant) (*w)[c] += a.compliance[c].vel_diagonal * z[c];
     double sum_f = 0.0;

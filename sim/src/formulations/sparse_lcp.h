@@ -91,6 +91,7 @@ class ContactLcpOperator final : public LcpMatrixOperator {
   // Formed on demand (caches of what Build was given: the same values whenever formed).
   bool g_finite_ = false;      // G_n and G_f have finite values only
   bool runs_ = false;          // G_n's and G_f's columns are whole body blocks (runs of nvb_ rows)
+  bool single_n_ = false, single_f_ = false;  // G_n's / G_f's columns are one run each
   mutable bool full_ = false;  // blocks_ formed
   mutable bool norm_formed_ = false;                 // norm_inf_ formed
   mutable double norm_inf_ = 0.0;                    // ‖M‖∞
