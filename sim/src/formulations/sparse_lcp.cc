@@ -314,11 +314,8 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
         const int* inner = G.innerIndexPtr();
         const int end = G.outerIndexPtr()[col + 1];
         int p = G.outerIndexPtr()[col];
-        // Whole blocks before this body's: stepped over a block at a time.
-        while (p + nvb <= end && inner[p] < o && inner[p + nvb - 1] == inner[p] + (nvb - 1) &&
-               inner[p + nvb - 1] < o)
-          p += nvb;
-        while (p < end && inner[p] < o) ++p;
+        // The body's block is the column's first or (a column of two bodies) its second.
+        if (p < end && inner[p] != o && p + nvb < end && inner[p + nvb] == o) p += nvb;
         if (p + nvb <= end && inner[p] == o && inner[p + nvb - 1] == o + nvb - 1) {
           gcol[static_cast<std::size_t>(i)] = G.valuePtr() + p;
           gathered += nvb;
