@@ -664,6 +664,15 @@ void ContactLcpOperator::ToSparse(SparseMatrixd* out) const {
   out->setFromTriplets(triplets_.begin(), triplets_.end());
 }
 
+void ContactLcpOperator::SetPositions(const std::vector<int>& index, int n) const {
+  if (static_cast<int>(position_.size()) != n) position_.assign(static_cast<std::size_t>(n), -1);
+  for (int b = 0; b < static_cast<int>(index.size()); ++b) position_[index[b]] = b;
+}
+
+void ContactLcpOperator::ClearPositions(const std::vector<int>& index) const {
+  for (int i : index) position_[i] = -1;
+}
+
 void ContactLcpOperator::PrincipalBlock(const std::vector<int>& index, MatrixXd* out) const {
   // Entry(index[r], index[b]) for every r, b, assembled per body: O(Σ_body k_body²) rather than
   // O(k²) lookups. Each impulse entry sums at most two body blocks (0 + x + y in either order:
@@ -671,9 +680,7 @@ void ContactLcpOperator::PrincipalBlock(const std::vector<int>& index, MatrixXd*
   const int k = static_cast<int>(index.size());
   const int s0 = nc_ + nf_, n = s0 + nc_;
   out->setZero(k, k);
-  position_.resize(n);
-  std::fill(position_.begin(), position_.end(), -1);
-  for (int b = 0; b < k; ++b) position_[index[b]] = b;
+  SetPositions(index, n);
   for (int body : model_->dynamic_bodies()) {
     const std::vector<int>& cols = columns_[body];
     members_.clear();
@@ -709,6 +716,7 @@ void ContactLcpOperator::PrincipalBlock(const std::vector<int>& index, MatrixXd*
       if (b >= 0) (*out)(r, b) = -1.0;
     }
   }
+  ClearPositions(index);
 }
 
 void ContactLcpOperator::PrincipalBlockSparse(const std::vector<int>& index,
@@ -720,9 +728,7 @@ void ContactLcpOperator::PrincipalBlockSparse(const std::vector<int>& index,
   // formed first (MemberBlock); a column merges its two bodies' member lists.
   const int k = static_cast<int>(index.size());
   const int s0 = nc_ + nf_, n = s0 + nc_;
-  position_.resize(n);
-  std::fill(position_.begin(), position_.end(), -1);
-  for (int b = 0; b < k; ++b) position_[index[b]] = b;
+  SetPositions(index, n);
   const std::size_t num_bodies = columns_.size();
   member_begin_.resize(num_bodies);
   member_count_.resize(num_bodies);
@@ -829,6 +835,7 @@ void ContactLcpOperator::PrincipalBlockSparse(const std::vector<int>& index,
     }
     out->col_start[b + 1] = end;
   }
+  ClearPositions(index);
 }
 
 }  // namespace internal

@@ -66,6 +66,9 @@ class ContactLcpOperator final : public LcpMatrixOperator {
   // Position of impulse column `col` in body's column list, −1 if it does not touch `body`.
   int PositionIn(int col, int body) const;
   double ImpulseEntry(int i, int j) const;
+  // position_[index[b]] = b (position_ sized n, all −1 before); ClearPositions undoes it.
+  void SetPositions(const std::vector<int>& index, int n) const;
+  void ClearPositions(const std::vector<int>& index) const;
 
   // Forms every body block (once per Build).
   void EnsureBlocks() const;
@@ -102,7 +105,9 @@ class ContactLcpOperator final : public LcpMatrixOperator {
   mutable VectorXd last_z_;        // the last MultiplyAdd's z (valid since Build if set)
   mutable bool last_z_valid_ = false;
   mutable std::vector<Eigen::Triplet<double>> triplets_;
-  mutable std::vector<int> position_;                 // PrincipalBlock: index → basis position
+  // PrincipalBlock: index → basis position, −1 off the index (all −1 between calls, so that a
+  // call sets and clears only its index's entries: O(|index|), not O(m)).
+  mutable std::vector<int> position_;
   mutable std::vector<std::pair<int, int>> members_;  // PrincipalBlock: (column in body, position)
   // PrincipalBlockSparse, per body: its members' range in member_p_ (column in the body's list)
   // and member_r_ (basis position, ascending), and its members × members block (column major)
