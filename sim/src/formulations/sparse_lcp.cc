@@ -28,6 +28,38 @@ void BlockTimesColumn(const double* W, const double* g, double* out) {
   for (int i = 0; i < N; ++i) out[i] = acc[i];
 }
 
+// Whether a 6 × 6 column-major W is [diag(W_00, W_11, W_22), 0; 0, J] (a rigid body's M⁻¹ in
+// body coordinates: m⁻¹ I and the inverse inertia), every other entry exactly 0.
+bool IsSplitBlock(const double* W) {
+  // Σ |W_ie| over the non-structural entries: 0 iff they all are (NaN and ±inf give no 0).
+  double sum = std::abs(W[1]) + std::abs(W[2]) + std::abs(W[6]) + std::abs(W[8]) +
+               std::abs(W[12]) + std::abs(W[13]);
+  for (int e = 0; e < 3; ++e)
+#pragma GCC unroll 3
+    for (int i = 0; i < 3; ++i) sum += std::abs(W[e * 6 + 3 + i]) + std::abs(W[(e + 3) * 6 + i]);
+  return sum == 0.0;
+}
+
+// BlockTimesColumn<6> for a split W (IsSplitBlock) and a finite g: the terms skipped are
+// 0 · g_e = ±0, and adding ±0 to a partial sum leaves it unchanged (the sum starts at +0 and
+// round-to-nearest never makes it −0), so the bits are BlockTimesColumn<6>'s.
+inline void SplitBlockTimesColumn(const double* W, const double* g, double* out) {
+  for (int i = 0; i < 3; ++i) out[i] = 0.0 + W[i * 6 + i] * g[i];
+  for (int i = 3; i < 6; ++i) out[i] = ((0.0 + W[18 + i] * g[3]) + W[24 + i] * g[4]) + W[30 + i] * g[5];
+}
+
+// out = W g for body blocks: split (IsSplitBlock, g finite) or general.
+template <int N>
+inline void BodyBlockTimesColumn(const double* W, bool split, const double* g, double* out) {
+  if constexpr (N == 6) {
+    if (split) {
+      SplitBlockTimesColumn(W, g, out);
+      return;
+    }
+  }
+  BlockTimesColumn<N>(W, g, out);
+}
+
 // Entry (i, j), i ≥ j, of a body's block G_bᵀ W_b G_b: g_i · (W_b g_j), N = n_vb rows (the
 // one expression every path forms it with, hence the same bits).
 template <int N>
@@ -291,6 +323,7 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
   WG_.resize(nbody);
   wg_ready_.resize(nbody);
   bound_u_.resize(nbody);
+  split_.resize(nbody);
   bool finite = true;
   // G_n and G_f finite: every stored entry gathered into some G_b, and each G_b's column sums
   // of |entries| finite.
@@ -342,8 +375,11 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
       AddColumnAbs<6>(gcol.data(), k, column_sum);
     else
       AddColumnAbs<3>(gcol.data(), k, column_sum);
-    for (int r = 0; r < nvb; ++r) g_finite = g_finite && std::isfinite(column_sum[r]);
+    bool body_g_finite = true;  // every entry of the body's columns finite
+    for (int r = 0; r < nvb; ++r) body_g_finite = body_g_finite && std::isfinite(column_sum[r]);
+    g_finite = g_finite && body_g_finite;
     const auto W = a.M_inv.BlockAt(o);
+    split_[body] = nvb == 6 && body_g_finite && IsSplitBlock(W.data());
     std::array<double, 6>& u = bound_u_[body];
     for (int r = 0; r < nvb; ++r) {
       u[r] = 0.0;
@@ -404,7 +440,8 @@ void ContactLcpOperator::EnsureWG(int body, int p) const {
   // dimension nvb ≤ 6 is below its unrolled depth), so the bits are GEMM's.
   const double* W = a_->M_inv.BlockAt(model_->index(body).v).data();  // nvb × nvb, contiguous
   if (nvb_ == 6)
-    BlockTimesColumn<6>(W, gcol_[body][static_cast<std::size_t>(p)], WG_[body].col(p).data());
+    BodyBlockTimesColumn<6>(W, split_[body], gcol_[body][static_cast<std::size_t>(p)],
+                            WG_[body].col(p).data());
   else
     BlockTimesColumn<3>(W, gcol_[body][static_cast<std::size_t>(p)], WG_[body].col(p).data());
   ready = 1;
@@ -448,7 +485,7 @@ void ContactLcpOperator::EnsureBlocks() const {
     for (int j = 0; j < k; ++j) {  // the columns EnsureWG has not formed, as it forms them
       if (ready[static_cast<std::size_t>(j)]) continue;
       if (nvb_ == 6)
-        BlockTimesColumn<6>(W, gcol[static_cast<std::size_t>(j)], WG.col(j).data());
+        BodyBlockTimesColumn<6>(W, split_[body], gcol[static_cast<std::size_t>(j)], WG.col(j).data());
       else
         BlockTimesColumn<3>(W, gcol[static_cast<std::size_t>(j)], WG.col(j).data());
       ready[static_cast<std::size_t>(j)] = 1;

@@ -91,6 +91,7 @@ class ContactLcpOperator final : public LcpMatrixOperator {
   std::vector<std::vector<const double*>> gcol_;
   std::vector<MatrixXd> Gb_;  // per body: the gathered columns of G_b (the others unset)
   std::vector<std::array<double, 6>> bound_u_;  // per body: u_b of NormInfBound
+  std::vector<char> split_;  // per body: W_b split and G_b finite (SplitBlockTimesColumn applies)
   // Formed on demand (caches of what Build was given: the same values whenever formed).
   bool g_finite_ = false;      // G_n and G_f have finite values only
   bool runs_ = false;          // G_n's and G_f's columns are whole body blocks (runs of nvb_ rows)
