@@ -806,13 +806,32 @@ void ContactLcpOperator::PrincipalBlockSparse(const std::vector<int>& index,
     MemberBlock(body, mp, mb, member_block_.data() + block_begin);
   }
   out->Reset(k);
+  // Written through raw pointers into storage sized by a bound on the entry count (a column of
+  // contact c: the members of its at most two bodies, the compliance and σ_c's entry; a σ
+  // column: n_d entries), then trimmed.
+  std::size_t cap = static_cast<std::size_t>(k) * static_cast<std::size_t>(2 + nd_);
+  for (int b = 0; b < k; ++b) {
+    const int j = index[b];
+    if (j >= s0) continue;
+    const int c = ContactOf(j);
+    const int bodies[2] = {a_->contacts[c].body_a, a_->contacts[c].body_b};
+    for (int side = 0; side < 2; ++side)
+      if (first_[2 * c + side] >= 0) cap += static_cast<std::size_t>(member_count_[bodies[side]]);
+  }
+  out->row.resize(cap);
+  out->value.resize(cap);
+  int* orow = out->row.data();
+  double* oval = out->value.data();
+  int size = 0;
+  bool ordered = true;  // every column's rows ascending as written
   const auto push = [&](int r, double value) {
-    out->row.push_back(r);
-    out->value.push_back(value);
+    orow[size] = r;
+    oval[size] = value;
+    ++size;
   };
   for (int b = 0; b < k; ++b) {
     const int j = index[b];
-    const int begin = static_cast<int>(out->row.size());
+    const int begin = size;
     if (j < s0) {
       const int c = ContactOf(j);
       const int bodies[2] = {a_->contacts[c].body_a, a_->contacts[c].body_b};
@@ -843,35 +862,47 @@ void ContactLcpOperator::PrincipalBlockSparse(const std::vector<int>& index,
       }
       if (j < nc_ && a_->compliance[j].compliant) {
         int at = -1;
-        for (int p = begin; p < static_cast<int>(out->row.size()); ++p)
-          if (out->row[p] == b) at = p;
+        for (int p = begin; p < size; ++p)
+          if (orow[p] == b) at = p;
         if (at < 0) {
-          at = static_cast<int>(out->row.size());
+          at = size;
           push(b, 0.0 + 0.0);
+          if (at > begin && orow[at - 1] > b) ordered = false;
         }
-        out->value[at] += a_->compliance[j].vel_diagonal;
+        oval[at] += a_->compliance[j].vel_diagonal;
       }
-      if (const int r = position_[s0 + c]; r >= 0) push(r, 0.0 + (j < nc_ ? a_->mu[c] : -1.0));
+      if (const int r = position_[s0 + c]; r >= 0) {
+        if (size > begin && orow[size - 1] > r) ordered = false;
+        push(r, 0.0 + (j < nc_ ? a_->mu[c] : -1.0));
+      }
     } else {
       const int c = j - s0;  // column σ_c: E in the friction rows of contact c
       for (int t = 0; t < nd_; ++t)
-        if (const int r = position_[nc_ + c * nd_ + t]; r >= 0) push(r, 0.0 + 1.0);
+        if (const int r = position_[nc_ + c * nd_ + t]; r >= 0) {
+          if (size > begin && orow[size - 1] > r) ordered = false;
+          push(r, 0.0 + 1.0);
+        }
     }
-    // Insertion sort of the column's entries by row (already in order when index ascends).
-    const int end = static_cast<int>(out->row.size());
-    for (int p = begin + 1; p < end; ++p) {
-      const int r = out->row[p];
-      const double v = out->value[p];
-      int q = p;
-      for (; q > begin && out->row[q - 1] > r; --q) {
-        out->row[q] = out->row[q - 1];
-        out->value[q] = out->value[q - 1];
-      }
-      out->row[q] = r;
-      out->value[q] = v;
-    }
-    out->col_start[b + 1] = end;
+    out->col_start[b + 1] = size;
   }
+  // Insertion sort of each column's entries by row, if one was written out of order (not when
+  // index ascends). The merged body rows ascend by construction.
+  for (int b = 0; !ordered && b < k; ++b) {
+    const int begin = out->col_start[b], end = out->col_start[b + 1];
+    for (int p = begin + 1; p < end; ++p) {
+      const int r = orow[p];
+      const double v = oval[p];
+      int q = p;
+      for (; q > begin && orow[q - 1] > r; --q) {
+        orow[q] = orow[q - 1];
+        oval[q] = oval[q - 1];
+      }
+      orow[q] = r;
+      oval[q] = v;
+    }
+  }
+  out->row.resize(static_cast<std::size_t>(size));
+  out->value.resize(static_cast<std::size_t>(size));
   ClearPositions(index);
 }
 
