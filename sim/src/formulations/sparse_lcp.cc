@@ -771,19 +771,20 @@ void ContactLcpOperator::PrincipalBlockSparse(const std::vector<int>& index,
   member_count_.resize(num_bodies);
   member_block_begin_.resize(num_bodies);
   member_local_.assign(2 * static_cast<std::size_t>(k), -1);
-  member_p_.clear();
-  member_r_.clear();
-  member_block_.clear();
+  // Each basis column is a member of at most two bodies' lists (its contact's dynamic sides).
+  const std::size_t max_members = 2 * static_cast<std::size_t>(k);
+  if (member_p_.size() < max_members) member_p_.resize(max_members);
+  if (member_r_.size() < max_members) member_r_.resize(max_members);
+  int used = 0;
+  std::size_t block_used = 0;
   for (int body : model_->dynamic_bodies()) {
     const std::vector<int>& cols = columns_[body];
-    const int begin = static_cast<int>(member_p_.size());
+    const int begin = used;
     for (int p = 0; p < static_cast<int>(cols.size()); ++p) {
       const int r = position_[cols[p]];
       if (r < 0) continue;
       // Insertion by basis position (the list is short).
-      member_p_.push_back(p);
-      member_r_.push_back(r);
-      int q = static_cast<int>(member_r_.size()) - 1;
+      int q = used++;
       for (; q > begin && member_r_[q - 1] > r; --q) {
         member_p_[q] = member_p_[q - 1];
         member_r_[q] = member_r_[q - 1];
@@ -791,8 +792,8 @@ void ContactLcpOperator::PrincipalBlockSparse(const std::vector<int>& index,
       member_p_[q] = p;
       member_r_[q] = r;
     }
-    const int mb = static_cast<int>(member_p_.size()) - begin;
-    const std::size_t block_begin = member_block_.size();
+    const int mb = used - begin;
+    const std::size_t block_begin = block_used;
     member_begin_[body] = begin;
     member_count_[body] = mb;
     member_block_begin_[body] = block_begin;
@@ -802,10 +803,15 @@ void ContactLcpOperator::PrincipalBlockSparse(const std::vector<int>& index,
       const int side = a_->contacts[ContactOf(cols[mp[x]])].body_a == body ? 0 : 1;
       member_local_[2 * static_cast<std::size_t>(member_r_[begin + x]) + side] = x;
     }
-    member_block_.resize(block_begin + static_cast<std::size_t>(mb) * mb);
+    block_used += static_cast<std::size_t>(mb) * mb;
+    if (member_block_.size() < block_used) member_block_.resize(block_used);  // grows only
     MemberBlock(body, mp, mb, member_block_.data() + block_begin);
   }
-  out->Reset(k);
+  // Reset(k) without emptying row and value first: resized from their previous size, so that
+  // a steady step writes over the previous entries instead of refilling them.
+  out->n = k;
+  out->col_start.resize(static_cast<std::size_t>(k) + 1);
+  out->col_start[0] = 0;
   // Written through raw pointers into storage sized by a bound on the entry count (a column of
   // contact c: the members of its at most two bodies, the compliance and σ_c's entry; a σ
   // column: n_d entries), then trimmed.
