@@ -298,8 +298,10 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
   columns_.resize(nbody);
   for (std::vector<int>& cols : columns_) cols.clear();
   first_.assign(2 * static_cast<std::size_t>(nc), -1);
+  self_contact_ = false;
   for (int c = 0; c < nc; ++c) {
     const int bodies[2] = {a.contacts[c].body_a, a.contacts[c].body_b};
+    self_contact_ = self_contact_ || bodies[0] == bodies[1];
     for (int side = 0; side < 2; ++side) {
       if (model.bodies[bodies[side]].kind != BodyKind::kDynamic) continue;
       std::vector<int>& cols = columns_[bodies[side]];
@@ -699,6 +701,14 @@ void ContactLcpOperator::ToSparse(SparseMatrixd* out) const {
   out->resize(m_, m_);
   // Duplicates (an entry two bodies share) are summed in insertion order: body order.
   out->setFromTriplets(triplets_.begin(), triplets_.end());
+}
+
+bool ContactLcpOperator::KnownSymmetricBlock(const std::vector<int>& index) const {
+  if (!std::isfinite(norm_bound_) || self_contact_) return false;
+  const int s0 = nc_ + nf_;
+  for (int i : index)
+    if (i >= s0) return false;
+  return true;
 }
 
 void ContactLcpOperator::SetPositions(const std::vector<int>& index, int n) const {

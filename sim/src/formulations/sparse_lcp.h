@@ -50,6 +50,11 @@ class ContactLcpOperator final : public LcpMatrixOperator {
   /// The entries of PrincipalBlock (same bits) on the pattern of M's structure: where two impulse
   /// columns share a body, E, U and −Eᵀ (zeros included). O(Σ_body k_body + |B ∩ body|²).
   void PrincipalBlockSparse(const std::vector<int>& index, CompressedColumns* out) const override;
+  /// True for an index of impulse columns only (no σ) when NormInfBound is finite and no
+  /// contact has one body on both sides: the block
+  /// G_Bᵀ W G_B + D_c is then symmetric bit for bit (each body block is formed symmetric, and an
+  /// entry two bodies share is x + y in either order) with finite entries (|M_ij| ≤ the bound).
+  bool KnownSymmetricBlock(const std::vector<int>& index) const override;
   /// ν_ℓ+1 = ν* + W (G_n p_n + G_f p_f) for z = [p_n; p_f; σ] into *v1, with the bits of
   /// VelocityAfterWith (stewart_trinkle_internal.h) on this assembly; *impulse and *dv are its
   /// buffers.
@@ -95,6 +100,7 @@ class ContactLcpOperator final : public LcpMatrixOperator {
   // Formed on demand (caches of what Build was given: the same values whenever formed).
   bool g_finite_ = false;      // G_n and G_f have finite values only
   bool runs_ = false;          // G_n's and G_f's columns are whole body blocks (runs of nvb_ rows)
+  bool self_contact_ = false;  // a contact has the same body on both sides
   bool single_n_ = false, single_f_ = false;  // G_n's / G_f's columns are one run each
   mutable bool full_ = false;  // blocks_ formed
   mutable bool norm_formed_ = false;                 // norm_inf_ formed

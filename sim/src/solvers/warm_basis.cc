@@ -165,7 +165,8 @@ bool SolveOnWarmBasis(const LcpMatrixOperator& M, const Eigen::VectorXd& q,
   if (nb >= kSparseSymmetricWarmBasisMin) {
     CompressedColumns& m_bb = s->m_bb_sparse;
     M.PrincipalBlockSparse(s->active, &m_bb);
-    if (m_bb.IsSymmetric(&s->cursor) && s->ldlt.Factorize(m_bb, internal::kBasisRankTolerance)) {
+    const bool symmetric = M.KnownSymmetricBlock(s->active) || m_bb.IsSymmetric(&s->cursor);
+    if (symmetric && s->ldlt.Factorize(m_bb, internal::kBasisRankTolerance)) {
       m_bb.Multiply(s->guess_b, &s->product);
       s->rhs = -(s->product + s->rhs);
       s->ldlt.Solve(s->rhs, &s->z_b);

@@ -35,6 +35,13 @@ class LcpMatrixOperator {
   /// entries, and should depend on M's structure only, so that a factorization can keep its
   /// analysis between calls). The default compresses PrincipalBlock's nonzero entries.
   virtual void PrincipalBlockSparse(const std::vector<int>& index, CompressedColumns* out) const;
+  /// True if M(index, index) is known, from M's structure, to be symmetric with finite entries
+  /// (so that CompressedColumns::IsSymmetric of PrincipalBlockSparse's output would be true);
+  /// false if not known. Default: false.
+  virtual bool KnownSymmetricBlock(const std::vector<int>& index) const {
+    (void)index;
+    return false;
+  }
 };
 
 /// An LcpMatrixOperator over an Eigen sparse matrix (column major); for tests and callers that
