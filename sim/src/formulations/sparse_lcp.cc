@@ -7,213 +7,18 @@
 #include <limits>
 #include <utility>
 
+#include "sparse_lcp_kernels.h"
+
 namespace vinci::sim {
 
 namespace internal {
 
 namespace {
 
+using namespace sparse_lcp_kernels;  // NOLINT(build/namespaces): this file's own kernels
+
 // EnsureBlocks sums the rows of up to this many columns per contact (1 + n_d) together.
 constexpr int kRowGroupMax = 9;
-
-// out = W g for an N × N column-major W: every entry accumulated from 0 over the inner index in
-// order (the order of Eigen's GEMM kernel at depth N ≤ 6, hence its bits).
-template <int N>
-void BlockTimesColumn(const double* W, const double* g, double* out) {
-  double acc[N];
-  for (int i = 0; i < N; ++i) acc[i] = 0.0;
-  for (int e = 0; e < N; ++e)
-#pragma GCC unroll 6
-    for (int i = 0; i < N; ++i) acc[i] += W[e * N + i] * g[e];
-  for (int i = 0; i < N; ++i) out[i] = acc[i];
-}
-
-// Whether a 6 × 6 column-major W is [diag(W_00, W_11, W_22), 0; 0, J] (a rigid body's M⁻¹ in
-// body coordinates: m⁻¹ I and the inverse inertia), every other entry exactly 0.
-bool IsSplitBlock(const double* W) {
-  // Σ |W_ie| over the non-structural entries: 0 iff they all are (NaN and ±inf give no 0).
-  double sum = std::abs(W[1]) + std::abs(W[2]) + std::abs(W[6]) + std::abs(W[8]) +
-               std::abs(W[12]) + std::abs(W[13]);
-  for (int e = 0; e < 3; ++e)
-#pragma GCC unroll 3
-    for (int i = 0; i < 3; ++i) sum += std::abs(W[e * 6 + 3 + i]) + std::abs(W[(e + 3) * 6 + i]);
-  return sum == 0.0;
-}
-
-// BlockTimesColumn<6> for a split W (IsSplitBlock) and a finite g: the terms skipped are
-// 0 · g_e = ±0, and adding ±0 to a partial sum leaves it unchanged (the sum starts at +0 and
-// round-to-nearest never makes it −0), so the bits are BlockTimesColumn<6>'s.
-inline void SplitBlockTimesColumn(const double* W, const double* g, double* out) {
-  for (int i = 0; i < 3; ++i) out[i] = 0.0 + W[i * 6 + i] * g[i];
-  for (int i = 3; i < 6; ++i) out[i] = ((0.0 + W[18 + i] * g[3]) + W[24 + i] * g[4]) + W[30 + i] * g[5];
-}
-
-// out = W g for body blocks: split (IsSplitBlock, g finite) or general.
-template <int N>
-inline void BodyBlockTimesColumn(const double* W, bool split, const double* g, double* out) {
-  if constexpr (N == 6) {
-    if (split) {
-      SplitBlockTimesColumn(W, g, out);
-      return;
-    }
-  }
-  BlockTimesColumn<N>(W, g, out);
-}
-
-// Entry (i, j), i ≥ j, of a body's block G_bᵀ W_b G_b: g_i · (W_b g_j), N = n_vb rows (the
-// one expression every path forms it with, hence the same bits).
-template <int N>
-inline double LowerEntry(const double* g_i, const double* wg_j) {
-  if constexpr (N == 6) {
-    using Map6 = Eigen::Map<const Eigen::Matrix<double, 6, 1>>;
-    return Map6(g_i).dot(Map6(wg_j));
-  } else {
-    // Dynamic size (as a MatrixXd column's dot): Eigen's reduction order for that type.
-    using MapX = Eigen::Map<const VectorXd>;
-    return MapX(g_i, N).dot(MapX(wg_j, N));
-  }
-}
-
-// column_sum[r] += Σ_j |g_j(r)| over the k columns g_j (N entries each), j in order.
-template <int N>
-void AddColumnAbs(const double* const* g, int k, double* column_sum) {
-  for (int j = 0; j < k; ++j)
-#pragma GCC unroll 6
-    for (int r = 0; r < N; ++r) column_sum[r] += std::abs(g[j][r]);
-}
-
-// sum + Σ_r |g_r| u_r, r in order.
-template <int N>
-double AddAbsDot(const double* g, const double* u, double sum) {
-#pragma GCC unroll 6
-  for (int r = 0; r < N; ++r) sum += std::abs(g[r]) * u[r];
-  return sum;
-}
-
-// Runs of N consecutive rows in a column's entries [p, end) (the assembly stores each body's
-// ν block whole): true if [p, p + N) is one.
-template <int N>
-inline bool IsRun(const int* inner, int p, int end) {
-  return p + N <= end && inner[p + N - 1] == inner[p] + (N - 1);
-}
-
-// *out = G x (assign) or *out += G x for a column-major G, as Eigen's `out.noalias() = G * x` /
-// `+= G * x` forms it: zeroed (assign), then x_j · column j added in column order (each row of
-// a column once, so the order within a column does not matter). With skip_zero, columns with
-// x_j = 0 are skipped: the same bits for a finite G (a skipped term is ±0, added to a sum that
-// is never −0). N: the ν block size (runs of N rows unrolled).
-template <int N, bool kRuns>
-void SparseTimesN(const SparseMatrixd& G, const double* x, bool skip_zero, double* o) {
-  const int* outer = G.outerIndexPtr();
-  const int* inner = G.innerIndexPtr();
-  const double* value = G.valuePtr();
-  for (Eigen::Index j = 0; j < G.cols(); ++j) {
-    const double xj = x[j];
-    if (skip_zero && xj == 0.0) continue;
-    const int end = outer[j + 1];
-    for (int p = outer[j]; p < end;) {
-      if (kRuns || IsRun<N>(inner, p, end)) {
-        double* out = o + inner[p];
-#pragma GCC unroll 6
-        for (int i = 0; i < N; ++i) out[i] += value[p + i] * xj;
-        p += N;
-      } else {
-        o[inner[p]] += value[p] * xj;
-        ++p;
-      }
-    }
-  }
-}
-
-// runs: every column of G is known to be whole runs of nvb rows (no test per run).
-void SparseTimes(const SparseMatrixd& G, const double* x, bool assign, bool skip_zero, int nvb,
-                 bool runs, VectorXd* out) {
-  if (assign) out->setZero(G.rows());
-  if (!G.isCompressed()) {
-    const Eigen::Map<const VectorXd> xv(x, G.cols());
-    out->noalias() += G * xv;
-  } else if (nvb == 6) {
-    if (runs)
-      SparseTimesN<6, true>(G, x, skip_zero, out->data());
-    else
-      SparseTimesN<6, false>(G, x, skip_zero, out->data());
-  } else {
-    if (runs)
-      SparseTimesN<3, true>(G, x, skip_zero, out->data());
-    else
-      SparseTimesN<3, false>(G, x, skip_zero, out->data());
-  }
-}
-
-// out[j] = column j · x (assign) or out[j] += column j · x, as Eigen's
-// `out.noalias() = G.transpose() * x` / `+=` forms it: each dot product summed from 0 over the
-// column's entries in order, then added to out[j] (zeroed for assign). N as SparseTimesN.
-template <int N, bool kRuns>
-void SparseTransposeTimesN(const SparseMatrixd& G, const double* x, bool assign, bool single,
-                           double* out) {
-  const int* outer = G.outerIndexPtr();
-  const int* inner = G.innerIndexPtr();
-  const double* value = G.valuePtr();
-  if (kRuns && single) {
-    // Every column is one run of N rows (column j at entries N j..N j+N−1): the same sums,
-    // without the walk over each column's entries.
-    const int cols = static_cast<int>(G.cols());
-    for (int j = 0; j < cols; ++j) {
-      const double* v = value + static_cast<std::ptrdiff_t>(N) * j;
-      const double* xs = x + inner[static_cast<std::ptrdiff_t>(N) * j];
-      double tmp = 0.0;
-#pragma GCC unroll 6
-      for (int i = 0; i < N; ++i) tmp += v[i] * xs[i];
-      out[j] = (assign ? 0.0 : out[j]) + tmp;
-    }
-    return;
-  }
-  for (Eigen::Index j = 0; j < G.cols(); ++j) {
-    double tmp = 0.0;
-    const int end = outer[j + 1];
-    for (int p = outer[j]; p < end;) {
-      if (kRuns || IsRun<N>(inner, p, end)) {
-        const double* xs = x + inner[p];
-#pragma GCC unroll 6
-        for (int i = 0; i < N; ++i) tmp += value[p + i] * xs[i];
-        p += N;
-      } else {
-        tmp += value[p] * x[inner[p]];
-        ++p;
-      }
-    }
-    out[j] = (assign ? 0.0 : out[j]) + tmp;
-  }
-}
-
-// single: every column of G is one run of nvb rows (SingleRuns).
-void SparseTransposeTimes(const SparseMatrixd& G, const VectorXd& x, bool assign, int nvb,
-                          bool runs, bool single, double* out) {
-  if (!G.isCompressed()) {
-    Eigen::Map<VectorXd> ov(out, G.cols());
-    if (assign) ov.setZero();
-    ov.noalias() += G.transpose() * x;
-  } else if (nvb == 6) {
-    if (runs)
-      SparseTransposeTimesN<6, true>(G, x.data(), assign, single, out);
-    else
-      SparseTransposeTimesN<6, false>(G, x.data(), assign, single, out);
-  } else {
-    if (runs)
-      SparseTransposeTimesN<3, true>(G, x.data(), assign, single, out);
-    else
-      SparseTransposeTimesN<3, false>(G, x.data(), assign, single, out);
-  }
-}
-
-// Whether every column of a compressed G holds exactly n entries (column j at n j..n j+n−1).
-bool SingleRuns(const SparseMatrixd& G, int n) {
-  if (!G.isCompressed()) return false;
-  const int* outer = G.outerIndexPtr();
-  for (Eigen::Index j = 0; j <= G.cols(); ++j)
-    if (outer[j] != n * j) return false;
-  return true;
-}
 
 // The ‖M‖∞ row sums of contact c's 1 + n_d = group rows (normal, then friction directions; E
 // starts the friction rows) into sums[0..group), each summed in the order of EnsureBlocks'
@@ -464,8 +269,8 @@ void ContactLcpOperator::MemberBlock(int body, const int* p, int m, double* out)
       // W_b is symmetric, so is the block: its lower triangle, entry (i ≥ j) = g_i · (W_b g_j).
       const int i = std::max(p[x], p[y]), j = std::min(p[x], p[y]);
       const double* g_i = gcol[static_cast<std::size_t>(i)];
-      const double value = nvb_ == 6 ? LowerEntry<6>(g_i, WG.col(j).data())
-                                     : LowerEntry<3>(g_i, WG.col(j).data());
+      const double value =
+          nvb_ == 6 ? LowerEntry<6>(g_i, WG.col(j).data()) : LowerEntry<3>(g_i, WG.col(j).data());
       out[static_cast<std::ptrdiff_t>(x) * m + y] = value;
       out[static_cast<std::ptrdiff_t>(y) * m + x] = value;
     }
@@ -487,7 +292,8 @@ void ContactLcpOperator::EnsureBlocks() const {
     for (int j = 0; j < k; ++j) {  // the columns EnsureWG has not formed, as it forms them
       if (ready[static_cast<std::size_t>(j)]) continue;
       if (nvb_ == 6)
-        BodyBlockTimesColumn<6>(W, split_[body], gcol[static_cast<std::size_t>(j)], WG.col(j).data());
+        BodyBlockTimesColumn<6>(W, split_[body], gcol[static_cast<std::size_t>(j)],
+                                WG.col(j).data());
       else
         BlockTimesColumn<3>(W, gcol[static_cast<std::size_t>(j)], WG.col(j).data());
       ready[static_cast<std::size_t>(j)] = 1;

@@ -89,8 +89,8 @@ class ContactLcpOperator final : public LcpMatrixOperator {
   int nc_ = 0, nd_ = 0, nf_ = 0, m_ = 0, nvb_ = 0;
   double norm_bound_ = 0.0;
   VectorXd q_, v_star_;
-  std::vector<std::vector<int>> columns_;       // per body: the impulse columns touching it
-  std::vector<int> first_;                      // per contact and side: its normal's position
+  std::vector<std::vector<int>> columns_;  // per body: the impulse columns touching it
+  std::vector<int> first_;                 // per contact and side: its normal's position
   // Per body, column i of its G_b over columns_[body] (n_vb entries): read in place from G_n's or
   // G_f's storage where the assembly holds the body's block whole, else gathered into Gb_.
   std::vector<std::vector<const double*>> gcol_;
@@ -101,8 +101,8 @@ class ContactLcpOperator final : public LcpMatrixOperator {
   bool g_finite_ = false;      // G_n and G_f have finite values only
   bool runs_ = false;          // G_n's and G_f's columns are whole body blocks (runs of nvb_ rows)
   bool self_contact_ = false;  // a contact has the same body on both sides
-  bool single_n_ = false, single_f_ = false;  // G_n's / G_f's columns are one run each
-  mutable bool full_ = false;  // blocks_ formed
+  bool single_n_ = false, single_f_ = false;         // G_n's / G_f's columns are one run each
+  mutable bool full_ = false;                        // blocks_ formed
   mutable bool norm_formed_ = false;                 // norm_inf_ formed
   mutable double norm_inf_ = 0.0;                    // ‖M‖∞
   mutable std::vector<MatrixXd> blocks_;             // per body: G_bᵀ W_b G_b over columns_[body]

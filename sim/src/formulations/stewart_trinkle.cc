@@ -230,8 +230,8 @@ struct DynamicSide {
 };
 
 template <int N>
-[[gnu::always_inline]] inline void WriteSideBlock(const DynamicSide& side, const DynamicSide* merge, const Vector3d& d,
-                    int* inner, double* value) {
+[[gnu::always_inline]] inline void WriteSideBlock(const DynamicSide& side, const DynamicSide* merge,
+                                                  const Vector3d& d, int* inner, double* value) {
   double row[N];
   PointVelocityRowInto<N>(side.k->X_WB, side.r, d, row);
 #pragma GCC unroll 6
@@ -257,8 +257,9 @@ struct ContactColumns {
 // One column of direction d at entry *k of a compressed G: the dynamic blocks, then the
 // non-dynamic sides' ∂ψ/∂t (a, then b) into *dpsi.
 template <int N>
-[[gnu::always_inline]] inline void WriteContactColumn(const ContactColumns& cc, const Vector3d& d, int* outer, int* inner,
-                               double* value, int* k, double* dpsi) {
+[[gnu::always_inline]] inline void WriteContactColumn(const ContactColumns& cc, const Vector3d& d,
+                                                      int* outer, int* inner, double* value, int* k,
+                                                      double* dpsi) {
   *outer = *k;
   const DynamicSide* merge = cc.merged ? &cc.sides[1] : nullptr;
   for (int b = 0; b < cc.blocks; ++b, *k += N)
