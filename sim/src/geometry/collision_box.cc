@@ -1,0 +1,325 @@
+// Narrow phase of box–box pairs: PolytopePolytope's contacts (the same features, the same tests
+// and the same arithmetic on every feature that is examined, so the same bits), with the box
+// structure used to skip, before any per-feature arithmetic, the features whose tests provably
+// fail.
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstddef>
+#include <vector>
+
+#include "collision_internal.h"
+
+namespace vinci::sim::collision_internal {
+
+namespace {
+
+using Contacts = std::vector<ContactPoint>;
+
+// VertexFeatures (collision_polytope.cc) for two boxes, X_QP = X_WQ⁻¹ X_WP and the corners of P
+// in Q's frame, x_Q[i] = X_QP · (corner i of P), formed by the caller.
+// A face normal of Q is ±e_k, so n_f · x = ±x_k exactly (the other products are zeros) and
+// s_f = ±x_k − h_k. A vertex–edge or vertex–vertex candidate q of Q has q_m = ±h_m exactly on
+// every axis m it does not run along, and the computed |x − q| ≥ |x_m − q_m| (rounding is
+// monotone and sqrt(fl(a²)) = |a|): a candidate with |x_m − q_m| > envelope on such an axis
+// fails the test dist ≤ envelope and is skipped before any arithmetic.
+void BoxVertexFeatures(const Polytope& P, const Polytope& Q, const Isometry3d& X_QP,
+                       const std::array<Vector3d, 8>& x_Q, const Isometry3d& X_WQ, double envelope,
+                       double tie, bool p_is_a, Contacts* out) {
+  const Matrix3d R_PQ = X_QP.linear().transpose();
+  const Vector3d& p_QP = X_QP.translation();
+  const Matrix3d& R_WQ = X_WQ.linear();
+  const Vector3d& h = Q.half_extents();
+  const double support_tol = envelope + tie;
+  auto min_p = [&](const Vector3d& n) { return -P.MaxDot(-(R_PQ * n)) + n.dot(p_QP); };
+  auto emit = [&](const Vector3d& x, const Vector3d& y, const Vector3d& n, double gap) {
+    const Vector3d n_W = R_WQ * n;
+    if (p_is_a) {
+      out->push_back({X_WQ * x, X_WQ * y, n_W, gap});
+    } else {
+      out->push_back({X_WQ * y, X_WQ * x, -n_W, gap});
+    }
+  };
+  std::array<double, 6> face_min_p;
+  std::array<bool, 6> face_min_p_ready{};
+  for (int i = 0; i < 8; ++i) {
+    const Vector3d& x = x_Q[i];
+    std::array<double, 6> dot, s;
+    bool far = false;
+    for (int k = 0; k < 3; ++k) {
+      dot[2 * k] = x[k];
+      dot[2 * k + 1] = -x[k];
+      s[2 * k] = dot[2 * k] - h[k];
+      s[2 * k + 1] = dot[2 * k + 1] - h[k];
+      far = far || s[2 * k] > envelope || s[2 * k + 1] > envelope;
+    }
+    if (far) continue;
+    int f_max = -1;
+    double s_max = -kInf;
+    for (int f = 0; f < 6; ++f) {
+      if (s[f] > s_max) {
+        s_max = s[f];
+        f_max = f;
+      }
+    }
+    // Vertex–face.
+    int best = -1;
+    double best_s = -kInf;
+    for (int f = 0; f < 6; ++f) {
+      if (s[f] < s_max - support_tol || s[f] <= best_s) continue;
+      if (!face_min_p_ready[f]) {
+        face_min_p[f] = min_p(Q.face_normal(f));
+        face_min_p_ready[f] = true;
+      }
+      if (dot[f] - face_min_p[f] > support_tol) continue;
+      best = f;
+      best_s = s[f];
+    }
+    if (best < 0) {
+      best = f_max;
+      best_s = s_max;
+    }
+    const Vector3d n = Q.face_normal(best);
+    const Vector3d y = x - best_s * n;
+    bool inside = true;
+    for (int k = 0; k < 4 && inside; ++k) {
+      const Vector3d v0 = Q.face_vertex(best, k);
+      const Vector3d e = Q.face_vertex(best, (k + 1) % 4) - v0;
+      inside = e.cross(y - v0).dot(n) >= -envelope * e.norm();
+    }
+    if (inside) emit(x, y, n, best_s);
+    if (s_max <= tie) continue;  // vertex–edge / vertex–vertex only for separated vertices
+    // |x_m − c_m| ≤ envelope for the corner c = vertex(j) of Q, per axis m.
+    // (Not used for an envelope so small that a² could underflow.)
+    std::array<bool, 3> near_lo, near_hi;
+    for (int m = 0; m < 3; ++m) {
+      near_lo[m] = envelope < 1e-100 || std::abs(x[m] + h[m]) <= envelope;
+      near_hi[m] = envelope < 1e-100 || std::abs(x[m] - h[m]) <= envelope;
+    }
+    const auto near = [&](int j, int m) { return (j >> m) & 1 ? near_hi[m] : near_lo[m]; };
+    // Vertex–edge, in Polytope::ForEachEdge's order.
+    for (int axis = 0, bit = 1; axis < 3; ++axis, bit <<= 1) {
+      const int m1 = (axis + 1) % 3, m2 = (axis + 2) % 3;
+      for (int j = 0; j < 8; ++j) {
+        if ((j & bit) != 0 || !near(j, m1) || !near(j, m2)) continue;
+        const Vector3d e0 = Q.vertex(j), e1 = Q.vertex(j | bit);
+        const double t = ClosestParamOnSegment(e0, e1, x);
+        if (!Interior(t)) continue;
+        const Vector3d q = e0 + t * (e1 - e0);
+        const double dist = (x - q).norm();
+        if (dist > envelope || dist <= tie) continue;
+        const Vector3d nq = (x - q) / dist;
+        if (Q.MaxDot(nq) - nq.dot(q) > support_tol || nq.dot(x) - min_p(nq) > support_tol) continue;
+        emit(x, q, nq, dist);
+      }
+    }
+    // Vertex–vertex.
+    for (int j = 0; j < 8; ++j) {
+      if (!near(j, 0) || !near(j, 1) || !near(j, 2)) continue;
+      const Vector3d w = Q.vertex(j);
+      const double dist = (x - w).norm();
+      if (dist > envelope || dist <= tie) continue;
+      const Vector3d nq = (x - w) / dist;
+      if (Q.MaxDot(nq) - nq.dot(w) > support_tol || nq.dot(x) - min_p(nq) > support_tol) continue;
+      emit(x, w, nq, dist);
+    }
+  }
+}
+
+// EdgeEdge (collision_polytope.cc) for two boxes with its pruning on (`cull` finite, sizes in
+// range), face_sep formed by the caller and `a_B` = X_BA · (corners of A), as EdgeEdge forms its
+// edges' start points. The 4 edges of a box along one axis have the same direction vector, bit
+// for bit (corner differences are 0 or 2h exactly), so the direction terms are formed once per
+// axis. EdgeEdge skips a pair when the angle test is decided by A's edge alone (`decided`, per
+// axis of B) and one edge is far from the other box; here a decided pair is also skipped when
+// the two edges' bounding boxes are farther apart than `cull` along an axis (the computed tests
+// reject it: as parallel, or by that very bounding-box test, whose operands are formed here
+// exactly as there: an edge of B along axis k at corner c spans [−h_k, h_k] on k and is the
+// point c_m on the other axes m), and a decided parallel pair is skipped always. So only the
+// pairs EdgeEdge examines to the end are formed, with its arithmetic, in its order.
+void BoxEdgeEdge(const Polytope& A, const Polytope& B, const Isometry3d& X_BA,
+                 const std::array<Vector3d, 8>& a_B, const Isometry3d& X_WB, double envelope,
+                 double tie, double face_sep, double cull, Contacts* out) {
+  const Matrix3d R_AB = X_BA.linear().transpose();
+  const Matrix3d& R_BA = X_BA.linear();
+  const Vector3d& p_BA = X_BA.translation();
+  const Matrix3d& R_WB = X_WB.linear();
+  const Vector3d& h_A = A.half_extents();
+  const Vector3d& h_B = B.half_extents();
+  const double support_tol = envelope + tie;
+  // B's edge directions and lengths, per axis.
+  std::array<Vector3d, 3> db_axis;
+  std::array<double, 3> length_axis;
+  for (int k = 0, bit = 1; k < 3; ++k, bit <<= 1) {
+    db_axis[k] = B.vertex(bit) - B.vertex(0);
+    length_axis[k] = db_axis[k].norm();
+  }
+  // n_k · (corner of B − p_BA) for A's axes n_k in B's frame, per corner of B (on first use).
+  std::array<Vector3d, 8> t_corner;
+  std::array<bool, 8> t_ready{};
+  const auto t_of = [&](int j) -> const Vector3d& {
+    if (!t_ready[j]) {
+      const Vector3d c = B.vertex(j);
+      for (int k = 0; k < 3; ++k) t_corner[j][k] = R_BA.col(k).dot(c - p_BA);
+      t_ready[j] = true;
+    }
+    return t_corner[j];
+  };
+  // EdgeEdge's `far` of B's edge from corner j to corner j | bit.
+  const auto far_b = [&](int j, int bit) {
+    const Vector3d& t0 = t_of(j);
+    const Vector3d& t1 = t_of(j | bit);
+    for (int k = 0; k < 3; ++k) {
+      if (std::min(t0[k], t1[k]) - h_A[k] > cull || -std::max(t0[k], t1[k]) - h_A[k] > cull)
+        return true;
+    }
+    return false;
+  };
+  for (int g = 0, bit_a = 1; g < 3; ++g, bit_a <<= 1) {
+    const Vector3d da = X_BA.linear() * (A.vertex(bit_a) - A.vertex(0));
+    const double da_norm = da.norm();
+    const double da_sq = da.squaredNorm();
+    std::array<bool, 3> decided{false, false, false}, parallel{false, false, false};
+    const bool in_range = da_sq >= 1e-60 && da_sq <= 1e60;
+    if (in_range) {
+      const Vector3d sq = da.cwiseAbs2();
+      const double u[3] = {sq[1] + sq[2], sq[0] + sq[2], sq[0] + sq[1]};
+      for (int k = 0; k < 3; ++k) {
+        parallel[k] = u[k] <= 0.999e-12 * da_sq;
+        decided[k] = u[k] >= 0.2500001 * da_sq || parallel[k];
+      }
+    }
+    const bool all_decided = decided[0] && decided[1] && decided[2];
+    // The terms of a pair that depend on the two directions only (EdgeEdge's and LineLineParams'
+    // expressions), per axis k of B; `skip`: every pair fails EdgeEdge's angle test.
+    struct AxisTerms {
+      Vector3d c;
+      double c_norm, aa, ee, bb, denom;
+      bool wide;  // c_norm² ≥ ¼ |d_a|² |d_b|²: the bounding-box test applies
+      bool skip;
+    };
+    std::array<AxisTerms, 3> terms;
+    for (int k = 0; k < 3; ++k) {
+      AxisTerms& a = terms[k];
+      const Vector3d& db = db_axis[k];
+      a.c = da.cross(db);
+      a.c_norm = a.c.norm();
+      a.skip = a.c_norm <= kEdgeParallelSin * da_norm * length_axis[k];
+      a.wide = a.c_norm * a.c_norm >= 0.25 * da_sq * (length_axis[k] * length_axis[k]);
+      a.aa = da.dot(da);
+      a.ee = db.dot(db);
+      a.bb = da.dot(db);
+      a.denom = a.aa * a.ee - a.bb * a.bb;
+    }
+    for (int i = 0; i < 8; ++i) {
+      if ((i & bit_a) != 0) continue;
+      const Vector3d& a0 = a_B[i];
+      const Vector3d a_end = a0 + da;
+      const Vector3d lo_a = a0.cwiseMin(a_end), hi_a = a0.cwiseMax(a_end);
+      bool far_a = false;
+      // Per axis m of B: the bounding box of A's edge is within `cull` of the coordinate −h_m,
+      // of +h_m, and of the interval [−h_m, h_m].
+      std::array<bool, 3> ok_lo{}, ok_hi{}, ok_span{};
+      if (in_range) {
+        for (int m = 0; m < 3; ++m) {
+          const bool below = lo_a[m] - h_B[m] > cull, above = -h_B[m] - hi_a[m] > cull;
+          far_a = far_a || below || above;
+          ok_span[m] = !below && !above;
+          ok_lo[m] = !(lo_a[m] - -h_B[m] > cull) && !above;
+          ok_hi[m] = !below && !(h_B[m] - hi_a[m] > cull);
+        }
+        if (far_a && all_decided) continue;
+      }
+      for (int k = 0, bit = 1; k < 3; ++k, bit <<= 1) {
+        const AxisTerms& a = terms[k];
+        if (a.skip || (decided[k] && (far_a || parallel[k] || !ok_span[k]))) continue;
+        const Vector3d& db = db_axis[k];
+        const int m1 = k == 0 ? 1 : 0, m2 = k == 2 ? 1 : 2;  // the other axes, m1 < m2
+        for (int q = 0; q < 4; ++q) {
+          // The corners without bit k, ascending (Polytope::ForEachEdge's order).
+          const int j = ((q & 1) << m1) | ((q >> 1) << m2);
+          if (decided[k] && (!((q & 1) ? ok_hi[m1] : ok_lo[m1]) ||
+                             !((q >> 1) ? ok_hi[m2] : ok_lo[m2]) || far_b(j, bit)))
+            continue;
+          const Vector3d b0 = B.vertex(j);
+          if (a.wide) {
+            const Vector3d b_end = b0 + db;
+            const Vector3d lo_b = b0.cwiseMin(b_end), hi_b = b0.cwiseMax(b_end);
+            const Vector3d apart = (lo_a - hi_b).cwiseMax(lo_b - hi_a);
+            if (apart.maxCoeff() > cull) continue;
+          }
+          // LineLineParams(a0, da, b0, db).
+          const Vector3d r = a0 - b0;
+          const double cc = da.dot(r), ff = db.dot(r);
+          const double s = (a.bb * ff - cc * a.ee) / a.denom;
+          const double t = (a.aa * ff - a.bb * cc) / a.denom;
+          if (!Interior(s) || !Interior(t)) continue;
+          const Vector3d pa = a0 + s * da;
+          const Vector3d pb = b0 + t * db;
+          const Vector3d axis = a.c / a.c_norm;
+          const double sep = axis.dot(pa - pb);
+          for (const double sign : {sep >= 0.0 ? 1.0 : -1.0, sep >= 0.0 ? -1.0 : 1.0}) {
+            const Vector3d n = sign * axis;
+            const double gap = sign * sep;
+            if (gap > envelope || (gap < 0.0 && gap < face_sep - support_tol)) continue;
+            if (B.MaxDot(n) - n.dot(pb) > support_tol) continue;
+            const double min_a = -A.MaxDot(-(R_AB * n)) + n.dot(p_BA);
+            if (n.dot(pa) - min_a > support_tol) continue;
+            out->push_back({X_WB * pa, X_WB * pb, R_WB * n, gap});
+            break;
+          }
+        }
+      }
+    }
+  }
+}
+
+}  // namespace
+
+void BoxBox(const Polytope& A, const Isometry3d& X_WA, const Polytope& B, const Isometry3d& X_WB,
+            double envelope, Contacts* out) {
+  const auto box_ok = [](const Polytope& P) {
+    const Vector3d& h = P.half_extents();
+    return P.is_box() && h.minCoeff() >= 1e-30 && h.maxCoeff() <= 1e30;
+  };
+  if (!box_ok(A) || !box_ok(B) || !std::isfinite(envelope) || !X_WA.matrix().allFinite() ||
+      !X_WB.matrix().allFinite()) {
+    PolytopePolytope(A, X_WA, B, X_WB, envelope, out);
+    return;
+  }
+  const double tie = kRelTol * (A.radius() + B.radius());
+  const double support_tol = envelope + tie;
+  const Isometry3d X_BA = X_WB.inverse(Eigen::Isometry) * X_WA;
+  const Matrix3d R_AB = X_BA.linear().transpose();
+  const Vector3d& p_BA = X_BA.translation();
+  // EdgeEdge's SAT over the face axes and its cull distance (the same expressions).
+  double face_sep = -kInf;
+  for (int f = 0; f < 6; ++f) {
+    const Vector3d n = B.face_normal(f);
+    face_sep = std::max(face_sep, -A.MaxDot(-(R_AB * n)) + n.dot(p_BA) - B.face_offset(f));
+  }
+  for (int f = 0; f < 6; ++f) {
+    const Vector3d n_A = A.face_normal(f);
+    const Vector3d n_B = X_BA.linear() * n_A;
+    face_sep = std::max(face_sep, -B.MaxDot(-n_B) - n_B.dot(p_BA) - A.face_offset(f));
+  }
+  const double reach = std::max(envelope, support_tol - face_sep);
+  const double cull = reach * (1.0 + 1e-9) + 1e-9 * (A.radius() + B.radius() + p_BA.norm());
+  if (!std::isfinite(cull)) {
+    PolytopePolytope(A, X_WA, B, X_WB, envelope, out);
+    return;
+  }
+  const std::size_t begin = out->size();
+  const Isometry3d X_AB = X_WA.inverse(Eigen::Isometry) * X_WB;
+  std::array<Vector3d, 8> a_B, b_A;  // the corners of each box in the other's frame
+  for (int i = 0; i < 8; ++i) {
+    a_B[i] = X_BA * A.vertex(i);
+    b_A[i] = X_AB * B.vertex(i);
+  }
+  BoxVertexFeatures(A, B, X_BA, a_B, X_WB, envelope, tie, /*p_is_a=*/true, out);
+  BoxVertexFeatures(B, A, X_AB, b_A, X_WA, envelope, tie, /*p_is_a=*/false, out);
+  BoxEdgeEdge(A, B, X_BA, a_B, X_WB, envelope, tie, face_sep, cull, out);
+  RemoveDuplicateContacts(out, begin, tie);
+}
+
+}  // namespace vinci::sim::collision_internal
