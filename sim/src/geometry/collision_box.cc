@@ -16,6 +16,11 @@ namespace {
 
 using Contacts = std::vector<ContactPoint>;
 
+// The q-th (q = 0..3) corner of a box without bit k, ascending: Polytope::ForEachEdge's start
+// corners of the edges along axis k.
+constexpr int kCorner[3][4] = {{0, 2, 4, 6}, {0, 1, 4, 5}, {0, 1, 2, 3}};
+inline int Corner(int k, int q) { return kCorner[k][q]; }
+
 // VertexFeatures (collision_polytope.cc) for two boxes, X_QP = X_WQ⁻¹ X_WP and the corners of P
 // in Q's frame, x_Q[i] = X_QP · (corner i of P), formed by the caller.
 // A face normal of Q is ±e_k, so n_f · x = ±x_k exactly (the other products are zeros) and
@@ -51,7 +56,7 @@ void BoxVertexFeatures(const Polytope& P, const Polytope& Q, const Isometry3d& X
       dot[2 * k + 1] = -x[k];
       s[2 * k] = dot[2 * k] - h[k];
       s[2 * k + 1] = dot[2 * k + 1] - h[k];
-      far = far || s[2 * k] > envelope || s[2 * k + 1] > envelope;
+      far |= (s[2 * k] > envelope) | (s[2 * k + 1] > envelope);
     }
     if (far) continue;
     int f_max = -1;
@@ -137,6 +142,13 @@ void BoxVertexFeatures(const Polytope& P, const Polytope& Q, const Isometry3d& X
 // exactly as there: an edge of B along axis k at corner c spans [−h_k, h_k] on k and is the
 // point c_m on the other axes m), and a decided parallel pair is skipped always. So only the
 // pairs EdgeEdge examines to the end are formed, with its arithmetic, in its order.
+// A pair emits only if, for n = +axis or n = −axis (axis = c/|c|, per pair of axes), B's edge
+// passes B.MaxDot(n) − n · p_b ≤ support_tol and A's edge n · p_a − min_A(n) ≤ support_tol. As
+// n ⟂ d_a, d_b (to round-off), n · p_b and n · p_a equal n · b0 and n · a0 to within far less than
+// `margin`, so a pair failing both orientations with b0, a0 and support_tol + margin is skipped
+// (the Gauss-map test of two edges: most pairs of two boxes fail it); likewise a pair whose
+// gap n · (p_a − p_b), to within `margin` n · a0 − n · b0, is outside EdgeEdge's window for
+// both orientations.
 void BoxEdgeEdge(const Polytope& A, const Polytope& B, const Isometry3d& X_BA,
                  const std::array<Vector3d, 8>& a_B, const Isometry3d& X_WB, double envelope,
                  double tie, double face_sep, double cull, Contacts* out) {
@@ -147,6 +159,12 @@ void BoxEdgeEdge(const Polytope& A, const Polytope& B, const Isometry3d& X_BA,
   const Vector3d& h_A = A.half_extents();
   const Vector3d& h_B = B.half_extents();
   const double support_tol = envelope + tie;
+  // Round-off allowance of the support pre-test (≫ the few ulps by which n · p_a and n · p_b
+  // differ from n · a0 and n · b0: n ⟂ d_a, d_b to round-off).
+  const double margin = 1e-10 * (A.radius() + B.radius() + p_BA.norm());
+  // EdgeEdge keeps a gap in [min(0, face_sep − support_tol), envelope].
+  const double gap_lo = std::min(0.0, face_sep - support_tol) - margin;
+  const double gap_hi = envelope + margin;
   // B's edge directions and lengths, per axis.
   std::array<Vector3d, 3> db_axis;
   std::array<double, 3> length_axis;
@@ -193,53 +211,94 @@ void BoxEdgeEdge(const Polytope& A, const Polytope& B, const Isometry3d& X_BA,
     // The terms of a pair that depend on the two directions only (EdgeEdge's and LineLineParams'
     // expressions), per axis k of B; `skip`: every pair fails EdgeEdge's angle test.
     struct AxisTerms {
-      Vector3d c;
+      Vector3d c, axis;
       double c_norm, aa, ee, bb, denom;
       bool wide;  // c_norm² ≥ ¼ |d_a|² |d_b|²: the bounding-box test applies
       bool skip;
+      double max_a, axis_p;       // A.MaxDot(±R_AB axis) and axis · p_BA
+      std::array<double, 4> d_b;  // axis · b0 for B's edges along k (ForEachEdge order)
+      // Bit q (q + 4): B's edge from its q-th corner may pass B's support test with n = +axis
+      // (n = −axis).
+      int b_support;
     };
     std::array<AxisTerms, 3> terms;
     for (int k = 0; k < 3; ++k) {
       AxisTerms& a = terms[k];
+      a.skip = decided[k] && parallel[k];  // EdgeEdge rejects every such pair as parallel
+      if (a.skip) continue;
       const Vector3d& db = db_axis[k];
       a.c = da.cross(db);
       a.c_norm = a.c.norm();
       a.skip = a.c_norm <= kEdgeParallelSin * da_norm * length_axis[k];
+      if (a.skip) continue;
       a.wide = a.c_norm * a.c_norm >= 0.25 * da_sq * (length_axis[k] * length_axis[k]);
       a.aa = da.dot(da);
       a.ee = db.dot(db);
       a.bb = da.dot(db);
       a.denom = a.aa * a.ee - a.bb * a.bb;
+      a.b_support = 0;
+      a.axis = a.c / a.c_norm;
+      a.max_a = A.MaxDot(-(R_AB * a.axis));
+      a.axis_p = a.axis.dot(p_BA);
+      const double max_b = B.MaxDot(a.axis);
+      for (int q = 0; q < 4; ++q) {
+        const double d = a.axis.dot(B.vertex(Corner(k, q)));
+        a.d_b[q] = d;
+        if (max_b - d <= support_tol + margin) a.b_support |= 1 << q;
+        if (max_b + d <= support_tol + margin) a.b_support |= 1 << (q + 4);
+      }
     }
     for (int i = 0; i < 8; ++i) {
       if ((i & bit_a) != 0) continue;
       const Vector3d& a0 = a_B[i];
+      // Candidates per axis k of B (bit q: B's edge from its q-th corner): the pairs that may
+      // pass the support tests and the gap window for n = +axis or n = −axis.
+      std::array<int, 3> cand{0, 0, 0};
+      for (int k = 0; k < 3; ++k) {
+        const AxisTerms& a = terms[k];
+        if (a.skip) continue;
+        const double d_a = a.axis.dot(a0);
+        if (d_a - (-a.max_a + a.axis_p) <= support_tol + margin) {  // A's support, n = +axis
+          for (int q = 0; q < 4; ++q) {
+            const double gap = d_a - a.d_b[q];
+            if ((a.b_support >> q & 1) && gap >= gap_lo && gap <= gap_hi) cand[k] |= 1 << q;
+          }
+        }
+        if (-d_a - (-a.max_a - a.axis_p) <= support_tol + margin) {  // n = −axis
+          for (int q = 0; q < 4; ++q) {
+            const double gap = a.d_b[q] - d_a;
+            if ((a.b_support >> (q + 4) & 1) && gap >= gap_lo && gap <= gap_hi) cand[k] |= 1 << q;
+          }
+        }
+      }
+      if ((cand[0] | cand[1] | cand[2]) == 0) continue;
       const Vector3d a_end = a0 + da;
       const Vector3d lo_a = a0.cwiseMin(a_end), hi_a = a0.cwiseMax(a_end);
       bool far_a = false;
-      // Per axis m of B: the bounding box of A's edge is within `cull` of the coordinate −h_m,
-      // of +h_m, and of the interval [−h_m, h_m].
-      std::array<bool, 3> ok_lo{}, ok_hi{}, ok_span{};
+      // Bits 2m and 2m + 1: the bounding box of A's edge is within `cull` of the coordinate −h_m
+      // and of +h_m on axis m of B; ok_span[m]: of the interval [−h_m, h_m].
+      int ok = 0;
+      std::array<bool, 3> ok_span{};
       if (in_range) {
         for (int m = 0; m < 3; ++m) {
           const bool below = lo_a[m] - h_B[m] > cull, above = -h_B[m] - hi_a[m] > cull;
-          far_a = far_a || below || above;
-          ok_span[m] = !below && !above;
-          ok_lo[m] = !(lo_a[m] - -h_B[m] > cull) && !above;
-          ok_hi[m] = !below && !(h_B[m] - hi_a[m] > cull);
+          far_a |= below | above;
+          ok_span[m] = !(below | above);
+          ok |= int(!((lo_a[m] - -h_B[m] > cull) | above)) << (2 * m);
+          ok |= int(!(below | (h_B[m] - hi_a[m] > cull))) << (2 * m + 1);
         }
         if (far_a && all_decided) continue;
       }
       for (int k = 0, bit = 1; k < 3; ++k, bit <<= 1) {
         const AxisTerms& a = terms[k];
-        if (a.skip || (decided[k] && (far_a || parallel[k] || !ok_span[k]))) continue;
+        if (cand[k] == 0 || (decided[k] && (far_a || !ok_span[k]))) continue;
         const Vector3d& db = db_axis[k];
         const int m1 = k == 0 ? 1 : 0, m2 = k == 2 ? 1 : 2;  // the other axes, m1 < m2
         for (int q = 0; q < 4; ++q) {
-          // The corners without bit k, ascending (Polytope::ForEachEdge's order).
-          const int j = ((q & 1) << m1) | ((q >> 1) << m2);
-          if (decided[k] && (!((q & 1) ? ok_hi[m1] : ok_lo[m1]) ||
-                             !((q >> 1) ? ok_hi[m2] : ok_lo[m2]) || far_b(j, bit)))
+          if ((cand[k] >> q & 1) == 0) continue;
+          const int j = Corner(k, q);
+          if (decided[k] &&
+              (!(ok >> (2 * m1 + (q & 1)) & ok >> (2 * m2 + (q >> 1)) & 1) || far_b(j, bit)))
             continue;
           const Vector3d b0 = B.vertex(j);
           if (a.wide) {
