@@ -18,6 +18,34 @@ using Contacts = std::vector<ContactPoint>;
 
 // The q-th (q = 0..3) corner of a box without bit k, ascending: Polytope::ForEachEdge's start
 // corners of the edges along axis k.
+// VertexFeatures' inside test e × (y − v0) · n ≥ −envelope |e| on edge k of box face f
+// (e = v1 − v0 = ±2h_a e_a, n = ±e_k): the cross product's k-th component is ±fl(e_a w_b) (the
+// other products are zeros), |e| = sqrt(fl(e_a²)) = 2h_a, so the test is
+// fl(sign · 2h_a · w_b) ≥ −fl(envelope · 2h_a) with w_b = fl(y_b − v0_b), bit for bit; `sign`
+// from a unit box (it does not depend on the sizes).
+struct FaceEdge {
+  int a, b;     // the edge's axis and the third axis
+  double sign;  // (e × e_b) · n / |e|
+};
+struct FaceEdges {
+  FaceEdge edge[6][4];
+  FaceEdges() {
+    const Vector3d one(1.0, 1.0, 1.0);
+    const Polytope unit(one);
+    for (int f = 0; f < 6; ++f) {
+      for (int k = 0; k < 4; ++k) {
+        const Vector3d e =
+            unit.vertex(kBoxFaceLoops[f][(k + 1) % 4]) - unit.vertex(kBoxFaceLoops[f][k]);
+        FaceEdge& fe = edge[f][k];
+        fe.a = e[0] != 0.0 ? 0 : (e[1] != 0.0 ? 1 : 2);
+        fe.b = 3 - f / 2 - fe.a;
+        fe.sign = e.cross(Vector3d::Unit(fe.b)).dot(unit.face_normal(f)) / e.norm();
+      }
+    }
+  }
+};
+const FaceEdges kFaceEdges;
+
 constexpr int kCorner[3][4] = {{0, 2, 4, 6}, {0, 1, 4, 5}, {0, 1, 2, 3}};
 inline int Corner(int k, int q) { return kCorner[k][q]; }
 
@@ -88,9 +116,9 @@ void BoxVertexFeatures(const Polytope& P, const Polytope& Q, const Isometry3d& X
     const Vector3d y = x - best_s * n;
     bool inside = true;
     for (int k = 0; k < 4 && inside; ++k) {
-      const Vector3d v0 = Q.face_vertex(best, k);
-      const Vector3d e = Q.face_vertex(best, (k + 1) % 4) - v0;
-      inside = e.cross(y - v0).dot(n) >= -envelope * e.norm();
+      const FaceEdge& fe = kFaceEdges.edge[best][k];
+      const double w = y[fe.b] - ((kBoxFaceLoops[best][k] >> fe.b) & 1 ? h[fe.b] : -h[fe.b]);
+      inside = (fe.sign * (2.0 * h[fe.a])) * w >= -envelope * (2.0 * h[fe.a]);
     }
     if (inside) emit(x, y, n, best_s);
     if (s_max <= tie) continue;  // vertex–edge / vertex–vertex only for separated vertices
@@ -178,7 +206,10 @@ void BoxEdgeEdge(const Polytope& A, const Polytope& B, const Isometry3d& X_BA,
   const auto t_of = [&](int j) -> const Vector3d& {
     if (!t_ready[j]) {
       const Vector3d c = B.vertex(j);
-      for (int k = 0; k < 3; ++k) t_corner[j][k] = R_BA.col(k).dot(c - p_BA);
+      for (int k = 0; k < 3; ++k) {
+        const Vector3d n = R_BA.col(k);
+        t_corner[j][k] = n.dot(c - p_BA);
+      }
       t_ready[j] = true;
     }
     return t_corner[j];
@@ -352,15 +383,21 @@ void BoxBox(const Polytope& A, const Isometry3d& X_WA, const Polytope& B, const 
   const Matrix3d R_AB = X_BA.linear().transpose();
   const Vector3d& p_BA = X_BA.translation();
   // EdgeEdge's SAT over the face axes and its cull distance (the same expressions).
+  // With n = ±e_k, R n = ±(column k of R) exactly, so each MaxDot serves both faces of an axis
+  // and n · p = ±p_k: the same values as EdgeEdge's loop over the 12 faces.
   double face_sep = -kInf;
-  for (int f = 0; f < 6; ++f) {
-    const Vector3d n = B.face_normal(f);
-    face_sep = std::max(face_sep, -A.MaxDot(-(R_AB * n)) + n.dot(p_BA) - B.face_offset(f));
+  const Matrix3d& R_BA = X_BA.linear();
+  for (int k = 0; k < 3; ++k) {  // B's faces: min over A of n_f · y, minus B's support d_f
+    const double max_a = A.MaxDot(R_AB.col(k));
+    face_sep = std::max(face_sep, -max_a + p_BA[k] - B.half_extents()[k]);
+    face_sep = std::max(face_sep, -max_a + -p_BA[k] - B.half_extents()[k]);
   }
-  for (int f = 0; f < 6; ++f) {
-    const Vector3d n_A = A.face_normal(f);
-    const Vector3d n_B = X_BA.linear() * n_A;
-    face_sep = std::max(face_sep, -B.MaxDot(-n_B) - n_B.dot(p_BA) - A.face_offset(f));
+  for (int k = 0; k < 3; ++k) {  // A's faces (outward normals ±R_BA e_k in B's frame)
+    const Vector3d n_B = R_BA.col(k);
+    const double max_b = B.MaxDot(n_B);
+    const double d = n_B.dot(p_BA);
+    face_sep = std::max(face_sep, -max_b - d - A.half_extents()[k]);
+    face_sep = std::max(face_sep, -max_b - -d - A.half_extents()[k]);
   }
   const double reach = std::max(envelope, support_tol - face_sep);
   const double cull = reach * (1.0 + 1e-9) + 1e-9 * (A.radius() + B.radius() + p_BA.norm());
