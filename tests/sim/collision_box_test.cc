@@ -127,7 +127,7 @@ TEST(BoxBoxTwin, RandomPosesMatchGeneralPath) {
   std::mt19937_64 rng(20261202);
   std::uniform_real_distribution<double> size(0.05, 0.5), unit(-1.0, 1.0);
   std::normal_distribution<double> g(0.0, 1.0);
-  long contacts = 0, cases = 0, with_contacts = 0;
+  long contacts = 0, cases = 0, with_contacts = 0, deep_contacts = 0;
   for (int trial = 0; trial < 400; ++trial) {
     Case c;
     c.h_A = Vector3d(size(rng), size(rng), size(rng));
@@ -143,11 +143,16 @@ TEST(BoxBoxTwin, RandomPosesMatchGeneralPath) {
       ++cases;
       if (!Agree(c, kEnvelope, &contacts)) return;
       with_contacts += contacts > before;
+      // The end-of-step penetration check's envelope (−max_penetration), and zero.
+      for (const double envelope : {-1e-3, 0.0}) {
+        if (!Agree(c, envelope, &deep_contacts)) return;
+      }
     }
   }
   // Most poses have contacts (one vertex–face or edge–edge contact for most).
   EXPECT_GT(with_contacts, cases / 2) << with_contacts << " of " << cases;
   EXPECT_GT(contacts, with_contacts);  // some poses have several
+  EXPECT_GT(deep_contacts, 0);         // the 1 cm deep poses
 }
 
 // Nearly aligned boxes, as in stacks and piles: equal or different sizes, B rotated by a cube

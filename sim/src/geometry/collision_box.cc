@@ -385,36 +385,48 @@ void BoxBox(const Polytope& A, const Isometry3d& X_WA, const Polytope& B, const 
   // EdgeEdge's SAT over the face axes and its cull distance (the same expressions).
   // With n = ±e_k, R n = ±(column k of R) exactly, so each MaxDot serves both faces of an axis
   // and n · p = ±p_k: the same values as EdgeEdge's loop over the 12 faces.
-  double face_sep = -kInf;
+  double sep_b = -kInf, sep_a = -kInf;  // over B's faces and over A's faces
   const Matrix3d& R_BA = X_BA.linear();
   for (int k = 0; k < 3; ++k) {  // B's faces: min over A of n_f · y, minus B's support d_f
     const double max_a = A.MaxDot(R_AB.col(k));
-    face_sep = std::max(face_sep, -max_a + p_BA[k] - B.half_extents()[k]);
-    face_sep = std::max(face_sep, -max_a + -p_BA[k] - B.half_extents()[k]);
+    sep_b = std::max(sep_b, -max_a + p_BA[k] - B.half_extents()[k]);
+    sep_b = std::max(sep_b, -max_a + -p_BA[k] - B.half_extents()[k]);
   }
   for (int k = 0; k < 3; ++k) {  // A's faces (outward normals ±R_BA e_k in B's frame)
     const Vector3d n_B = R_BA.col(k);
     const double max_b = B.MaxDot(n_B);
     const double d = n_B.dot(p_BA);
-    face_sep = std::max(face_sep, -max_b - d - A.half_extents()[k]);
-    face_sep = std::max(face_sep, -max_b - -d - A.half_extents()[k]);
+    sep_a = std::max(sep_a, -max_b - d - A.half_extents()[k]);
+    sep_a = std::max(sep_a, -max_b - -d - A.half_extents()[k]);
   }
+  const double face_sep = std::max(sep_b, sep_a);
   const double reach = std::max(envelope, support_tol - face_sep);
   const double cull = reach * (1.0 + 1e-9) + 1e-9 * (A.radius() + B.radius() + p_BA.norm());
   if (!std::isfinite(cull)) {
     PolytopePolytope(A, X_WA, B, X_WB, envelope, out);
     return;
   }
+  // Features that cannot give a contact. sep_b is min over A's corners of s_f for a face f of B,
+  // which VertexFeatures forms per corner to within round-off (≪ margin): above envelope +
+  // margin every corner of A is skipped there; likewise sep_a for B's corners. EdgeEdge keeps a
+  // gap ≤ envelope and ≥ min(0, face_sep − support_tol): none if that window is empty (as in
+  // the end-of-step penetration check, whose envelope is −max_penetration).
+  const double margin = 1e-10 * (A.radius() + B.radius() + p_BA.norm());
+  const bool vertices_a = !(sep_b > envelope + margin);
+  const bool vertices_b = !(sep_a > envelope + margin);
+  const bool edges = !(envelope < std::min(0.0, face_sep - support_tol));
+  if (!vertices_a && !vertices_b && !edges) return;
   const std::size_t begin = out->size();
-  const Isometry3d X_AB = X_WA.inverse(Eigen::Isometry) * X_WB;
-  std::array<Vector3d, 8> a_B, b_A;  // the corners of each box in the other's frame
-  for (int i = 0; i < 8; ++i) {
-    a_B[i] = X_BA * A.vertex(i);
-    b_A[i] = X_AB * B.vertex(i);
+  std::array<Vector3d, 8> a_B;  // the corners of A in B's frame
+  for (int i = 0; i < 8; ++i) a_B[i] = X_BA * A.vertex(i);
+  if (vertices_a) BoxVertexFeatures(A, B, X_BA, a_B, X_WB, envelope, tie, /*p_is_a=*/true, out);
+  if (vertices_b) {
+    const Isometry3d X_AB = X_WA.inverse(Eigen::Isometry) * X_WB;
+    std::array<Vector3d, 8> b_A;  // the corners of B in A's frame
+    for (int i = 0; i < 8; ++i) b_A[i] = X_AB * B.vertex(i);
+    BoxVertexFeatures(B, A, X_AB, b_A, X_WA, envelope, tie, /*p_is_a=*/false, out);
   }
-  BoxVertexFeatures(A, B, X_BA, a_B, X_WB, envelope, tie, /*p_is_a=*/true, out);
-  BoxVertexFeatures(B, A, X_AB, b_A, X_WA, envelope, tie, /*p_is_a=*/false, out);
-  BoxEdgeEdge(A, B, X_BA, a_B, X_WB, envelope, tie, face_sep, cull, out);
+  if (edges) BoxEdgeEdge(A, B, X_BA, a_B, X_WB, envelope, tie, face_sep, cull, out);
   RemoveDuplicateContacts(out, begin, tie);
 }
 
