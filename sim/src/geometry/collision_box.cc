@@ -160,15 +160,15 @@ void BoxVertexFeatures(const Polytope& P, const Polytope& Q, const Isometry3d& X
 }
 
 // EdgeEdge (collision_polytope.cc) for two boxes with its pruning on (`cull` finite, sizes in
-// range), face_sep formed by the caller and `a_B` = X_BA · (corners of A), as EdgeEdge forms its
-// edges' start points. The 4 edges of a box along one axis have the same direction vector, bit
-// for bit (corner differences are 0 or 2h exactly), so the direction terms are formed once per
-// axis. EdgeEdge skips a pair when the angle test is decided by A's edge alone (`decided`, per
-// axis of B) and one edge is far from the other box; here a decided pair is also skipped when
-// the two edges' bounding boxes are farther apart than `cull` along an axis (the computed tests
-// reject it: as parallel, or by that very bounding-box test, whose operands are formed here
-// exactly as there: an edge of B along axis k at corner c spans [−h_k, h_k] on k and is the
-// point c_m on the other axes m), and a decided parallel pair is skipped always. So only the
+// range), face_sep, `margin` and `a_B` = X_BA · (corners of A) formed by the caller (a_B as
+// EdgeEdge forms its edges' start points). The 4 edges of a box along one axis have the same
+// direction vector, bit for bit (corner differences are 0 or 2h exactly), so the direction terms
+// are formed once per axis. EdgeEdge skips a pair when the angle test is decided by A's edge alone
+// (`decided`, per axis of B) and one edge is far from the other box; here a decided pair is also
+// skipped when the two edges' bounding boxes are farther apart than `cull` along an axis (the
+// computed tests reject it: as parallel, or by that very bounding-box test, whose operands are
+// formed here exactly as there: an edge of B along axis k at corner c spans [−h_k, h_k] on k and is
+// the point c_m on the other axes m), and a decided parallel pair is skipped always. So only the
 // pairs EdgeEdge examines to the end are formed, with its arithmetic, in its order.
 // A pair emits only if, for n = +axis or n = −axis (axis = c/|c|, per pair of axes), B's edge
 // passes B.MaxDot(n) − n · p_b ≤ support_tol and A's edge n · p_a − min_A(n) ≤ support_tol. As
@@ -179,7 +179,7 @@ void BoxVertexFeatures(const Polytope& P, const Polytope& Q, const Isometry3d& X
 // both orientations.
 void BoxEdgeEdge(const Polytope& A, const Polytope& B, const Isometry3d& X_BA,
                  const std::array<Vector3d, 8>& a_B, const Isometry3d& X_WB, double envelope,
-                 double tie, double face_sep, double cull, Contacts* out) {
+                 double tie, double face_sep, double cull, double margin, Contacts* out) {
   const Matrix3d R_AB = X_BA.linear().transpose();
   const Matrix3d& R_BA = X_BA.linear();
   const Vector3d& p_BA = X_BA.translation();
@@ -187,9 +187,6 @@ void BoxEdgeEdge(const Polytope& A, const Polytope& B, const Isometry3d& X_BA,
   const Vector3d& h_A = A.half_extents();
   const Vector3d& h_B = B.half_extents();
   const double support_tol = envelope + tie;
-  // Round-off allowance of the support pre-test (≫ the few ulps by which n · p_a and n · p_b
-  // differ from n · a0 and n · b0: n ⟂ d_a, d_b to round-off).
-  const double margin = 1e-10 * (A.radius() + B.radius() + p_BA.norm());
   // EdgeEdge keeps a gap in [min(0, face_sep − support_tol), envelope].
   const double gap_lo = std::min(0.0, face_sep - support_tol) - margin;
   const double gap_hi = envelope + margin;
@@ -411,6 +408,8 @@ void BoxBox(const Polytope& A, const Isometry3d& X_WA, const Polytope& B, const 
   // margin every corner of A is skipped there; likewise sep_a for B's corners. EdgeEdge keeps a
   // gap ≤ envelope and ≥ min(0, face_sep − support_tol): none if that window is empty (as in
   // the end-of-step penetration check, whose envelope is −max_penetration).
+  // `margin`: a round-off allowance (≫ the few ulps of scale by which the pre-tests' values here
+  // and in BoxEdgeEdge differ from the values the tests they stand for form).
   const double margin = 1e-10 * (A.radius() + B.radius() + p_BA.norm());
   const bool vertices_a = !(sep_b > envelope + margin);
   const bool vertices_b = !(sep_a > envelope + margin);
@@ -426,7 +425,7 @@ void BoxBox(const Polytope& A, const Isometry3d& X_WA, const Polytope& B, const 
     for (int i = 0; i < 8; ++i) b_A[i] = X_AB * B.vertex(i);
     BoxVertexFeatures(B, A, X_AB, b_A, X_WA, envelope, tie, /*p_is_a=*/false, out);
   }
-  if (edges) BoxEdgeEdge(A, B, X_BA, a_B, X_WB, envelope, tie, face_sep, cull, out);
+  if (edges) BoxEdgeEdge(A, B, X_BA, a_B, X_WB, envelope, tie, face_sep, cull, margin, out);
   RemoveDuplicateContacts(out, begin, tie);
 }
 
