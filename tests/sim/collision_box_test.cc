@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <random>
 #include <string>
 #include <vector>
@@ -38,7 +39,9 @@ Matrix3d CubeRotation(std::mt19937_64* rng) {
   std::uniform_int_distribution<int> pick(0, 3);
   Matrix3d R = Matrix3d::Identity();
   for (int i = 0; i < 3; ++i)
-    R = Eigen::AngleAxisd(0.5 * M_PI * pick(*rng), Vector3d::Unit(i)).toRotationMatrix() * R;
+    R = Eigen::AngleAxisd(0.5 * 3.14159265358979323846 * pick(*rng), Vector3d::Unit(i))
+            .toRotationMatrix() *
+        R;
   return R.array().round().matrix();  // exact 0 / ±1 entries
 }
 
