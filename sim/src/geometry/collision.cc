@@ -523,6 +523,10 @@ void CollideSpatialOrdered(const Shape& a, const Isometry3d& X_WA, const Shape& 
     case ShapeType::kBox:
     case ShapeType::kPolyhedron: {
       const Polytope pa = MakePolytope(a, &scratch_a);
+      if (a.type == ShapeType::kBox && b.type == ShapeType::kBox) {
+        return collision_internal::BoxBox(pa, X_WA, MakePolytope(b, &scratch_b), X_WB, envelope,
+                                          out);
+      }
       if (IsPolytope(b.type)) {
         return PolytopePolytope(pa, X_WA, MakePolytope(b, &scratch_b), X_WB, envelope, out);
       }

@@ -213,6 +213,12 @@ inline bool Interior(double t) { return t > kParamEps && t < 1.0 - kParamEps; }
 void PolytopePolytope(const Polytope& A, const Isometry3d& X_WA, const Polytope& B,
                       const Isometry3d& X_WB, double envelope, std::vector<ContactPoint>* out);
 
+/// PolytopePolytope for two boxes: the same contacts, bit for bit, with fewer features formed
+/// (collision_box.cc). Falls back to PolytopePolytope for a polyhedron, a degenerate box or a
+/// non-finite pose or envelope.
+void BoxBox(const Polytope& A, const Isometry3d& X_WA, const Polytope& B, const Isometry3d& X_WB,
+            double envelope, std::vector<ContactPoint>* out);
+
 /// Narrow phase for two planar shapes (collision_planar.cc).
 void CollidePlanar(const Shape& a, const Isometry3d& X_WA, const Shape& b, const Isometry3d& X_WB,
                    double envelope, std::vector<ContactPoint>* out);
