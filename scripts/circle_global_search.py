@@ -7,13 +7,13 @@ examples/field_design/circle.yaml exactly.
 
 usage: scripts/circle_global_search.py [--starts N] [--generations G] [--popsize L] [--seed S]
                                        [--sides N] [--no-symmetric] [--polish EVALS]
-                                       [--top K] [--write-scene OUT.yaml]
+                                       [--top K] [--write-scene OUT.yaml [--spec-family]]
        scripts/circle_global_search.py --score SCENE.yaml [--sides N]
 
 The runs: N random starts near the sticking threshold (the first-harmonic x and y accelerations
 0.85-1.3 times mu g, y's phase uniform; roll and pitch uniform up to the angular limit, scaled to
 the vertical limit; the other ten slots up to 16% of their limits, phases uniform) plus, unless
---no-symmetric, four symmetric seeds (the shipped circle.yaml and circle_round_cone.yaml motions
+--no-symmetric, four seeds on the ring (the shipped circle.yaml and circle_round_cone.yaml motions
 and the symmetric ring at the exact limit, both at psi 0.655 and psi 0.655 - 0.3), each a CMA-ES
 (full covariance, population L; initial steps for the random starts 0.1 in log-acceleration, 0.3
 rad in phase, 0.2 in roll1's and pitch1's u, 0.05 in the other slots' u, 0.3 times that for the
@@ -290,6 +290,20 @@ def print_motion(m):
             print("    %-5s order %d: amplitude %.4e, phase %+.4f" % (d, k, a, p))
 
 
+def summary(m):
+    """The motion's ring terms in a line: the first-harmonic translation over the threshold, y's
+    phase, the wobble's angular accelerations and phases, and the largest of the other terms."""
+    mm = {(d, k): (a, p) for d, k, a, p in m}
+    ring = [("x", 1), ("y", 1), ("roll", 1), ("pitch", 1)]
+    rest = max((W * k)**2 * abs(a) * (0.1 if d in ("roll", "pitch", "yaw") else 1.0)
+               for d, k, a, _ in m if (d, k) not in ring)
+    return ("x %.3f, y %.3f mu g (phase %+.2f), roll %.1f (%+.2f), pitch %.1f (%+.2f) rad/s^2; "
+            "others <= %.3f m/s^2" % (
+                mm[("x", 1)][0] * W**2 / MUG, mm[("y", 1)][0] * W**2 / MUG, mm[("y", 1)][1],
+                mm[("roll", 1)][0] * W**2, mm[("roll", 1)][1], mm[("pitch", 1)][0] * W**2,
+                mm[("pitch", 1)][1], rest))
+
+
 def run(a):
     rng = np.random.default_rng(a.seed)
     starts = [("random %d" % i, random_start(rng)) for i in range(a.starts)]
@@ -319,7 +333,8 @@ def run(a):
     res = sorted(((r.best[0], name, e, r) for (name, _), e, r in zip(starts, e0, runs)),
                  key=lambda t: t[0])
     for best, name, e, r in res:
-        print("  %-34s %.4f -> %.4f (%d generations)" % (name, e, best, r.gen))
+        print("  %-22s %.4f -> %.4f (%3d generations): %s" % (name, e, best, r.gen,
+                                                             summary(decode(r.best[1]))))
     rnd = [b for b, name, _, _ in res if name.startswith("random")]
     if rnd:
         print("random starts: best %.4f, median %.4f, %d of %d below 0.15" %
@@ -350,6 +365,20 @@ def run(a):
     return out
 
 
+def spec_family(m):
+    """The motion's terms in circle.yaml's parametrization: the first harmonics of x, y, z, roll
+    and pitch (the rest dropped), with its signs (y, z and roll amplitudes negative, phases
+    shifted by pi) so that a `vinci field-design --start` finds them within the box."""
+    out = []
+    for d, k, amp, phi in m:
+        if k != 1 or d == "yaw":
+            continue
+        if d in ("y", "z", "roll") and amp > 0:
+            amp, phi = -amp, phi - np.pi if phi > 0 else phi + np.pi
+        out.append((d, k, amp, float(np.angle(np.exp(1j * phi)))))
+    return out
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--starts", type=int, default=40)
@@ -362,6 +391,9 @@ def main():
     ap.add_argument("--polish", type=int, default=600, help="Powell evaluations per polished run")
     ap.add_argument("--top", type=int, default=2, help="polish the best K runs")
     ap.add_argument("--write-scene", help="write the best motion as a plate scene")
+    ap.add_argument("--spec-family", action="store_true",
+                    help="--write-scene: only the terms of circle.yaml's parametrization, in its "
+                    "signs (a start for vinci field-design --start)")
     ap.add_argument("--score", help="only score a plate scene's motion (both friction sets)")
     a = ap.parse_args()
     if a.score:
@@ -374,9 +406,13 @@ def main():
     out = run(a)
     if a.write_scene and out:
         e, name, m = out[0]
+        if a.spec_family:
+            m = spec_family(m)
+            print("the spec's family: sides %d: %s" % (a.sides, describe(m, a.sides)))
         circle_model_search.write_scene(
-            os.path.join(HERE, "../examples/field_design/found/circle.yaml"), a.write_scene,
-            [t for t in m if t[2] > 0], "global search (seed %d, from %s), model error %.4f "
+            os.path.join(HERE, "../examples/field_design/found",
+                         "circle.yaml" if a.sides else "circle_round_cone.yaml"), a.write_scene,
+            [t for t in m if t[2] != 0], "global search (seed %d, from %s), model error %.4f "
             "(sides %d, normal lag)" % (a.seed, name, e, a.sides), frequency=F,
             tool="circle_global_search.py")
 
