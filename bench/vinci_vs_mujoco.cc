@@ -4,7 +4,7 @@
 // and optionally writes the first as CSV.
 //
 //   vinci_vs_mujoco [--quick] [--steps N] [--creep-steps N] [--mu-factor F] [--csv FILE]
-//                   [--stacks LIST] [--stack-steps N]
+//                   [--stacks LIST] [--stack-steps N] [--repeats N]
 //
 // The MuJoCo models are generated as MJCF from the vinci scene files (dt, gravity, box size,
 // mass, poses, μ), so both simulators see the same numbers. What cannot be matched — MuJoCo's
@@ -26,6 +26,8 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <tuple>
+#include <utility>
 #include <vector>
 
 #include "box_scenes.h"
@@ -46,12 +48,13 @@ std::string ScenePath(const std::string& file) {
   return std::string(VINCI_SOURCE_DIR "/examples/scenes/") + file;
 }
 
-// Run lengths. Full: 10⁴ timed steps after 10³ warm-up steps, best of 3; creep over 10⁴ steps
-// (10 s) after 0.5 s of settling. Quick (ctest smoke test): 200 steps each.
+// Run lengths. Full: 10⁴ timed steps after 10³ warm-up steps, best of 5 (vinci and MuJoCo timed
+// in alternation); creep over 10⁴ steps (10 s) after 0.5 s of settling. Quick (ctest smoke
+// test): 200 steps each.
 struct RunConfig {
   int warmup_steps = 1000;
   int timing_steps = 10000;
-  int repeats = 3;
+  int repeats = 5;
   int settle_steps = 500;
   int creep_steps = 10000;
 };
@@ -347,6 +350,45 @@ Rate StepsPerSecond(Run& run, const RunConfig& cfg) {
   return Rate{cfg.timing_steps / best_wall, cfg.timing_steps / best_cpu};
 }
 
+// The same for two runners timed in alternation (a, b, then b, a, ...), so that a slow period
+// of a shared machine falls on both sides of the ratio rather than on one.
+template <typename RunA, typename RunB>
+std::pair<Rate, Rate> StepsPerSecondInterleaved(RunA& a, RunB& b, const RunConfig& cfg) {
+  a.Reset();
+  b.Reset();
+  for (int k = 0; k < cfg.warmup_steps; ++k) a.Step();
+  for (int k = 0; k < cfg.warmup_steps; ++k) b.Step();
+  const auto saved_a = a.Save();
+  const auto saved_b = b.Save();
+  const double inf = std::numeric_limits<double>::infinity();
+  double wall_a = inf, cpu_a = inf, wall_b = inf, cpu_b = inf;
+  auto time_a = [&] {
+    a.Restore(saved_a);
+    const Clock t0;
+    for (int k = 0; k < cfg.timing_steps; ++k) a.Step();
+    wall_a = std::min(wall_a, t0.WallSince());
+    cpu_a = std::min(cpu_a, t0.CpuSince());
+  };
+  auto time_b = [&] {
+    b.Restore(saved_b);
+    const Clock t0;
+    for (int k = 0; k < cfg.timing_steps; ++k) b.Step();
+    wall_b = std::min(wall_b, t0.WallSince());
+    cpu_b = std::min(cpu_b, t0.CpuSince());
+  };
+  for (int r = 0; r < cfg.repeats; ++r) {
+    if (r % 2 == 0) {
+      time_a();
+      time_b();
+    } else {
+      time_b();
+      time_a();
+    }
+  }
+  return {Rate{cfg.timing_steps / wall_a, cfg.timing_steps / cpu_a},
+          Rate{cfg.timing_steps / wall_b, cfg.timing_steps / cpu_b}};
+}
+
 struct CreepResult {
   double settle = 0.0;  // displacement during the settling phase (m)
   double creep = 0.0;   // displacement after it (m)
@@ -503,6 +545,8 @@ void Usage(std::ostream& out) {
          "FILE]\n"
          "  --quick     200 steps per measurement, one repeat (smoke test; numbers meaningless)\n"
          "  --steps N   timed steps per repeat (default 10000)\n"
+         "  --repeats N  timed runs per simulator and scene, vinci and MuJoCo in alternation; the\n"
+         "              best of each is kept (default 5)\n"
          "  --creep-steps N  steps of the creep run after settling (default 10000)\n"
          "  --mu-factor F  incline friction mu = F tan(theta) (default 1.05; F < 1 slides)\n"
          "  --csv FILE  also write the table as CSV\n"
@@ -521,6 +565,7 @@ int main(int argc, char** argv) {
   int timing_steps = 0, creep_steps = 0;  // 0: default of the mode
   std::string stacks_arg;
   long stack_steps = 40000;
+  int repeats = 0;  // 0: default of the mode
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--quick") {
@@ -542,6 +587,14 @@ int main(int argc, char** argv) {
         std::cerr << "--mu-factor: expected a number in [0, 100), got '" << argv[i] << "'\n";
         return 2;
       }
+    } else if (a == "--repeats" && i + 1 < argc) {
+      char* end = nullptr;
+      const long n = std::strtol(argv[++i], &end, 10);
+      if (*end != '\0' || n <= 0 || n > 1000) {
+        std::cerr << a << ": expected an integer in 1..1000, got '" << argv[i] << "'\n";
+        return 2;
+      }
+      repeats = static_cast<int>(n);
     } else if (a == "--stacks" && i + 1 < argc) {
       stacks_arg = argv[++i];
     } else if (a == "--stack-steps" && i + 1 < argc) {
@@ -563,6 +616,7 @@ int main(int argc, char** argv) {
   if (quick) cfg = RunConfig{20, 200, 1, 50, 200};
   if (timing_steps > 0) cfg.timing_steps = timing_steps;
   if (creep_steps > 0) cfg.creep_steps = creep_steps;
+  if (repeats > 0) cfg.repeats = repeats;
   const double incline_mu = mu_factor * std::tan(kTheta);
 
   const std::vector<SceneSpec> scenes = {
@@ -577,7 +631,8 @@ int main(int argc, char** argv) {
 
   std::cout << "vinci vs MuJoCo " << mj_versionString() << (quick ? "  [--quick]" : "") << "\n"
             << "timing: " << cfg.timing_steps << " steps after " << cfg.warmup_steps
-            << " warm-up steps, best of " << cfg.repeats << "; creep: " << cfg.creep_steps
+            << " warm-up steps, best of " << cfg.repeats
+            << " (vinci and MuJoCo timed in alternation); creep: " << cfg.creep_steps
             << " steps after " << cfg.settle_steps
             << " settling steps, both simulators started at rest in exact contact\n"
             << "incline: theta = 0.3 rad, mu = " << mu_factor
@@ -589,16 +644,14 @@ int main(int argc, char** argv) {
   try {
     for (const SceneSpec& spec : scenes) {
       VinciRun vinci(spec);
-      const Rate vinci_sps = StepsPerSecond(vinci, cfg);
       const CreepResult vinci_creep = MeasureCreep(vinci, spec, cfg);
       for (const MujocoVariant& variant : variants) {
         MujocoRun mujoco(MakeMjcf(spec, vinci.scene(), variant));
         Row row;
         row.scene = spec.label;
         row.mujoco_cone = variant.name;
-        row.vinci_sps = vinci_sps;
+        std::tie(row.vinci_sps, row.mujoco_sps) = StepsPerSecondInterleaved(vinci, mujoco, cfg);
         row.vinci = vinci_creep;
-        row.mujoco_sps = StepsPerSecond(mujoco, cfg);
         row.mujoco = MeasureCreep(mujoco, spec, cfg);
         row.mujoco_warnings = mujoco.Warnings();
         rows.push_back(row);
@@ -669,19 +722,19 @@ int main(int argc, char** argv) {
         sc.timing_steps = 500;
       }
       VinciRun vinci(scene);
+      MujocoRun mujoco(MakeMjcfBoxes(row.label, scene, 0.6));
       // A failed vinci step (the pile: bench/README.md) is reported in the table instead of
       // ending the run, so the other rows and MuJoCo's figures for this scene are kept.
       try {
-        row.vinci = StepsPerSecond(vinci, sc);
+        std::tie(row.vinci, row.mujoco) = StepsPerSecondInterleaved(vinci, mujoco, sc);
         row.vinci_contacts = vinci.ContactsPerStep();
         row.vinci_penetration = vinci.Penetration();
       } catch (const std::runtime_error& e) {
         row.vinci_failure = e.what();
         row.vinci = Rate{kNaN, kNaN};
         failed = true;
+        row.mujoco = StepsPerSecond(mujoco, sc);
       }
-      MujocoRun mujoco(MakeMjcfBoxes(row.label, scene, 0.6));
-      row.mujoco = StepsPerSecond(mujoco, sc);
       row.mujoco_contacts = mujoco.ContactsPerStep();
       row.mujoco_penetration = mujoco.Penetration();
       row.mujoco_warnings = mujoco.Warnings();
