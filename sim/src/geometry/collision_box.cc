@@ -183,7 +183,6 @@ void BoxEdgeEdge(const Polytope& A, const Polytope& B, const Isometry3d& X_BA,
   const Matrix3d R_AB = X_BA.linear().transpose();
   const Matrix3d& R_BA = X_BA.linear();
   const Vector3d& p_BA = X_BA.translation();
-  const Matrix3d& R_WB = X_WB.linear();
   const Vector3d& h_A = A.half_extents();
   const Vector3d& h_B = B.half_extents();
   const double support_tol = envelope + tie;
@@ -341,20 +340,8 @@ void BoxEdgeEdge(const Polytope& A, const Polytope& B, const Isometry3d& X_BA,
           const double s = (a.bb * ff - cc * a.ee) / a.denom;
           const double t = (a.aa * ff - a.bb * cc) / a.denom;
           if (!Interior(s) || !Interior(t)) continue;
-          const Vector3d pa = a0 + s * da;
-          const Vector3d pb = b0 + t * db;
-          const Vector3d axis = a.c / a.c_norm;
-          const double sep = axis.dot(pa - pb);
-          for (const double sign : {sep >= 0.0 ? 1.0 : -1.0, sep >= 0.0 ? -1.0 : 1.0}) {
-            const Vector3d n = sign * axis;
-            const double gap = sign * sep;
-            if (gap > envelope || (gap < 0.0 && gap < face_sep - support_tol)) continue;
-            if (B.MaxDot(n) - n.dot(pb) > support_tol) continue;
-            const double min_a = -A.MaxDot(-(R_AB * n)) + n.dot(p_BA);
-            if (n.dot(pa) - min_a > support_tol) continue;
-            out->push_back({X_WB * pa, X_WB * pb, R_WB * n, gap});
-            break;
-          }
+          EdgeEdgeContact(A, B, R_AB, p_BA, X_WB, a0, da, s, b0, db, t, a.c, a.c_norm, envelope,
+                          face_sep, support_tol, out);
         }
       }
     }

@@ -208,6 +208,33 @@ inline void LineLineParams(const Vector3d& p0, const Vector3d& d, const Vector3d
 /// A segment parameter in (kParamEps, 1 − kParamEps).
 inline bool Interior(double t) { return t > kParamEps && t < 1.0 - kParamEps; }
 
+/// The edge–edge contact of A's edge a0 + s da and B's edge b0 + t db (both in B's frame;
+/// X_BA = (R_ABᵀ, p_BA); c = da × db, c_norm = |c|) at their closest points, s and t interior:
+/// appends the first of the normals ±c/|c| (the separating one first) whose gap lies in
+/// [min(0, face_sep − support_tol), envelope] and at which both closest points are support
+/// points within support_tol. Shared by PolytopePolytope and BoxBox, so their edge contacts
+/// have the same bits.
+inline void EdgeEdgeContact(const Polytope& A, const Polytope& B, const Matrix3d& R_AB,
+                            const Vector3d& p_BA, const Isometry3d& X_WB, const Vector3d& a0,
+                            const Vector3d& da, double s, const Vector3d& b0, const Vector3d& db,
+                            double t, const Vector3d& c, double c_norm, double envelope,
+                            double face_sep, double support_tol, std::vector<ContactPoint>* out) {
+  const Vector3d pa = a0 + s * da;
+  const Vector3d pb = b0 + t * db;
+  const Vector3d axis = c / c_norm;
+  const double sep = axis.dot(pa - pb);
+  for (const double sign : {sep >= 0.0 ? 1.0 : -1.0, sep >= 0.0 ? -1.0 : 1.0}) {
+    const Vector3d n = sign * axis;
+    const double gap = sign * sep;
+    if (gap > envelope || (gap < 0.0 && gap < face_sep - support_tol)) continue;
+    if (B.MaxDot(n) - n.dot(pb) > support_tol) continue;
+    const double min_a = -A.MaxDot(-(R_AB * n)) + n.dot(p_BA);
+    if (n.dot(pa) - min_a > support_tol) continue;
+    out->push_back({X_WB * pa, X_WB * pb, X_WB.linear() * n, gap});
+    return;
+  }
+}
+
 /// Box or polyhedron A against box or polyhedron B: vertex–face, vertex–edge/vertex and
 /// edge–edge contacts within the envelope, duplicates removed (collision_polytope.cc).
 void PolytopePolytope(const Polytope& A, const Isometry3d& X_WA, const Polytope& B,

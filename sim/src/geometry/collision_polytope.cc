@@ -143,7 +143,6 @@ void EdgeEdge(const Polytope& A, const Isometry3d& X_WA, const Polytope& B, cons
   const Isometry3d X_BA = X_WB.inverse(Eigen::Isometry) * X_WA;
   const Matrix3d R_AB = X_BA.linear().transpose();
   const Vector3d& p_BA = X_BA.translation();
-  const Matrix3d& R_WB = X_WB.linear();
   const double support_tol = envelope + tie;
   // Largest separation along a face normal (SAT over the face axes), in B's frame.
   double face_sep = -kInf;
@@ -243,21 +242,8 @@ void EdgeEdge(const Polytope& A, const Isometry3d& X_WA, const Polytope& B, cons
       double s, t;
       LineLineParams(a0, da, b0, db, &s, &t);
       if (!Interior(s) || !Interior(t)) continue;
-      const Vector3d pa = a0 + s * da;
-      const Vector3d pb = b0 + t * db;
-      const Vector3d axis = c / c_norm;
-      const double sep = axis.dot(pa - pb);
-      // Try the separating orientation first.
-      for (const double sign : {sep >= 0.0 ? 1.0 : -1.0, sep >= 0.0 ? -1.0 : 1.0}) {
-        const Vector3d n = sign * axis;
-        const double gap = sign * sep;
-        if (gap > envelope || (gap < 0.0 && gap < face_sep - support_tol)) continue;
-        if (B.MaxDot(n) - n.dot(pb) > support_tol) continue;
-        const double min_a = -A.MaxDot(-(R_AB * n)) + n.dot(p_BA);
-        if (n.dot(pa) - min_a > support_tol) continue;
-        out->push_back({X_WB * pa, X_WB * pb, R_WB * n, gap});
-        break;
-      }
+      EdgeEdgeContact(A, B, R_AB, p_BA, X_WB, a0, da, s, b0, db, t, c, c_norm, envelope, face_sep,
+                      support_tol, out);
     }
   });
 }
