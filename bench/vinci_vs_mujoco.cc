@@ -332,6 +332,16 @@ struct Rate {
   double cpu = kNaN;   // steps per second of thread CPU time
 };
 
+// One timed run of `steps` steps from `saved`; the best wall and CPU times so far are kept.
+template <typename Run, typename Saved>
+void TimeRun(Run& run, const Saved& saved, int steps, double* best_wall, double* best_cpu) {
+  run.Restore(saved);
+  const Clock t0;
+  for (int k = 0; k < steps; ++k) run.Step();
+  *best_wall = std::min(*best_wall, t0.WallSince());
+  *best_cpu = std::min(*best_cpu, t0.CpuSince());
+}
+
 // Steps/s: reset, warm up, then the best of `repeats` runs of timing_steps steps, each from the
 // same warmed-up state (best wall and best CPU time taken independently).
 template <typename Run>
@@ -340,13 +350,8 @@ Rate StepsPerSecond(Run& run, const RunConfig& cfg) {
   for (int k = 0; k < cfg.warmup_steps; ++k) run.Step();
   const auto saved = run.Save();
   double best_wall = std::numeric_limits<double>::infinity(), best_cpu = best_wall;
-  for (int r = 0; r < cfg.repeats; ++r) {
-    run.Restore(saved);
-    const Clock t0;
-    for (int k = 0; k < cfg.timing_steps; ++k) run.Step();
-    best_wall = std::min(best_wall, t0.WallSince());
-    best_cpu = std::min(best_cpu, t0.CpuSince());
-  }
+  for (int r = 0; r < cfg.repeats; ++r)
+    TimeRun(run, saved, cfg.timing_steps, &best_wall, &best_cpu);
   return Rate{cfg.timing_steps / best_wall, cfg.timing_steps / best_cpu};
 }
 
@@ -362,28 +367,10 @@ std::pair<Rate, Rate> StepsPerSecondInterleaved(RunA& a, RunB& b, const RunConfi
   const auto saved_b = b.Save();
   const double inf = std::numeric_limits<double>::infinity();
   double wall_a = inf, cpu_a = inf, wall_b = inf, cpu_b = inf;
-  auto time_a = [&] {
-    a.Restore(saved_a);
-    const Clock t0;
-    for (int k = 0; k < cfg.timing_steps; ++k) a.Step();
-    wall_a = std::min(wall_a, t0.WallSince());
-    cpu_a = std::min(cpu_a, t0.CpuSince());
-  };
-  auto time_b = [&] {
-    b.Restore(saved_b);
-    const Clock t0;
-    for (int k = 0; k < cfg.timing_steps; ++k) b.Step();
-    wall_b = std::min(wall_b, t0.WallSince());
-    cpu_b = std::min(cpu_b, t0.CpuSince());
-  };
   for (int r = 0; r < cfg.repeats; ++r) {
-    if (r % 2 == 0) {
-      time_a();
-      time_b();
-    } else {
-      time_b();
-      time_a();
-    }
+    if (r % 2 == 1) TimeRun(b, saved_b, cfg.timing_steps, &wall_b, &cpu_b);
+    TimeRun(a, saved_a, cfg.timing_steps, &wall_a, &cpu_a);
+    if (r % 2 == 0) TimeRun(b, saved_b, cfg.timing_steps, &wall_b, &cpu_b);
   }
   return {Rate{cfg.timing_steps / wall_a, cfg.timing_steps / cpu_a},
           Rate{cfg.timing_steps / wall_b, cfg.timing_steps / cpu_b}};
