@@ -41,6 +41,7 @@ import numpy as np
 from scipy.optimize import minimize
 
 import circle_model_search
+import circle_rich_search
 import plate_point_model as pm
 
 F = 30.0
@@ -59,21 +60,6 @@ STEP0 = np.array([0.1 if s in (("x", 1), ("y", 1)) and c == "a" else 0.3 if c ==
 HERE = os.path.dirname(os.path.abspath(__file__))
 
 
-def corner_peak(motion, samples=512):
-    """The plate's peak normal acceleration over the grid's corners and one base period."""
-    ph = 2 * np.pi * np.arange(samples) / samples
-    peak = 0.0
-    for px in (-0.1, 0.1):
-        for py in (-0.1, 0.1):
-            a = np.zeros(samples)
-            for d, k, amp, phi in motion:
-                c = {"z": 1.0, "roll": py, "pitch": -px}.get(d, 0.0)
-                if c:
-                    a -= (W * k)**2 * amp * c * np.sin(k * ph + phi)
-            peak = max(peak, float(np.abs(a).max()))
-    return peak
-
-
 def dof_peaks(motion):
     return {d: sum((W * k)**2 * abs(a) for dd, k, a, _ in motion if dd == d) for d in pm.DOFS}
 
@@ -83,7 +69,7 @@ def project(motion):
     peaks = dof_peaks(motion)
     m = [(d, k, a * min(1.0, LIMIT[d] / peaks[d]) if peaks[d] > 0 else a, p)
          for d, k, a, p in motion]
-    peak = corner_peak(m)
+    peak = circle_rich_search.exact_peak(m, F)
     if peak > VERTICAL:
         s = VERTICAL / peak
         m = [(d, k, a * s if d in ("z", "roll", "pitch") else a, p) for d, k, a, p in m]
@@ -284,7 +270,8 @@ def describe(m, sides):
 def print_motion(m):
     pk = dof_peaks(m)
     print("    peaks: normal %.4f m/s^2 (corners), %s" %
-          (corner_peak(m, 4096), ", ".join("%s %.3g" % (d, pk[d]) for d in pm.DOFS)))
+          (circle_rich_search.exact_peak(m, F, 4096),
+           ", ".join("%s %.3g" % (d, pk[d]) for d in pm.DOFS)))
     for d, k, a, p in m:
         if a > 0:
             print("    %-5s order %d: amplitude %.4e, phase %+.4f" % (d, k, a, p))
