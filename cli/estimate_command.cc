@@ -147,6 +147,41 @@ std::string HoldoutSummary(const estimation::HoldoutResult& holdout) {
   return s.str();
 }
 
+void CheckOutWritable(const std::string& path) {
+  std::ofstream test(path, std::ios::app);
+  if (!test) throw std::invalid_argument("--out: cannot open '" + path + "' for writing");
+}
+
+void WriteOut(const std::string& path, const std::string& text) {
+  std::ofstream out(path, std::ios::out | std::ios::trunc);
+  out << text;
+  out.close();
+  if (!out) throw std::invalid_argument("--out: writing '" + path + "' failed");
+}
+
+std::unique_ptr<estimation::HoldoutResult> FittedHoldout(const EstimateOptions& o,
+                                                         const sim::Simulator& simulator,
+                                                         const std::vector<std::string>& names,
+                                                         const sim::VectorXd& estimates,
+                                                         const estimation::Log& held_out) {
+  if (o.holdout <= 0) return nullptr;
+  const sim::ParamSelection sel(simulator.scene().param_table(), names);
+  return std::make_unique<estimation::HoldoutResult>(estimation::EvaluateHoldout(
+      simulator, sel.Set(simulator.DefaultParams(), estimates), held_out));
+}
+
+std::string EstimateLines(const std::vector<std::string>& names, const sim::VectorXd& estimates,
+                          const sim::VectorXd& std_errors, const sim::VectorXd& initial_values) {
+  std::ostringstream s;
+  s.precision(6);
+  for (size_t i = 0; i < names.size(); ++i) {
+    const auto k = static_cast<Eigen::Index>(i);
+    s << names[i] << " = " << estimates[k] << " ± " << std_errors[k] << " (from "
+      << initial_values[k] << ")\n";
+  }
+  return s.str();
+}
+
 ExitCode RunEstimateCommand(const EstimateOptions& o) {
   if (o.holdout < 0 || o.holdout == 1)
     throw std::invalid_argument("--holdout " + std::to_string(o.holdout) +
@@ -170,10 +205,7 @@ ExitCode RunEstimateCommand(const EstimateOptions& o) {
   if (o.noise < 0 || !std::isfinite(o.noise))
     throw std::invalid_argument("--noise: expected a finite σ ≥ 0 in m");
   // Check that the output can be written before the work.
-  {
-    std::ofstream test(o.out, std::ios::app);
-    if (!test) throw std::invalid_argument("--out: cannot open '" + o.out + "' for writing");
-  }
+  CheckOutWritable(o.out);
   const sim::Simulator simulator(sim::LoadSceneFile(o.scene_path));
   const estimation::Log all = estimation::ReadLog(o.logs, simulator.scene());
   estimation::Log log = all, held_out;
@@ -186,24 +218,13 @@ ExitCode RunEstimateCommand(const EstimateOptions& o) {
   }
   const estimation::EstimateResult r =
       o.method == "filter" ? RunFilter(o, simulator, log) : RunLeastSquares(o, simulator, log);
-  std::unique_ptr<estimation::HoldoutResult> holdout;
-  if (o.holdout > 0) {
-    const sim::ParamSelection sel(simulator.scene().param_table(), r.names);
-    holdout = std::make_unique<estimation::HoldoutResult>(estimation::EvaluateHoldout(
-        simulator, sel.Set(simulator.DefaultParams(), r.estimates), held_out));
-  }
-  std::ofstream out(o.out, std::ios::out | std::ios::trunc);
-  out << ResultJson(o, r, holdout.get());
-  out.close();
-  if (!out) throw std::invalid_argument("--out: writing '" + o.out + "' failed");
+  const std::unique_ptr<estimation::HoldoutResult> holdout =
+      FittedHoldout(o, simulator, r.names, r.estimates, held_out);
+  WriteOut(o.out, ResultJson(o, r, holdout.get()));
   if (!o.quiet) {
     std::ostringstream s;
     s.precision(6);
-    for (size_t i = 0; i < r.names.size(); ++i) {
-      s << r.names[i] << " = " << r.estimates[static_cast<Eigen::Index>(i)] << " ± "
-        << r.std_errors[static_cast<Eigen::Index>(i)] << " (from "
-        << r.initial_values[static_cast<Eigen::Index>(i)] << ")\n";
-    }
+    s << EstimateLines(r.names, r.estimates, r.std_errors, r.initial_values);
     s << "iterations " << r.iterations << ", " << r.time_s << " s, "
       << (r.converged ? "converged" : "did not converge") << ": " << r.reason << "\n";
     if (holdout) s << HoldoutSummary(*holdout);

@@ -3,11 +3,15 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "command.h"
 #include "vinci/estimation/holdout.h"
+#include "vinci/estimation/log.h"
+#include "vinci/sim/simulator/simulator.h"
+#include "vinci/sim/types.h"
 
 namespace vinci::cli {
 
@@ -51,5 +55,24 @@ std::string HoldoutJson(const EstimateOptions& options, const estimation::Holdou
 
 /// The one-line hold-out summary printed on stdout.
 std::string HoldoutSummary(const estimation::HoldoutResult& holdout);
+
+/// Throws std::invalid_argument naming --out if `path` cannot be opened for writing (checked
+/// before the work, so a bad path does not cost a fit).
+void CheckOutWritable(const std::string& path);
+
+/// Writes `text` to `path`, truncating it; throws std::invalid_argument naming --out on failure.
+void WriteOut(const std::string& path, const std::string& text);
+
+/// The fitted model's hold-out rollout errors: the scene's default parameters with `names` set
+/// to `estimates`, rolled out on `held_out`'s episodes. Null when --holdout is off.
+std::unique_ptr<estimation::HoldoutResult> FittedHoldout(const EstimateOptions& options,
+                                                         const sim::Simulator& simulator,
+                                                         const std::vector<std::string>& names,
+                                                         const sim::VectorXd& estimates,
+                                                         const estimation::Log& held_out);
+
+/// One line per parameter, "name = value ± s.e. (from initial)", printed on stdout.
+std::string EstimateLines(const std::vector<std::string>& names, const sim::VectorXd& estimates,
+                          const sim::VectorXd& std_errors, const sim::VectorXd& initial_values);
 
 }  // namespace vinci::cli

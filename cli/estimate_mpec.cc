@@ -91,10 +91,7 @@ ExitCode RunEstimateMpec(const EstimateOptions& o) {
   mo.solver.method = estimation::ParseComplementarityMethod(o.complementarity);
   mo.solver.max_iterations = o.max_iterations;
   mo.Validate();
-  {
-    std::ofstream test(o.out, std::ios::app);
-    if (!test) throw std::invalid_argument("--out: cannot open '" + o.out + "' for writing");
-  }
+  CheckOutWritable(o.out);
   const sim::Simulator simulator(sim::LoadSceneFile(o.scene_path));
   const estimation::Log all = estimation::ReadLog(o.logs, simulator.scene());
   estimation::Log log = all, held_out;
@@ -115,24 +112,13 @@ ExitCode RunEstimateMpec(const EstimateOptions& o) {
     std::cerr << std::endl;
   }
   const estimation::MpecEstimateResult r = estimation::EstimateMpec(simulator, log, mo);
-  std::unique_ptr<estimation::HoldoutResult> holdout;
-  if (o.holdout > 0) {
-    const sim::ParamSelection sel(simulator.scene().param_table(), r.names);
-    holdout = std::make_unique<estimation::HoldoutResult>(estimation::EvaluateHoldout(
-        simulator, sel.Set(simulator.DefaultParams(), r.estimates), held_out));
-  }
-  std::ofstream out(o.out, std::ios::out | std::ios::trunc);
-  out << MpecJson(o, r, holdout.get());
-  out.close();
-  if (!out) throw std::invalid_argument("--out: writing '" + o.out + "' failed");
+  const std::unique_ptr<estimation::HoldoutResult> holdout =
+      FittedHoldout(o, simulator, r.names, r.estimates, held_out);
+  WriteOut(o.out, MpecJson(o, r, holdout.get()));
   if (!o.quiet) {
     std::ostringstream s;
     s.precision(6);
-    for (size_t i = 0; i < r.names.size(); ++i) {
-      s << r.names[i] << " = " << r.estimates[static_cast<Eigen::Index>(i)] << " ± "
-        << r.std_errors[static_cast<Eigen::Index>(i)] << " (from "
-        << r.initial_values[static_cast<Eigen::Index>(i)] << ")\n";
-    }
+    s << EstimateLines(r.names, r.estimates, r.std_errors, r.initial_values);
     s << "iterations " << r.iterations << " in " << r.stages << " NLPs, " << r.time_s
       << " s, complementarity violation " << r.complementarity_violation << ", "
       << (r.converged ? "converged" : "did not converge") << ": " << r.reason << "\n";
