@@ -1,6 +1,8 @@
 // One contact detection per step (sim/src/formulations/end_detection.h): the end-of-step check
 // keeps its detection for the next step's assembly, which takes it only at exactly its key
 // (scene owner, t, q, ν, h, envelope), so a taken detection equals a fresh one bit for bit.
+#include "../../sim/src/formulations/end_detection.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -9,7 +11,6 @@
 #include <string>
 #include <vector>
 
-#include "../../sim/src/formulations/end_detection.h"
 #include "test_util.h"
 #include "vinci/sim/formulations/step_skeleton.h"
 #include "vinci/sim/model/motion.h"
@@ -221,7 +222,8 @@ TEST(EndDetection, ExpiredOwnerIsNeverMatched) {
   }
   ASSERT_TRUE(internal::HoldsEndDetection());
   scene.reset();
-  EXPECT_FALSE(Detect(std::shared_ptr<const Scene>(std::make_shared<int>(2), object.get()), x).taken);
+  EXPECT_FALSE(
+      Detect(std::shared_ptr<const Scene>(std::make_shared<int>(2), object.get()), x).taken);
   EXPECT_FALSE(Detect(object, x).taken);
 }
 
@@ -281,6 +283,45 @@ TEST(EndDetection, SimulatorStepsMatchStepsWithoutReuse) {
     }
   }
   EXPECT_GE(runs, 24);  // of the 8 scenes × 8 formulations, those the scene supports
+}
+
+// FindContactsAt's two lists are exactly two FindContacts calls, whichever envelope is larger,
+// with and without the kept static shapes, at resting, deep and tilted states.
+TEST(EndDetection, OnePassEqualsTwoDetections) {
+  for (const char* file :
+       {"box_stack.yaml", "box_on_plane.yaml", "concave_trench.yaml", "block_on_incline.yaml"}) {
+    SCOPED_TRACE(file);
+    const Simulator sim(LoadExample(file));
+    const Scene& scene = sim.scene();
+    internal::StaticShapes statics;
+    for (const Body& b : scene.bodies)
+      for (const Shape& sh : b.shapes) {
+        statics.poses.push_back(b.X_WB0 * sh.X_BS);
+        statics.boxes.push_back(ComputeAabb(sh, statics.poses.back()));
+      }
+    const int up = scene.dim == Dim::kPlanar ? 1 : 2;
+    for (double depth : {0.0, 0.003, 0.06}) {
+      State x = sim.InitialState();
+      for (int bi : scene.dynamic_bodies()) x.q[scene.index(bi).q + up] -= depth;
+      const std::vector<BodyKinematics> kin = ComputeBodyKinematics(scene, x);
+      const std::pair<double, double> envelopes[] = {
+          {1e-3, -0.05}, {-0.05, 1e-3}, {0.01, 0.01}, {0.0, -1e-3}, {-1e-3, -0.05}};
+      for (const auto& [e, check_e] : envelopes) {
+        std::vector<Contact> a, b, fresh_a, fresh_b;
+        FindContacts(scene, kin, e, &fresh_a);
+        FindContacts(scene, kin, check_e, &fresh_b);
+        for (const internal::StaticShapes* st :
+             {&statics, static_cast<internal::StaticShapes*>(nullptr)}) {
+          internal::FindContactsAt(scene, kin, e, &a, check_e, &b, st);
+          EXPECT_TRUE(SameContacts(a, fresh_a)) << depth << " " << e << " " << check_e;
+          EXPECT_TRUE(SameContacts(b, fresh_b)) << depth << " " << e << " " << check_e;
+        }
+        if (depth == 0.06 && std::string(file) != "concave_trench.yaml") {
+          EXPECT_FALSE(fresh_b.empty());  // the deep state has contacts at every envelope
+        }
+      }
+    }
+  }
 }
 
 // The end-of-step check's value is MinGapAt's, with or without a kept detection made with it,

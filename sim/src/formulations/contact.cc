@@ -111,9 +111,9 @@ void FindContacts(const Scene& scene, const std::vector<BodyKinematics>& bodies,
 
 namespace internal {
 
-void FindContactsAt(const Scene& scene, const std::vector<BodyKinematics>& bodies,
-                    double envelope, std::vector<Contact>* out, double check_envelope,
-                    std::vector<Contact>* check, const StaticShapes* statics) {
+void FindContactsAt(const Scene& scene, const std::vector<BodyKinematics>& bodies, double envelope,
+                    std::vector<Contact>* out, double check_envelope, std::vector<Contact>* check,
+                    const StaticShapes* statics) {
   out->clear();
   if (check) check->clear();
   // The broad phase runs once, at the larger envelope; each list then keeps the body and shape

@@ -37,9 +37,9 @@ struct StaticShapes {
 /// what its own FindContacts call returns. `statics` (may be null): the scene's StaticShapes,
 /// used for the static bodies when bodies[i].X_WB == X_WB0 for each (as ComputeBodyKinematics
 /// gives) — the same values FindContacts computes for them.
-void FindContactsAt(const Scene& scene, const std::vector<BodyKinematics>& bodies,
-                    double envelope, std::vector<Contact>* out, double check_envelope,
-                    std::vector<Contact>* check, const StaticShapes* statics = nullptr);
+void FindContactsAt(const Scene& scene, const std::vector<BodyKinematics>& bodies, double envelope,
+                    std::vector<Contact>* out, double check_envelope, std::vector<Contact>* check,
+                    const StaticShapes* statics = nullptr);
 
 /// Names `scene` as the calling thread's step scene for the scope's lifetime (Simulator::Step,
 /// around RunStep; the scope holds its own reference); the previous one is restored on exit.

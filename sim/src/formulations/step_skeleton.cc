@@ -67,7 +67,7 @@ StepInfo RunStep(const Formulation& formulation, const Scene& model, const State
                        std::string("non-finite ") +
                            (!AllFinite(next->q)   ? "positions q"
                             : !AllFinite(next->v) ? "velocities v"
-                                                   : "time t") +
+                                                  : "time t") +
                            " after the step",
                        &info);
     *next = x;

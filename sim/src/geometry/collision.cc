@@ -222,8 +222,7 @@ void BoxHalfSpace(const Vector3d& h, const Isometry3d& X_WA, const Isometry3d& X
                   double envelope, Contacts* out) {
   const Vector3d n = X_WB.linear().col(2);
   for (int i = 0; i < 8; ++i) {  // Polytope(h).vertex(i)
-    const Vector3d v((i & 1) ? h.x() : -h.x(), (i & 2) ? h.y() : -h.y(),
-                     (i & 4) ? h.z() : -h.z());
+    const Vector3d v((i & 1) ? h.x() : -h.x(), (i & 2) ? h.y() : -h.y(), (i & 4) ? h.z() : -h.z());
     BallHalfSpace(X_WA * v, 0.0, n, X_WB.translation(), envelope, out);
   }
 }
