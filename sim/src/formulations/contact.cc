@@ -4,6 +4,8 @@
 #include <iterator>
 #include <utility>
 
+#include "end_detection.h"
+
 namespace vinci::sim {
 
 void ComputeBodyKinematics(const Scene& scene, const State& x, std::vector<BodyKinematics>* out) {
@@ -61,14 +63,68 @@ struct FindContactsScratch {
   std::vector<std::pair<int, int>> pairs;
 };
 
+// The contacts of shape sa of body a with shape sb of body b (a, b oriented as FindContacts
+// orients them) with ψ ≤ envelope, appended to *out in FindContacts' order.
+void AppendShapePair(const Scene& scene, int a, int b, std::size_t sa, std::size_t sb,
+                     const Isometry3d& X_WA, const Isometry3d& X_WB, double envelope,
+                     std::vector<ContactPoint>* points_buffer, std::vector<Contact>* out) {
+  const Body& BA = scene.bodies[a];
+  const Body& BB = scene.bodies[b];
+  std::vector<ContactPoint>& points = *points_buffer;
+  points.clear();
+  CollideShapes(BA.shapes[sa], X_WA, BB.shapes[sb], X_WB, envelope, &points);
+  const int ma = BA.shapes[sa].material, mb = BB.shapes[sb].material;
+  if (!scene.options.nonconvex_corners) {  // per-edge constraints: split every corner
+    const std::size_t n_points = points.size();
+    for (std::size_t k = 0; k < n_points; ++k) {
+      if (!points[k].corner) continue;
+      points[k].corner = false;
+      ContactPoint second;
+      second.p_A_W = points[k].p2_A_W;
+      second.p_B_W = points[k].p2_B_W;
+      second.n_W = points[k].n2_W;
+      second.gap = points[k].gap2;
+      points.push_back(second);
+    }
+  }
+  if (points.empty()) return;
+  const double mu = scene.Mu(ma, mb);
+  const int mu_param = FrictionParamIndex(scene, ma, mb);
+  for (const ContactPoint& p : points) {
+    Contact& c = out->emplace_back();
+    c.body_a = a;
+    c.body_b = b;
+    c.shape_a = static_cast<int>(sa);
+    c.shape_b = static_cast<int>(sb);
+    c.point = p;
+    c.mu = mu;
+    c.mu_param = mu_param;
+  }
+}
+
 }  // namespace
 
 void FindContacts(const Scene& scene, const std::vector<BodyKinematics>& bodies, double envelope,
                   std::vector<Contact>* out) {
+  internal::FindContactsAt(scene, bodies, envelope, out, envelope, nullptr);
+}
+
+namespace internal {
+
+void FindContactsAt(const Scene& scene, const std::vector<BodyKinematics>& bodies, double envelope,
+                    std::vector<Contact>* out, double check_envelope, std::vector<Contact>* check,
+                    const StaticShapes* statics) {
   out->clear();
+  if (check) check->clear();
+  // The broad phase runs once, at the larger envelope; each list then keeps the body and shape
+  // pairs whose boxes overlap within its own envelope: exactly the pairs a run at that envelope
+  // keeps (Aabb::Overlaps is monotone in the margin, and the sweep's early exit below only
+  // skips pairs that Overlaps rejects).
+  const double sweep = check ? std::max(envelope, check_envelope) : envelope;
+  const bool filter_out = envelope != sweep;
+  const bool filter_check = check && check_envelope != sweep;
   const int n = static_cast<int>(scene.bodies.size());
   thread_local FindContactsScratch scratch;
-  std::vector<ContactPoint>& points = scratch.points;
   // Broad phase: world AABBs of every shape, computed once.
   std::vector<int>& shape_begin = scratch.shape_begin;
   std::vector<Aabb>& boxes_flat = scratch.boxes;
@@ -79,6 +135,13 @@ void FindContacts(const Scene& scene, const std::vector<BodyKinematics>& bodies,
   for (int i = 0; i < n; ++i) {
     const Body& b = scene.bodies[i];
     shape_begin.push_back(static_cast<int>(poses_flat.size()));
+    if (statics != nullptr && b.kind == BodyKind::kStatic) {  // the same values, kept
+      for (std::size_t s = 0; s < b.shapes.size(); ++s) {
+        poses_flat.push_back(statics->poses[poses_flat.size()]);
+        boxes_flat.push_back(statics->boxes[boxes_flat.size()]);
+      }
+      continue;
+    }
     for (const Shape& s : b.shapes) {
       poses_flat.push_back(bodies[i].X_WB * s.X_BS);
       boxes_flat.push_back(ComputeAabb(s, poses_flat.back()));
@@ -121,57 +184,39 @@ void FindContacts(const Scene& scene, const std::vector<BodyKinematics>& bodies,
     const int i = order[p];
     for (std::size_t q = p + 1; q < order.size(); ++q) {
       const int j = order[q];
-      if (body_box[j].lo.x() - envelope > body_box[i].hi.x()) break;  // and every later body
+      if (body_box[j].lo.x() - sweep > body_box[i].hi.x()) break;  // and every later body
       if (scene.bodies[i].kind != BodyKind::kDynamic && scene.bodies[j].kind != BodyKind::kDynamic)
         continue;
-      if (!body_box[i].Overlaps(body_box[j], envelope)) continue;
+      if (!body_box[i].Overlaps(body_box[j], sweep)) continue;
       pairs.emplace_back(std::min(i, j), std::max(i, j));
     }
   }
   std::sort(pairs.begin(), pairs.end());
   for (const auto& [ia, ib] : pairs) {
-    const Body& A = scene.bodies[ia];
-    {
-      if (BodiesJointed(scene, ia, ib)) continue;
-      // Orient each pair so the dynamic body (or the first dynamic body) is A.
-      const bool swap = A.kind != BodyKind::kDynamic;
-      const int a = swap ? ib : ia, b = swap ? ia : ib;
-      const Body& BA = scene.bodies[a];
-      const Body& BB = scene.bodies[b];
-      for (std::size_t sa = 0; sa < BA.shapes.size(); ++sa) {
-        for (std::size_t sb = 0; sb < BB.shapes.size(); ++sb) {
-          if (!box(a, sa).Overlaps(box(b, sb), envelope)) continue;
-          points.clear();
-          CollideShapes(BA.shapes[sa], pose(a, sa), BB.shapes[sb], pose(b, sb), envelope, &points);
-          const int ma = BA.shapes[sa].material, mb = BB.shapes[sb].material;
-          if (!scene.options.nonconvex_corners) {  // per-edge constraints: split every corner
-            const std::size_t n_points = points.size();
-            for (std::size_t k = 0; k < n_points; ++k) {
-              if (!points[k].corner) continue;
-              points[k].corner = false;
-              ContactPoint second;
-              second.p_A_W = points[k].p2_A_W;
-              second.p_B_W = points[k].p2_B_W;
-              second.n_W = points[k].n2_W;
-              second.gap = points[k].gap2;
-              points.push_back(second);
-            }
-          }
-          for (const ContactPoint& p : points) {
-            Contact c;
-            c.body_a = a;
-            c.body_b = b;
-            c.shape_a = static_cast<int>(sa);
-            c.shape_b = static_cast<int>(sb);
-            c.point = p;
-            c.mu = scene.Mu(ma, mb);
-            c.mu_param = FrictionParamIndex(scene, ma, mb);
-            out->push_back(c);
-          }
-        }
+    const bool to_out = !filter_out || body_box[ia].Overlaps(body_box[ib], envelope);
+    const bool to_check =
+        check && (!filter_check || body_box[ia].Overlaps(body_box[ib], check_envelope));
+    if (!to_out && !to_check) continue;
+    if (BodiesJointed(scene, ia, ib)) continue;
+    // Orient each pair so the dynamic body (or the first dynamic body) is A.
+    const bool swap = scene.bodies[ia].kind != BodyKind::kDynamic;
+    const int a = swap ? ib : ia, b = swap ? ia : ib;
+    const std::size_t na = scene.bodies[a].shapes.size(), nb = scene.bodies[b].shapes.size();
+    for (std::size_t sa = 0; sa < na; ++sa) {
+      for (std::size_t sb = 0; sb < nb; ++sb) {
+        const Aabb& box_a = box(a, sa);
+        const Aabb& box_b = box(b, sb);
+        if (to_out && box_a.Overlaps(box_b, envelope))
+          AppendShapePair(scene, a, b, sa, sb, pose(a, sa), pose(b, sb), envelope, &scratch.points,
+                          out);
+        if (to_check && box_a.Overlaps(box_b, check_envelope))
+          AppendShapePair(scene, a, b, sa, sb, pose(a, sa), pose(b, sb), check_envelope,
+                          &scratch.points, check);
       }
     }
   }
 }
+
+}  // namespace internal
 
 }  // namespace vinci::sim

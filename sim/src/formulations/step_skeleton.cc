@@ -1,9 +1,8 @@
 #include "vinci/sim/formulations/step_skeleton.h"
 
-#include <algorithm>
 #include <cmath>
-#include <limits>
 
+#include "end_detection.h"
 #include "step_util.h"
 #include "vinci/sim/formulations/contact.h"
 
@@ -16,6 +15,10 @@ bool NeedsImplicitContact(const Scene& model) {
       if (RequiresImplicitContact(s.type)) return true;
   return false;
 }
+
+// All entries finite, as allFinite() (x − x is 0 for finite x, NaN for ±∞ and NaN), in one
+// vectorized pass.
+bool AllFinite(const VectorXd& v) { return (v.array() - v.array()).sum() == 0.0; }
 
 }  // namespace
 
@@ -30,15 +33,8 @@ double MinGapAt(const Scene& model, const State& x, double h, double envelope, s
       kin[i] = EvaluateMotion(b.motion, b.X_WB0, model.dim == Dim::kPlanar, x.t, h);
   }
   FindContacts(model, kin, envelope, &contacts);
-  double min_gap = std::numeric_limits<double>::infinity();
   const Contact* min_contact = nullptr;
-  for (const Contact& c : contacts) {
-    const double gap = c.point.corner ? std::max(c.point.gap, c.point.gap2) : c.point.gap;
-    if (gap < min_gap) {
-      min_gap = gap;
-      min_contact = &c;
-    }
-  }
+  const double min_gap = internal::MinGapOf(contacts, &min_contact);
   if (where && min_contact)
     *where = "bodies '" + model.bodies[min_contact->body_a].name + "' and '" +
              model.bodies[min_contact->body_b].name + "'";
@@ -48,13 +44,13 @@ double MinGapAt(const Scene& model, const State& x, double h, double envelope, s
 StepInfo RunStep(const Formulation& formulation, const Scene& model, const State& x,
                  const StepInput& u, Workspace* ws, State* next) {
   StepInfo info;
-  if (!std::isfinite(x.t) || !x.q.allFinite() || !x.v.allFinite()) {
+  if (!std::isfinite(x.t) || !AllFinite(x.q) || !AllFinite(x.v)) {
     internal::FailStep(StepStatus::kNonFinite,
                        "non-finite state (t, q or v) at the start of the step", &info);
     *next = x;
     return info;
   }
-  if (x.warm_start.size() > 0 && !x.warm_start.allFinite()) {
+  if (x.warm_start.size() > 0 && !AllFinite(x.warm_start)) {
     State cold = x;
     cold.warm_start.resize(0);
     formulation.Step(model, cold, u, ws, next, &info);
@@ -66,12 +62,12 @@ StepInfo RunStep(const Formulation& formulation, const Scene& model, const State
     *next = x;
     return info;
   }
-  if (!std::isfinite(next->t) || !next->q.allFinite() || !next->v.allFinite()) {
+  if (!std::isfinite(next->t) || !AllFinite(next->q) || !AllFinite(next->v)) {
     internal::FailStep(StepStatus::kNonFinite,
                        std::string("non-finite ") +
-                           (!next->q.allFinite()   ? "positions q"
-                            : !next->v.allFinite() ? "velocities v"
-                                                   : "time t") +
+                           (!AllFinite(next->q)   ? "positions q"
+                            : !AllFinite(next->v) ? "velocities v"
+                                                  : "time t") +
                            " after the step",
                        &info);
     *next = x;
@@ -79,7 +75,9 @@ StepInfo RunStep(const Formulation& formulation, const Scene& model, const State
   }
   const StepperOptions& o = model.options;
   if (!NeedsImplicitContact(model)) {
-    const double gap = MinGapAt(model, *next, o.dt, -o.max_penetration, nullptr);
+    // MinGapAt's value; made in one pass with the next step's detection when that is kept
+    // (end_detection.h).
+    const double gap = internal::EndOfStepMinGap(model, *next, o.dt, -o.max_penetration);
     if (gap < -o.max_penetration) {
       std::string where;  // named only on failure (no string work on the steady path)
       MinGapAt(model, *next, o.dt, -o.max_penetration, &where);

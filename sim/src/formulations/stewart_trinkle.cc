@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "dense_solve.h"
+#include "end_detection.h"
 #include "sparse_lcp.h"
 #include "spread_normals.h"
 #include "step_util.h"
@@ -364,13 +365,10 @@ void StewartTrinkle::AssembleInto(const Scene& model, const State& x, const Step
                                   Assembly* a) const {
   CheckShapesSupported(model);
   // Fill() recomputes the kinematics into the same buffer.
-  std::vector<BodyKinematics>& kin = ThreadAssemblyScratch().kin;
-  ComputeBodyKinematics(model, x, &kin);
-  for (std::size_t i = 0; i < kin.size(); ++i)  // integrated prescribed poses
-    if (model.bodies[i].kind == BodyKind::kPrescribed &&
-        model.bodies[i].motion.pose == PoseRule::kIntegrated)
-      kin[i] = PrescribedKinematics(model, static_cast<int>(i), x.t, options_.dt);
-  FindContacts(model, kin, options_.envelope, &a->contacts);
+  // Kinematics with the integrated prescribed poses, and contacts: the previous step's end
+  // detection if it was made at exactly this x (end_detection.h), else found here.
+  internal::DetectAtStart(model, x, options_.dt, options_.envelope, &ThreadAssemblyScratch().kin,
+                          &a->contacts);
   Fill(model, x, u, /*select_corner_edges=*/true, a, /*kinematics_ready=*/true);
 }
 

@@ -216,6 +216,17 @@ void PolytopeHalfSpace(const Polytope& A, const Isometry3d& X_WA, const Isometry
   }
 }
 
+// A box of half extents h against the half-space: PolytopeHalfSpace(Polytope(h), ...) bit for bit
+// (the same vertices in the same order, the same arithmetic), without building the polytope.
+void BoxHalfSpace(const Vector3d& h, const Isometry3d& X_WA, const Isometry3d& X_WB,
+                  double envelope, Contacts* out) {
+  const Vector3d n = X_WB.linear().col(2);
+  for (int i = 0; i < 8; ++i) {  // Polytope(h).vertex(i)
+    const Vector3d v((i & 1) ? h.x() : -h.x(), (i & 2) ? h.y() : -h.y(), (i & 4) ? h.z() : -h.z());
+    BallHalfSpace(X_WA * v, 0.0, n, X_WB.translation(), envelope, out);
+  }
+}
+
 // ---------------------------------------------------------------------------------------------
 // Sphere A.
 
@@ -522,6 +533,8 @@ void CollideSpatialOrdered(const Shape& a, const Isometry3d& X_WA, const Shape& 
       return CapsuleHalfSpace(a, X_WA, X_WB, envelope, out);
     case ShapeType::kBox:
     case ShapeType::kPolyhedron: {
+      if (a.type == ShapeType::kBox && b.type == ShapeType::kHalfSpace)
+        return BoxHalfSpace(a.half_extents, X_WA, X_WB, envelope, out);
       const Polytope pa = MakePolytope(a, &scratch_a);
       if (a.type == ShapeType::kBox && b.type == ShapeType::kBox) {
         return collision_internal::BoxBox(pa, X_WA, MakePolytope(b, &scratch_b), X_WB, envelope,

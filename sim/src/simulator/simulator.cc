@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <stdexcept>
 
+#include "../formulations/end_detection.h"
 #include "../formulations/step_record.h"
 #include "vinci/sim/formulations/capabilities.h"
 #include "vinci/sim/formulations/first_order.h"
@@ -103,9 +104,15 @@ StepInfo Simulator::Step(const Params& params, const State& x, const StepInput& 
     throw std::invalid_argument("Simulator::Step: input force has the wrong size");
   const Scene& model = ResolveWithInputs(params, u, ws);
   internal::ClearStepRecord();
-  StepInfo info = RunStep(*formulation_, model, x, u, ws, next);
+  const std::shared_ptr<const Scene>& owner = u.motions.empty() ? ws->model : ws->motion_model;
+  StepInfo info;
+  {
+    // The step's contact detections are of the workspace's scene (end_detection.h).
+    const internal::StepSceneScope scope(owner);
+    info = RunStep(*formulation_, model, x, u, ws, next);
+  }
   // The step's assembly is now known to be of the workspace's scene (step_record.h).
-  internal::StampStepOwner(u.motions.empty() ? ws->model : ws->motion_model);
+  internal::StampStepOwner(owner);
   return info;
 }
 

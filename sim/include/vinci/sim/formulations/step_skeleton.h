@@ -19,7 +19,10 @@ namespace vinci::sim {
 ///     than max_penetration at the END state (else kPenetration), so the last state of a run is
 ///     checked too. The end-state contacts are found by FindContacts with the next step's
 ///     prescribed poses; scenes with smooth implicit shapes rely on the geometrically implicit
-///     stepper's own end-of-step check of its pairs.
+///     stepper's own end-of-step check of its pairs. Inside Simulator::Step this detection is
+///     made once, with the assembly's envelope as well, and kept for the next step's assembly,
+///     which takes it only at exactly the same scene, state and step (one detection per step;
+///     the same bits as detecting afresh).
 /// On failure the report says why (info.status, info.failure) and *next == x.
 StepInfo RunStep(const Formulation& formulation, const Scene& model, const State& x,
                  const StepInput& u, Workspace* ws, State* next);
