@@ -136,6 +136,10 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
   // of |entries| finite.
   bool g_finite = true;
   Eigen::Index gathered = 0, gathered_runs = 0;
+  // Every column of G_n and G_f one run of n_vb rows (a contact with one dynamic side): a
+  // column's block is then at n_vb·col, and it is the body's if its first row is the body's.
+  const bool whole_n = SingleWholeRuns(a.G_n, nvb), whole_f = SingleWholeRuns(a.G_f, nvb);
+  const bool whole = whole_n && whole_f;
   for (int body : model.dynamic_bodies()) {
     const std::vector<int>& cols = columns_[body];
     if (cols.empty()) continue;
@@ -145,7 +149,31 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
     gcol.resize(static_cast<std::size_t>(k));
     MatrixXd& Gb = Gb_[body];
     bool gb_sized = false;
-    for (int i = 0; i < k; ++i) {
+    // Whole runs: the body's columns are groups of one contact's normal c and friction columns
+    // c n_d + j (as laid out above), each at n_vb times its column index in G_n or G_f.
+    bool found = whole;
+    if (whole) {
+      const int* inner_n = a.G_n.innerIndexPtr();
+      const int* inner_f = a.G_f.innerIndexPtr();
+      const double* value_n = a.G_n.valuePtr();
+      const double* value_f = a.G_f.valuePtr();
+      const double** out = gcol.data();
+      for (int g = 0; g < k; g += 1 + nd) {
+        const int pn = nvb * cols[g];
+        out[g] = value_n + pn;
+        found = found && inner_n[pn] == o;
+        const int pf = nd > 0 ? nvb * (cols[g + 1] - nc) : 0;
+        for (int j = 0; j < nd; ++j) {
+          out[g + 1 + j] = value_f + pf + nvb * j;
+          found = found && inner_f[pf + nvb * j] == o;
+        }
+      }
+      if (found) {
+        gathered += static_cast<Eigen::Index>(nvb) * k;
+        gathered_runs += static_cast<Eigen::Index>(nvb) * k;
+      }
+    }
+    for (int i = 0; i < (found ? 0 : k); ++i) {
       const SparseMatrixd& G = cols[i] < nc ? a.G_n : a.G_f;
       const int col = cols[i] < nc ? cols[i] : cols[i] - nc;
       // The assembly stores a body's block whole (rows o..o+nvb−1, explicit zeros included, a
@@ -199,15 +227,21 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
   double hi = 0.0;
   for (int c = 0; c < nc; ++c) {
     const int bodies[2] = {a.contacts[c].body_a, a.contacts[c].body_b};
+    // Per dynamic side: its columns' pointers from the contact's normal on, and u_b.
+    const double* const* g[2] = {nullptr, nullptr};
+    const double* u[2] = {nullptr, nullptr};
+    for (int side = 0; side < 2; ++side) {
+      if (first_[2 * c + side] < 0) continue;
+      g[side] = gcol_[bodies[side]].data() + first_[2 * c + side];
+      u[side] = bound_u_[bodies[side]].data();
+    }
     for (int t = 0; t <= nd; ++t) {    // t = 0: the normal row; 1 + j: friction direction j
       double sum = t > 0 ? 1.0 : 0.0;  // E
       if (t == 0 && a.compliance[c].compliant) sum += std::abs(a.compliance[c].vel_diagonal);
       for (int side = 0; side < 2; ++side) {
-        if (first_[2 * c + side] < 0) continue;
-        const int b = bodies[side], p = first_[2 * c + side] + t;
-        const double* g = gcol_[b][static_cast<std::size_t>(p)];
-        const double* u = bound_u_[b].data();
-        sum = nvb == 6 ? AddAbsDot<6>(g, u, sum) : AddAbsDot<3>(g, u, sum);
+        if (!g[side]) continue;
+        sum = nvb == 6 ? AddAbsDot<6>(g[side][t], u[side], sum)
+                       : AddAbsDot<3>(g[side][t], u[side], sum);
       }
       finite = finite && std::isfinite(sum);
       hi = std::max(hi, sum);
@@ -221,8 +255,8 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
   const Eigen::Index nnz = a.G_n.nonZeros() + a.G_f.nonZeros();
   g_finite_ = g_finite && gathered == nnz;
   runs_ = gathered_runs == nnz;
-  single_n_ = runs_ && SingleRuns(a.G_n, nvb);
-  single_f_ = runs_ && SingleRuns(a.G_f, nvb);
+  single_n_ = runs_ && whole_n;
+  single_f_ = runs_ && whole_f;
 
   // q as BuildLcp.
   q_.setZero(m_);
@@ -458,14 +492,26 @@ void ContactLcpOperator::MultiplyAdd(const VectorXd& z, const VectorXd& q, Vecto
   *w = q;
   SparseTransposeTimes(a.G_n, dv_, /*assign=*/false, nvb, runs_, single_n_, w->data());
   SparseTransposeTimes(a.G_f, dv_, /*assign=*/false, nvb, runs_, single_f_, w->data() + nc);
+  // E σ: on compressed storage a friction row's w_i = q_i + tmp with tmp summed from +0 (never
+  // −0), so w_i is never −0 and w_i + (±0) = w_i: σ_c = ±0 is not added (the same bits).
+  const bool skip_zero_sigma = a.G_f.isCompressed();
+  double* wd = w->data();
+  const double* zd = z.data();
   for (int c = 0; c < nc; ++c) {
-    if (a.compliance[c].compliant) (*w)[c] += a.compliance[c].vel_diagonal * z[c];
+    if (a.compliance[c].compliant) wd[c] += a.compliance[c].vel_diagonal * zd[c];
+    const double sigma = zd[s0 + c];
+    const double* z_f = zd + nc + c * nd;
+    double* w_f = wd + nc + c * nd;
     double sum_f = 0.0;
-    for (int j = 0; j < nd; ++j) {
-      (*w)[nc + c * nd + j] += z[s0 + c];
-      sum_f += z[nc + c * nd + j];
+    if (skip_zero_sigma && sigma == 0.0) {
+      for (int j = 0; j < nd; ++j) sum_f += z_f[j];
+    } else {
+      for (int j = 0; j < nd; ++j) {
+        w_f[j] += sigma;
+        sum_f += z_f[j];
+      }
     }
-    (*w)[s0 + c] += a.mu[c] * z[c] - sum_f;
+    wd[s0 + c] += a.mu[c] * zd[c] - sum_f;
   }
 }
 

@@ -201,12 +201,16 @@ inline void SparseTransposeTimes(const SparseMatrixd& G, const VectorXd& x, bool
   }
 }
 
-// Whether every column of a compressed G holds exactly n entries (column j at n j..n j+n−1).
-inline bool SingleRuns(const SparseMatrixd& G, int n) {
+// Whether every column of a compressed G is one run of n consecutive rows (column j at entries
+// n j..n j+n−1, rows inner[n j]..inner[n j]+n−1): SingleRuns and IsRun<n> for every column.
+inline bool SingleWholeRuns(const SparseMatrixd& G, int n) {
   if (!G.isCompressed()) return false;
   const int* outer = G.outerIndexPtr();
-  for (Eigen::Index j = 0; j <= G.cols(); ++j)
-    if (outer[j] != n * j) return false;
+  const int* inner = G.innerIndexPtr();
+  const int cols = static_cast<int>(G.cols());
+  if (outer[0] != 0) return false;
+  for (int j = 0; j < cols; ++j)
+    if (outer[j + 1] != n * (j + 1) || inner[n * j + n - 1] != inner[n * j] + (n - 1)) return false;
   return true;
 }
 
