@@ -216,10 +216,20 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
     const auto W = a.M_inv.BlockAt(o);
     split_[body] = nvb == 6 && body_g_finite && IsSplitBlock(W.data());
     std::array<double, 6>& u = bound_u_[body];
-    for (int r = 0; r < nvb; ++r) {
-      u[r] = 0.0;
-      for (int e = 0; e < nvb; ++e) u[r] += std::abs(W(r, e)) * column_sum[e];
-      finite = finite && std::isfinite(u[r]);
+    if (split_[body]) {
+      // The terms |W_re| Σ|g_e| = 0 · (finite) = +0 off W's split structure leave the sum (from
+      // +0) unchanged: the full loop's bits.
+      for (int r = 0; r < 3; ++r) u[r] = 0.0 + std::abs(W(r, r)) * column_sum[r];
+      for (int r = 3; r < 6; ++r)
+        u[r] = ((0.0 + std::abs(W(r, 3)) * column_sum[3]) + std::abs(W(r, 4)) * column_sum[4]) +
+               std::abs(W(r, 5)) * column_sum[5];
+      for (int r = 0; r < 6; ++r) finite = finite && std::isfinite(u[r]);
+    } else {
+      for (int r = 0; r < nvb; ++r) {
+        u[r] = 0.0;
+        for (int e = 0; e < nvb; ++e) u[r] += std::abs(W(r, e)) * column_sum[e];
+        finite = finite && std::isfinite(u[r]);
+      }
     }
   }
   // The bound: from the rows (contact normals and friction directions) and the σ rows (whose
@@ -234,6 +244,24 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
       if (first_[2 * c + side] < 0) continue;
       g[side] = gcol_[bodies[side]].data() + first_[2 * c + side];
       u[side] = bound_u_[bodies[side]].data();
+    }
+    if (nvb == 6 && (g[0] == nullptr) != (g[1] == nullptr)) {
+      // One dynamic side (a body on the ground): the same sums, in a loop of its own. A row sum
+      // is ≥ 0 or NaN, so it is finite iff ≤ DBL_MAX.
+      const double* const* gs = g[0] ? g[0] : g[1];
+      const double* us = g[0] ? u[0] : u[1];
+      double sum = 0.0;
+      if (a.compliance[c].compliant) sum += std::abs(a.compliance[c].vel_diagonal);
+      sum = AddAbsDot<6>(gs[0], us, sum);  // the normal row
+      bool rows_finite = sum <= std::numeric_limits<double>::max();
+      hi = std::max(hi, sum);
+      for (int t = 1; t <= nd; ++t) {  // friction direction t − 1, with E's 1
+        sum = AddAbsDot<6>(gs[t], us, 1.0);
+        rows_finite = rows_finite && sum <= std::numeric_limits<double>::max();
+        hi = std::max(hi, sum);
+      }
+      finite = finite && rows_finite;
+      continue;
     }
     for (int t = 0; t <= nd; ++t) {    // t = 0: the normal row; 1 + j: friction direction j
       double sum = t > 0 ? 1.0 : 0.0;  // E
