@@ -263,11 +263,20 @@ bool SolveOnWarmBasis(const LcpMatrixOperator& M, const Eigen::VectorXd& q,
   const double* cz = s->candidate.data();
   const double* cw = s->w.data();
   const char* in_basis = s->in_basis.data();
+  // Off B, z_i = +0: for w_i ≥ 0 or NaN both terms are |min(+0, w_i)| = +0, which leaves the
+  // maxima (≥ +0) unchanged, so only w_i < 0 is formed.
   for (Eigen::Index i = 0; i < n; ++i) {
     const double c = cz[i], w = cw[i];
-    if (!in_basis[i] && w < w_min) w_min = w;
-    residual = std::max(residual, std::abs(std::min(c, w)));
     w_zero += w * 0.0;
+    if (!in_basis[i]) {
+      if (w < w_min) w_min = w;
+      if (w < 0.0) {
+        residual = std::max(residual, std::abs(std::min(c, w)));
+        scaled = std::max(scaled, std::abs(std::min(c, ratio(w, s_w))));
+      }
+      continue;
+    }
+    residual = std::max(residual, std::abs(std::min(c, w)));
     if (c == 0.0) {
       if (w < 0.0) scaled = std::max(scaled, std::abs(std::min(c, ratio(w, s_w))));
     } else {
