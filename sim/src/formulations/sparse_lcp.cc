@@ -115,7 +115,15 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
       cols.resize(at + 1 + static_cast<std::size_t>(nd));
       int* out = cols.data() + at;
       out[0] = c;
-      for (int j = 0; j < nd; ++j) out[1 + j] = nc + c * nd + j;
+      const int f0 = nc + c * nd;
+      int j = 0;
+      for (; j + 4 <= nd; j += 4) {
+        out[1 + j] = f0 + j;
+        out[2 + j] = f0 + j + 1;
+        out[3 + j] = f0 + j + 2;
+        out[4 + j] = f0 + j + 3;
+      }
+      for (; j < nd; ++j) out[1 + j] = f0 + j;
     }
   }
   // Per body: G_b gathered; W_b G_b, the block and ‖M‖∞ are formed on demand (EnsureBlocks,
