@@ -102,9 +102,13 @@ void SparseTimesN(const SparseMatrixd& G, const double* x, bool skip_zero, doubl
   const int* outer = G.outerIndexPtr();
   const int* inner = G.innerIndexPtr();
   const double* value = G.valuePtr();
-  for (Eigen::Index j = 0; j < G.cols(); ++j) {
+  const Eigen::Index cols = G.cols();
+  for (Eigen::Index j = 0; j < cols; ++j) {
+    if (skip_zero) {  // a run of x_j = 0 passed in a loop of its own
+      while (j < cols && x[j] == 0.0) ++j;
+      if (j == cols) break;
+    }
     const double xj = x[j];
-    if (skip_zero && xj == 0.0) continue;
     const int end = outer[j + 1];
     for (int p = outer[j]; p < end;) {
       if (kRuns || IsRun<N>(inner, p, end)) {
