@@ -616,7 +616,63 @@ void ContactLcpOperator::PrincipalBlock(const std::vector<int>& index, MatrixXd*
   const int s0 = nc_ + nf_, n = s0 + nc_;
   out->setZero(k, k);
   SetPositions(index, n);
-  for (int body : model_->dynamic_bodies()) {
+  if (!self_contact_) {
+    // Each body's members found from the index (O(|index|), not O(Σ_body k_body)): impulse
+    // column j of contact c is column first_[2c + side] + t of each dynamic side's body (t = 0
+    // for the normal, 1 + direction for friction). The bodies are taken in ascending order, as
+    // dynamic_bodies() lists them; within a body the members' order does not matter (each entry
+    // of a body's block is formed from its pair alone and added once).
+    const std::size_t nbody = columns_.size();
+    if (body_count_.size() != nbody) body_count_.assign(nbody, 0);
+    body_begin_.resize(nbody);
+    touched_.clear();
+    const std::size_t max_members = 2 * static_cast<std::size_t>(k);
+    if (member_p_.size() < max_members) member_p_.resize(max_members);
+    if (member_r_.size() < max_members) member_r_.resize(max_members);
+    const auto for_each_side = [&](auto&& f) {
+      for (int b = 0; b < k; ++b) {
+        const int j = index[b];
+        if (j >= s0) continue;
+        const int c = ContactOf(j);
+        const int t = j < nc_ ? 0 : 1 + (j - nc_) % nd_;
+        const Contact& ct = a_->contacts[c];
+        if (first_[2 * c] >= 0) f(ct.body_a, first_[2 * c] + t, b);
+        if (first_[2 * c + 1] >= 0) f(ct.body_b, first_[2 * c + 1] + t, b);
+      }
+    };
+    for_each_side([&](int body, int, int) {
+      if (body_count_[body]++ == 0) {
+        // Insertion by body index (few bodies).
+        touched_.push_back(body);
+        for (std::size_t q = touched_.size() - 1; q > 0 && touched_[q - 1] > body; --q)
+          std::swap(touched_[q - 1], touched_[q]);
+      }
+    });
+    int used = 0;
+    for (int body : touched_) {
+      body_begin_[body] = used;
+      used += body_count_[body];
+      body_count_[body] = 0;  // the fill cursor below
+    }
+    for_each_side([&](int body, int p, int b) {
+      const int at = body_begin_[body] + body_count_[body]++;
+      member_p_[at] = p;
+      member_r_[at] = b;
+    });
+    for (int body : touched_) {
+      const int m = body_count_[body];
+      body_count_[body] = 0;
+      const int* mp = member_p_.data() + body_begin_[body];
+      const int* mr = member_r_.data() + body_begin_[body];
+      member_block_.resize(static_cast<std::size_t>(m) * m);
+      MemberBlock(body, mp, m, member_block_.data());
+      for (int x = 0; x < m; ++x)
+        for (int y = 0; y < m; ++y)
+          (*out)(mr[y], mr[x]) += member_block_[static_cast<std::size_t>(x) * m + y];
+    }
+  }
+  static const std::vector<int> kNoBodies;
+  for (int body : self_contact_ ? model_->dynamic_bodies() : kNoBodies) {
     const std::vector<int>& cols = columns_[body];
     members_.clear();
     for (int p = 0; p < static_cast<int>(cols.size()); ++p)
