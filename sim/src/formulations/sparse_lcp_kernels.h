@@ -147,9 +147,8 @@ inline void SparseTimes(const SparseMatrixd& G, const double* x, bool assign, bo
 // out[j] = column j · x (assign) or out[j] += column j · x, as Eigen's
 // `out.noalias() = G.transpose() * x` / `+=` forms it: each dot product summed from 0 over the
 // column's entries in order, then added to out[j] (zeroed for assign). N as SparseTimesN.
-template <int N, bool kRuns>
-void SparseTransposeTimesN(const SparseMatrixd& G, const double* x, bool assign, bool single,
-                           double* out) {
+template <int N, bool kRuns, bool assign>
+void SparseTransposeTimesN(const SparseMatrixd& G, const double* x, bool single, double* out) {
   const int* outer = G.outerIndexPtr();
   const int* inner = G.innerIndexPtr();
   const double* value = G.valuePtr();
@@ -194,14 +193,18 @@ inline void SparseTransposeTimes(const SparseMatrixd& G, const VectorXd& x, bool
     ov.noalias() += G.transpose() * x;
   } else if (nvb == 6) {
     if (runs)
-      SparseTransposeTimesN<6, true>(G, x.data(), assign, single, out);
+      (assign ? SparseTransposeTimesN<6, true, true> : SparseTransposeTimesN<6, true, false>)(
+          G, x.data(), single, out);
     else
-      SparseTransposeTimesN<6, false>(G, x.data(), assign, single, out);
+      (assign ? SparseTransposeTimesN<6, false, true> : SparseTransposeTimesN<6, false, false>)(
+          G, x.data(), single, out);
   } else {
     if (runs)
-      SparseTransposeTimesN<3, true>(G, x.data(), assign, single, out);
+      (assign ? SparseTransposeTimesN<3, true, true> : SparseTransposeTimesN<3, true, false>)(
+          G, x.data(), single, out);
     else
-      SparseTransposeTimesN<3, false>(G, x.data(), assign, single, out);
+      (assign ? SparseTransposeTimesN<3, false, true> : SparseTransposeTimesN<3, false, false>)(
+          G, x.data(), single, out);
   }
 }
 
