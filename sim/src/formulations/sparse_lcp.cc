@@ -115,7 +115,15 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
       cols.resize(at + 1 + static_cast<std::size_t>(nd));
       int* out = cols.data() + at;
       out[0] = c;
-      for (int j = 0; j < nd; ++j) out[1 + j] = nc + c * nd + j;
+      const int f0 = nc + c * nd;
+      int j = 0;
+      for (; j + 4 <= nd; j += 4) {
+        out[1 + j] = f0 + j;
+        out[2 + j] = f0 + j + 1;
+        out[3 + j] = f0 + j + 2;
+        out[4 + j] = f0 + j + 3;
+      }
+      for (; j < nd; ++j) out[1 + j] = f0 + j;
     }
   }
   // Per body: G_b gathered; W_b G_b, the block and ‖M‖∞ are formed on demand (EnsureBlocks,
@@ -136,6 +144,10 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
   // of |entries| finite.
   bool g_finite = true;
   Eigen::Index gathered = 0, gathered_runs = 0;
+  // Every column of G_n and G_f one run of n_vb rows (a contact with one dynamic side): a
+  // column's block is then at n_vb·col, and it is the body's if its first row is the body's.
+  const bool whole_n = SingleWholeRuns(a.G_n, nvb), whole_f = SingleWholeRuns(a.G_f, nvb);
+  const bool whole = whole_n && whole_f;
   for (int body : model.dynamic_bodies()) {
     const std::vector<int>& cols = columns_[body];
     if (cols.empty()) continue;
@@ -145,7 +157,31 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
     gcol.resize(static_cast<std::size_t>(k));
     MatrixXd& Gb = Gb_[body];
     bool gb_sized = false;
-    for (int i = 0; i < k; ++i) {
+    // Whole runs: the body's columns are groups of one contact's normal c and friction columns
+    // c n_d + j (as laid out above), each at n_vb times its column index in G_n or G_f.
+    bool found = whole;
+    if (whole) {
+      const int* inner_n = a.G_n.innerIndexPtr();
+      const int* inner_f = a.G_f.innerIndexPtr();
+      const double* value_n = a.G_n.valuePtr();
+      const double* value_f = a.G_f.valuePtr();
+      const double** out = gcol.data();
+      for (int g = 0; g < k; g += 1 + nd) {
+        const int pn = nvb * cols[g];
+        out[g] = value_n + pn;
+        found = found && inner_n[pn] == o;
+        const int pf = nd > 0 ? nvb * (cols[g + 1] - nc) : 0;
+        for (int j = 0; j < nd; ++j) {
+          out[g + 1 + j] = value_f + pf + nvb * j;
+          found = found && inner_f[pf + nvb * j] == o;
+        }
+      }
+      if (found) {
+        gathered += static_cast<Eigen::Index>(nvb) * k;
+        gathered_runs += static_cast<Eigen::Index>(nvb) * k;
+      }
+    }
+    for (int i = 0; i < (found ? 0 : k); ++i) {
       const SparseMatrixd& G = cols[i] < nc ? a.G_n : a.G_f;
       const int col = cols[i] < nc ? cols[i] : cols[i] - nc;
       // The assembly stores a body's block whole (rows o..o+nvb−1, explicit zeros included, a
@@ -188,10 +224,20 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
     const auto W = a.M_inv.BlockAt(o);
     split_[body] = nvb == 6 && body_g_finite && IsSplitBlock(W.data());
     std::array<double, 6>& u = bound_u_[body];
-    for (int r = 0; r < nvb; ++r) {
-      u[r] = 0.0;
-      for (int e = 0; e < nvb; ++e) u[r] += std::abs(W(r, e)) * column_sum[e];
-      finite = finite && std::isfinite(u[r]);
+    if (split_[body]) {
+      // The terms |W_re| Σ|g_e| = 0 · (finite) = +0 off W's split structure leave the sum (from
+      // +0) unchanged: the full loop's bits.
+      for (int r = 0; r < 3; ++r) u[r] = 0.0 + std::abs(W(r, r)) * column_sum[r];
+      for (int r = 3; r < 6; ++r)
+        u[r] = ((0.0 + std::abs(W(r, 3)) * column_sum[3]) + std::abs(W(r, 4)) * column_sum[4]) +
+               std::abs(W(r, 5)) * column_sum[5];
+      for (int r = 0; r < 6; ++r) finite = finite && std::isfinite(u[r]);
+    } else {
+      for (int r = 0; r < nvb; ++r) {
+        u[r] = 0.0;
+        for (int e = 0; e < nvb; ++e) u[r] += std::abs(W(r, e)) * column_sum[e];
+        finite = finite && std::isfinite(u[r]);
+      }
     }
   }
   // The bound: from the rows (contact normals and friction directions) and the σ rows (whose
@@ -199,15 +245,39 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
   double hi = 0.0;
   for (int c = 0; c < nc; ++c) {
     const int bodies[2] = {a.contacts[c].body_a, a.contacts[c].body_b};
+    // Per dynamic side: its columns' pointers from the contact's normal on, and u_b.
+    const double* const* g[2] = {nullptr, nullptr};
+    const double* u[2] = {nullptr, nullptr};
+    for (int side = 0; side < 2; ++side) {
+      if (first_[2 * c + side] < 0) continue;
+      g[side] = gcol_[bodies[side]].data() + first_[2 * c + side];
+      u[side] = bound_u_[bodies[side]].data();
+    }
+    if (nvb == 6 && (g[0] == nullptr) != (g[1] == nullptr)) {
+      // One dynamic side (a body on the ground): the same sums, in a loop of its own. A row sum
+      // is ≥ 0 or NaN, so it is finite iff ≤ DBL_MAX.
+      const double* const* gs = g[0] ? g[0] : g[1];
+      const double* us = g[0] ? u[0] : u[1];
+      double sum = 0.0;
+      if (a.compliance[c].compliant) sum += std::abs(a.compliance[c].vel_diagonal);
+      sum = AddAbsDot<6>(gs[0], us, sum);  // the normal row
+      bool rows_finite = sum <= std::numeric_limits<double>::max();
+      hi = std::max(hi, sum);
+      for (int t = 1; t <= nd; ++t) {  // friction direction t − 1, with E's 1
+        sum = AddAbsDot<6>(gs[t], us, 1.0);
+        rows_finite = rows_finite && sum <= std::numeric_limits<double>::max();
+        hi = std::max(hi, sum);
+      }
+      finite = finite && rows_finite;
+      continue;
+    }
     for (int t = 0; t <= nd; ++t) {    // t = 0: the normal row; 1 + j: friction direction j
       double sum = t > 0 ? 1.0 : 0.0;  // E
       if (t == 0 && a.compliance[c].compliant) sum += std::abs(a.compliance[c].vel_diagonal);
       for (int side = 0; side < 2; ++side) {
-        if (first_[2 * c + side] < 0) continue;
-        const int b = bodies[side], p = first_[2 * c + side] + t;
-        const double* g = gcol_[b][static_cast<std::size_t>(p)];
-        const double* u = bound_u_[b].data();
-        sum = nvb == 6 ? AddAbsDot<6>(g, u, sum) : AddAbsDot<3>(g, u, sum);
+        if (!g[side]) continue;
+        sum = nvb == 6 ? AddAbsDot<6>(g[side][t], u[side], sum)
+                       : AddAbsDot<3>(g[side][t], u[side], sum);
       }
       finite = finite && std::isfinite(sum);
       hi = std::max(hi, sum);
@@ -221,8 +291,8 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
   const Eigen::Index nnz = a.G_n.nonZeros() + a.G_f.nonZeros();
   g_finite_ = g_finite && gathered == nnz;
   runs_ = gathered_runs == nnz;
-  single_n_ = runs_ && SingleRuns(a.G_n, nvb);
-  single_f_ = runs_ && SingleRuns(a.G_f, nvb);
+  single_n_ = runs_ && whole_n;
+  single_f_ = runs_ && whole_f;
 
   // q as BuildLcp.
   q_.setZero(m_);
@@ -458,14 +528,26 @@ void ContactLcpOperator::MultiplyAdd(const VectorXd& z, const VectorXd& q, Vecto
   *w = q;
   SparseTransposeTimes(a.G_n, dv_, /*assign=*/false, nvb, runs_, single_n_, w->data());
   SparseTransposeTimes(a.G_f, dv_, /*assign=*/false, nvb, runs_, single_f_, w->data() + nc);
+  // E σ: on compressed storage a friction row's w_i = q_i + tmp with tmp summed from +0 (never
+  // −0), so w_i is never −0 and w_i + (±0) = w_i: σ_c = ±0 is not added (the same bits).
+  const bool skip_zero_sigma = a.G_f.isCompressed();
+  double* wd = w->data();
+  const double* zd = z.data();
   for (int c = 0; c < nc; ++c) {
-    if (a.compliance[c].compliant) (*w)[c] += a.compliance[c].vel_diagonal * z[c];
+    if (a.compliance[c].compliant) wd[c] += a.compliance[c].vel_diagonal * zd[c];
+    const double sigma = zd[s0 + c];
+    const double* z_f = zd + nc + c * nd;
+    double* w_f = wd + nc + c * nd;
     double sum_f = 0.0;
-    for (int j = 0; j < nd; ++j) {
-      (*w)[nc + c * nd + j] += z[s0 + c];
-      sum_f += z[nc + c * nd + j];
+    if (skip_zero_sigma && sigma == 0.0) {
+      for (int j = 0; j < nd; ++j) sum_f += z_f[j];
+    } else {
+      for (int j = 0; j < nd; ++j) {
+        w_f[j] += sigma;
+        sum_f += z_f[j];
+      }
     }
-    (*w)[s0 + c] += a.mu[c] * z[c] - sum_f;
+    wd[s0 + c] += a.mu[c] * zd[c] - sum_f;
   }
 }
 
@@ -534,7 +616,63 @@ void ContactLcpOperator::PrincipalBlock(const std::vector<int>& index, MatrixXd*
   const int s0 = nc_ + nf_, n = s0 + nc_;
   out->setZero(k, k);
   SetPositions(index, n);
-  for (int body : model_->dynamic_bodies()) {
+  if (!self_contact_) {
+    // Each body's members found from the index (O(|index|), not O(Σ_body k_body)): impulse
+    // column j of contact c is column first_[2c + side] + t of each dynamic side's body (t = 0
+    // for the normal, 1 + direction for friction). The bodies are taken in ascending order, as
+    // dynamic_bodies() lists them; within a body the members' order does not matter (each entry
+    // of a body's block is formed from its pair alone and added once).
+    const std::size_t nbody = columns_.size();
+    if (body_count_.size() != nbody) body_count_.assign(nbody, 0);
+    body_begin_.resize(nbody);
+    touched_.clear();
+    const std::size_t max_members = 2 * static_cast<std::size_t>(k);
+    if (member_p_.size() < max_members) member_p_.resize(max_members);
+    if (member_r_.size() < max_members) member_r_.resize(max_members);
+    const auto for_each_side = [&](auto&& f) {
+      for (int b = 0; b < k; ++b) {
+        const int j = index[b];
+        if (j >= s0) continue;
+        const int c = ContactOf(j);
+        const int t = j < nc_ ? 0 : 1 + (j - nc_) % nd_;
+        const Contact& ct = a_->contacts[c];
+        if (first_[2 * c] >= 0) f(ct.body_a, first_[2 * c] + t, b);
+        if (first_[2 * c + 1] >= 0) f(ct.body_b, first_[2 * c + 1] + t, b);
+      }
+    };
+    for_each_side([&](int body, int, int) {
+      if (body_count_[body]++ == 0) {
+        // Insertion by body index (few bodies).
+        touched_.push_back(body);
+        for (std::size_t q = touched_.size() - 1; q > 0 && touched_[q - 1] > body; --q)
+          std::swap(touched_[q - 1], touched_[q]);
+      }
+    });
+    int used = 0;
+    for (int body : touched_) {
+      body_begin_[body] = used;
+      used += body_count_[body];
+      body_count_[body] = 0;  // the fill cursor below
+    }
+    for_each_side([&](int body, int p, int b) {
+      const int at = body_begin_[body] + body_count_[body]++;
+      member_p_[at] = p;
+      member_r_[at] = b;
+    });
+    for (int body : touched_) {
+      const int m = body_count_[body];
+      body_count_[body] = 0;
+      const int* mp = member_p_.data() + body_begin_[body];
+      const int* mr = member_r_.data() + body_begin_[body];
+      member_block_.resize(static_cast<std::size_t>(m) * m);
+      MemberBlock(body, mp, m, member_block_.data());
+      for (int x = 0; x < m; ++x)
+        for (int y = 0; y < m; ++y)
+          (*out)(mr[y], mr[x]) += member_block_[static_cast<std::size_t>(x) * m + y];
+    }
+  }
+  static const std::vector<int> kNoBodies;
+  for (int body : self_contact_ ? model_->dynamic_bodies() : kNoBodies) {
     const std::vector<int>& cols = columns_[body];
     members_.clear();
     for (int p = 0; p < static_cast<int>(cols.size()); ++p)

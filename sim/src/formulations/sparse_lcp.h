@@ -116,6 +116,9 @@ class ContactLcpOperator final : public LcpMatrixOperator {
   // call sets and clears only its index's entries: O(|index|), not O(m)).
   mutable std::vector<int> position_;
   mutable std::vector<std::pair<int, int>> members_;  // PrincipalBlock: (column in body, position)
+  // PrincipalBlock without self-contact: per body its member count (0 between calls) and first
+  // member in member_p_/member_r_; the bodies with members, ascending.
+  mutable std::vector<int> body_count_, body_begin_, touched_;
   // PrincipalBlockSparse, per body: its members' range in member_p_ (column in the body's list)
   // and member_r_ (basis position, ascending), and its members × members block (column major)
   // in member_block_; member_local_[2 b + side]: member b's index among its side's body's.

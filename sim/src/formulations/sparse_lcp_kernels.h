@@ -102,9 +102,13 @@ void SparseTimesN(const SparseMatrixd& G, const double* x, bool skip_zero, doubl
   const int* outer = G.outerIndexPtr();
   const int* inner = G.innerIndexPtr();
   const double* value = G.valuePtr();
-  for (Eigen::Index j = 0; j < G.cols(); ++j) {
+  const Eigen::Index cols = G.cols();
+  for (Eigen::Index j = 0; j < cols; ++j) {
+    if (skip_zero) {  // a run of x_j = 0 passed in a loop of its own
+      while (j < cols && x[j] == 0.0) ++j;
+      if (j == cols) break;
+    }
     const double xj = x[j];
-    if (skip_zero && xj == 0.0) continue;
     const int end = outer[j + 1];
     for (int p = outer[j]; p < end;) {
       if (kRuns || IsRun<N>(inner, p, end)) {
@@ -143,9 +147,8 @@ inline void SparseTimes(const SparseMatrixd& G, const double* x, bool assign, bo
 // out[j] = column j · x (assign) or out[j] += column j · x, as Eigen's
 // `out.noalias() = G.transpose() * x` / `+=` forms it: each dot product summed from 0 over the
 // column's entries in order, then added to out[j] (zeroed for assign). N as SparseTimesN.
-template <int N, bool kRuns>
-void SparseTransposeTimesN(const SparseMatrixd& G, const double* x, bool assign, bool single,
-                           double* out) {
+template <int N, bool kRuns, bool assign>
+void SparseTransposeTimesN(const SparseMatrixd& G, const double* x, bool single, double* out) {
   const int* outer = G.outerIndexPtr();
   const int* inner = G.innerIndexPtr();
   const double* value = G.valuePtr();
@@ -190,23 +193,31 @@ inline void SparseTransposeTimes(const SparseMatrixd& G, const VectorXd& x, bool
     ov.noalias() += G.transpose() * x;
   } else if (nvb == 6) {
     if (runs)
-      SparseTransposeTimesN<6, true>(G, x.data(), assign, single, out);
+      (assign ? SparseTransposeTimesN<6, true, true> : SparseTransposeTimesN<6, true, false>)(
+          G, x.data(), single, out);
     else
-      SparseTransposeTimesN<6, false>(G, x.data(), assign, single, out);
+      (assign ? SparseTransposeTimesN<6, false, true> : SparseTransposeTimesN<6, false, false>)(
+          G, x.data(), single, out);
   } else {
     if (runs)
-      SparseTransposeTimesN<3, true>(G, x.data(), assign, single, out);
+      (assign ? SparseTransposeTimesN<3, true, true> : SparseTransposeTimesN<3, true, false>)(
+          G, x.data(), single, out);
     else
-      SparseTransposeTimesN<3, false>(G, x.data(), assign, single, out);
+      (assign ? SparseTransposeTimesN<3, false, true> : SparseTransposeTimesN<3, false, false>)(
+          G, x.data(), single, out);
   }
 }
 
-// Whether every column of a compressed G holds exactly n entries (column j at n j..n j+n−1).
-inline bool SingleRuns(const SparseMatrixd& G, int n) {
+// Whether every column of a compressed G is one run of n consecutive rows (column j at entries
+// n j..n j+n−1, rows inner[n j]..inner[n j]+n−1): SingleRuns and IsRun<n> for every column.
+inline bool SingleWholeRuns(const SparseMatrixd& G, int n) {
   if (!G.isCompressed()) return false;
   const int* outer = G.outerIndexPtr();
-  for (Eigen::Index j = 0; j <= G.cols(); ++j)
-    if (outer[j] != n * j) return false;
+  const int* inner = G.innerIndexPtr();
+  const int cols = static_cast<int>(G.cols());
+  if (outer[0] != 0) return false;
+  for (int j = 0; j < cols; ++j)
+    if (outer[j + 1] != n * (j + 1) || inner[n * j + n - 1] != inner[n * j] + (n - 1)) return false;
   return true;
 }
 

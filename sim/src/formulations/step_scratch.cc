@@ -27,7 +27,8 @@ StepScratchLease::StepScratchLease() {
 
 WarmBasisScratch& StepScratch::BasisFor(const VectorXd& guess) {
   int nb = 0;
-  for (Eigen::Index i = 0; i < guess.size(); ++i) nb += guess(i) > 0.0 ? 1 : 0;
+  const double* g = guess.data();
+  for (Eigen::Index i = 0, n = guess.size(); i < n; ++i) nb += g[i] > 0.0;
   if (nb > kDenseWarmBasisMax) return basis;
   if (basis_by_size.size() <= static_cast<std::size_t>(nb)) basis_by_size.resize(nb + 1);
   std::unique_ptr<WarmBasisScratch>& b = basis_by_size[static_cast<std::size_t>(nb)];

@@ -228,17 +228,25 @@ struct DynamicSide {
   Vector3d r;  // p − o_WB
   double sign;
   int o;
+  int rows[6];  // o, o + 1, …, o + N − 1 (the block's row indices, copied per column)
 };
+
+DynamicSide MakeDynamicSide(const BodyKinematics* k, const Vector3d& r, double sign, int o) {
+  DynamicSide side{k, r, sign, o, {}};
+  for (int i = 0; i < 6; ++i) side.rows[i] = o + i;
+  return side;
+}
 
 template <int N>
 [[gnu::always_inline]] inline void WriteSideBlock(const DynamicSide& side, const DynamicSide* merge,
                                                   const Vector3d& d, int* inner, double* value) {
-  double row[N];
+  using Row = Eigen::Array<double, N, 1>;
+  alignas(16) double row[N];
   PointVelocityRowInto<N>(side.k->X_WB, side.r, d, row);
-#pragma GCC unroll 6
-  for (int i = 0; i < N; ++i) inner[i] = side.o + i;
-#pragma GCC unroll 6
-  for (int i = 0; i < N; ++i) value[i] = 0.0 + side.sign * row[i];
+  std::memcpy(inner, side.rows, sizeof(int) * N);
+  // value_i = 0 + sign · row_i, entry by entry (packed: the same IEEE operations per entry).
+  Eigen::Map<Row> out(value);
+  out = side.sign * Eigen::Map<const Row, Eigen::Aligned16>(row) + 0.0;
   if (!merge) return;
   PointVelocityRowInto<N>(merge->k->X_WB, merge->r, d, row);
 #pragma GCC unroll 6
@@ -246,27 +254,35 @@ template <int N>
 }
 
 // A contact's sides for its columns: the dynamic ones in ν order (`blocks` blocks; `merged`: one
-// body on both sides) and both sides as MakeContactSide gives them.
+// body on both sides) and both sides as MakeContactSide gives them; dpsi_a / dpsi_b: whether side
+// a's / b's term d·v_p enters ∂ψ/∂t (a non-dynamic side without zero_term).
 struct ContactColumns {
   const DynamicSide* sides;
   int blocks;
   bool merged;
   const ContactSide* side_a;
   const ContactSide* side_b;
+  bool dpsi_a, dpsi_b;
 };
 
-// One column of direction d at entry *k of a compressed G: the dynamic blocks, then the
-// non-dynamic sides' ∂ψ/∂t (a, then b) into *dpsi.
+// One column of direction d at entry k of a compressed G: the dynamic blocks, then the
+// non-dynamic sides' ∂ψ/∂t (a, then b) into *dpsi. Returns the entry after the column.
 template <int N>
-[[gnu::always_inline]] inline void WriteContactColumn(const ContactColumns& cc, const Vector3d& d,
-                                                      int* outer, int* inner, double* value, int* k,
-                                                      double* dpsi) {
-  *outer = *k;
+[[gnu::always_inline]] inline int WriteContactColumn(const ContactColumns& cc, const Vector3d& d,
+                                                     int* outer, int* inner, double* value, int k,
+                                                     double* dpsi) {
+  *outer = k;
   const DynamicSide* merge = cc.merged ? &cc.sides[1] : nullptr;
-  for (int b = 0; b < cc.blocks; ++b, *k += N)
-    WriteSideBlock<N>(cc.sides[b], merge, d, inner + *k, value + *k);
-  if (!cc.side_a->dynamic && !cc.side_a->zero_term) *dpsi += d.dot(cc.side_a->v_p);
-  if (!cc.side_b->dynamic && !cc.side_b->zero_term) *dpsi += -1.0 * d.dot(cc.side_b->v_p);
+  if (cc.blocks == 1) {
+    WriteSideBlock<N>(cc.sides[0], merge, d, inner + k, value + k);
+    k += N;
+  } else {
+    for (int b = 0; b < cc.blocks; ++b, k += N)
+      WriteSideBlock<N>(cc.sides[b], merge, d, inner + k, value + k);
+  }
+  if (cc.dpsi_a) *dpsi += d.dot(cc.side_a->v_p);
+  if (cc.dpsi_b) *dpsi += -1.0 * d.dot(cc.side_b->v_p);
+  return k;
 }
 
 // Contact c's normal column (direction n) into a->G_n and its nd friction columns (dirs) into
@@ -275,17 +291,16 @@ template <int N>
 void WriteContactColumns(const ContactColumns& cc, const Vector3d& n,
                          const std::vector<Vector3d>& dirs, int c, int nd,
                          StewartTrinkle::Assembly* a, int* k_n, int* k_f) {
-  WriteContactColumn<N>(cc, n, a->G_n.outerIndexPtr() + c, a->G_n.innerIndexPtr(),
-                        a->G_n.valuePtr(), k_n, &a->dpsi_n[c]);
-  int* outer = a->G_f.outerIndexPtr();
+  *k_n = WriteContactColumn<N>(cc, n, a->G_n.outerIndexPtr() + c, a->G_n.innerIndexPtr(),
+                               a->G_n.valuePtr(), *k_n, &a->dpsi_n[c]);
+  int* outer = a->G_f.outerIndexPtr() + c * nd;
   int* inner = a->G_f.innerIndexPtr();
   double* value = a->G_f.valuePtr();
-  double* dpsi = a->dpsi_f.data();
-  for (int j = 0; j < nd; ++j) {
-    const int col = c * nd + j;
-    WriteContactColumn<N>(cc, dirs[static_cast<std::size_t>(j)], outer + col, inner, value, k_f,
-                          dpsi + col);
-  }
+  double* dpsi = a->dpsi_f.data() + c * nd;
+  const Vector3d* d = dirs.data();
+  int k = *k_f;
+  for (int j = 0; j < nd; ++j) k = WriteContactColumn<N>(cc, d[j], outer + j, inner, value, k, dpsi + j);
+  *k_f = k;
 }
 
 // The same contribution to the predicted gap rate: sign·row·ν_body (dynamic body, ν = v) into
@@ -542,11 +557,16 @@ void StewartTrinkle::Fill(const Scene& model, const State& x, const StepInput& u
     // The dynamic sides in ν order (a contact of a body with itself: one merged block).
     DynamicSide sides[2];
     int ns = 0;
-    if (side_a.dynamic) sides[ns++] = {&ka, p.p_A_W - ka.X_WB.translation(), 1.0, side_a.o};
-    if (side_b.dynamic) sides[ns++] = {&kb, p.p_B_W - kb.X_WB.translation(), -1.0, side_b.o};
+    if (side_a.dynamic)
+      sides[ns++] = MakeDynamicSide(&ka, p.p_A_W - ka.X_WB.translation(), 1.0, side_a.o);
+    if (side_b.dynamic)
+      sides[ns++] = MakeDynamicSide(&kb, p.p_B_W - kb.X_WB.translation(), -1.0, side_b.o);
     const bool merged = ns == 2 && sides[0].o == sides[1].o;
     if (ns == 2 && sides[1].o < sides[0].o) std::swap(sides[0], sides[1]);
-    const ContactColumns cc{sides, merged ? 1 : ns, merged, &side_a, &side_b};
+    const ContactColumns cc{sides,   merged ? 1 : ns,
+                            merged,  &side_a,
+                            &side_b, !side_a.dynamic && !side_a.zero_term,
+                            !side_b.dynamic && !side_b.zero_term};
     // Contacts in a row with the same normal bits (a face resting on a face) share directions.
     if (c == 0 || !SameBits(p.n_W, a.contacts[c - 1].point.n_W))
       FrictionDirections(dim, p.n_W, nd, &dirs);

@@ -230,12 +230,17 @@ bool SolveOnWarmBasis(const LcpMatrixOperator& M, const Eigen::VectorXd& q,
   s->candidate.setZero(n);
   for (int a = 0; a < nb; ++a) s->candidate(s->active[a]) = s->z_b(a);
   M.MultiplyAdd(s->candidate, q, &s->w);
-  double w_n_min = std::numeric_limits<double>::infinity();  // min over N of w (NaN skipped)
-  for (Eigen::Index i = 0; i < n; ++i)
-    if (!s->in_basis[i] && s->w(i) < w_n_min) w_n_min = s->w(i);
+  const auto min_w_off_basis = [&] {  // min over N of w (NaN skipped)
+    double w_n_min = std::numeric_limits<double>::infinity();
+    for (Eigen::Index i = 0; i < n; ++i)
+      if (!s->in_basis[i] && s->w(i) < w_n_min) w_n_min = s->w(i);
+    return w_n_min;
+  };
   // The candidate's entries off B are +0 and z_B is finite: min(z) < 0 iff min(z_B) < 0, and
-  // ‖z‖∞ = max(0, max_B |z_i|) after the clamp.
-  if (z_b_min < 0.0) {
+  // ‖z‖∞ = max(0, max_B |z_i|) after the clamp. w_N's minimum is the unclamped candidate's.
+  const bool clamp = z_b_min < 0.0;
+  double w_n_min = clamp ? min_w_off_basis() : 0.0;
+  if (clamp) {
     for (int a = 0; a < nb; ++a) {
       double& c = s->candidate(s->active[a]);
       c = std::max(c, 0.0);  // as cwiseMax(0.0): c < 0 → 0, else c
@@ -244,34 +249,49 @@ bool SolveOnWarmBasis(const LcpMatrixOperator& M, const Eigen::VectorXd& q,
   }
   double z_norm = 0.0;
   for (int a = 0; a < nb; ++a) z_norm = std::max(z_norm, std::abs(s->candidate(s->active[a])));
-  // LcpResidual and the scale-aware residual (lcp_acceptance.h), from this w.
-  double residual = 0.0;
-  for (Eigen::Index i = 0; i < n; ++i)
-    residual = std::max(residual, std::abs(std::min(s->candidate(i), s->w(i))));
-  const bool w_finite = AllFinite(s->w);
   const double rtol = options.residual_tolerance;
   const auto ratio = [](double x, double scale) { return scale > 0.0 ? x / scale : 0.0; };
-  // The acceptance: z_B ≥ −τ(z_B), w_N ≥ −τ(z_B), LcpResidual ≤ τ(z) and the scale-aware
-  // residual.
-  const double tolerance = Tolerance(rtol, q_norm, m, z_b_norm);
-  if (z_b_min < -tolerance || w_n_min < -tolerance) return false;
-  const double tau = Tolerance(rtol, q_norm, m, z_norm);
-  if (!(residual <= tau) || !w_finite) return false;
   const double s_w = std::max(q_norm, m * z_norm);
   const double s_z = std::max(z_norm, m > 0.0 ? q_norm / m : 0.0);
-  if (!std::isfinite(s_w) || !std::isfinite(s_z)) return false;
-  // max_i |min(z_i / s_z, w_i / s_w)| (each ratio 0 for a zero scale). w is finite here. For
-  // z_i = ±0 the term is |w_i / s_w| if w_i < 0, else 0 (min(±0, x ≥ 0) = ±0): the division is
-  // formed only then.
-  double scaled = 0.0;
+  // One pass over (z, w): w_N's minimum (unless clamped), LcpResidual, w's finiteness and the
+  // scale-aware residual (lcp_acceptance.h) max_i |min(z_i / s_z, w_i / s_w)| (each ratio 0 for
+  // a zero scale; it counts only if w and the scales are finite, tested below). For z_i = ±0
+  // the term is |w_i / s_w| if w_i < 0, else 0 (min(±0, x ≥ 0) = ±0): the division is formed
+  // only then. Each maximum runs over i in order, as separate passes would.
+  double w_min = std::numeric_limits<double>::infinity();
+  double residual = 0.0, scaled = 0.0, w_zero = 0.0;  // w_zero: Σ w_i · 0 (0 iff w finite)
+  const double* cz = s->candidate.data();
+  const double* cw = s->w.data();
+  const char* in_basis = s->in_basis.data();
+  // Off B, z_i = +0: for w_i ≥ 0 or NaN both terms are |min(+0, w_i)| = +0, which leaves the
+  // maxima (≥ +0) unchanged, so only w_i < 0 is formed.
   for (Eigen::Index i = 0; i < n; ++i) {
-    const double c = s->candidate(i), w = s->w(i);
+    const double c = cz[i], w = cw[i];
+    w_zero += w * 0.0;
+    if (!in_basis[i]) {
+      if (w < w_min) w_min = w;
+      if (w < 0.0) {
+        residual = std::max(residual, std::abs(std::min(c, w)));
+        scaled = std::max(scaled, std::abs(std::min(c, ratio(w, s_w))));
+      }
+      continue;
+    }
+    residual = std::max(residual, std::abs(std::min(c, w)));
     if (c == 0.0) {
       if (w < 0.0) scaled = std::max(scaled, std::abs(std::min(c, ratio(w, s_w))));
     } else {
       scaled = std::max(scaled, std::abs(std::min(ratio(c, s_z), ratio(w, s_w))));
     }
   }
+  if (!clamp) w_n_min = w_min;
+  const bool w_finite = w_zero == 0.0;
+  // The acceptance: z_B ≥ −τ(z_B), w_N ≥ −τ(z_B), LcpResidual ≤ τ(z) and the scale-aware
+  // residual.
+  const double tolerance = Tolerance(rtol, q_norm, m, z_b_norm);
+  if (z_b_min < -tolerance || w_n_min < -tolerance) return false;
+  const double tau = Tolerance(rtol, q_norm, m, z_norm);
+  if (!(residual <= tau) || !w_finite) return false;
+  if (!std::isfinite(s_w) || !std::isfinite(s_z)) return false;
   if (!(scaled <= kLcpAcceptanceTolerance)) return false;
   z->swap(s->candidate);
   // A short message (no heap allocation: within std::string's inline buffer).
