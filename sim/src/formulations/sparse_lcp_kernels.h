@@ -184,6 +184,16 @@ void SparseTransposeTimesN(const SparseMatrixd& G, const double* x, bool single,
   }
 }
 
+// SparseTransposeTimesN with `assign` chosen at run time.
+template <int N, bool kRuns>
+inline void SparseTransposeTimesNAssign(const SparseMatrixd& G, const double* x, bool assign,
+                                        bool single, double* out) {
+  if (assign)
+    SparseTransposeTimesN<N, kRuns, true>(G, x, single, out);
+  else
+    SparseTransposeTimesN<N, kRuns, false>(G, x, single, out);
+}
+
 // single: every column of G is one run of nvb rows (SingleRuns).
 inline void SparseTransposeTimes(const SparseMatrixd& G, const VectorXd& x, bool assign, int nvb,
                                  bool runs, bool single, double* out) {
@@ -192,19 +202,11 @@ inline void SparseTransposeTimes(const SparseMatrixd& G, const VectorXd& x, bool
     if (assign) ov.setZero();
     ov.noalias() += G.transpose() * x;
   } else if (nvb == 6) {
-    if (runs)
-      (assign ? SparseTransposeTimesN<6, true, true> : SparseTransposeTimesN<6, true, false>)(
-          G, x.data(), single, out);
-    else
-      (assign ? SparseTransposeTimesN<6, false, true> : SparseTransposeTimesN<6, false, false>)(
-          G, x.data(), single, out);
+    (runs ? SparseTransposeTimesNAssign<6, true>
+          : SparseTransposeTimesNAssign<6, false>)(G, x.data(), assign, single, out);
   } else {
-    if (runs)
-      (assign ? SparseTransposeTimesN<3, true, true> : SparseTransposeTimesN<3, true, false>)(
-          G, x.data(), single, out);
-    else
-      (assign ? SparseTransposeTimesN<3, false, true> : SparseTransposeTimesN<3, false, false>)(
-          G, x.data(), single, out);
+    (runs ? SparseTransposeTimesNAssign<3, true>
+          : SparseTransposeTimesNAssign<3, false>)(G, x.data(), assign, single, out);
   }
 }
 

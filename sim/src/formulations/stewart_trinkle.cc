@@ -299,7 +299,8 @@ void WriteContactColumns(const ContactColumns& cc, const Vector3d& n,
   double* dpsi = a->dpsi_f.data() + c * nd;
   const Vector3d* d = dirs.data();
   int k = *k_f;
-  for (int j = 0; j < nd; ++j) k = WriteContactColumn<N>(cc, d[j], outer + j, inner, value, k, dpsi + j);
+  for (int j = 0; j < nd; ++j)
+    k = WriteContactColumn<N>(cc, d[j], outer + j, inner, value, k, dpsi + j);
   *k_f = k;
 }
 
@@ -563,9 +564,12 @@ void StewartTrinkle::Fill(const Scene& model, const State& x, const StepInput& u
       sides[ns++] = MakeDynamicSide(&kb, p.p_B_W - kb.X_WB.translation(), -1.0, side_b.o);
     const bool merged = ns == 2 && sides[0].o == sides[1].o;
     if (ns == 2 && sides[1].o < sides[0].o) std::swap(sides[0], sides[1]);
-    const ContactColumns cc{sides,   merged ? 1 : ns,
-                            merged,  &side_a,
-                            &side_b, !side_a.dynamic && !side_a.zero_term,
+    const ContactColumns cc{sides,
+                            merged ? 1 : ns,
+                            merged,
+                            &side_a,
+                            &side_b,
+                            !side_a.dynamic && !side_a.zero_term,
                             !side_b.dynamic && !side_b.zero_term};
     // Contacts in a row with the same normal bits (a face resting on a face) share directions.
     if (c == 0 || !SameBits(p.n_W, a.contacts[c - 1].point.n_W))

@@ -61,17 +61,11 @@ void BoxVertexFeatures(const Polytope& P, const Polytope& Q, const Isometry3d& X
                        double tie, bool p_is_a, Contacts* out) {
   const Matrix3d R_PQ = X_QP.linear().transpose();
   const Vector3d& p_QP = X_QP.translation();
-  const Matrix3d& R_WQ = X_WQ.linear();
   const Vector3d& h = Q.half_extents();
   const double support_tol = envelope + tie;
   auto min_p = [&](const Vector3d& n) { return -P.MaxDot(-(R_PQ * n)) + n.dot(p_QP); };
   auto emit = [&](const Vector3d& x, const Vector3d& y, const Vector3d& n, double gap) {
-    const Vector3d n_W = R_WQ * n;
-    if (p_is_a) {
-      out->push_back({X_WQ * x, X_WQ * y, n_W, gap});
-    } else {
-      out->push_back({X_WQ * y, X_WQ * x, -n_W, gap});
-    }
+    EmitQFrameContact(X_WQ, p_is_a, x, y, n, gap, out);
   };
   std::array<double, 6> face_min_p;
   std::array<bool, 6> face_min_p_ready{};

@@ -235,6 +235,20 @@ inline void EdgeEdgeContact(const Polytope& A, const Polytope& B, const Matrix3d
   }
 }
 
+/// The vertex-feature passes' emission (VertexFeatures, BoxVertexFeatures): the contact between
+/// x on P and y on Q with normal n, all in Q's frame, put in the world as (a, b) = (P, Q) if
+/// p_is_a, else (Q, P) with the normal reversed.
+inline void EmitQFrameContact(const Isometry3d& X_WQ, bool p_is_a, const Vector3d& x,
+                              const Vector3d& y, const Vector3d& n, double gap,
+                              std::vector<ContactPoint>* out) {
+  const Vector3d n_W = X_WQ.linear() * n;
+  if (p_is_a) {
+    out->push_back({X_WQ * x, X_WQ * y, n_W, gap});
+  } else {
+    out->push_back({X_WQ * y, X_WQ * x, -n_W, gap});
+  }
+}
+
 /// Box or polyhedron A against box or polyhedron B: vertex–face, vertex–edge/vertex and
 /// edge–edge contacts within the envelope, duplicates removed (collision_polytope.cc).
 void PolytopePolytope(const Polytope& A, const Isometry3d& X_WA, const Polytope& B,

@@ -35,18 +35,12 @@ void VertexFeatures(const Polytope& P, const Isometry3d& X_WP, const Polytope& Q
   const Isometry3d X_QP = X_WQ.inverse(Eigen::Isometry) * X_WP;
   const Matrix3d R_PQ = X_QP.linear().transpose();
   const Vector3d& p_QP = X_QP.translation();
-  const Matrix3d& R_WQ = X_WQ.linear();
   const int num_faces = Q.num_faces();
   const double support_tol = envelope + tie;
   // min over P of n · y (Q frame).
   auto min_p = [&](const Vector3d& n) { return -P.MaxDot(-(R_PQ * n)) + n.dot(p_QP); };
   auto emit = [&](const Vector3d& x, const Vector3d& y, const Vector3d& n, double gap) {
-    const Vector3d n_W = R_WQ * n;
-    if (p_is_a) {
-      out->push_back({X_WQ * x, X_WQ * y, n_W, gap});
-    } else {
-      out->push_back({X_WQ * y, X_WQ * x, -n_W, gap});
-    }
+    EmitQFrameContact(X_WQ, p_is_a, x, y, n, gap, out);
   };
   // Per face of Q: n_f · x of the current vertex, and min_p(n_f) (formed once per call, on first
   // use: it does not depend on the vertex).
