@@ -1,6 +1,6 @@
-// Kernels of ContactLcpOperator (sparse_lcp.cc; internal header): fixed-size body-block
-// products and G x, Gᵀ x over the assembly's compressed Jacobians, each with the operation order
-// (hence the bits) stated in its comment.
+// Kernels of ContactLcpOperator (sparse_lcp.cc, sparse_lcp_blocks.cc; internal header): fixed-size
+// body-block products and G x, Gᵀ x over the assembly's compressed Jacobians, each with the
+// operation order (hence the bits) stated in its comment.
 #pragma once
 
 #include <cmath>
