@@ -238,4 +238,30 @@ inline double BruteForceDistance(const Projector& PA, const Projector& PB, const
   return (a - b).norm();
 }
 
+// The contacts cs of a pose whose brute-force distance is d, against d. Touching or penetrating
+// poses (d < 1e-4) are not compared. Beyond the envelope, cs is empty if the minimum gap is the
+// distance (min_gap_is_distance). Within it (counted in *compared), some gap is within kBruteTol
+// of d, and the minimum gap is d if min_gap_is_distance. k: the pose's index, for the messages.
+inline void CheckAgainstDistance(const std::vector<ContactPoint>& cs, double d, double envelope,
+                                 bool min_gap_is_distance, int k, int* compared) {
+  if (d < 1e-4) return;
+  if (d > envelope) {
+    if (min_gap_is_distance) {
+      EXPECT_TRUE(cs.empty()) << "d = " << d << "\n" << Describe(cs);
+    }
+    return;
+  }
+  ++*compared;
+  ASSERT_FALSE(cs.empty()) << "d = " << d;
+  double min_gap = kPi, closest = kPi;
+  for (const ContactPoint& c : cs) {
+    min_gap = std::min(min_gap, c.gap);
+    closest = std::min(closest, std::abs(c.gap - d));
+  }
+  EXPECT_LE(closest, kBruteTol) << "k = " << k << " d = " << d << "\n" << Describe(cs);
+  if (min_gap_is_distance) {
+    EXPECT_NEAR(min_gap, d, kBruteTol) << "k = " << k;
+  }
+}
+
 }  // namespace vinci::sim::collision_test
