@@ -56,11 +56,11 @@ def main(argv):
     hs = t[t["sweep"] == "step"]
     ax.loglog(nd["friction_directions"], 1e6 * nd["seconds_per_step"], "o-", label="vs n_d")
     ax.set_xlabel("friction-cone directions n_d")
-    ax.set_ylabel("LCP solve time per step (us)")
+    ax.set_ylabel("wall time per step (us)")
     ax2 = ax.twiny()
     ax2.semilogy(hs["h"], 1e6 * hs["seconds_per_step"], "s--", color="C1", label="vs h (n_d 8)")
     ax2.set_xlabel("step h (s)")
-    ax.set_title("solve time")
+    ax.set_title("step time")
     ax.legend(loc="upper left", fontsize=8)
     ax2.legend(loc="lower right", fontsize=8)
     ax = axes[1, 1]

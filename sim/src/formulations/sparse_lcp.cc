@@ -263,7 +263,15 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
       sum = AddAbsDot<6>(gs[0], us, sum);  // the normal row
       bool rows_finite = sum <= std::numeric_limits<double>::max();
       hi = std::max(hi, sum);
-      for (int t = 1; t <= nd; ++t) {  // friction direction t − 1, with E's 1
+      int t = 1;  // friction direction t − 1, with E's 1; two rows at a time
+      for (; t + 1 <= nd; t += 2) {
+        double sum_a, sum_b;
+        AddAbsDotPair6(gs[t], gs[t + 1], us, 1.0, &sum_a, &sum_b);
+        rows_finite = rows_finite && sum_a <= std::numeric_limits<double>::max() &&
+                      sum_b <= std::numeric_limits<double>::max();
+        hi = std::max(std::max(hi, sum_a), sum_b);
+      }
+      for (; t <= nd; ++t) {
         sum = AddAbsDot<6>(gs[t], us, 1.0);
         rows_finite = rows_finite && sum <= std::numeric_limits<double>::max();
         hi = std::max(hi, sum);

@@ -5,6 +5,9 @@
 
 #include <cmath>
 #include <cstddef>
+#ifdef __SSE2__
+#include <emmintrin.h>
+#endif
 
 #include "vinci/sim/formulations/stewart_trinkle.h"
 
@@ -69,9 +72,31 @@ inline double LowerEntry(const double* g_i, const double* wg_j) {
   }
 }
 
-// column_sum[r] += Σ_j |g_j(r)| over the k columns g_j (N entries each), j in order.
+#ifdef __SSE2__
+// |x| per lane (the sign bit cleared: std::abs's bits).
+inline __m128d AbsPd(__m128d x) { return _mm_andnot_pd(_mm_set1_pd(-0.0), x); }
+#endif
+
+// column_sum[r] += Σ_j |g_j(r)| over the k columns g_j (N entries each), j in order (for N = 6
+// rows r, r + 1 in the lanes of packed operations: each lane the same sum in the same order).
 template <int N>
 void AddColumnAbs(const double* const* g, int k, double* column_sum) {
+#ifdef __SSE2__
+  if constexpr (N == 6) {
+    __m128d s01 = _mm_loadu_pd(column_sum), s23 = _mm_loadu_pd(column_sum + 2),
+            s45 = _mm_loadu_pd(column_sum + 4);
+    for (int j = 0; j < k; ++j) {
+      const double* c = g[j];
+      s01 = _mm_add_pd(s01, AbsPd(_mm_loadu_pd(c)));
+      s23 = _mm_add_pd(s23, AbsPd(_mm_loadu_pd(c + 2)));
+      s45 = _mm_add_pd(s45, AbsPd(_mm_loadu_pd(c + 4)));
+    }
+    _mm_storeu_pd(column_sum, s01);
+    _mm_storeu_pd(column_sum + 2, s23);
+    _mm_storeu_pd(column_sum + 4, s45);
+    return;
+  }
+#endif
   for (int j = 0; j < k; ++j)
 #pragma GCC unroll 6
     for (int r = 0; r < N; ++r) column_sum[r] += std::abs(g[j][r]);
@@ -83,6 +108,24 @@ double AddAbsDot(const double* g, const double* u, double sum) {
 #pragma GCC unroll 6
   for (int r = 0; r < N; ++r) sum += std::abs(g[r]) * u[r];
   return sum;
+}
+
+// AddAbsDot<6>(g_a, u, sum) and AddAbsDot<6>(g_b, u, sum) into *out_a, *out_b: the two rows in the
+// lanes of packed operations (each lane AddAbsDot's operations in its order, so the same bits).
+inline void AddAbsDotPair6(const double* g_a, const double* g_b, const double* u, double sum,
+                           double* out_a, double* out_b) {
+#ifdef __SSE2__
+  __m128d acc = _mm_set1_pd(sum);
+#pragma GCC unroll 6
+  for (int r = 0; r < 6; ++r)
+    acc = _mm_add_pd(acc, _mm_mul_pd(AbsPd(_mm_loadh_pd(_mm_load_sd(g_a + r), g_b + r)),
+                                     _mm_set1_pd(u[r])));
+  _mm_storel_pd(out_a, acc);
+  _mm_storeh_pd(out_b, acc);
+#else
+  *out_a = AddAbsDot<6>(g_a, u, sum);
+  *out_b = AddAbsDot<6>(g_b, u, sum);
+#endif
 }
 
 // Runs of N consecutive rows in a column's entries [p, end) (the assembly stores each body's
@@ -144,6 +187,43 @@ inline void SparseTimes(const SparseMatrixd& G, const double* x, bool assign, bo
   }
 }
 
+#ifdef __SSE2__
+// The single-run path of SparseTransposeTimesN<6> for the leading columns that come in pairs of
+// one body (the same first row r): columns j and j + 1 in the two lanes of packed operations,
+// each lane the scalar path's operations in its order (tmp = 0, tmp += v_i x_{r+i} for i in
+// order, then out_j = (assign ? 0 : out_j) + tmp), so the same bits; x_r..x_{r+5} broadcast once
+// per run of one body. Returns the first column not done (the caller finishes from there).
+template <bool assign>
+inline int PairedTransposeTimes6(const int* inner, const double* value, const double* x, int cols,
+                                 double* out) {
+  int j = 0;
+  while (j + 1 < cols) {
+    const int r = inner[6 * static_cast<std::ptrdiff_t>(j)];
+    const double* xs = x + r;
+    const __m128d x0 = _mm_set1_pd(xs[0]), x1 = _mm_set1_pd(xs[1]), x2 = _mm_set1_pd(xs[2]),
+                  x3 = _mm_set1_pd(xs[3]), x4 = _mm_set1_pd(xs[4]), x5 = _mm_set1_pd(xs[5]);
+    int done = j;
+    for (; j + 1 < cols && inner[6 * static_cast<std::ptrdiff_t>(j)] == r &&
+           inner[6 * static_cast<std::ptrdiff_t>(j + 1)] == r;
+         j += 2) {
+      const double* a = value + 6 * static_cast<std::ptrdiff_t>(j);
+      const double* b = a + 6;
+      __m128d tmp = _mm_setzero_pd();
+      tmp = _mm_add_pd(tmp, _mm_mul_pd(_mm_loadh_pd(_mm_load_sd(a + 0), b + 0), x0));
+      tmp = _mm_add_pd(tmp, _mm_mul_pd(_mm_loadh_pd(_mm_load_sd(a + 1), b + 1), x1));
+      tmp = _mm_add_pd(tmp, _mm_mul_pd(_mm_loadh_pd(_mm_load_sd(a + 2), b + 2), x2));
+      tmp = _mm_add_pd(tmp, _mm_mul_pd(_mm_loadh_pd(_mm_load_sd(a + 3), b + 3), x3));
+      tmp = _mm_add_pd(tmp, _mm_mul_pd(_mm_loadh_pd(_mm_load_sd(a + 4), b + 4), x4));
+      tmp = _mm_add_pd(tmp, _mm_mul_pd(_mm_loadh_pd(_mm_load_sd(a + 5), b + 5), x5));
+      const __m128d base = assign ? _mm_setzero_pd() : _mm_loadu_pd(out + j);
+      _mm_storeu_pd(out + j, _mm_add_pd(base, tmp));
+    }
+    if (j == done) break;  // column j's body differs from column j + 1's: the scalar path
+  }
+  return j;
+}
+#endif
+
 // out[j] = column j · x (assign) or out[j] += column j · x, as Eigen's
 // `out.noalias() = G.transpose() * x` / `+=` forms it: each dot product summed from 0 over the
 // column's entries in order, then added to out[j] (zeroed for assign). N as SparseTimesN.
@@ -156,7 +236,11 @@ void SparseTransposeTimesN(const SparseMatrixd& G, const double* x, bool single,
     // Every column is one run of N rows (column j at entries N j..N j+N−1): the same sums,
     // without the walk over each column's entries.
     const int cols = static_cast<int>(G.cols());
-    for (int j = 0; j < cols; ++j) {
+    int j = 0;
+#ifdef __SSE2__
+    if constexpr (N == 6) j = PairedTransposeTimes6<assign>(inner, value, x, cols, out);
+#endif
+    for (; j < cols; ++j) {
       const double* v = value + static_cast<std::ptrdiff_t>(N) * j;
       const double* xs = x + inner[static_cast<std::ptrdiff_t>(N) * j];
       double tmp = 0.0;

@@ -2,6 +2,9 @@
 // step record.
 #include <cstddef>
 #include <memory>
+#ifdef __SSE2__
+#include <emmintrin.h>
+#endif
 
 #include "sparse_lcp.h"
 
@@ -26,9 +29,19 @@ StepScratchLease::StepScratchLease() {
 }
 
 WarmBasisScratch& StepScratch::BasisFor(const VectorXd& guess) {
+  // nb = #{i : guess_i > 0}, two entries per compare where SSE2 is available.
   int nb = 0;
   const double* g = guess.data();
-  for (Eigen::Index i = 0, n = guess.size(); i < n; ++i) nb += g[i] > 0.0;
+  const Eigen::Index n = guess.size();
+  Eigen::Index i = 0;
+#ifdef __SSE2__
+  const __m128d zero = _mm_setzero_pd();
+  for (; i + 1 < n; i += 2) {
+    const int mask = _mm_movemask_pd(_mm_cmpgt_pd(_mm_loadu_pd(g + i), zero));
+    nb += (mask & 1) + (mask >> 1);
+  }
+#endif
+  for (; i < n; ++i) nb += g[i] > 0.0;
   if (nb > kDenseWarmBasisMax) return basis;
   if (basis_by_size.size() <= static_cast<std::size_t>(nb)) basis_by_size.resize(nb + 1);
   std::unique_ptr<WarmBasisScratch>& b = basis_by_size[static_cast<std::size_t>(nb)];
