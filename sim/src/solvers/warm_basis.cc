@@ -8,6 +8,10 @@
 #include <cstring>
 #include <limits>
 #include <utility>
+#include <vector>
+#ifdef __SSE2__
+#include <emmintrin.h>
+#endif
 
 #include "basis_solve.h"
 #include "vinci/sim/solvers/lcp_acceptance.h"
@@ -41,6 +45,72 @@ bool AllFinite(const Eigen::VectorXd& x) {
   }
   if (i < n) acc0 += p[i] * 0.0;
   return acc0 + acc1 == 0.0;
+}
+
+// Whether every x_i is finite (Σ x_i · 0 = 0); if so, *min = min_i x_i and *max_abs = max_i |x_i|
+// (0 for an empty x; exact in any order for finite entries).
+bool FiniteMinMaxAbs(const Eigen::VectorXd& x, double* min, double* max_abs) {
+  const double* p = x.data();
+  const Eigen::Index n = x.size();
+  double acc = 0.0, lo = std::numeric_limits<double>::infinity(), hi = 0.0;
+  Eigen::Index i = 0;
+#ifdef __SSE2__
+  __m128d acc2 = _mm_setzero_pd(), lo2 = _mm_set1_pd(lo), hi2 = _mm_setzero_pd();
+  const __m128d zero = _mm_setzero_pd(), sign = _mm_set1_pd(-0.0);
+  for (; i + 1 < n; i += 2) {
+    const __m128d v = _mm_loadu_pd(p + i);
+    acc2 = _mm_add_pd(acc2, _mm_mul_pd(v, zero));
+    lo2 = _mm_min_pd(lo2, v);
+    hi2 = _mm_max_pd(hi2, _mm_andnot_pd(sign, v));
+  }
+  double a[2], l[2], h[2];
+  _mm_storeu_pd(a, acc2);
+  _mm_storeu_pd(l, lo2);
+  _mm_storeu_pd(h, hi2);
+  acc = a[0] + a[1];
+  lo = std::min(l[0], l[1]);
+  hi = std::max(h[0], h[1]);
+#endif
+  for (; i < n; ++i) {
+    acc += p[i] * 0.0;
+    lo = std::min(lo, p[i]);
+    hi = std::max(hi, std::abs(p[i]));
+  }
+  if (acc != 0.0) return false;
+  *min = lo;
+  *max_abs = hi;
+  return true;
+}
+
+// Whether every guess_i is finite; if so, in_basis[i] = (guess_i > 0) for every i and the members
+// appended to *active in ascending order.
+bool FiniteBasis(const Eigen::VectorXd& guess, char* in_basis, std::vector<int>* active) {
+  const double* g = guess.data();
+  const Eigen::Index n = guess.size();
+  double acc = 0.0;
+  Eigen::Index i = 0;
+#ifdef __SSE2__
+  __m128d acc2 = _mm_setzero_pd();
+  const __m128d zero = _mm_setzero_pd();
+  for (; i + 1 < n; i += 2) {
+    const __m128d v = _mm_loadu_pd(g + i);
+    acc2 = _mm_add_pd(acc2, _mm_mul_pd(v, zero));
+    const int mask = _mm_movemask_pd(_mm_cmpgt_pd(v, zero));
+    in_basis[i] = static_cast<char>(mask & 1);
+    in_basis[i + 1] = static_cast<char>(mask >> 1);
+    if (mask & 1) active->push_back(static_cast<int>(i));
+    if (mask & 2) active->push_back(static_cast<int>(i + 1));
+  }
+  double a[2];
+  _mm_storeu_pd(a, acc2);
+  acc = a[0] + a[1];
+#endif
+  for (; i < n; ++i) {
+    acc += g[i] * 0.0;
+    in_basis[i] = g[i] > 0.0;
+    if (g[i] > 0.0) active->push_back(static_cast<int>(i));
+  }
+  return acc == 0.0;
 }
 
 }  // namespace
@@ -121,30 +191,10 @@ bool SolveOnWarmBasis(const LcpMatrixOperator& M, const Eigen::VectorXd& q,
   // One pass over q: finite (Σ q_i · 0 = 0), min q and ‖q‖∞; one over the guess: finite and
   // the guessed basis B = {i : guess_i > 0}.
   double q_min = std::numeric_limits<double>::infinity(), q_norm = 0.0;
-  {
-    const double* p = q.data();
-    double acc = 0.0;
-    for (Eigen::Index i = 0; i < n; ++i) {
-      acc += p[i] * 0.0;
-      q_min = std::min(q_min, p[i]);
-      q_norm = std::max(q_norm, std::abs(p[i]));
-    }
-    if (acc != 0.0) return false;
-  }
+  if (!FiniteMinMaxAbs(q, &q_min, &q_norm)) return false;
   s->active.clear();
   s->in_basis.resize(static_cast<std::size_t>(n));
-  {
-    const double* g = guess.data();
-    char* in_basis = s->in_basis.data();
-    double acc = 0.0;
-    for (Eigen::Index i = 0; i < n; ++i) {
-      acc += g[i] * 0.0;
-      const bool member = g[i] > 0.0;
-      in_basis[i] = member;
-      if (member) s->active.push_back(static_cast<int>(i));
-    }
-    if (acc != 0.0) return false;
-  }
+  if (!FiniteBasis(guess, s->in_basis.data(), &s->active)) return false;
   auto solved = [&](double residual, double tolerance, const char* message) {
     *report = SolverReport{};
     report->status = SolverStatus::kSolved;
