@@ -170,11 +170,11 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
         const int pn = nvb * cols[g];
         out[g] = value_n + pn;
         found = found && inner_n[pn] == o;
+        // The contact's friction columns share its sides (one writer per contact), so each is
+        // the body's run iff the first is.
         const int pf = nd > 0 ? nvb * (cols[g + 1] - nc) : 0;
-        for (int j = 0; j < nd; ++j) {
-          out[g + 1 + j] = value_f + pf + nvb * j;
-          found = found && inner_f[pf + nvb * j] == o;
-        }
+        if (nd > 0) found = found && inner_f[pf] == o;
+        for (int j = 0; j < nd; ++j) out[g + 1 + j] = value_f + pf + nvb * j;
       }
       if (found) {
         gathered += static_cast<Eigen::Index>(nvb) * k;

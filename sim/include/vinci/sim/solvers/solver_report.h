@@ -26,7 +26,7 @@ struct SolverReport {
   /// Each solver documents its own: Lemke scales residual_tolerance by max(1, ‖q‖∞, ‖M‖∞‖z‖∞)
   /// capped at 1000·max(1, ‖q‖∞) (lemke.h); 0 where a solver does not set it.
   double tolerance = 0.0;
-  double time_s = 0.0;          ///< wall time of the solve (s)
+  double time_s = 0.0;          ///< wall time of the solve (s); 0 where not timed (warm_basis.h)
   bool regularized = false;     ///< true if the solution came from a regularized retry M + εI
   double regularization = 0.0;  ///< the ε used, if regularized
   /// Extra attempts after the first one failed: McpSolver restarts, FB Newton's Lemke
