@@ -79,6 +79,34 @@ void ContactRowSums(const StewartTrinkle::Assembly& a, const std::vector<int>& f
 
 }  // namespace
 
+void RunPattern::Classify(const SparseMatrixd& G, int n) {
+  if (!G.isCompressed()) {
+    n_ = -1;
+    whole = false;
+    uniform_row = -1;
+    return;
+  }
+  const std::size_t no = static_cast<std::size_t>(G.cols()) + 1;
+  const std::size_t ni = static_cast<std::size_t>(G.outerIndexPtr()[G.cols()]);
+  if (n_ == n && outer_.size() == no && inner_.size() == ni &&
+      std::memcmp(outer_.data(), G.outerIndexPtr(), sizeof(int) * no) == 0 &&
+      std::memcmp(inner_.data(), G.innerIndexPtr(), sizeof(int) * ni) == 0)
+    return;
+  n_ = n;
+  outer_.assign(G.outerIndexPtr(), G.outerIndexPtr() + no);
+  inner_.assign(G.innerIndexPtr(), G.innerIndexPtr() + ni);
+  whole = SingleWholeRuns(G, n);
+  uniform_row = -1;
+  if (whole && G.cols() > 0) {
+    uniform_row = inner_[0];
+    for (Eigen::Index j = 1; j < G.cols(); ++j)
+      if (inner_[static_cast<std::size_t>(n * j)] != uniform_row) {
+        uniform_row = -1;
+        break;
+      }
+  }
+}
+
 bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembly& a,
                                const VectorXd& v, double h, bool velocity_level) {
   if (a.psi_b.size() > 0 || !a.corner_contact.empty() || a.support.columns() > 0 ||
@@ -146,7 +174,9 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
   Eigen::Index gathered = 0, gathered_runs = 0;
   // Every column of G_n and G_f one run of n_vb rows (a contact with one dynamic side): a
   // column's block is then at n_vb·col, and it is the body's if its first row is the body's.
-  const bool whole_n = SingleWholeRuns(a.G_n, nvb), whole_f = SingleWholeRuns(a.G_f, nvb);
+  pattern_n_.Classify(a.G_n, nvb);
+  pattern_f_.Classify(a.G_f, nvb);
+  const bool whole_n = pattern_n_.whole, whole_f = pattern_f_.whole;
   const bool whole = whole_n && whole_f;
   for (int body : model.dynamic_bodies()) {
     const std::vector<int>& cols = columns_[body];
@@ -301,10 +331,13 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
   runs_ = gathered_runs == nnz;
   single_n_ = runs_ && whole_n;
   single_f_ = runs_ && whole_f;
+  uniform_n_ = single_n_ ? pattern_n_.uniform_row : -1;
+  uniform_f_ = single_f_ ? pattern_f_.uniform_row : -1;
 
   // q as BuildLcp.
   q_.setZero(m_);
-  SparseTransposeTimes(a.G_n, v_star_, /*assign=*/true, nvb, runs_, single_n_, q_.data());
+  SparseTransposeTimes(a.G_n, v_star_, /*assign=*/true, nvb, runs_, single_n_, q_.data(),
+                       uniform_n_);
   q_.head(nc) += a.dpsi_n;
   if (!velocity_level) q_.head(nc) += a.psi_n / h;
   for (int c = 0; c < nc; ++c) {
@@ -312,7 +345,8 @@ bool ContactLcpOperator::Build(const Scene& model, const StewartTrinkle::Assembl
     if (!law.compliant) continue;
     q_[c] = a.G_n.col(c).dot(v_star_) + a.dpsi_n[c] + law.vel_psi * a.psi_n[c] + law.vel_constant;
   }
-  SparseTransposeTimes(a.G_f, v_star_, /*assign=*/true, nvb, runs_, single_f_, q_.data() + nc);
+  SparseTransposeTimes(a.G_f, v_star_, /*assign=*/true, nvb, runs_, single_f_, q_.data() + nc,
+                       uniform_f_);
   q_.segment(nc, nf) += a.dpsi_f;
   return true;
 }
@@ -497,8 +531,9 @@ void ContactLcpOperator::MultiplyAdd(const VectorXd& z, const VectorXd& q, Vecto
   last_z_ = z;
   last_z_valid_ = true;
   *w = q;
-  SparseTransposeTimes(a.G_n, dv_, /*assign=*/false, nvb, runs_, single_n_, w->data());
-  SparseTransposeTimes(a.G_f, dv_, /*assign=*/false, nvb, runs_, single_f_, w->data() + nc);
+  SparseTransposeTimes(a.G_n, dv_, /*assign=*/false, nvb, runs_, single_n_, w->data(), uniform_n_);
+  SparseTransposeTimes(a.G_f, dv_, /*assign=*/false, nvb, runs_, single_f_, w->data() + nc,
+                       uniform_f_);
   // E σ: on compressed storage a friction row's w_i = q_i + tmp with tmp summed from +0 (never
   // −0), so w_i is never −0 and w_i + (±0) = w_i: σ_c = ±0 is not added (the same bits).
   const bool skip_zero_sigma = a.G_f.isCompressed();

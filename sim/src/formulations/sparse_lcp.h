@@ -17,6 +17,20 @@
 
 namespace vinci::sim::internal {
 
+/// Whether every column of a compressed G is one run of n consecutive rows (`whole`), and the
+/// row every column's run starts at (`uniform_row`; −1 if they differ or not whole), kept for the
+/// last pattern classified: a G with the same outer and inner index arrays (compared bitwise)
+/// takes the kept answer, another is classified and kept (storage reused).
+struct RunPattern {
+  bool whole = false;
+  int uniform_row = -1;
+  void Classify(const SparseMatrixd& G, int n);
+
+ private:
+  std::vector<int> outer_, inner_;
+  int n_ = -1;  // −1: nothing kept
+};
+
 /// StewartTrinkle::BuildLcp's M for an assembly without joints, corner contacts or support
 /// points, z = [p_n; p_f; σ]:
 ///
@@ -102,6 +116,8 @@ class ContactLcpOperator final : public LcpMatrixOperator {
   bool runs_ = false;          // G_n's and G_f's columns are whole body blocks (runs of nvb_ rows)
   bool self_contact_ = false;  // a contact has the same body on both sides
   bool single_n_ = false, single_f_ = false;         // G_n's / G_f's columns are one run each
+  int uniform_n_ = -1, uniform_f_ = -1;  // single_*: the row every column's run starts at, or −1
+  RunPattern pattern_n_, pattern_f_;  // G_n's / G_f's, kept between Builds
   mutable bool full_ = false;                        // blocks_ formed
   mutable bool norm_formed_ = false;                 // norm_inf_ formed
   mutable double norm_inf_ = 0.0;                    // ‖M‖∞

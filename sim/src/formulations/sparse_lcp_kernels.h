@@ -192,11 +192,31 @@ inline void SparseTimes(const SparseMatrixd& G, const double* x, bool assign, bo
 // one body (the same first row r): columns j and j + 1 in the two lanes of packed operations,
 // each lane the scalar path's operations in its order (tmp = 0, tmp += v_i x_{r+i} for i in
 // order, then out_j = (assign ? 0 : out_j) + tmp), so the same bits; x_r..x_{r+5} broadcast once
-// per run of one body. Returns the first column not done (the caller finishes from there).
+// per run of one body (once in all if uniform_row ≥ 0: every column starts at that row). Returns
+// the first column not done (the caller finishes from there).
 template <bool assign>
 inline int PairedTransposeTimes6(const int* inner, const double* value, const double* x, int cols,
-                                 double* out) {
+                                 int uniform_row, double* out) {
   int j = 0;
+  if (uniform_row >= 0) {  // every column starts at row uniform_row: no test per pair
+    const double* xs = x + uniform_row;
+    const __m128d x0 = _mm_set1_pd(xs[0]), x1 = _mm_set1_pd(xs[1]), x2 = _mm_set1_pd(xs[2]),
+                  x3 = _mm_set1_pd(xs[3]), x4 = _mm_set1_pd(xs[4]), x5 = _mm_set1_pd(xs[5]);
+    for (; j + 1 < cols; j += 2) {
+      const double* a = value + 6 * static_cast<std::ptrdiff_t>(j);
+      const double* b = a + 6;
+      __m128d tmp = _mm_setzero_pd();
+      tmp = _mm_add_pd(tmp, _mm_mul_pd(_mm_loadh_pd(_mm_load_sd(a + 0), b + 0), x0));
+      tmp = _mm_add_pd(tmp, _mm_mul_pd(_mm_loadh_pd(_mm_load_sd(a + 1), b + 1), x1));
+      tmp = _mm_add_pd(tmp, _mm_mul_pd(_mm_loadh_pd(_mm_load_sd(a + 2), b + 2), x2));
+      tmp = _mm_add_pd(tmp, _mm_mul_pd(_mm_loadh_pd(_mm_load_sd(a + 3), b + 3), x3));
+      tmp = _mm_add_pd(tmp, _mm_mul_pd(_mm_loadh_pd(_mm_load_sd(a + 4), b + 4), x4));
+      tmp = _mm_add_pd(tmp, _mm_mul_pd(_mm_loadh_pd(_mm_load_sd(a + 5), b + 5), x5));
+      const __m128d base = assign ? _mm_setzero_pd() : _mm_loadu_pd(out + j);
+      _mm_storeu_pd(out + j, _mm_add_pd(base, tmp));
+    }
+    return j;
+  }
   while (j + 1 < cols) {
     const int r = inner[6 * static_cast<std::ptrdiff_t>(j)];
     const double* xs = x + r;
@@ -228,7 +248,8 @@ inline int PairedTransposeTimes6(const int* inner, const double* value, const do
 // `out.noalias() = G.transpose() * x` / `+=` forms it: each dot product summed from 0 over the
 // column's entries in order, then added to out[j] (zeroed for assign). N as SparseTimesN.
 template <int N, bool kRuns, bool assign>
-void SparseTransposeTimesN(const SparseMatrixd& G, const double* x, bool single, double* out) {
+void SparseTransposeTimesN(const SparseMatrixd& G, const double* x, bool single, int uniform_row,
+                           double* out) {
   const int* outer = G.outerIndexPtr();
   const int* inner = G.innerIndexPtr();
   const double* value = G.valuePtr();
@@ -238,7 +259,7 @@ void SparseTransposeTimesN(const SparseMatrixd& G, const double* x, bool single,
     const int cols = static_cast<int>(G.cols());
     int j = 0;
 #ifdef __SSE2__
-    if constexpr (N == 6) j = PairedTransposeTimes6<assign>(inner, value, x, cols, out);
+    if constexpr (N == 6) j = PairedTransposeTimes6<assign>(inner, value, x, cols, uniform_row, out);
 #endif
     for (; j < cols; ++j) {
       const double* v = value + static_cast<std::ptrdiff_t>(N) * j;
@@ -271,26 +292,27 @@ void SparseTransposeTimesN(const SparseMatrixd& G, const double* x, bool single,
 // SparseTransposeTimesN with `assign` chosen at run time.
 template <int N, bool kRuns>
 inline void SparseTransposeTimesNAssign(const SparseMatrixd& G, const double* x, bool assign,
-                                        bool single, double* out) {
+                                        bool single, int uniform_row, double* out) {
   if (assign)
-    SparseTransposeTimesN<N, kRuns, true>(G, x, single, out);
+    SparseTransposeTimesN<N, kRuns, true>(G, x, single, uniform_row, out);
   else
-    SparseTransposeTimesN<N, kRuns, false>(G, x, single, out);
+    SparseTransposeTimesN<N, kRuns, false>(G, x, single, uniform_row, out);
 }
 
-// single: every column of G is one run of nvb rows (SingleRuns).
+// single: every column of G is one run of nvb rows (SingleRuns); uniform_row ≥ 0 (with single):
+// every column's run starts at that row (RunPattern).
 inline void SparseTransposeTimes(const SparseMatrixd& G, const VectorXd& x, bool assign, int nvb,
-                                 bool runs, bool single, double* out) {
+                                 bool runs, bool single, double* out, int uniform_row = -1) {
   if (!G.isCompressed()) {
     Eigen::Map<VectorXd> ov(out, G.cols());
     if (assign) ov.setZero();
     ov.noalias() += G.transpose() * x;
   } else if (nvb == 6) {
     (runs ? SparseTransposeTimesNAssign<6, true>
-          : SparseTransposeTimesNAssign<6, false>)(G, x.data(), assign, single, out);
+          : SparseTransposeTimesNAssign<6, false>)(G, x.data(), assign, single, uniform_row, out);
   } else {
     (runs ? SparseTransposeTimesNAssign<3, true>
-          : SparseTransposeTimesNAssign<3, false>)(G, x.data(), assign, single, out);
+          : SparseTransposeTimesNAssign<3, false>)(G, x.data(), assign, single, uniform_row, out);
   }
 }
 
