@@ -217,6 +217,38 @@ TEST(StructuredStepTest, SlidingVariantsAndComplianceMatchDenseLcp) {
   }
 }
 
+// Spatial boxes whose contact pattern changes from step to step, so the operator's kept run
+// classification of G (one run of six rows per column, all at one body's rows) must follow it:
+// one tilted, spinning box landing on the floor (every column at the box's rows), and a box at
+// rest with two boxes dropped, one beside it (columns at two bodies' rows) and one onto it
+// (columns of two bodies).
+TEST(StructuredStepTest, OneSidedContactPatternsMatchDenseLcp) {
+  const std::string header =
+      "dimension: 3\nstepper: {dt: 0.001, duration: 1.0, friction_directions: 8, envelope: "
+      "0.002}\nfriction: {default: 0.5}\nbodies:\n"
+      "  - {name: floor, kind: static, shapes: [{type: halfspace}]}\n";
+  const std::string landing =
+      "name: landing\n" + header +
+      "  - {name: box, mass: 1.0, pose: {position: [0, 0, 0.09], rpy: [0.2, 0.15, 0]}, "
+      "velocity: {linear: [0.2, 0, 0], angular: [0, 0, 3]}, "
+      "shapes: [{type: box, half_extents: [0.1, 0.1, 0.05]}]}\n";
+  const std::string drops =
+      "name: drops\n" + header +
+      "  - {name: a, mass: 1.0, pose: {position: [0, 0, 0.05]}, "
+      "shapes: [{type: box, half_extents: [0.1, 0.1, 0.05]}]}\n"
+      "  - {name: b, mass: 2.0, pose: {position: [0.5, 0, 0.09]}, "
+      "shapes: [{type: box, half_extents: [0.1, 0.1, 0.05]}]}\n"
+      "  - {name: c, mass: 0.5, pose: {position: [0, 0, 0.2]}, "
+      "shapes: [{type: box, half_extents: [0.05, 0.05, 0.05]}]}\n";
+  for (const std::string& text : {landing, drops}) {
+    const Scene file = ParseScene(text, "one_sided");
+    const Scene model = file.ApplyParams(file.DefaultParams());
+    int zero = 0;
+    EXPECT_LT(CompareStructuredWithDense(model, model.options, 400, &zero), 1e-9) << text;
+    EXPECT_GT(zero, 200) << text;
+  }
+}
+
 // Bases above kDenseWarmBasisMax: the resting 20-box stack (80 normals, M_BB symmetric and
 // singular: the semidefinite LDLᵀ) and twelve cubes sliding apart on the floor (normal,
 // friction and σ columns basic, M_BB not symmetric: the sparse QR on the structured block) give
