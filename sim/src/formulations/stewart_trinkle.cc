@@ -253,6 +253,75 @@ template <int N>
   for (int i = 0; i < N; ++i) value[i] += merge->sign * row[i];
 }
 
+// Friction directions by pairs for WriteSidePairs6: pair q holds (d_2q.x, d_2q+1.x, d_2q.y,
+// d_2q+1.y, d_2q.z, d_2q+1.z) at pairs[6q..6q+6) (an odd nd's last direction is not in it).
+void PackDirectionPairs(const std::vector<Vector3d>& dirs, std::vector<double>* pairs) {
+  const std::size_t np = dirs.size() / 2;
+  pairs->resize(6 * np);
+  double* out = pairs->data();
+  for (std::size_t q = 0; q < np; ++q, out += 6) {
+    const Vector3d& d0 = dirs[2 * q];
+    const Vector3d& d1 = dirs[2 * q + 1];
+    out[0] = d0.x();
+    out[1] = d1.x();
+    out[2] = d0.y();
+    out[3] = d1.y();
+    out[4] = d0.z();
+    out[5] = d1.z();
+  }
+}
+
+// One dynamic side's (N = 6) blocks of the friction columns 2q, 2q + 1, q < npairs, two at a
+// time: lane l of each two-lane vector is column 2q + l, and each lane gets exactly the IEEE
+// operations of WriteSideBlock<6> without a merged side (value_i = 0 + sign · row_i, row from
+// PointVelocityRowInto<6>), so the same bits. Column 2q's block is at value/inner + 2q·stride,
+// column 2q + 1's at + stride further.
+void WriteSidePairs6(const DynamicSide& side, const double* pairs, int npairs, int stride,
+                     int* inner, double* value) {
+  // A GCC/Clang vector extension: elementwise IEEE double operations on two lanes.
+  using V2 = double __attribute__((vector_size(16)));
+  const auto splat = [](double x) { return V2{x, x}; };
+  const V2 rx = splat(side.r.x()), ry = splat(side.r.y()), rz = splat(side.r.z());
+  const double* R = side.k->X_WB.matrix().data();  // column major 4 × 4: R_ki = R[4 i + k]
+  const V2 R0 = splat(R[0]), R1 = splat(R[1]), R2 = splat(R[2]);
+  const V2 R4 = splat(R[4]), R5 = splat(R[5]), R6 = splat(R[6]);
+  const V2 R8 = splat(R[8]), R9 = splat(R[9]), R10 = splat(R[10]);
+  const V2 sign = splat(side.sign), zero = splat(0.0);
+  int rows[6];
+  std::memcpy(rows, side.rows, sizeof(rows));
+  for (int q = 0; q < npairs; ++q, pairs += 6, inner += 2 * stride, value += 2 * stride) {
+    V2 dx, dy, dz;
+    std::memcpy(&dx, pairs, sizeof(V2));
+    std::memcpy(&dy, pairs + 2, sizeof(V2));
+    std::memcpy(&dz, pairs + 4, sizeof(V2));
+    const V2 c0 = ry * dz - rz * dy;
+    const V2 c1 = rz * dx - rx * dz;
+    const V2 c2 = rx * dy - ry * dx;
+    const V2 v0 = sign * dx + zero;
+    const V2 v1 = sign * dy + zero;
+    const V2 v2 = sign * dz + zero;
+    const V2 v3 = sign * ((R0 * c0 + R1 * c1) + R2 * c2) + zero;
+    const V2 v4 = sign * ((R4 * c0 + R5 * c1) + R6 * c2) + zero;
+    const V2 v5 = sign * ((R8 * c0 + R9 * c1) + R10 * c2) + zero;
+    double* a = value;
+    double* b = value + stride;
+    a[0] = v0[0];
+    b[0] = v0[1];
+    a[1] = v1[0];
+    b[1] = v1[1];
+    a[2] = v2[0];
+    b[2] = v2[1];
+    a[3] = v3[0];
+    b[3] = v3[1];
+    a[4] = v4[0];
+    b[4] = v4[1];
+    a[5] = v5[0];
+    b[5] = v5[1];
+    std::memcpy(inner, rows, sizeof(rows));
+    std::memcpy(inner + stride, rows, sizeof(rows));
+  }
+}
+
 // A contact's sides for its columns: the dynamic ones in ν order (`blocks` blocks; `merged`: one
 // body on both sides) and both sides as MakeContactSide gives them; dpsi_a / dpsi_b: whether side
 // a's / b's term d·v_p enters ∂ψ/∂t (a non-dynamic side without zero_term).
@@ -287,10 +356,12 @@ template <int N>
 
 // Contact c's normal column (direction n) into a->G_n and its nd friction columns (dirs) into
 // a->G_f, at entries *k_n and *k_f.
+// pairs: dirs by pairs (PackDirectionPairs), used for N = 6 columns without a merged side or
+// ∂ψ/∂t terms (the same entries as the column-by-column writer).
 template <int N>
 void WriteContactColumns(const ContactColumns& cc, const Vector3d& n,
-                         const std::vector<Vector3d>& dirs, int c, int nd,
-                         StewartTrinkle::Assembly* a, int* k_n, int* k_f) {
+                         const std::vector<Vector3d>& dirs, const std::vector<double>& pairs,
+                         int c, int nd, StewartTrinkle::Assembly* a, int* k_n, int* k_f) {
   *k_n = WriteContactColumn<N>(cc, n, a->G_n.outerIndexPtr() + c, a->G_n.innerIndexPtr(),
                                a->G_n.valuePtr(), *k_n, &a->dpsi_n[c]);
   int* outer = a->G_f.outerIndexPtr() + c * nd;
@@ -299,8 +370,18 @@ void WriteContactColumns(const ContactColumns& cc, const Vector3d& n,
   double* dpsi = a->dpsi_f.data() + c * nd;
   const Vector3d* d = dirs.data();
   int k = *k_f;
-  for (int j = 0; j < nd; ++j)
-    k = WriteContactColumn<N>(cc, d[j], outer + j, inner, value, k, dpsi + j);
+  int j = 0;
+  if constexpr (N == 6) {
+    if (!cc.merged && !cc.dpsi_a && !cc.dpsi_b) {
+      const int stride = cc.blocks * N;
+      const int npairs = nd / 2;
+      for (int b = 0; b < cc.blocks; ++b)
+        WriteSidePairs6(cc.sides[b], pairs.data(), npairs, stride, inner + k + N * b,
+                        value + k + N * b);
+      for (; j < 2 * npairs; ++j, k += stride) outer[j] = k;
+    }
+  }
+  for (; j < nd; ++j) k = WriteContactColumn<N>(cc, d[j], outer + j, inner, value, k, dpsi + j);
   *k_f = k;
 }
 
@@ -321,6 +402,7 @@ void ScatterDot(const Scene& model, int body, const BodyKinematics& k, const Vec
 struct AssemblyScratch {
   std::vector<BodyKinematics> kin;
   std::vector<Vector3d> dirs;
+  std::vector<double> dir_pairs;  // dirs by pairs (PackDirectionPairs)
   JacobianColumns G_b, G_1;
   JointRows joint_rows;
   VectorXd zero_v;
@@ -572,12 +654,14 @@ void StewartTrinkle::Fill(const Scene& model, const State& x, const StepInput& u
                             !side_a.dynamic && !side_a.zero_term,
                             !side_b.dynamic && !side_b.zero_term};
     // Contacts in a row with the same normal bits (a face resting on a face) share directions.
-    if (c == 0 || !SameBits(p.n_W, a.contacts[c - 1].point.n_W))
+    if (c == 0 || !SameBits(p.n_W, a.contacts[c - 1].point.n_W)) {
       FrictionDirections(dim, p.n_W, nd, &dirs);
+      if (nvb == 6) PackDirectionPairs(dirs, &scratch.dir_pairs);
+    }
     if (nvb == 6) {
-      WriteContactColumns<6>(cc, p.n_W, dirs, c, nd, &a, &k_n, &k_f);
+      WriteContactColumns<6>(cc, p.n_W, dirs, scratch.dir_pairs, c, nd, &a, &k_n, &k_f);
     } else {
-      WriteContactColumns<3>(cc, p.n_W, dirs, c, nd, &a, &k_n, &k_f);
+      WriteContactColumns<3>(cc, p.n_W, dirs, scratch.dir_pairs, c, nd, &a, &k_n, &k_f);
     }
   }
   a.G_n.outerIndexPtr()[nc] = k_n;
