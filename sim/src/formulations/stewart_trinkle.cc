@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <map>
 #include <stdexcept>
@@ -88,7 +89,10 @@ void FrictionDirections(Dim dim, const Vector3d& n, int nd, std::vector<Vector3d
 
 // a and b have the same bits (FrictionDirections is then the same).
 bool SameBits(const Vector3d& a, const Vector3d& b) {
-  return std::memcmp(a.data(), b.data(), sizeof(double) * 3) == 0;
+  std::uint64_t ua[3], ub[3];
+  std::memcpy(ua, a.data(), sizeof(ua));
+  std::memcpy(ub, b.data(), sizeof(ub));
+  return ((ua[0] ^ ub[0]) | (ua[1] ^ ub[1]) | (ua[2] ^ ub[2])) == 0;
 }
 
 // A constraint Jacobian (nv × cols) built column by column. A column touches at most two
@@ -176,14 +180,11 @@ struct ContactSide {
   Vector3d v_p = Vector3d::Zero();
 };
 
-ContactSide MakeContactSide(const Scene& model, int body, const BodyKinematics& k,
-                            const Vector3d& p) {
+// The side without v_p, which Fill forms only where a term uses it (not dynamic, not zero_term).
+ContactSide MakeContactSide(const Scene& model, int body) {
   ContactSide side;
   side.dynamic = model.bodies[body].kind == BodyKind::kDynamic;
-  if (side.dynamic)
-    side.o = model.index(body).v;
-  else
-    side.v_p = PointVelocity(k, p);
+  if (side.dynamic) side.o = model.index(body).v;
   return side;
 }
 
@@ -233,7 +234,11 @@ struct DynamicSide {
 
 DynamicSide MakeDynamicSide(const BodyKinematics* k, const Vector3d& r, double sign, int o) {
   DynamicSide side{k, r, sign, o, {}};
-  for (int i = 0; i < 6; ++i) side.rows[i] = o + i;
+  using V4i = int __attribute__((vector_size(16)));  // GCC/Clang vector extension
+  const V4i first = V4i{o, o, o, o} + V4i{0, 1, 2, 3};
+  std::memcpy(side.rows, &first, sizeof(first));
+  side.rows[4] = o + 4;
+  side.rows[5] = o + 5;
   return side;
 }
 
@@ -275,9 +280,9 @@ void PackDirectionPairs(const std::vector<Vector3d>& dirs, std::vector<double>* 
 // time: lane l of each two-lane vector is column 2q + l, and each lane gets exactly the IEEE
 // operations of WriteSideBlock<6> without a merged side (value_i = 0 + sign · row_i, row from
 // PointVelocityRowInto<6>), so the same bits. Column 2q's block is at value/inner + 2q·stride,
-// column 2q + 1's at + stride further.
+// column 2q + 1's at + stride further. outer (if not null): outer[2q + l] = k + (2q + l)·stride.
 void WriteSidePairs6(const DynamicSide& side, const double* pairs, int npairs, int stride,
-                     int* inner, double* value) {
+                     int* inner, double* value, int* outer, int k) {
   // A GCC/Clang vector extension: elementwise IEEE double operations on two lanes.
   using V2 = double __attribute__((vector_size(16)));
   const auto splat = [](double x) { return V2{x, x}; };
@@ -319,6 +324,11 @@ void WriteSidePairs6(const DynamicSide& side, const double* pairs, int npairs, i
     b[5] = v5[1];
     std::memcpy(inner, rows, sizeof(rows));
     std::memcpy(inner + stride, rows, sizeof(rows));
+    if (outer) {
+      outer[2 * q] = k;
+      outer[2 * q + 1] = k + stride;
+      k += 2 * stride;
+    }
   }
 }
 
@@ -377,8 +387,11 @@ void WriteContactColumns(const ContactColumns& cc, const Vector3d& n,
       const int npairs = nd / 2;
       for (int b = 0; b < cc.blocks; ++b)
         WriteSidePairs6(cc.sides[b], pairs.data(), npairs, stride, inner + k + N * b,
-                        value + k + N * b);
-      for (; j < 2 * npairs; ++j, k += stride) outer[j] = k;
+                        value + k + N * b, b == 0 ? outer : nullptr, k);
+      if (cc.blocks == 0)
+        for (int i = 0; i < 2 * npairs; ++i) outer[i] = k;
+      j = 2 * npairs;
+      k += j * stride;
     }
   }
   for (; j < nd; ++j) k = WriteContactColumn<N>(cc, d[j], outer + j, inner, value, k, dpsi + j);
@@ -401,8 +414,13 @@ void ScatterDot(const Scene& model, int body, const BodyKinematics& k, const Vec
 // call overwrites what it uses, so no result depends on a previous call or on the thread).
 struct AssemblyScratch {
   std::vector<BodyKinematics> kin;
+  // FrictionDirections(dirs_dim, dirs_n, dirs_nd) and its pairs (PackDirectionPairs, N = 6),
+  // if dirs_nd > 0: a function of those three only, so reused while they stay the same.
   std::vector<Vector3d> dirs;
-  std::vector<double> dir_pairs;  // dirs by pairs (PackDirectionPairs)
+  std::vector<double> dir_pairs;
+  Dim dirs_dim = Dim::kSpatial;
+  Vector3d dirs_n = Vector3d::Zero();
+  int dirs_nd = 0;
   JacobianColumns G_b, G_1;
   JointRows joint_rows;
   VectorXd zero_v;
@@ -625,18 +643,24 @@ void StewartTrinkle::Fill(const Scene& model, const State& x, const StepInput& u
     const ContactPoint& p = ct.point;
     a.psi_n[c] = p.gap;
     a.mu[c] = ct.mu;
-    a.compliance[c] = LinearizeNormalLaw(
-        CombineCompliance(model.bodies[ct.body_a].compliance, model.bodies[ct.body_b].compliance),
-        p.gap, h);
+    const ContactCompliance& compliance_a = model.bodies[ct.body_a].compliance;
+    const ContactCompliance& compliance_b = model.bodies[ct.body_b].compliance;
+    // A rigid pair's row is the default one (LinearizeNormalLaw's, which throws for h ≤ 0).
+    if (compliance_a.rigid() && compliance_b.rigid() && h > 0.0)
+      a.compliance[c] = CompliantNormalRow{};
+    else
+      a.compliance[c] = LinearizeNormalLaw(CombineCompliance(compliance_a, compliance_b), p.gap, h);
     const BodyKinematics &ka = kin[ct.body_a], &kb = kin[ct.body_b];
-    ContactSide side_a = MakeContactSide(model, ct.body_a, ka, p.p_A_W);
-    ContactSide side_b = MakeContactSide(model, ct.body_b, kb, p.p_B_W);
+    ContactSide side_a = MakeContactSide(model, ct.body_a);
+    ContactSide side_b = MakeContactSide(model, ct.body_b);
     if (p.n_W.allFinite()) {
       side_a.zero_term = side_b.dynamic && model.bodies[ct.body_a].kind == BodyKind::kStatic &&
                          (p.p_A_W - ka.X_WB.translation()).allFinite();
       side_b.zero_term = side_a.dynamic && model.bodies[ct.body_b].kind == BodyKind::kStatic &&
                          (p.p_B_W - kb.X_WB.translation()).allFinite();
     }
+    if (!side_a.dynamic && !side_a.zero_term) side_a.v_p = PointVelocity(ka, p.p_A_W);
+    if (!side_b.dynamic && !side_b.zero_term) side_b.v_p = PointVelocity(kb, p.p_B_W);
     // The dynamic sides in ν order (a contact of a body with itself: one merged block).
     DynamicSide sides[2];
     int ns = 0;
@@ -653,10 +677,14 @@ void StewartTrinkle::Fill(const Scene& model, const State& x, const StepInput& u
                             &side_b,
                             !side_a.dynamic && !side_a.zero_term,
                             !side_b.dynamic && !side_b.zero_term};
-    // Contacts in a row with the same normal bits (a face resting on a face) share directions.
-    if (c == 0 || !SameBits(p.n_W, a.contacts[c - 1].point.n_W)) {
+    // Contacts with the normal bits of the last directions formed (a face resting on a face, a
+    // resting body over steps) share them.
+    if (scratch.dirs_nd != nd || scratch.dirs_dim != dim || !SameBits(p.n_W, scratch.dirs_n)) {
       FrictionDirections(dim, p.n_W, nd, &dirs);
-      if (nvb == 6) PackDirectionPairs(dirs, &scratch.dir_pairs);
+      PackDirectionPairs(dirs, &scratch.dir_pairs);
+      scratch.dirs_dim = dim;
+      scratch.dirs_n = p.n_W;
+      scratch.dirs_nd = nd;
     }
     if (nvb == 6) {
       WriteContactColumns<6>(cc, p.n_W, dirs, scratch.dir_pairs, c, nd, &a, &k_n, &k_f);
