@@ -512,9 +512,9 @@ void StewartTrinkle::Fill(const Scene& model, const State& x, const StepInput& u
   const double h = options_.dt;
   const int nv = model.num_velocities();
   const int nvb = VelocitySize(dim);
-  CheckShapesSupported(model);
   std::vector<BodyKinematics>& kin = scratch.kin;
-  if (!kinematics_ready) {
+  if (!kinematics_ready) {  // (else AssembleInto checked the shapes)
+    CheckShapesSupported(model);
     ComputeBodyKinematics(model, x, &kin);
     for (std::size_t i = 0; i < kin.size(); ++i)  // integrated prescribed poses
       if (model.bodies[i].kind == BodyKind::kPrescribed &&
@@ -522,9 +522,10 @@ void StewartTrinkle::Fill(const Scene& model, const State& x, const StepInput& u
         kin[i] = PrescribedKinematics(model, static_cast<int>(i), x.t, h);
   }
   // From here on, non-dynamic bodies carry their velocity over the step (StepKinematics).
-  for (std::size_t i = 0; i < kin.size(); ++i)
-    kin[i] =
-        StepKinematics(model, static_cast<int>(i), kin[i], x.t, h, options_.prescribed_velocity);
+  for (std::size_t i = 0; i < kin.size(); ++i)  // (StepKinematics keeps the others' as they are)
+    if (model.bodies[i].kind == BodyKind::kPrescribed)
+      kin[i] =
+          StepKinematics(model, static_cast<int>(i), kin[i], x.t, h, options_.prescribed_velocity);
   const int nc = static_cast<int>(a.contacts.size());
   a.nd = dim == Dim::kPlanar ? 2 : options_.friction_directions;
   const int nd = a.nd;
