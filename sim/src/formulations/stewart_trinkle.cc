@@ -281,6 +281,9 @@ void PackDirectionPairs(const std::vector<Vector3d>& dirs, std::vector<double>* 
 // operations of WriteSideBlock<6> without a merged side (value_i = 0 + sign · row_i, row from
 // PointVelocityRowInto<6>), so the same bits. Column 2q's block is at value/inner + 2q·stride,
 // column 2q + 1's at + stride further. outer (if not null): outer[2q + l] = k + (2q + l)·stride.
+// kSign = side.sign = ±1: 0 + 1·x is formed as x + 0 and 0 + (−1)·x as 0 − x, the same value for
+// every x (−x + 0 = 0 − x: −x for x ≠ 0, +0 for x = ±0, a NaN x propagated by either).
+template <int kSign>
 void WriteSidePairs6(const DynamicSide& side, const double* pairs, int npairs, int stride,
                      int* inner, double* value, int* outer, int k) {
   // A GCC/Clang vector extension: elementwise IEEE double operations on two lanes.
@@ -291,7 +294,14 @@ void WriteSidePairs6(const DynamicSide& side, const double* pairs, int npairs, i
   const V2 R0 = splat(R[0]), R1 = splat(R[1]), R2 = splat(R[2]);
   const V2 R4 = splat(R[4]), R5 = splat(R[5]), R6 = splat(R[6]);
   const V2 R8 = splat(R[8]), R9 = splat(R[9]), R10 = splat(R[10]);
-  const V2 sign = splat(side.sign), zero = splat(0.0);
+  const V2 zero = splat(0.0);
+  // 0 + sign · x.
+  const auto signed_ = [&](V2 x) {
+    if constexpr (kSign > 0)
+      return x + zero;
+    else
+      return zero - x;
+  };
   int rows[6];
   std::memcpy(rows, side.rows, sizeof(rows));
   for (int q = 0; q < npairs; ++q, pairs += 6, inner += 2 * stride, value += 2 * stride) {
@@ -302,12 +312,12 @@ void WriteSidePairs6(const DynamicSide& side, const double* pairs, int npairs, i
     const V2 c0 = ry * dz - rz * dy;
     const V2 c1 = rz * dx - rx * dz;
     const V2 c2 = rx * dy - ry * dx;
-    const V2 v0 = sign * dx + zero;
-    const V2 v1 = sign * dy + zero;
-    const V2 v2 = sign * dz + zero;
-    const V2 v3 = sign * ((R0 * c0 + R1 * c1) + R2 * c2) + zero;
-    const V2 v4 = sign * ((R4 * c0 + R5 * c1) + R6 * c2) + zero;
-    const V2 v5 = sign * ((R8 * c0 + R9 * c1) + R10 * c2) + zero;
+    const V2 v0 = signed_(dx);
+    const V2 v1 = signed_(dy);
+    const V2 v2 = signed_(dz);
+    const V2 v3 = signed_((R0 * c0 + R1 * c1) + R2 * c2);
+    const V2 v4 = signed_((R4 * c0 + R5 * c1) + R6 * c2);
+    const V2 v5 = signed_((R8 * c0 + R9 * c1) + R10 * c2);
     double* a = value;
     double* b = value + stride;
     a[0] = v0[0];
@@ -382,12 +392,20 @@ void WriteContactColumns(const ContactColumns& cc, const Vector3d& n,
   int k = *k_f;
   int j = 0;
   if constexpr (N == 6) {
+    // (A dynamic side's sign is ±1, MakeDynamicSide's callers.)
     if (!cc.merged && !cc.dpsi_a && !cc.dpsi_b) {
       const int stride = cc.blocks * N;
       const int npairs = nd / 2;
-      for (int b = 0; b < cc.blocks; ++b)
-        WriteSidePairs6(cc.sides[b], pairs.data(), npairs, stride, inner + k + N * b,
-                        value + k + N * b, b == 0 ? outer : nullptr, k);
+      for (int b = 0; b < cc.blocks; ++b) {
+        const DynamicSide& side = cc.sides[b];
+        int* outer_b = b == 0 ? outer : nullptr;
+        if (side.sign > 0.0)
+          WriteSidePairs6<1>(side, pairs.data(), npairs, stride, inner + k + N * b,
+                             value + k + N * b, outer_b, k);
+        else
+          WriteSidePairs6<-1>(side, pairs.data(), npairs, stride, inner + k + N * b,
+                              value + k + N * b, outer_b, k);
+      }
       if (cc.blocks == 0)
         for (int i = 0; i < 2 * npairs; ++i) outer[i] = k;
       j = 2 * npairs;
@@ -624,14 +642,10 @@ void StewartTrinkle::Fill(const Scene& model, const State& x, const StepInput& u
 
   // Contacts. G_n and G_f are written straight into their compressed storage: a column holds
   // the block of each dynamic side, in ν order (as JacobianColumns::Finish orders them).
-  Eigen::Index nnz_n = 0;
-  for (const Contact& ct : a.contacts) {
-    const bool dynamic_a = model.bodies[ct.body_a].kind == BodyKind::kDynamic;
-    const bool dynamic_b = model.bodies[ct.body_b].kind == BodyKind::kDynamic;
-    nnz_n += nvb * ((dynamic_a ? 1 : 0) + (dynamic_b && ct.body_b != ct.body_a ? 1 : 0));
-  }
-  ResizeCompressed(nv, nc, nnz_n, &a.G_n);
-  ResizeCompressed(nv, nc * nd, nnz_n * nd, &a.G_f);
+  // Sized for two blocks per column, then cut to the entries written (storage kept).
+  const Eigen::Index nnz_max = Eigen::Index{2} * nvb * nc;
+  ResizeCompressed(nv, nc, nnz_max, &a.G_n);
+  ResizeCompressed(nv, nc * nd, nnz_max * nd, &a.G_f);
   int k_n = 0, k_f = 0;  // entries written
   a.psi_n.resize(nc);
   a.dpsi_n.setZero(nc);
@@ -695,6 +709,8 @@ void StewartTrinkle::Fill(const Scene& model, const State& x, const StepInput& u
   }
   a.G_n.outerIndexPtr()[nc] = k_n;
   a.G_f.outerIndexPtr()[nc * nd] = k_f;
+  a.G_n.resizeNonZeros(k_n);
+  a.G_f.resizeNonZeros(k_f);
 
   // Joints.
   int nb = 0;
