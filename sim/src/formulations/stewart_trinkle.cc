@@ -87,6 +87,12 @@ void FrictionDirections(Dim dim, const Vector3d& n, int nd, std::vector<Vector3d
   }
 }
 
+// v->setZero(n)'s result (n entries +0, storage kept), without Eigen's out-of-line fill.
+void ZeroResize(VectorXd* v, Eigen::Index n) {
+  if (v->size() != n) v->resize(n);
+  if (n > 0) std::memset(v->data(), 0, sizeof(double) * static_cast<std::size_t>(n));
+}
+
 // a and b have the same bits (FrictionDirections is then the same).
 bool SameBits(const Vector3d& a, const Vector3d& b) {
   std::uint64_t ua[3], ub[3];
@@ -280,12 +286,12 @@ void PackDirectionPairs(const std::vector<Vector3d>& dirs, std::vector<double>* 
 // time: lane l of each two-lane vector is column 2q + l, and each lane gets exactly the IEEE
 // operations of WriteSideBlock<6> without a merged side (value_i = 0 + sign · row_i, row from
 // PointVelocityRowInto<6>), so the same bits. Column 2q's block is at value/inner + 2q·stride,
-// column 2q + 1's at + stride further. outer (if not null): outer[2q + l] = k + (2q + l)·stride.
+// column 2q + 1's at + stride further.
 // kSign = side.sign = ±1: 0 + 1·x is formed as x + 0 and 0 + (−1)·x as 0 − x, the same value for
 // every x (−x + 0 = 0 − x: −x for x ≠ 0, +0 for x = ±0, a NaN x propagated by either).
 template <int kSign>
 void WriteSidePairs6(const DynamicSide& side, const double* pairs, int npairs, int stride,
-                     int* inner, double* value, int* outer, int k) {
+                     int* inner, double* value) {
   // A GCC/Clang vector extension: elementwise IEEE double operations on two lanes.
   using V2 = double __attribute__((vector_size(16)));
   const auto splat = [](double x) { return V2{x, x}; };
@@ -334,11 +340,6 @@ void WriteSidePairs6(const DynamicSide& side, const double* pairs, int npairs, i
     b[5] = v5[1];
     std::memcpy(inner, rows, sizeof(rows));
     std::memcpy(inner + stride, rows, sizeof(rows));
-    if (outer) {
-      outer[2 * q] = k;
-      outer[2 * q + 1] = k + stride;
-      k += 2 * stride;
-    }
   }
 }
 
@@ -398,17 +399,20 @@ void WriteContactColumns(const ContactColumns& cc, const Vector3d& n,
       const int npairs = nd / 2;
       for (int b = 0; b < cc.blocks; ++b) {
         const DynamicSide& side = cc.sides[b];
-        int* outer_b = b == 0 ? outer : nullptr;
         if (side.sign > 0.0)
           WriteSidePairs6<1>(side, pairs.data(), npairs, stride, inner + k + N * b,
-                             value + k + N * b, outer_b, k);
+                             value + k + N * b);
         else
           WriteSidePairs6<-1>(side, pairs.data(), npairs, stride, inner + k + N * b,
-                              value + k + N * b, outer_b, k);
+                              value + k + N * b);
       }
-      if (cc.blocks == 0)
-        for (int i = 0; i < 2 * npairs; ++i) outer[i] = k;
-      j = 2 * npairs;
+      // outer[j] = k + j·stride, four at a time (a GCC/Clang vector extension).
+      using V4i = int __attribute__((vector_size(16)));
+      V4i first = V4i{k, k, k, k} + V4i{0, stride, 2 * stride, 3 * stride};
+      const V4i step = V4i{4 * stride, 4 * stride, 4 * stride, 4 * stride};
+      for (; j + 4 <= 2 * npairs; j += 4, first += step)
+        std::memcpy(outer + j, &first, sizeof(first));
+      for (; j < 2 * npairs; ++j) outer[j] = k + j * stride;
       k += j * stride;
     }
   }
@@ -479,7 +483,8 @@ StewartTrinkle::StewartTrinkle(StepperOptions options, std::shared_ptr<const Lcp
     : options_(std::move(options)),
       solver_(std::move(solver)),
       velocity_level_(options_.formulation == FormulationType::kAnitescuPotra),
-      first_order_(options_.formulation == FormulationType::kFirstOrder) {
+      first_order_(options_.formulation == FormulationType::kFirstOrder),
+      lemke_(dynamic_cast<const LemkeSolver*>(solver_.get())) {
   if (!solver_) throw std::invalid_argument("StewartTrinkle: null solver");
 }
 
@@ -551,7 +556,7 @@ void StewartTrinkle::Fill(const Scene& model, const State& x, const StepInput& u
   // Mass matrix (block diagonal, one block per dynamic body) and external impulses.
   a.M.Resize(nv, nvb);
   a.M_inv.Resize(nv, nvb);
-  a.p_ext.setZero(nv);
+  ZeroResize(&a.p_ext, nv);
   for (int bi : model.dynamic_bodies()) {
     const Body& b = model.bodies[bi];
     const int o = model.index(bi).v;
@@ -628,7 +633,7 @@ void StewartTrinkle::Fill(const Scene& model, const State& x, const StepInput& u
     const int nk = static_cast<int>(a.corner_contact.size());
     scratch.G_1.Start(nk);
     a.psi_1.resize(nk);
-    a.dpsi_1.setZero(nk);
+    ZeroResize(&a.dpsi_1, nk);
     for (int k = 0; k < nk; ++k) {
       const Contact& ct = a.contacts[a.corner_contact[k]];
       const ContactPoint& p = ct.point;
@@ -648,8 +653,8 @@ void StewartTrinkle::Fill(const Scene& model, const State& x, const StepInput& u
   ResizeCompressed(nv, nc * nd, nnz_max * nd, &a.G_f);
   int k_n = 0, k_f = 0;  // entries written
   a.psi_n.resize(nc);
-  a.dpsi_n.setZero(nc);
-  a.dpsi_f.setZero(nc * nd);
+  ZeroResize(&a.dpsi_n, nc);
+  ZeroResize(&a.dpsi_f, nc * nd);
   a.mu.resize(nc);
   a.compliance.resize(nc);
   std::vector<Vector3d>& dirs = scratch.dirs;
@@ -717,7 +722,7 @@ void StewartTrinkle::Fill(const Scene& model, const State& x, const StepInput& u
   for (const Joint& j : model.joints) nb += JointRowCount(j.type, dim);
   scratch.G_b.Start(nb);
   a.psi_b.resize(nb);
-  a.dpsi_b.setZero(nb);
+  ZeroResize(&a.dpsi_b, nb);
   JointRows& rows = scratch.joint_rows;
   const BodyKinematics world;
   int r = 0;
@@ -785,7 +790,7 @@ void StewartTrinkle::Step(const Scene& model, const State& x, const StepInput& u
   // (sparse_lcp.h, warm_basis.h); the dense LCP is built only if that basis is refused
   // (LemkeSolver then repeats the test and pivots).
   bool solved = false;
-  const auto* lemke = dynamic_cast<const LemkeSolver*>(solver_.get());
+  const LemkeSolver* lemke = lemke_;
   const int m_plain = nc * (a.nd + 2);
   const bool warm_plain = x.warm_start.size() == m_plain;
   if (lemke != nullptr && nc > 0 && (warm_plain || m_plain >= kSparseStepMinSize)) {
