@@ -381,8 +381,8 @@ template <int N>
 // ∂ψ/∂t terms (the same entries as the column-by-column writer).
 template <int N>
 void WriteContactColumns(const ContactColumns& cc, const Vector3d& n,
-                         const std::vector<Vector3d>& dirs, const std::vector<double>& pairs,
-                         int c, int nd, StewartTrinkle::Assembly* a, int* k_n, int* k_f) {
+                         const std::vector<Vector3d>& dirs, const std::vector<double>& pairs, int c,
+                         int nd, StewartTrinkle::Assembly* a, int* k_n, int* k_f) {
   *k_n = WriteContactColumn<N>(cc, n, a->G_n.outerIndexPtr() + c, a->G_n.innerIndexPtr(),
                                a->G_n.valuePtr(), *k_n, &a->dpsi_n[c]);
   int* outer = a->G_f.outerIndexPtr() + c * nd;
