@@ -91,7 +91,7 @@ void SpreadIndeterminateNormals(const Scene& model, const StewartTrinkle::Assemb
   if (nc < 2 || z->size() < nc + nf + nc) return;
   // Buffers only (no result depends on them): one set per thread.
   thread_local SpreadScratch s;
-  s.eligibility.Reset(a);
+  bool reset = false;  // s.eligibility reset for this call (on first use)
   const auto eligible = [&](int c) {
     return s.eligibility.Eligible(a, v1, *z, c, h, velocity_level, w_tol);
   };
@@ -100,6 +100,17 @@ void SpreadIndeterminateNormals(const Scene& model, const StewartTrinkle::Assemb
     const int ba = a.contacts[begin].body_a, bb = a.contacts[begin].body_b;
     int end = begin + 1;
     while (end < nc && a.contacts[end].body_a == ba && a.contacts[end].body_b == bb) ++end;
+    // Every contact of the run loaded: so is every member, and z stays as it is (below).
+    bool all_loaded = true;
+    for (int c = begin; c < end; ++c) all_loaded &= (*z)[c] > 0.0;
+    if (all_loaded) {
+      begin = end;
+      continue;
+    }
+    if (!reset) {
+      s.eligibility.Reset(a);
+      reset = true;
+    }
     s.members.clear();
     for (int c = begin; c < end; ++c)
       if (eligible(c)) s.members.push_back(c);

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <map>
 #include <stdexcept>
@@ -86,9 +87,18 @@ void FrictionDirections(Dim dim, const Vector3d& n, int nd, std::vector<Vector3d
   }
 }
 
+// v->setZero(n)'s result (n entries +0, storage kept), without Eigen's out-of-line fill.
+void ZeroResize(VectorXd* v, Eigen::Index n) {
+  if (v->size() != n) v->resize(n);
+  if (n > 0) std::memset(v->data(), 0, sizeof(double) * static_cast<std::size_t>(n));
+}
+
 // a and b have the same bits (FrictionDirections is then the same).
 bool SameBits(const Vector3d& a, const Vector3d& b) {
-  return std::memcmp(a.data(), b.data(), sizeof(double) * 3) == 0;
+  std::uint64_t ua[3], ub[3];
+  std::memcpy(ua, a.data(), sizeof(ua));
+  std::memcpy(ub, b.data(), sizeof(ub));
+  return ((ua[0] ^ ub[0]) | (ua[1] ^ ub[1]) | (ua[2] ^ ub[2])) == 0;
 }
 
 // A constraint Jacobian (nv × cols) built column by column. A column touches at most two
@@ -176,14 +186,11 @@ struct ContactSide {
   Vector3d v_p = Vector3d::Zero();
 };
 
-ContactSide MakeContactSide(const Scene& model, int body, const BodyKinematics& k,
-                            const Vector3d& p) {
+// The side without v_p, which Fill forms only where a term uses it (not dynamic, not zero_term).
+ContactSide MakeContactSide(const Scene& model, int body) {
   ContactSide side;
   side.dynamic = model.bodies[body].kind == BodyKind::kDynamic;
-  if (side.dynamic)
-    side.o = model.index(body).v;
-  else
-    side.v_p = PointVelocity(k, p);
+  if (side.dynamic) side.o = model.index(body).v;
   return side;
 }
 
@@ -233,7 +240,11 @@ struct DynamicSide {
 
 DynamicSide MakeDynamicSide(const BodyKinematics* k, const Vector3d& r, double sign, int o) {
   DynamicSide side{k, r, sign, o, {}};
-  for (int i = 0; i < 6; ++i) side.rows[i] = o + i;
+  using V4i = int __attribute__((vector_size(16)));  // GCC/Clang vector extension
+  const V4i first = V4i{o, o, o, o} + V4i{0, 1, 2, 3};
+  std::memcpy(side.rows, &first, sizeof(first));
+  side.rows[4] = o + 4;
+  side.rows[5] = o + 5;
   return side;
 }
 
@@ -251,6 +262,85 @@ template <int N>
   PointVelocityRowInto<N>(merge->k->X_WB, merge->r, d, row);
 #pragma GCC unroll 6
   for (int i = 0; i < N; ++i) value[i] += merge->sign * row[i];
+}
+
+// Friction directions by pairs for WriteSidePairs6: pair q holds (d_2q.x, d_2q+1.x, d_2q.y,
+// d_2q+1.y, d_2q.z, d_2q+1.z) at pairs[6q..6q+6) (an odd nd's last direction is not in it).
+void PackDirectionPairs(const std::vector<Vector3d>& dirs, std::vector<double>* pairs) {
+  const std::size_t np = dirs.size() / 2;
+  pairs->resize(6 * np);
+  double* out = pairs->data();
+  for (std::size_t q = 0; q < np; ++q, out += 6) {
+    const Vector3d& d0 = dirs[2 * q];
+    const Vector3d& d1 = dirs[2 * q + 1];
+    out[0] = d0.x();
+    out[1] = d1.x();
+    out[2] = d0.y();
+    out[3] = d1.y();
+    out[4] = d0.z();
+    out[5] = d1.z();
+  }
+}
+
+// One dynamic side's (N = 6) blocks of the friction columns 2q, 2q + 1, q < npairs, two at a
+// time: lane l of each two-lane vector is column 2q + l, and each lane gets exactly the IEEE
+// operations of WriteSideBlock<6> without a merged side (value_i = 0 + sign · row_i, row from
+// PointVelocityRowInto<6>), so the same bits. Column 2q's block is at value/inner + 2q·stride,
+// column 2q + 1's at + stride further.
+// kSign = side.sign = ±1: 0 + 1·x is formed as x + 0 and 0 + (−1)·x as 0 − x, the same value for
+// every x (−x + 0 = 0 − x: −x for x ≠ 0, +0 for x = ±0, a NaN x propagated by either).
+template <int kSign>
+void WriteSidePairs6(const DynamicSide& side, const double* pairs, int npairs, int stride,
+                     int* inner, double* value) {
+  // A GCC/Clang vector extension: elementwise IEEE double operations on two lanes.
+  using V2 = double __attribute__((vector_size(16)));
+  const auto splat = [](double x) { return V2{x, x}; };
+  const V2 rx = splat(side.r.x()), ry = splat(side.r.y()), rz = splat(side.r.z());
+  const double* R = side.k->X_WB.matrix().data();  // column major 4 × 4: R_ki = R[4 i + k]
+  const V2 R0 = splat(R[0]), R1 = splat(R[1]), R2 = splat(R[2]);
+  const V2 R4 = splat(R[4]), R5 = splat(R[5]), R6 = splat(R[6]);
+  const V2 R8 = splat(R[8]), R9 = splat(R[9]), R10 = splat(R[10]);
+  const V2 zero = splat(0.0);
+  // 0 + sign · x.
+  const auto signed_ = [&](V2 x) {
+    if constexpr (kSign > 0)
+      return x + zero;
+    else
+      return zero - x;
+  };
+  int rows[6];
+  std::memcpy(rows, side.rows, sizeof(rows));
+  for (int q = 0; q < npairs; ++q, pairs += 6, inner += 2 * stride, value += 2 * stride) {
+    V2 dx, dy, dz;
+    std::memcpy(&dx, pairs, sizeof(V2));
+    std::memcpy(&dy, pairs + 2, sizeof(V2));
+    std::memcpy(&dz, pairs + 4, sizeof(V2));
+    const V2 c0 = ry * dz - rz * dy;
+    const V2 c1 = rz * dx - rx * dz;
+    const V2 c2 = rx * dy - ry * dx;
+    const V2 v0 = signed_(dx);
+    const V2 v1 = signed_(dy);
+    const V2 v2 = signed_(dz);
+    const V2 v3 = signed_((R0 * c0 + R1 * c1) + R2 * c2);
+    const V2 v4 = signed_((R4 * c0 + R5 * c1) + R6 * c2);
+    const V2 v5 = signed_((R8 * c0 + R9 * c1) + R10 * c2);
+    double* a = value;
+    double* b = value + stride;
+    a[0] = v0[0];
+    b[0] = v0[1];
+    a[1] = v1[0];
+    b[1] = v1[1];
+    a[2] = v2[0];
+    b[2] = v2[1];
+    a[3] = v3[0];
+    b[3] = v3[1];
+    a[4] = v4[0];
+    b[4] = v4[1];
+    a[5] = v5[0];
+    b[5] = v5[1];
+    std::memcpy(inner, rows, sizeof(rows));
+    std::memcpy(inner + stride, rows, sizeof(rows));
+  }
 }
 
 // A contact's sides for its columns: the dynamic ones in ν order (`blocks` blocks; `merged`: one
@@ -287,10 +377,12 @@ template <int N>
 
 // Contact c's normal column (direction n) into a->G_n and its nd friction columns (dirs) into
 // a->G_f, at entries *k_n and *k_f.
+// pairs: dirs by pairs (PackDirectionPairs), used for N = 6 columns without a merged side or
+// ∂ψ/∂t terms (the same entries as the column-by-column writer).
 template <int N>
 void WriteContactColumns(const ContactColumns& cc, const Vector3d& n,
-                         const std::vector<Vector3d>& dirs, int c, int nd,
-                         StewartTrinkle::Assembly* a, int* k_n, int* k_f) {
+                         const std::vector<Vector3d>& dirs, const std::vector<double>& pairs, int c,
+                         int nd, StewartTrinkle::Assembly* a, int* k_n, int* k_f) {
   *k_n = WriteContactColumn<N>(cc, n, a->G_n.outerIndexPtr() + c, a->G_n.innerIndexPtr(),
                                a->G_n.valuePtr(), *k_n, &a->dpsi_n[c]);
   int* outer = a->G_f.outerIndexPtr() + c * nd;
@@ -299,8 +391,32 @@ void WriteContactColumns(const ContactColumns& cc, const Vector3d& n,
   double* dpsi = a->dpsi_f.data() + c * nd;
   const Vector3d* d = dirs.data();
   int k = *k_f;
-  for (int j = 0; j < nd; ++j)
-    k = WriteContactColumn<N>(cc, d[j], outer + j, inner, value, k, dpsi + j);
+  int j = 0;
+  if constexpr (N == 6) {
+    // (A dynamic side's sign is ±1, MakeDynamicSide's callers.)
+    if (!cc.merged && !cc.dpsi_a && !cc.dpsi_b) {
+      const int stride = cc.blocks * N;
+      const int npairs = nd / 2;
+      for (int b = 0; b < cc.blocks; ++b) {
+        const DynamicSide& side = cc.sides[b];
+        if (side.sign > 0.0)
+          WriteSidePairs6<1>(side, pairs.data(), npairs, stride, inner + k + N * b,
+                             value + k + N * b);
+        else
+          WriteSidePairs6<-1>(side, pairs.data(), npairs, stride, inner + k + N * b,
+                              value + k + N * b);
+      }
+      // outer[j] = k + j·stride, four at a time (a GCC/Clang vector extension).
+      using V4i = int __attribute__((vector_size(16)));
+      V4i first = V4i{k, k, k, k} + V4i{0, stride, 2 * stride, 3 * stride};
+      const V4i step = V4i{4 * stride, 4 * stride, 4 * stride, 4 * stride};
+      for (; j + 4 <= 2 * npairs; j += 4, first += step)
+        std::memcpy(outer + j, &first, sizeof(first));
+      for (; j < 2 * npairs; ++j) outer[j] = k + j * stride;
+      k += j * stride;
+    }
+  }
+  for (; j < nd; ++j) k = WriteContactColumn<N>(cc, d[j], outer + j, inner, value, k, dpsi + j);
   *k_f = k;
 }
 
@@ -320,7 +436,13 @@ void ScatterDot(const Scene& model, int body, const BodyKinematics& k, const Vec
 // call overwrites what it uses, so no result depends on a previous call or on the thread).
 struct AssemblyScratch {
   std::vector<BodyKinematics> kin;
+  // FrictionDirections(dirs_dim, dirs_n, dirs_nd) and its pairs (PackDirectionPairs, N = 6),
+  // if dirs_nd > 0: a function of those three only, so reused while they stay the same.
   std::vector<Vector3d> dirs;
+  std::vector<double> dir_pairs;
+  Dim dirs_dim = Dim::kSpatial;
+  Vector3d dirs_n = Vector3d::Zero();
+  int dirs_nd = 0;
   JacobianColumns G_b, G_1;
   JointRows joint_rows;
   VectorXd zero_v;
@@ -361,7 +483,8 @@ StewartTrinkle::StewartTrinkle(StepperOptions options, std::shared_ptr<const Lcp
     : options_(std::move(options)),
       solver_(std::move(solver)),
       velocity_level_(options_.formulation == FormulationType::kAnitescuPotra),
-      first_order_(options_.formulation == FormulationType::kFirstOrder) {
+      first_order_(options_.formulation == FormulationType::kFirstOrder),
+      lemke_(dynamic_cast<const LemkeSolver*>(solver_.get())) {
   if (!solver_) throw std::invalid_argument("StewartTrinkle: null solver");
 }
 
@@ -412,9 +535,9 @@ void StewartTrinkle::Fill(const Scene& model, const State& x, const StepInput& u
   const double h = options_.dt;
   const int nv = model.num_velocities();
   const int nvb = VelocitySize(dim);
-  CheckShapesSupported(model);
   std::vector<BodyKinematics>& kin = scratch.kin;
-  if (!kinematics_ready) {
+  if (!kinematics_ready) {  // (else AssembleInto checked the shapes)
+    CheckShapesSupported(model);
     ComputeBodyKinematics(model, x, &kin);
     for (std::size_t i = 0; i < kin.size(); ++i)  // integrated prescribed poses
       if (model.bodies[i].kind == BodyKind::kPrescribed &&
@@ -422,9 +545,10 @@ void StewartTrinkle::Fill(const Scene& model, const State& x, const StepInput& u
         kin[i] = PrescribedKinematics(model, static_cast<int>(i), x.t, h);
   }
   // From here on, non-dynamic bodies carry their velocity over the step (StepKinematics).
-  for (std::size_t i = 0; i < kin.size(); ++i)
-    kin[i] =
-        StepKinematics(model, static_cast<int>(i), kin[i], x.t, h, options_.prescribed_velocity);
+  for (std::size_t i = 0; i < kin.size(); ++i)  // (StepKinematics keeps the others' as they are)
+    if (model.bodies[i].kind == BodyKind::kPrescribed)
+      kin[i] =
+          StepKinematics(model, static_cast<int>(i), kin[i], x.t, h, options_.prescribed_velocity);
   const int nc = static_cast<int>(a.contacts.size());
   a.nd = dim == Dim::kPlanar ? 2 : options_.friction_directions;
   const int nd = a.nd;
@@ -432,7 +556,7 @@ void StewartTrinkle::Fill(const Scene& model, const State& x, const StepInput& u
   // Mass matrix (block diagonal, one block per dynamic body) and external impulses.
   a.M.Resize(nv, nvb);
   a.M_inv.Resize(nv, nvb);
-  a.p_ext.setZero(nv);
+  ZeroResize(&a.p_ext, nv);
   for (int bi : model.dynamic_bodies()) {
     const Body& b = model.bodies[bi];
     const int o = model.index(bi).v;
@@ -509,7 +633,7 @@ void StewartTrinkle::Fill(const Scene& model, const State& x, const StepInput& u
     const int nk = static_cast<int>(a.corner_contact.size());
     scratch.G_1.Start(nk);
     a.psi_1.resize(nk);
-    a.dpsi_1.setZero(nk);
+    ZeroResize(&a.dpsi_1, nk);
     for (int k = 0; k < nk; ++k) {
       const Contact& ct = a.contacts[a.corner_contact[k]];
       const ContactPoint& p = ct.point;
@@ -523,18 +647,14 @@ void StewartTrinkle::Fill(const Scene& model, const State& x, const StepInput& u
 
   // Contacts. G_n and G_f are written straight into their compressed storage: a column holds
   // the block of each dynamic side, in ν order (as JacobianColumns::Finish orders them).
-  Eigen::Index nnz_n = 0;
-  for (const Contact& ct : a.contacts) {
-    const bool dynamic_a = model.bodies[ct.body_a].kind == BodyKind::kDynamic;
-    const bool dynamic_b = model.bodies[ct.body_b].kind == BodyKind::kDynamic;
-    nnz_n += nvb * ((dynamic_a ? 1 : 0) + (dynamic_b && ct.body_b != ct.body_a ? 1 : 0));
-  }
-  ResizeCompressed(nv, nc, nnz_n, &a.G_n);
-  ResizeCompressed(nv, nc * nd, nnz_n * nd, &a.G_f);
+  // Sized for two blocks per column, then cut to the entries written (storage kept).
+  const Eigen::Index nnz_max = Eigen::Index{2} * nvb * nc;
+  ResizeCompressed(nv, nc, nnz_max, &a.G_n);
+  ResizeCompressed(nv, nc * nd, nnz_max * nd, &a.G_f);
   int k_n = 0, k_f = 0;  // entries written
   a.psi_n.resize(nc);
-  a.dpsi_n.setZero(nc);
-  a.dpsi_f.setZero(nc * nd);
+  ZeroResize(&a.dpsi_n, nc);
+  ZeroResize(&a.dpsi_f, nc * nd);
   a.mu.resize(nc);
   a.compliance.resize(nc);
   std::vector<Vector3d>& dirs = scratch.dirs;
@@ -543,18 +663,24 @@ void StewartTrinkle::Fill(const Scene& model, const State& x, const StepInput& u
     const ContactPoint& p = ct.point;
     a.psi_n[c] = p.gap;
     a.mu[c] = ct.mu;
-    a.compliance[c] = LinearizeNormalLaw(
-        CombineCompliance(model.bodies[ct.body_a].compliance, model.bodies[ct.body_b].compliance),
-        p.gap, h);
+    const ContactCompliance& compliance_a = model.bodies[ct.body_a].compliance;
+    const ContactCompliance& compliance_b = model.bodies[ct.body_b].compliance;
+    // A rigid pair's row is the default one (LinearizeNormalLaw's, which throws for h ≤ 0).
+    if (compliance_a.rigid() && compliance_b.rigid() && h > 0.0)
+      a.compliance[c] = CompliantNormalRow{};
+    else
+      a.compliance[c] = LinearizeNormalLaw(CombineCompliance(compliance_a, compliance_b), p.gap, h);
     const BodyKinematics &ka = kin[ct.body_a], &kb = kin[ct.body_b];
-    ContactSide side_a = MakeContactSide(model, ct.body_a, ka, p.p_A_W);
-    ContactSide side_b = MakeContactSide(model, ct.body_b, kb, p.p_B_W);
+    ContactSide side_a = MakeContactSide(model, ct.body_a);
+    ContactSide side_b = MakeContactSide(model, ct.body_b);
     if (p.n_W.allFinite()) {
       side_a.zero_term = side_b.dynamic && model.bodies[ct.body_a].kind == BodyKind::kStatic &&
                          (p.p_A_W - ka.X_WB.translation()).allFinite();
       side_b.zero_term = side_a.dynamic && model.bodies[ct.body_b].kind == BodyKind::kStatic &&
                          (p.p_B_W - kb.X_WB.translation()).allFinite();
     }
+    if (!side_a.dynamic && !side_a.zero_term) side_a.v_p = PointVelocity(ka, p.p_A_W);
+    if (!side_b.dynamic && !side_b.zero_term) side_b.v_p = PointVelocity(kb, p.p_B_W);
     // The dynamic sides in ν order (a contact of a body with itself: one merged block).
     DynamicSide sides[2];
     int ns = 0;
@@ -571,24 +697,32 @@ void StewartTrinkle::Fill(const Scene& model, const State& x, const StepInput& u
                             &side_b,
                             !side_a.dynamic && !side_a.zero_term,
                             !side_b.dynamic && !side_b.zero_term};
-    // Contacts in a row with the same normal bits (a face resting on a face) share directions.
-    if (c == 0 || !SameBits(p.n_W, a.contacts[c - 1].point.n_W))
+    // Contacts with the normal bits of the last directions formed (a face resting on a face, a
+    // resting body over steps) share them.
+    if (scratch.dirs_nd != nd || scratch.dirs_dim != dim || !SameBits(p.n_W, scratch.dirs_n)) {
       FrictionDirections(dim, p.n_W, nd, &dirs);
+      PackDirectionPairs(dirs, &scratch.dir_pairs);
+      scratch.dirs_dim = dim;
+      scratch.dirs_n = p.n_W;
+      scratch.dirs_nd = nd;
+    }
     if (nvb == 6) {
-      WriteContactColumns<6>(cc, p.n_W, dirs, c, nd, &a, &k_n, &k_f);
+      WriteContactColumns<6>(cc, p.n_W, dirs, scratch.dir_pairs, c, nd, &a, &k_n, &k_f);
     } else {
-      WriteContactColumns<3>(cc, p.n_W, dirs, c, nd, &a, &k_n, &k_f);
+      WriteContactColumns<3>(cc, p.n_W, dirs, scratch.dir_pairs, c, nd, &a, &k_n, &k_f);
     }
   }
   a.G_n.outerIndexPtr()[nc] = k_n;
   a.G_f.outerIndexPtr()[nc * nd] = k_f;
+  a.G_n.resizeNonZeros(k_n);
+  a.G_f.resizeNonZeros(k_f);
 
   // Joints.
   int nb = 0;
   for (const Joint& j : model.joints) nb += JointRowCount(j.type, dim);
   scratch.G_b.Start(nb);
   a.psi_b.resize(nb);
-  a.dpsi_b.setZero(nb);
+  ZeroResize(&a.dpsi_b, nb);
   JointRows& rows = scratch.joint_rows;
   const BodyKinematics world;
   int r = 0;
@@ -656,7 +790,7 @@ void StewartTrinkle::Step(const Scene& model, const State& x, const StepInput& u
   // (sparse_lcp.h, warm_basis.h); the dense LCP is built only if that basis is refused
   // (LemkeSolver then repeats the test and pivots).
   bool solved = false;
-  const auto* lemke = dynamic_cast<const LemkeSolver*>(solver_.get());
+  const LemkeSolver* lemke = lemke_;
   const int m_plain = nc * (a.nd + 2);
   const bool warm_plain = x.warm_start.size() == m_plain;
   if (lemke != nullptr && nc > 0 && (warm_plain || m_plain >= kSparseStepMinSize)) {

@@ -29,9 +29,14 @@ void AssembleSupportInto(const Scene& model, const State& x, double h, bool quad
     ns += static_cast<int>(s.points_B.size());
     ncol += static_cast<int>(s.points_B.size()) * (quadratic ? 2 : s.directions);
   }
-  r.G_s.setZero(model.num_velocities(), ncol);
   r.limit.resize(ns);
   r.hN.resize(ns);
+  if (ns == 0) {  // no support points: G_s is nv × 0 (setZero's result, storage kept)
+    if (r.G_s.rows() != model.num_velocities() || r.G_s.cols() != 0)
+      r.G_s.resize(model.num_velocities(), 0);
+    return;
+  }
+  r.G_s.setZero(model.num_velocities(), ncol);
   int k = 0, col = 0;
   for (int bi : model.dynamic_bodies()) {
     const Body& b = model.bodies[bi];

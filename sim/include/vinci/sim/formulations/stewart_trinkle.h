@@ -40,6 +40,8 @@
 
 namespace vinci::sim {
 
+class LemkeSolver;
+
 class StewartTrinkle final : public Formulation {
  public:
   StewartTrinkle(StepperOptions options, std::shared_ptr<const LcpSolver> solver);
@@ -156,6 +158,8 @@ class StewartTrinkle final : public Formulation {
   std::shared_ptr<const LcpSolver> solver_;
   bool velocity_level_;  // Anitescu–Potra
   bool first_order_;     // FormulationType::kFirstOrder (first_order.h): M → h C, no ν_ℓ
+  // solver_ if it is a LemkeSolver (the warm-basis path), else null.
+  const LemkeSolver* lemke_;
 };
 
 }  // namespace vinci::sim
