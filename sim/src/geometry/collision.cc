@@ -552,6 +552,20 @@ void CollideSpatialOrdered(const Shape& a, const Isometry3d& X_WA, const Shape& 
 
 }  // namespace
 
+bool EnvelopeOnlyFilters(ShapeType a, ShapeType b) {
+  // SphereSphere, SphereCapsule, SphereBox, SpherePolytope and the ball/vertex passes of the
+  // half-space pairs (BallHalfSpace) each compute a contact and keep it iff gap ≤ envelope.
+  const auto ball = [](ShapeType s) {
+    return s == ShapeType::kSphere || s == ShapeType::kCapsule || s == ShapeType::kBox ||
+           s == ShapeType::kPolyhedron || s == ShapeType::kHalfSpace;
+  };
+  if (a == ShapeType::kSphere) return ball(b);
+  if (b == ShapeType::kSphere) return ball(a);
+  if (a == ShapeType::kHalfSpace) return ball(b) && b != ShapeType::kHalfSpace;
+  if (b == ShapeType::kHalfSpace) return ball(a) && a != ShapeType::kHalfSpace;
+  return false;
+}
+
 void CollideShapes(const Shape& a, const Isometry3d& X_WA, const Shape& b, const Isometry3d& X_WB,
                    double envelope, std::vector<ContactPoint>* out) {
   if (out == nullptr) throw std::invalid_argument("CollideShapes: out is null");
