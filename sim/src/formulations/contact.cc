@@ -10,21 +10,24 @@
 namespace vinci::sim {
 
 void ComputeBodyKinematics(const Scene& scene, const State& x, std::vector<BodyKinematics>* out) {
-  out->resize(scene.bodies.size());
-  for (std::size_t i = 0; i < scene.bodies.size(); ++i) {
+  const std::size_t n = scene.bodies.size();
+  out->resize(n);
+  BodyKinematics* k = out->data();
+  for (std::size_t i = 0; i < n; ++i) {
     const Body& b = scene.bodies[i];
     switch (b.kind) {
       case BodyKind::kDynamic: {
         const BodyIndex& idx = scene.index(static_cast<int>(i));
-        (*out)[i] = KinematicsFromQV(scene.dim, x.q.data() + idx.q, x.v.data() + idx.v);
+        KinematicsFromQV(scene.dim, x.q.data() + idx.q, x.v.data() + idx.v, &k[i]);
         break;
       }
-      case BodyKind::kStatic:
-        (*out)[i] = BodyKinematics{};
-        (*out)[i].X_WB = b.X_WB0;
+      case BodyKind::kStatic:  // BodyKinematics{} at X_WB0
+        k[i].X_WB = b.X_WB0;
+        k[i].v_WB.setZero();
+        k[i].w_WB.setZero();
         break;
       case BodyKind::kPrescribed:
-        (*out)[i] = EvaluateMotion(b.motion, b.X_WB0, scene.dim == Dim::kPlanar, x.t);
+        k[i] = EvaluateMotion(b.motion, b.X_WB0, scene.dim == Dim::kPlanar, x.t);
         break;
     }
   }
