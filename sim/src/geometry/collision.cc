@@ -218,12 +218,20 @@ void PolytopeHalfSpace(const Polytope& A, const Isometry3d& X_WA, const Isometry
 
 // A box of half extents h against the half-space: PolytopeHalfSpace(Polytope(h), ...) bit for bit
 // (the same vertices in the same order, the same arithmetic), without building the polytope.
+// Eigen's Transform product forms X_WA v = ((R_0 v_0 + R_1 v_1) + R_2 v_2) + t (R_k the columns of
+// R = X_WA.linear(), t = X_WA.translation(), t · 1 exact); at a corner v_k = ±h_k and R_k v_k =
+// ±(R_k h_k) exactly (rounding is symmetric; only a NaN's sign may differ), so the three products
+// are formed once and each corner only adds.
 void BoxHalfSpace(const Vector3d& h, const Isometry3d& X_WA, const Isometry3d& X_WB,
                   double envelope, Contacts* out) {
   const Vector3d n = X_WB.linear().col(2);
-  for (int i = 0; i < 8; ++i) {  // Polytope(h).vertex(i)
-    const Vector3d v((i & 1) ? h.x() : -h.x(), (i & 2) ? h.y() : -h.y(), (i & 4) ? h.z() : -h.z());
-    BallHalfSpace(X_WA * v, 0.0, n, X_WB.translation(), envelope, out);
+  const Matrix3d& R = X_WA.linear();
+  const Vector3d t = X_WA.translation();
+  const Vector3d a0 = R.col(0) * h.x(), a1 = R.col(1) * h.y(), a2 = R.col(2) * h.z();
+  const Vector3d col[2][3] = {{-a0, -a1, -a2}, {a0, a1, a2}};  // [sign bit][axis]
+  for (int i = 0; i < 8; ++i) {  // Polytope(h).vertex(i): bit k of i is the sign of v_k
+    const Vector3d x = ((col[i & 1][0] + col[(i >> 1) & 1][1]) + col[(i >> 2) & 1][2]) + t;
+    BallHalfSpace(x, 0.0, n, X_WB.translation(), envelope, out);
   }
 }
 
