@@ -518,7 +518,6 @@ bool IsPolytope(ShapeType t) { return t == ShapeType::kBox || t == ShapeType::kP
 // a and b with SpatialRank(a) ≤ SpatialRank(b).
 void CollideSpatialOrdered(const Shape& a, const Isometry3d& X_WA, const Shape& b,
                            const Isometry3d& X_WB, double envelope, Contacts* out) {
-  HullScratch scratch_a, scratch_b;  // only used by unprepared polyhedra
   switch (a.type) {
     case ShapeType::kSphere:
       switch (b.type) {
@@ -528,14 +527,17 @@ void CollideSpatialOrdered(const Shape& a, const Isometry3d& X_WA, const Shape& 
           return SphereCapsule(a, X_WA, b, X_WB, envelope, out);
         case ShapeType::kBox:
           return SphereBox(a, X_WA, b, X_WB, envelope, out);
-        case ShapeType::kPolyhedron:
+        case ShapeType::kPolyhedron: {
+          HullScratch scratch_b;  // only used by an unprepared polyhedron
           return SpherePolytope(a, X_WA, MakePolytope(b, &scratch_b), X_WB, envelope, out);
+        }
         default:
           return SphereHalfSpace(a, X_WA, X_WB, envelope, out);
       }
     case ShapeType::kCapsule:
       if (b.type == ShapeType::kCapsule) return CapsuleCapsule(a, X_WA, b, X_WB, envelope, out);
       if (IsPolytope(b.type)) {
+        HullScratch scratch_b;
         return CapsulePolytope(a, X_WA, MakePolytope(b, &scratch_b), X_WB, envelope, out);
       }
       return CapsuleHalfSpace(a, X_WA, X_WB, envelope, out);
@@ -543,6 +545,7 @@ void CollideSpatialOrdered(const Shape& a, const Isometry3d& X_WA, const Shape& 
     case ShapeType::kPolyhedron: {
       if (a.type == ShapeType::kBox && b.type == ShapeType::kHalfSpace)
         return BoxHalfSpace(a.half_extents, X_WA, X_WB, envelope, out);
+      HullScratch scratch_a, scratch_b;
       const Polytope pa = MakePolytope(a, &scratch_a);
       if (a.type == ShapeType::kBox && b.type == ShapeType::kBox) {
         return collision_internal::BoxBox(pa, X_WA, MakePolytope(b, &scratch_b), X_WB, envelope,
