@@ -776,7 +776,8 @@ TEST(CollisionTest, BoxOnHalfSpaceEqualsItsCornerPolyhedronBitForBit) {
     std::vector<Vector3d> corners;
     for (int i = 0; i < 8; ++i) {
       const Vector3d& h = box.half_extents;
-      corners.push_back(Xyz(i & 1 ? h.x() : -h.x(), i & 2 ? h.y() : -h.y(), i & 4 ? h.z() : -h.z()));
+      corners.push_back(
+          Xyz(i & 1 ? h.x() : -h.x(), i & 2 ? h.y() : -h.y(), i & 4 ? h.z() : -h.z()));
     }
     const Shape poly = Polyhedron(corners, trial % 2 == 0);
     const Isometry3d X_WA = RandomPose(&rng, 1.0), X_WB = RandomPose(&rng, 1.0);

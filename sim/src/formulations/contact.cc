@@ -89,7 +89,8 @@ void SortSmall(It first, It last, Less less) {
 // (cleared first): CollideShapes, then, for per-edge constraints, every corner split in two (the
 // second edge's contact appended after the pair's other contacts).
 void CollidePoints(const Scene& scene, const Shape& A, const Isometry3d& X_WA, const Shape& B,
-                   const Isometry3d& X_WB, double envelope, std::vector<ContactPoint>* points_buffer) {
+                   const Isometry3d& X_WB, double envelope,
+                   std::vector<ContactPoint>* points_buffer) {
   std::vector<ContactPoint>& points = *points_buffer;
   points.clear();
   CollideShapes(A, X_WA, B, X_WB, envelope, &points);
@@ -240,8 +241,7 @@ void FindContactsAt(const Scene& scene, const std::vector<BodyKinematics>& bodie
           continue;
         }
         if (in_out) {
-          CollidePoints(scene, BA.shapes[sa], X_WA, BB.shapes[sb], X_WB, envelope,
-                        &scratch.points);
+          CollidePoints(scene, BA.shapes[sa], X_WA, BB.shapes[sb], X_WB, envelope, &scratch.points);
           AppendContacts(scene, a, b, sa, sb, scratch.points, true, envelope, out);
         }
         if (in_check) {
