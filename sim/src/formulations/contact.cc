@@ -5,6 +5,7 @@
 #include <iterator>
 #include <utility>
 
+#include "../geometry/half_space_contacts.h"
 #include "end_detection.h"
 
 namespace vinci::sim {
@@ -230,6 +231,43 @@ void FindContactsAt(const Scene& scene, const std::vector<BodyKinematics>& bodie
         const Isometry3d& X_WB = body_poses[b][sb];
         const bool in_out = to_out && box_a.Overlaps(box_b, envelope);
         const bool in_check = to_check && box_a.Overlaps(box_b, check_envelope);
+        if ((in_out || in_check) && BA.shapes[sa].type == ShapeType::kBox &&
+            BB.shapes[sb].type == ShapeType::kHalfSpace) {
+          // CollideShapes' box–half-space pass (no corner to split) straight into the lists, at
+          // the larger envelope when both want it (EnvelopeOnlyFilters).
+          const double e_max = !in_check  ? envelope
+                               : !in_out  ? check_envelope
+                                          : std::max(envelope, check_envelope);
+          Contact proto;
+          bool proto_set = false;
+          const Vector3d n_W = X_WB.linear().col(2);
+          const auto append = [&](std::vector<Contact>* list, const Vector3d& p_A,
+                                  const Vector3d& p_B, double gap) {
+            if (!proto_set) {  // AppendContacts' fields
+              const int ma = BA.shapes[sa].material, mb = BB.shapes[sb].material;
+              proto.body_a = a;
+              proto.body_b = b;
+              proto.shape_a = static_cast<int>(sa);
+              proto.shape_b = static_cast<int>(sb);
+              proto.mu = scene.Mu(ma, mb);
+              proto.mu_param = FrictionParamIndex(scene, ma, mb);
+              proto_set = true;
+            }
+            list->push_back(proto);
+            ContactPoint& c = list->back().point;  // {p_A, p_B, n, gap} and the defaults
+            c.p_A_W = p_A;
+            c.p_B_W = p_B;
+            c.n_W = n_W;
+            c.gap = gap;
+          };
+          collision_internal::BoxHalfSpaceTo(
+              BA.shapes[sa].half_extents, X_WA, X_WB, e_max,
+              [&](const Vector3d& p_A, const Vector3d& p_B, double gap) {
+                if (in_out && !(gap > envelope)) append(out, p_A, p_B, gap);
+                if (in_check && !(gap > check_envelope)) append(check, p_A, p_B, gap);
+              });
+          continue;
+        }
         if (in_out && in_check && EnvelopeOnlyFilters(BA.shapes[sa].type, BB.shapes[sb].type)) {
           // One narrow phase at the larger envelope; the other list keeps the contacts its own
           // envelope keeps (EnvelopeOnlyFilters: the same contacts, in order).

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "collision_internal.h"
+#include "half_space_contacts.h"
 
 namespace vinci::sim {
 namespace collision_internal {
@@ -185,13 +186,12 @@ std::pair<Vector3d, Vector3d> CapsuleEnds(const Shape& s, const Isometry3d& X_WS
 // Half-space B.
 
 // Ball of radius r at x (r = 0: a vertex) against the half-space with outward unit normal n
-// through p.
+// through p (half_space_contacts.h).
 void BallHalfSpace(const Vector3d& x, double r, const Vector3d& n, const Vector3d& p,
                    double envelope, Contacts* out) {
-  const double h = n.dot(x - p);
-  const double gap = h - r;
-  if (gap > envelope) return;
-  out->push_back({x - r * n, x - h * n, n, gap});
+  collision_internal::BallHalfSpaceTo(
+      x, r, n, p, envelope,
+      [&](const Vector3d& p_A, const Vector3d& p_B, double gap) { out->push_back({p_A, p_B, n, gap}); });
 }
 
 void SphereHalfSpace(const Shape& a, const Isometry3d& X_WA, const Isometry3d& X_WB,
@@ -217,22 +217,14 @@ void PolytopeHalfSpace(const Polytope& A, const Isometry3d& X_WA, const Isometry
 }
 
 // A box of half extents h against the half-space: PolytopeHalfSpace(Polytope(h), ...) bit for bit
-// (the same vertices in the same order, the same arithmetic), without building the polytope.
-// Eigen's Transform product forms X_WA v = ((R_0 v_0 + R_1 v_1) + R_2 v_2) + t (R_k the columns of
-// R = X_WA.linear(), t = X_WA.translation(), t · 1 exact); at a corner v_k = ±h_k and R_k v_k =
-// ±(R_k h_k) exactly (rounding is symmetric; only a NaN's sign may differ), so the three products
-// are formed once and each corner only adds.
+// (the same vertices in the same order, the same arithmetic), without building the polytope
+// (half_space_contacts.h).
 void BoxHalfSpace(const Vector3d& h, const Isometry3d& X_WA, const Isometry3d& X_WB,
                   double envelope, Contacts* out) {
   const Vector3d n = X_WB.linear().col(2);
-  const Matrix3d& R = X_WA.linear();
-  const Vector3d t = X_WA.translation();
-  const Vector3d a0 = R.col(0) * h.x(), a1 = R.col(1) * h.y(), a2 = R.col(2) * h.z();
-  const Vector3d col[2][3] = {{-a0, -a1, -a2}, {a0, a1, a2}};  // [sign bit][axis]
-  for (int i = 0; i < 8; ++i) {  // Polytope(h).vertex(i): bit k of i is the sign of v_k
-    const Vector3d x = ((col[i & 1][0] + col[(i >> 1) & 1][1]) + col[(i >> 2) & 1][2]) + t;
-    BallHalfSpace(x, 0.0, n, X_WB.translation(), envelope, out);
-  }
+  collision_internal::BoxHalfSpaceTo(
+      h, X_WA, X_WB, envelope,
+      [&](const Vector3d& p_A, const Vector3d& p_B, double gap) { out->push_back({p_A, p_B, n, gap}); });
 }
 
 // ---------------------------------------------------------------------------------------------
