@@ -263,8 +263,11 @@ void FindContactsAt(const Scene& scene, const std::vector<BodyKinematics>& bodie
           collision_internal::BoxHalfSpaceTo(
               BA.shapes[sa].half_extents, X_WA, X_WB, e_max,
               [&](const Vector3d& p_A, const Vector3d& p_B, double gap) {
-                if (in_out && !(gap > envelope)) append(out, p_A, p_B, gap);
-                if (in_check && !(gap > check_envelope)) append(check, p_A, p_B, gap);
+                for (int l = 0; l < 2; ++l) {  // out, then check (one call site: inlined)
+                  if (!(l == 0 ? in_out : in_check)) continue;
+                  if (gap > (l == 0 ? envelope : check_envelope)) continue;
+                  append(l == 0 ? out : check, p_A, p_B, gap);
+                }
               });
           continue;
         }
