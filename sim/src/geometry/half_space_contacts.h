@@ -33,9 +33,10 @@ inline void BoxHalfSpaceTo(const Vector3d& h, const Isometry3d& X_WA, const Isom
   const Matrix3d& R = X_WA.linear();
   const Vector3d t = X_WA.translation();
   const Vector3d a0 = R.col(0) * h.x(), a1 = R.col(1) * h.y(), a2 = R.col(2) * h.z();
-  const Vector3d col[2][3] = {{-a0, -a1, -a2}, {a0, a1, a2}};  // [sign bit][axis]
+  const Vector3d na0 = -a0, na1 = -a1, na2 = -a2;
+  const Vector3d s01[4] = {na0 + na1, a0 + na1, na0 + a1, a0 + a1};  // ±R_0 v_0 ± R_1 v_1
   for (int i = 0; i < 8; ++i) {
-    const Vector3d x = ((col[i & 1][0] + col[(i >> 1) & 1][1]) + col[(i >> 2) & 1][2]) + t;
+    const Vector3d x = (s01[i & 3] + ((i & 4) ? a2 : na2)) + t;
     BallHalfSpaceTo(x, 0.0, n, p, envelope, emit);
   }
 }
