@@ -24,7 +24,8 @@ inline void BallHalfSpaceTo(const Vector3d& x, double r, const Vector3d& n, cons
 /// order (bit k of i is the sign of v_k). Eigen's Transform product forms X_WA v = ((R_0 v_0 +
 /// R_1 v_1) + R_2 v_2) + t (R_k the columns of X_WA.linear(), t its translation, t · 1 exact);
 /// at a corner R_k v_k = ±(R_k h_k) exactly (rounding is symmetric; only a NaN's sign may
-/// differ), so the three products are formed once and each corner only adds.
+/// differ), so the three products and the four sums ±R_0 h_0 ± R_1 h_1 are formed once and each
+/// corner adds ±R_2 h_2 and t.
 template <typename Emit>
 inline void BoxHalfSpaceTo(const Vector3d& h, const Isometry3d& X_WA, const Isometry3d& X_WB,
                            double envelope, Emit&& emit) {
