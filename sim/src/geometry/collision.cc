@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "collision_internal.h"
+#include "half_space_contacts.h"
 
 namespace vinci::sim {
 namespace collision_internal {
@@ -185,13 +186,12 @@ std::pair<Vector3d, Vector3d> CapsuleEnds(const Shape& s, const Isometry3d& X_WS
 // Half-space B.
 
 // Ball of radius r at x (r = 0: a vertex) against the half-space with outward unit normal n
-// through p.
+// through p (half_space_contacts.h).
 void BallHalfSpace(const Vector3d& x, double r, const Vector3d& n, const Vector3d& p,
                    double envelope, Contacts* out) {
-  const double h = n.dot(x - p);
-  const double gap = h - r;
-  if (gap > envelope) return;
-  out->push_back({x - r * n, x - h * n, n, gap});
+  collision_internal::BallHalfSpaceTo(
+      x, r, n, p, envelope,
+      [&](const Vector3d& p_A, const Vector3d& p_B, double gap) { out->push_back({p_A, p_B, n, gap}); });
 }
 
 void SphereHalfSpace(const Shape& a, const Isometry3d& X_WA, const Isometry3d& X_WB,
@@ -217,14 +217,14 @@ void PolytopeHalfSpace(const Polytope& A, const Isometry3d& X_WA, const Isometry
 }
 
 // A box of half extents h against the half-space: PolytopeHalfSpace(Polytope(h), ...) bit for bit
-// (the same vertices in the same order, the same arithmetic), without building the polytope.
+// (the same vertices in the same order, the same arithmetic), without building the polytope
+// (half_space_contacts.h).
 void BoxHalfSpace(const Vector3d& h, const Isometry3d& X_WA, const Isometry3d& X_WB,
                   double envelope, Contacts* out) {
   const Vector3d n = X_WB.linear().col(2);
-  for (int i = 0; i < 8; ++i) {  // Polytope(h).vertex(i)
-    const Vector3d v((i & 1) ? h.x() : -h.x(), (i & 2) ? h.y() : -h.y(), (i & 4) ? h.z() : -h.z());
-    BallHalfSpace(X_WA * v, 0.0, n, X_WB.translation(), envelope, out);
-  }
+  collision_internal::BoxHalfSpaceTo(
+      h, X_WA, X_WB, envelope,
+      [&](const Vector3d& p_A, const Vector3d& p_B, double gap) { out->push_back({p_A, p_B, n, gap}); });
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -510,7 +510,6 @@ bool IsPolytope(ShapeType t) { return t == ShapeType::kBox || t == ShapeType::kP
 // a and b with SpatialRank(a) ≤ SpatialRank(b).
 void CollideSpatialOrdered(const Shape& a, const Isometry3d& X_WA, const Shape& b,
                            const Isometry3d& X_WB, double envelope, Contacts* out) {
-  HullScratch scratch_a, scratch_b;  // only used by unprepared polyhedra
   switch (a.type) {
     case ShapeType::kSphere:
       switch (b.type) {
@@ -520,14 +519,17 @@ void CollideSpatialOrdered(const Shape& a, const Isometry3d& X_WA, const Shape& 
           return SphereCapsule(a, X_WA, b, X_WB, envelope, out);
         case ShapeType::kBox:
           return SphereBox(a, X_WA, b, X_WB, envelope, out);
-        case ShapeType::kPolyhedron:
+        case ShapeType::kPolyhedron: {
+          HullScratch scratch_b;  // only used by an unprepared polyhedron
           return SpherePolytope(a, X_WA, MakePolytope(b, &scratch_b), X_WB, envelope, out);
+        }
         default:
           return SphereHalfSpace(a, X_WA, X_WB, envelope, out);
       }
     case ShapeType::kCapsule:
       if (b.type == ShapeType::kCapsule) return CapsuleCapsule(a, X_WA, b, X_WB, envelope, out);
       if (IsPolytope(b.type)) {
+        HullScratch scratch_b;
         return CapsulePolytope(a, X_WA, MakePolytope(b, &scratch_b), X_WB, envelope, out);
       }
       return CapsuleHalfSpace(a, X_WA, X_WB, envelope, out);
@@ -535,6 +537,7 @@ void CollideSpatialOrdered(const Shape& a, const Isometry3d& X_WA, const Shape& 
     case ShapeType::kPolyhedron: {
       if (a.type == ShapeType::kBox && b.type == ShapeType::kHalfSpace)
         return BoxHalfSpace(a.half_extents, X_WA, X_WB, envelope, out);
+      HullScratch scratch_a, scratch_b;
       const Polytope pa = MakePolytope(a, &scratch_a);
       if (a.type == ShapeType::kBox && b.type == ShapeType::kBox) {
         return collision_internal::BoxBox(pa, X_WA, MakePolytope(b, &scratch_b), X_WB, envelope,
@@ -551,6 +554,20 @@ void CollideSpatialOrdered(const Shape& a, const Isometry3d& X_WA, const Shape& 
 }
 
 }  // namespace
+
+bool EnvelopeOnlyFilters(ShapeType a, ShapeType b) {
+  // SphereSphere, SphereCapsule, SphereBox, SpherePolytope and the ball/vertex passes of the
+  // half-space pairs (BallHalfSpace) each compute a contact and keep it iff gap ≤ envelope.
+  const auto ball = [](ShapeType s) {
+    return s == ShapeType::kSphere || s == ShapeType::kCapsule || s == ShapeType::kBox ||
+           s == ShapeType::kPolyhedron || s == ShapeType::kHalfSpace;
+  };
+  if (a == ShapeType::kSphere) return ball(b);
+  if (b == ShapeType::kSphere) return ball(a);
+  if (a == ShapeType::kHalfSpace) return ball(b) && b != ShapeType::kHalfSpace;
+  if (b == ShapeType::kHalfSpace) return ball(a) && a != ShapeType::kHalfSpace;
+  return false;
+}
 
 void CollideShapes(const Shape& a, const Isometry3d& X_WA, const Shape& b, const Isometry3d& X_WB,
                    double envelope, std::vector<ContactPoint>* out) {

@@ -24,24 +24,41 @@ VectorXd BodyVelocity(Dim dim, const BodyKinematics& k) {
   return v;
 }
 
+namespace {
+
+// PoseFromQ into *X (every entry written).
+void PoseInto(Dim dim, const double* q, Isometry3d* X) {
+  if (dim == Dim::kPlanar) {
+    *X = PlanarPose(q[0], q[1], q[2]);
+    return;
+  }
+  X->makeAffine();  // the bottom row of Identity()
+  X->translation() = Vector3d(q[0], q[1], q[2]);
+  X->linear() = Quaterniond(q[3], q[4], q[5], q[6]).normalized().toRotationMatrix();
+}
+
+}  // namespace
+
 Isometry3d PoseFromQ(Dim dim, const double* q) {
-  if (dim == Dim::kPlanar) return PlanarPose(q[0], q[1], q[2]);
-  Isometry3d X = Isometry3d::Identity();
-  X.translation() = Vector3d(q[0], q[1], q[2]);
-  X.linear() = Quaterniond(q[3], q[4], q[5], q[6]).normalized().toRotationMatrix();
+  Isometry3d X;
+  PoseInto(dim, q, &X);
   return X;
+}
+
+void KinematicsFromQV(Dim dim, const double* q, const double* v, BodyKinematics* k) {
+  PoseInto(dim, q, &k->X_WB);
+  if (dim == Dim::kPlanar) {
+    k->v_WB = Vector3d(v[0], v[1], 0.0);
+    k->w_WB = Vector3d(0.0, 0.0, v[2]);
+  } else {
+    k->v_WB = Vector3d(v[0], v[1], v[2]);
+    k->w_WB = k->X_WB.linear() * Vector3d(v[3], v[4], v[5]);
+  }
 }
 
 BodyKinematics KinematicsFromQV(Dim dim, const double* q, const double* v) {
   BodyKinematics k;
-  k.X_WB = PoseFromQ(dim, q);
-  if (dim == Dim::kPlanar) {
-    k.v_WB = Vector3d(v[0], v[1], 0.0);
-    k.w_WB = Vector3d(0.0, 0.0, v[2]);
-  } else {
-    k.v_WB = Vector3d(v[0], v[1], v[2]);
-    k.w_WB = k.X_WB.linear() * Vector3d(v[3], v[4], v[5]);
-  }
+  KinematicsFromQV(dim, q, v, &k);
   return k;
 }
 

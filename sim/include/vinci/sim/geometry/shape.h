@@ -167,6 +167,13 @@ struct ContactPoint {
 void CollideShapes(const Shape& a, const Isometry3d& X_WA, const Shape& b, const Isometry3d& X_WB,
                    double envelope, std::vector<ContactPoint>* out);
 
+/// Whether the envelope only filters CollideShapes' contacts for shapes of kinds a and b (either
+/// order): every contact is computed without the envelope, which only drops those with
+/// gap > envelope. So the contacts at an envelope e are exactly, in order, those at any E ≥ e
+/// whose gap is not above e. True for a sphere against any spatial kind CollideShapes takes and
+/// for a capsule, box or polyhedron against a half-space; false otherwise.
+bool EnvelopeOnlyFilters(ShapeType a, ShapeType b);
+
 /// Mass properties of a shape of unit density: volume (area in 2D) and the inertia
 /// about the shape's centroid in the shape frame (planar: only (2,2) is used).
 /// Half-spaces/half-planes have infinite extent and throw std::invalid_argument.

@@ -30,6 +30,8 @@ inline Vector3d PointVelocity(const BodyKinematics& k, const Vector3d& p_W) {
 Isometry3d PoseFromQ(Dim dim, const double* q);
 /// World kinematics of a dynamic body from its blocks of q and ν.
 BodyKinematics KinematicsFromQV(Dim dim, const double* q, const double* v);
+/// The same into *k (every field written).
+void KinematicsFromQV(Dim dim, const double* q, const double* v, BodyKinematics* k);
 /// Writes a pose into a q block (quaternion with qw ≥ 0 is not enforced; it is normalized).
 void PoseToQ(Dim dim, const Isometry3d& X_WB, double* q);
 /// Writes world velocities into a ν block.
