@@ -232,14 +232,13 @@ TEST(StructuredStepTest, OneSidedContactPatternsMatchDenseLcp) {
       "  - {name: box, mass: 1.0, pose: {position: [0, 0, 0.09], rpy: [0.2, 0.15, 0]}, "
       "velocity: {linear: [0.2, 0, 0], angular: [0, 0, 3]}, "
       "shapes: [{type: box, half_extents: [0.1, 0.1, 0.05]}]}\n";
-  const std::string drops =
-      "name: drops\n" + header +
-      "  - {name: a, mass: 1.0, pose: {position: [0, 0, 0.05]}, "
-      "shapes: [{type: box, half_extents: [0.1, 0.1, 0.05]}]}\n"
-      "  - {name: b, mass: 2.0, pose: {position: [0.5, 0, 0.09]}, "
-      "shapes: [{type: box, half_extents: [0.1, 0.1, 0.05]}]}\n"
-      "  - {name: c, mass: 0.5, pose: {position: [0, 0, 0.2]}, "
-      "shapes: [{type: box, half_extents: [0.05, 0.05, 0.05]}]}\n";
+  const std::string drops = "name: drops\n" + header +
+                            "  - {name: a, mass: 1.0, pose: {position: [0, 0, 0.05]}, "
+                            "shapes: [{type: box, half_extents: [0.1, 0.1, 0.05]}]}\n"
+                            "  - {name: b, mass: 2.0, pose: {position: [0.5, 0, 0.09]}, "
+                            "shapes: [{type: box, half_extents: [0.1, 0.1, 0.05]}]}\n"
+                            "  - {name: c, mass: 0.5, pose: {position: [0, 0, 0.2]}, "
+                            "shapes: [{type: box, half_extents: [0.05, 0.05, 0.05]}]}\n";
   for (const std::string& text : {landing, drops}) {
     const Scene file = ParseScene(text, "one_sided");
     const Scene model = file.ApplyParams(file.DefaultParams());

@@ -117,7 +117,7 @@ class ContactLcpOperator final : public LcpMatrixOperator {
   bool self_contact_ = false;  // a contact has the same body on both sides
   bool single_n_ = false, single_f_ = false;         // G_n's / G_f's columns are one run each
   int uniform_n_ = -1, uniform_f_ = -1;  // single_*: the row every column's run starts at, or −1
-  RunPattern pattern_n_, pattern_f_;  // G_n's / G_f's, kept between Builds
+  RunPattern pattern_n_, pattern_f_;     // G_n's / G_f's, kept between Builds
   mutable bool full_ = false;                        // blocks_ formed
   mutable bool norm_formed_ = false;                 // norm_inf_ formed
   mutable double norm_inf_ = 0.0;                    // ‖M‖∞

@@ -118,8 +118,8 @@ inline void AddAbsDotPair6(const double* g_a, const double* g_b, const double* u
   __m128d acc = _mm_set1_pd(sum);
 #pragma GCC unroll 6
   for (int r = 0; r < 6; ++r)
-    acc = _mm_add_pd(acc, _mm_mul_pd(AbsPd(_mm_loadh_pd(_mm_load_sd(g_a + r), g_b + r)),
-                                     _mm_set1_pd(u[r])));
+    acc = _mm_add_pd(
+        acc, _mm_mul_pd(AbsPd(_mm_loadh_pd(_mm_load_sd(g_a + r), g_b + r)), _mm_set1_pd(u[r])));
   _mm_storel_pd(out_a, acc);
   _mm_storeh_pd(out_b, acc);
 #else
@@ -194,50 +194,39 @@ inline void SparseTimes(const SparseMatrixd& G, const double* x, bool assign, bo
 // order, then out_j = (assign ? 0 : out_j) + tmp), so the same bits; x_r..x_{r+5} broadcast once
 // per run of one body (once in all if uniform_row ≥ 0: every column starts at that row). Returns
 // the first column not done (the caller finishes from there).
+// Columns j and j + 1 (six entries each, from `a`) dotted with x_r..x_{r+5} (broadcast in xr),
+// into out[j], out[j + 1]: lane-wise tmp = 0, tmp += a_i x_i in order, out = (assign ? 0 :
+// out) + tmp.
+template <bool assign>
+[[gnu::always_inline]] inline void TransposeTimesPair6(const double* a, const __m128d* xr,
+                                                       double* out) {
+  const double* b = a + 6;
+  __m128d tmp = _mm_setzero_pd();
+#pragma GCC unroll 6
+  for (int i = 0; i < 6; ++i)
+    tmp = _mm_add_pd(tmp, _mm_mul_pd(_mm_loadh_pd(_mm_load_sd(a + i), b + i), xr[i]));
+  const __m128d base = assign ? _mm_setzero_pd() : _mm_loadu_pd(out);
+  _mm_storeu_pd(out, _mm_add_pd(base, tmp));
+}
+
 template <bool assign>
 inline int PairedTransposeTimes6(const int* inner, const double* value, const double* x, int cols,
                                  int uniform_row, double* out) {
+  const auto column = [&](int j) { return value + 6 * static_cast<std::ptrdiff_t>(j); };
+  const auto row = [&](int j) { return inner[6 * static_cast<std::ptrdiff_t>(j)]; };
+  __m128d xr[6];
   int j = 0;
   if (uniform_row >= 0) {  // every column starts at row uniform_row: no test per pair
-    const double* xs = x + uniform_row;
-    const __m128d x0 = _mm_set1_pd(xs[0]), x1 = _mm_set1_pd(xs[1]), x2 = _mm_set1_pd(xs[2]),
-                  x3 = _mm_set1_pd(xs[3]), x4 = _mm_set1_pd(xs[4]), x5 = _mm_set1_pd(xs[5]);
-    for (; j + 1 < cols; j += 2) {
-      const double* a = value + 6 * static_cast<std::ptrdiff_t>(j);
-      const double* b = a + 6;
-      __m128d tmp = _mm_setzero_pd();
-      tmp = _mm_add_pd(tmp, _mm_mul_pd(_mm_loadh_pd(_mm_load_sd(a + 0), b + 0), x0));
-      tmp = _mm_add_pd(tmp, _mm_mul_pd(_mm_loadh_pd(_mm_load_sd(a + 1), b + 1), x1));
-      tmp = _mm_add_pd(tmp, _mm_mul_pd(_mm_loadh_pd(_mm_load_sd(a + 2), b + 2), x2));
-      tmp = _mm_add_pd(tmp, _mm_mul_pd(_mm_loadh_pd(_mm_load_sd(a + 3), b + 3), x3));
-      tmp = _mm_add_pd(tmp, _mm_mul_pd(_mm_loadh_pd(_mm_load_sd(a + 4), b + 4), x4));
-      tmp = _mm_add_pd(tmp, _mm_mul_pd(_mm_loadh_pd(_mm_load_sd(a + 5), b + 5), x5));
-      const __m128d base = assign ? _mm_setzero_pd() : _mm_loadu_pd(out + j);
-      _mm_storeu_pd(out + j, _mm_add_pd(base, tmp));
-    }
+    for (int i = 0; i < 6; ++i) xr[i] = _mm_set1_pd(x[uniform_row + i]);
+    for (; j + 1 < cols; j += 2) TransposeTimesPair6<assign>(column(j), xr, out + j);
     return j;
   }
   while (j + 1 < cols) {
-    const int r = inner[6 * static_cast<std::ptrdiff_t>(j)];
-    const double* xs = x + r;
-    const __m128d x0 = _mm_set1_pd(xs[0]), x1 = _mm_set1_pd(xs[1]), x2 = _mm_set1_pd(xs[2]),
-                  x3 = _mm_set1_pd(xs[3]), x4 = _mm_set1_pd(xs[4]), x5 = _mm_set1_pd(xs[5]);
-    int done = j;
-    for (; j + 1 < cols && inner[6 * static_cast<std::ptrdiff_t>(j)] == r &&
-           inner[6 * static_cast<std::ptrdiff_t>(j + 1)] == r;
-         j += 2) {
-      const double* a = value + 6 * static_cast<std::ptrdiff_t>(j);
-      const double* b = a + 6;
-      __m128d tmp = _mm_setzero_pd();
-      tmp = _mm_add_pd(tmp, _mm_mul_pd(_mm_loadh_pd(_mm_load_sd(a + 0), b + 0), x0));
-      tmp = _mm_add_pd(tmp, _mm_mul_pd(_mm_loadh_pd(_mm_load_sd(a + 1), b + 1), x1));
-      tmp = _mm_add_pd(tmp, _mm_mul_pd(_mm_loadh_pd(_mm_load_sd(a + 2), b + 2), x2));
-      tmp = _mm_add_pd(tmp, _mm_mul_pd(_mm_loadh_pd(_mm_load_sd(a + 3), b + 3), x3));
-      tmp = _mm_add_pd(tmp, _mm_mul_pd(_mm_loadh_pd(_mm_load_sd(a + 4), b + 4), x4));
-      tmp = _mm_add_pd(tmp, _mm_mul_pd(_mm_loadh_pd(_mm_load_sd(a + 5), b + 5), x5));
-      const __m128d base = assign ? _mm_setzero_pd() : _mm_loadu_pd(out + j);
-      _mm_storeu_pd(out + j, _mm_add_pd(base, tmp));
-    }
+    const int r = row(j);
+    for (int i = 0; i < 6; ++i) xr[i] = _mm_set1_pd(x[r + i]);
+    const int done = j;
+    for (; j + 1 < cols && row(j) == r && row(j + 1) == r; j += 2)
+      TransposeTimesPair6<assign>(column(j), xr, out + j);
     if (j == done) break;  // column j's body differs from column j + 1's: the scalar path
   }
   return j;
@@ -259,7 +248,8 @@ void SparseTransposeTimesN(const SparseMatrixd& G, const double* x, bool single,
     const int cols = static_cast<int>(G.cols());
     int j = 0;
 #ifdef __SSE2__
-    if constexpr (N == 6) j = PairedTransposeTimes6<assign>(inner, value, x, cols, uniform_row, out);
+    if constexpr (N == 6)
+      j = PairedTransposeTimes6<assign>(inner, value, x, cols, uniform_row, out);
 #endif
     for (; j < cols; ++j) {
       const double* v = value + static_cast<std::ptrdiff_t>(N) * j;

@@ -208,7 +208,7 @@ bool SolveOnWarmBasis(const LcpMatrixOperator& M, const Eigen::VectorXd& q,
   double m = M.NormInfBound();
   if (!std::isfinite(m)) m = M.NormInf();
   if (!std::isfinite(m)) return false;  // the dense solver reports it
-  if (n == 0 || q_min >= 0.0) {  // LemkeSolver's trivial solution
+  if (n == 0 || q_min >= 0.0) {         // LemkeSolver's trivial solution
     z->setZero(n);
     return solved(0.0, options.residual_tolerance, "");
   }
