@@ -235,9 +235,9 @@ void FindContactsAt(const Scene& scene, const std::vector<BodyKinematics>& bodie
             BB.shapes[sb].type == ShapeType::kHalfSpace) {
           // CollideShapes' box–half-space pass (no corner to split) straight into the lists, at
           // the larger envelope when both want it (EnvelopeOnlyFilters).
-          const double e_max = !in_check  ? envelope
-                               : !in_out  ? check_envelope
-                                          : std::max(envelope, check_envelope);
+          const double e_max = !in_check ? envelope
+                               : !in_out ? check_envelope
+                                         : std::max(envelope, check_envelope);
           Contact proto;
           bool proto_set = false;
           const Vector3d n_W = X_WB.linear().col(2);

@@ -189,9 +189,10 @@ std::pair<Vector3d, Vector3d> CapsuleEnds(const Shape& s, const Isometry3d& X_WS
 // through p (half_space_contacts.h).
 void BallHalfSpace(const Vector3d& x, double r, const Vector3d& n, const Vector3d& p,
                    double envelope, Contacts* out) {
-  collision_internal::BallHalfSpaceTo(
-      x, r, n, p, envelope,
-      [&](const Vector3d& p_A, const Vector3d& p_B, double gap) { out->push_back({p_A, p_B, n, gap}); });
+  collision_internal::BallHalfSpaceTo(x, r, n, p, envelope,
+                                      [&](const Vector3d& p_A, const Vector3d& p_B, double gap) {
+                                        out->push_back({p_A, p_B, n, gap});
+                                      });
 }
 
 void SphereHalfSpace(const Shape& a, const Isometry3d& X_WA, const Isometry3d& X_WB,
@@ -222,9 +223,10 @@ void PolytopeHalfSpace(const Polytope& A, const Isometry3d& X_WA, const Isometry
 void BoxHalfSpace(const Vector3d& h, const Isometry3d& X_WA, const Isometry3d& X_WB,
                   double envelope, Contacts* out) {
   const Vector3d n = X_WB.linear().col(2);
-  collision_internal::BoxHalfSpaceTo(
-      h, X_WA, X_WB, envelope,
-      [&](const Vector3d& p_A, const Vector3d& p_B, double gap) { out->push_back({p_A, p_B, n, gap}); });
+  collision_internal::BoxHalfSpaceTo(h, X_WA, X_WB, envelope,
+                                     [&](const Vector3d& p_A, const Vector3d& p_B, double gap) {
+                                       out->push_back({p_A, p_B, n, gap});
+                                     });
 }
 
 // ---------------------------------------------------------------------------------------------
