@@ -397,6 +397,7 @@ void MpecSolverOptions::Validate() const {
   if (early_polish_max_iterations < 0)
     fail("early_polish_max_iterations", early_polish_max_iterations, "≥ 0");
   if (stall_iterations < 0) fail("stall_iterations", stall_iterations, "≥ 0");
+  if (mumps_mem_percent < 1) fail("mumps_mem_percent", mumps_mem_percent, "≥ 1");
   if (polish_stall_iterations < 0) fail("polish_stall_iterations", polish_stall_iterations, "≥ 0");
   if (!(polish_stall_reduction > 0) || !(polish_stall_reduction < 1))
     fail("polish_stall_reduction", polish_stall_reduction, "in (0, 1)");
@@ -458,6 +459,7 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o) {
     const ScotchRandomSeed scotch_seed =
         o.deterministic_ordering ? FindScotchRandomSeed() : nullptr;
     if (o.deterministic_ordering) opt.SetIntegerValue("mumps_pivot_order", scotch_seed ? 3 : 6);
+    opt.SetIntegerValue("mumps_mem_percent", o.mumps_mem_percent);
     // The penalty ρ Σ x_a x_b is bounded below by 0 only on x_a, x_b ≥ 0. Ipopt relaxes every
     // bound by 1e-8 (bound_relax_factor), so a side at its bound sits at ≈ −1e-8 and the
     // penalty decreases without bound along any ray where its partner grows freely (an

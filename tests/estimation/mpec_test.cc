@@ -214,6 +214,9 @@ TEST(MpecSolver, RejectsBadOptionsAndPairs) {
   MpecSolverOptions w;
   w.warm_start_push_per_epsilon = -0.1;
   EXPECT_THROW(SolveMpec(p, w), std::invalid_argument);
+  MpecSolverOptions m;
+  m.mumps_mem_percent = 0;  // Ipopt would double 0 to 0 when MUMPS runs out of storage
+  EXPECT_THROW(SolveMpec(p, m), std::invalid_argument);
   QuadraticMpec q = Scholtes3();
   q.pairs = {{0, 0}};
   EXPECT_THROW(SolveMpec(q, MpecSolverOptions{}), std::invalid_argument);

@@ -183,6 +183,12 @@ struct MpecSolverOptions {
   /// here). Off: MUMPS' automatic choice (SCOTCH on large systems, whose random state persists
   /// between solves: last-digit differences).
   bool deterministic_ordering = false;
+  /// MUMPS' working storage beyond its analysis estimate, in percent (Ipopt's
+  /// mumps_mem_percent; Ipopt's own default is 1000). MUMPS allocates and clears that storage
+  /// at every factorization, so on these KKT systems (fronts of ≤ ~50 rows) a large reserve
+  /// costs more than the factorization; when the storage runs out (delayed pivots) Ipopt
+  /// doubles it and factorizes again. ≥ 1 (Ipopt doubles a 0 to 0).
+  int mumps_mem_percent = 5;
   /// Called after each NLP with a one-line summary. May be empty. Must not throw.
   std::function<void(const std::string&)> progress;
   /// Throws std::invalid_argument naming the first invalid field.
