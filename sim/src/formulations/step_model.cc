@@ -91,7 +91,7 @@ class StewartTrinkleModel final : public StepModel {
     // Residuals' numbers in the calling thread's assembly storage (as AlongInto).
     internal::ScratchLease<StewartTrinkle::Assembly> lease;
     StewartTrinkle::Assembly& a = lease.get();
-    a.contacts = MoveContacts(model, contacts_, x_, x, dt_, &k0_, &sides_);
+    internal::MoveContactsInto(model, contacts_, x_, x, dt_, &k0_, &sides_, &a.contacts);
     st_.AssembleAtInto(model, x, u, /*select_corner_edges=*/false, &a);
     internal::EvaluateAssemblyInto(st_, model, theta, a, x, z, jacobians, out);
   }
