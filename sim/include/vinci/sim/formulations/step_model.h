@@ -54,7 +54,7 @@ struct StepModelOptions {
   /// The ν_ℓ columns of the x_ℓ block in closed form where the model has them (Stewart–Trinkle,
   /// Anitescu–Potra, first order: only the dynamics rows read ν_ℓ); false, or another model:
   /// central differences as for q_ℓ.
-  bool closed_form_velocity = false;
+  bool closed_form_velocity = true;
 };
 
 /// One row group's derivatives, by column group.
