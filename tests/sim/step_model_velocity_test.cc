@@ -99,10 +99,9 @@ TEST_P(StepModelVelocityTest, ClosedFormVelocityColumnsMatchCentralDifferences) 
   EXPECT_TRUE(testing::SameBits(a.comp_a, b.comp_a));
   EXPECT_TRUE(testing::SameBits(a.comp_b, b.comp_b));
   int velocity_entries = 0;
-  for (const auto& [ja, jb, what] :
-       {std::make_tuple(&a.d_equality, &b.d_equality, "equality"),
-        std::make_tuple(&a.d_comp_a, &b.d_comp_a, "comp_a"),
-        std::make_tuple(&a.d_comp_b, &b.d_comp_b, "comp_b")}) {
+  for (const auto& [ja, jb, what] : {std::make_tuple(&a.d_equality, &b.d_equality, "equality"),
+                                     std::make_tuple(&a.d_comp_a, &b.d_comp_a, "comp_a"),
+                                     std::make_tuple(&a.d_comp_b, &b.d_comp_b, "comp_b")}) {
     EXPECT_TRUE(SameMatrix(ja->d_z, jb->d_z)) << what;
     EXPECT_TRUE(SameMatrix(ja->d_theta, jb->d_theta)) << what;
     EXPECT_TRUE(SameMatrix(ja->d_u, jb->d_u)) << what;
