@@ -183,6 +183,8 @@ int main(int argc, char** argv) {
                     r.num_unknowns, r.num_constraints, r.iterations, r.stages, r.time_s, cpu_s,
                     r.estimates[0], r.std_errors[0], r.complementarity_violation,
                     r.converged ? "yes" : "no");
+        if (std::getenv("MPEC_BENCH_VERBOSE"))
+          std::fprintf(stderr, "  mu_hat %.17g std_err %.17g\n", r.estimates[0], r.std_errors[0]);
         std::fflush(stdout);
         char line[400];
         std::snprintf(

@@ -116,10 +116,12 @@ struct MpecEstimationProblem::Impl {
   // Per-formulation cache for steps whose h differs from the scene's dt.
   struct Stepper {
     std::unique_ptr<sim::Formulation> formulation;
-    std::shared_ptr<sim::Scene> model;
+    std::shared_ptr<const sim::Scene> model;
   };
   std::map<double, Stepper> steppers;
-  sim::Scene model_dt;  // the scene with base params (dt steps)
+  // The scene with base params (dt steps), shared by the steps' frozen models (one scene for
+  // every step: StepModel's applied-parameter scene is then made once per θ, not once per step).
+  std::shared_ptr<const sim::Scene> model_dt;
   // Evaluation caches.
   mutable VectorXd cache_g_x, cache_g, cache_j_x, cache_j;
   mutable bool cache_g_ok = false, cache_j_ok = false;
@@ -146,12 +148,35 @@ struct MpecEstimationProblem::Impl {
 
   sim::StepModelValues EvaluateStep(const StepBlock& b, const VectorXd& x, const Params& theta,
                                     bool jacobians) const {
-    sim::StepInput u;
-    u.generalized_force = x.segment(b.w_col, nv);
+    sim::StepModelValues v;
+    EvaluateStepInto(b, x, theta, jacobians, &v);
+    return v;
+  }
+  // EvaluateStep into *out, its storage reused (the step's z, x_ℓ and input in the calling
+  // thread's storage).
+  void EvaluateStepInto(const StepBlock& b, const VectorXd& x, const Params& theta, bool jacobians,
+                        sim::StepModelValues* out) const {
+    struct Arguments {
+      sim::StepInput u;
+      State x;
+      VectorXd z;
+    };
+    thread_local Arguments a;
+    a.u.generalized_force = x.segment(b.w_col, nv);
+    a.x.t = b.t;
+    a.x.q = x.segment(b.x_col, nq);
+    a.x.v = x.segment(b.x_col + nq, nv);
+    a.z = x.segment(b.z_col, b.nz);
     sim::StepModelOptions so;
     so.jacobians = jacobians;
     so.state_jacobian = jacobians;
-    return b.model->Evaluate(x.segment(b.z_col, b.nz), theta, NodeState(x, b.x_col, b.t), u, so);
+    // The ν_ℓ columns by central differences, as before the closed form: with the closed form
+    // (the same Jacobian to ~3e-11 relative) the penalty NLP of the noise-free planar block
+    // (mpec_test) ends its ρ = 10 solve in Ipopt's restoration failure at an essentially
+    // converged point (inf_pr 8e-15, complementarity 1e-12), which the homotopy rejects, and the
+    // restart from ρ = 100 ends at a worse point (rms residual 6.7e-5).
+    so.closed_form_velocity = false;
+    b.model->EvaluateInto(a.z, theta, a.x, a.u, so, out);
   }
 
   // Visits the model's Jacobian entries of one step as (local row, local col, value); comp rows
@@ -202,9 +227,9 @@ struct MpecEstimationProblem::Impl {
     return static_cast<long long>(lr) * (b.nz + ntheta + nx + nv) + lc;
   }
 
-  const sim::Formulation& FormulationFor(double h, const sim::Scene** model) {
+  const sim::Formulation& FormulationFor(double h, std::shared_ptr<const sim::Scene>* model) {
     if (h == scene.options.dt && margin == 0.0) {
-      *model = &model_dt;
+      *model = model_dt;
       return sim.formulation();
     }
     // Intervals equal to 1e-9 relative (a log's times accumulate rounding) share one stepper.
@@ -215,10 +240,10 @@ struct MpecEstimationProblem::Impl {
       s.options.envelope += margin;
       Stepper st;
       st.formulation = sim::MakeFormulation(s.options);
-      st.model = std::make_shared<sim::Scene>(s.ApplyParams(base));
+      st.model = std::make_shared<const sim::Scene>(s.ApplyParams(base));
       it = steppers.emplace(h, std::move(st)).first;
     }
-    *model = it->second.model.get();
+    *model = it->second.model;
     return *it->second.formulation;
   }
 

@@ -58,7 +58,7 @@ void MpecEstimationProblem::Impl::Build(const Log& log) {
     CheckEnoughSamples(log, scene.dim, sel.size(), own);
   }
   base = sim.DefaultParams();
-  model_dt = scene.ApplyParams(base);
+  model_dt = std::make_shared<const sim::Scene>(scene.ApplyParams(base));
   ntheta = sel.size();
   nq = scene.num_positions();
   nv = scene.num_velocities();
@@ -196,9 +196,9 @@ void MpecEstimationProblem::Impl::Build(const Log& log) {
       StepBlock blk;
       blk.episode = e;
       blk.t = T[l];
-      const sim::Scene* model = nullptr;
+      std::shared_ptr<const sim::Scene> model;
       const sim::Formulation& form = FormulationFor(step_h[l], &model);
-      blk.model = sim::Freeze(form, *model, base, guess[l]);
+      blk.model = sim::Freeze(form, model, base, guess[l]);
       blk.nz = blk.model->layout().size();
       const int nxl = blk.model->layout().nq + blk.model->layout().nv;
       // The MPEC chains z_ℓ's head as x_ℓ+1: the step unknowns must start with the next state.
@@ -445,7 +445,7 @@ std::vector<VectorXd> MpecEstimationProblem::Impl::TrackGuess(const Episode& ep,
   for (int l = 0; l < num; ++l) {
     const double h = step_h[l];
     const State& target = (*guess)[l + 1];
-    const sim::Scene* model = nullptr;
+    std::shared_ptr<const sim::Scene> model;
     const sim::Formulation& form = FormulationFor(h, &model);
     // ν*: the velocity that reaches the guessed pose in one step (ν_ℓ+1 = (q_ℓ+1 − q_ℓ)/h).
     std::vector<std::pair<int, VectorXd>> want;  // (first velocity index, ν* of the body)

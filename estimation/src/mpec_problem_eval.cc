@@ -82,7 +82,8 @@ bool MpecEstimationProblem::Constraints(const VectorXd& y, VectorXd* g) const {
   ParallelFor(static_cast<int>(I.steps.size()), I.opts.threads, [&](int k) {
     const StepBlock& b = I.steps[k];
     try {
-      const sim::StepModelValues v = I.EvaluateStep(b, x, theta, false);
+      thread_local sim::StepModelValues v;  // storage reuse
+      I.EvaluateStepInto(b, x, theta, false, &v);
       g->segment(b.row, b.neq) = v.equality;
       for (std::size_t r = 0; r < b.a_slack.size(); ++r) {
         if (b.a_slack[r] >= 0) (*g)[b.row + b.neq + b.a_slack[r]] = x[b.a_var[r]] - v.comp_a[r];
@@ -118,7 +119,8 @@ bool MpecEstimationProblem::JacobianValues(const VectorXd& y, VectorXd* values) 
   ParallelFor(static_cast<int>(I.steps.size()), I.opts.threads, [&](int k) {
     const StepBlock& b = I.steps[k];
     try {
-      const sim::StepModelValues v = I.EvaluateStep(b, x, theta, true);
+      thread_local sim::StepModelValues v;  // storage reuse
+      I.EvaluateStepInto(b, x, theta, true, &v);
       I.ForEachEntry(b, v, [&](int lr, int lc, double val) {
         const long long key = I.Key(b, lr, lc);
         const auto it = std::lower_bound(b.keys.begin(), b.keys.end(), key);

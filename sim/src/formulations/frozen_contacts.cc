@@ -12,15 +12,16 @@ namespace {
 
 // Body poses as the contact detection of the Stewart–Trinkle assembly sees them: dynamic bodies
 // from q, prescribed ones from their motion at x.t (an integrated pose with step h).
-// `k`: ComputeBodyKinematics(model, x).
-std::vector<BodyKinematics> DetectionKinematics(const Scene& model, const State& x, double h,
-                                                std::vector<BodyKinematics> k) {
+// `k`: ComputeBodyKinematics(model, x). Into *out (its storage reused).
+void DetectionKinematicsInto(const Scene& model, const State& x, double h,
+                             const std::vector<BodyKinematics>& k,
+                             std::vector<BodyKinematics>* out) {
+  *out = k;
   for (std::size_t i = 0; i < k.size(); ++i) {
     const Body& b = model.bodies[i];
     if (b.kind == BodyKind::kPrescribed && b.motion.pose == PoseRule::kIntegrated)
-      k[i] = EvaluateMotion(b.motion, b.X_WB0, model.dim == Dim::kPlanar, x.t, h);
+      (*out)[i] = EvaluateMotion(b.motion, b.X_WB0, model.dim == Dim::kPlanar, x.t, h);
   }
-  return k;
 }
 
 // The contact of shapes (c.shape_a, c.shape_b) at poses `k` nearest the rigidly moved `moved`
@@ -33,13 +34,15 @@ std::vector<BodyKinematics> DetectionKinematics(const Scene& model, const State&
 // `face_n_W` (the face normal moved with the face's body) are taken, so the features cannot
 // switch with the direction of the move (flush boxes, where a's vertex on b's face and b's vertex
 // on a's face coincide, and a vertex just past the face's edge also has vertex–edge candidates).
+// `candidates`: storage for the collision routine's contacts (reused).
 bool Recollide(const Scene& model, const std::vector<BodyKinematics>& k, const Contact& c,
                const ContactPoint& moved, double disp, VertexSide side, const Vector3d& face_n_W,
-               ContactPoint* out) {
+               std::vector<ContactPoint>* candidates, ContactPoint* out) {
   const Shape& sa = model.bodies[c.body_a].shapes[c.shape_a];
   const Shape& sb = model.bodies[c.body_b].shapes[c.shape_b];
   const double envelope = model.options.envelope + std::max(0.0, moved.gap) + disp;
-  std::vector<ContactPoint> points;
+  std::vector<ContactPoint>& points = *candidates;
+  points.clear();
   CollideShapes(sa, k[c.body_a].X_WB * sa.X_BS, sb, k[c.body_b].X_WB * sb.X_BS, envelope, &points);
   const std::size_t n = points.size();
   for (std::size_t i = 0; i < n; ++i) {  // both edges of a corner, as FindContacts splits them
@@ -106,15 +109,41 @@ std::vector<Contact> MoveContacts(const Scene& model, const std::vector<Contact>
                                   const State& x0, const State& x, double h,
                                   const std::vector<BodyKinematics>* k0_known,
                                   const std::vector<PolytopeFeature>* sides) {
-  std::vector<Contact> out = frozen;
+  std::vector<Contact> out;
+  MoveContactsInto(model, frozen, x0, x, h, k0_known, sides, &out);
+  return out;
+}
+
+namespace {
+
+// MoveContactsInto's transient storage, kept per thread (allocation reuse only: every call
+// overwrites what it reads).
+struct MoveScratch {
+  std::vector<BodyKinematics> k0, k1, detect;
+  std::vector<Isometry3d> T;
+  std::vector<ContactPoint> candidates;
+};
+
+}  // namespace
+
+void MoveContactsInto(const Scene& model, const std::vector<Contact>& frozen, const State& x0,
+                      const State& x, double h, const std::vector<BodyKinematics>* k0_known,
+                      const std::vector<PolytopeFeature>* sides, std::vector<Contact>* moved) {
+  std::vector<Contact>& out = *moved;
+  out = frozen;
   for (Contact& c : out)
     c.mu = model.Mu(model.bodies[c.body_a].shapes[c.shape_a].material,
                     model.bodies[c.body_b].shapes[c.shape_b].material);
-  if (SamePose(x0, x)) return out;
-  const std::vector<BodyKinematics> k0 = k0_known ? *k0_known : ComputeBodyKinematics(model, x0);
-  const std::vector<BodyKinematics> k1 = ComputeBodyKinematics(model, x);
-  const std::vector<BodyKinematics> detect = DetectionKinematics(model, x, h, k1);
-  std::vector<Isometry3d> T(model.bodies.size(), Isometry3d::Identity());
+  if (SamePose(x0, x)) return;
+  thread_local MoveScratch scratch;
+  if (!k0_known) ComputeBodyKinematics(model, x0, &scratch.k0);
+  const std::vector<BodyKinematics>& k0 = k0_known ? *k0_known : scratch.k0;
+  std::vector<BodyKinematics>& k1 = scratch.k1;
+  ComputeBodyKinematics(model, x, &k1);
+  std::vector<BodyKinematics>& detect = scratch.detect;
+  DetectionKinematicsInto(model, x, h, k1, &detect);
+  std::vector<Isometry3d>& T = scratch.T;
+  T.assign(model.bodies.size(), Isometry3d::Identity());
   for (int bi : model.dynamic_bodies()) T[bi] = k1[bi].X_WB * k0[bi].X_WB.inverse();
   const auto move = [](const Isometry3d& Ta, const Isometry3d& Tb, Vector3d* pa, Vector3d* pb,
                        Vector3d* n, double* gap) {
@@ -141,14 +170,13 @@ std::vector<Contact> MoveContacts(const Scene& model, const std::vector<Contact>
     const VertexSide side = sides ? (*sides)[i].side : VertexSide::kNone;
     // The face normal moves with the body carrying the face (b's for a's vertex, a's for b's).
     const Vector3d face_n = (side == VertexSide::kB ? Ta : Tb).linear() * before.n_W;
-    if (!Recollide(model, detect, c, p, disp, side, face_n, &found)) continue;
+    if (!Recollide(model, detect, c, p, disp, side, face_n, &scratch.candidates, &found)) continue;
     p.p_A_W = found.p_A_W;
     p.p_B_W = found.p_B_W;
     p.n_W = found.n_W;
     p.gap = before.gap + found.n_W.dot(found.p_A_W - found.p_B_W) -
             before.n_W.dot(before.p_A_W - before.p_B_W);
   }
-  return out;
 }
 
 // The frozen contacts at x = x0 + t s: those whose shape pair has a closed-form rate

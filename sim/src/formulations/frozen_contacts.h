@@ -29,6 +29,11 @@ std::vector<Contact> MoveContacts(const Scene& model, const std::vector<Contact>
                                   const std::vector<BodyKinematics>* k0_known = nullptr,
                                   const std::vector<PolytopeFeature>* sides = nullptr);
 
+/// MoveContacts into *out, its storage reused (the same contacts).
+void MoveContactsInto(const Scene& model, const std::vector<Contact>& frozen, const State& x0,
+                      const State& x, double h, const std::vector<BodyKinematics>* k0_known,
+                      const std::vector<PolytopeFeature>* sides, std::vector<Contact>* out);
+
 /// The frozen contacts at x = x0 + t s: those whose shape pair has a closed-form rate moved to
 /// first order, c + t ċ; the others as MoveContacts. `k0`: ComputeBodyKinematics(model, x0).
 std::vector<Contact> MoveContactsAlong(const Scene& model, const std::vector<Contact>& frozen,

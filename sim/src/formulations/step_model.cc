@@ -3,6 +3,7 @@
 #include <Eigen/QR>
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -36,6 +37,13 @@ bool SameStateAndInput(const State& x, const StepInput& u, const State& x0, cons
   return SamePose(x, x0) && x.v.size() == x0.v.size() && (x.v.array() == x0.v.array()).all() &&
          u.generalized_force.size() == u0.generalized_force.size() &&
          (u.generalized_force.array() == u0.generalized_force.array()).all();
+}
+
+// [w]×: [w]× v = w × v.
+Matrix3d Skew(const Vector3d& w) {
+  Matrix3d S;
+  S << 0.0, -w.z(), w.y(), w.z(), 0.0, -w.x(), -w.y(), w.x(), 0.0;
+  return S;
 }
 
 std::string Sizes(const char* what, Eigen::Index got, Eigen::Index want) {
@@ -73,6 +81,46 @@ class StewartTrinkleModel final : public StepModel {
     if (&model == model_.get() && SameStateAndInput(x, u, x_, u_))
       return st_.EvaluateAssembly(model, theta, freeze_, x, z, jacobians);
     return st_.EvaluateAssembly(model, theta, AssembleAt(model, x, u), x, z, jacobians);
+  }
+  void ResidualsInto(const Scene& model, const Params& theta, const State& x, const StepInput& u,
+                     const VectorXd& z, bool jacobians, StepResiduals* out) const override {
+    if (&model == model_.get() && SameStateAndInput(x, u, x_, u_)) {
+      internal::EvaluateAssemblyInto(st_, model, theta, freeze_, x, z, jacobians, out);
+      return;
+    }
+    // Residuals' numbers in the calling thread's assembly storage (as AlongInto).
+    internal::ScratchLease<StewartTrinkle::Assembly> lease;
+    StewartTrinkle::Assembly& a = lease.get();
+    internal::MoveContactsInto(model, contacts_, x_, x, dt_, &k0_, &sides_, &a.contacts);
+    st_.AssembleAtInto(model, x, u, /*select_corner_edges=*/false, &a);
+    internal::EvaluateAssemblyInto(st_, model, theta, a, x, z, jacobians, out);
+  }
+  // The step equations read ν_ℓ only in the dynamics rows (EvaluateAssemblyInto, Fill): the
+  // term −M ν_ℓ and, for a spatial body, the gyroscopic impulse −h ω_ℓ × (I ω_ℓ) of p_ext (ω_ℓ
+  // the body-frame angular velocity). The contacts (MoveContacts: poses only), G, ψ, ∂ψ/∂t (the
+  // non-dynamic bodies' velocities), the joints and the support rows do not; the corner edges
+  // are not re-selected. First order: neither term (ν_ℓ = 0, the gyroscopic impulse cancelled).
+  bool VelocityColumns(const Scene& model, const State& x, int col, MatrixXd* De, MatrixXd*,
+                       MatrixXd*) const override {
+    if (st_.options().formulation == FormulationType::kFirstOrder) return true;
+    const double h = dt_;
+    for (int bi : model.dynamic_bodies()) {
+      const Body& b = model.bodies[bi];
+      const int o = model.index(bi).v;
+      if (model.dim == Dim::kPlanar) {
+        (*De)(o, col + o) = -b.mass;
+        (*De)(o + 1, col + o + 1) = -b.mass;
+        (*De)(o + 2, col + o + 2) = -b.inertia(2, 2);
+        continue;
+      }
+      for (int k = 0; k < 3; ++k) (*De)(o + k, col + o + k) = -b.mass;
+      const Vector3d w = x.v.segment<3>(o + 3);
+      const Matrix3d& I = b.inertia;
+      // ∂(ω × Iω)/∂ω = [ω]× I − [Iω]×.
+      const Matrix3d d_gyro = Skew(w) * I - Skew(I * w);
+      De->block<3, 3>(o + 3, col + o + 3) = -I + h * d_gyro;
+    }
+    return true;
   }
   StepResiduals ResidualsAlong(const VectorXd& z, const StepInput& u, const VectorXd& s,
                                double t) const override {
@@ -307,10 +355,105 @@ class GiModel final : public StepModel {
   GeometricallyImplicit::FrozenPairs frozen_;
 };
 
-void AppendRows(const MatrixXd& J, int nz, int np, StepModelJacobian* out) {
-  out->d_z = J.leftCols(nz).sparseView(0.0, 0.0);
-  out->d_theta = J.middleCols(nz, np).sparseView(0.0, 0.0);
+// *S = D.sparseView(0, 0) (the entries that are not exactly 0, column by column), its storage
+// reused.
+void SparseFromDense(const Eigen::Ref<const MatrixXd>& D, SparseMatrixXd* S) {
+  const Eigen::Index rows = D.rows(), cols = D.cols();
+  Eigen::Index nnz = 0;
+  for (Eigen::Index j = 0; j < cols; ++j)
+    for (Eigen::Index i = 0; i < rows; ++i) nnz += !(std::abs(D(i, j)) <= 0.0);
+  S->resize(rows, cols);  // compressed and empty; the entry storage is kept
+  S->resizeNonZeros(nnz);
+  int* outer = S->outerIndexPtr();
+  int* inner = S->innerIndexPtr();
+  double* value = S->valuePtr();
+  int k = 0;
+  for (Eigen::Index j = 0; j < cols; ++j) {
+    outer[j] = k;
+    for (Eigen::Index i = 0; i < rows; ++i) {
+      const double v = D(i, j);
+      if (std::abs(v) <= 0.0) continue;
+      inner[k] = static_cast<int>(i);
+      value[k++] = v;
+    }
+  }
+  outer[cols] = k;
 }
+
+// *S = rows × cols with no entries (storage kept).
+void SparseEmpty(Eigen::Index rows, Eigen::Index cols, SparseMatrixXd* S) {
+  if (S->rows() == rows && S->cols() == cols && S->isCompressed() && S->nonZeros() == 0) return;
+  S->resize(rows, cols);
+}
+
+// *S = the rows × cols matrix whose first n diagonal entries are v (storage kept).
+void SparseDiagonal(Eigen::Index rows, Eigen::Index cols, int n, double v, SparseMatrixXd* S) {
+  S->resize(rows, cols);
+  S->resizeNonZeros(n);
+  int* outer = S->outerIndexPtr();
+  for (int j = 0; j <= cols; ++j) outer[j] = std::min(j, n);
+  for (int j = 0; j < n; ++j) {
+    S->innerIndexPtr()[j] = j;
+    S->valuePtr()[j] = v;
+  }
+}
+
+void AppendRows(const MatrixXd& J, int nz, int np, StepModelJacobian* out) {
+  SparseFromDense(J.leftCols(nz), &out->d_z);
+  SparseFromDense(J.middleCols(nz, np), &out->d_theta);
+}
+
+bool SameBits(const VectorXd& a, const VectorXd& b) {
+  return a.size() == b.size() &&
+         (a.size() == 0 || std::memcmp(a.data(), b.data(), sizeof(double) * a.size()) == 0);
+}
+
+// The scene `base` with θ applied, kept per thread for the next evaluation with the same scene
+// (the same live object) and bitwise the same θ: an estimator evaluates every step at one θ, and
+// ApplyParams copies the scene. Allocation reuse only (ApplyParams is a function of the scene
+// and θ); a nested use on the same thread gets its own scene.
+class AppliedScene {
+ public:
+  AppliedScene() = default;
+  AppliedScene(const AppliedScene&) = delete;
+  AppliedScene& operator=(const AppliedScene&) = delete;
+  ~AppliedScene() {
+    if (held_) held_->in_use = false;
+  }
+  const Scene& Get(const std::shared_ptr<const Scene>& base, const Params& theta) {
+    thread_local Cache cache;
+    if (cache.in_use) {
+      own_ = base->ApplyParams(theta);
+      return own_;
+    }
+    cache.in_use = true;
+    held_ = &cache;
+    const std::shared_ptr<const Scene> cached = cache.base.lock();
+    if (!cached || cached.get() != base.get() || !SameBits(cache.theta, theta.values)) {
+      cache.applied = base->ApplyParams(theta);
+      cache.base = base;
+      cache.theta = theta.values;
+    }
+    return cache.applied;
+  }
+
+ private:
+  struct Cache {
+    std::weak_ptr<const Scene> base;  // expired once that scene is gone: never matches then
+    VectorXd theta;
+    Scene applied;
+    bool in_use = false;
+  };
+  Cache* held_ = nullptr;
+  Scene own_;
+};
+
+// Evaluate's transient storage, kept per thread (allocation reuse only: all overwritten).
+struct EvaluateScratch {
+  StepResiduals r, plus, minus;
+  State xp, xm;
+  MatrixXd De, Da, Db;
+};
 
 }  // namespace
 
@@ -346,6 +489,14 @@ StepModelValues StepModel::Evaluate(const VectorXd& z, const Params& theta, cons
 
 StepModelValues StepModel::Evaluate(const VectorXd& z, const Params& theta, const State& x,
                                     const StepInput& u, const StepModelOptions& options) const {
+  StepModelValues out;
+  EvaluateInto(z, theta, x, u, options, &out);
+  return out;
+}
+
+void StepModel::EvaluateInto(const VectorXd& z, const Params& theta, const State& x,
+                             const StepInput& u, const StepModelOptions& options,
+                             StepModelValues* values) const {
   const Scene& s0 = *model_;
   if (z.size() != layout_.size())
     throw std::invalid_argument("StepModel::Evaluate: z " + Sizes("", z.size(), layout_.size()));
@@ -367,54 +518,78 @@ StepModelValues StepModel::Evaluate(const VectorXd& z, const Params& theta, cons
                                 Sizes("", u.generalized_force.size(), nv));
   if (!(options.state_step > 0.0))
     throw std::invalid_argument("StepModel::Evaluate: state_step must be > 0");
-  Scene applied;
+  AppliedScene applied;
   const Scene* model = &s0;
-  if (!(theta == params_)) {
-    applied = s0.ApplyParams(theta);
-    model = &applied;
-  }
-  const StepResiduals r = Residuals(*model, theta, x, u, z, options.jacobians);
-  StepModelValues out;
+  if (!(theta == params_)) model = &applied.Get(model_, theta);
+  internal::ScratchLease<EvaluateScratch> lease;
+  EvaluateScratch& s = lease.get();
+  const StepResiduals& r = s.r;
+  ResidualsInto(*model, theta, x, u, z, options.jacobians, &s.r);
+  StepModelValues& out = *values;
   out.equality = r.equality;
   out.comp_a = r.comp_a;
   out.comp_b = r.comp_b;
-  if (!options.jacobians) return out;
+  const Eigen::Index ne = r.equality.size(), na = r.comp_a.size(), nb = r.comp_b.size();
+  if (!options.jacobians) {
+    for (StepModelJacobian* J : {&out.d_equality, &out.d_comp_a, &out.d_comp_b})
+      for (SparseMatrixXd* M : {&J->d_z, &J->d_theta, &J->d_x, &J->d_u}) SparseEmpty(0, 0, M);
+    return;
+  }
   const int nz = layout_.size(), np = static_cast<int>(param_columns_.size());
   AppendRows(r.d_equality, nz, np, &out.d_equality);
   AppendRows(r.d_comp_a, nz, np, &out.d_comp_a);
   AppendRows(r.d_comp_b, nz, np, &out.d_comp_b);
   // Input: every formulation's dynamics rows (the first nv equalities) carry −h u.
-  std::vector<Eigen::Triplet<double>> du;
-  for (int i = 0; i < nv; ++i) du.emplace_back(i, i, -dt_);
-  out.d_equality.d_u.resize(r.equality.size(), nv);
-  out.d_equality.d_u.setFromTriplets(du.begin(), du.end());
-  out.d_comp_a.d_u.resize(r.comp_a.size(), nv);
-  out.d_comp_b.d_u.resize(r.comp_b.size(), nv);
+  SparseDiagonal(ne, nv, nv, -dt_, &out.d_equality.d_u);
+  SparseEmpty(na, nv, &out.d_comp_a.d_u);
+  SparseEmpty(nb, nv, &out.d_comp_b.d_u);
 
   const int nq = static_cast<int>(x.q.size()), nx = nq + nv;
-  out.d_equality.d_x.resize(r.equality.size(), nx);
-  out.d_comp_a.d_x.resize(r.comp_a.size(), nx);
-  out.d_comp_b.d_x.resize(r.comp_b.size(), nx);
-  if (!options.state_jacobian) return out;
-  MatrixXd De = MatrixXd::Zero(r.equality.size(), nx), Da = MatrixXd::Zero(r.comp_a.size(), nx),
-           Db = MatrixXd::Zero(r.comp_b.size(), nx);
-  for (int j = 0; j < nx; ++j) {
-    State xp = x, xm = x;
+  if (!options.state_jacobian) {
+    SparseEmpty(ne, nx, &out.d_equality.d_x);
+    SparseEmpty(na, nx, &out.d_comp_a.d_x);
+    SparseEmpty(nb, nx, &out.d_comp_b.d_x);
+    return;
+  }
+  MatrixXd &De = s.De, &Da = s.Da, &Db = s.Db;
+  De.setZero(ne, nx);
+  Da.setZero(na, nx);
+  Db.setZero(nb, nx);
+  // ν_ℓ in closed form where the model has it: central differences for q_ℓ only then.
+  const bool velocity =
+      options.closed_form_velocity && VelocityColumns(*model, x, nq, &De, &Da, &Db);
+  const int nfd = velocity ? nq : nx;
+  for (int j = 0; j < nfd; ++j) {
+    State &xp = s.xp, &xm = s.xm;
+    xp = x;
+    xm = x;
     double& cp = j < nq ? xp.q[j] : xp.v[j - nq];
     double& cm = j < nq ? xm.q[j] : xm.v[j - nq];
     const double step = options.state_step * std::max(1.0, std::abs(cp));
     cp += step;
     cm -= step;
-    const StepResiduals rp = Residuals(*model, theta, xp, u, z, false);
-    const StepResiduals rm = Residuals(*model, theta, xm, u, z, false);
+    const StepResiduals& rp = s.plus;
+    const StepResiduals& rm = s.minus;
+    ResidualsInto(*model, theta, xp, u, z, false, &s.plus);
+    ResidualsInto(*model, theta, xm, u, z, false, &s.minus);
     De.col(j) = (rp.equality - rm.equality) / (2 * step);
     Da.col(j) = (rp.comp_a - rm.comp_a) / (2 * step);
     Db.col(j) = (rp.comp_b - rm.comp_b) / (2 * step);
   }
-  out.d_equality.d_x = De.sparseView(0.0, 0.0);
-  out.d_comp_a.d_x = Da.sparseView(0.0, 0.0);
-  out.d_comp_b.d_x = Db.sparseView(0.0, 0.0);
-  return out;
+  SparseFromDense(De, &out.d_equality.d_x);
+  SparseFromDense(Da, &out.d_comp_a.d_x);
+  SparseFromDense(Db, &out.d_comp_b.d_x);
+}
+
+void StepModel::ResidualsInto(const Scene& model, const Params& theta, const State& x,
+                              const StepInput& u, const VectorXd& z, bool jacobians,
+                              StepResiduals* out) const {
+  *out = Residuals(model, theta, x, u, z, jacobians);
+}
+
+bool StepModel::VelocityColumns(const Scene&, const State&, int, MatrixXd*, MatrixXd*,
+                                MatrixXd*) const {
+  return false;
 }
 
 State StepModel::StateAlong(const VectorXd& s, double t) const {

@@ -27,13 +27,22 @@ inline std::string FormatNumber(double v) {
 /// Jacobians, after its `first` step unknowns, in table order (−1 for the others); the
 /// parameters are appended to *param_columns.
 inline std::vector<int> DifferentiableParamColumns(const ParamTable& table, int first,
-                                                   std::vector<int>* param_columns) {
-  std::vector<int> column_of(static_cast<std::size_t>(table.size()), -1);
+                                                   std::vector<int>* param_columns);
+/// The same into *column_of (its storage reused).
+inline void DifferentiableParamColumnsInto(const ParamTable& table, int first,
+                                           std::vector<int>* param_columns,
+                                           std::vector<int>* column_of) {
+  column_of->assign(static_cast<std::size_t>(table.size()), -1);
   for (int i = 0; i < table.size(); ++i)
     if (table.info(i).differentiable) {
-      column_of[static_cast<std::size_t>(i)] = first + static_cast<int>(param_columns->size());
+      (*column_of)[static_cast<std::size_t>(i)] = first + static_cast<int>(param_columns->size());
       param_columns->push_back(i);
     }
+}
+inline std::vector<int> DifferentiableParamColumns(const ParamTable& table, int first,
+                                                   std::vector<int>* param_columns) {
+  std::vector<int> column_of;
+  DifferentiableParamColumnsInto(table, first, param_columns, &column_of);
   return column_of;
 }
 

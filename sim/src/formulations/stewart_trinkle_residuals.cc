@@ -123,8 +123,15 @@ void internal::EvaluateAssemblyInto(const StewartTrinkle& st, const Scene& model
     throw std::invalid_argument("StewartTrinkle::Evaluate: params do not match the scene");
   // Differentiable parameters: friction coefficients, support friction and masses.
   r.param_columns.clear();
-  const std::vector<int> column_of =
-      internal::DifferentiableParamColumns(model.param_table(), l.size(), &r.param_columns);
+  // Transient vectors kept per thread (allocation reuse only: all overwritten below).
+  struct Scratch {
+    std::vector<int> column_of;
+    VectorXd zero_v, q_pred;
+  };
+  thread_local Scratch scratch;
+  internal::DifferentiableParamColumnsInto(model.param_table(), l.size(), &r.param_columns,
+                                           &scratch.column_of);
+  const std::vector<int>& column_of = scratch.column_of;
   const int np = static_cast<int>(r.param_columns.size());
   const int nz = l.size(), ncol = nz + np;
   const int nc = l.nc, nd = l.nd, nf = nc * nd, nv = l.nv, nq = l.nq, nb = l.nb;
@@ -158,7 +165,7 @@ void internal::EvaluateAssemblyInto(const StewartTrinkle& st, const Scene& model
     r.d_comp_b.resize(0, 0);
   }
   if (jac && !sparse) Je.Dense(&r.d_equality, nv + nq + nb, ncol);
-  const VectorXd v_l = first_order ? VectorXd::Zero(nv) : x.v;  // first order: no ν_ℓ
+  const VectorXd& v_l = first_order ? scratch.zero_v.setZero(nv) : x.v;  // first order: no ν_ℓ
   r.equality.head(nv) = a.M * (v1 - v_l) - a.G_n * pn - a.G_f * pf - a.G_b * pb - a.p_ext;
   if (jac) {
     for (int o = 0; o < nv; o += a.M.block_size()) Je.DenseBlock(o, l.v1() + o, a.M.BlockAt(o));
@@ -191,7 +198,8 @@ void internal::EvaluateAssemblyInto(const StewartTrinkle& st, const Scene& model
     Je.DenseBlock(o, column_of[i], d);
   }
 
-  VectorXd q_pred(nq);
+  VectorXd& q_pred = scratch.q_pred;
+  q_pred.resize(nq);  // every dynamic body's block written below
   for (int bi : model.dynamic_bodies()) {
     const BodyIndex& idx = model.index(bi);
     IntegratePosition(model.dim, x.q.data() + idx.q, v1.data() + idx.v, h, q_pred.data() + idx.q);

@@ -29,8 +29,11 @@
 // parameters param_columns(): friction coefficients, support friction μ_s, masses; analytic, as
 // Formulation::Evaluate), x_ℓ = [q_ℓ (nq of the State); ν_ℓ (nv)] (central differences of the
 // frozen equations, step StepModelOptions::state_step · max(1, |x_i|): exact to ~1e-8 relative
-// since the frozen equations are smooth in x_ℓ) and the input u = StepInput::generalized_force
-// (analytic: the dynamics rows carry −h u in every formulation).
+// since the frozen equations are smooth in x_ℓ; the ν_ℓ columns of the Stewart–Trinkle family in
+// closed form: only the dynamics rows M(ν_ℓ+1 − ν_ℓ) − p_ext read ν_ℓ, so ∂/∂ν_ℓ = −M and, for a
+// spatial body's angular rows, + h ∂(ω × Iω)/∂ω = h([ω]× I − [Iω]×) from the gyroscopic impulse;
+// first order: 0) and the input u = StepInput::generalized_force (analytic: the dynamics rows
+// carry −h u in every formulation).
 #pragma once
 
 #include <Eigen/SparseCore>
@@ -48,6 +51,10 @@ struct StepModelOptions {
   bool jacobians = true;       ///< the z, θ and u blocks
   bool state_jacobian = true;  ///< the x_ℓ block (2 (nq + nv) extra evaluations); needs jacobians
   double state_step = 1e-7;    ///< relative central-difference step of the x_ℓ block; > 0
+  /// The ν_ℓ columns of the x_ℓ block in closed form where the model has them (Stewart–Trinkle,
+  /// Anitescu–Potra, first order: only the dynamics rows read ν_ℓ); false, or another model:
+  /// central differences as for q_ℓ.
+  bool closed_form_velocity = true;
 };
 
 /// One row group's derivatives, by column group.
@@ -98,6 +105,10 @@ class StepModel {
   /// Same with input u (empty = 0, else num_velocities() entries).
   StepModelValues Evaluate(const VectorXd& z, const Params& theta, const State& x,
                            const StepInput& u, const StepModelOptions& options = {}) const;
+  /// Evaluate into *out, its storage (vectors and sparse matrices) reused: the same values and
+  /// entries. Every field is overwritten.
+  void EvaluateInto(const VectorXd& z, const Params& theta, const State& x, const StepInput& u,
+                    const StepModelOptions& options, StepModelValues* out) const;
 
   /// The formulation's own residuals at (z, x_ℓ) with the freeze parameters θ and input u: the
   /// values and, if `jacobians`, the dense Jacobians with columns [z; θ] (StepResiduals, no
@@ -141,6 +152,16 @@ class StepModel {
   /// `jacobians` false: the values are enough (a model may skip the Jacobians then).
   virtual StepResiduals Residuals(const Scene& model, const Params& theta, const State& x,
                                   const StepInput& u, const VectorXd& z, bool jacobians) const = 0;
+  /// Residuals(model, θ, x, u, z, jacobians) into *out, its storage reused (default: a copy of
+  /// Residuals'; a model may evaluate in place). The same numbers.
+  virtual void ResidualsInto(const Scene& model, const Params& theta, const State& x,
+                             const StepInput& u, const VectorXd& z, bool jacobians,
+                             StepResiduals* out) const;
+  /// ∂r/∂ν_ℓ in closed form at x on `model` (θ applied), written into columns [col, col + nv)
+  /// of *d_equality, *d_comp_a and *d_comp_b (zero there on entry), if the model has it: else
+  /// false (nothing written; Evaluate takes central differences). Default: false.
+  virtual bool VelocityColumns(const Scene& model, const State& x, int col, MatrixXd* d_equality,
+                               MatrixXd* d_comp_a, MatrixXd* d_comp_b) const;
   /// The residual values at x_freeze() + t s with the freeze θ (default: Residuals there).
   virtual StepResiduals ResidualsAlong(const VectorXd& z, const StepInput& u, const VectorXd& s,
                                        double t) const;
