@@ -9,7 +9,9 @@
 // first ρ); --epsilon START FACTOR; --stall N; --relaxation-curvature 0|1
 // (MpecSolverOptions::relaxation_curvature); --push-per-epsilon X
 // (MpecSolverOptions::warm_start_push_per_epsilon); --predictor 0|1
-// (MpecSolverOptions::epsilon_predictor). Unknown flags are ignored. Environment:
+// (MpecSolverOptions::epsilon_predictor); --early-polish-rise K
+// (MpecSolverOptions::early_polish_rise_factor); --early-polish-epsilon E
+// (MpecSolverOptions::early_polish_epsilon). Unknown flags are ignored. Environment:
 // MPEC_BENCH_VERBOSE=1 (progress lines), MPEC_BENCH_IPOPT_PRINT=N (Ipopt's print_level),
 // MPEC_BENCH_SAMPLES=N (N samples instead of 500).
 #include <cmath>
@@ -85,6 +87,8 @@ int main(int argc, char** argv) {
   bool tracking = false;       // --tracking-guess: MpecOptions::tracking_guess on
   double push = -1.0;  // --push-per-epsilon X: MpecSolverOptions::warm_start_push_per_epsilon
   int predictor = -1;  // --predictor 0|1: MpecSolverOptions::epsilon_predictor
+  double polish_eps = -1.0;  // --early-polish-epsilon E: MpecSolverOptions::early_polish_epsilon
+  double rise = -1.0;  // --early-polish-rise K: MpecSolverOptions::early_polish_rise_factor
   int curvature = -1;  // --relaxation-curvature 0|1: MpecSolverOptions::relaxation_curvature
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--quick")) quick = true;
@@ -101,6 +105,9 @@ int main(int argc, char** argv) {
     if (!std::strcmp(argv[i], "--stall") && i + 1 < argc) stall = std::atoi(argv[++i]);
     if (!std::strcmp(argv[i], "--push-per-epsilon") && i + 1 < argc) push = std::atof(argv[++i]);
     if (!std::strcmp(argv[i], "--predictor") && i + 1 < argc) predictor = std::atoi(argv[++i]);
+    if (!std::strcmp(argv[i], "--early-polish-rise") && i + 1 < argc) rise = std::atof(argv[++i]);
+    if (!std::strcmp(argv[i], "--early-polish-epsilon") && i + 1 < argc)
+      polish_eps = std::atof(argv[++i]);
     if (!std::strcmp(argv[i], "--relaxation-curvature") && i + 1 < argc)
       curvature = std::atoi(argv[++i]);
     if (!std::strcmp(argv[i], "--threads") && i + 1 < argc) {
@@ -166,6 +173,8 @@ int main(int argc, char** argv) {
         if (stall >= 0) o.solver.stall_iterations = stall;
         if (push >= 0) o.solver.warm_start_push_per_epsilon = push;
         if (predictor >= 0) o.solver.epsilon_predictor = predictor != 0;
+        if (rise >= 0) o.solver.early_polish_rise_factor = rise;
+        if (polish_eps > 0) o.solver.early_polish_epsilon = polish_eps;
         if (curvature >= 0) o.solver.relaxation_curvature = curvature != 0;
         const std::clock_t cpu0 = std::clock();
         // MPEC_BENCH_VERBOSE=1: the estimator's progress lines with the CPU time so far (setup,

@@ -29,8 +29,9 @@ constexpr int kMaxHalvings = 6;
 constexpr double kDecrementTolerance = 1e-8;
 constexpr double kStepTolerance = 1e-9;
 // Below this decrement a full Newton step is taken without asking F to decrease: F is known
-// only to the episodes' solver tolerances (the early polish accepts 1e-3 per episode), so
-// near the optimum its changes are noise.
+// only to the episodes' solver tolerances (an episode's homotopy may end at an early polish
+// accepted within 1e-3 + 2 ε Σ λ_k of its relaxed value, EstimatorSolverDefaults), so near the
+// optimum its changes are noise.
 constexpr double kNoiseDecrement = 1e-2;
 // MpecSolverOptions::early_polish_max_iterations of the episodes' NLPs (unless set).
 constexpr int kEarlyPolishIterations = 200;

@@ -203,6 +203,26 @@ TEST(MpecSolver, WarmStartPushAndPredictorReachTheKnownOptima) {
   }
 }
 
+// scholtes3's early polish after the first stage (ε = 0.1) reaches the optimum 0.5, 0.03 above
+// the relaxed value 0.4675 (the relaxation's first-order rise ε Σ λ_k is 0.22): the plain
+// tolerance (0) rejects it and the homotopy runs on; within 2 ε Σ λ_k
+// (MpecSolverOptions::early_polish_rise_factor) it is accepted after that one stage.
+TEST(MpecSolver, EarlyPolishWithinTheRelaxationsRise) {
+  MpecSolverOptions o;
+  o.early_polish_tolerance = 0.0;
+  const MpecSolution plain = SolveMpec(Scholtes3(), o);
+  EXPECT_TRUE(plain.converged) << plain.reason;
+  EXPECT_GT(plain.stages, 3);
+  EXPECT_NEAR(plain.objective, 0.5, 1e-6);
+  o.early_polish_rise_factor = 2.0;
+  const MpecSolution rise = SolveMpec(Scholtes3(), o);
+  EXPECT_TRUE(rise.converged) << rise.reason;
+  EXPECT_TRUE(rise.polished);
+  EXPECT_EQ(rise.stages, 2) << rise.reason;
+  EXPECT_NEAR(rise.objective, 0.5, 1e-6);
+  EXPECT_EQ(rise.complementarity_violation, 0.0);
+}
+
 TEST(MpecSolver, RejectsBadOptionsAndPairs) {
   const QuadraticMpec p = Scholtes3();
   MpecSolverOptions o;
@@ -214,6 +234,9 @@ TEST(MpecSolver, RejectsBadOptionsAndPairs) {
   MpecSolverOptions w;
   w.warm_start_push_per_epsilon = -0.1;
   EXPECT_THROW(SolveMpec(p, w), std::invalid_argument);
+  MpecSolverOptions r;
+  r.early_polish_rise_factor = -1;
+  EXPECT_THROW(SolveMpec(p, r), std::invalid_argument);
   MpecSolverOptions m;
   m.mumps_mem_percent = 0;  // Ipopt would double 0 to 0 when MUMPS runs out of storage
   EXPECT_THROW(SolveMpec(p, m), std::invalid_argument);

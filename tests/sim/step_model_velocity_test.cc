@@ -119,8 +119,12 @@ TEST_P(StepModelVelocityTest, ClosedFormVelocityColumnsMatchCentralDifferences) 
   // the spin a gyroscopic entry off the angular block's diagonal (the box's I_xx = I_yy ≠ I_zz:
   // ∂(ω × Iω)/∂ω has (I_zz − I_xx) ω_y at (x, z) and (I_xx − I_zz) ω_x at (y, z)).
   const bool first_order = c.formulation == FormulationType::kFirstOrder;
-  if (c.closed_form && !first_order) EXPECT_GE(velocity_entries, nv);
-  if (c.closed_form && first_order) EXPECT_EQ(velocity_entries, 0);
+  if (c.closed_form && !first_order) {
+    EXPECT_GE(velocity_entries, nv);
+  }
+  if (c.closed_form && first_order) {
+    EXPECT_EQ(velocity_entries, 0);
+  }
   if (c.spin && c.closed_form && !first_order) {
     const MatrixXd D = MatrixXd(a.d_equality.d_x).block(3, nq + 3, 3, 3);
     EXPECT_NE(D(0, 2), 0.0);

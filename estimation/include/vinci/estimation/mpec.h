@@ -120,6 +120,11 @@ struct MpecSolverOptions {
   /// iterations before failing (measured on a tossed cube: > 2 100 iterations, > 500 s of CPU);
   /// a capped attempt that fails keeps the relaxed iterate and the homotopy goes on.
   int early_polish_max_iterations = 0;
+  /// The early polish's acceptance widened by the relaxation's first-order rise: accepted if
+  /// its objective is at most the stage's value + early_polish_tolerance + this × ε Σ_k λ_k
+  /// (λ_k ≥ 0 the multipliers of the stage's rows x_a x_b ≤ ε: −∂(optimal value)/∂ε of each,
+  /// so ε Σ λ_k is the linear estimate of the value's rise as ε → 0). 0: the plain tolerance.
+  double early_polish_rise_factor = 0.0;
   /// Stall exit of the relaxation / penalty stages (not the polish): a stage also ends, as
   /// solved to an acceptable level, after this many consecutive iterations in which the
   /// objective changed by at most stall_objective_change relative (max(1, |f|)) and the

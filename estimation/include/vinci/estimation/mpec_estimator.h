@@ -54,10 +54,15 @@
 namespace vinci::estimation {
 
 /// MpecSolverOptions with the homotopy start the estimator uses (epsilon_start = 1e-2), the
-/// early polish on after the ε = 1e-4 stage with a tolerance of 1e-3 in the objective's units
-/// (χ² with a stated σ_R: a polished point within 1e-3 of the relaxed optimum differs from the
-/// full homotopy's by at most ~0.03 standard errors), and the relaxation rows' curvature left
-/// out of the Hessian (MpecSolverOptions::relaxation_curvature). Without a stated σ_R the
+/// warm-started Scholtes stages 0.1 ε inside their bounds
+/// (MpecSolverOptions::warm_start_push_per_epsilon), the relaxation rows' curvature left out of
+/// the Hessian (MpecSolverOptions::relaxation_curvature), and the early polish on after the ε =
+/// 1e-4 stage, accepted if its objective (χ² with a stated σ_R) is at most the stage's value +
+/// 1e-3 + 2 ε Σ λ_k (MpecSolverOptions::early_polish_rise_factor: twice the relaxation's
+/// first-order rise; the stage's value is a lower bound of the MPEC's near its iterate, so the
+/// polished point's χ² is within that much of the full homotopy's reach — with 1e-3 alone a
+/// Δχ² of ~0.03 standard errors, with the rise term as much as the relaxation's own gain: up
+/// to 5.5 on the 1 mm block's 500 samples; docs/estimation.md, "Early polish"). Without a stated σ_R the
 /// objective's scale is unknown and EstimateMpec turns the early polish off. Stages that stall
 /// at their value end after 5 iterations (MpecSolverOptions::stall_iterations).
 inline MpecSolverOptions EstimatorSolverDefaults() {
@@ -65,9 +70,11 @@ inline MpecSolverOptions EstimatorSolverDefaults() {
   o.epsilon_start = 1e-2;
   o.early_polish_epsilon = 1e-4;
   o.relaxation_curvature = false;
+  o.warm_start_push_per_epsilon = 0.1;
   o.penalty_start = 10;  // ρ = 1 left products of 0.45–0.67 on noisy block logs: never an entry
   o.penalty_entry_epsilon = 1e-4;  // the entry's product bound, measured on the noisy block
   o.early_polish_tolerance = 1e-3;
+  o.early_polish_rise_factor = 2.0;
   o.stall_iterations = 5;
   o.deterministic_ordering = true;  // results bitwise independent of threads and run order
   return o;
