@@ -62,9 +62,9 @@ namespace vinci::estimation {
 /// first-order rise; the stage's value is a lower bound of the MPEC's near its iterate, so the
 /// polished point's χ² is within that much of the full homotopy's reach — with 1e-3 alone a
 /// Δχ² of ~0.03 standard errors, with the rise term as much as the relaxation's own gain: up
-/// to 5.5 on the 1 mm block's 500 samples; docs/estimation.md, "Early polish"). Without a stated σ_R the
-/// objective's scale is unknown and EstimateMpec turns the early polish off. Stages that stall
-/// at their value end after 5 iterations (MpecSolverOptions::stall_iterations).
+/// to 5.5 on the 1 mm block's 500 samples; docs/estimation.md, "Early polish"). Without a stated
+/// σ_R the objective's scale is unknown and EstimateMpec turns the early polish off. Stages that
+/// stall at their value end after 5 iterations (MpecSolverOptions::stall_iterations).
 inline MpecSolverOptions EstimatorSolverDefaults() {
   MpecSolverOptions o;
   o.epsilon_start = 1e-2;
