@@ -160,13 +160,15 @@ class StepDifferentiator {
       }
     }
     if (full_state) {
-      // ∂r/∂x_ℓ by central differences of the frozen equations (values only) along each
-      // coordinate, as StepModel::Evaluate's x_ℓ block: step state_step · max(1, |x_i|).
+      // ∂r/∂x_ℓ as StepModel::Evaluate's x_ℓ block: the ν_ℓ columns in closed form where the
+      // formulation has them, the others by central differences of the frozen equations
+      // (values only) along each coordinate, step state_step · max(1, |x_i|).
       const int nq = static_cast<int>(x.q.size()), n = nx();
-      d_eq_x_.resize(vals_.equality.size(), n);
-      d_a_x_.resize(vals_.comp_a.size(), n);
-      d_b_x_.resize(vals_.comp_b.size(), n);
-      for (int j = 0; j < n; ++j) {
+      d_eq_x_.setZero(vals_.equality.size(), n);
+      d_a_x_.setZero(vals_.comp_a.size(), n);
+      d_b_x_.setZero(vals_.comp_b.size(), n);
+      const bool velocity = frozen_->FreezeVelocityColumns(nq, &d_eq_x_, &d_a_x_, &d_b_x_);
+      for (int j = 0; j < (velocity ? nq : n); ++j) {
         const double c0 = j < nq ? x.q[j] : x.v[j - nq];
         const double step = options.state_step * std::max(1.0, std::abs(c0));
         const StepResiduals d =

@@ -128,6 +128,15 @@ class StepModel {
   StepResiduals StateDirectionalDerivative(const VectorXd& z, const StepInput& u, const VectorXd& s,
                                            double step) const;
 
+  /// ∂r/∂ν_ℓ in closed form at (the freeze parameters, x_freeze()), written into columns
+  /// [col, col + nv) of *d_equality, *d_comp_a and *d_comp_b (zero there on entry), if the
+  /// formulation has it (the Stewart–Trinkle family, as StepModelOptions::closed_form_velocity):
+  /// else false (nothing written).
+  bool FreezeVelocityColumns(int col, MatrixXd* d_equality, MatrixXd* d_comp_a,
+                             MatrixXd* d_comp_b) const {
+    return VelocityColumns(*model_, x_, col, d_equality, d_comp_a, d_comp_b);
+  }
+
   /// The unknowns z of a step the simulator took from x_freeze() to `next` (read from next.q,
   /// next.v and next.warm_start, the step's solver solution; impulses the solver eliminates,
   /// the joint impulses p_b, are recovered from the dynamics rows by least squares). Throws
