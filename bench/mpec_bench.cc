@@ -85,11 +85,11 @@ int main(int argc, char** argv) {
   double penalty_start = 0.0;  // --penalty START: MpecSolverOptions::penalty_start (0: default)
   bool raw_guess = false;      // --raw-guess: MpecOptions::smooth_initial_guess off
   bool tracking = false;       // --tracking-guess: MpecOptions::tracking_guess on
-  double push = -1.0;  // --push-per-epsilon X: MpecSolverOptions::warm_start_push_per_epsilon
-  int predictor = -1;  // --predictor 0|1: MpecSolverOptions::epsilon_predictor
+  double push = -1.0;        // --push-per-epsilon X: MpecSolverOptions::warm_start_push_per_epsilon
+  int predictor = -1;        // --predictor 0|1: MpecSolverOptions::epsilon_predictor
   double polish_eps = -1.0;  // --early-polish-epsilon E: MpecSolverOptions::early_polish_epsilon
   double rise = -1.0;        // --early-polish-rise K: MpecSolverOptions::early_polish_rise_factor
-  int curvature = -1;  // --relaxation-curvature 0|1: MpecSolverOptions::relaxation_curvature
+  int curvature = -1;        // --relaxation-curvature 0|1: MpecSolverOptions::relaxation_curvature
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--quick")) quick = true;
     if (!std::strcmp(argv[i], "--raw-guess")) raw_guess = true;

@@ -60,10 +60,10 @@ namespace {
 // previous call (or another thread) left in it.
 struct FindContactsScratch {
   std::vector<ContactPoint> points;
-  std::vector<int> shape_begin;   // body i's shapes are [shape_begin[i], shape_begin[i + 1])
-  std::vector<Aabb> boxes;        // world AABB of every shape, flattened (statics: unused)
-  std::vector<Isometry3d> poses;  // world pose of every shape, flattened (statics: unused)
-  std::vector<const Aabb*> body_boxes;        // body i's shape boxes (here or in the statics)
+  std::vector<int> shape_begin;         // body i's shapes are [shape_begin[i], shape_begin[i + 1])
+  std::vector<Aabb> boxes;              // world AABB of every shape, flattened (statics: unused)
+  std::vector<Isometry3d> poses;        // world pose of every shape, flattened (statics: unused)
+  std::vector<const Aabb*> body_boxes;  // body i's shape boxes (here or in the statics)
   std::vector<const Isometry3d*> body_poses;  // body i's shape poses (here or in the statics)
   std::vector<Aabb> body_box;
   std::vector<int> order;

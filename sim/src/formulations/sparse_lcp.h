@@ -115,14 +115,14 @@ class ContactLcpOperator final : public LcpMatrixOperator {
   bool g_finite_ = false;      // G_n and G_f have finite values only
   bool runs_ = false;          // G_n's and G_f's columns are whole body blocks (runs of nvb_ rows)
   bool self_contact_ = false;  // a contact has the same body on both sides
-  bool single_n_ = false, single_f_ = false;         // G_n's / G_f's columns are one run each
-  int uniform_n_ = -1, uniform_f_ = -1;  // single_*: the row every column's run starts at, or −1
-  RunPattern pattern_n_, pattern_f_;     // G_n's / G_f's, kept between Builds
-  mutable bool full_ = false;                        // blocks_ formed
-  mutable bool norm_formed_ = false;                 // norm_inf_ formed
-  mutable double norm_inf_ = 0.0;                    // ‖M‖∞
-  mutable std::vector<MatrixXd> blocks_;             // per body: G_bᵀ W_b G_b over columns_[body]
-  mutable std::vector<MatrixXd> WG_;                 // per body: W_b G_b
+  bool single_n_ = false, single_f_ = false;  // G_n's / G_f's columns are one run each
+  int uniform_n_ = -1, uniform_f_ = -1;   // single_*: the row every column's run starts at, or −1
+  RunPattern pattern_n_, pattern_f_;      // G_n's / G_f's, kept between Builds
+  mutable bool full_ = false;             // blocks_ formed
+  mutable bool norm_formed_ = false;      // norm_inf_ formed
+  mutable double norm_inf_ = 0.0;         // ‖M‖∞
+  mutable std::vector<MatrixXd> blocks_;  // per body: G_bᵀ W_b G_b over columns_[body]
+  mutable std::vector<MatrixXd> WG_;      // per body: W_b G_b
   mutable std::vector<std::vector<char>> wg_ready_;  // per body and column: WG_ column formed
   mutable VectorXd impulse_, dv_;  // MultiplyAdd: G z and M⁻¹ G z for z = last_z_
   mutable VectorXd last_z_;        // the last MultiplyAdd's z (valid since Build if set)
