@@ -24,11 +24,8 @@ inline std::string FormatNumber(double v) {
 }
 
 /// The column of each differentiable parameter (ParamInfo::differentiable) in a StepResiduals'
-/// Jacobians, after its `first` step unknowns, in table order (−1 for the others); the
-/// parameters are appended to *param_columns.
-inline std::vector<int> DifferentiableParamColumns(const ParamTable& table, int first,
-                                                   std::vector<int>* param_columns);
-/// The same into *column_of (its storage reused).
+/// Jacobians, after its `first` step unknowns, in table order (−1 for the others), into
+/// *column_of (its storage reused); the parameters are appended to *param_columns.
 inline void DifferentiableParamColumnsInto(const ParamTable& table, int first,
                                            std::vector<int>* param_columns,
                                            std::vector<int>* column_of) {
@@ -39,6 +36,7 @@ inline void DifferentiableParamColumnsInto(const ParamTable& table, int first,
       param_columns->push_back(i);
     }
 }
+/// DifferentiableParamColumnsInto, returning the columns.
 inline std::vector<int> DifferentiableParamColumns(const ParamTable& table, int first,
                                                    std::vector<int>* param_columns) {
   std::vector<int> column_of;
