@@ -18,6 +18,7 @@
 #include "contact_lcp_test_util.h"
 #include "test_util.h"
 #include "vinci/sim/solvers/lcp.h"
+#include "vinci/sim/solvers/lcp_acceptance.h"
 #include "vinci/sim/solvers/lcp_file.h"
 
 namespace vinci::sim {
@@ -323,6 +324,46 @@ TEST(LemkeTest, ColdStackLcpsPassTheScaledTest) {
     EXPECT_EQ(r.message.find("polished") != std::string::npos, c.polished) << r.message;
     ExpectLcpSolution(p, z, kTol);
   }
+}
+
+// A sensitivity LCP of box_on_plane.yaml (sensitivity_linearization.h) whose q is round-off,
+// ‖q‖∞ = 5.3e-22. At that scale Lemke's absolute pivot and tie tolerances leave an iterate
+// accurate only to q's own size, which the scale-aware check rejects and the Fischer–Burmeister
+// polish repairs; with `polish` off the failure goes to the retries instead and the report does
+// not claim a polish. The LCP is positively homogeneous in q, and at unit scale (q · 2^71,
+// exact) plain Lemke solves it with no polish, to the same M λ after scaling back.
+TEST(LemkeTest, RoundoffSizedQIsSolvedAtUnitScaleWithoutPolish) {
+  const LcpProblem p =
+      ReadLcpFile(VINCI_SOURCE_DIR "/tests/data/lcp/box_sensitivity_roundoff_q.lcp");
+  ASSERT_EQ(p.size(), 32);
+  const double q_norm = p.q.lpNorm<Eigen::Infinity>();
+  ASSERT_LT(q_norm, 1e-20);
+  VectorXd z_own;
+  const SolverReport own = LemkeSolver().Solve(p, nullptr, &z_own);
+  ASSERT_TRUE(own.ok()) << own.message;
+  EXPECT_NE(own.message.find("polished"), std::string::npos) << own.message;
+
+  LemkeOptions no_polish;
+  no_polish.polish = false;
+  no_polish.regularization = 0.0;
+  no_polish.newton_fallback = false;
+  VectorXd z_plain;
+  const SolverReport plain = LemkeSolver(no_polish).Solve(p, nullptr, &z_plain);
+  EXPECT_EQ(plain.message.find("polished"), std::string::npos) << plain.message;
+  EXPECT_FALSE(plain.ok()) << plain.message;
+
+  const int exponent = std::ilogb(q_norm);
+  LcpProblem unit = p;
+  unit.q *= std::ldexp(1.0, -exponent);
+  VectorXd z_unit;
+  const SolverReport r = LemkeSolver(no_polish).Solve(unit, nullptr, &z_unit);
+  ASSERT_TRUE(r.ok()) << r.message;
+  EXPECT_TRUE(r.message.empty()) << r.message;
+  ExpectLcpSolution(unit, z_unit, kTol);
+  const VectorXd z_back = std::ldexp(1.0, exponent) * z_unit;
+  EXPECT_TRUE(CheckLcpSolution(p, z_back).empty()) << CheckLcpSolution(p, z_back);
+  // M is symmetric positive semidefinite and singular: λ is not unique, but M λ is.
+  EXPECT_LE((p.M * (z_back - z_own)).lpNorm<Eigen::Infinity>(), 1e-6 * q_norm);
 }
 
 // A pile with a tilted box landing on an edge (box_pile.yaml with rpy (0.3, 0.2, 0.5) on the

@@ -226,12 +226,37 @@ class Linearization {
     }
     p.M = lcp_M_;
     VectorXd lambda;
-    const SolverReport rep = LemkeSolver().Solve(p, nullptr, &lambda);
-    if (rep.status != SolverStatus::kSolved) {
-      *unsolved = true;
-      return true;
+    if (!SolveAtUnitScale(&p, &lambda)) {
+      // As posed (a q of round-off size, ‖q‖∞ ~ 1e-20, can be infeasible at unit scale and
+      // pass within Lemke's absolute tolerances at its own).
+      const SolverReport rep = LemkeSolver().Solve(p, nullptr, &lambda);
+      if (rep.status != SolverStatus::kSolved) {
+        *unsolved = true;
+        return true;
+      }
     }
     *dz += W_ * lambda;
+    return true;
+  }
+
+  // The sensitivity LCP (M, q) is positively homogeneous in q (λ solves (M, q) iff cλ solves
+  // (M, cq), c > 0): solved first at ‖q‖∞ ∈ [1, 2), with c a power of two (exact). Lemke's pivot
+  // and tie tolerances are absolute, so at a column's own tiny scale (‖q‖∞ ~ 1e-20) its answer is
+  // accurate only to that size and goes to the Fischer–Burmeister polish. No polish, regularized
+  // retries or Newton fallback here: on failure *problem is restored and false returned.
+  static bool SolveAtUnitScale(LcpProblem* problem, VectorXd* lambda) {
+    const double q_norm = problem->q.lpNorm<Eigen::Infinity>();
+    if (!(q_norm > 0.0) || !std::isfinite(q_norm)) return false;
+    const int exponent = std::ilogb(q_norm);
+    problem->q *= std::ldexp(1.0, -exponent);
+    LemkeOptions options;
+    options.regularization = 0.0;
+    options.newton_fallback = false;
+    options.polish = false;
+    const SolverReport rep = LemkeSolver(options).Solve(*problem, nullptr, lambda);
+    problem->q *= std::ldexp(1.0, exponent);
+    if (rep.status != SolverStatus::kSolved) return false;
+    *lambda *= std::ldexp(1.0, exponent);
     return true;
   }
 

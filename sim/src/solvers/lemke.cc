@@ -596,7 +596,7 @@ SolverReport LemkeSolver::Solve(const LcpProblem& problem, const VectorXd* warm_
   int total_pivots = first.pivots;
   // 3a. A terminated run that misses the tolerance by roundoff: polish its basis (reported).
   std::string polish_note;
-  if (first.terminated && !Passes(first) && first.z.allFinite()) {
+  if (options_.polish && first.terminated && !Passes(first) && first.z.allFinite()) {
     VectorXd polished;
     int newton_steps = 0;
     std::string newton_note;

@@ -22,6 +22,9 @@ struct LemkeOptions {
   /// When every Lemke attempt fails (secondary ray or numerical failure, not the pivot
   /// limit), solve by Fischer–Burmeister Newton from z = 0 and accept it if it passes τ.
   bool newton_fallback = true;
+  /// Polish a terminated run that misses the acceptance test (see below) before the retries;
+  /// false: go straight to the retries (for callers that have a cheaper fallback of their own).
+  bool polish = true;
 };
 
 /// Lemke with covering vector e, lexicographic anti-cycling, optional scaling, warm start
