@@ -669,6 +669,8 @@ SolverReport LemkeSolver::Solve(const LcpProblem& problem, const VectorXd* warm_
   report.regularization = use_retry ? chosen.epsilon : 0.0;
   report.tolerance = chosen.tolerance;
   const bool passes = Passes(chosen);
+  // Passes(chosen) includes the scale-aware check of this very z (RunAttempt, the polish).
+  bool checked = passes;
   report.status = passes ? SolverStatus::kSolved : first.status;
   if (report.status == SolverStatus::kSolved && !passes) {
     // RunAttempt turns a terminated-but-inaccurate run into kNumericalFailure.
@@ -706,13 +708,14 @@ SolverReport LemkeSolver::Solve(const LcpProblem& problem, const VectorXd* warm_
       report.regularized = false;
       report.regularization = 0.0;
       report.restarts = 1;
+      checked = true;  // PolishTerminalIterate checked z
       report.message = "solved by the Fischer-Burmeister Newton fallback (" +
                        std::to_string(newton_steps) + " Newton steps" +
                        (newton_note.empty() ? "" : "; " + newton_note) +
                        ") after Lemke failed: " + report.message;
     }
   }
-  ConfirmSolved(problem, *z, &report);
+  if (!checked) ConfirmSolved(problem, *z, &report);
   return finish();
 }
 
