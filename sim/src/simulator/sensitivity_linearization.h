@@ -179,6 +179,7 @@ class Linearization {
       for (int j = 0; j < nd; ++j)
         for (int k = B_.ptr[deg_[j]]; k < B_.ptr[deg_[j] + 1] && B_.col[k] < nz_; ++k)
           BD_(j, B_.col[k]) = B_.val[k];
+      bd_norm_ = BD_.cwiseAbs().rowwise().sum().maxCoeff();
     }
     ne_ = ne;
     ok_ = true;
@@ -212,8 +213,11 @@ class Linearization {
     LcpProblem p;
     p.q.resize(nd);
     for (int j = 0; j < nd; ++j) p.q[j] = db_->RowDot(deg_[j], *dz, nz_) + r.b[deg_[j]];
-    // λ = 0 is the solution unless some q_j is negative beyond the round-off of its terms.
-    const double qscale = (BD_.cwiseAbs() * dz->cwiseAbs()).maxCoeff() + r.b.cwiseAbs().maxCoeff();
+    // λ = 0 is the solution unless some q_j is negative beyond the round-off of its terms. The
+    // solve's error in any entry of dz is relative to ‖dz‖∞ (not to that entry), so B_D dz is
+    // round-off up to ‖B_D‖∞ ‖dz‖∞ times the solve's accuracy: a column whose dz lies where B_D
+    // does not look (q ~ 1e-19 for ‖dz‖∞ ~ 1e-2, a rolling sphere's) keeps λ = 0.
+    const double qscale = bd_norm_ * dz->cwiseAbs().maxCoeff() + r.b.cwiseAbs().maxCoeff();
     if (p.q.minCoeff() >= -1e-10 * qscale) return true;
     if (!w_ready_) {
       // K⁻¹ E_D and the sensitivity LCP's matrix, once per step and only when some column needs
@@ -360,6 +364,7 @@ class Linearization {
   const SparseRows *da_ = nullptr, *db_ = nullptr;
   SparseRows K_;
   MatrixXd BD_;
+  double bd_norm_ = 0.0;  // ‖B_D‖∞ (largest absolute row sum)
   mutable MatrixXd W_, lcp_M_;    // K⁻¹ E_D and B_D K⁻¹ E_D, computed on first need
   mutable bool w_ready_ = false;  // W_, lcp_M_ hold this Compute's
   VectorXd weight_a_, weight_b_;
