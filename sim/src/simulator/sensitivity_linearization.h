@@ -364,7 +364,7 @@ class Linearization {
   const SparseRows *da_ = nullptr, *db_ = nullptr;
   SparseRows K_;
   MatrixXd BD_;
-  double bd_norm_ = 0.0;  // ‖B_D‖∞ (largest absolute row sum)
+  double bd_norm_ = 0.0;          // ‖B_D‖∞ (largest absolute row sum)
   mutable MatrixXd W_, lcp_M_;    // K⁻¹ E_D and B_D K⁻¹ E_D, computed on first need
   mutable bool w_ready_ = false;  // W_, lcp_M_ hold this Compute's
   VectorXd weight_a_, weight_b_;
