@@ -90,27 +90,49 @@ int main(int argc, char** argv) {
   double polish_eps = -1.0;  // --early-polish-epsilon E: MpecSolverOptions::early_polish_epsilon
   double rise = -1.0;        // --early-polish-rise K: MpecSolverOptions::early_polish_rise_factor
   int curvature = -1;        // --relaxation-curvature 0|1: MpecSolverOptions::relaxation_curvature
+  const char* usage =
+      "usage: mpec_bench [--quick] [--case block|block_noisy|plate|plate_noisy]\n"
+      "                  [--method scholtes|penalty] [--threads N[,N...]] [--csv FILE]\n"
+      "                  [--raw-guess] [--tracking-guess] [--penalty START] [--epsilon START FACTOR]\n"
+      "                  [--stall N] [--push-per-epsilon C] [--predictor 0|1]\n"
+      "                  [--early-polish-rise K] [--early-polish-epsilon E]\n"
+      "                  [--relaxation-curvature 0|1]\n"
+      "environment: MPEC_BENCH_SAMPLES=N (default 500), MPEC_BENCH_VERBOSE=1 (stage log)\n";
   for (int i = 1; i < argc; ++i) {
-    if (!std::strcmp(argv[i], "--quick")) quick = true;
-    if (!std::strcmp(argv[i], "--raw-guess")) raw_guess = true;
-    if (!std::strcmp(argv[i], "--tracking-guess")) tracking = true;
-    if (!std::strcmp(argv[i], "--penalty") && i + 1 < argc) penalty_start = std::atof(argv[++i]);
-    if (!std::strcmp(argv[i], "--csv") && i + 1 < argc) csv = argv[++i];
-    if (!std::strcmp(argv[i], "--case") && i + 1 < argc) only = argv[++i];
-    if (!std::strcmp(argv[i], "--method") && i + 1 < argc) only_method = argv[++i];
-    if (!std::strcmp(argv[i], "--epsilon") && i + 2 < argc) {
+    // True if argv[i] is `name` with `values` arguments after it.
+    auto flag = [&](const char* name, int values) {
+      return !std::strcmp(argv[i], name) && i + values < argc;
+    };
+    if (flag("--quick", 0)) {
+      quick = true;
+    } else if (flag("--raw-guess", 0)) {
+      raw_guess = true;
+    } else if (flag("--tracking-guess", 0)) {
+      tracking = true;
+    } else if (flag("--penalty", 1)) {
+      penalty_start = std::atof(argv[++i]);
+    } else if (flag("--csv", 1)) {
+      csv = argv[++i];
+    } else if (flag("--case", 1)) {
+      only = argv[++i];
+    } else if (flag("--method", 1)) {
+      only_method = argv[++i];
+    } else if (flag("--epsilon", 2)) {
       epsilon_start = std::atof(argv[++i]);
       epsilon_factor = std::atof(argv[++i]);
-    }
-    if (!std::strcmp(argv[i], "--stall") && i + 1 < argc) stall = std::atoi(argv[++i]);
-    if (!std::strcmp(argv[i], "--push-per-epsilon") && i + 1 < argc) push = std::atof(argv[++i]);
-    if (!std::strcmp(argv[i], "--predictor") && i + 1 < argc) predictor = std::atoi(argv[++i]);
-    if (!std::strcmp(argv[i], "--early-polish-rise") && i + 1 < argc) rise = std::atof(argv[++i]);
-    if (!std::strcmp(argv[i], "--early-polish-epsilon") && i + 1 < argc)
+    } else if (flag("--stall", 1)) {
+      stall = std::atoi(argv[++i]);
+    } else if (flag("--push-per-epsilon", 1)) {
+      push = std::atof(argv[++i]);
+    } else if (flag("--predictor", 1)) {
+      predictor = std::atoi(argv[++i]);
+    } else if (flag("--early-polish-rise", 1)) {
+      rise = std::atof(argv[++i]);
+    } else if (flag("--early-polish-epsilon", 1)) {
       polish_eps = std::atof(argv[++i]);
-    if (!std::strcmp(argv[i], "--relaxation-curvature") && i + 1 < argc)
+    } else if (flag("--relaxation-curvature", 1)) {
       curvature = std::atoi(argv[++i]);
-    if (!std::strcmp(argv[i], "--threads") && i + 1 < argc) {
+    } else if (flag("--threads", 1)) {
       thread_counts.clear();
       for (const char* p = argv[++i]; *p;) {
         char* end = nullptr;
@@ -118,7 +140,24 @@ int main(int argc, char** argv) {
         p = *end == ',' ? end + 1 : end;
         if (end == p && *p) break;
       }
+    } else if (!std::strcmp(argv[i], "--help") || !std::strcmp(argv[i], "-h")) {
+      std::fputs(usage, stdout);
+      return 0;
+    } else {
+      std::fprintf(stderr, "mpec_bench: unknown option or missing value '%s'\n%s", argv[i], usage);
+      return 2;
     }
+  }
+  if (!only.empty() && only != "block" && only != "block_noisy" && only != "plate" &&
+      only != "plate_noisy") {
+    std::fprintf(stderr, "mpec_bench: --case '%s' (expected block, block_noisy, plate or plate_noisy)\n",
+                 only.c_str());
+    return 2;
+  }
+  if (!only_method.empty() && only_method != "scholtes" && only_method != "penalty") {
+    std::fprintf(stderr, "mpec_bench: --method '%s' (expected scholtes or penalty)\n",
+                 only_method.c_str());
+    return 2;
   }
   // MPEC_BENCH_SAMPLES=N: N samples instead of 500 (experiments).
   const char* ns = std::getenv("MPEC_BENCH_SAMPLES");
