@@ -11,9 +11,11 @@
 // (MpecSolverOptions::warm_start_push_per_epsilon); --predictor 0|1
 // (MpecSolverOptions::epsilon_predictor); --early-polish-rise K
 // (MpecSolverOptions::early_polish_rise_factor); --early-polish-epsilon E
-// (MpecSolverOptions::early_polish_epsilon). Unknown flags are ignored. Environment:
+// (MpecSolverOptions::early_polish_epsilon); --help. An unknown flag or a missing value is an
+// error (exit 2). Environment:
 // MPEC_BENCH_VERBOSE=1 (progress lines), MPEC_BENCH_IPOPT_PRINT=N (Ipopt's print_level),
 // MPEC_BENCH_SAMPLES=N (N samples instead of 500).
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -22,6 +24,7 @@
 #include <filesystem>
 #include <fstream>
 #include <random>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -93,11 +96,13 @@ int main(int argc, char** argv) {
   const char* usage =
       "usage: mpec_bench [--quick] [--case block|block_noisy|plate|plate_noisy]\n"
       "                  [--method scholtes|penalty] [--threads N[,N...]] [--csv FILE]\n"
-      "                  [--raw-guess] [--tracking-guess] [--penalty START] [--epsilon START FACTOR]\n"
+      "                  [--raw-guess] [--tracking-guess] [--penalty START] [--epsilon START "
+      "FACTOR]\n"
       "                  [--stall N] [--push-per-epsilon C] [--predictor 0|1]\n"
       "                  [--early-polish-rise K] [--early-polish-epsilon E]\n"
       "                  [--relaxation-curvature 0|1]\n"
-      "environment: MPEC_BENCH_SAMPLES=N (default 500), MPEC_BENCH_VERBOSE=1 (stage log)\n";
+      "environment: MPEC_BENCH_SAMPLES=N (default 500), MPEC_BENCH_VERBOSE=1 (stage log),\n"
+      "             MPEC_BENCH_IPOPT_PRINT=N (Ipopt's print_level)\n";
   for (int i = 1; i < argc; ++i) {
     // True if argv[i] is `name` with `values` arguments after it.
     auto flag = [&](const char* name, int values) {
@@ -148,16 +153,13 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
-  if (!only.empty() && only != "block" && only != "block_noisy" && only != "plate" &&
-      only != "plate_noisy") {
-    std::fprintf(stderr, "mpec_bench: --case '%s' (expected block, block_noisy, plate or plate_noisy)\n",
-                 only.c_str());
-    return 2;
-  }
-  if (!only_method.empty() && only_method != "scholtes" && only_method != "penalty") {
-    std::fprintf(stderr, "mpec_bench: --method '%s' (expected scholtes or penalty)\n",
-                 only_method.c_str());
-    return 2;
+  if (!only_method.empty()) {
+    try {
+      estimation::ParseComplementarityMethod(only_method);
+    } catch (const std::invalid_argument& e) {
+      std::fprintf(stderr, "mpec_bench: --method: %s\n", e.what());
+      return 2;
+    }
   }
   // MPEC_BENCH_SAMPLES=N: N samples instead of 500 (experiments).
   const char* ns = std::getenv("MPEC_BENCH_SAMPLES");
@@ -170,12 +172,18 @@ int main(int argc, char** argv) {
     double mu;
     double sigma;
   };
-  const std::vector<Case> cases =
-      quick ? std::vector<Case>{{"block", false, "block", 0.3, 0.0}}
-            : std::vector<Case>{{"block", false, "block", 0.3, 0.0},
-                                {"block_noisy", false, "block", 0.3, 1e-3},
-                                {"plate", true, "box", 0.2, 0.0},
-                                {"plate_noisy", true, "box", 0.2, 1e-5}};
+  const std::vector<Case> all_cases{{"block", false, "block", 0.3, 0.0},
+                                    {"block_noisy", false, "block", 0.3, 1e-3},
+                                    {"plate", true, "box", 0.2, 0.0},
+                                    {"plate_noisy", true, "box", 0.2, 1e-5}};
+  if (!only.empty() && std::none_of(all_cases.begin(), all_cases.end(),
+                                    [&](const Case& c) { return only == c.name; })) {
+    std::fprintf(stderr,
+                 "mpec_bench: --case '%s' (expected block, block_noisy, plate or plate_noisy)\n",
+                 only.c_str());
+    return 2;
+  }
+  const std::vector<Case> cases = quick ? std::vector<Case>{all_cases.front()} : all_cases;
   int mismatches = 0;
   std::string table =
       "case,complementarity,threads,samples,steps,unknowns,constraints,pairs,iterations,stages,"
