@@ -125,6 +125,8 @@ ExitCode RunEstimateMpec(const EstimateOptions& o) {
     if (r.std_error_method == "bootstrap")
       s << "standard errors from " << o.bootstrap << " bootstrap resamples ("
         << r.bootstrap_converged << " converged)\n";
+    if (r.std_error_method == "profile")
+      s << "standard errors from the relaxed problem's profile (the polish did not succeed)\n";
     if (holdout) s << HoldoutSummary(*holdout);
     s << "result      " << o.out << "\n";
     std::cout << s.str() << std::flush;

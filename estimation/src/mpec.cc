@@ -25,6 +25,12 @@ constexpr double kInf = 1e19;
 
 enum class Stage { kScholtes, kPenalty, kPolish };
 
+// Scholtes stages with ε below this write their relaxation rows relative to ε
+// (RelaxedNlp::relaxation_scale_): measured on a tossed cube, with the rows x_a x_b ≤ ε the
+// violation stayed at 9.7e-5 (products ~1e-8, feasible to Ipopt's tolerance) from ε = 1e-8 to
+// 1e-12. Every stage of the default homotopy (ε ≥ 1e-8) is unchanged.
+constexpr double kRelativeRelaxationBelow = 1e-8 * (1 - 1e-9);
+
 // One smooth NLP of the sequence: the problem plus the stage's treatment of the pairs.
 class RelaxedNlp : public Ipopt::TNLP {
  public:
@@ -88,7 +94,7 @@ class RelaxedNlp : public Ipopt::TNLP {
     }
     for (int k = m_; k < m; ++k) {
       g_l[k] = -kInf;
-      g_u[k] = param_;
+      g_u[k] = relaxation_scale_ * param_;
     }
     return true;
   }
@@ -105,8 +111,10 @@ class RelaxedNlp : public Ipopt::TNLP {
       }
     }
     if (init_lambda) {
-      for (int j = 0; j < m; ++j)
+      for (int j = 0; j < m; ++j) {
         lambda[j] = lambda0_ && j < lambda0_->size() ? (*lambda0_)[j] : 0.0;
+        if (j >= m_) lambda[j] /= relaxation_scale_;
+      }
     }
     return true;
   }
@@ -140,7 +148,8 @@ class RelaxedNlp : public Ipopt::TNLP {
     VectorXd gv(m_);
     if (!p_.Constraints(xbuf_, &gv)) return false;
     for (int j = 0; j < m_; ++j) g[j] = gv[j];
-    for (int k = 0; k < extra_rows(); ++k) g[m_ + k] = x[pairs_[k].first] * x[pairs_[k].second];
+    for (int k = 0; k < extra_rows(); ++k)
+      g[m_ + k] = relaxation_scale_ * x[pairs_[k].first] * x[pairs_[k].second];
     return true;
   }
 
@@ -165,8 +174,8 @@ class RelaxedNlp : public Ipopt::TNLP {
     if (!p_.JacobianValues(xbuf_, &v)) return false;
     for (int e = 0; e < nj; ++e) values[e] = v[e];
     for (int k = 0; k < extra_rows(); ++k) {
-      values[nj + 2 * k] = x[pairs_[k].second];
-      values[nj + 2 * k + 1] = x[pairs_[k].first];
+      values[nj + 2 * k] = relaxation_scale_ * x[pairs_[k].second];
+      values[nj + 2 * k + 1] = relaxation_scale_ * x[pairs_[k].first];
     }
     (void)nele;
     return true;
@@ -195,7 +204,8 @@ class RelaxedNlp : public Ipopt::TNLP {
     for (int e = 0; e < nh; ++e) values[e] = v[e];
     for (std::size_t k = 0; k < pairs_.size(); ++k) {
       double h = 0.0;
-      if (stage_ == Stage::kScholtes && relaxation_curvature_) h = lambda[m_ + k];
+      if (stage_ == Stage::kScholtes && relaxation_curvature_)
+        h = relaxation_scale_ * lambda[m_ + k];
       if (stage_ == Stage::kPenalty) h = obj_factor * param_;
       values[nh + k] = h;
     }
@@ -233,6 +243,7 @@ class RelaxedNlp : public Ipopt::TNLP {
     z_l_ = Eigen::Map<const VectorXd>(z_L, n);
     z_u_ = Eigen::Map<const VectorXd>(z_U, n);
     lambda_ = Eigen::Map<const VectorXd>(lambda, m_ + extra_rows());
+    lambda_.tail(extra_rows()) *= relaxation_scale_;  // the rows' multipliers as unscaled
     objective_ = obj_value;
   }
 
@@ -240,6 +251,10 @@ class RelaxedNlp : public Ipopt::TNLP {
   VectorXd x_, z_l_, z_u_, lambda_;
   double objective_ = 0.0;
   int iterations_ = 0;
+  // Scholtes: the relaxation rows written s x_a x_b ≤ s ε (multipliers in and out as for s = 1).
+  // Ipopt meets a row to its tolerance (1e-8) in the row's own units: below ε ~ 1e-8 the
+  // unscaled rows do not bind (products ~1e-8 pass as feasible), s = 1/ε makes them relative.
+  double relaxation_scale_ = 1.0;
   int stall_window_ = 0;          // > 0: the stall exit of intermediate_callback
   double stall_reduction_ = 0.1;  // required reduction of the error over the window
   bool stalled_ = false;
@@ -412,9 +427,12 @@ void MpecSolverOptions::Validate() const {
   if (!(stall_constraint_violation > 0))
     fail("stall_constraint_violation", stall_constraint_violation, "> 0");
   if (print_level < 0 || print_level > 12) fail("print_level", print_level, "in [0, 12]");
+  if (!(epsilon_floor >= 0) || !std::isfinite(epsilon_floor))
+    fail("epsilon_floor", epsilon_floor, "finite ≥ 0");
 }
 
-MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o) {
+MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o,
+                       const MpecMultipliers* warm_start) {
   o.Validate();
   const auto start = std::chrono::steady_clock::now();
   const int n = problem.num_variables();
@@ -438,6 +456,17 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o) {
   Ipopt::ApplicationReturnStatus last = Ipopt::Internal_Error;
   int max_iter_override = 0;  // > 0: the early-polish attempt's iteration cap
   double last_epsilon = 0.0;  // the last accepted Scholtes stage's ε (0: none)
+  if (warm_start) {
+    const int m = problem.num_constraints();
+    if (o.method != ComplementarityMethod::kScholtes || pairs.empty() ||
+        warm_start->lambda.size() != m + static_cast<Eigen::Index>(pairs.size()) ||
+        warm_start->z_l.size() != n || warm_start->z_u.size() != n)
+      throw std::invalid_argument("mpec: warm-start multipliers of the wrong size or method");
+    lambda = warm_start->lambda;
+    zl = warm_start->z_l;
+    zu = warm_start->z_u;
+    have_multipliers = true;
+  }
 
   auto run = [&](Stage stage, double param, const std::vector<bool>& fixed,
                  bool warm) -> Ipopt::SmartPtr<RelaxedNlp> {
@@ -502,6 +531,8 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o) {
         setenv("SCOTCH_PTHREAD_NUMBER", "1", 1);
       scotch_seed(1);
     }
+    if (stage == Stage::kScholtes && param < kRelativeRelaxationBelow)
+      nlp->relaxation_scale_ = 1.0 / param;
     if (stage == Stage::kPolish && !pairs.empty()) {
       nlp->stall_window_ = o.polish_stall_iterations;
       nlp->stall_reduction_ = o.polish_stall_reduction;
@@ -701,6 +732,32 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o) {
       final_polish_failed = true;
     }
   }
+  if ((final_polish_failed || !o.polish) && o.method == ComplementarityMethod::kScholtes &&
+      stage_failure.empty() && last_epsilon > 0 && o.epsilon_floor > 0) {
+    // The homotopy continued past epsilon_end until the relaxed iterate is complementary
+    // within the tolerance (MpecSolverOptions::epsilon_floor).
+    for (double eps = last_epsilon * o.epsilon_factor;
+         Violation(pairs, x) > o.complementarity_tolerance && eps >= o.epsilon_floor * (1 - 1e-9);
+         eps *= o.epsilon_factor) {
+      std::ostringstream what;
+      what << "scholtes eps " << eps << " (continued: not polished)";
+      auto nlp = run(Stage::kScholtes, eps, {}, true);
+      if (!Solved(last)) {
+        if (o.progress) o.progress(what.str() + ": " + StatusText(last) + ", stopped");
+        break;
+      }
+      accept(nlp, what.str());
+      last_epsilon = eps;
+    }
+  }
+  sol.final_epsilon = last_epsilon;
+  if (!sol.polished && !pairs.empty() && o.method == ComplementarityMethod::kScholtes &&
+      have_multipliers &&
+      lambda.size() == problem.num_constraints() + static_cast<Eigen::Index>(pairs.size())) {
+    sol.relaxed.lambda = lambda;
+    sol.relaxed.z_l = zl;
+    sol.relaxed.z_u = zu;
+  }
   sol.x = x;
   sol.lambda = lambda.size() >= problem.num_constraints()
                    ? VectorXd(lambda.head(problem.num_constraints()))
@@ -708,10 +765,13 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o) {
   sol.complementarity_violation = Violation(pairs, x);
   double f = 0.0;
   if (problem.Objective(x, &f)) sol.objective = f;  // without penalty terms
+  sol.solved = relaxed_ok;
   sol.converged = relaxed_ok && sol.complementarity_violation <= o.complementarity_tolerance;
   std::ostringstream reason;
   reason << (sol.polished ? "polished: " : "") << StatusText(last) << ", complementarity violation "
          << sol.complementarity_violation;
+  if (!sol.polished && last_epsilon > 0)
+    reason << " (the relaxed iterate at eps " << last_epsilon << ")";
   if (!stage_failure.empty()) reason << "; " << stage_failure;
   if (final_polish_failed) reason << "; " << polish_failure;
   if (!sol.converged && relaxed_ok)

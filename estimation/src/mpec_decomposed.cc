@@ -18,6 +18,9 @@ namespace vinci::estimation {
 using sim::MatrixXd;
 using sim::VectorXd;
 
+using mpec_internal::EnvelopeGradient;
+using mpec_internal::FixedThetaProblem;
+
 namespace {
 
 // Outer (θ) iterations at most, and step halvings per iteration.
@@ -36,63 +39,6 @@ constexpr double kNoiseDecrement = 1e-2;
 // MpecSolverOptions::early_polish_max_iterations of the episodes' NLPs (unless set).
 constexpr int kEarlyPolishIterations = 200;
 
-// An episode's MPEC with θ fixed (its bounds set to the given values) and a chosen start. With
-// keep_active_set, the NLP of the start's active set instead (the polish NLP of mpec.h: no
-// pairs; of every pair the smaller side at the start fixed at 0, the other ≥ 0).
-class FixedThetaProblem final : public MpecProblem {
- public:
-  FixedThetaProblem(const MpecEstimationProblem& p, const VectorXd& theta, const VectorXd& start,
-                    bool keep_active_set = false)
-      : p_(p), theta_(theta), start_(start), keep_(keep_active_set) {
-    start_.head(theta.size()) = theta;
-    if (keep_) {
-      for (const auto& [a, b] : p.ComplementarityPairs()) {
-        const int zero = start_[a] <= start_[b] ? a : b;
-        zero_.push_back(zero);
-        start_[zero] = 0.0;
-      }
-    }
-  }
-  int num_variables() const override { return p_.num_variables(); }
-  int num_constraints() const override { return p_.num_constraints(); }
-  void Bounds(VectorXd* x_l, VectorXd* x_u, VectorXd* g_l, VectorXd* g_u) const override {
-    p_.Bounds(x_l, x_u, g_l, g_u);
-    x_l->head(theta_.size()) = theta_;
-    x_u->head(theta_.size()) = theta_;
-    if (keep_) {
-      for (const auto& [a, b] : p_.ComplementarityPairs()) {
-        (*x_l)[a] = std::max((*x_l)[a], 0.0);
-        (*x_l)[b] = std::max((*x_l)[b], 0.0);
-      }
-      for (int i : zero_) (*x_l)[i] = (*x_u)[i] = 0.0;
-    }
-  }
-  VectorXd StartingPoint() const override { return start_; }
-  std::vector<std::pair<int, int>> ComplementarityPairs() const override {
-    if (keep_) return {};
-    return p_.ComplementarityPairs();
-  }
-  bool Objective(const VectorXd& x, double* f) const override { return p_.Objective(x, f); }
-  bool Gradient(const VectorXd& x, VectorXd* g) const override { return p_.Gradient(x, g); }
-  bool Constraints(const VectorXd& x, VectorXd* g) const override { return p_.Constraints(x, g); }
-  std::vector<Entry> JacobianStructure() const override { return p_.JacobianStructure(); }
-  bool JacobianValues(const VectorXd& x, VectorXd* v) const override {
-    return p_.JacobianValues(x, v);
-  }
-  bool has_hessian() const override { return p_.has_hessian(); }
-  std::vector<Entry> HessianStructure() const override { return p_.HessianStructure(); }
-  bool HessianValues(const VectorXd& x, double obj_factor, const VectorXd& lambda,
-                     VectorXd* values) const override {
-    return p_.HessianValues(x, obj_factor, lambda, values);
-  }
-
- private:
-  const MpecEstimationProblem& p_;
-  VectorXd theta_, start_;
-  bool keep_ = false;
-  std::vector<int> zero_;  // keep_active_set: the sides fixed at 0
-};
-
 // One episode: its problem, and its solution at the current θ.
 struct EpisodeFit {
   std::unique_ptr<MpecEstimationProblem> problem;
@@ -101,22 +47,31 @@ struct EpisodeFit {
   VectorXd gradient;    // ∂f/∂θ (envelope theorem)
   MatrixXd hessian;     // 2 C⁻¹ (the Laplace covariance with θ free)
   MatrixXd covariance;  // C
+  // A relaxed (unpolished) solution's covariance from its profile (ProfileCovariance),
+  // computed at the first such solution and kept: 3 more NLPs per parameter (empty: none yet).
+  MatrixXd profile_covariance;
   bool converged = false;
   std::string reason;
 };
 
-// The envelope gradient λᵀ ∂g/∂θ at a solution x with constraint multipliers lambda.
-VectorXd EnvelopeGradient(const MpecEstimationProblem& p, int ntheta, const VectorXd& x,
-                          const VectorXd& lambda) {
-  VectorXd grad = VectorXd::Zero(ntheta);
-  VectorXd obj;
-  if (p.Gradient(x, &obj)) grad = obj.head(ntheta);  // zero: the objective has no θ term
-  VectorXd J;
-  if (!p.JacobianValues(x, &J)) return VectorXd::Constant(ntheta, std::nan(""));
-  const std::vector<Entry> s = p.JacobianStructure();
-  for (std::size_t k = 0; k < s.size(); ++k)
-    if (s[k].col < ntheta) grad[s[k].col] += lambda[s[k].row] * J[static_cast<int>(k)];
-  return grad;
+// The covariance C of θ at an episode's solution `sol` (θ free or fixed): the Laplace
+// approximation of a polished NLP, or for a relaxed iterate (at which holding every pair's
+// smaller side can pin θ) the profile's, computed once (EpisodeFit::profile_covariance).
+// false if there is none.
+bool EpisodeCovariance(EpisodeFit* fit, const MpecSolution& sol, const MpecSolverOptions& so,
+                       int* iterations, int* stages, MatrixXd* cov) {
+  if (sol.polished || sol.relaxed.lambda.size() == 0) {
+    return fit->problem->ParameterCovariance(
+        sol.x, fit->problem->ClassifyPairs(sol.x, mpec_internal::kBiactive), cov);
+  }
+  if (fit->profile_covariance.size() == 0) {
+    std::string why;
+    if (!mpec_internal::ProfileCovariance(*fit->problem, sol, so, &fit->profile_covariance,
+                                          iterations, stages, &why))
+      fit->reason += "; no profile standard errors: " + why;
+  }
+  *cov = fit->profile_covariance;
+  return cov->diagonal().array().isFinite().any();
 }
 
 // Solves episode `fit` at θ from `start` (its previous solution, or its guess); fills f,
@@ -152,8 +107,7 @@ EpisodeFit SolveEpisode(EpisodeFit&& fit, const VectorXd& theta, const MpecSolve
   fit.covariance = MatrixXd::Constant(nt, nt, std::nan(""));
   fit.hessian = MatrixXd::Zero(nt, nt);
   MatrixXd cov;
-  if (fit.problem->ParameterCovariance(
-          sol.x, fit.problem->ClassifyPairs(sol.x, mpec_internal::kBiactive), &cov)) {
+  if (EpisodeCovariance(&fit, sol, so, iterations, stages, &cov)) {
     fit.covariance = cov;
     // θ held (at a bound) has NaN rows: its curvature stays 0 (the projection handles it).
     std::vector<int> free;
@@ -289,9 +243,7 @@ MpecEstimateResult EstimateMpecDecomposed(const sim::Simulator& simulator, const
       const VectorXd th = sol.x.head(nt);
       MatrixXd cov;
       const bool have_cov =
-          sol.converged &&
-          fit.problem->ParameterCovariance(
-              sol.x, fit.problem->ClassifyPairs(sol.x, mpec_internal::kBiactive), &cov);
+          sol.converged && EpisodeCovariance(&fit, sol, so, &r.iterations, &r.stages, &cov);
       std::ostringstream s;
       s << "mpec decomposed: episode " << e << " alone: theta";
       for (int i = 0; i < nt; ++i) s << " " << th[i];

@@ -71,8 +71,25 @@ MpecEstimateResult EstimateMpec(const sim::Simulator& simulator, const Log& log,
     for (const BodyTrack& b : ep.bodies) p += b.dynamic ? (planar ? 6 : 12) : 0;
   r.sigma = stated ? options.noise_sigma : std::sqrt(ss / std::max(1, r.num_residuals - p));
   VectorXd var;
-  if (problem.ParameterVariances(sol.x, problem.ClassifyPairs(sol.x, mpec_internal::kBiactive),
-                                 &var)) {
+  bool have_var = false;
+  if (!sol.polished && sol.relaxed.lambda.size() > 0) {
+    // A relaxed iterate: the profile's curvature (mpec_internal::ProfileCovariance).
+    if (options.progress) options.progress("mpec: standard errors from the relaxed profile");
+    sim::MatrixXd cov;
+    std::string why;
+    r.std_error_method = "profile";
+    have_var =
+        mpec_internal::ProfileCovariance(problem, sol, so, &cov, &r.iterations, &r.stages, &why);
+    if (have_var) {
+      var = cov.diagonal();
+    } else {
+      r.reason += "; no profile standard errors: " + why;
+    }
+  } else {
+    have_var = problem.ParameterVariances(
+        sol.x, problem.ClassifyPairs(sol.x, mpec_internal::kBiactive), &var);
+  }
+  if (have_var) {
     const double scale = stated ? 1.0 : (r.sigma * r.sigma) / (sigma_w * sigma_w);
     r.std_errors = (var * scale).cwiseMax(0.0).cwiseSqrt();
     for (int i = 0; i < var.size(); ++i)

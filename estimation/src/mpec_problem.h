@@ -4,6 +4,7 @@
 #pragma once
 
 #include <algorithm>
+#include <cmath>
 #include <functional>
 #include <map>
 #include <memory>
@@ -75,6 +76,100 @@ void BootstrapOverEpisodes(const sim::Simulator& simulator, const Log& log,
                            const std::function<MpecEstimateResult(const sim::Simulator&, const Log&,
                                                                   const MpecOptions&)>& estimate,
                            MpecEstimateResult* r);
+
+// An episode's MPEC with θ fixed (its bounds set to the given values) and a chosen start. With
+// keep_active_set, the NLP of the start's active set instead (the polish NLP of mpec.h: no
+// pairs; of every pair the smaller side at the start fixed at 0, the other ≥ 0).
+class FixedThetaProblem final : public MpecProblem {
+ public:
+  FixedThetaProblem(const MpecEstimationProblem& p, const sim::VectorXd& theta,
+                    const sim::VectorXd& start, bool keep_active_set = false)
+      : p_(p), theta_(theta), start_(start), keep_(keep_active_set) {
+    start_.head(theta.size()) = theta;
+    if (keep_) {
+      for (const auto& [a, b] : p.ComplementarityPairs()) {
+        const int zero = start_[a] <= start_[b] ? a : b;
+        zero_.push_back(zero);
+        start_[zero] = 0.0;
+      }
+    }
+  }
+  int num_variables() const override { return p_.num_variables(); }
+  int num_constraints() const override { return p_.num_constraints(); }
+  void Bounds(sim::VectorXd* x_l, sim::VectorXd* x_u, sim::VectorXd* g_l,
+              sim::VectorXd* g_u) const override {
+    p_.Bounds(x_l, x_u, g_l, g_u);
+    x_l->head(theta_.size()) = theta_;
+    x_u->head(theta_.size()) = theta_;
+    if (keep_) {
+      for (const auto& [a, b] : p_.ComplementarityPairs()) {
+        (*x_l)[a] = std::max((*x_l)[a], 0.0);
+        (*x_l)[b] = std::max((*x_l)[b], 0.0);
+      }
+      for (int i : zero_) (*x_l)[i] = (*x_u)[i] = 0.0;
+    }
+  }
+  sim::VectorXd StartingPoint() const override { return start_; }
+  std::vector<std::pair<int, int>> ComplementarityPairs() const override {
+    if (keep_) return {};
+    return p_.ComplementarityPairs();
+  }
+  bool Objective(const sim::VectorXd& x, double* f) const override { return p_.Objective(x, f); }
+  bool Gradient(const sim::VectorXd& x, sim::VectorXd* g) const override {
+    return p_.Gradient(x, g);
+  }
+  bool Constraints(const sim::VectorXd& x, sim::VectorXd* g) const override {
+    return p_.Constraints(x, g);
+  }
+  std::vector<Entry> JacobianStructure() const override { return p_.JacobianStructure(); }
+  bool JacobianValues(const sim::VectorXd& x, sim::VectorXd* v) const override {
+    return p_.JacobianValues(x, v);
+  }
+  bool has_hessian() const override { return p_.has_hessian(); }
+  std::vector<Entry> HessianStructure() const override { return p_.HessianStructure(); }
+  bool HessianValues(const sim::VectorXd& x, double obj_factor, const sim::VectorXd& lambda,
+                     sim::VectorXd* values) const override {
+    return p_.HessianValues(x, obj_factor, lambda, values);
+  }
+
+ private:
+  const MpecEstimationProblem& p_;
+  sim::VectorXd theta_, start_;
+  bool keep_ = false;
+  std::vector<int> zero_;  // keep_active_set: the sides fixed at 0
+};
+
+// The envelope gradient λᵀ ∂g/∂θ at a solution x with constraint multipliers lambda.
+inline sim::VectorXd EnvelopeGradient(const MpecEstimationProblem& p, int ntheta,
+                                      const sim::VectorXd& x, const sim::VectorXd& lambda) {
+  sim::VectorXd grad = sim::VectorXd::Zero(ntheta);
+  sim::VectorXd obj;
+  if (p.Gradient(x, &obj)) grad = obj.head(ntheta);  // zero: the objective has no θ term
+  sim::VectorXd J;
+  if (!p.JacobianValues(x, &J)) return sim::VectorXd::Constant(ntheta, std::nan(""));
+  const std::vector<Entry> s = p.JacobianStructure();
+  for (std::size_t k = 0; k < s.size(); ++k)
+    if (s[k].col < ntheta) grad[s[k].col] += lambda[s[k].row] * J[static_cast<int>(k)];
+  return grad;
+}
+
+// The chosen parameters' covariance at a relaxed (unpolished) Scholtes solution `sol` of p
+// (sol.relaxed set) from the curvature of the relaxed problem's profile
+//
+//   f(θ) = min over the other unknowns of the objective (χ², σ_R units) at fixed θ,
+//
+// at ε = max(sol.final_epsilon, 1e-8) (mpec_profile.cc), each point warm-started from sol:
+// the diagonal of ∇²f by central differences of f at θ̂ and θ̂ ± δ_i e_i (δ_i 1% of max(|θ̂_i|, 0.01),
+// within half the distance to θ's bounds, then rescaled once so that f rises by ~4, i.e. δ_i ~ 2
+// standard errors), the off-diagonal entries from the envelope gradients at those points;
+// covariance = 2 (∇²f)⁻¹, the Laplace approximation of the profile. Why: at a relaxed iterate every
+// pair has a side near 0, and the reduced Hessian with those sides held can pin θ (measured on a
+// tossed cube: s.e. 1e-7 against ~2e-3), while the profile lets the pairs change sides as θ
+// moves. A θ at a bound has NaN rows. Returns false (with *why) if a fixed-θ NLP failed or the
+// curvature is not positive; *iterations and *stages accumulate the NLPs'.
+bool ProfileCovariance(const MpecEstimationProblem& p, const MpecSolution& sol,
+                       const MpecSolverOptions& options, sim::MatrixXd* covariance, int* iterations,
+                       int* stages, std::string* why);
 
 }  // namespace mpec_internal
 

@@ -223,6 +223,58 @@ TEST(MpecSolver, EarlyPolishWithinTheRelaxationsRise) {
   EXPECT_EQ(rise.complementarity_violation, 0.0);
 }
 
+// Past a failed polish (here: polish off) the homotopy goes on below epsilon_end until the
+// relaxed iterate is complementary within the tolerance (MpecSolverOptions::epsilon_floor);
+// without a floor it stops at epsilon_end, ~1e-4 from complementary, not converged. (scholtes3:
+// its relaxation row stays active along the homotopy; jr1's and scholtes5's relaxed solutions
+// are exactly complementary.)
+TEST(MpecSolver, EpsilonFloorContinuesTheRelaxedHomotopyToTheTolerance) {
+  for (const Toy& toy : {kToys[0]}) {
+    MpecSolverOptions o;
+    o.polish = false;
+    o.epsilon_end = 1e-4;
+    const MpecSolution stop = SolveMpec(toy.make(), o);
+    EXPECT_FALSE(stop.converged) << toy.name << ": " << stop.reason;
+    EXPECT_GT(stop.complementarity_violation, 1e-5) << toy.name;
+    EXPECT_DOUBLE_EQ(stop.final_epsilon, 1e-4) << toy.name;
+    o.epsilon_floor = 1e-12;
+    const MpecSolution s = SolveMpec(toy.make(), o);
+    EXPECT_TRUE(s.converged) << toy.name << ": " << s.reason;
+    EXPECT_TRUE(s.solved) << toy.name;
+    EXPECT_FALSE(s.polished);
+    EXPECT_LE(s.complementarity_violation, o.complementarity_tolerance) << toy.name;
+    EXPECT_LT(s.final_epsilon, 1e-5) << toy.name;
+    EXPECT_GT(s.stages, stop.stages) << toy.name;
+    EXPECT_NEAR(s.objective, toy.optimum, 1e-5) << toy.name << ": " << s.reason;
+    EXPECT_NE(s.reason.find("relaxed iterate at eps"), std::string::npos) << s.reason;
+  }
+}
+
+// A relaxed solution's multipliers (MpecSolution::relaxed) warm-start the same stage: it ends
+// at once where it started; multipliers of the wrong size are rejected.
+TEST(MpecSolver, RelaxedMultipliersWarmStartTheStage) {
+  for (const Toy& toy : kToys) {
+    MpecSolverOptions o;
+    o.polish = false;
+    const QuadraticMpec p = toy.make();
+    const MpecSolution cold = SolveMpec(p, o);
+    ASSERT_TRUE(cold.converged) << toy.name << ": " << cold.reason;
+    ASSERT_EQ(cold.relaxed.lambda.size(), p.num_constraints() + p.pairs.size()) << toy.name;
+    QuadraticMpec from = p;
+    from.x0 = cold.x;
+    MpecSolverOptions w = o;
+    w.epsilon_start = w.epsilon_end = cold.final_epsilon;
+    const MpecSolution warm = SolveMpec(from, w, &cold.relaxed);
+    EXPECT_TRUE(warm.converged) << toy.name << ": " << warm.reason;
+    EXPECT_EQ(warm.stages, 1);
+    EXPECT_LE(warm.iterations, 5) << toy.name << ": " << warm.reason;
+    EXPECT_LT((warm.x - cold.x).cwiseAbs().maxCoeff(), 1e-6) << toy.name;
+    MpecMultipliers bad = cold.relaxed;
+    bad.z_l.conservativeResize(bad.z_l.size() - 1);
+    EXPECT_THROW(SolveMpec(from, w, &bad), std::invalid_argument) << toy.name;
+  }
+}
+
 TEST(MpecSolver, RejectsBadOptionsAndPairs) {
   const QuadraticMpec p = Scholtes3();
   MpecSolverOptions o;
@@ -631,6 +683,34 @@ TEST(MpecEstimator, StandardErrorIsAFunctionOfTheSolution) {
   EXPECT_GT(runs[2].stages, runs[0].stages);  // the full homotopy did run longer
   EXPECT_NEAR(runs[2].estimates[0], kTrueMu, 1e-6);
   EXPECT_NEAR(runs[2].std_errors[0], runs[0].std_errors[0], 1e-6 * runs[0].std_errors[0]);
+}
+
+// A relaxed (unpolished) result gets its standard errors from the curvature of the relaxed
+// problem's profile over θ (MpecEstimateResult::std_error_method "profile"); where the active
+// set is stable they agree with the polished solution's Laplace approximation.
+TEST(MpecEstimator, ProfileStandardErrorOfARelaxedResultMatchesTheLaplaceOne) {
+  const sim::Simulator sim(sim::ParseScene(testing::kPlanarBlock, "block.yaml"));
+  constexpr double kSigma = 1e-3;  // stated; the log is noise-free
+  const std::string path =
+      testing::SyntheticLog(sim, "block", kTrueMu, 0.2, 5, 0.0, 1, "mpec_block_profile.csv");
+  const Log log = ReadLog({path}, sim.scene());
+  MpecOptions o;
+  o.params = {"mu.default"};
+  o.noise_sigma = kSigma;
+  const MpecEstimateResult polished = EstimateMpec(sim, log, o);
+  o.solver.polish = false;
+  o.solver.early_polish_tolerance = -1.0;
+  const MpecEstimateResult relaxed = EstimateMpec(sim, log, o);
+  ASSERT_TRUE(polished.converged) << polished.reason;
+  ASSERT_TRUE(relaxed.converged) << relaxed.reason;
+  EXPECT_TRUE(polished.polished);
+  EXPECT_FALSE(relaxed.polished);
+  EXPECT_EQ(polished.std_error_method, "laplace");
+  EXPECT_EQ(relaxed.std_error_method, "profile");
+  ASSERT_TRUE(std::isfinite(polished.std_errors[0]));
+  ASSERT_TRUE(std::isfinite(relaxed.std_errors[0])) << relaxed.reason;
+  EXPECT_NEAR(relaxed.estimates[0], polished.estimates[0], 0.05 * polished.std_errors[0]);
+  EXPECT_NEAR(relaxed.std_errors[0], polished.std_errors[0], 0.1 * polished.std_errors[0]);
 }
 
 TEST(MpecEstimator, RejectsBadInput) {

@@ -169,6 +169,12 @@ struct MpecSolverOptions {
   /// path of a pair whose smaller side tends to 0; the step equations, not the relaxation rows,
   /// are then violated by the change). false: the last stage's iterate as it is.
   bool epsilon_predictor = false;
+  /// Scholtes: when the final polish fails and the relaxed iterate's complementarity violation
+  /// is above complementarity_tolerance, the homotopy goes on past epsilon_end (ε ← κ ε,
+  /// warm-started) until the violation is within the tolerance or ε would fall below this. A
+  /// relaxed iterate's violation is ~√ε, so a failed polish at ε = 1e-8 leaves ~1e-4 (measured
+  /// on a tossed cube: 7.6e-5; 7.1e-7 at 1e-12). 0: off (also when ≥ epsilon_end).
+  double epsilon_floor = 0.0;
   double stall_objective_change = 1e-7;
   double stall_constraint_violation = 1e-6;
   bool limited_memory = false;  ///< Ipopt's L-BFGS Hessian instead of the problem's
@@ -200,9 +206,20 @@ struct MpecSolverOptions {
   void Validate() const;
 };
 
+/// Multipliers to warm-start a Scholtes stage from a relaxed solution (MpecSolution::relaxed).
+struct MpecMultipliers {
+  /// Of the problem's constraints g, then of the relaxation rows x_a x_b ≤ ε (one per pair).
+  sim::VectorXd lambda;
+  sim::VectorXd z_l, z_u;  ///< of the variables' lower and upper bounds
+};
+
 struct MpecSolution {
   sim::VectorXd x;       ///< the final iterate
   sim::VectorXd lambda;  ///< multipliers of the problem's constraints g
+  /// Scholtes: the last solved relaxation stage's ε (0: none), and, when the result is that
+  /// stage's iterate (not polished), its multipliers (else empty).
+  double final_epsilon = 0.0;
+  MpecMultipliers relaxed;
   double objective = 0.0;
   /// max over pairs of |min(x_a, x_b)| (0 without pairs).
   double complementarity_violation = 0.0;
@@ -211,6 +228,9 @@ struct MpecSolution {
   int iterations = 0;  ///< Ipopt iterations over all NLPs
   int stages = 0;      ///< NLPs solved (relaxation / penalty stages + polish)
   bool converged = false;
+  /// The NLPs that gave the result solved (relaxation stages without a failure, or the polish);
+  /// converged also needs the complementarity tolerance.
+  bool solved = false;
   bool polished = false;  ///< the polish stage succeeded and gave the final iterate
   /// The last polish attempt's biactive pairs (MpecSolverOptions::biactive_factor) and how
   /// many of them the multipliers fixed at the larger side instead of the smaller.
@@ -220,9 +240,12 @@ struct MpecSolution {
   double time_s = 0.0;
 };
 
-/// Solves the MPEC from problem.StartingPoint(). Throws std::invalid_argument for invalid
-/// options, inconsistent sizes or a pair with equal or out-of-range indices, or an exact-Hessian
-/// run on a problem without one; numerical failure is reported in the result.
-MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& options);
+/// Solves the MPEC from problem.StartingPoint(). With `warm_start` (Scholtes only), the first stage
+/// is warm-started from those multipliers (a relaxed solution of a nearby problem with the same
+/// variables, constraints and pairs). Throws std::invalid_argument for invalid options,
+/// inconsistent sizes or a pair with equal or out-of-range indices, or an exact-Hessian run on
+/// a problem without one; numerical failure is reported in the result.
+MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& options,
+                       const MpecMultipliers* warm_start = nullptr);
 
 }  // namespace vinci::estimation

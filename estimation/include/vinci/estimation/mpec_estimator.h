@@ -77,6 +77,7 @@ inline MpecSolverOptions EstimatorSolverDefaults() {
   o.early_polish_rise_factor = 2.0;
   o.stall_iterations = 5;
   o.deterministic_ordering = true;  // results bitwise independent of threads and run order
+  o.epsilon_floor = 1e-12;          // past a failed polish, to the tolerance's √ε
   return o;
 }
 
@@ -152,7 +153,9 @@ struct MpecEstimateResult : EstimateResult {
   double max_process_noise = 0.0;  ///< max |w| at the solution (N, N·m)
   /// Largest Jacobian entry dropped for falling outside the structure (0: none).
   double dropped_jacobian = 0.0;
-  /// "laplace" (reduced Hessian) or "bootstrap" (MpecOptions::bootstrap).
+  /// "laplace" (reduced Hessian of the polished NLP), "profile" (a relaxed, unpolished
+  /// iterate: the curvature of the relaxed problem's profile over θ, mpec_estimator.cc) or
+  /// "bootstrap" (MpecOptions::bootstrap).
   std::string std_error_method = "laplace";
   int bootstrap_converged = 0;  ///< resamples whose estimation converged (bootstrap only)
 };
