@@ -14,7 +14,8 @@
 # step of 7 ms per sample, 99 steps and ~7000 unknowns per toss; 0 = the simulator's 1 ms grid,
 # 7× larger). Writes estimation_cube_bench_<METHODS>_<EPISODES>.csv in the current directory and
 # prints a table (wall and CPU time). Run it on an idle machine; one method at a time is fine; a
-# smaller EPISODES gives the per-toss cost.
+# smaller EPISODES gives the per-toss cost. VERBOSE=1 in the environment prints every NLP's
+# summary line on stderr as it ends (progress on the long runs).
 set -eu
 BUILD=${1:-build}
 METHODS=${2:-lsq,lsq_ms,filter,mpec,mpec_pen}
@@ -26,7 +27,7 @@ STUDY="$BUILD/examples/estimation_study"
 OUT=estimation_cube_bench_$(echo "$METHODS" | tr , _)_$EPISODES.csv
 echo "# $(date -u +%FT%TZ) $(git rev-parse --short HEAD 2>/dev/null || echo '?') load: $(cut -d' ' -f1-3 /proc/loadavg)" >&2
 "$STUDY" cube --trials 1 --episodes "$EPISODES" --methods "$METHODS" \
-  --threads "$THREADS" --mpec-substeps "$SUBSTEPS" --out "$OUT"
+  --threads "$THREADS" --mpec-substeps "$SUBSTEPS" --verbose "${VERBOSE:-0}" --out "$OUT"
 /usr/bin/python3 - "$OUT" <<'PY'
 import csv, sys
 rows = list(csv.DictReader(open(sys.argv[1])))

@@ -50,6 +50,9 @@ struct EpisodeFit {
   // A relaxed (unpolished) solution's covariance from its profile (ProfileCovariance),
   // computed at the first such solution and kept: 3 more NLPs per parameter (empty: none yet).
   MatrixXd profile_covariance;
+  // When x is a relaxed iterate: its ε and multipliers (MpecSolution::relaxed), else empty.
+  double final_epsilon = 0.0;
+  MpecMultipliers relaxed;
   bool converged = false;
   std::string reason;
 };
@@ -81,7 +84,20 @@ EpisodeFit SolveEpisode(EpisodeFit&& fit, const VectorXd& theta, const MpecSolve
   const int nt = static_cast<int>(theta.size());
   MpecSolution sol;
   bool done = false;
-  if (fit.x.size() > 0) {
+  if (fit.x.size() > 0 && fit.relaxed.lambda.size() > 0) {
+    // From a relaxed iterate at a nearby θ (its polish had failed, so would the kept active
+    // set's NLP): the homotopy's tail from ε = max(its ε, 1e-8), warm-started with its
+    // multipliers, then the polish and the continuation below epsilon_end as usual.
+    MpecSolverOptions tail = so;
+    tail.epsilon_start = tail.epsilon_end =
+        std::max(fit.final_epsilon, mpec_internal::kProfileEpsilon);
+    tail.early_polish_tolerance = -1.0;
+    const FixedThetaProblem fixed(*fit.problem, theta, fit.x);
+    sol = SolveMpec(fixed, tail, &fit.relaxed);
+    *iterations += sol.iterations;
+    *stages += sol.stages;
+    done = sol.converged && sol.x.allFinite();
+  } else if (fit.x.size() > 0) {
     // From a solution at a nearby θ: its active set's NLP first (one smooth NLP, no homotopy);
     // the homotopy only if that fails.
     const FixedThetaProblem kept(*fit.problem, theta, fit.x, true);
@@ -102,6 +118,8 @@ EpisodeFit SolveEpisode(EpisodeFit&& fit, const VectorXd& theta, const MpecSolve
   fit.reason = sol.reason;
   if (!sol.x.allFinite()) return std::move(fit);
   fit.x = sol.x;
+  fit.final_epsilon = sol.final_epsilon;
+  fit.relaxed = sol.relaxed;
   fit.problem->Objective(sol.x, &fit.f);
   fit.gradient = EnvelopeGradient(*fit.problem, nt, sol.x, sol.lambda);
   fit.covariance = MatrixXd::Constant(nt, nt, std::nan(""));
@@ -240,6 +258,8 @@ MpecEstimateResult EstimateMpecDecomposed(const sim::Simulator& simulator, const
       r.stages += sol.stages;
       if (!sol.x.allFinite()) continue;
       fit.x = sol.x;
+      fit.final_epsilon = sol.final_epsilon;
+      fit.relaxed = sol.relaxed;
       const VectorXd th = sol.x.head(nt);
       MatrixXd cov;
       const bool have_cov =
@@ -319,6 +339,9 @@ MpecEstimateResult EstimateMpecDecomposed(const sim::Simulator& simulator, const
         // Warm start from the accepted solutions; the problems are shared (moved back below).
         next[e].problem = std::move(fits[e].problem);
         next[e].x = fits[e].x;
+        next[e].final_epsilon = fits[e].final_epsilon;
+        next[e].relaxed = fits[e].relaxed;
+        next[e].profile_covariance = fits[e].profile_covariance;
       }
       double Ft = 0.0;
       VectorXd Gt;
@@ -377,6 +400,7 @@ MpecEstimateResult EstimateMpecDecomposed(const sim::Simulator& simulator, const
     r.complementarity_violation = std::max(r.complementarity_violation, comp);
     r.dropped_jacobian = std::max(r.dropped_jacobian, p.dropped_jacobian());
     r.polished = r.polished && fit.reason.rfind("polished", 0) == 0;
+    if (fit.relaxed.lambda.size() > 0) r.std_error_method = "profile";  // some episode's C_e
     info += 0.5 * fit.hessian;
     EpisodeEstimate ee;
     ee.file = log.episodes[e].file;

@@ -15,11 +15,6 @@ using sim::VectorXd;
 
 namespace {
 
-// The profile's relaxation: ε at least this (the default homotopy's last stage). Below it the
-// relaxation rows are relative (mpec.cc) and a fixed-θ NLP warm-started 1–2 standard errors
-// away must move pairs through the corner x_a x_b ≤ ε: measured on a 0.2 s block log at ε =
-// 1e-11, 3 000 iterations without converging.
-constexpr double kProfileEpsilon = 1e-8;
 // Ipopt iterations of one profile point at most.
 constexpr int kProfileIterations = 500;
 // First step: this fraction of max(|θ_i|, kStepFloor).
