@@ -87,11 +87,13 @@ EpisodeFit SolveEpisode(EpisodeFit&& fit, const VectorXd& theta, const MpecSolve
   if (fit.x.size() > 0 && fit.relaxed.lambda.size() > 0) {
     // From a relaxed iterate at a nearby θ (its polish had failed, so would the kept active
     // set's NLP): the homotopy's tail from ε = max(its ε, 1e-8), warm-started with its
-    // multipliers, then the polish and the continuation below epsilon_end as usual.
+    // multipliers, and its continuation below epsilon_end, without the polish (measured on the
+    // hard cube toss: it stalled again at every θ, 100 of the tail's ~350 iterations).
     MpecSolverOptions tail = so;
     tail.epsilon_start = tail.epsilon_end =
         std::max(fit.final_epsilon, mpec_internal::kProfileEpsilon);
     tail.early_polish_tolerance = -1.0;
+    tail.polish = false;
     const FixedThetaProblem fixed(*fit.problem, theta, fit.x);
     sol = SolveMpec(fixed, tail, &fit.relaxed);
     *iterations += sol.iterations;
