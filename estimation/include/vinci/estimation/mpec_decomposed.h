@@ -21,7 +21,8 @@
 // θ-block of the inverse reduced Hessian of ½ objective is the inverse of the profile's
 // Gauss–Newton curvature), ∇²f_e = 2 C_e⁻¹. The outer problem takes Newton steps
 // d = −(Σ_e ∇²f_e)⁻¹ Σ_e ∇f_e, projected on θ's bounds, halved while F does not decrease, until
-// the Newton decrement ½ ∇Fᵀ d falls below 1e-8 (χ² units: a step of 1e-4 standard errors) or
+// the Newton decrement ½ ∇Fᵀ d falls below 1e-8 (χ² units: a step of 1e-4 standard errors;
+// 1e-6 when some episode's solution is a relaxed iterate, mpec_decomposed.cc) or
 // the step below 1e-9 (1 + |θ|). Standard errors: C = (Σ_e C_e⁻¹)⁻¹ at the final θ — the joint
 // problem's Laplace approximation exactly (the episodes' reduced Hessians couple only through
 // θ, so the joint Schur complement in θ is the sum of the episodes'). Without a stated σ_R it
