@@ -54,7 +54,8 @@ struct EpisodeFit {
   MatrixXd hessian;     // 2 C⁻¹ (the Laplace covariance with θ free)
   MatrixXd covariance;  // C
   // A relaxed (unpolished) solution's covariance from its profile (ProfileCovariance),
-  // computed at the first such solution and kept: 3 more NLPs per parameter (empty: none yet).
+  // computed at the first such solution and kept: 2p + 1 (at most 4p + 1) more NLPs for p
+  // parameters (empty: none yet).
   MatrixXd profile_covariance;
   // When x is a relaxed iterate: its ε and multipliers (MpecSolution::relaxed), else empty.
   double final_epsilon = 0.0;
