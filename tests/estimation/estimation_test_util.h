@@ -11,7 +11,10 @@
 #include <string>
 #include <vector>
 
+#include <gtest/gtest.h>
+
 #include "vinci/estimation/log.h"
+#include "vinci/estimation/mpec_estimator.h"
 #include "vinci/sim/model/scene_file.h"
 #include "vinci/sim/simulator/simulator.h"
 
@@ -168,6 +171,28 @@ inline Log SampledLog(const sim::Simulator& sim, double mu, int warmup, int ever
   Log log;
   log.episodes.push_back(std::move(ep));
   return log;
+}
+
+// Estimates twice: as `o` says, then with the final and early polish off, so that the second
+// result is a relaxed iterate. Checks that both converged, the first polished with Laplace
+// standard errors, the second unpolished with its profile's (std_error_method "profile").
+struct PolishedAndRelaxed {
+  MpecEstimateResult polished, relaxed;
+};
+inline PolishedAndRelaxed EstimatePolishedAndRelaxed(const sim::Simulator& sim, const Log& log,
+                                                     MpecOptions o) {
+  PolishedAndRelaxed r;
+  r.polished = EstimateMpec(sim, log, o);
+  o.solver.polish = false;
+  o.solver.early_polish_tolerance = -1.0;
+  r.relaxed = EstimateMpec(sim, log, o);
+  EXPECT_TRUE(r.polished.converged) << r.polished.reason;
+  EXPECT_TRUE(r.relaxed.converged) << r.relaxed.reason;
+  EXPECT_TRUE(r.polished.polished);
+  EXPECT_FALSE(r.relaxed.polished);
+  EXPECT_EQ(r.polished.std_error_method, "laplace");
+  EXPECT_EQ(r.relaxed.std_error_method, "profile");
+  return r;
 }
 
 }  // namespace vinci::estimation::testing

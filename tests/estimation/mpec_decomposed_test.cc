@@ -81,17 +81,8 @@ TEST(MpecDecomposed, RelaxedEpisodesUseTheirProfiles) {
   const sim::Simulator sim(sim::ParseScene(testing::kPlanarBlock, "block.yaml"));
   Log log = ThreeEpisodes(sim);
   log.episodes.pop_back();
-  const MpecEstimateResult polished = EstimateMpec(sim, log, Options(MpecEpisodes::kDecomposed));
-  MpecOptions o = Options(MpecEpisodes::kDecomposed);
-  o.solver.polish = false;
-  o.solver.early_polish_tolerance = -1.0;
-  const MpecEstimateResult relaxed = EstimateMpec(sim, log, o);
-  ASSERT_TRUE(polished.converged) << polished.reason;
-  ASSERT_TRUE(relaxed.converged) << relaxed.reason;
-  EXPECT_TRUE(polished.polished);
-  EXPECT_FALSE(relaxed.polished);
-  EXPECT_EQ(polished.std_error_method, "laplace");
-  EXPECT_EQ(relaxed.std_error_method, "profile");
+  const auto [polished, relaxed] =
+      testing::EstimatePolishedAndRelaxed(sim, log, Options(MpecEpisodes::kDecomposed));
   EXPECT_NEAR(relaxed.estimates[0], kTrueMu, 1e-4) << relaxed.reason;
   ASSERT_TRUE(std::isfinite(relaxed.std_errors[0])) << relaxed.reason;
   EXPECT_NEAR(relaxed.std_errors[0], polished.std_errors[0], 0.1 * polished.std_errors[0]);

@@ -697,16 +697,7 @@ TEST(MpecEstimator, ProfileStandardErrorOfARelaxedResultMatchesTheLaplaceOne) {
   MpecOptions o;
   o.params = {"mu.default"};
   o.noise_sigma = kSigma;
-  const MpecEstimateResult polished = EstimateMpec(sim, log, o);
-  o.solver.polish = false;
-  o.solver.early_polish_tolerance = -1.0;
-  const MpecEstimateResult relaxed = EstimateMpec(sim, log, o);
-  ASSERT_TRUE(polished.converged) << polished.reason;
-  ASSERT_TRUE(relaxed.converged) << relaxed.reason;
-  EXPECT_TRUE(polished.polished);
-  EXPECT_FALSE(relaxed.polished);
-  EXPECT_EQ(polished.std_error_method, "laplace");
-  EXPECT_EQ(relaxed.std_error_method, "profile");
+  const auto [polished, relaxed] = testing::EstimatePolishedAndRelaxed(sim, log, o);
   ASSERT_TRUE(std::isfinite(polished.std_errors[0]));
   ASSERT_TRUE(std::isfinite(relaxed.std_errors[0])) << relaxed.reason;
   EXPECT_NEAR(relaxed.estimates[0], polished.estimates[0], 0.05 * polished.std_errors[0]);
