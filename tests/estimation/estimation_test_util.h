@@ -2,6 +2,7 @@
 // the observed bodies' poses at chosen times in the log format (vinci/estimation/log.h).
 #pragma once
 
+#include <gtest/gtest.h>
 #include <unistd.h>
 
 #include <cmath>
@@ -10,8 +11,6 @@
 #include <random>
 #include <string>
 #include <vector>
-
-#include <gtest/gtest.h>
 
 #include "vinci/estimation/log.h"
 #include "vinci/estimation/mpec_estimator.h"
