@@ -29,6 +29,7 @@ std::string MpecJson(const EstimateOptions& o, const estimation::MpecEstimateRes
     << "      \"estimates\": " << JsonNamedNumbers(r.names, r.estimates) << ",\n"
     << "      \"std_errors\": " << JsonNamedNumbers(r.names, r.std_errors) << ",\n"
     << "      \"std_error_method\": " << JsonString(r.std_error_method) << ",\n"
+    << "      \"robust_std_errors\": " << JsonNamedNumbers(r.names, r.robust_std_errors) << ",\n"
     << "      \"bootstrap\": " << o.bootstrap << ",\n"
     << "      \"bootstrap_converged\": " << r.bootstrap_converged << ",\n"
     << "      \"initial_values\": " << JsonNamedNumbers(r.names, r.initial_values) << ",\n"
@@ -127,6 +128,23 @@ ExitCode RunEstimateMpec(const EstimateOptions& o) {
         << r.bootstrap_converged << " converged)\n";
     if (r.std_error_method == "profile")
       s << "standard errors from the relaxed problem's profile (the polish did not succeed)\n";
+    if (r.robust_std_errors.size() > 0 && r.robust_std_errors.allFinite()) {
+      // The episodes' scatter against their own errors: ≫ 1 means model error, and the robust
+      // standard errors are the honest ones.
+      double worst = 0.0;
+      s << "robust standard errors over the " << r.episodes.size() << " episodes (sandwich):";
+      for (std::size_t i = 0; i < r.names.size(); ++i) {
+        const auto k = static_cast<Eigen::Index>(i);
+        const double ratio = r.robust_std_errors[k] / r.std_errors[k];
+        s << " " << r.names[i] << " " << r.robust_std_errors[k] << " (" << ratio
+          << " times the above)";
+        if (std::isfinite(ratio)) worst = std::max(worst, ratio);
+      }
+      s << "\n";
+      if (worst > 3)
+        s << "the episodes disagree beyond their standard errors (model error?): the robust ones "
+             "are the honest uncertainty\n";
+    }
     if (holdout) s << HoldoutSummary(*holdout);
     s << "result      " << o.out << "\n";
     std::cout << s.str() << std::flush;

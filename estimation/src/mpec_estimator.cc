@@ -97,14 +97,12 @@ MpecEstimateResult EstimateMpec(const sim::Simulator& simulator, const Log& log,
   } else {
     r.std_errors = VectorXd::Constant(r.estimates.size(), std::numeric_limits<double>::quiet_NaN());
   }
+  r.robust_std_errors = VectorXd::Constant(r.estimates.size(), std::nan(""));  // decomposed only
   for (int e = 0; e < static_cast<int>(log.episodes.size()); ++e) {
     EpisodeEstimate ee;
     ee.file = log.episodes[e].file;
     ee.x0 = problem.InitialState(sol.x, e);
-    int rows = 0;
-    for (const BodyTrack& b : log.episodes[e].bodies) rows += b.dynamic ? 1 : 0;
     const int per_sample = ResidualsPerSample(log.episodes[e], simulator.scene().dim);
-    (void)rows;
     ee.rms_residual =
         std::sqrt(per_episode[e] / std::max(1, per_sample * log.episodes[e].num_samples()));
     r.episodes.push_back(ee);

@@ -21,7 +21,8 @@
 // same seeded log). One CSV row per trial and method: study, method,
 // noise_m, window, particles, episodes, trial, true_mu, mu_hat, std_error, converged,
 // iterations, time_s (wall), samples, cpu_s (the process's CPU time: meaningful on a loaded
-// machine, summed over threads). Methods: lsq (single shooting), lsq_ms (multiple shooting,
+// machine, summed over threads), robust_se (mpec_dec: the cluster-robust s.e. over the
+// episodes; empty/nan otherwise). Methods: lsq (single shooting), lsq_ms (multiple shooting,
 // 25-sample segments), filter (the UKF with μ in the state), mpec (Ipopt, Scholtes relaxation
 // homotopy), mpec_pen (Ipopt, ℓ1 penalty homotopy), mpec_dec (mpec with the episodes decomposed:
 // MpecEpisodes::kDecomposed, mpec_decomposed.h). The defaults are
@@ -33,6 +34,7 @@
 // scripts/plot_estimation_study.py FILE.csv.
 //
 // To add a method, add one line to Methods() below.
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <ctime>
@@ -60,8 +62,15 @@ using vinci::estimation::Log;
 namespace est = vinci::estimation;
 namespace sim = vinci::sim;
 
+// A method's result, and its cluster-robust standard error over the episodes where it has one
+// (mpec_dec: MpecEstimateResult::robust_std_errors; NaN otherwise).
+struct StudyResult {
+  EstimateResult r;
+  double robust_se = std::nan("");
+};
+
 // An estimator: (simulator whose scene holds the initial guess, log, stated noise σ) → result.
-using Estimator = std::function<EstimateResult(const sim::Simulator&, const Log&, double)>;
+using Estimator = std::function<StudyResult(const sim::Simulator&, const Log&, double)>;
 
 // Threads for the methods that evaluate in parallel (lsq: episodes; mpec: steps); --threads.
 int g_threads = 1;
@@ -84,26 +93,27 @@ std::vector<std::pair<std::string, Estimator>> Methods() {
       o.segment_samples = 25;
       o.max_iterations = 50;
       o.threads = g_threads;
-      return est::EstimateLeastSquares(s, log, o);
+      return StudyResult{est::EstimateLeastSquares(s, log, o)};
     };
   };
   auto mpec = [](est::ComplementarityMethod method,
                  est::MpecEpisodes episodes = est::MpecEpisodes::kJoint) {
-    return [method, episodes](const sim::Simulator& s, const Log& log,
-                              double sigma) -> EstimateResult {
-      est::MpecOptions o;
-      o.episodes = episodes;
-      o.params = {"mu.default"};
-      o.noise_sigma = sigma;
-      o.solver.method = method;
-      o.threads = g_threads;
-      o.substeps = g_mpec_substeps;
-      o.smooth_initial_guess = !g_mpec_raw_guess;
-      if (g_verbose > 0)
-        o.progress = [](const std::string& line) { std::cerr << "  " << line << "\n"; };
-      if (g_verbose > 1) o.solver.print_level = g_verbose;
-      return est::EstimateMpec(s, log, o);
-    };
+    return
+        [method, episodes](const sim::Simulator& s, const Log& log, double sigma) -> StudyResult {
+          est::MpecOptions o;
+          o.episodes = episodes;
+          o.params = {"mu.default"};
+          o.noise_sigma = sigma;
+          o.solver.method = method;
+          o.threads = g_threads;
+          o.substeps = g_mpec_substeps;
+          o.smooth_initial_guess = !g_mpec_raw_guess;
+          if (g_verbose > 0)
+            o.progress = [](const std::string& line) { std::cerr << "  " << line << "\n"; };
+          if (g_verbose > 1) o.solver.print_level = g_verbose;
+          const est::MpecEstimateResult r = est::EstimateMpec(s, log, o);
+          return StudyResult{r, r.robust_std_errors[0]};
+        };
   };
   return {
       {"lsq", lsq(est::Shooting::kSingle)},
@@ -113,7 +123,7 @@ std::vector<std::pair<std::string, Estimator>> Methods() {
          est::FilterOptions o;
          o.params = {"mu.default"};
          o.noise_sigma = sigma;
-         return est::EstimateFilter(s, log, o);
+         return StudyResult{est::EstimateFilter(s, log, o)};
        }},
       {"mpec", mpec(est::ComplementarityMethod::kScholtes)},
       {"mpec_pen", mpec(est::ComplementarityMethod::kPenalty)},
@@ -386,7 +396,7 @@ int Run(int argc, char** argv) {
     return 1;
   }
   csv << "study,method,noise_m,window,particles,episodes,trial,true_mu,mu_hat,std_error,"
-         "converged,iterations,time_s,samples,cpu_s\n";
+         "converged,iterations,time_s,samples,cpu_s,robust_se\n";
   csv.precision(10);
   for (double np : particles) {
     const int n_particles = static_cast<int>(np);
@@ -407,24 +417,29 @@ int Run(int argc, char** argv) {
             bool wanted = false;
             for (const std::string& m : method_names) wanted |= m == name;
             if (!wanted) continue;
-            EstimateResult r;
+            StudyResult result;
             const std::clock_t cpu0 = std::clock();
             try {
-              r = estimator(model, log, sigma);
+              result = estimator(model, log, sigma);
             } catch (const std::exception& e) {
               std::cerr << name << " trial " << trial << ": " << e.what() << "\n";
               continue;
             }
+            const EstimateResult& r = result.r;
             csv << which << "," << name << "," << sigma << "," << w << "," << n_particles << ","
                 << log.episodes.size() << "," << trial << "," << st.true_mu << "," << r.estimates[0]
                 << "," << r.std_errors[0] << "," << (r.converged ? 1 : 0) << "," << r.iterations
                 << "," << r.time_s << "," << static_cast<int>(w * log.episodes.size()) << ","
-                << static_cast<double>(std::clock() - cpu0) / CLOCKS_PER_SEC << std::endl;
+                << static_cast<double>(std::clock() - cpu0) / CLOCKS_PER_SEC << ","
+                << result.robust_se << std::endl;
             std::fprintf(
-                stderr, "%s %-7s σ=%g w=%g n=%d e=%d trial %2d: μ̂ = %.5f ± %.5f %s %d it %.2f s\n",
+                stderr, "%s %-7s σ=%g w=%g n=%d e=%d trial %2d: μ̂ = %.5f ± %.5f %s %d it %.2f s",
                 which.c_str(), name.c_str(), sigma, w, n_particles,
                 static_cast<int>(log.episodes.size()), trial, r.estimates[0], r.std_errors[0],
                 r.converged ? "" : "(not converged)", r.iterations, r.time_s);
+            if (std::isfinite(result.robust_se))
+              std::fprintf(stderr, " (robust s.e. %.5f)", result.robust_se);
+            std::fprintf(stderr, "\n");
             if (!r.converged) std::cerr << "  reason: " << r.reason << "\n";
           }
         }

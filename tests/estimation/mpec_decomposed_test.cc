@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <string>
 #include <vector>
@@ -27,14 +28,16 @@ std::string BlockAt(double speed) {
 }
 
 // Three noise-free episodes: the block launched at 1.5, 1.2 and 1.8 m/s, logged every 5th step
-// (10 ms) for 0.2–0.3 s (sliding throughout: it stops after v / (μ g) = 0.41–0.61 s).
-Log ThreeEpisodes(const sim::Simulator& model, double sigma = 0.0) {
+// (10 ms) for 0.2–0.3 s (sliding throughout: it stops after v / (μ g) = 0.41–0.61 s), each
+// simulated with its own μ (kTrueMu unless given).
+Log ThreeEpisodes(const sim::Simulator& model, double sigma = 0.0,
+                  std::array<double, 3> mu = {kTrueMu, kTrueMu, kTrueMu}) {
   std::vector<std::string> paths;
   const double speeds[] = {1.5, 1.2, 1.8};
   const double durations[] = {0.3, 0.2, 0.25};
   for (int e = 0; e < 3; ++e) {
     const sim::Simulator truth(sim::ParseScene(BlockAt(speeds[e]), "block.yaml"));
-    paths.push_back(testing::SyntheticLog(truth, "block", kTrueMu, durations[e], 5, sigma, 7 + e,
+    paths.push_back(testing::SyntheticLog(truth, "block", mu[e], durations[e], 5, sigma, 7 + e,
                                           "mpec_dec_" + std::to_string(e) + ".csv", false));
   }
   return ReadLog(paths, model.scene());
@@ -64,6 +67,10 @@ TEST(MpecDecomposed, NoiseFreeEpisodesRecoverMuAndMatchTheJointNlp) {
   // reduced-Hessian solves' precision).
   ASSERT_TRUE(std::isfinite(dec.std_errors[0]));
   EXPECT_NEAR(dec.std_errors[0], joint.std_errors[0], 1e-3 * joint.std_errors[0]);
+  // Noise-free episodes of one μ agree: their gradients at θ̂ vanish, and so does the robust s.e.
+  // The joint NLP has none.
+  EXPECT_LT(dec.robust_std_errors[0], 1e-2 * dec.std_errors[0]);
+  EXPECT_TRUE(std::isnan(joint.robust_std_errors[0]));
   EXPECT_LE(dec.complementarity_violation, 1e-8);
   EXPECT_LE(dec.equality_violation, 1e-8);
   ASSERT_EQ(dec.episodes.size(), 3u);
@@ -72,6 +79,42 @@ TEST(MpecDecomposed, NoiseFreeEpisodesRecoverMuAndMatchTheJointNlp) {
   EXPECT_EQ(dec.num_unknowns, joint.num_unknowns);
   EXPECT_EQ(dec.num_steps, joint.num_steps);
   EXPECT_EQ(dec.num_pairs, joint.num_pairs);
+}
+
+// Episodes simulated with different μ (0.28, 0.30, 0.32) but estimated with a shared one: the
+// model's standard error (from a stated 10 µm noise) ignores their disagreement, the robust
+// one carries it. Its closed form from each episode alone (μ̂_e, s.e._e: f_e ≈ (μ − μ̂_e)² /
+// s.e._e², nearly exact for a block sliding throughout, whose positions are linear in μ):
+// μ̂ = Σ w_e μ̂_e, w_e ∝ s.e._e⁻², C_robust = 3/2 Σ w_e² (μ̂ − μ̂_e)².
+TEST(MpecDecomposed, RobustStandardErrorCarriesTheEpisodesDisagreement) {
+  const sim::Simulator sim(sim::ParseScene(testing::kPlanarBlock, "block.yaml"));
+  const std::array<double, 3> mu = {0.28, 0.30, 0.32};
+  const Log log = ThreeEpisodes(sim, 0.0, mu);
+  constexpr double kSigma = 1e-5;  // stated: a model s.e. ~100× below the μ's scatter
+  const MpecEstimateResult dec =
+      EstimateMpec(sim, log, Options(MpecEpisodes::kDecomposed, 1, kSigma));
+  ASSERT_TRUE(dec.converged) << dec.reason;
+  double sum_w = 0.0, sum_wmu = 0.0;
+  std::array<double, 3> mu_e{}, w{};
+  for (int e = 0; e < 3; ++e) {
+    Log one;
+    one.episodes.push_back(log.episodes[e]);
+    const MpecEstimateResult alone =
+        EstimateMpec(sim, one, Options(MpecEpisodes::kJoint, 1, kSigma));
+    ASSERT_TRUE(alone.converged) << alone.reason;
+    EXPECT_NEAR(alone.estimates[0], mu[e], 1e-4);
+    mu_e[e] = alone.estimates[0];
+    w[e] = 1 / (alone.std_errors[0] * alone.std_errors[0]);
+    sum_w += w[e];
+    sum_wmu += w[e] * mu_e[e];
+  }
+  const double mu_hat = sum_wmu / sum_w;
+  double c = 0.0;
+  for (int e = 0; e < 3; ++e) c += 1.5 * std::pow(w[e] / sum_w * (mu_hat - mu_e[e]), 2);
+  EXPECT_NEAR(dec.estimates[0], mu_hat, 2e-2 * 0.02);  // measured 1.2 % of the spread
+  ASSERT_TRUE(std::isfinite(dec.robust_std_errors[0]));
+  EXPECT_NEAR(dec.robust_std_errors[0], std::sqrt(c), 0.02 * std::sqrt(c));  // measured 0.2 %
+  EXPECT_GT(dec.robust_std_errors[0], 5 * dec.std_errors[0]);
 }
 
 // Episodes whose results are relaxed iterates (here: polish off) get their curvature from

@@ -158,6 +158,11 @@ struct MpecEstimateResult : EstimateResult {
   /// "bootstrap" (MpecOptions::bootstrap).
   std::string std_error_method = "laplace";
   int bootstrap_converged = 0;  ///< resamples whose estimation converged (bootstrap only)
+  /// The cluster-robust (sandwich) standard errors over episodes, from each episode's gradient
+  /// of its χ² at θ̂ (MpecEpisodes::kDecomposed with ≥ 2 episodes; NaN otherwise): close to
+  /// std_errors when the model is right, larger when the episodes disagree beyond their own
+  /// errors (model error), mpec_outer.h. Meaningful with several episodes (≳ 10).
+  sim::VectorXd robust_std_errors;
 };
 
 /// The MPEC of a log (for EstimateMpec, tests and tools). Not thread-safe (evaluation caches).

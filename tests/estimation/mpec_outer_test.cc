@@ -1,0 +1,113 @@
+// The decomposed MPEC's outer problem (estimation/src/mpec_outer.h): the secant correction of
+// its Newton model and the cluster-robust covariance over episodes, on quadratic episodes whose
+// answers are known in closed form.
+#include "../../estimation/src/mpec_outer.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <vector>
+
+namespace vinci::estimation::mpec_internal {
+namespace {
+
+using sim::MatrixXd;
+using sim::VectorXd;
+
+TEST(MpecOuter, SecantOfOneParameterIsTheDifferenceQuotient) {
+  const MatrixXd h = MatrixXd::Constant(1, 1, 3.0);
+  const VectorXd s = VectorXd::Constant(1, 0.5), y = VectorXd::Constant(1, 2.0);
+  double ratio = 0.0;
+  const MatrixXd b = SecantCorrected(h, s, y, &ratio);
+  EXPECT_NEAR(b(0, 0), 4.0, 1e-14);  // y / s
+  EXPECT_NEAR(ratio, 4.0 / 3.0, 1e-14);
+}
+
+TEST(MpecOuter, SecantMeetsTheStepAndKeepsTheModelOnConjugateDirections) {
+  MatrixXd h(2, 2);
+  h << 4.0, 1.0, 1.0, 2.0;
+  VectorXd s(2), y(2);
+  s << 0.3, -0.1;
+  y << 1.5, 0.2;  // sᵀy = 0.43 > 0, sᵀhs = 0.32
+  const MatrixXd b = SecantCorrected(h, s, y);
+  EXPECT_LT((b * s - y).norm(), 1e-14);
+  EXPECT_LT((b - b.transpose()).norm(), 1e-14);
+  EXPECT_EQ(b.llt().info(), Eigen::Success);  // positive definite
+  // v with vᵀ h s = 0 (and then vᵀ y need not vanish: B v = h v + y (yᵀv) / sᵀy).
+  const VectorXd hs = h * s;
+  VectorXd v(2);
+  v << -hs[1], hs[0];
+  EXPECT_LT((b * v - h * v - y * y.dot(v) / s.dot(y)).norm(), 1e-13);
+}
+
+TEST(MpecOuter, SecantRejectsNegativeOrImplausibleCurvature) {
+  const MatrixXd h = MatrixXd::Identity(2, 2);
+  const VectorXd s = VectorXd::Constant(2, 1.0);
+  double ratio = 0.0;
+  EXPECT_EQ(SecantCorrected(h, s, -s, &ratio), h);
+  EXPECT_EQ(ratio, -1.0);
+  EXPECT_EQ(SecantCorrected(h, s, 20 * s, &ratio), h);  // 20× the model's curvature
+  EXPECT_EQ(ratio, 20.0);
+  EXPECT_EQ(SecantCorrected(h, s, 0.05 * s, &ratio), h);
+  EXPECT_NE(SecantCorrected(h, s, 5 * s, &ratio), h);
+}
+
+// n episodes f_e(θ) = (θ − θ_e)ᵀ A (θ − θ_e) (χ² units: C_e = A⁻¹) with θ_e drawn around the
+// truth with covariance A⁻¹ + T (T: the model error, the episodes' scatter beyond their noise).
+// θ̂ is their mean, g_e = 2 A (θ̂ − θ_e), H = 2 n A. Returns the mean of C_robust over draws.
+MatrixXd MeanRobustCovariance(const MatrixXd& a, const MatrixXd& t, int n, int draws) {
+  const int p = static_cast<int>(a.rows());
+  const MatrixXd scatter = a.inverse() + t;
+  const MatrixXd l = scatter.llt().matrixL();
+  std::mt19937 rng(5);
+  std::normal_distribution<double> n01;
+  MatrixXd sum = MatrixXd::Zero(p, p);
+  for (int d = 0; d < draws; ++d) {
+    std::vector<VectorXd> theta(n);
+    VectorXd mean = VectorXd::Zero(p);
+    for (VectorXd& th : theta) {
+      VectorXd z(p);
+      for (int i = 0; i < p; ++i) z[i] = n01(rng);
+      th = l * z;
+      mean += th / n;
+    }
+    std::vector<VectorXd> g;
+    for (const VectorXd& th : theta) g.push_back(2 * a * (mean - th));
+    sum += ClusterRobustCovariance(2 * n * a, g);
+  }
+  return sum / draws;
+}
+
+TEST(MpecOuter, RobustCovarianceIsUnbiasedWhenTheModelIsRight) {
+  MatrixXd a(2, 2);
+  a << 4e4, 1e4, 1e4, 2e4;
+  const int n = 10;
+  const MatrixXd c = (2 * n * a).inverse() * 2;  // C = 2 H⁻¹ = A⁻¹ / n
+  const MatrixXd mean = MeanRobustCovariance(a, MatrixXd::Zero(2, 2), n, 20000);
+  // Relative s.d. of the mean over draws ~ √(2 / (n − 1)) / √20000 = 0.3 %.
+  EXPECT_NEAR(mean(0, 0) / c(0, 0), 1.0, 0.02);
+  EXPECT_NEAR(mean(1, 1) / c(1, 1), 1.0, 0.02);
+  EXPECT_NEAR(mean(0, 1) / c(0, 1), 1.0, 0.05);
+}
+
+TEST(MpecOuter, RobustCovarianceCarriesTheEpisodesScatter) {
+  const MatrixXd a = MatrixXd::Constant(1, 1, 1e6);   // each episode's s.e. 1e-3
+  const MatrixXd t = MatrixXd::Constant(1, 1, 1e-4);  // model error: s.d. 1e-2 between episodes
+  const int n = 10;
+  const MatrixXd mean = MeanRobustCovariance(a, t, n, 20000);
+  // E[C_robust] = (A⁻¹ + T) / n; the model's C = A⁻¹ / n is 101× smaller.
+  EXPECT_NEAR(mean(0, 0) / ((1e-6 + 1e-4) / n), 1.0, 0.02);
+}
+
+TEST(MpecOuter, RobustCovarianceNeedsTwoEpisodesAndACurvature) {
+  const MatrixXd h = MatrixXd::Identity(1, 1);
+  EXPECT_EQ(ClusterRobustCovariance(h, {VectorXd::Ones(1)}).size(), 0);
+  EXPECT_EQ(ClusterRobustCovariance(-h, {VectorXd::Ones(1), -VectorXd::Ones(1)}).size(), 0);
+  // Two episodes pulling ±1 on H = 1: 2 / 1 · (1 + 1) = 4.
+  EXPECT_NEAR(ClusterRobustCovariance(h, {VectorXd::Ones(1), -VectorXd::Ones(1)})(0, 0), 4.0,
+              1e-15);
+}
+
+}  // namespace
+}  // namespace vinci::estimation::mpec_internal
