@@ -4,7 +4,8 @@
 usage: plot_estimation_study.py STUDY.csv [STUDY2.csv ...] [--out PREFIX]
 
 Per study and method: the RMS error of mu_hat over the trials, its bias, the fraction of trials
-within 3 reported standard errors (of all trials, and of the converged ones), convergence, mean
+within 3 reported standard errors (of all trials, and of the converged ones; in_3rse: within 3
+robust standard errors, where the CSV has them, i.e. mpec_dec), convergence, mean
 iterations, mean wall time and (where the CSV has it) mean CPU time, against the noise level and the
 window length (the `particles` study: against the number of particles). Writes PREFIX_<study>.png
 (default prefix: the first CSV without .csv) and prints a table.
@@ -42,6 +43,10 @@ def summarize(rows):
         covered = sum(1 for e, s in zip(err, se) if math.isfinite(s) and abs(e) <= 3 * s)
         conv = [(e, s) for e, s, r in zip(err, se, rs) if int(r["converged"])]
         covered_conv = sum(1 for e, s in conv if math.isfinite(s) and abs(e) <= 3 * s)
+        # The cluster-robust s.e. over episodes (mpec_dec; a column since 2026-12-03).
+        rse = [float(r["robust_se"]) if r.get("robust_se") not in (None, "", "nan") else math.nan
+               for r in rs]
+        with_rse = [(e, s) for e, s in zip(err, rse) if math.isfinite(s)]
         out[key] = dict(
             n=n,
             rms=math.sqrt(sum(e * e for e in err) / n),
@@ -49,6 +54,8 @@ def summarize(rows):
             mean_se=sum(s for s in se if math.isfinite(s)) / max(1, sum(math.isfinite(s) for s in se)),
             coverage=covered / n,
             coverage_converged=covered_conv / len(conv) if conv else math.nan,
+            coverage_robust=(sum(1 for e, s in with_rse if abs(e) <= 3 * s) / len(with_rse)
+                             if with_rse else math.nan),
             converged=sum(int(r["converged"]) for r in rs) / n,
             time=sum(float(r["time_s"]) for r in rs) / n,
             cpu=(sum(float(r["cpu_s"]) for r in rs) / n
@@ -71,12 +78,12 @@ def main():
     prefix = prefix or args[0].rsplit(".csv", 1)[0]
     s = summarize(load(args))
     print("study      method   noise_m   window particles  n   rms_err    bias       mean_se"
-          "    in_3se conv  in_3se|conv  iters  time_s   cpu_s")
+          "    in_3se conv  in_3se|conv  in_3rse  iters  time_s   cpu_s")
     for k in sorted(s):
         v = s[k]
         print(f"{k[0]:10s} {k[1]:8s} {k[2]:8.1e} {k[3]:6d} {k[4]:9d} {v['n']:3d}  {v['rms']:.3e}"
               f"  {v['bias']:+.3e}  {v['mean_se']:.3e}  {v['coverage']:5.2f}  {v['converged']:4.2f}"
-              f"  {v['coverage_converged']:11.2f}"
+              f"  {v['coverage_converged']:11.2f}  {v['coverage_robust']:7.2f}"
               f"  {v['iterations']:5.1f}  {v['time']:7.3f}  {v['cpu']:7.3f}")
     for study in sorted({k[0] for k in s}):
         keys = [k for k in s if k[0] == study]
