@@ -30,6 +30,7 @@ std::string MpecJson(const EstimateOptions& o, const estimation::MpecEstimateRes
     << "      \"std_errors\": " << JsonNamedNumbers(r.names, r.std_errors) << ",\n"
     << "      \"std_error_method\": " << JsonString(r.std_error_method) << ",\n"
     << "      \"robust_std_errors\": " << JsonNamedNumbers(r.names, r.robust_std_errors) << ",\n"
+    << "      \"covariance\": " << JsonMatrix(r.covariance) << ",\n"
     << "      \"bootstrap\": " << o.bootstrap << ",\n"
     << "      \"bootstrap_converged\": " << r.bootstrap_converged << ",\n"
     << "      \"initial_values\": " << JsonNamedNumbers(r.names, r.initial_values) << ",\n"
@@ -123,6 +124,13 @@ ExitCode RunEstimateMpec(const EstimateOptions& o) {
     s << "iterations " << r.iterations << " in " << r.stages << " NLPs, " << r.time_s
       << " s, complementarity violation " << r.complementarity_violation << ", "
       << (r.converged ? "converged" : "did not converge") << ": " << r.reason << "\n";
+    // Correlations of the estimates (two or more parameters).
+    for (Eigen::Index i = 0; i < r.covariance.rows(); ++i)
+      for (Eigen::Index j = i + 1; j < r.covariance.cols(); ++j) {
+        const double c = r.covariance(i, j) / std::sqrt(r.covariance(i, i) * r.covariance(j, j));
+        if (std::isfinite(c))
+          s << "correlation " << r.names[i] << ", " << r.names[j] << ": " << c << "\n";
+      }
     if (r.std_error_method == "bootstrap")
       s << "standard errors from " << o.bootstrap << " bootstrap resamples ("
         << r.bootstrap_converged << " converged)\n";

@@ -61,4 +61,14 @@ std::string JsonNamedNumbers(const std::vector<std::string>& names, const Eigen:
   return o + "}";
 }
 
+std::string JsonMatrix(const Eigen::MatrixXd& m) {
+  std::string o = "[";
+  for (Eigen::Index i = 0; i < m.rows(); ++i) {
+    o += i ? ", [" : "[";
+    for (Eigen::Index j = 0; j < m.cols(); ++j) o += (j ? ", " : "") + JsonNumber(m(i, j));
+    o += "]";
+  }
+  return o + "]";
+}
+
 }  // namespace vinci::cli

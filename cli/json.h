@@ -19,4 +19,7 @@ std::string JsonNumber(double v);
 /// {"name": number, ...} for names[i] and values[i].
 std::string JsonNamedNumbers(const std::vector<std::string>& names, const Eigen::VectorXd& values);
 
+/// [[m00, m01, ...], [m10, ...], ...]: a matrix by rows (non-finite entries null).
+std::string JsonMatrix(const Eigen::MatrixXd& m);
+
 }  // namespace vinci::cli

@@ -468,8 +468,7 @@ MpecEstimateResult EstimateMpecDecomposed(const sim::Simulator& simulator, const
   for (const Episode& ep : log.episodes)
     for (const BodyTrack& b : ep.bodies) p_count += b.dynamic ? (planar ? 6 : 12) : 0;
   r.sigma = stated ? options.noise_sigma : std::sqrt(ss / std::max(1, r.num_residuals - p_count));
-  r.std_errors = VectorXd::Constant(nt, std::numeric_limits<double>::quiet_NaN());
-  r.robust_std_errors = r.std_errors;
+  r.robust_std_errors = VectorXd::Constant(nt, std::numeric_limits<double>::quiet_NaN());
   {
     // C = (Σ_e C_e⁻¹)⁻¹ over the free θ (a θ with no information, e.g. at a bound: NaN).
     std::vector<int> free;
@@ -479,11 +478,12 @@ MpecEstimateResult EstimateMpecDecomposed(const sim::Simulator& simulator, const
     for (std::size_t i = 0; i < free.size(); ++i)
       for (std::size_t j = 0; j < free.size(); ++j) c(i, j) = info(free[i], free[j]);
     Eigen::LDLT<MatrixXd> ldlt(c);
+    MatrixXd full;
     if (!free.empty() && ldlt.info() == Eigen::Success && ldlt.isPositive()) {
       const MatrixXd cov = ldlt.solve(MatrixXd::Identity(c.rows(), c.cols()));
-      const double scale = stated ? 1.0 : (r.sigma * r.sigma) / (sigma_w * sigma_w);
+      full = MatrixXd::Constant(nt, nt, std::numeric_limits<double>::quiet_NaN());
       for (std::size_t i = 0; i < free.size(); ++i)
-        if (cov(i, i) > 0) r.std_errors[free[i]] = std::sqrt(cov(i, i) * scale);
+        for (std::size_t j = 0; j < free.size(); ++j) full(free[i], free[j]) = cov(i, j);
       // Over the episodes' envelope gradients at θ̂ (scale-free: g_e and H both ∝ 1 / σ²).
       std::vector<VectorXd> g;
       for (const EpisodeFit& fit : fits) {
@@ -496,6 +496,8 @@ MpecEstimateResult EstimateMpecDecomposed(const sim::Simulator& simulator, const
       for (std::size_t i = 0; i < free.size() && robust.size() > 0; ++i)
         if (robust(i, i) > 0) r.robust_std_errors[free[i]] = std::sqrt(robust(i, i));
     }
+    const double scale = stated ? 1.0 : (r.sigma * r.sigma) / (sigma_w * sigma_w);
+    r.covariance = mpec_internal::CovarianceWithStdErrors(full, nt, scale, &r.std_errors);
   }
 
   if (options.bootstrap > 0 && ne >= 2)

@@ -70,33 +70,23 @@ MpecEstimateResult EstimateMpec(const sim::Simulator& simulator, const Log& log,
   for (const Episode& ep : log.episodes)
     for (const BodyTrack& b : ep.bodies) p += b.dynamic ? (planar ? 6 : 12) : 0;
   r.sigma = stated ? options.noise_sigma : std::sqrt(ss / std::max(1, r.num_residuals - p));
-  VectorXd var;
-  bool have_var = false;
+  sim::MatrixXd cov;
+  bool have_cov = false;
   if (!sol.polished && sol.relaxed.lambda.size() > 0) {
     // A relaxed iterate: the profile's curvature (mpec_internal::ProfileCovariance).
     if (options.progress) options.progress("mpec: standard errors from the relaxed profile");
-    sim::MatrixXd cov;
     std::string why;
     r.std_error_method = "profile";
-    have_var =
+    have_cov =
         mpec_internal::ProfileCovariance(problem, sol, so, &cov, &r.iterations, &r.stages, &why);
-    if (have_var) {
-      var = cov.diagonal();
-    } else {
-      r.reason += "; no profile standard errors: " + why;
-    }
+    if (!have_cov) r.reason += "; no profile standard errors: " + why;
   } else {
-    have_var = problem.ParameterVariances(
-        sol.x, problem.ClassifyPairs(sol.x, mpec_internal::kBiactive), &var);
+    have_cov = problem.ParameterCovariance(
+        sol.x, problem.ClassifyPairs(sol.x, mpec_internal::kBiactive), &cov);
   }
-  if (have_var) {
-    const double scale = stated ? 1.0 : (r.sigma * r.sigma) / (sigma_w * sigma_w);
-    r.std_errors = (var * scale).cwiseMax(0.0).cwiseSqrt();
-    for (int i = 0; i < var.size(); ++i)
-      if (!(var[i] > 0)) r.std_errors[i] = std::numeric_limits<double>::quiet_NaN();
-  } else {
-    r.std_errors = VectorXd::Constant(r.estimates.size(), std::numeric_limits<double>::quiet_NaN());
-  }
+  const double scale = stated ? 1.0 : (r.sigma * r.sigma) / (sigma_w * sigma_w);
+  r.covariance = mpec_internal::CovarianceWithStdErrors(have_cov ? cov : sim::MatrixXd(),
+                                                        r.estimates.size(), scale, &r.std_errors);
   r.robust_std_errors = VectorXd::Constant(r.estimates.size(), std::nan(""));  // decomposed only
   for (int e = 0; e < static_cast<int>(log.episodes.size()); ++e) {
     EpisodeEstimate ee;
@@ -142,15 +132,35 @@ void mpec_internal::BootstrapOverEpisodes(
     }
   }
   r->std_error_method = "bootstrap";
-  r->std_errors = VectorXd::Constant(nt, std::numeric_limits<double>::quiet_NaN());
+  sim::MatrixXd cov;
   if (draws.size() >= 2) {
     VectorXd mean = VectorXd::Zero(nt);
     for (const VectorXd& d : draws) mean += d;
     mean /= static_cast<double>(draws.size());
-    VectorXd spread = VectorXd::Zero(nt);
-    for (const VectorXd& d : draws) spread += (d - mean).cwiseAbs2();
-    r->std_errors = (spread / static_cast<double>(draws.size() - 1)).cwiseSqrt();
+    cov = sim::MatrixXd::Zero(nt, nt);
+    for (const VectorXd& d : draws) cov += (d - mean) * (d - mean).transpose();
+    cov /= static_cast<double>(draws.size() - 1);
   }
+  r->covariance = mpec_internal::CovarianceWithStdErrors(cov, nt, 1.0, &r->std_errors);
+}
+
+sim::MatrixXd mpec_internal::CovarianceWithStdErrors(const sim::MatrixXd& covariance,
+                                                     Eigen::Index p, double scale,
+                                                     VectorXd* std_errors) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  sim::MatrixXd c = sim::MatrixXd::Constant(p, p, nan);
+  *std_errors = VectorXd::Constant(p, nan);
+  if (covariance.rows() != p || covariance.cols() != p) return c;
+  c = 0.5 * scale * (covariance + covariance.transpose());  // the solves' rounding
+  for (Eigen::Index i = 0; i < p; ++i) {
+    if (c(i, i) > 0) {
+      (*std_errors)[i] = std::sqrt(c(i, i));
+    } else {
+      c.row(i).setConstant(nan);
+      c.col(i).setConstant(nan);
+    }
+  }
+  return c;
 }
 
 }  // namespace vinci::estimation

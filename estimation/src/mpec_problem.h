@@ -178,6 +178,12 @@ bool ProfileCovariance(const MpecEstimationProblem& p, const MpecSolution& sol,
                        const MpecSolverOptions& options, sim::MatrixXd* covariance, int* iterations,
                        int* stages, std::string* why);
 
+// `covariance` (empty if none) times `scale` as a result's p × p covariance, and its diagonal's
+// square roots in *std_errors; a parameter whose variance is not positive (or NaN) gets NaN in
+// both (its row and column).
+sim::MatrixXd CovarianceWithStdErrors(const sim::MatrixXd& covariance, Eigen::Index p, double scale,
+                                      sim::VectorXd* std_errors);
+
 }  // namespace mpec_internal
 
 struct MpecEstimationProblem::Impl {

@@ -158,6 +158,10 @@ struct MpecEstimateResult : EstimateResult {
   /// "bootstrap" (MpecOptions::bootstrap).
   std::string std_error_method = "laplace";
   int bootstrap_converged = 0;  ///< resamples whose estimation converged (bootstrap only)
+  /// The parameters' covariance (p × p, in names' order) by std_error_method: std_errors are
+  /// the square roots of its diagonal. NaN rows and columns where there is none (a θ at a
+  /// bound, a failed covariance).
+  sim::MatrixXd covariance;
   /// The cluster-robust (sandwich) standard errors over episodes, from each episode's gradient
   /// of its χ² at θ̂ (MpecEpisodes::kDecomposed with ≥ 2 episodes; NaN otherwise): close to
   /// std_errors when the model is right, larger when the episodes disagree beyond their own
