@@ -252,6 +252,23 @@ TEST(ParamsTest, PolyhedronScaleGivesTheSceneFileRollout) {
   EXPECT_NEAR(x.q[2], 0.0625 * 1.5, 1e-4);  // resting on its (scaled) base
 }
 
+TEST(ParamsTest, FrictionPairIsFoundUnderEitherOrderOfItsMaterials) {
+  const Simulator sim(ParseScene(
+      "dimension: 2\n"
+      "materials: [stone, wood]\n"
+      "friction: {default: 0.5, pairs: [[wood, stone, 0.3]]}\n"
+      "bodies:\n"
+      "  - {name: floor, kind: static, shapes: [{type: halfplane, material: stone}]}\n"
+      "  - {name: disc, mass: 1, shapes: [{type: disc, radius: 0.1, material: wood}]}\n"));
+  const ParamTable& t = sim.scene().param_table();
+  const int i = t.Index("mu.stone.wood");
+  EXPECT_EQ(t.Index("mu.wood.stone"), i);
+  EXPECT_EQ(t.info(i).default_value, 0.3);
+  EXPECT_LT(t.Find("mu.wood.wood"), 0);  // not a listed pair
+  EXPECT_LT(t.Find("mu.stone"), 0);
+  EXPECT_THROW(t.Index("mu.wood.steel"), std::invalid_argument);
+}
+
 TEST(ParamsTest, TableNamesDefaultsAndFlags) {
   const Simulator sim(ParseScene(DiscScene("0.1", "{position: [0.5, -0.05], angle: 0.1}")));
   const ParamTable& t = sim.scene().param_table();

@@ -13,6 +13,15 @@ void ParamTable::Add(ParamInfo info) {
 int ParamTable::Find(const std::string& name) const {
   for (int i = 0; i < size(); ++i)
     if (info_[i].name == name) return i;
+  // A friction pair's μ under either order of its two materials (the pair is unordered).
+  if (name.rfind("mu.", 0) == 0) {
+    const std::size_t dot = name.find('.', 3);
+    if (dot != std::string::npos && name.find('.', dot + 1) == std::string::npos) {
+      const std::string swapped = "mu." + name.substr(dot + 1) + "." + name.substr(3, dot - 3);
+      for (int i = 0; i < size(); ++i)
+        if (info_[i].kind == ParamKind::kFriction && info_[i].name == swapped) return i;
+    }
+  }
   return -1;
 }
 

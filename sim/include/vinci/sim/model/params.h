@@ -83,7 +83,7 @@ class ParamTable {
   const std::vector<ParamInfo>& all() const { return info_; }
   /// Index of a parameter; throws std::invalid_argument listing close names if unknown.
   int Index(const std::string& name) const;
-  /// −1 if unknown.
+  /// −1 if unknown. A friction pair's `mu.<a>.<b>` is also found as `mu.<b>.<a>`.
   int Find(const std::string& name) const;
   Params Defaults() const;
   /// Names of the parameters with `differentiable` set, in table order.
