@@ -140,7 +140,7 @@ ExitCode RunEstimateMpec(const EstimateOptions& o) {
       // The episodes' scatter against their own errors: ≫ 1 means model error, and the robust
       // standard errors are the honest ones.
       double worst = 0.0;
-      s << "robust standard errors over the " << r.episodes.size() << " episodes (sandwich):";
+      s << "robust standard errors over the " << r.episodes.size() << " episodes (jackknife):";
       for (std::size_t i = 0; i < r.names.size(); ++i) {
         const auto k = static_cast<Eigen::Index>(i);
         const double ratio = r.robust_std_errors[k] / r.std_errors[k];

@@ -43,7 +43,7 @@ def summarize(rows):
         covered = sum(1 for e, s in zip(err, se) if math.isfinite(s) and abs(e) <= 3 * s)
         conv = [(e, s) for e, s, r in zip(err, se, rs) if int(r["converged"])]
         covered_conv = sum(1 for e, s in conv if math.isfinite(s) and abs(e) <= 3 * s)
-        # The cluster-robust s.e. over episodes (mpec_dec; a column since 2026-12-03).
+        # The s.e. from the episodes' jackknife (mpec_dec; a column since 2026-12-03).
         rse = [float(r["robust_se"]) if r.get("robust_se") not in (None, "", "nan") else math.nan
                for r in rs]
         with_rse = [(e, s) for e, s in zip(err, rse) if math.isfinite(s)]

@@ -167,16 +167,28 @@ MatrixXd mpec_internal::SecantCorrected(const MatrixXd& h, const VectorXd& s, co
   return h - hs * hs.transpose() / shs + y * y.transpose() / sy;
 }
 
-MatrixXd mpec_internal::ClusterRobustCovariance(const MatrixXd& h,
+MatrixXd mpec_internal::ClusterRobustCovariance(const std::vector<MatrixXd>& hessians,
                                                 const std::vector<VectorXd>& gradients) {
   const int n = static_cast<int>(gradients.size());
-  if (n < 2 || h.rows() == 0) return MatrixXd();
-  Eigen::LDLT<MatrixXd> ldlt(h);
-  if (ldlt.info() != Eigen::Success || !ldlt.isPositive()) return MatrixXd();
-  MatrixXd meat = MatrixXd::Zero(h.rows(), h.cols());
-  for (const VectorXd& g : gradients) meat += g * g.transpose();
-  const MatrixXd hinv = ldlt.solve(MatrixXd::Identity(h.rows(), h.cols()));
-  return (static_cast<double>(n) / (n - 1)) * hinv * meat * hinv;
+  if (n < 2 || static_cast<int>(hessians.size()) != n) return MatrixXd();
+  const Eigen::Index p = gradients[0].size();
+  MatrixXd h = MatrixXd::Zero(p, p);
+  for (const MatrixXd& he : hessians) {
+    if (he.rows() != p || he.cols() != p) return MatrixXd();
+    h += he;
+  }
+  std::vector<VectorXd> d(n);
+  VectorXd mean = VectorXd::Zero(p);
+  for (int e = 0; e < n; ++e) {
+    if (gradients[e].size() != p) return MatrixXd();
+    Eigen::LDLT<MatrixXd> ldlt(h - hessians[e]);
+    if (ldlt.info() != Eigen::Success || !ldlt.isPositive()) return MatrixXd();
+    d[e] = ldlt.solve(gradients[e]);
+    mean += d[e] / n;
+  }
+  MatrixXd c = MatrixXd::Zero(p, p);
+  for (const VectorXd& de : d) c += (de - mean) * (de - mean).transpose();
+  return (static_cast<double>(n - 1) / n) * c;
 }
 
 const char* ToString(MpecEpisodes episodes) {
@@ -484,15 +496,23 @@ MpecEstimateResult EstimateMpecDecomposed(const sim::Simulator& simulator, const
       full = MatrixXd::Constant(nt, nt, std::numeric_limits<double>::quiet_NaN());
       for (std::size_t i = 0; i < free.size(); ++i)
         for (std::size_t j = 0; j < free.size(); ++j) full(free[i], free[j]) = cov(i, j);
-      // Over the episodes' envelope gradients at θ̂ (scale-free: g_e and H both ∝ 1 / σ²).
+      // The episodes' jackknife from their envelope gradients and curvatures at θ̂ (scale-free:
+      // g_e, H_e ∝ 1 / σ²).
       std::vector<VectorXd> g;
+      std::vector<MatrixXd> he;
       for (const EpisodeFit& fit : fits) {
-        if (fit.gradient.size() != nt || !fit.gradient.allFinite()) break;
+        if (fit.gradient.size() != nt || !fit.gradient.allFinite() || fit.hessian.rows() != nt)
+          break;
         g.emplace_back(free.size());
-        for (std::size_t i = 0; i < free.size(); ++i) g.back()[i] = fit.gradient[free[i]];
+        he.emplace_back(free.size(), free.size());
+        for (std::size_t i = 0; i < free.size(); ++i) {
+          g.back()[i] = fit.gradient[free[i]];
+          for (std::size_t j = 0; j < free.size(); ++j)
+            he.back()(i, j) = fit.hessian(free[i], free[j]);
+        }
       }
       const MatrixXd robust =
-          g.size() == fits.size() ? mpec_internal::ClusterRobustCovariance(2 * c, g) : MatrixXd();
+          g.size() == fits.size() ? mpec_internal::ClusterRobustCovariance(he, g) : MatrixXd();
       for (std::size_t i = 0; i < free.size() && robust.size() > 0; ++i)
         if (robust(i, i) > 0) r.robust_std_errors[free[i]] = std::sqrt(robust(i, i));
     }

@@ -21,8 +21,8 @@
 // same seeded log). One CSV row per trial and method: study, method,
 // noise_m, window, particles, episodes, trial, true_mu, mu_hat, std_error, converged,
 // iterations, time_s (wall), samples, cpu_s (the process's CPU time: meaningful on a loaded
-// machine, summed over threads), robust_se (mpec_dec: the cluster-robust s.e. over the
-// episodes; empty/nan otherwise). Methods: lsq (single shooting), lsq_ms (multiple shooting,
+// machine, summed over threads), robust_se (mpec_dec: the s.e. from the episodes' jackknife;
+// nan otherwise). Methods: lsq (single shooting), lsq_ms (multiple shooting,
 // 25-sample segments), filter (the UKF with μ in the state), mpec (Ipopt, Scholtes relaxation
 // homotopy), mpec_pen (Ipopt, ℓ1 penalty homotopy), mpec_dec (mpec with the episodes decomposed:
 // MpecEpisodes::kDecomposed, mpec_decomposed.h). The defaults are
@@ -62,7 +62,7 @@ using vinci::estimation::Log;
 namespace est = vinci::estimation;
 namespace sim = vinci::sim;
 
-// A method's result, and its cluster-robust standard error over the episodes where it has one
+// A method's result, and its standard error from the episodes' jackknife where it has one
 // (mpec_dec: MpecEstimateResult::robust_std_errors; NaN otherwise).
 struct StudyResult {
   EstimateResult r;

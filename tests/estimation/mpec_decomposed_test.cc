@@ -85,7 +85,8 @@ TEST(MpecDecomposed, NoiseFreeEpisodesRecoverMuAndMatchTheJointNlp) {
 // model's standard error (from a stated 10 µm noise) ignores their disagreement, the robust
 // one carries it. Its closed form from each episode alone (μ̂_e, s.e._e: f_e ≈ (μ − μ̂_e)² /
 // s.e._e², nearly exact for a block sliding throughout, whose positions are linear in μ):
-// μ̂ = Σ w_e μ̂_e, w_e ∝ s.e._e⁻², C_robust = 3/2 Σ w_e² (μ̂ − μ̂_e)².
+// μ̂ = Σ w_e μ̂_e, w_e ∝ s.e._e⁻², the jackknife C_robust = 2/3 Σ (d_e − d̄)², d_e the shift of
+// μ̂ without episode e.
 TEST(MpecDecomposed, RobustStandardErrorCarriesTheEpisodesDisagreement) {
   const sim::Simulator sim(sim::ParseScene(testing::kPlanarBlock, "block.yaml"));
   const std::array<double, 3> mu = {0.28, 0.30, 0.32};
@@ -110,7 +111,10 @@ TEST(MpecDecomposed, RobustStandardErrorCarriesTheEpisodesDisagreement) {
   }
   const double mu_hat = sum_wmu / sum_w;
   double c = 0.0;
-  for (int e = 0; e < 3; ++e) c += 1.5 * std::pow(w[e] / sum_w * (mu_hat - mu_e[e]), 2);
+  std::array<double, 3> d{};  // μ̂ without episode e, minus μ̂: w_e / (1 − w_e) (μ̂ − μ̂_e)
+  for (int e = 0; e < 3; ++e) d[e] = w[e] / (sum_w - w[e]) * (mu_hat - mu_e[e]);
+  const double d_mean = (d[0] + d[1] + d[2]) / 3;
+  for (int e = 0; e < 3; ++e) c += 2.0 / 3.0 * std::pow(d[e] - d_mean, 2);
   EXPECT_NEAR(dec.estimates[0], mu_hat, 2e-2 * 0.02);  // measured 1.2 % of the spread
   ASSERT_TRUE(std::isfinite(dec.robust_std_errors[0]));
   EXPECT_NEAR(dec.robust_std_errors[0], std::sqrt(c), 0.02 * std::sqrt(c));  // measured 0.2 %

@@ -162,10 +162,11 @@ struct MpecEstimateResult : EstimateResult {
   /// the square roots of its diagonal. NaN rows and columns where there is none (a θ at a
   /// bound, a failed covariance).
   sim::MatrixXd covariance;
-  /// The cluster-robust (sandwich) standard errors over episodes, from each episode's gradient
-  /// of its χ² at θ̂ (MpecEpisodes::kDecomposed with ≥ 2 episodes; NaN otherwise): close to
-  /// std_errors when the model is right, larger when the episodes disagree beyond their own
-  /// errors (model error), mpec_outer.h. Meaningful with several episodes (≳ 10).
+  /// Standard errors from the episodes' scatter: the delta-method jackknife over episodes, from
+  /// each episode's gradient and curvature of its χ² at θ̂ (MpecEpisodes::kDecomposed with ≥ 2
+  /// episodes; NaN otherwise; mpec_outer.h): close to std_errors when the model is right, larger
+  /// when the episodes disagree beyond their own errors (model error). Meaningful with several
+  /// episodes (≳ 10).
   sim::VectorXd robust_std_errors;
 };
 
