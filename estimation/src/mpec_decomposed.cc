@@ -167,8 +167,8 @@ MatrixXd mpec_internal::SecantCorrected(const MatrixXd& h, const VectorXd& s, co
   return h - hs * hs.transpose() / shs + y * y.transpose() / sy;
 }
 
-MatrixXd mpec_internal::ClusterRobustCovariance(const std::vector<MatrixXd>& hessians,
-                                                const std::vector<VectorXd>& gradients) {
+MatrixXd mpec_internal::EpisodeJackknifeCovariance(const std::vector<MatrixXd>& hessians,
+                                                   const std::vector<VectorXd>& gradients) {
   const int n = static_cast<int>(gradients.size());
   if (n < 2 || static_cast<int>(hessians.size()) != n) return MatrixXd();
   const Eigen::Index p = gradients[0].size();
@@ -512,7 +512,7 @@ MpecEstimateResult EstimateMpecDecomposed(const sim::Simulator& simulator, const
         }
       }
       const MatrixXd robust =
-          g.size() == fits.size() ? mpec_internal::ClusterRobustCovariance(he, g) : MatrixXd();
+          g.size() == fits.size() ? mpec_internal::EpisodeJackknifeCovariance(he, g) : MatrixXd();
       for (std::size_t i = 0; i < free.size() && robust.size() > 0; ++i)
         if (robust(i, i) > 0) r.robust_std_errors[free[i]] = std::sqrt(robust(i, i));
     }

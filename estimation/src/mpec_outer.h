@@ -32,7 +32,7 @@ sim::MatrixXd SecantCorrected(const sim::MatrixXd& h, const sim::VectorXd& s,
 // others' information, between-episode variance 10× theirs: the sandwich 0.37 of the true
 // variance, this 0.99; model right: 0.78 and 1.42 — conservative). Returns an empty matrix if
 // n < 2, the sizes disagree or some H − H_e is not positive definite.
-sim::MatrixXd ClusterRobustCovariance(const std::vector<sim::MatrixXd>& hessians,
-                                      const std::vector<sim::VectorXd>& gradients);
+sim::MatrixXd EpisodeJackknifeCovariance(const std::vector<sim::MatrixXd>& hessians,
+                                         const std::vector<sim::VectorXd>& gradients);
 
 }  // namespace vinci::estimation::mpec_internal

@@ -74,7 +74,7 @@ MatrixXd MeanRobustCovariance(const MatrixXd& a, const MatrixXd& t, int n, int d
     }
     std::vector<VectorXd> g;
     for (const VectorXd& th : theta) g.push_back(2 * a * (mean - th));
-    sum += ClusterRobustCovariance(std::vector<MatrixXd>(n, 2 * a), g);
+    sum += EpisodeJackknifeCovariance(std::vector<MatrixXd>(n, 2 * a), g);
   }
   return sum / draws;
 }
@@ -128,7 +128,7 @@ TEST(MpecOuter, RobustCovarianceCarriesTheScatterOfUnequalEpisodes) {
     }
     std::vector<VectorXd> g;
     for (int e = 0; e < kN; ++e) g.push_back(VectorXd::Constant(1, 2 / v[e] * (t - theta[e])));
-    mean += ClusterRobustCovariance(h, g)(0, 0) / kDraws;
+    mean += EpisodeJackknifeCovariance(h, g)(0, 0) / kDraws;
   }
   EXPECT_NEAR(mean / truth, 1.0, 0.05);
 }
@@ -136,11 +136,11 @@ TEST(MpecOuter, RobustCovarianceCarriesTheScatterOfUnequalEpisodes) {
 TEST(MpecOuter, RobustCovarianceNeedsTwoEpisodesAndCurvature) {
   const MatrixXd h = MatrixXd::Identity(1, 1);
   const VectorXd one = VectorXd::Ones(1);
-  EXPECT_EQ(ClusterRobustCovariance({h}, {one}).size(), 0);
-  EXPECT_EQ(ClusterRobustCovariance({h, -h}, {one, -one}).size(), 0);  // H − H_0 = −1
-  EXPECT_EQ(ClusterRobustCovariance({h}, {one, -one}).size(), 0);      // sizes disagree
+  EXPECT_EQ(EpisodeJackknifeCovariance({h}, {one}).size(), 0);
+  EXPECT_EQ(EpisodeJackknifeCovariance({h, -h}, {one, -one}).size(), 0);  // H − H_0 = −1
+  EXPECT_EQ(EpisodeJackknifeCovariance({h}, {one, -one}).size(), 0);      // sizes disagree
   // Two episodes pulling ±1, H_e = 1: d_e = ±1, (2 − 1)/2 · (1 + 1) = 1.
-  EXPECT_NEAR(ClusterRobustCovariance({h, h}, {one, -one})(0, 0), 1.0, 1e-15);
+  EXPECT_NEAR(EpisodeJackknifeCovariance({h, h}, {one, -one})(0, 0), 1.0, 1e-15);
 }
 
 }  // namespace
