@@ -303,7 +303,9 @@ Command RegisterEstimateCommand(CLI::App& app) {
                   "Measurement noise σ of the logged positions in m for the standard errors "
                   "(default: estimated from the residuals)")
       ->type_name("SIGMA");
-  sub->add_option("--threads,-j", options->threads, "Threads (episodes evaluated in parallel)")
+  sub->add_option("--threads,-j", options->threads,
+                  "Threads: lsq evaluates episodes and segments in parallel, mpec steps; "
+                  "mpec with --mpec-episodes decomposed solves episodes in N worker processes")
       ->type_name("N")
       ->check(CLI::PositiveNumber);
   sub->add_option("--max-iterations", options->max_iterations,

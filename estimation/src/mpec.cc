@@ -287,6 +287,20 @@ ScotchRandomSeed FindScotchRandomSeed() {
   return f;
 }
 
+// MUMPS' dense fronts are small here: OpenBLAS (when it is the system BLAS) on its default
+// thread count spun its workers in sched_yield (21 % of the samples, bench/README.md). One BLAS
+// thread for the process, once, unless the user set OPENBLAS_NUM_THREADS.
+void UseOneBlasThreadUnlessSet() {
+  static const bool done = [] {
+    using SetThreads = void (*)(int);
+    if (std::getenv("OPENBLAS_NUM_THREADS") != nullptr) return false;
+    const auto set = reinterpret_cast<SetThreads>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads"));
+    if (set) set(1);
+    return set != nullptr;
+  }();
+  (void)done;
+}
+
 const char* StatusText(Ipopt::ApplicationReturnStatus s) {
   switch (s) {
     case Ipopt::Solve_Succeeded:
@@ -434,6 +448,7 @@ void MpecSolverOptions::Validate() const {
 MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o,
                        const MpecMultipliers* warm_start) {
   o.Validate();
+  UseOneBlasThreadUnlessSet();
   const auto start = std::chrono::steady_clock::now();
   const int n = problem.num_variables();
   const std::vector<std::pair<int, int>> pairs = problem.ComplementarityPairs();

@@ -6,13 +6,19 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <sstream>
 #include <stdexcept>
+#include <string>
+#include <vector>
 
 #include "mpec_outer.h"
 #include "mpec_problem.h"
+#include "vinci/parallel/fork.h"
+#include "vinci/parallel/wire.h"
 
 namespace vinci::estimation {
 
@@ -65,6 +71,133 @@ struct EpisodeFit {
   std::string reason;
 };
 
+// What one episode's work hands back besides its EpisodeFit.
+struct EpisodeRun {
+  int iterations = 0, stages = 0;
+  std::vector<std::string> solver_lines;  // its NLPs' summary lines (worker processes only)
+  std::vector<std::string> lines;         // its estimator progress lines (worker processes only)
+  bool have_cov = false;                  // the start's θ̂_e converged and has a covariance
+};
+
+void PutVector(parallel::Writer* w, const VectorXd& v) {
+  w->Put<std::int64_t>(v.size());
+  for (Eigen::Index i = 0; i < v.size(); ++i) w->Put<double>(v[i]);
+}
+VectorXd GetVector(parallel::Reader* r) {
+  VectorXd v(r->Get<std::int64_t>());
+  for (Eigen::Index i = 0; i < v.size(); ++i) v[i] = r->Get<double>();
+  return v;
+}
+void PutMatrix(parallel::Writer* w, const MatrixXd& m) {
+  w->Put<std::int64_t>(m.rows());
+  w->Put<std::int64_t>(m.cols());
+  for (Eigen::Index i = 0; i < m.size(); ++i) w->Put<double>(m.data()[i]);
+}
+MatrixXd GetMatrix(parallel::Reader* r) {
+  const auto rows = r->Get<std::int64_t>(), cols = r->Get<std::int64_t>();
+  MatrixXd m(rows, cols);
+  for (Eigen::Index i = 0; i < m.size(); ++i) m.data()[i] = r->Get<double>();
+  return m;
+}
+void PutLines(parallel::Writer* w, const std::vector<std::string>& lines) {
+  w->Put<std::int64_t>(static_cast<std::int64_t>(lines.size()));
+  for (const std::string& l : lines) w->PutString(l);
+}
+std::vector<std::string> GetLines(parallel::Reader* r) {
+  std::vector<std::string> lines(static_cast<std::size_t>(r->Get<std::int64_t>()));
+  for (std::string& l : lines) l = r->GetString();
+  return lines;
+}
+
+// An episode's state and run, bit for bit (its problem is not sent: a worker process has the
+// caller's copy).
+parallel::Buffer Encode(const EpisodeFit& fit, const EpisodeRun& run) {
+  parallel::Buffer out;
+  parallel::Writer w(&out);
+  PutVector(&w, fit.x);
+  w.Put<double>(fit.f);
+  PutVector(&w, fit.gradient);
+  PutMatrix(&w, fit.hessian);
+  PutMatrix(&w, fit.covariance);
+  PutMatrix(&w, fit.profile_covariance);
+  w.Put<double>(fit.final_epsilon);
+  PutVector(&w, fit.relaxed.lambda);
+  PutVector(&w, fit.relaxed.z_l);
+  PutVector(&w, fit.relaxed.z_u);
+  w.Put<bool>(fit.converged);
+  w.PutString(fit.reason);
+  w.Put<std::int32_t>(run.iterations);
+  w.Put<std::int32_t>(run.stages);
+  PutLines(&w, run.solver_lines);
+  PutLines(&w, run.lines);
+  w.Put<bool>(run.have_cov);
+  return out;
+}
+void Decode(const parallel::Buffer& in, EpisodeFit* fit, EpisodeRun* run) {
+  parallel::Reader r(in);
+  fit->x = GetVector(&r);
+  fit->f = r.Get<double>();
+  fit->gradient = GetVector(&r);
+  fit->hessian = GetMatrix(&r);
+  fit->covariance = GetMatrix(&r);
+  fit->profile_covariance = GetMatrix(&r);
+  fit->final_epsilon = r.Get<double>();
+  fit->relaxed.lambda = GetVector(&r);
+  fit->relaxed.z_l = GetVector(&r);
+  fit->relaxed.z_u = GetVector(&r);
+  fit->converged = r.Get<bool>();
+  fit->reason = r.GetString();
+  run->iterations = r.Get<std::int32_t>();
+  run->stages = r.Get<std::int32_t>();
+  run->solver_lines = GetLines(&r);
+  run->lines = GetLines(&r);
+  run->have_cov = r.Get<bool>();
+}
+
+using Progress = std::function<void(const std::string&)>;
+// job(e, fit, run, so, say): one episode's work on its fit, NLP lines to so.progress, estimator
+// lines to say.
+using EpisodeJob =
+    std::function<void(int, EpisodeFit*, EpisodeRun*, const MpecSolverOptions&, const Progress&)>;
+
+// Runs job on every episode of *fits: with one worker here, in episode order, lines as they
+// come; with more, each episode in a forked worker process (Ipopt is not thread-safe), its
+// fit and lines taken back (the lines replayed) as it ends. *runs in episode order. The result
+// is bitwise the same for any number of workers.
+void ForEachEpisode(std::vector<EpisodeFit>* fits, int workers, const MpecSolverOptions& so,
+                    const Progress& say, const EpisodeJob& job, std::vector<EpisodeRun>* runs) {
+  const int ne = static_cast<int>(fits->size());
+  runs->assign(static_cast<std::size_t>(ne), EpisodeRun());
+  const bool forked = workers > 1;
+  parallel::ForkDistributor processes(forked ? workers : 1);
+  parallel::MapOptions mo;
+  mo.chunk = 1;
+  if (forked) {
+    mo.on_chunk = [&](int e, int, const parallel::Buffer& out) {
+      EpisodeRun& run = (*runs)[static_cast<std::size_t>(e)];
+      Decode(out, &(*fits)[static_cast<std::size_t>(e)], &run);
+      for (const std::string& l : run.solver_lines)
+        if (so.progress) so.progress(l);
+      for (const std::string& l : run.lines) say(l);
+    };
+  }
+  processes.Map(
+      parallel::Buffer(), ne,
+      [&](const parallel::Buffer&, int e, int) {
+        EpisodeFit& fit = (*fits)[static_cast<std::size_t>(e)];
+        EpisodeRun& run = (*runs)[static_cast<std::size_t>(e)];
+        if (!forked) {
+          job(e, &fit, &run, so, say);
+          return parallel::Buffer();
+        }
+        MpecSolverOptions local = so;
+        local.progress = [&run](const std::string& l) { run.solver_lines.push_back(l); };
+        job(e, &fit, &run, local, [&run](const std::string& l) { run.lines.push_back(l); });
+        return Encode(fit, run);
+      },
+      mo);
+}
+
 // The covariance C of θ at an episode's solution `sol` (θ free or fixed): the Laplace
 // approximation of a polished NLP, or for a relaxed iterate (at which holding every pair's
 // smaller side can pin θ) the profile's, computed once (EpisodeFit::profile_covariance).
@@ -85,10 +218,37 @@ bool EpisodeCovariance(EpisodeFit* fit, const MpecSolution& sol, const MpecSolve
   return cov->diagonal().array().isFinite().any();
 }
 
+// fit's covariance C of its nt parameters at its solution `sol` (EpisodeCovariance) into
+// fit->covariance, and its curvature 2 C⁻¹ into fit->hessian (θ held at a bound: NaN rows of C,
+// curvature 0); NaN and 0, and false, if there is none.
+bool UpdateCurvature(EpisodeFit* fit, int nt, const MpecSolution& sol, const MpecSolverOptions& so,
+                     int* iterations, int* stages) {
+  fit->covariance = MatrixXd::Constant(nt, nt, std::nan(""));
+  fit->hessian = MatrixXd::Zero(nt, nt);
+  MatrixXd cov;
+  if (!EpisodeCovariance(fit, sol, so, iterations, stages, &cov)) return false;
+  fit->covariance = cov;
+  std::vector<int> free;
+  for (int i = 0; i < nt; ++i)
+    if (std::isfinite(cov(i, i))) free.push_back(i);
+  MatrixXd c(free.size(), free.size());
+  for (std::size_t i = 0; i < free.size(); ++i)
+    for (std::size_t j = 0; j < free.size(); ++j) c(i, j) = cov(free[i], free[j]);
+  Eigen::LDLT<MatrixXd> ldlt(c);
+  if (ldlt.info() == Eigen::Success && ldlt.isPositive()) {
+    const MatrixXd inv = ldlt.solve(MatrixXd::Identity(c.rows(), c.cols()));
+    for (std::size_t i = 0; i < free.size(); ++i)
+      for (std::size_t j = 0; j < free.size(); ++j) fit->hessian(free[i], free[j]) = 2 * inv(i, j);
+  }
+  return true;
+}
+
 // Solves episode `fit` at θ from `start` (its previous solution, or its guess); fills f,
-// gradient, curvature. Returns the NLP's iterations and stages through the pointers.
+// gradient and, with `curvature`, the curvature at the new solution (UpdateCurvature; without,
+// a polished solution keeps the curvature fit had — a relaxed one's is its profile's, computed
+// once, so it is always updated). Returns the NLP's iterations and stages through the pointers.
 EpisodeFit SolveEpisode(EpisodeFit&& fit, const VectorXd& theta, const MpecSolverOptions& so,
-                        int* iterations, int* stages) {
+                        bool curvature, int* iterations, int* stages) {
   const int nt = static_cast<int>(theta.size());
   MpecSolution sol;
   bool done = false;
@@ -132,25 +292,9 @@ EpisodeFit SolveEpisode(EpisodeFit&& fit, const VectorXd& theta, const MpecSolve
   fit.relaxed = sol.relaxed;
   fit.problem->Objective(sol.x, &fit.f);
   fit.gradient = EnvelopeGradient(*fit.problem, nt, sol.x, sol.lambda);
-  fit.covariance = MatrixXd::Constant(nt, nt, std::nan(""));
-  fit.hessian = MatrixXd::Zero(nt, nt);
-  MatrixXd cov;
-  if (EpisodeCovariance(&fit, sol, so, iterations, stages, &cov)) {
-    fit.covariance = cov;
-    // θ held (at a bound) has NaN rows: its curvature stays 0 (the projection handles it).
-    std::vector<int> free;
-    for (int i = 0; i < nt; ++i)
-      if (std::isfinite(cov(i, i))) free.push_back(i);
-    MatrixXd c(free.size(), free.size());
-    for (std::size_t i = 0; i < free.size(); ++i)
-      for (std::size_t j = 0; j < free.size(); ++j) c(i, j) = cov(free[i], free[j]);
-    Eigen::LDLT<MatrixXd> ldlt(c);
-    if (ldlt.info() == Eigen::Success && ldlt.isPositive()) {
-      const MatrixXd inv = ldlt.solve(MatrixXd::Identity(c.rows(), c.cols()));
-      for (std::size_t i = 0; i < free.size(); ++i)
-        for (std::size_t j = 0; j < free.size(); ++j) fit.hessian(free[i], free[j]) = 2 * inv(i, j);
-    }
-  }
+  const bool polished = sol.polished || sol.relaxed.lambda.size() == 0;
+  if (curvature || !polished || fit.hessian.rows() != nt)
+    UpdateCurvature(&fit, nt, sol, so, iterations, stages);
   if (!fit.gradient.allFinite()) fit.converged = false;
   return std::move(fit);
 }
@@ -219,10 +363,14 @@ MpecEstimateResult EstimateMpecDecomposed(const sim::Simulator& simulator, const
   r.method = "mpec";
   r.names = options.params;
   r.complementarity = ToString(options.solver.method);
+  // `threads` worker processes solve the episodes, each evaluating its steps on the rest.
+  const int workers = std::min(options.threads, ne);
+  MpecOptions per_episode = options;
+  per_episode.threads = std::max(1, options.threads / workers);
   for (int e = 0; e < ne; ++e) {
     Log one;
     one.episodes.push_back(log.episodes[e]);
-    fits[e].problem = std::make_unique<MpecEstimationProblem>(simulator, one, options, sigma_w);
+    fits[e].problem = std::make_unique<MpecEstimationProblem>(simulator, one, per_episode, sigma_w);
     const MpecEstimationProblem& p = *fits[e].problem;
     r.num_constraints += p.num_constraints();
     r.num_pairs += static_cast<int>(p.ComplementarityPairs().size());
@@ -241,6 +389,7 @@ MpecEstimateResult EstimateMpecDecomposed(const sim::Simulator& simulator, const
     std::ostringstream s;
     s << "mpec decomposed: " << ne << " episodes, " << r.num_steps << " steps, " << r.num_unknowns
       << " unknowns, " << r.num_pairs << " complementarity pairs (" << r.complementarity << ")";
+    if (workers > 1) s << ", " << workers << " worker processes";
     say(s.str());
   }
   MpecSolverOptions so = options.solver;
@@ -252,19 +401,28 @@ MpecEstimateResult EstimateMpecDecomposed(const sim::Simulator& simulator, const
   // alone); the joint path keeps 0 (no cap).
   if (so.early_polish_max_iterations == 0) so.early_polish_max_iterations = kEarlyPolishIterations;
 
-  // Solves every episode at θ from `base` (in episode order); false if one failed.
+  // Solves every episode at θ from `base`; false if one failed. The curvatures H_e of polished
+  // episodes are those of their last UpdateCurvature (the start's, at θ̂_e, until the final
+  // pass below): the Laplace covariance (a GMRES solve on the episode's KKT matrix) cost about
+  // as much as a warm-started episode NLP on the tossed cube, and the model's curvature is
+  // corrected along each step by its secant anyway.
   auto evaluate = [&](const VectorXd& th, std::vector<EpisodeFit>* base, double* F, VectorXd* G,
                       MatrixXd* H, std::string* failure) {
     *F = 0.0;
     G->setZero(nt);
     H->setZero(nt, nt);
     bool ok = true;
+    std::vector<EpisodeRun> runs;
+    ForEachEpisode(
+        base, workers, so, say,
+        [&th](int, EpisodeFit* fit, EpisodeRun* run, const MpecSolverOptions& o, const Progress&) {
+          *fit = SolveEpisode(std::move(*fit), th, o, false, &run->iterations, &run->stages);
+        },
+        &runs);
     for (int e = 0; e < ne; ++e) {
-      EpisodeFit& fit = (*base)[e];
-      int it = 0, st = 0;
-      fit = SolveEpisode(std::move(fit), th, so, &it, &st);
-      r.iterations += it;
-      r.stages += st;
+      const EpisodeFit& fit = (*base)[e];
+      r.iterations += runs[e].iterations;
+      r.stages += runs[e].stages;
       if (!fit.converged) {
         ok = false;
         if (failure->empty()) *failure = log.episodes[e].file + ": " + fit.reason;
@@ -295,25 +453,35 @@ MpecEstimateResult EstimateMpecDecomposed(const sim::Simulator& simulator, const
     MatrixXd info = MatrixXd::Zero(nt, nt);
     VectorXd weighted = VectorXd::Zero(nt);
     int used = 0;
+    std::vector<EpisodeRun> runs;
+    ForEachEpisode(
+        &fits, workers, so, say,
+        [nt](int e, EpisodeFit* fit, EpisodeRun* run, const MpecSolverOptions& o,
+             const Progress& out) {
+          const MpecSolution sol = SolveMpec(*fit->problem, o);
+          run->iterations += sol.iterations;
+          run->stages += sol.stages;
+          if (!sol.x.allFinite()) return;
+          fit->x = sol.x;
+          fit->final_epsilon = sol.final_epsilon;
+          fit->relaxed = sol.relaxed;
+          run->have_cov =
+              sol.converged && UpdateCurvature(fit, nt, sol, o, &run->iterations, &run->stages);
+          std::ostringstream s;
+          s << "mpec decomposed: episode " << e << " alone: theta";
+          for (int i = 0; i < nt; ++i) s << " " << sol.x[i];
+          s << ", " << sol.iterations << " Ipopt iterations, " << sol.reason;
+          out(s.str());
+        },
+        &runs);
     for (int e = 0; e < ne; ++e) {
-      EpisodeFit& fit = fits[e];
-      const MpecSolution sol = SolveMpec(*fit.problem, so);
-      r.iterations += sol.iterations;
-      r.stages += sol.stages;
-      if (!sol.x.allFinite()) continue;
-      fit.x = sol.x;
-      fit.final_epsilon = sol.final_epsilon;
-      fit.relaxed = sol.relaxed;
-      const VectorXd th = sol.x.head(nt);
-      MatrixXd cov;
-      const bool have_cov =
-          sol.converged && EpisodeCovariance(&fit, sol, so, &r.iterations, &r.stages, &cov);
-      std::ostringstream s;
-      s << "mpec decomposed: episode " << e << " alone: theta";
-      for (int i = 0; i < nt; ++i) s << " " << th[i];
-      s << ", " << sol.iterations << " Ipopt iterations, " << sol.reason;
-      say(s.str());
-      if (!have_cov || !cov.allFinite()) continue;
+      const EpisodeFit& fit = fits[e];
+      r.iterations += runs[e].iterations;
+      r.stages += runs[e].stages;
+      if (fit.x.size() == 0) continue;
+      const VectorXd th = fit.x.head(nt);
+      const MatrixXd& cov = fit.covariance;
+      if (!runs[e].have_cov || !cov.allFinite()) continue;
       Eigen::LDLT<MatrixXd> ldlt(cov);
       if (ldlt.info() != Eigen::Success || !ldlt.isPositive()) continue;
       const MatrixXd inv = ldlt.solve(MatrixXd::Identity(nt, nt));
@@ -400,6 +568,8 @@ MpecEstimateResult EstimateMpecDecomposed(const sim::Simulator& simulator, const
         next[e].final_epsilon = fits[e].final_epsilon;
         next[e].relaxed = fits[e].relaxed;
         next[e].profile_covariance = fits[e].profile_covariance;
+        next[e].covariance = fits[e].covariance;
+        next[e].hessian = fits[e].hessian;
       }
       double Ft = 0.0;
       VectorXd Gt;
@@ -438,6 +608,26 @@ MpecEstimateResult EstimateMpecDecomposed(const sim::Simulator& simulator, const
   }
   if (ok && !outer_converged && outer_reason.empty())
     outer_reason = "outer iteration limit " + std::to_string(kMaxOuterIterations);
+
+  // The polished episodes' curvatures at the final θ (a relaxed episode's, its profile's, is
+  // current): the model standard error and the jackknife read them.
+  if (ok) {
+    std::vector<EpisodeRun> runs;
+    ForEachEpisode(
+        &fits, workers, so, say,
+        [nt](int, EpisodeFit* fit, EpisodeRun* run, const MpecSolverOptions& o, const Progress&) {
+          if (fit->x.size() == 0 || fit->relaxed.lambda.size() > 0) return;
+          MpecSolution sol;
+          sol.x = fit->x;
+          sol.polished = true;
+          UpdateCurvature(fit, nt, sol, o, &run->iterations, &run->stages);
+        },
+        &runs);
+    for (const EpisodeRun& run : runs) {
+      r.iterations += run.iterations;
+      r.stages += run.stages;
+    }
+  }
 
   // Results at the final θ.
   r.estimates = theta;

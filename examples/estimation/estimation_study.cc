@@ -21,23 +21,24 @@
 // same seeded log). One CSV row per trial and method: study, method,
 // noise_m, window, particles, episodes, trial, true_mu, mu_hat, std_error, converged,
 // iterations, time_s (wall), samples, cpu_s (the process's CPU time: meaningful on a loaded
-// machine, summed over threads), robust_se (mpec_dec: the s.e. from the episodes' jackknife;
-// nan otherwise). Methods: lsq (single shooting), lsq_ms (multiple shooting,
-// 25-sample segments), filter (the UKF with μ in the state), mpec (Ipopt, Scholtes relaxation
-// homotopy), mpec_pen (Ipopt, ℓ1 penalty homotopy), mpec_dec (mpec with the episodes decomposed:
-// MpecEpisodes::kDecomposed, mpec_decomposed.h). The defaults are
-// the full study (20 trials); --trials and --methods cut it down (scripts/estimation_studies.sh
-// runs all four studies). --threads N (default 1) is passed to lsq/lsq_ms (episodes in
-// parallel) and mpec/mpec_pen (steps in parallel); --mpec-substeps N (default 0: the scene's
-// dt) the MPEC's steps per log interval (MpecOptions::substeps); --mpec-raw-guess 1 the MPEC's
-// initial guess from the raw log (MpecOptions::smooth_initial_guess off). Plots:
-// scripts/plot_estimation_study.py FILE.csv.
+// machine, summed over threads and over the worker processes of mpec_dec), robust_se (mpec_dec: the
+// s.e. from the episodes' jackknife; nan otherwise). Methods: lsq (single shooting), lsq_ms
+// (multiple shooting, 25-sample segments), filter (the UKF with μ in the state), mpec (Ipopt,
+// Scholtes relaxation homotopy), mpec_pen (Ipopt, ℓ1 penalty homotopy), mpec_dec (mpec with the
+// episodes decomposed: MpecEpisodes::kDecomposed, mpec_decomposed.h). The defaults are the full
+// study (20 trials); --trials and --methods cut it down (scripts/estimation_studies.sh runs all
+// four studies). --threads N (default 1) is passed to lsq/lsq_ms (episodes in parallel),
+// mpec/mpec_pen (steps in parallel) and mpec_dec (episodes in worker processes); --mpec-substeps N
+// (default 0: the scene's dt) the MPEC's steps per log interval (MpecOptions::substeps);
+// --mpec-raw-guess 1 the MPEC's initial guess from the raw log (MpecOptions::smooth_initial_guess
+// off). Plots: scripts/plot_estimation_study.py FILE.csv.
 //
 // To add a method, add one line to Methods() below.
+#include <sys/resource.h>
+
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <ctime>
 #include <exception>
 #include <fstream>
 #include <functional>
@@ -56,6 +57,18 @@
 #include "vinci/sim/simulator/simulator.h"
 
 namespace {
+
+// CPU seconds of this process and of its waited-for children (mpec_dec's worker processes).
+double CpuSeconds() {
+  double s = 0.0;
+  for (const int who : {RUSAGE_SELF, RUSAGE_CHILDREN}) {
+    rusage u{};
+    getrusage(who, &u);
+    s += static_cast<double>(u.ru_utime.tv_sec + u.ru_stime.tv_sec) +
+         1e-6 * static_cast<double>(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+  }
+  return s;
+}
 
 using vinci::estimation::EstimateResult;
 using vinci::estimation::Log;
@@ -418,7 +431,7 @@ int Run(int argc, char** argv) {
             for (const std::string& m : method_names) wanted |= m == name;
             if (!wanted) continue;
             StudyResult result;
-            const std::clock_t cpu0 = std::clock();
+            const double cpu0 = CpuSeconds();
             try {
               result = estimator(model, log, sigma);
             } catch (const std::exception& e) {
@@ -430,8 +443,7 @@ int Run(int argc, char** argv) {
                 << log.episodes.size() << "," << trial << "," << st.true_mu << "," << r.estimates[0]
                 << "," << r.std_errors[0] << "," << (r.converged ? 1 : 0) << "," << r.iterations
                 << "," << r.time_s << "," << static_cast<int>(w * log.episodes.size()) << ","
-                << static_cast<double>(std::clock() - cpu0) / CLOCKS_PER_SEC << ","
-                << result.robust_se << std::endl;
+                << CpuSeconds() - cpu0 << "," << result.robust_se << std::endl;
             std::fprintf(
                 stderr, "%s %-7s σ=%g w=%g n=%d e=%d trial %2d: μ̂ = %.5f ± %.5f %s %d it %.2f s",
                 which.c_str(), name.c_str(), sigma, w, n_particles,

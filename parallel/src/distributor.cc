@@ -30,8 +30,10 @@ Buffer LocalDistributor::Map(const Buffer& job, int n, const ChunkFn& fn,
   const std::vector<int> bounds = ChunkBounds(n, 1, options);
   Buffer out;
   for (std::size_t k = 0; k + 1 < bounds.size(); ++k) {
-    out += fn(job, bounds[k], bounds[k + 1]);
+    const Buffer result = fn(job, bounds[k], bounds[k + 1]);
     items_ += bounds[k + 1] - bounds[k];
+    if (options.on_chunk) options.on_chunk(bounds[k], bounds[k + 1], result);
+    out += result;
     if (options.progress) options.progress(bounds[k + 1], n);
   }
   return out;

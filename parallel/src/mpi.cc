@@ -160,14 +160,18 @@ class MpiDistributor : public Distributor {
       pending[static_cast<std::size_t>(w)].push_back(next++);
       ++outstanding;
     };
-    const auto finished = [&](int k, int by) {
+    const auto finished = [&](int k, int by, bool ok) {
       const int items =
           bounds[static_cast<std::size_t>(k) + 1] - bounds[static_cast<std::size_t>(k)];
       items_[static_cast<std::size_t>(by)] += items;
       done += items;
-      if (options.progress && !progress_error) {
+      if ((options.progress || options.on_chunk) && !progress_error) {
         try {
-          options.progress(done, n);
+          if (ok && options.on_chunk)
+            options.on_chunk(bounds[static_cast<std::size_t>(k)],
+                             bounds[static_cast<std::size_t>(k) + 1],
+                             results[static_cast<std::size_t>(k)]);
+          if (options.progress) options.progress(done, n);
         } catch (...) {
           progress_error = std::current_exception();
         }
@@ -203,22 +207,24 @@ class MpiDistributor : public Distributor {
           failed_what = msg.substr(1);
           local_error = nullptr;
         }
-        finished(k, w);
+        finished(k, w, status == kOk);
         give(w);
         got = true;
       }
       if (next < chunks && !stopping()) {  // a chunk of our own while the workers compute
         const int k = next++;
+        bool ok = true;
         try {
           results[static_cast<std::size_t>(k)] =
               fn(job, bounds[static_cast<std::size_t>(k)], bounds[static_cast<std::size_t>(k) + 1]);
         } catch (...) {
+          ok = false;
           if (fail(k)) {
             failed_chunk = k;
             local_error = std::current_exception();
           }
         }
-        finished(k, 0);
+        finished(k, 0, ok);
         backoff.Reset();
         continue;
       }

@@ -244,7 +244,8 @@ struct MpecSolution {
 /// is warm-started from those multipliers (a relaxed solution of a nearby problem with the same
 /// variables, constraints and pairs). Throws std::invalid_argument for invalid options,
 /// inconsistent sizes or a pair with equal or out-of-range indices, or an exact-Hessian run on
-/// a problem without one; numerical failure is reported in the result.
+/// a problem without one; numerical failure is reported in the result. Sets the process' OpenBLAS
+/// (if that is the BLAS loaded) to one thread, unless OPENBLAS_NUM_THREADS is set.
 MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& options,
                        const MpecMultipliers* warm_start = nullptr);
 

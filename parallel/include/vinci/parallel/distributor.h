@@ -45,6 +45,9 @@ struct MapOptions {
   int min_chunk = 1;
   /// (items done, n) on rank 0 after each chunk, in completion order. May be empty.
   std::function<void(int done, int total)> progress;
+  /// On rank 0 after each chunk that succeeded, in completion order: its items [begin, end) and
+  /// its result (as Map returns it), before `progress`. May be empty.
+  std::function<void(int begin, int end, const Buffer& result)> on_chunk;
 };
 
 /// Rank 0's side hands out chunks and collects results; the other ranks serve.
