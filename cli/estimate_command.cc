@@ -1,5 +1,6 @@
 #include "estimate_command.h"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <fstream>
@@ -182,6 +183,26 @@ std::string EstimateLines(const std::vector<std::string>& names, const sim::Vect
   return s.str();
 }
 
+std::string PoorEpisodesLine(const std::vector<estimation::EpisodeEstimate>& episodes) {
+  const std::vector<int> poor = estimation::PoorlyFittingEpisodes(episodes);
+  if (poor.empty()) return "";
+  std::vector<double> rms;
+  for (const estimation::EpisodeEstimate& e : episodes) rms.push_back(e.rms_residual);
+  std::nth_element(rms.begin(), rms.begin() + static_cast<std::ptrdiff_t>(rms.size() / 2),
+                   rms.end());
+  std::ostringstream s;
+  s.precision(3);
+  s << "episodes fitting far worse than the others (rms residual, typical " << rms[rms.size() / 2]
+    << " m):";
+  for (const int e : poor) {
+    const estimation::EpisodeEstimate& ep = episodes[static_cast<std::size_t>(e)];
+    s << " " << ep.file << " " << ep.rms_residual << " m";
+  }
+  s << " — a wrong local solution, a log problem or another model: look at them, or estimate "
+       "without them\n";
+  return s.str();
+}
+
 ExitCode RunEstimateCommand(const EstimateOptions& o) {
   if (o.holdout < 0 || o.holdout == 1)
     throw std::invalid_argument("--holdout " + std::to_string(o.holdout) +
@@ -227,6 +248,7 @@ ExitCode RunEstimateCommand(const EstimateOptions& o) {
     s << EstimateLines(r.names, r.estimates, r.std_errors, r.initial_values);
     s << "iterations " << r.iterations << ", " << r.time_s << " s, "
       << (r.converged ? "converged" : "did not converge") << ": " << r.reason << "\n";
+    s << PoorEpisodesLine(r.episodes);
     if (holdout) s << HoldoutSummary(*holdout);
     s << "result      " << o.out << "\n";
     std::cout << s.str() << std::flush;

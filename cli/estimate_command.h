@@ -9,6 +9,7 @@
 
 #include "command.h"
 #include "vinci/estimation/holdout.h"
+#include "vinci/estimation/least_squares.h"
 #include "vinci/estimation/log.h"
 #include "vinci/sim/simulator/simulator.h"
 #include "vinci/sim/types.h"
@@ -74,5 +75,9 @@ std::unique_ptr<estimation::HoldoutResult> FittedHoldout(const EstimateOptions& 
 /// One line per parameter, "name = value ± s.e. (from initial)", printed on stdout.
 std::string EstimateLines(const std::vector<std::string>& names, const sim::VectorXd& estimates,
                           const sim::VectorXd& std_errors, const sim::VectorXd& initial_values);
+
+/// The line naming the episodes that fit far worse than the others
+/// (estimation::PoorlyFittingEpisodes), or "" if there are none.
+std::string PoorEpisodesLine(const std::vector<estimation::EpisodeEstimate>& episodes);
 
 }  // namespace vinci::cli

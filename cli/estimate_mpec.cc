@@ -153,6 +153,7 @@ ExitCode RunEstimateMpec(const EstimateOptions& o) {
         s << "the episodes disagree beyond their standard errors (model error?): the robust ones "
              "are the honest uncertainty\n";
     }
+    s << PoorEpisodesLine(r.episodes);
     if (holdout) s << HoldoutSummary(*holdout);
     s << "result      " << o.out << "\n";
     std::cout << s.str() << std::flush;

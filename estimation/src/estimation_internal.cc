@@ -5,6 +5,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "vinci/estimation/least_squares.h"
 #include "vinci/sim/model/state_util.h"
 #include "vinci/sim/simulator/simulator.h"
 
@@ -313,3 +314,33 @@ void CheckDifferentiable(const sim::Scene& scene, const std::vector<std::string>
 }
 
 }  // namespace vinci::estimation::internal
+
+namespace vinci::estimation {
+
+// Below 1 nm no residual is "far worse" (noise-free logs fit to rounding).
+constexpr double kMinPoorResidual = 1e-9;
+
+std::vector<int> PoorlyFittingEpisodes(const std::vector<EpisodeEstimate>& episodes,
+                                       double factor) {
+  if (!(factor > 1.0)) throw std::invalid_argument("PoorlyFittingEpisodes: factor must be > 1");
+  std::vector<double> rms;
+  for (const EpisodeEstimate& e : episodes) {
+    if (!std::isfinite(e.rms_residual)) return {};
+    rms.push_back(e.rms_residual);
+  }
+  if (rms.size() < 3) return {};
+  std::vector<double> sorted = rms;
+  const std::size_t mid = sorted.size() / 2;
+  std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(mid), sorted.end());
+  double median = sorted[mid];
+  if (sorted.size() % 2 == 0) {
+    median = 0.5 * (median + *std::max_element(sorted.begin(),
+                                               sorted.begin() + static_cast<std::ptrdiff_t>(mid)));
+  }
+  std::vector<int> poor;
+  for (std::size_t e = 0; e < rms.size(); ++e)
+    if (rms[e] > std::max(factor * median, kMinPoorResidual)) poor.push_back(static_cast<int>(e));
+  return poor;
+}
+
+}  // namespace vinci::estimation

@@ -17,7 +17,7 @@
 // and runs each method from the scene's μ (the initial guess). With --episodes N (default 1) a
 // trial is N episodes estimated together (shared μ, per-episode initial states); the cube's
 // episodes are different tosses (seeded launch velocities around the scene's), the planar
-// studies' differ only in their noise; --only-episode K estimates the K-th of them alone (the
+// studies' differ only in their noise; --only-episode K[,L...] estimates only those of them (the
 // same seeded log). One CSV row per trial and method: study, method,
 // noise_m, window, particles, episodes, trial, true_mu, mu_hat, std_error, converged,
 // iterations, time_s (wall), samples, cpu_s (the process's CPU time: meaningful on a loaded
@@ -294,7 +294,7 @@ constexpr const char* kUsage =
     "         [--noise S1,S2] [--windows W1,W2] [--particles N1,N2] [--episodes N]\n"
     "         [--methods lsq,lsq_ms,filter,mpec,mpec_pen,mpec_dec] [--guess MU] [--threads N]\n"
     "         [--mpec-substeps N] [--mpec-raw-guess 1] [--verbose 0|1|IPOPT_PRINT_LEVEL]\n"
-    "         [--only-episode K]\n"
+    "         [--only-episode K[,L...]]\n"
     "         [--out F.csv]\n";
 
 int Run(int argc, char** argv) {
@@ -340,7 +340,7 @@ int Run(int argc, char** argv) {
     return 1;
   }
   int trials = 20, first_trial = 0, episodes = 1;
-  int only_episode = -1;  // ≥ 0: of the trial's episodes keep only this one (--only-episode)
+  std::vector<int> only_episodes;  // of the trial's episodes keep only these (--only-episode)
   std::string out = "estimation_study_" + which + ".csv";
   std::vector<std::string> method_names;
   for (const auto& m : Methods()) method_names.push_back(m.first);
@@ -358,7 +358,8 @@ int Run(int argc, char** argv) {
     } else if (flag == "--episodes") {
       episodes = std::stoi(value);
     } else if (flag == "--only-episode") {
-      only_episode = std::stoi(value);
+      std::stringstream list(value);
+      for (std::string k; std::getline(list, k, ',');) only_episodes.push_back(std::stoi(k));
     } else if (flag == "--noise") {
       noise = ParseList(value);
     } else if (flag == "--windows") {
@@ -393,10 +394,11 @@ int Run(int argc, char** argv) {
       return 1;
     }
   }
-  if (only_episode >= episodes) {
-    std::cerr << "--only-episode " << only_episode << ": expected < --episodes " << episodes
-              << "\n";
-    return 1;
+  for (const int k : only_episodes) {
+    if (k < 0 || k >= episodes) {
+      std::cerr << "--only-episode " << k << ": expected 0 ≤ K < --episodes " << episodes << "\n";
+      return 1;
+    }
   }
   if (trials < 1 || episodes < 1 || first_trial < 0 || g_threads < 1 || g_mpec_substeps < 0) {
     std::cerr << "--trials, --episodes and --threads must be ≥ 1, --first-trial and "
@@ -420,11 +422,11 @@ int Run(int argc, char** argv) {
         for (int trial = first_trial; trial < first_trial + trials; ++trial) {
           const unsigned seed = 1000u * static_cast<unsigned>(w) + static_cast<unsigned>(trial);
           Log log = MakeLog(truth, st, static_cast<int>(w), episodes, sigma, seed);
-          if (only_episode >= 0) {
-            // The same seeded episode as in the N-episode trial, estimated alone.
-            est::Episode kept = std::move(log.episodes.at(only_episode));
-            log.episodes.clear();
-            log.episodes.push_back(std::move(kept));
+          if (!only_episodes.empty()) {
+            // The same seeded episodes as in the N-episode trial, estimated without the others.
+            std::vector<est::Episode> kept;
+            for (const int k : only_episodes) kept.push_back(log.episodes.at(k));
+            log.episodes = std::move(kept);
           }
           for (const auto& [name, estimator] : Methods()) {
             bool wanted = false;
