@@ -283,23 +283,6 @@ EpisodeFit SolveEpisode(EpisodeFit&& fit, const VectorXd& theta, const MpecSolve
     sol = SolveMpec(fixed, so);
     *iterations += sol.iterations;
     *stages += sol.stages;
-    done = sol.converged && sol.x.allFinite();
-  }
-  if (!done && fit.x.size() > 0) {
-    // The homotopy from the episode's own guess (the measured poses), as its start solved it
-    // with θ free: measured on 50 tossed cubes, a relaxed toss (θ̂_e = 0.417) was locally
-    // infeasible at θ = 0.368 from its solution's neighbourhood, both the tail and the full
-    // homotopy from there ("infeasible problem detected" at ε = 1e-9).
-    const FixedThetaProblem fixed(*fit.problem, theta, fit.problem->StartingPoint());
-    MpecSolution fresh = SolveMpec(fixed, so);
-    *iterations += fresh.iterations;
-    *stages += fresh.stages;
-    if (fresh.converged && fresh.x.allFinite()) {
-      fresh.reason = "from its guess: " + fresh.reason;
-      sol = std::move(fresh);
-    } else {
-      sol.reason += "; from its guess: " + fresh.reason;
-    }
   }
   fit.converged = sol.converged && sol.x.allFinite();
   fit.reason = sol.reason;
