@@ -1,6 +1,5 @@
 #include "estimate_command.h"
 
-#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <fstream>
@@ -184,16 +183,12 @@ std::string EstimateLines(const std::vector<std::string>& names, const sim::Vect
 }
 
 std::string PoorEpisodesLine(const std::vector<estimation::EpisodeEstimate>& episodes) {
-  const std::vector<int> poor = estimation::PoorlyFittingEpisodes(episodes);
+  double median = 0.0;
+  const std::vector<int> poor = estimation::PoorlyFittingEpisodes(episodes, 3.0, &median);
   if (poor.empty()) return "";
-  std::vector<double> rms;
-  for (const estimation::EpisodeEstimate& e : episodes) rms.push_back(e.rms_residual);
-  std::nth_element(rms.begin(), rms.begin() + static_cast<std::ptrdiff_t>(rms.size() / 2),
-                   rms.end());
   std::ostringstream s;
   s.precision(3);
-  s << "episodes fitting far worse than the others (rms residual, typical " << rms[rms.size() / 2]
-    << " m):";
+  s << "episodes fitting far worse than the others (rms residual, typical " << median << " m):";
   for (const int e : poor) {
     const estimation::EpisodeEstimate& ep = episodes[static_cast<std::size_t>(e)];
     s << " " << ep.file << " " << ep.rms_residual << " m";

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 
@@ -320,9 +321,11 @@ namespace vinci::estimation {
 // Below 1 nm no residual is "far worse" (noise-free logs fit to rounding).
 constexpr double kMinPoorResidual = 1e-9;
 
-std::vector<int> PoorlyFittingEpisodes(const std::vector<EpisodeEstimate>& episodes,
-                                       double factor) {
+std::vector<int> PoorlyFittingEpisodes(const std::vector<EpisodeEstimate>& episodes, double factor,
+                                       double* median) {
   if (!(factor > 1.0)) throw std::invalid_argument("PoorlyFittingEpisodes: factor must be > 1");
+  double m = std::numeric_limits<double>::quiet_NaN();
+  if (median) *median = m;
   std::vector<double> rms;
   for (const EpisodeEstimate& e : episodes) {
     if (!std::isfinite(e.rms_residual)) return {};
@@ -332,14 +335,15 @@ std::vector<int> PoorlyFittingEpisodes(const std::vector<EpisodeEstimate>& episo
   std::vector<double> sorted = rms;
   const std::size_t mid = sorted.size() / 2;
   std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(mid), sorted.end());
-  double median = sorted[mid];
+  m = sorted[mid];
   if (sorted.size() % 2 == 0) {
-    median = 0.5 * (median + *std::max_element(sorted.begin(),
-                                               sorted.begin() + static_cast<std::ptrdiff_t>(mid)));
+    m = 0.5 *
+        (m + *std::max_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(mid)));
   }
+  if (median) *median = m;
   std::vector<int> poor;
   for (std::size_t e = 0; e < rms.size(); ++e)
-    if (rms[e] > std::max(factor * median, kMinPoorResidual)) poor.push_back(static_cast<int>(e));
+    if (rms[e] > std::max(factor * m, kMinPoorResidual)) poor.push_back(static_cast<int>(e));
   return poor;
 }
 

@@ -77,6 +77,12 @@ ForkDistributor::ForkDistributor(int processes) : processes_(processes) {
 
 Buffer ForkDistributor::Map(const Buffer& job, int n, const ChunkFn& fn,
                             const MapOptions& options) {
+  if (processes_ == 1) {  // here, in order
+    LocalDistributor local;
+    const Buffer out = local.Map(job, n, fn, options);
+    items_[0] += local.ItemsPerRank()[0];
+    return out;
+  }
   const std::vector<int> bounds = ChunkBounds(n, processes_, options);
   const int chunks = bounds.empty() ? 0 : static_cast<int>(bounds.size()) - 1;
   std::vector<Buffer> results(static_cast<std::size_t>(chunks));
@@ -103,106 +109,92 @@ Buffer ForkDistributor::Map(const Buffer& job, int n, const ChunkFn& fn,
   };
   const auto stopping = [&] { return failed_chunk >= 0 || callback_error; };
 
-  if (processes_ == 1) {
-    for (int k = 0; k < chunks && !stopping(); ++k) {
-      bool ok = true;
-      try {
-        results[static_cast<std::size_t>(k)] =
-            fn(job, bounds[static_cast<std::size_t>(k)], bounds[static_cast<std::size_t>(k) + 1]);
-      } catch (...) {
-        ok = false;
-        fail(k, std::current_exception());
-      }
-      finished(k, 0, ok);
-    }
-  } else {
-    std::vector<Child> running;
-    std::vector<bool> busy(static_cast<std::size_t>(processes_), false);
-    const auto spawn = [&](int k) {
-      int slot = 0;
-      while (busy[static_cast<std::size_t>(slot)]) ++slot;
-      int fds[2];
-      if (::pipe2(fds, O_CLOEXEC) != 0)
-        throw std::runtime_error(std::string("parallel::ForkDistributor: pipe: ") +
-                                 std::strerror(errno));
-      std::fflush(nullptr);  // nothing buffered is written twice
-      const pid_t pid = ::fork();
-      if (pid < 0) {
-        const int err = errno;
-        ::close(fds[0]);
-        ::close(fds[1]);
-        throw std::runtime_error(std::string("parallel::ForkDistributor: fork: ") +
-                                 std::strerror(err));
-      }
-      if (pid == 0) {
-        ::close(fds[0]);
-        RunChild(fds[1], fn, job, bounds[static_cast<std::size_t>(k)],
-                 bounds[static_cast<std::size_t>(k) + 1]);
-      }
+  std::vector<Child> running;
+  std::vector<bool> busy(static_cast<std::size_t>(processes_), false);
+  const auto spawn = [&](int k) {
+    int slot = 0;
+    while (busy[static_cast<std::size_t>(slot)]) ++slot;
+    int fds[2];
+    if (::pipe2(fds, O_CLOEXEC) != 0)
+      throw std::runtime_error(std::string("parallel::ForkDistributor: pipe: ") +
+                               std::strerror(errno));
+    std::fflush(nullptr);  // nothing buffered is written twice
+    const pid_t pid = ::fork();
+    if (pid < 0) {
+      const int err = errno;
+      ::close(fds[0]);
       ::close(fds[1]);
-      busy[static_cast<std::size_t>(slot)] = true;
-      running.push_back(Child{pid, fds[0], k, slot, {}});
-    };
-    // Reaps a child whose pipe reached its end and records its chunk.
-    const auto collect = [&](Child& c) {
-      ::close(c.fd);
-      int status = 0;
-      while (::waitpid(c.pid, &status, 0) < 0 && errno == EINTR) {
-      }
-      busy[static_cast<std::size_t>(c.slot)] = false;
-      const int b = bounds[static_cast<std::size_t>(c.chunk)];
-      const int e = bounds[static_cast<std::size_t>(c.chunk) + 1];
-      bool ok = false;
-      if (c.data.empty()) {
-        fail(c.chunk,
-             std::make_exception_ptr(std::runtime_error(
-                 "parallel::ForkDistributor: the process running items [" + std::to_string(b) +
-                 ", " + std::to_string(e) + ") " + HowItEnded(status) + " without a result")));
-      } else if (c.data[0] == kOk) {
-        results[static_cast<std::size_t>(c.chunk)] = c.data.substr(1);
-        ok = true;
-      } else if (c.data[0] == kInvalidArgument) {
-        fail(c.chunk, std::make_exception_ptr(std::invalid_argument(c.data.substr(1))));
-      } else {
-        fail(c.chunk, std::make_exception_ptr(std::runtime_error(c.data.substr(1))));
-      }
-      finished(c.chunk, c.slot, ok);
-    };
-    std::exception_ptr spawn_error;
-    for (;;) {
-      while (!spawn_error && !stopping() && next < chunks &&
-             static_cast<int>(running.size()) < processes_) {
-        try {
-          spawn(next);
-          ++next;
-        } catch (...) {
-          spawn_error = std::current_exception();
-        }
-      }
-      if (running.empty()) break;
-      std::vector<pollfd> fds(running.size());
-      for (std::size_t i = 0; i < running.size(); ++i) fds[i] = pollfd{running[i].fd, POLLIN, 0};
-      if (::poll(fds.data(), fds.size(), -1) < 0) {
-        if (errno == EINTR) continue;
-        throw std::runtime_error(std::string("parallel::ForkDistributor: poll: ") +
-                                 std::strerror(errno));
-      }
-      for (std::size_t i = running.size(); i-- > 0;) {
-        if (fds[i].revents == 0) continue;
-        char buf[1 << 16];
-        const ssize_t r = ::read(running[i].fd, buf, sizeof buf);
-        if (r < 0 && errno == EINTR) continue;
-        if (r > 0) {
-          running[i].data.append(buf, static_cast<std::size_t>(r));
-          continue;
-        }
-        if (r < 0) running[i].data.clear();  // a read error: the message is lost
-        collect(running[i]);
-        running.erase(running.begin() + static_cast<std::ptrdiff_t>(i));
+      throw std::runtime_error(std::string("parallel::ForkDistributor: fork: ") +
+                               std::strerror(err));
+    }
+    if (pid == 0) {
+      ::close(fds[0]);
+      RunChild(fds[1], fn, job, bounds[static_cast<std::size_t>(k)],
+               bounds[static_cast<std::size_t>(k) + 1]);
+    }
+    ::close(fds[1]);
+    busy[static_cast<std::size_t>(slot)] = true;
+    running.push_back(Child{pid, fds[0], k, slot, {}});
+  };
+  // Reaps a child whose pipe reached its end and records its chunk.
+  const auto collect = [&](Child& c) {
+    ::close(c.fd);
+    int status = 0;
+    while (::waitpid(c.pid, &status, 0) < 0 && errno == EINTR) {
+    }
+    busy[static_cast<std::size_t>(c.slot)] = false;
+    const int b = bounds[static_cast<std::size_t>(c.chunk)];
+    const int e = bounds[static_cast<std::size_t>(c.chunk) + 1];
+    bool ok = false;
+    if (c.data.empty()) {
+      fail(c.chunk,
+           std::make_exception_ptr(std::runtime_error(
+               "parallel::ForkDistributor: the process running items [" + std::to_string(b) + ", " +
+               std::to_string(e) + ") " + HowItEnded(status) + " without a result")));
+    } else if (c.data[0] == kOk) {
+      results[static_cast<std::size_t>(c.chunk)] = c.data.substr(1);
+      ok = true;
+    } else if (c.data[0] == kInvalidArgument) {
+      fail(c.chunk, std::make_exception_ptr(std::invalid_argument(c.data.substr(1))));
+    } else {
+      fail(c.chunk, std::make_exception_ptr(std::runtime_error(c.data.substr(1))));
+    }
+    finished(c.chunk, c.slot, ok);
+  };
+  std::exception_ptr spawn_error;
+  for (;;) {
+    while (!spawn_error && !stopping() && next < chunks &&
+           static_cast<int>(running.size()) < processes_) {
+      try {
+        spawn(next);
+        ++next;
+      } catch (...) {
+        spawn_error = std::current_exception();
       }
     }
-    if (spawn_error && failed_chunk < 0 && !callback_error) std::rethrow_exception(spawn_error);
+    if (running.empty()) break;
+    std::vector<pollfd> fds(running.size());
+    for (std::size_t i = 0; i < running.size(); ++i) fds[i] = pollfd{running[i].fd, POLLIN, 0};
+    if (::poll(fds.data(), fds.size(), -1) < 0) {
+      if (errno == EINTR) continue;
+      throw std::runtime_error(std::string("parallel::ForkDistributor: poll: ") +
+                               std::strerror(errno));
+    }
+    for (std::size_t i = running.size(); i-- > 0;) {
+      if (fds[i].revents == 0) continue;
+      char buf[1 << 16];
+      const ssize_t r = ::read(running[i].fd, buf, sizeof buf);
+      if (r < 0 && errno == EINTR) continue;
+      if (r > 0) {
+        running[i].data.append(buf, static_cast<std::size_t>(r));
+        continue;
+      }
+      if (r < 0) running[i].data.clear();  // a read error: the message is lost
+      collect(running[i]);
+      running.erase(running.begin() + static_cast<std::ptrdiff_t>(i));
+    }
   }
+  if (spawn_error && failed_chunk < 0 && !callback_error) std::rethrow_exception(spawn_error);
   if (callback_error) std::rethrow_exception(callback_error);
   if (failed_error) std::rethrow_exception(failed_error);
   Buffer out;

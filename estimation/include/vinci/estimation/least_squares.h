@@ -107,9 +107,10 @@ struct EpisodeEstimate {
 /// episodes' (and 1 nm) — a fit far worse than the others': a wrong local solution, a log problem
 /// or a different model (measured: one of 50 tossed cubes fitted at 3.4× the median rms residual,
 /// at μ̂ = 0.13 where the others gave ~0.4, and pulled the shared estimate down). Empty with fewer
-/// than 3 episodes or a non-finite residual. factor > 1.
+/// than 3 episodes or a non-finite residual. factor > 1. `median`: that median (NaN when empty
+/// is returned for those reasons).
 std::vector<int> PoorlyFittingEpisodes(const std::vector<EpisodeEstimate>& episodes,
-                                       double factor = 3.0);
+                                       double factor = 3.0, double* median = nullptr);
 
 struct EstimateResult {
   std::string method = "lsq";  ///< "lsq", "filter"
