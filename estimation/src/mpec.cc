@@ -569,6 +569,7 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o,
                     const std::string& suffix = "") {
     const bool ok = nlp->x_.size() == n && nlp->x_.allFinite();
     if (ok) {
+      sol.iterate_solved = Solved(last);
       x = nlp->x_;
       zl = nlp->z_l_;
       zu = nlp->z_u_;
@@ -599,6 +600,7 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o,
                        o, &sol.biactive_pairs, &sol.biactive_switched);
     const VectorXd x_keep = x, l_keep = lambda, zl_keep = zl, zu_keep = zu;
     const double f_keep = sol.objective;
+    const bool solved_keep = sol.iterate_solved;
     // The Scholtes rows' multipliers are dropped: lambda keeps the problem's rows.
     lambda.conservativeResize(problem.num_constraints());
     if (std::isfinite(lower_bound)) max_iter_override = o.early_polish_max_iterations;
@@ -633,6 +635,7 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o,
     zl = zl_keep;
     zu = zu_keep;
     sol.objective = f_keep;
+    sol.iterate_solved = solved_keep;
     return false;
   };
 

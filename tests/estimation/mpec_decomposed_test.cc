@@ -170,6 +170,74 @@ TEST(MpecDecomposed, BitIdenticalForAnyThreadCount) {
   EXPECT_EQ(a.final_cost, b.final_cost);
 }
 
+// An episode whose solution ends above the complementarity tolerance (here every episode: the
+// homotopy stops at ε = 1e-4 without the polish, against a tolerance of 1e-12) does not stop
+// the outer loop: its relaxed iterate enters the model, θ moves from the scene's 0.5 (no
+// episode converged alone, so no weighted mean) to the relaxed problems' optimum, and the
+// result says it is not converged, naming the episodes and their violations.
+TEST(MpecDecomposed, EpisodesAboveTheToleranceDoNotStopTheOuterLoop) {
+  const sim::Simulator sim(sim::ParseScene(testing::kPlanarBlock, "block.yaml"));
+  Log log = ThreeEpisodes(sim);
+  log.episodes.pop_back();
+  MpecOptions o = Options(MpecEpisodes::kDecomposed);
+  o.solver.polish = false;
+  o.solver.epsilon_end = 1e-4;
+  o.solver.epsilon_floor = 0.0;
+  o.solver.complementarity_tolerance = 1e-12;
+  std::vector<std::string> lines;
+  o.progress = [&lines](const std::string& l) { lines.push_back(l); };
+  const MpecEstimateResult r = EstimateMpec(sim, log, o);
+  EXPECT_FALSE(r.converged);
+  const std::string expect = "2 episodes above the complementarity tolerance 1e-12 at the estimate:";
+  EXPECT_NE(r.reason.find(expect), std::string::npos) << r.reason;
+  EXPECT_NE(r.reason.find(log.episodes[1].file + " ("), std::string::npos) << r.reason;
+  EXPECT_EQ(r.reason.find("an episode failed"), std::string::npos) << r.reason;
+  EXPECT_EQ(r.reason.find(" 0 Newton steps"), std::string::npos) << r.reason;
+  EXPECT_GT(r.complementarity_violation, 1e-12);
+  EXPECT_NEAR(r.estimates[0], kTrueMu, 1e-2) << r.reason;  // the relaxation's bias
+  int kept = 0;
+  for (const std::string& l : lines)
+    kept += l.find("above the complementarity tolerance here") != std::string::npos;
+  EXPECT_GE(kept, 4);  // both episodes, at θ_0 and at least one accepted step
+}
+
+// An episode fitting far worse than the others on its own (PoorlyFittingEpisodes; here a log
+// with 30× the others' noise) is left out of θ_0 — the weighted mean of the other episodes'
+// own estimates, bit for bit that of a run without it — and solved again from its guess there.
+TEST(MpecDecomposed, PoorlyFittingEpisodeIsLeftOutOfTheStartAndRestarted) {
+  const sim::Simulator sim(sim::ParseScene(testing::kPlanarBlock, "block.yaml"));
+  constexpr double kSigma = 1e-4;
+  const Log three = ThreeEpisodes(sim, kSigma);
+  Log four = three;
+  {
+    const sim::Simulator truth(sim::ParseScene(BlockAt(1.4), "block.yaml"));
+    const std::string path = testing::SyntheticLog(truth, "block", kTrueMu, 0.25, 5, 30 * kSigma,
+                                                   11, "mpec_dec_noisy.csv", false);
+    four.episodes.push_back(ReadLog({path}, sim.scene()).episodes[0]);
+  }
+  auto first_theta = [&sim](const Log& log, std::vector<std::string>* lines) {
+    MpecOptions o = Options(MpecEpisodes::kDecomposed, 1, kSigma);
+    o.progress = [lines](const std::string& l) { lines->push_back(l); };
+    EstimateMpec(sim, log, o);
+    for (const std::string& l : *lines)
+      if (l.rfind("mpec decomposed 0: theta ", 0) == 0) return l.substr(25, l.find(',') - 25);
+    return std::string("none");
+  };
+  std::vector<std::string> lines3, lines4;
+  const std::string theta3 = first_theta(three, &lines3);
+  const std::string theta4 = first_theta(four, &lines4);
+  EXPECT_NE(theta3, "none");
+  EXPECT_EQ(theta4, theta3);
+  int flagged = 0, restarted = 0;
+  for (const std::string& l : lines4) {
+    flagged += l.rfind("mpec decomposed: episode 3 alone fits poorly", 0) == 0;
+    restarted += l.rfind("mpec decomposed: episode 3 also solved from its guess", 0) == 0;
+  }
+  EXPECT_EQ(flagged, 1);
+  EXPECT_EQ(restarted, 1);
+  for (const std::string& l : lines3) EXPECT_EQ(l.find("fits poorly"), std::string::npos) << l;
+}
+
 TEST(MpecDecomposed, ParsesTheModeName) {
   EXPECT_EQ(ParseMpecEpisodes("joint"), MpecEpisodes::kJoint);
   EXPECT_EQ(ParseMpecEpisodes("decomposed"), MpecEpisodes::kDecomposed);

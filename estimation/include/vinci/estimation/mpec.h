@@ -231,6 +231,10 @@ struct MpecSolution {
   /// The NLPs that gave the result solved (relaxation stages without a failure, or the polish);
   /// converged also needs the complementarity tolerance.
   bool solved = false;
+  /// x is the solution of an NLP that solved (a relaxation or penalty stage, or the polish),
+  /// also when a later stage failed; false when x is the starting point or a failed NLP's
+  /// iterate.
+  bool iterate_solved = false;
   bool polished = false;  ///< the polish stage succeeded and gave the final iterate
   /// The last polish attempt's biactive pairs (MpecSolverOptions::biactive_factor) and how
   /// many of them the multipliers fixed at the larger side instead of the smaller.
