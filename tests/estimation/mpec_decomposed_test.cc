@@ -188,7 +188,8 @@ TEST(MpecDecomposed, EpisodesAboveTheToleranceDoNotStopTheOuterLoop) {
   o.progress = [&lines](const std::string& l) { lines.push_back(l); };
   const MpecEstimateResult r = EstimateMpec(sim, log, o);
   EXPECT_FALSE(r.converged);
-  const std::string expect = "2 episodes above the complementarity tolerance 1e-12 at the estimate:";
+  const std::string expect =
+      "2 episodes above the complementarity tolerance 1e-12 at the estimate:";
   EXPECT_NE(r.reason.find(expect), std::string::npos) << r.reason;
   EXPECT_NE(r.reason.find(log.episodes[1].file + " ("), std::string::npos) << r.reason;
   EXPECT_EQ(r.reason.find("an episode failed"), std::string::npos) << r.reason;
