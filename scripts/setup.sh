@@ -9,7 +9,7 @@ packages=(
   libeigen3-dev libyaml-cpp-dev libcli11-dev libqhull-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libmujoco-dev libsiconos-numerics-dev
-  libnlopt-cxx-dev coinor-libipopt-dev libceres-dev
+  libnlopt-cxx-dev coinor-libipopt-dev libmumps-seq-dev libceres-dev
   libompl-dev libboost-serialization-dev libboost-filesystem-dev libboost-system-dev
   libopenmpi-dev openmpi-bin
   python3-numpy python3-scipy python3-matplotlib

@@ -6,11 +6,13 @@
 #include <limits>
 
 #include "mpec_problem.h"
+#include "mumps_ldlt.h"
 
 namespace vinci::estimation {
 
 using mpec_internal::kDefaultSigma;
 using mpec_internal::kInf;
+using mpec_internal::MumpsLdlt;
 using mpec_internal::ParallelFor;
 using mpec_internal::ResidualRow;
 using mpec_internal::StepBlock;
@@ -185,7 +187,44 @@ bool MpecEstimationProblem::ParameterCovariance(const VectorXd& x,
       if (rmax[i] > 0) d[i] /= std::sqrt(rmax[i]);
   }
   sim::SparseMatrixXd Ks = d.asDiagonal() * K * d.asDiagonal();
-  // δ = 1e-8 first; a larger one if the factorization meets a zero pivot or the Krylov
+  // The θ columns of K⁻¹ (as `out`) from the solves K y = e_θ with `factor`: a regularized one
+  // (check false) preconditions SolveRefined; a direct one (check true: K's own factorization,
+  // pivots set aside) gives y = factor⁻¹ e_θ, accepted if ‖e_θ − K y‖ ≤ kExactResidual ‖e_θ‖, else
+  // refined by SolveRefined and accepted within kDirectResidual (its preconditioned residual
+  // does not see e_θ's components in the rows of the pivots set aside).
+  auto columns = [&](const auto& factor, bool check, sim::MatrixXd* out) {
+    constexpr double kExactResidual = 1e-13, kDirectResidual = 1e-8;
+    *out = sim::MatrixXd::Constant(I.ntheta, I.ntheta, std::numeric_limits<double>::quiet_NaN());
+    for (int i = 0; i < I.ntheta; ++i) {
+      const int fi = map[i];
+      if (fi < 0) continue;
+      VectorXd b = VectorXd::Zero(nk);
+      b[fi] = d[fi];
+      VectorXd y;
+      // A direct factor's own solution first: it usually solves K y = b to rounding.
+      if (check) y = factor.solve(b);
+      if (!check || !(y.allFinite() && (b - Ks * y).norm() <= kExactResidual * b.norm())) {
+        if (!SolveRefined(Ks, factor, b, &y)) return false;
+        if (check && !((b - Ks * y).norm() <= kDirectResidual * b.norm())) return false;
+      }
+      for (int j = 0; j < I.ntheta; ++j)
+        if (map[j] >= 0) (*out)(j, i) = d[map[j]] * y[map[j]];
+    }
+    return true;
+  };
+  // K itself by MUMPS' LDLᵀ with 2×2 pivots, null pivots set aside (b = e_θ lies in K's range
+  // when θ is determined): on a tossed cube's KKT (8 300 rows, 2 126 pivots set aside) its own
+  // solve left ‖e_θ − K y‖ at 9e-16 ‖e_θ‖, where the regularized factorization below needed
+  // 4 000 Krylov steps (bench/README.md, session 23).
+  {
+    MumpsLdlt direct;
+    sim::MatrixXd out;
+    if (direct.Compute(Ks) && columns(direct, true, &out)) {
+      *covariance = out;
+      return true;
+    }
+  }
+  // Otherwise δ = 1e-8 first; a larger one if the factorization meets a zero pivot or the Krylov
   // solve does not converge (the refinement removes δ's effect either way; a larger δ lowers
   // Kr⁻¹'s rounding floor at the cost of more Krylov steps).
   for (const double delta : {1e-8, 1e-7, 1e-6, 1e-5}) {
@@ -198,20 +237,8 @@ bool MpecEstimationProblem::ParameterCovariance(const VectorXd& x,
     Eigen::SimplicialLDLT<sim::SparseMatrixXd, Eigen::Lower> ldlt;
     ldlt.compute(Kr);
     if (ldlt.info() != Eigen::Success) continue;
-    sim::MatrixXd out =
-        sim::MatrixXd::Constant(I.ntheta, I.ntheta, std::numeric_limits<double>::quiet_NaN());
-    bool ok = true;
-    for (int i = 0; i < I.ntheta && ok; ++i) {
-      const int fi = map[i];
-      if (fi < 0) continue;
-      VectorXd b = VectorXd::Zero(nk);
-      b[fi] = d[fi];
-      VectorXd y;
-      ok = SolveRefined(Ks, ldlt, b, &y);
-      for (int j = 0; j < I.ntheta && ok; ++j)
-        if (map[j] >= 0) out(j, i) = d[map[j]] * y[map[j]];
-    }
-    if (!ok) continue;
+    sim::MatrixXd out;
+    if (!columns(ldlt, false, &out)) continue;
     *covariance = out;
     return true;
   }

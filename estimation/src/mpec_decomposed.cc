@@ -535,9 +535,11 @@ MpecEstimateResult EstimateMpecDecomposed(const sim::Simulator& simulator, const
           out(s.str());
         },
         &runs);
-    // Episodes whose own fit leaves far larger residuals than the others' (PoorlyFittingEpisodes:
-    // rms > 3× the median; measured on 50 tossed cubes: one toss's own θ̂_e = 0.13 against a
-    // median 0.395, at 3.4× the median rms, a wrong local solution whose weight pulled θ_0 down
+    // Episodes whose own fit is far worse than the others' (PoorlyFittingEpisodes on
+    // √(f_e / residuals_e), the objective's rms per residual, process noise included: > 3× the
+    // median; measured on 50 tossed cubes: one toss's own θ̂_e = 0.13 against a median 0.395,
+    // f_e 11.8× the median's (3.4× in rms) with a measurement rms below 3× the median's — a
+    // wrong local solution explaining the poses by process noise, whose weight pulled θ_0 down
     // to 0.368) are left out of θ_0 and solved again from their guess at θ_0.
     std::vector<int> solved_alone;
     std::vector<EpisodeEstimate> alone;
@@ -546,11 +548,10 @@ MpecEstimateResult EstimateMpecDecomposed(const sim::Simulator& simulator, const
       r.stages += runs[e].stages;
       const EpisodeFit& fit = fits[e];
       if (fit.x.size() == 0) continue;
-      std::vector<double> per;
-      fit.problem->SquaredResiduals(fit.x, &per);
-      const int per_sample = ResidualsPerSample(log.episodes[e], simulator.scene().dim);
+      double f = 0.0;
+      if (!fit.problem->Objective(fit.x, &f) || !std::isfinite(f)) continue;
       EpisodeEstimate ee;
-      ee.rms_residual = std::sqrt(per[0] / std::max(1, per_sample * log.episodes[e].num_samples()));
+      ee.rms_residual = std::sqrt(f / std::max(1, fit.problem->num_residuals()));
       alone.push_back(ee);
       solved_alone.push_back(e);
     }
@@ -559,7 +560,7 @@ MpecEstimateResult EstimateMpecDecomposed(const sim::Simulator& simulator, const
       const int e = solved_alone[static_cast<std::size_t>(k)];
       restart[static_cast<std::size_t>(e)] = true;
       std::ostringstream s;
-      s << "mpec decomposed: episode " << e << " alone fits poorly (rms residual "
+      s << "mpec decomposed: episode " << e << " alone fits poorly (objective rms per residual "
         << alone[static_cast<std::size_t>(k)].rms_residual << " > 3 x the median " << median
         << "): left out of theta_0, solved again from its guess there";
       say(s.str());
