@@ -436,9 +436,9 @@ MpecEstimateResult EstimateMpecDecomposed(const sim::Simulator& simulator, const
   // (a poorly fitting episode's own solution may be a wrong local one that the warm starts
   // would carry along). The curvatures H_e of polished episodes are those of their last
   // UpdateCurvature (the start's, at θ̂_e, until the final pass below): the Laplace covariance
-  // (a GMRES solve on the episode's KKT matrix) cost about as much as a warm-started episode
-  // NLP on the tossed cube, and the model's curvature is corrected along each step by its
-  // secant anyway.
+  // (a solve with the episode's KKT matrix) cost about as much as a warm-started episode NLP
+  // on the tossed cube while it was a GMRES solve, and the model's curvature is corrected
+  // along each step by its secant anyway.
   auto evaluate = [&](const VectorXd& th, std::vector<EpisodeFit>* base, double* F, VectorXd* G,
                       MatrixXd* H, std::string* failure, std::vector<int>* loose,
                       const std::vector<bool>& restart = {}) {
