@@ -33,6 +33,8 @@ struct EstimateOptions {
   bool quiet = false;
   std::string complementarity = "scholtes";  ///< mpec: scholtes | penalty
   double process_noise = 0.0;                ///< mpec: σ_Q (N, N·m); 0: 1% of the weight
+  /// mpec: MpecSolverOptions::complementarity_tolerance; 0: not given (its default).
+  double complementarity_tolerance = 0.0;
   int bootstrap = 0;     ///< mpec: B bootstrap resamples over episodes (0: reduced Hessian)
   std::string jacobian;  ///< lsq: sensitivity | fd ("": sensitivity)
   /// mpec: steps per log interval (MpecOptions::substeps; 0: the scene's dt); −1: not given.

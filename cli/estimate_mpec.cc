@@ -20,6 +20,13 @@
 namespace vinci::cli {
 namespace {
 
+// The complementarity tolerance the estimate is held to (MpecSolverOptions' unless given).
+double ComplementarityTolerance(const EstimateOptions& o) {
+  return o.complementarity_tolerance > 0
+             ? o.complementarity_tolerance
+             : estimation::MpecSolverOptions().complementarity_tolerance;
+}
+
 std::string MpecJson(const EstimateOptions& o, const estimation::MpecEstimateResult& r,
                      const estimation::HoldoutResult* holdout) {
   std::ostringstream j;
@@ -40,6 +47,7 @@ std::string MpecJson(const EstimateOptions& o, const estimation::MpecEstimateRes
     << "      \"reason\": " << JsonString(r.reason) << ",\n"
     << "      \"complementarity\": " << JsonString(r.complementarity) << ",\n"
     << "      \"complementarity_violation\": " << JsonNumber(r.complementarity_violation) << ",\n"
+    << "      \"complementarity_tolerance\": " << JsonNumber(ComplementarityTolerance(o)) << ",\n"
     << "      \"equality_violation\": " << JsonNumber(r.equality_violation) << ",\n"
     << "      \"stages\": " << r.stages << ",\n"
     << "      \"polished\": " << (r.polished ? "true" : "false") << ",\n"
@@ -75,6 +83,8 @@ ExitCode RunEstimateMpec(const EstimateOptions& o) {
     throw std::invalid_argument("--noise: expected a finite σ ≥ 0 in m");
   if (!(o.process_noise >= 0) || !std::isfinite(o.process_noise))
     throw std::invalid_argument("--process-noise: expected a finite σ_Q ≥ 0 in N (N·m)");
+  if (!(o.complementarity_tolerance >= 0) || !std::isfinite(o.complementarity_tolerance))
+    throw std::invalid_argument("--complementarity-tolerance: expected a finite TOL > 0");
   if (o.mpec_substeps < -1)
     throw std::invalid_argument("--mpec-substeps " + std::to_string(o.mpec_substeps) +
                                 ": expected N ≥ 0 (0: the scene's dt; N: N steps per log "
@@ -92,6 +102,8 @@ ExitCode RunEstimateMpec(const EstimateOptions& o) {
   if (!o.mpec_episodes.empty()) mo.episodes = estimation::ParseMpecEpisodes(o.mpec_episodes);
   mo.solver.method = estimation::ParseComplementarityMethod(o.complementarity);
   mo.solver.max_iterations = o.max_iterations;
+  if (o.complementarity_tolerance > 0)
+    mo.solver.complementarity_tolerance = o.complementarity_tolerance;
   mo.Validate();
   CheckOutWritable(o.out);
   const sim::Simulator simulator(sim::LoadSceneFile(o.scene_path));
@@ -122,8 +134,9 @@ ExitCode RunEstimateMpec(const EstimateOptions& o) {
     s.precision(6);
     s << EstimateLines(r.names, r.estimates, r.std_errors, r.initial_values);
     s << "iterations " << r.iterations << " in " << r.stages << " NLPs, " << r.time_s
-      << " s, complementarity violation " << r.complementarity_violation << ", "
-      << (r.converged ? "converged" : "did not converge") << ": " << r.reason << "\n";
+      << " s, complementarity violation " << r.complementarity_violation << " (tolerance "
+      << ComplementarityTolerance(o) << "), " << (r.converged ? "converged" : "did not converge")
+      << ": " << r.reason << "\n";
     // Correlations of the estimates (two or more parameters).
     for (Eigen::Index i = 0; i < r.covariance.rows(); ++i)
       for (Eigen::Index j = i + 1; j < r.covariance.cols(); ++j) {
