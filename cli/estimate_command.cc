@@ -211,7 +211,7 @@ ExitCode RunEstimateCommand(const EstimateOptions& o) {
         "linearized standard errors)");
   if (o.mpec_substeps >= 0 && o.method != "mpec")
     throw std::invalid_argument("--mpec-substeps: only for --method mpec");
-  if (o.complementarity_tolerance != 0.0 && o.method != "mpec")
+  if (o.complementarity_tolerance && o.method != "mpec")
     throw std::invalid_argument("--complementarity-tolerance: only for --method mpec");
   if (!o.mpec_episodes.empty() && o.method != "mpec")
     throw std::invalid_argument("--mpec-episodes: only for --method mpec");
@@ -283,10 +283,12 @@ Command RegisterEstimateCommand(CLI::App& app) {
   sub->add_option("--complementarity", options->complementarity,
                   "mpec: scholtes (relaxation homotopy x∘y ≤ ε, ε → 1e-8) or penalty (ℓ1)")
       ->type_name("NAME");
-  sub->add_option("--complementarity-tolerance", options->complementarity_tolerance,
-                  "mpec: converged when every pair's max |min(x_a, x_b)| is at most TOL (the "
-                  "solver's scaled unknowns; default 1e-6); with --mpec-episodes decomposed, "
-                  "every episode's at the estimate")
+  sub->add_option_function<double>(
+         "--complementarity-tolerance",
+         [options](const double& tol) { options->complementarity_tolerance = tol; },
+         "mpec: converged when every pair's max |min(x_a, x_b)| is at most TOL (the "
+         "solver's scaled unknowns; default 1e-6); with --mpec-episodes decomposed, "
+         "every episode's at the estimate")
       ->type_name("TOL");
   sub->add_option("--process-noise", options->process_noise,
                   "mpec: process noise σ_Q of each generalized force (N, N·m; default 1% of the "

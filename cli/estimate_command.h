@@ -4,6 +4,7 @@
 
 #include <CLI/CLI.hpp>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -33,8 +34,8 @@ struct EstimateOptions {
   bool quiet = false;
   std::string complementarity = "scholtes";  ///< mpec: scholtes | penalty
   double process_noise = 0.0;                ///< mpec: σ_Q (N, N·m); 0: 1% of the weight
-  /// mpec: MpecSolverOptions::complementarity_tolerance; 0: not given (its default).
-  double complementarity_tolerance = 0.0;
+  /// mpec: MpecSolverOptions::complementarity_tolerance; empty: not given (its default).
+  std::optional<double> complementarity_tolerance;
   int bootstrap = 0;     ///< mpec: B bootstrap resamples over episodes (0: reduced Hessian)
   std::string jacobian;  ///< lsq: sensitivity | fd ("": sensitivity)
   /// mpec: steps per log interval (MpecOptions::substeps; 0: the scene's dt); −1: not given.

@@ -22,9 +22,8 @@ namespace {
 
 // The complementarity tolerance the estimate is held to (MpecSolverOptions' unless given).
 double ComplementarityTolerance(const EstimateOptions& o) {
-  return o.complementarity_tolerance > 0
-             ? o.complementarity_tolerance
-             : estimation::MpecSolverOptions().complementarity_tolerance;
+  return o.complementarity_tolerance.value_or(
+      estimation::MpecSolverOptions().complementarity_tolerance);
 }
 
 std::string MpecJson(const EstimateOptions& o, const estimation::MpecEstimateResult& r,
@@ -83,7 +82,8 @@ ExitCode RunEstimateMpec(const EstimateOptions& o) {
     throw std::invalid_argument("--noise: expected a finite σ ≥ 0 in m");
   if (!(o.process_noise >= 0) || !std::isfinite(o.process_noise))
     throw std::invalid_argument("--process-noise: expected a finite σ_Q ≥ 0 in N (N·m)");
-  if (!(o.complementarity_tolerance >= 0) || !std::isfinite(o.complementarity_tolerance))
+  if (o.complementarity_tolerance &&
+      (!(*o.complementarity_tolerance > 0) || !std::isfinite(*o.complementarity_tolerance)))
     throw std::invalid_argument("--complementarity-tolerance: expected a finite TOL > 0");
   if (o.mpec_substeps < -1)
     throw std::invalid_argument("--mpec-substeps " + std::to_string(o.mpec_substeps) +
@@ -102,8 +102,7 @@ ExitCode RunEstimateMpec(const EstimateOptions& o) {
   if (!o.mpec_episodes.empty()) mo.episodes = estimation::ParseMpecEpisodes(o.mpec_episodes);
   mo.solver.method = estimation::ParseComplementarityMethod(o.complementarity);
   mo.solver.max_iterations = o.max_iterations;
-  if (o.complementarity_tolerance > 0)
-    mo.solver.complementarity_tolerance = o.complementarity_tolerance;
+  mo.solver.complementarity_tolerance = ComplementarityTolerance(o);
   mo.Validate();
   CheckOutWritable(o.out);
   const sim::Simulator simulator(sim::LoadSceneFile(o.scene_path));
