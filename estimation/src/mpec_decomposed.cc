@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "mpec_episodes.h"
 #include "mpec_outer.h"
 #include "mpec_problem.h"
 #include "vinci/parallel/fork.h"
@@ -26,7 +27,12 @@ using sim::MatrixXd;
 using sim::VectorXd;
 
 using mpec_internal::EnvelopeGradient;
+using mpec_internal::EpisodeFit;
+using mpec_internal::EpisodeJob;
+using mpec_internal::EpisodeRun;
 using mpec_internal::FixedThetaProblem;
+using mpec_internal::ForEachEpisode;
+using mpec_internal::Progress;
 
 namespace {
 
@@ -51,160 +57,6 @@ constexpr double kStepTolerance = 1e-9;
 constexpr double kNoiseDecrement = 1e-2;
 // MpecSolverOptions::early_polish_max_iterations of the episodes' NLPs (unless set).
 constexpr int kEarlyPolishIterations = 200;
-
-// One episode: its problem, and its solution at the current θ.
-struct EpisodeFit {
-  std::unique_ptr<MpecEstimationProblem> problem;
-  VectorXd x;           // solution at the current θ (empty: none yet)
-  double f = 0.0;       // objective (χ²) at x
-  VectorXd gradient;    // ∂f/∂θ (envelope theorem)
-  MatrixXd hessian;     // 2 C⁻¹ (the Laplace covariance with θ free)
-  MatrixXd covariance;  // C
-  // A relaxed (unpolished) solution's covariance from its profile (ProfileCovariance),
-  // computed at the first such solution and kept: 2p + 1 (at most 4p + 1) more NLPs for p
-  // parameters (empty: none yet).
-  MatrixXd profile_covariance;
-  // When x is a relaxed iterate: its ε and multipliers (MpecSolution::relaxed), else empty.
-  double final_epsilon = 0.0;
-  MpecMultipliers relaxed;
-  double violation = 0.0;  // x's complementarity violation
-  // converged: the NLP met every tolerance. usable: x is a solved relaxation's iterate with a
-  // finite gradient, above the complementarity tolerance when not converged (the outer loop
-  // may go on from it; the estimate is not converged while an episode is only usable).
-  bool converged = false, usable = false;
-  std::string reason;
-};
-
-// What one episode's work hands back besides its EpisodeFit.
-struct EpisodeRun {
-  int iterations = 0, stages = 0;
-  std::vector<std::string> solver_lines;  // its NLPs' summary lines (worker processes only)
-  std::vector<std::string> lines;         // its estimator progress lines (worker processes only)
-  bool have_cov = false;                  // the start's θ̂_e converged and has a covariance
-};
-
-void PutVector(parallel::Writer* w, const VectorXd& v) {
-  w->Put<std::int64_t>(v.size());
-  for (Eigen::Index i = 0; i < v.size(); ++i) w->Put<double>(v[i]);
-}
-VectorXd GetVector(parallel::Reader* r) {
-  VectorXd v(r->Get<std::int64_t>());
-  for (Eigen::Index i = 0; i < v.size(); ++i) v[i] = r->Get<double>();
-  return v;
-}
-void PutMatrix(parallel::Writer* w, const MatrixXd& m) {
-  w->Put<std::int64_t>(m.rows());
-  w->Put<std::int64_t>(m.cols());
-  for (Eigen::Index i = 0; i < m.size(); ++i) w->Put<double>(m.data()[i]);
-}
-MatrixXd GetMatrix(parallel::Reader* r) {
-  const auto rows = r->Get<std::int64_t>(), cols = r->Get<std::int64_t>();
-  MatrixXd m(rows, cols);
-  for (Eigen::Index i = 0; i < m.size(); ++i) m.data()[i] = r->Get<double>();
-  return m;
-}
-void PutLines(parallel::Writer* w, const std::vector<std::string>& lines) {
-  w->Put<std::int64_t>(static_cast<std::int64_t>(lines.size()));
-  for (const std::string& l : lines) w->PutString(l);
-}
-std::vector<std::string> GetLines(parallel::Reader* r) {
-  std::vector<std::string> lines(static_cast<std::size_t>(r->Get<std::int64_t>()));
-  for (std::string& l : lines) l = r->GetString();
-  return lines;
-}
-
-// An episode's state and run, bit for bit (its problem is not sent: a worker process has the
-// caller's copy).
-parallel::Buffer Encode(const EpisodeFit& fit, const EpisodeRun& run) {
-  parallel::Buffer out;
-  parallel::Writer w(&out);
-  PutVector(&w, fit.x);
-  w.Put<double>(fit.f);
-  PutVector(&w, fit.gradient);
-  PutMatrix(&w, fit.hessian);
-  PutMatrix(&w, fit.covariance);
-  PutMatrix(&w, fit.profile_covariance);
-  w.Put<double>(fit.final_epsilon);
-  PutVector(&w, fit.relaxed.lambda);
-  PutVector(&w, fit.relaxed.z_l);
-  PutVector(&w, fit.relaxed.z_u);
-  w.Put<double>(fit.violation);
-  w.Put<bool>(fit.converged);
-  w.Put<bool>(fit.usable);
-  w.PutString(fit.reason);
-  w.Put<std::int32_t>(run.iterations);
-  w.Put<std::int32_t>(run.stages);
-  PutLines(&w, run.solver_lines);
-  PutLines(&w, run.lines);
-  w.Put<bool>(run.have_cov);
-  return out;
-}
-void Decode(const parallel::Buffer& in, EpisodeFit* fit, EpisodeRun* run) {
-  parallel::Reader r(in);
-  fit->x = GetVector(&r);
-  fit->f = r.Get<double>();
-  fit->gradient = GetVector(&r);
-  fit->hessian = GetMatrix(&r);
-  fit->covariance = GetMatrix(&r);
-  fit->profile_covariance = GetMatrix(&r);
-  fit->final_epsilon = r.Get<double>();
-  fit->relaxed.lambda = GetVector(&r);
-  fit->relaxed.z_l = GetVector(&r);
-  fit->relaxed.z_u = GetVector(&r);
-  fit->violation = r.Get<double>();
-  fit->converged = r.Get<bool>();
-  fit->usable = r.Get<bool>();
-  fit->reason = r.GetString();
-  run->iterations = r.Get<std::int32_t>();
-  run->stages = r.Get<std::int32_t>();
-  run->solver_lines = GetLines(&r);
-  run->lines = GetLines(&r);
-  run->have_cov = r.Get<bool>();
-}
-
-using Progress = std::function<void(const std::string&)>;
-// job(e, fit, run, so, say): one episode's work on its fit, NLP lines to so.progress, estimator
-// lines to say.
-using EpisodeJob =
-    std::function<void(int, EpisodeFit*, EpisodeRun*, const MpecSolverOptions&, const Progress&)>;
-
-// Runs job on every episode of *fits: with one worker here, in episode order, lines as they
-// come; with more, each episode in a forked worker process (Ipopt is not thread-safe), its
-// fit and lines taken back (the lines replayed) as it ends. *runs in episode order. The result
-// is bitwise the same for any number of workers.
-void ForEachEpisode(std::vector<EpisodeFit>* fits, int workers, const MpecSolverOptions& so,
-                    const Progress& say, const EpisodeJob& job, std::vector<EpisodeRun>* runs) {
-  const int ne = static_cast<int>(fits->size());
-  runs->assign(static_cast<std::size_t>(ne), EpisodeRun());
-  const bool forked = workers > 1;
-  parallel::ForkDistributor processes(forked ? workers : 1);
-  parallel::MapOptions mo;
-  mo.chunk = 1;
-  if (forked) {
-    mo.on_chunk = [&](int e, int, const parallel::Buffer& out) {
-      EpisodeRun& run = (*runs)[static_cast<std::size_t>(e)];
-      Decode(out, &(*fits)[static_cast<std::size_t>(e)], &run);
-      for (const std::string& l : run.solver_lines)
-        if (so.progress) so.progress(l);
-      for (const std::string& l : run.lines) say(l);
-    };
-  }
-  processes.Map(
-      parallel::Buffer(), ne,
-      [&](const parallel::Buffer&, int e, int) {
-        EpisodeFit& fit = (*fits)[static_cast<std::size_t>(e)];
-        EpisodeRun& run = (*runs)[static_cast<std::size_t>(e)];
-        if (!forked) {
-          job(e, &fit, &run, so, say);
-          return parallel::Buffer();
-        }
-        MpecSolverOptions local = so;
-        local.progress = [&run](const std::string& l) { run.solver_lines.push_back(l); };
-        job(e, &fit, &run, local, [&run](const std::string& l) { run.lines.push_back(l); });
-        return Encode(fit, run);
-      },
-      mo);
-}
 
 // The covariance C of θ at an episode's solution `sol` (θ free or fixed): the Laplace
 // approximation of a polished NLP, or for a relaxed iterate (at which holding every pair's
