@@ -178,6 +178,8 @@ void MpecSolverOptions::Validate() const {
   if (max_iterations < 1) fail("max_iterations", max_iterations, "≥ 1");
   if (early_polish_max_iterations < 0)
     fail("early_polish_max_iterations", early_polish_max_iterations, "≥ 0");
+  if (continued_max_iterations < 0)
+    fail("continued_max_iterations", continued_max_iterations, "≥ 0");
   if (stall_iterations < 0) fail("stall_iterations", stall_iterations, "≥ 0");
   if (mumps_mem_percent < 1) fail("mumps_mem_percent", mumps_mem_percent, "≥ 1");
   if (polish_stall_iterations < 0) fail("polish_stall_iterations", polish_stall_iterations, "≥ 0");
@@ -222,7 +224,7 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o,
   VectorXd lambda, zl, zu;
   bool have_multipliers = false;
   Ipopt::ApplicationReturnStatus last = Ipopt::Internal_Error;
-  int max_iter_override = 0;  // > 0: the early-polish attempt's iteration cap
+  int max_iter_override = 0;  // > 0: the early-polish attempt's or a continued stage's cap
   double last_epsilon = 0.0;  // the last accepted Scholtes stage's ε (0: none)
   if (warm_start) {
     const int m = problem.num_constraints();
@@ -512,9 +514,14 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o,
          eps *= o.epsilon_factor) {
       std::ostringstream what;
       what << "scholtes eps " << eps << " (continued: not polished)";
+      max_iter_override = o.continued_max_iterations;
       auto nlp = run(Stage::kScholtes, eps, {}, true);
+      max_iter_override = 0;
       if (!Solved(last)) {
-        if (o.progress) o.progress(what.str() + ": " + StatusText(last) + ", stopped");
+        if (o.progress) {
+          o.progress(what.str() + ": " + StatusText(last) + " after " +
+                     std::to_string(nlp->iterations_) + " iterations, stopped");
+        }
         break;
       }
       accept(nlp, what.str());

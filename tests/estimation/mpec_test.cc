@@ -251,6 +251,30 @@ TEST(MpecSolver, EpsilonFloorContinuesTheRelaxedHomotopyToTheTolerance) {
   }
 }
 
+// A continued stage that does not end within MpecSolverOptions::continued_max_iterations ends
+// the continuation: the result is the last accepted iterate (here epsilon_end's, as without a
+// floor), from a solved stage, and the progress says where it stopped.
+TEST(MpecSolver, ContinuedStagesEndAtTheirIterationCap) {
+  MpecSolverOptions o;
+  o.polish = false;
+  o.epsilon_end = 1e-4;
+  const MpecSolution stop = SolveMpec(Scholtes3(), o);
+  o.epsilon_floor = 1e-12;
+  o.continued_max_iterations = 1;
+  std::vector<std::string> lines;
+  o.progress = [&lines](const std::string& l) { lines.push_back(l); };
+  const MpecSolution s = SolveMpec(Scholtes3(), o);
+  EXPECT_FALSE(s.converged) << s.reason;
+  EXPECT_TRUE(s.iterate_solved);
+  EXPECT_DOUBLE_EQ(s.final_epsilon, 1e-4);
+  EXPECT_EQ(s.x, stop.x);
+  EXPECT_EQ(s.stages, stop.stages + 1);
+  ASSERT_FALSE(lines.empty());
+  EXPECT_EQ(lines.back(),
+            "scholtes eps 1e-05 (continued: not polished): maximum iterations exceeded after 1 "
+            "iterations, stopped");
+}
+
 // A relaxed solution's multipliers (MpecSolution::relaxed) warm-start the same stage: it ends
 // at once where it started; multipliers of the wrong size are rejected.
 TEST(MpecSolver, RelaxedMultipliersWarmStartTheStage) {
@@ -287,6 +311,9 @@ TEST(MpecSolver, RejectsBadOptionsAndPairs) {
   MpecSolverOptions w;
   w.warm_start_push_per_epsilon = -0.1;
   EXPECT_THROW(SolveMpec(p, w), std::invalid_argument);
+  MpecSolverOptions c;
+  c.continued_max_iterations = -1;
+  EXPECT_THROW(SolveMpec(p, c), std::invalid_argument);
   MpecSolverOptions r;
   r.early_polish_rise_factor = -1;
   EXPECT_THROW(SolveMpec(p, r), std::invalid_argument);
