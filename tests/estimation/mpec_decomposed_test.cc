@@ -207,8 +207,8 @@ TEST(MpecDecomposed, EpisodesAboveTheToleranceDoNotStopTheOuterLoop) {
 // the loop converges, each such episode is solved again in full at θ̂, once. Two block
 // episodes whose homotopy stops at ε = 1e-4 without the polish, against a tolerance of 7.5e-4:
 // alone they end at 8.4e-4 (so θ_0 is the scene's 0.5), their tails along the run at 3e-4 …
-// 6.3e-3 (without the rule every tail above the tolerance was followed by the homotopy from
-// the start: 8 of them before the loop converged).
+// 6.3e-3 (without the rule, its factor set to 0: 8 homotopies from the start before the loop
+// converged and 737 Ipopt iterations in all, against 2 and 471 with it).
 TEST(MpecDecomposed, LooseTailsAreKeptUntilTheFinalPass) {
   const sim::Simulator sim(sim::ParseScene(testing::kPlanarBlock, "block.yaml"));
   Log log = ThreeEpisodes(sim);
