@@ -170,6 +170,22 @@ TEST(MpecDecomposed, BitIdenticalForAnyThreadCount) {
   EXPECT_EQ(a.final_cost, b.final_cost);
 }
 
+// The first two of ThreeEpisodes (into *log) estimated decomposed with a homotopy that stops at
+// ε = 1e-4 without the polish (and without the continuation below it) against `tolerance`; the
+// progress lines into *lines.
+MpecEstimateResult RelaxedTwoEpisodes(const sim::Simulator& sim, double tolerance, Log* log,
+                                      std::vector<std::string>* lines) {
+  *log = ThreeEpisodes(sim);
+  log->episodes.pop_back();
+  MpecOptions o = Options(MpecEpisodes::kDecomposed);
+  o.solver.polish = false;
+  o.solver.epsilon_end = 1e-4;
+  o.solver.epsilon_floor = 0.0;
+  o.solver.complementarity_tolerance = tolerance;
+  o.progress = [lines](const std::string& l) { lines->push_back(l); };
+  return EstimateMpec(sim, *log, o);
+}
+
 // An episode whose solution ends above the complementarity tolerance (here every episode: the
 // homotopy stops at ε = 1e-4 without the polish, against a tolerance of 1e-12) does not stop
 // the outer loop: its relaxed iterate enters the model, θ moves from the scene's 0.5 (no
@@ -177,16 +193,9 @@ TEST(MpecDecomposed, BitIdenticalForAnyThreadCount) {
 // result says it is not converged, naming the episodes and their violations.
 TEST(MpecDecomposed, EpisodesAboveTheToleranceDoNotStopTheOuterLoop) {
   const sim::Simulator sim(sim::ParseScene(testing::kPlanarBlock, "block.yaml"));
-  Log log = ThreeEpisodes(sim);
-  log.episodes.pop_back();
-  MpecOptions o = Options(MpecEpisodes::kDecomposed);
-  o.solver.polish = false;
-  o.solver.epsilon_end = 1e-4;
-  o.solver.epsilon_floor = 0.0;
-  o.solver.complementarity_tolerance = 1e-12;
+  Log log;
   std::vector<std::string> lines;
-  o.progress = [&lines](const std::string& l) { lines.push_back(l); };
-  const MpecEstimateResult r = EstimateMpec(sim, log, o);
+  const MpecEstimateResult r = RelaxedTwoEpisodes(sim, 1e-12, &log, &lines);
   EXPECT_FALSE(r.converged);
   const std::string expect =
       "2 episodes above the complementarity tolerance 1e-12 at the estimate:";
@@ -211,16 +220,9 @@ TEST(MpecDecomposed, EpisodesAboveTheToleranceDoNotStopTheOuterLoop) {
 // converged and 737 Ipopt iterations in all, against 2 and 471 with it).
 TEST(MpecDecomposed, LooseTailsAreKeptUntilTheFinalPass) {
   const sim::Simulator sim(sim::ParseScene(testing::kPlanarBlock, "block.yaml"));
-  Log log = ThreeEpisodes(sim);
-  log.episodes.pop_back();
-  MpecOptions o = Options(MpecEpisodes::kDecomposed);
-  o.solver.polish = false;
-  o.solver.epsilon_end = 1e-4;
-  o.solver.epsilon_floor = 0.0;
-  o.solver.complementarity_tolerance = 7.5e-4;
+  Log log;
   std::vector<std::string> lines;
-  o.progress = [&lines](const std::string& l) { lines.push_back(l); };
-  const MpecEstimateResult r = EstimateMpec(sim, log, o);
+  const MpecEstimateResult r = RelaxedTwoEpisodes(sim, 7.5e-4, &log, &lines);
   EXPECT_FALSE(r.converged);
   EXPECT_EQ(r.reason.find("an episode failed"), std::string::npos) << r.reason;
   EXPECT_NEAR(r.estimates[0], kTrueMu, 1e-2) << r.reason;
