@@ -150,7 +150,7 @@ EpisodeFit SolveEpisode(EpisodeFit&& fit, const VectorXd& theta, const MpecSolve
     *stages += sol.stages;
     done = sol.converged && sol.x.allFinite();
     // (Measured on 50 tossed cubes: the homotopy from the start after a failed tail cost
-    // ~2 000 Ipopt iterations; the episodes kept above the tolerance were at 2e-6 … 7e-6.)
+    // ~3 000 Ipopt iterations; the episodes kept above the tolerance were at 2e-6 … 7e-6.)
     if (keep_loose_tail && !done && sol.iterate_solved && sol.x.allFinite() &&
         sol.complementarity_violation <= kLooseTailFactor * so.complementarity_tolerance)
       done = true;

@@ -179,8 +179,8 @@ struct MpecSolverOptions {
   /// that does not end within the cap leaves the last accepted iterate (MpecSolution::
   /// iterate_solved) and ends the continuation. Measured on 50 tossed cubes (warm-started
   /// tails, ε = 1e-9 … 1e-12): of 464 continued stages the median took 55 iterations, 95 %
-  /// ≤ 490, and the 20 that failed ran the full 3 000 — over half of the decomposed run's
-  /// Ipopt iterations after its start.
+  /// ≤ 490, and the 20 that failed ran the full 3 000 (60 000 of the run's 188 848 Ipopt
+  /// iterations).
   int continued_max_iterations = 0;
   double stall_objective_change = 1e-7;
   double stall_constraint_violation = 1e-6;
