@@ -20,10 +20,10 @@
 namespace vinci::cli {
 namespace {
 
-// The complementarity tolerance the estimate is held to (MpecSolverOptions' unless given).
+// The complementarity tolerance the estimate is held to (the estimator's default unless given).
 double ComplementarityTolerance(const EstimateOptions& o) {
   return o.complementarity_tolerance.value_or(
-      estimation::MpecSolverOptions().complementarity_tolerance);
+      estimation::MpecOptions().solver.complementarity_tolerance);
 }
 
 std::string MpecJson(const EstimateOptions& o, const estimation::MpecEstimateResult& r,
@@ -102,7 +102,8 @@ ExitCode RunEstimateMpec(const EstimateOptions& o) {
   if (!o.mpec_episodes.empty()) mo.episodes = estimation::ParseMpecEpisodes(o.mpec_episodes);
   mo.solver.method = estimation::ParseComplementarityMethod(o.complementarity);
   mo.solver.max_iterations = o.max_iterations;
-  mo.solver.complementarity_tolerance = ComplementarityTolerance(o);
+  if (o.complementarity_tolerance)
+    mo.solver.complementarity_tolerance = *o.complementarity_tolerance;
   mo.Validate();
   CheckOutWritable(o.out);
   const sim::Simulator simulator(sim::LoadSceneFile(o.scene_path));
