@@ -228,6 +228,15 @@ MatrixXd mpec_internal::EpisodeJackknifeCovariance(const std::vector<MatrixXd>& 
   return (static_cast<double>(n - 1) / n) * c;
 }
 
+bool mpec_internal::PreferRestart(const EpisodeOutcome& restart, const EpisodeOutcome& warm) {
+  if (restart.usable != warm.usable) return restart.usable;
+  if (!restart.usable) return false;
+  if (restart.f < warm.f - kRestartObjectiveGap * std::max(1.0, std::abs(warm.f))) return true;
+  if (warm.f < restart.f - kRestartObjectiveGap * std::max(1.0, std::abs(restart.f))) return false;
+  if (restart.converged != warm.converged) return restart.converged;
+  return restart.f < warm.f;
+}
+
 const char* ToString(MpecEpisodes episodes) {
   return episodes == MpecEpisodes::kJoint ? "joint" : "decomposed";
 }
@@ -299,9 +308,9 @@ MpecEstimateResult EstimateMpecDecomposed(const sim::Simulator& simulator, const
   // episode that ends usable but above the complementarity tolerance is counted in *loose (its
   // relaxed iterate's f_e and gradient enter the model: the outer loop goes on, measured on a
   // tossed cube that ended at 5e-6 > 1e-6 away from its own θ̂_e). Episodes marked in
-  // `restart` are also solved by the homotopy from their guess at θ, the lower objective kept
-  // (a poorly fitting episode's own solution may be a wrong local one that the warm starts
-  // would carry along). The curvatures H_e of polished episodes are those of their last
+  // `restart` are also solved by the homotopy from their guess at θ, the one PreferRestart
+  // prefers kept (a poorly fitting episode's own solution may be a wrong local one that the
+  // warm starts would carry along). The curvatures H_e of polished episodes are those of their last
   // UpdateCurvature (the start's, at θ̂_e, until the final pass below): the Laplace covariance
   // (a solve with the episode's KKT matrix) cost about as much as a warm-started episode NLP
   // on the tossed cube while it was a GMRES solve, and the model's curvature is corrected
@@ -330,9 +339,8 @@ MpecEstimateResult EstimateMpecDecomposed(const sim::Simulator& simulator, const
           guess.problem = std::move(fit->problem);
           guess = SolveEpisode(std::move(guess), th, o, true, keep_loose, &run->iterations,
                                &run->stages);
-          const bool better =
-              guess.usable && (!fit->usable || (guess.converged && !fit->converged) ||
-                               (guess.converged == fit->converged && guess.f < fit->f));
+          const bool better = mpec_internal::PreferRestart({guess.usable, guess.converged, guess.f},
+                                                           {fit->usable, fit->converged, fit->f});
           std::ostringstream s;
           s << "mpec decomposed: episode " << e << " also solved from its guess: objective "
             << (guess.usable ? std::to_string(guess.f) : "none (" + guess.reason + ")")

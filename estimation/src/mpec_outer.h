@@ -1,5 +1,6 @@
 // The decomposed MPEC's outer problem over the shared θ (mpec_decomposed.cc): its Newton
-// model's secant correction and the episodes' jackknife covariance.
+// model's secant correction, the episodes' jackknife covariance, and the choice between an
+// episode's two solutions at one θ.
 #pragma once
 
 #include <vector>
@@ -34,5 +35,21 @@ sim::MatrixXd SecantCorrected(const sim::MatrixXd& h, const sim::VectorXd& s,
 // n < 2, the sizes disagree or some H − H_e is not positive definite.
 sim::MatrixXd EpisodeJackknifeCovariance(const std::vector<sim::MatrixXd>& hessians,
                                          const std::vector<sim::VectorXd>& gradients);
+
+// One episode's solution at θ as seen by PreferRestart: usable (a solved relaxation's iterate
+// or better), converged (within every tolerance), its objective f (χ²).
+struct EpisodeOutcome {
+  bool usable = false, converged = false;
+  double f = 0.0;
+};
+
+// Whether an episode's solution from its guess (`restart`) replaces its warm-started one
+// (`warm`) at the same θ: a usable one before none; then an objective lower by more than
+// kRestartObjectiveGap · max(1, |f_other|) wins whether or not either converged (a relaxed
+// iterate near the complementarity tolerance is that far from no complementary solution: the
+// gap says the two are different local solutions, and the lower one is the fit); within that
+// gap converged before not, then the lower objective (the warm start on a tie).
+inline constexpr double kRestartObjectiveGap = 1e-2;
+bool PreferRestart(const EpisodeOutcome& restart, const EpisodeOutcome& warm);
 
 }  // namespace vinci::estimation::mpec_internal

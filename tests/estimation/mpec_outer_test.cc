@@ -143,5 +143,31 @@ TEST(MpecOuter, RobustCovarianceNeedsTwoEpisodesAndCurvature) {
   EXPECT_NEAR(EpisodeJackknifeCovariance({h, h}, {one, -one})(0, 0), 1.0, 1e-15);
 }
 
+// Session 24's 50-toss run: toss 30's restart from its guess stopped at the continuation's
+// cap (1.1e-5 against 1e-6) with χ² 85 224, its warm start converged at 115 362; the converged
+// one was kept. A gap that large is a different local solution: the lower one is kept.
+TEST(MpecOuter, RestartKeepsAFarLowerObjectiveEvenUnconverged) {
+  EXPECT_TRUE(PreferRestart({true, false, 85224.0}, {true, true, 115362.0}));
+  EXPECT_FALSE(PreferRestart({true, true, 115362.0}, {true, false, 85224.0}));
+}
+
+TEST(MpecOuter, RestartPrefersConvergedWithinTheObjectiveGap) {
+  // 0.5 % lower but not converged: within the gap (1 % of 1000), the converged warm start.
+  EXPECT_FALSE(PreferRestart({true, false, 995.0}, {true, true, 1000.0}));
+  EXPECT_TRUE(PreferRestart({true, true, 1005.0}, {true, false, 1000.0}));
+  // Both converged (or neither): the lower objective; the warm start on a tie.
+  EXPECT_TRUE(PreferRestart({true, true, 999.0}, {true, true, 1000.0}));
+  EXPECT_FALSE(PreferRestart({true, false, 1000.0}, {true, false, 1000.0}));
+  // Small objectives: the gap is absolute (kRestartObjectiveGap · 1), 0.5 − 0.495 is within it.
+  EXPECT_FALSE(PreferRestart({true, false, 0.495}, {true, true, 0.5}));
+  EXPECT_TRUE(PreferRestart({true, false, 0.4}, {true, true, 0.5 + kRestartObjectiveGap}));
+}
+
+TEST(MpecOuter, RestartNeedsAUsableSolution) {
+  EXPECT_FALSE(PreferRestart({false, false, 1.0}, {true, false, 100.0}));
+  EXPECT_TRUE(PreferRestart({true, false, 100.0}, {false, false, 1.0}));
+  EXPECT_FALSE(PreferRestart({false, false, 1.0}, {false, false, 100.0}));
+}
+
 }  // namespace
 }  // namespace vinci::estimation::mpec_internal
