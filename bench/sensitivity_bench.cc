@@ -1,7 +1,8 @@
 // sensitivity_bench: the cost of exact step sensitivities (simulator/sensitivity.h, issue 17
 // item 6), in process CPU time, on the example scenes:
 //  1. per step: one forward-mode step derivative for ONE parameter (PropagateStep with one
-//     column: the parameter's own column plus ∂x_ℓ+1/∂x_ℓ along the carried sensitivity), and
+//     column: the parameter's own column plus ∂x_ℓ+1/∂x_ℓ along the carried sensitivity; by
+//     default, and by the general path only, SensitivityOptions::lcp_basis off), and
 //     StepDerivatives with the full state Jacobian, each relative to Simulator::Step;
 //  2. per rollout of N steps (default 1000): the reverse-mode gradient of a terminal objective
 //     with respect to p parameters (RolloutReverse) against the 2p + 1 rollouts of central
@@ -12,7 +13,8 @@
 // --once makes each per-step measurement one pass over the N states (for instruction counts:
 // `valgrind --tool=callgrind ... --once`, then the inclusive counts of Step and PropagateStep;
 // the "roll" pass calls both: --roll-only measures step and roll only, --fwd-only without
-// --roll-only step, fwd1 and roll).
+// --roll-only step, fwd1 and roll); --general takes fwd1 and roll by the general path only
+// (SensitivityOptions::lcp_basis off: callgrind's counts of the two paths, run by run).
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -35,7 +37,8 @@ struct Case {
   int warmup;  // steps simulated before the measured ones
 };
 
-void Run(const Case& c, int steps, bool fwd_only, bool once, bool roll_only) {
+void Run(const Case& c, int steps, bool fwd_only, bool once, bool roll_only,
+         const SensitivityOptions& options) {
   const Simulator sim(LoadSceneFile(std::string(VINCI_SOURCE_DIR) + "/examples/scenes/" + c.scene));
   const Params p = sim.DefaultParams();
   const ParamSelection sel(sim.scene().param_table(), c.params);
@@ -70,20 +73,36 @@ void Run(const Case& c, int steps, bool fwd_only, bool once, bool roll_only) {
   S(0, 0) = 1.0;  // a generic carried sensitivity
   // With a workspace, as RolloutForward / RolloutReverse pass the step's own.
   const double t_fwd = roll_only ? 0.0 : per_step([&](int k, Workspace* ws) {
-    PropagateStep(sim, p, one, tr.states[k], inputs[k], tr.states[k + 1], S, &S_next, {}, ws);
+    PropagateStep(sim, p, one, tr.states[k], inputs[k], tr.states[k + 1], S, &S_next, options, ws);
   });
+  // The same with the general path only (SensitivityOptions::lcp_basis off), and the share of
+  // the window's steps whose fwd1 was taken on the step LCP's basis.
+  SensitivityOptions general;
+  general.lcp_basis = false;
+  const double t_gen = roll_only ? 0.0 : per_step([&](int k, Workspace* ws) {
+    PropagateStep(sim, p, one, tr.states[k], inputs[k], tr.states[k + 1], S, &S_next, general, ws);
+  });
+  int on_basis = 0;
+  for (int k = 0; !roll_only && k < steps; ++k) {
+    Workspace ws;
+    on_basis +=
+        PropagateStep(sim, p, one, tr.states[k], inputs[k], tr.states[k + 1], S, &S_next, {}, &ws)
+            .on_lcp_basis;
+  }
+  const double basis_share = 100.0 * on_basis / steps;
   // As RolloutForward: each step, then its derivative in the same workspace (which reuses what
   // the step assembled, Workspace::step_record); the derivative's cost there is this minus the
   // step's.
   const double t_pair = per_step([&](int k, Workspace* ws) {
     State next;
     sim.Step(p, tr.states[k], inputs[k], ws, &next);
-    PropagateStep(sim, p, one, tr.states[k], inputs[k], next, S, &S_next, {}, ws);
+    PropagateStep(sim, p, one, tr.states[k], inputs[k], next, S, &S_next, options, ws);
   });
   const double t_roll = t_pair - t_step;
   if (fwd_only) {
-    std::printf("%-26s %2d %5d | %9.1f %9.1f %5.2f | %9.1f %5.2f |\n", c.scene, sel.size(), steps,
-                1e6 * t_step, 1e6 * t_fwd, t_fwd / t_step, 1e6 * t_roll, t_roll / t_step);
+    std::printf("%-26s %2d %5d | %9.1f %9.1f %5.2f %9.1f %5.2f %5.0f | %9.1f %5.2f |\n", c.scene,
+                sel.size(), steps, 1e6 * t_step, 1e6 * t_fwd, t_fwd / t_step, 1e6 * t_gen,
+                t_gen / t_step, basis_share, 1e6 * t_roll, t_roll / t_step);
     return;
   }
   const double t_full = per_step([&](int k, Workspace* ws) {
@@ -109,10 +128,11 @@ void Run(const Case& c, int steps, bool fwd_only, bool once, bool roll_only) {
     }
   const double t_fd = CpuSeconds() - t0;
   std::printf(
-      "%-26s %2d %5d | %9.1f %9.1f %5.2f | %9.1f %5.2f | %9.1f %6.2f | %8.3f %8.3f %6.2f | %s%s\n",
-      c.scene, sel.size(), steps, 1e6 * t_step, 1e6 * t_fwd, t_fwd / t_step, 1e6 * t_roll,
-      t_roll / t_step, 1e6 * t_full, t_full / t_step, t_rev, t_fd, t_rev / t_fd,
-      rev.ok ? "ok" : "FAILED", std::isfinite(sink) ? "" : " (nan)");
+      "%-26s %2d %5d | %9.1f %9.1f %5.2f %9.1f %5.2f %5.0f | %9.1f %5.2f | %9.1f %6.2f | %8.3f "
+      "%8.3f %6.2f | %s%s\n",
+      c.scene, sel.size(), steps, 1e6 * t_step, 1e6 * t_fwd, t_fwd / t_step, 1e6 * t_gen,
+      t_gen / t_step, basis_share, 1e6 * t_roll, t_roll / t_step, 1e6 * t_full, t_full / t_step,
+      t_rev, t_fd, t_rev / t_fd, rev.ok ? "ok" : "FAILED", std::isfinite(sink) ? "" : " (nan)");
 }
 
 }  // namespace
@@ -120,6 +140,7 @@ void Run(const Case& c, int steps, bool fwd_only, bool once, bool roll_only) {
 int main(int argc, char** argv) {
   int steps = 1000;
   bool quick = false, fwd_only = false, once = false, roll_only = false;
+  SensitivityOptions options;
   std::string only;
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--quick") == 0) {
@@ -129,6 +150,8 @@ int main(int argc, char** argv) {
       fwd_only = true;
     } else if (std::strcmp(argv[i], "--once") == 0) {
       once = true;
+    } else if (std::strcmp(argv[i], "--general") == 0) {
+      options.lcp_basis = false;
     } else if (std::strcmp(argv[i], "--roll-only") == 0) {
       fwd_only = roll_only = true;
     } else if (std::strcmp(argv[i], "--scene") == 0 && i + 1 < argc) {
@@ -139,7 +162,7 @@ int main(int argc, char** argv) {
       std::fprintf(
           stderr,
           "usage: sensitivity_bench [--steps N] [--quick] [--scene S] [--fwd-only] [--roll-only] "
-          "[--once]\n");
+          "[--once] [--general]\n");
       return 2;
     }
   }
@@ -161,13 +184,15 @@ int main(int argc, char** argv) {
       "CPU time. step: Simulator::Step; fwd1: one-parameter forward step derivative "
       "(PropagateStep, 1 column); roll: fwd1 right after its step in the same workspace, as in "
       "RolloutForward (step + fwd1 - step); full: StepDerivatives with the state Jacobian; rev: "
-      "RolloutReverse gradient; fd: 2p+1 rollouts\n");
-  std::printf("%-26s %2s %5s | %9s %9s %5s | %9s %5s | %9s %6s | %8s %8s %6s |\n", "scene", "p",
-              "N", "step(us)", "fwd1(us)", "ratio", "roll(us)", "ratio", "full(us)", "ratio",
-              "rev(s)", "fd(s)", "ratio");
+      "RolloutReverse gradient; fd: 2p+1 rollouts; gen: fwd1 by the general path only "
+      "(SensitivityOptions::lcp_basis off); basis%%: the window's steps whose fwd1 was taken on "
+      "the step LCP's basis\n");
+  std::printf("%-26s %2s %5s | %9s %9s %5s %9s %5s %5s | %9s %5s | %9s %6s | %8s %8s %6s |\n",
+              "scene", "p", "N", "step(us)", "fwd1(us)", "ratio", "gen(us)", "ratio", "basis%",
+              "roll(us)", "ratio", "full(us)", "ratio", "rev(s)", "fd(s)", "ratio");
   for (const Case& c : cases) {
     if (!only.empty() && std::string(c.scene).find(only) == std::string::npos) continue;
-    Run(c, steps, fwd_only, once, roll_only);
+    Run(c, steps, fwd_only, once, roll_only, options);
     if (quick) break;
   }
   return 0;

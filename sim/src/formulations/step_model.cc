@@ -140,6 +140,93 @@ class StewartTrinkleModel final : public StepModel {
     internal::EvaluateAssemblyInto(st_, *model_, theta, freeze_, x, z, true, out, jac);
     return true;
   }
+  const StewartTrinkle::Assembly& freeze_assembly() const { return freeze_; }
+  // Frozen at (scene, params, x, u), bitwise (the model holds its scene: the address names it).
+  bool FrozenAt(const Scene* scene, const Params& params, const State& x,
+                const StepInput& u) const {
+    return model_.get() == scene && params_ == params && SameStateAndInput(x, u, x_, u_);
+  }
+  // internal::LcpAlongInto (step_record.h).
+  void LcpAlongInto(const StepInput& u, const VectorXd& s, double t, const VectorXd& z,
+                    LcpProblem* lcp, VectorXd* v1) const {
+    struct Along {
+      State x;
+      StewartTrinkle::Assembly a;
+      VectorXd v_star, zero_v;
+      StewartTrinkle::JointElimination joints;
+    };
+    internal::ScratchLease<Along> lease;
+    Along& w = lease.get();
+    const StewartTrinkle::Assembly* a = &freeze_;
+    const State* x = &x_;
+    if (t != 0.0) {
+      w.x.t = x_.t;
+      w.x.q = x_.q + t * s.head(x_.q.size());
+      w.x.v = x_.v + t * s.tail(s.size() - x_.q.size());
+      w.x.warm_start = x_.warm_start;
+      w.a.contacts = MoveContactsAlong(*model_, contacts_, x_, w.x, s, t, dt_, k0_, sides_);
+      st_.AssembleAtInto(*model_, w.x, u, /*select_corner_edges=*/false, &w.a);
+      a = &w.a;
+      x = &w.x;
+    }
+    // As StewartTrinkle::Step: first order has no ν_ℓ.
+    const bool first_order = st_.options().formulation == FormulationType::kFirstOrder;
+    const VectorXd& v_l = first_order ? w.zero_v.setZero(x->v.size()) : x->v;
+    st_.BuildLcpInto(*model_, *a, v_l, &w.v_star, &w.joints, lcp);
+    st_.VelocityAfterInto(*a, w.v_star, z, w.joints, v1);
+  }
+  // internal::PlainLcpAlongInto (step_record.h); the model's assembly has no joints, corners,
+  // support points or compliant pairs.
+  void PlainLcpAlongInto(const StepInput& u, const VectorXd& s, double t, const VectorXd& z,
+                         VectorXd* w, VectorXd* v1) const {
+    struct Along {
+      State x;
+      StewartTrinkle::Assembly a;
+      VectorXd v_star, minv_p, impulse, dv, gv;
+    };
+    internal::ScratchLease<Along> lease;
+    Along& sc = lease.get();
+    const StewartTrinkle::Assembly* at = &freeze_;
+    const State* x = &x_;
+    if (t != 0.0) {
+      sc.x.t = x_.t;
+      sc.x.q = x_.q + t * s.head(x_.q.size());
+      sc.x.v = x_.v + t * s.tail(s.size() - x_.q.size());
+      sc.x.warm_start = x_.warm_start;
+      sc.a.contacts = MoveContactsAlong(*model_, contacts_, x_, sc.x, s, t, dt_, k0_, sides_);
+      st_.AssembleAtInto(*model_, sc.x, u, /*select_corner_edges=*/false, &sc.a);
+      at = &sc.a;
+      x = &sc.x;
+    }
+    const StewartTrinkle::Assembly& a = *at;
+    const StepperOptions& o = st_.options();
+    const int nc = static_cast<int>(a.contacts.size()), nd = a.nd, nf = nc * nd;
+    // ν* = ν_ℓ + M⁻¹ p_ext (first order: no ν_ℓ), ν_after = ν* + M⁻¹ (G_n p_n + G_f p_f).
+    a.M_inv.Multiply(a.p_ext, &sc.minv_p);
+    if (o.formulation == FormulationType::kFirstOrder)
+      sc.v_star = sc.minv_p;
+    else
+      sc.v_star = x->v + sc.minv_p;
+    sc.impulse.noalias() = a.G_n * z.head(nc);
+    sc.impulse.noalias() += a.G_f * z.segment(nc, nf);
+    a.M_inv.Multiply(sc.impulse, &sc.dv);
+    *v1 = sc.v_star + sc.dv;
+    // BuildLcpInto's rows M z + q through ν_after.
+    w->resize(nc + nf + nc);
+    sc.gv.noalias() = a.G_n.transpose() * *v1;
+    w->head(nc) = sc.gv + a.dpsi_n;
+    if (o.formulation != FormulationType::kAnitescuPotra) w->head(nc) += a.psi_n / o.dt;
+    sc.gv.noalias() = a.G_f.transpose() * *v1;
+    w->segment(nc, nf) = sc.gv + a.dpsi_f;
+    for (int c = 0; c < nc; ++c) {
+      double sum = 0.0;
+      for (int j = 0; j < nd; ++j) {
+        (*w)[nc + c * nd + j] += z[nc + nf + c];
+        sum += z[nc + c * nd + j];
+      }
+      (*w)[nc + nf + c] = a.mu[c] * z[c] - sum;
+    }
+  }
   // ResidualsAlong into *out (values only), in the calling thread's storage.
   void AlongInto(const VectorXd& z, const StepInput& u, const VectorXd& s, double t,
                  StepResiduals* out) const {
@@ -711,6 +798,8 @@ void FreezeInto(const Formulation& formulation, std::shared_ptr<const Scene> sce
   const StewartTrinkle::Assembly* assembled =
       step && step->record.Holds(*st, scene, x, u) ? &step->assembly : nullptr;
   auto* reuse = dynamic_cast<StewartTrinkleModel*>(frozen->get());
+  // Frozen at these already (the model holds its scene: the address names it).
+  if (reuse && &reuse->formulation() == st && reuse->FrozenAt(scene.get(), params, x, u)) return;
   if (reuse && &reuse->formulation() == st) {
     reuse->Refreeze(std::move(scene), params, x, u, assembled);
     return;
@@ -727,6 +816,34 @@ void EvaluateResidualsInto(const StepModel& m, const VectorXd& z, const Params& 
   jac->equality.FromDense(out->d_equality);
   jac->comp_a.FromDense(out->d_comp_a);
   jac->comp_b.FromDense(out->d_comp_b);
+}
+
+const StewartTrinkle::Assembly* FrozenAssembly(const StepModel& m) {
+  const auto* st = dynamic_cast<const StewartTrinkleModel*>(&m);
+  return st ? &st->freeze_assembly() : nullptr;
+}
+
+bool LcpAlongInto(const StepModel& m, const StepInput& u, const VectorXd& s, double t,
+                  const VectorXd& z, LcpProblem* lcp, VectorXd* v1) {
+  const auto* st = dynamic_cast<const StewartTrinkleModel*>(&m);
+  const State& x0 = m.x_freeze();
+  if (!st || s.size() != x0.q.size() + x0.v.size()) return false;
+  st->LcpAlongInto(u, s, t, z, lcp, v1);
+  return true;
+}
+
+bool PlainLcpAlongInto(const StepModel& m, const StepInput& u, const VectorXd& s, double t,
+                       const VectorXd& z, VectorXd* w, VectorXd* v1) {
+  const auto* st = dynamic_cast<const StewartTrinkleModel*>(&m);
+  const State& x0 = m.x_freeze();
+  if (!st || s.size() != x0.q.size() + x0.v.size()) return false;
+  const StewartTrinkle::Assembly& a = st->freeze_assembly();
+  if (a.psi_b.size() > 0 || !a.corner_contact.empty() || a.support.points() > 0) return false;
+  for (const CompliantNormalRow& law : a.compliance)
+    if (law.compliant) return false;
+  if (z.size() != static_cast<Eigen::Index>(a.contacts.size()) * (2 + a.nd)) return false;
+  st->PlainLcpAlongInto(u, s, t, z, w, v1);
+  return true;
 }
 
 void StateDirectionalDerivativeInto(const StepModel& m, const VectorXd& z, const StepInput& u,

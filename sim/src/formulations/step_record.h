@@ -66,7 +66,8 @@ void StampStepOwner(const std::shared_ptr<const Scene>& scene);
 /// *frozen = Freeze(formulation, model, params, x, u): the same model (same results), made
 /// cheaper for the Stewart–Trinkle family: where *frozen already holds a model of this
 /// formulation its storage is reused, and where the calling thread's last step assembled
-/// (*model, x, u) (its StepRecord) that assembly is copied instead of assembled again.
+/// (*model, x, u) (its StepRecord) that assembly is copied instead of assembled again; where
+/// *frozen is already that model, frozen at (*model, params, x, u) bitwise, it is kept.
 void FreezeInto(const Formulation& formulation, std::shared_ptr<const Scene> model,
                 const Params& params, const State& x, const StepInput& u,
                 std::unique_ptr<StepModel>* frozen);
@@ -81,5 +82,23 @@ void EvaluateResidualsInto(const StepModel& m, const VectorXd& z, const Params& 
 /// the Stewart–Trinkle family.
 void StateDirectionalDerivativeInto(const StepModel& m, const VectorXd& z, const StepInput& u,
                                     const VectorXd& s, double step, StepResiduals* out);
+
+/// The frozen Stewart–Trinkle-family model's assembly at its freeze point (x_ℓ, the step's
+/// contacts); null for other formulations.
+const StewartTrinkle::Assembly* FrozenAssembly(const StepModel& m);
+/// For a Stewart–Trinkle-family frozen model (false otherwise, nothing written): the step's LCP
+/// (StewartTrinkle::BuildLcpInto) of the model at x_ℓ + t s — its contacts moved along s as
+/// StateDirectionalDerivative moves them, assembled there — into *lcp, and ν_ℓ+1 =
+/// VelocityAfter for the LCP impulses z into *v1. t = 0: the freeze's own assembly. s has
+/// nq + nv entries.
+bool LcpAlongInto(const StepModel& m, const StepInput& u, const VectorXd& s, double t,
+                  const VectorXd& z, LcpProblem* lcp, VectorXd* v1);
+
+/// LcpAlongInto's w = M z + q and ν_ℓ+1 for a Stewart–Trinkle-family model on plain contacts
+/// (no joints, corners, support points or compliant pairs; false otherwise, nothing written),
+/// without forming M: BuildLcpInto's rows through ν_ℓ+1 = ν* + W G z — G_nᵀ ν_ℓ+1 +
+/// ∂ψ_n/∂t (+ ψ_n/h but for Anitescu–Potra), G_fᵀ ν_ℓ+1 + ∂ψ_f/∂t + E σ, U p_n − Eᵀ p_f.
+bool PlainLcpAlongInto(const StepModel& m, const StepInput& u, const VectorXd& s, double t,
+                       const VectorXd& z, VectorXd* w, VectorXd* v1);
 
 }  // namespace vinci::sim::internal

@@ -14,6 +14,7 @@
 #include "../formulations/step_record.h"
 #include "../solvers/scratch_lease.h"
 #include "sensitivity_internal.h"
+#include "sensitivity_lcp_basis.h"
 #include "sensitivity_linearization.h"
 #include "vinci/sim/formulations/geometrically_implicit.h"
 #include "vinci/sim/formulations/step_model.h"
@@ -526,6 +527,10 @@ StepSensitivity PropagateStep(const Simulator& sim, const Params& params,
   // Many columns: one full state Jacobian is cheaper than a directional difference per column.
   const bool full_state = ncols > nx;
   StepSensitivity st;
+  if (!full_state && options.lcp_basis &&
+      internal::PropagateOnLcpBasis(sim, params, selection, x, u, next, S, S_next, options, ws,
+                                    &st))
+    return st;
   StepDifferentiator d(sim, params, selection, x, u, next, options, full_state, ws);
   *S_next = MatrixXd::Constant(nx, ncols, kNaN);
   if (!d.ok()) {

@@ -83,6 +83,11 @@ struct SensitivityOptions {
   double state_step = 1e-7;
   /// Relative central-difference step of motion parameters (max(step·|θ|, step)).
   double motion_step = 1e-6;
+  /// PropagateStep on a strictly complementary Stewart–Trinkle-family step on plain contacts,
+  /// friction coefficients selected: the derivative on the step LCP's basic block instead of
+  /// the whole step system's linearization — the same derivative to the central differences'
+  /// error, at a fraction of the cost (docs/sensitivity.md). false: always the general path.
+  bool lcp_basis = true;
 };
 
 /// ∂x_ℓ+1/∂x_ℓ and ∂x_ℓ+1/∂θ of one step, x = [q; ν].
@@ -105,6 +110,8 @@ struct StepSensitivity {
   /// ~1e-6 m can make it report others. The step is flagged kDegenerate.
   int feature_kink_contacts = 0;
   bool contact_set_changed = false;
+  /// The derivative was taken on the step LCP's basis (SensitivityOptions::lcp_basis).
+  bool on_lcp_basis = false;
   std::string message;  ///< what was degenerate, changed or failed
 };
 

@@ -1,0 +1,35 @@
+// A forward-mode step derivative on the step LCP's own basis (internal to sensitivity.cc): the
+// strictly complementary Stewart–Trinkle-family steps, where the general path's linearization of
+// the whole step system reduces to the LCP's basic block.
+#pragma once
+
+#include "vinci/sim/simulator/sensitivity.h"
+
+namespace vinci::sim::internal {
+
+// PropagateStep (sensitivity.h) on the step LCP's basis, where that gives the general path's
+// derivative: a Stewart–Trinkle, Anitescu–Potra or first-order step on plain contacts (no
+// joints, corners, support friction or compliant pairs, no contact at a feature switch), every
+// selected parameter a friction coefficient, no smoothing, its LCP solution z* strictly
+// complementary (each pair's nonzero side above 10³ times the general path's activity
+// tolerance, SensitivityOptions::active_tol), the basic block M_BB regular (its LU's pivots), and
+// no column near a kink (kMinStableRadius). Then, with B = {z*_i > 0}, N = {w*_i > 0}, the solution
+// is locally z_B = −M_BB⁻¹ q_B, z_N = 0, and along a column (s, θ-part e):
+//
+//   dg  = ∂(M z* + q)/∂x · s + ∂(M z*)/∂θ · e        (z* held; ∂M/∂μ_c = 1 at (σ_c, p_n,c))
+//   dz_B = −M_BB⁻¹ dg_B,   dz_N = 0,   dw_N = dg_N + M_NB dz_B
+//   dν_ℓ+1 = ∂ν_after(x, z*)/∂x · s + W G dz           (ν_after = ν* + W G z)
+//   dq_ℓ+1 = ∂Int(q, ν_ℓ+1)/∂(q, ν_ℓ+1) · (s_q, dν_ℓ+1)
+//
+// The x parts are central differences along the unit direction s/‖s‖∞ (step
+// SensitivityOptions::state_step · max(1, ‖x‖∞), the general path's), of M(x) z* + q(x) and
+// ν_after(x, z*) at the frozen model's contacts moved along s; the positions' part of Int is
+// exact, a quaternion's a central difference in (q, h ω) along its unit direction. Returns false
+// (nothing written) where it does not apply; *st and *S_next are then the general path's to
+// fill.
+bool PropagateOnLcpBasis(const Simulator& sim, const Params& params,
+                         const ParamSelection& selection, const State& x, const StepInput& u,
+                         const State& next, const MatrixXd& S, MatrixXd* S_next,
+                         const SensitivityOptions& options, Workspace* ws, StepSensitivity* st);
+
+}  // namespace vinci::sim::internal

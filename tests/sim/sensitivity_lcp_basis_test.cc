@@ -1,0 +1,172 @@
+// The forward step derivative on the step LCP's basis (SensitivityOptions::lcp_basis,
+// sim/src/simulator/sensitivity_lcp_basis.h) against the general path (the whole step system's
+// linearization) on the same steps: the same columns to the central differences' error, the
+// same status, and the general path wherever the basis does not apply.
+#include <gtest/gtest.h>
+
+#include <random>
+#include <string>
+#include <vector>
+
+#include "test_util.h"
+#include "vinci/sim/model/scene_file.h"
+#include "vinci/sim/simulator/sensitivity.h"
+
+namespace vinci::sim {
+namespace {
+
+using testing::LoadExample;
+
+struct Case {
+  std::string name;
+  Scene scene;
+  std::vector<std::string> params;
+  int steps;
+  int min_on_basis;  // steps the basis must have taken at least
+};
+
+// A ball sliding and spinning on a floor (spatial, one contact, 8 friction directions): it slides
+// for the whole window (slip 1.2 m/s, μ g = 4.9 m/s²: > 0.2 s to rolling); its spin exercises the
+// quaternion block. After ~75 steps the slip has turned onto the normal of a facet of the
+// linearized cone, where two friction directions tie (one of them unloaded: a degenerate pair,
+// the general path's).
+Scene SlidingBall() {
+  return ParseScene(R"(
+name: sliding-ball
+dimension: 3
+gravity: [0, 0, -9.81]
+stepper: {dt: 0.001, friction_directions: 8, envelope: 0.002}
+friction: {default: 0.5}
+bodies:
+  - name: floor
+    kind: static
+    shapes: [{type: halfspace}]
+  - name: ball
+    mass: 1.0
+    pose: {position: [0, 0, 0.1]}
+    velocity: {linear: [1.0, 0.3, 0], angular: [2.0, -1.0, 5.0]}
+    shapes: [{type: sphere, radius: 0.1}]
+)",
+                    "sliding_ball");
+}
+
+Scene WithFormulation(Scene s, FormulationType f) {
+  s.options.formulation = f;
+  return s;
+}
+
+std::vector<Case> Cases() {
+  return {
+      // Slides for 509 steps, then sticks (degenerate: the general path).
+      {"block_sliding", LoadExample("block_sliding.yaml"), {"mu.default"}, 600, 400},
+      {"block_sliding_anitescu_potra",
+       WithFormulation(LoadExample("block_sliding.yaml"), FormulationType::kAnitescuPotra),
+       {"mu.default"},
+       300,
+       250},
+      {"plate_disc_planar", LoadExample("plate_disc_planar.yaml"), {"mu.default"}, 400, 100},
+      {"sliding_ball", SlidingBall(), {"mu.default"}, 150, 70},
+      {"first_order_push", LoadExample("first_order_push.yaml"), {"mu.default"}, 150, 50},
+      // Rests on four redundant corners: never the basis (singular M_BB, degenerate pairs).
+      {"box_on_plane", LoadExample("box_on_plane.yaml"), {"mu.default"}, 300, 0},
+      // A mass is not a friction coefficient: always the general path.
+      {"block_sliding_mass", LoadExample("block_sliding.yaml"), {"mass.block"}, 100, 0},
+  };
+}
+
+class LcpBasisTest : public ::testing::TestWithParam<int> {};
+
+// Along a rollout, each step's PropagateStep with two columns — the parameter's, carrying a
+// random sensitivity, and a random state direction — on the basis and by the general path.
+TEST_P(LcpBasisTest, MatchesTheGeneralPath) {
+  const Case c = Cases()[static_cast<std::size_t>(GetParam())];
+  SCOPED_TRACE(c.name);
+  const Simulator sim(c.scene);
+  const Params p = sim.DefaultParams();
+  const ParamSelection sel(sim.scene().param_table(), c.params);
+  const Trajectory tr = sim.Rollout(p, sim.InitialState(), c.steps);
+  ASSERT_TRUE(tr.ok) << tr.failure;
+  const int nx = static_cast<int>(tr.states[0].q.size() + tr.states[0].v.size());
+  std::mt19937 rng(7);
+  std::normal_distribution<double> normal;
+  SensitivityOptions general;
+  general.lcp_basis = false;
+  int on_basis = 0, exact = 0;
+  double worst = 0.0;
+  for (int k = 0; k < c.steps; ++k) {
+    MatrixXd S(nx, 2);
+    for (int i = 0; i < S.size(); ++i) S.data()[i] = normal(rng);
+    S.col(0) *= 1e-3;  // a carried ∂x/∂μ is small
+    MatrixXd fast, slow;
+    Workspace ws;
+    State next;
+    ASSERT_TRUE(sim.Step(p, tr.states[k], {}, &ws, &next).ok);
+    const StepSensitivity a = PropagateStep(sim, p, sel, tr.states[k], {}, next, S, &fast, {}, &ws);
+    const StepSensitivity b =
+        PropagateStep(sim, p, sel, tr.states[k], {}, next, S, &slow, general, &ws);
+    EXPECT_FALSE(b.on_lcp_basis);
+    on_basis += a.on_lcp_basis;
+    exact += a.on_lcp_basis && a.status == SensitivityStatus::kExact;
+    EXPECT_EQ(a.status, b.status) << "step " << k << ": " << a.message << " / " << b.message;
+    EXPECT_EQ(a.contact_set_changed, b.contact_set_changed) << "step " << k;
+    if (!a.on_lcp_basis) {
+      // The general path's own result, bit for bit.
+      EXPECT_TRUE(fast.isApprox(slow, 0.0) || (fast - slow).cwiseAbs().maxCoeff() == 0.0)
+          << "step " << k;
+      EXPECT_EQ(a.message, b.message) << "step " << k;
+      continue;
+    }
+    EXPECT_EQ(a.degenerate_pairs, 0);
+    for (int j = 0; j < 2; ++j) {
+      const double scale = slow.col(j).cwiseAbs().maxCoeff();
+      const double err = (fast.col(j) - slow.col(j)).cwiseAbs().maxCoeff();
+      worst = std::max(worst, err / std::max(scale, 1e-300));
+      EXPECT_LE(err, 1e-6 * scale)
+          << "step " << k << " column " << j << "\nbasis   " << fast.col(j).transpose()
+          << "\ngeneral " << slow.col(j).transpose();
+    }
+  }
+  std::printf("%s: %d of %d steps on the LCP basis (%d exact), worst relative difference %.2e\n",
+              c.name.c_str(), on_basis, c.steps, exact, worst);
+  EXPECT_GE(on_basis, c.min_on_basis);
+  if (c.min_on_basis == 0) {
+    EXPECT_EQ(on_basis, 0);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Scenes, LcpBasisTest, ::testing::Range(0, 7),
+                         [](const ::testing::TestParamInfo<int>& param) {
+                           return Cases()[static_cast<std::size_t>(param.param)].name;
+                         });
+
+// A rollout's forward sensitivity through the steps on the basis (RolloutForward, the sliding
+// ball: its first ~75 steps, then the general path) equals the general path's, and both count the
+// same exact steps (SensitivityTest.SlidingBlockForwardModeMatchesClosedForm checks the closed form
+// of the sliding block with the default options, i.e. on the basis).
+TEST(LcpBasis, RolloutMatchesTheGeneralPath) {
+  const Simulator sim(SlidingBall());
+  const Params p = sim.DefaultParams();
+  const ParamSelection sel(sim.scene().param_table(), {"mu.default"});
+  constexpr int kSteps = 150;
+  SensitivityOptions general;
+  general.lcp_basis = false;
+  const RolloutSensitivity fast =
+      RolloutForward(sim, p, sel, sim.InitialState(), std::vector<StepInput>(kSteps), false);
+  const RolloutSensitivity slow = RolloutForward(sim, p, sel, sim.InitialState(),
+                                                 std::vector<StepInput>(kSteps), false, general);
+  ASSERT_TRUE(fast.trajectory.ok) << fast.trajectory.failure;
+  ASSERT_EQ(fast.d_state.size(), slow.d_state.size());
+  int on_basis = 0;
+  for (const StepSensitivity& st : fast.steps) on_basis += st.on_lcp_basis;
+  EXPECT_GE(on_basis, 70);
+  EXPECT_EQ(fast.exact_steps, slow.exact_steps);
+  const MatrixXd& a = fast.d_state.back();
+  const MatrixXd& b = slow.d_state.back();
+  for (int j = 0; j < b.cols(); ++j)
+    EXPECT_LE((a.col(j) - b.col(j)).cwiseAbs().maxCoeff(),
+              1e-6 * std::max(1e-12, b.col(j).cwiseAbs().maxCoeff()))
+        << "column " << j;
+}
+
+}  // namespace
+}  // namespace vinci::sim
