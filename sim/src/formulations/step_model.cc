@@ -146,34 +146,18 @@ class StewartTrinkleModel final : public StepModel {
                 const StepInput& u) const {
     return model_.get() == scene && params_ == params && SameStateAndInput(x, u, x_, u_);
   }
-  // internal::LcpAlongInto (step_record.h).
-  void LcpAlongInto(const StepInput& u, const VectorXd& s, double t, const VectorXd& z,
-                    LcpProblem* lcp, VectorXd* v1) const {
-    struct Along {
-      State x;
-      StewartTrinkle::Assembly a;
+  // internal::FrozenLcpInto (step_record.h).
+  void FrozenLcpInto(LcpProblem* lcp) const {
+    struct Scratch {
       VectorXd v_star, zero_v;
       StewartTrinkle::JointElimination joints;
     };
-    internal::ScratchLease<Along> lease;
-    Along& w = lease.get();
-    const StewartTrinkle::Assembly* a = &freeze_;
-    const State* x = &x_;
-    if (t != 0.0) {
-      w.x.t = x_.t;
-      w.x.q = x_.q + t * s.head(x_.q.size());
-      w.x.v = x_.v + t * s.tail(s.size() - x_.q.size());
-      w.x.warm_start = x_.warm_start;
-      w.a.contacts = MoveContactsAlong(*model_, contacts_, x_, w.x, s, t, dt_, k0_, sides_);
-      st_.AssembleAtInto(*model_, w.x, u, /*select_corner_edges=*/false, &w.a);
-      a = &w.a;
-      x = &w.x;
-    }
+    internal::ScratchLease<Scratch> lease;
+    Scratch& w = lease.get();
     // As StewartTrinkle::Step: first order has no ν_ℓ.
     const bool first_order = st_.options().formulation == FormulationType::kFirstOrder;
-    const VectorXd& v_l = first_order ? w.zero_v.setZero(x->v.size()) : x->v;
-    st_.BuildLcpInto(*model_, *a, v_l, &w.v_star, &w.joints, lcp);
-    st_.VelocityAfterInto(*a, w.v_star, z, w.joints, v1);
+    const VectorXd& v_l = first_order ? w.zero_v.setZero(x_.v.size()) : x_.v;
+    st_.BuildLcpInto(*model_, freeze_, v_l, &w.v_star, &w.joints, lcp);
   }
   // internal::PlainLcpAlongInto (step_record.h); the model's assembly has no joints, corners,
   // support points or compliant pairs.
@@ -189,12 +173,7 @@ class StewartTrinkleModel final : public StepModel {
     const StewartTrinkle::Assembly* at = &freeze_;
     const State* x = &x_;
     if (t != 0.0) {
-      sc.x.t = x_.t;
-      sc.x.q = x_.q + t * s.head(x_.q.size());
-      sc.x.v = x_.v + t * s.tail(s.size() - x_.q.size());
-      sc.x.warm_start = x_.warm_start;
-      sc.a.contacts = MoveContactsAlong(*model_, contacts_, x_, sc.x, s, t, dt_, k0_, sides_);
-      st_.AssembleAtInto(*model_, sc.x, u, /*select_corner_edges=*/false, &sc.a);
+      AssembleAlong(u, s, t, &sc.x, &sc.a);
       at = &sc.a;
       x = &sc.x;
     }
@@ -227,20 +206,26 @@ class StewartTrinkleModel final : public StepModel {
       (*w)[nc + nf + c] = a.mu[c] * z[c] - sum;
     }
   }
+  // The frozen contacts moved to x_ℓ + t s (MoveContactsAlong) and assembled there, into *x and
+  // *a (their storage reused).
+  void AssembleAlong(const StepInput& u, const VectorXd& s, double t, State* x,
+                     StewartTrinkle::Assembly* a) const {
+    x->t = x_.t;
+    x->q = x_.q + t * s.head(x_.q.size());
+    x->v = x_.v + t * s.tail(s.size() - x_.q.size());
+    x->warm_start = x_.warm_start;
+    a->contacts = MoveContactsAlong(*model_, contacts_, x_, *x, s, t, dt_, k0_, sides_);
+    st_.AssembleAtInto(*model_, *x, u, /*select_corner_edges=*/false, a);
+  }
   // ResidualsAlong into *out (values only), in the calling thread's storage.
   void AlongInto(const VectorXd& z, const StepInput& u, const VectorXd& s, double t,
                  StepResiduals* out) const {
     internal::ScratchLease<State> x_lease;
     State& x = x_lease.get();
-    x.t = x_.t;
-    x.q = x_.q + t * s.head(x_.q.size());
-    x.v = x_.v + t * s.tail(s.size() - x_.q.size());
-    x.warm_start = x_.warm_start;
     // The calling thread's assembly storage (same values as a fresh AssembleAt).
     internal::ScratchLease<StewartTrinkle::Assembly> lease;
     StewartTrinkle::Assembly& a = lease.get();
-    a.contacts = MoveContactsAlong(*model_, contacts_, x_, x, s, t, dt_, k0_, sides_);
-    st_.AssembleAtInto(*model_, x, u, /*select_corner_edges=*/false, &a);
+    AssembleAlong(u, s, t, &x, &a);
     internal::EvaluateAssemblyInto(st_, *model_, params_, a, x, z, false, out);
   }
 
@@ -823,12 +808,10 @@ const StewartTrinkle::Assembly* FrozenAssembly(const StepModel& m) {
   return st ? &st->freeze_assembly() : nullptr;
 }
 
-bool LcpAlongInto(const StepModel& m, const StepInput& u, const VectorXd& s, double t,
-                  const VectorXd& z, LcpProblem* lcp, VectorXd* v1) {
+bool FrozenLcpInto(const StepModel& m, LcpProblem* lcp) {
   const auto* st = dynamic_cast<const StewartTrinkleModel*>(&m);
-  const State& x0 = m.x_freeze();
-  if (!st || s.size() != x0.q.size() + x0.v.size()) return false;
-  st->LcpAlongInto(u, s, t, z, lcp, v1);
+  if (!st) return false;
+  st->FrozenLcpInto(lcp);
   return true;
 }
 

@@ -87,14 +87,12 @@ void StateDirectionalDerivativeInto(const StepModel& m, const VectorXd& z, const
 /// contacts); null for other formulations.
 const StewartTrinkle::Assembly* FrozenAssembly(const StepModel& m);
 /// For a Stewart–Trinkle-family frozen model (false otherwise, nothing written): the step's LCP
-/// (StewartTrinkle::BuildLcpInto) of the model at x_ℓ + t s — its contacts moved along s as
-/// StateDirectionalDerivative moves them, assembled there — into *lcp, and ν_ℓ+1 =
-/// VelocityAfter for the LCP impulses z into *v1. t = 0: the freeze's own assembly. s has
-/// nq + nv entries.
-bool LcpAlongInto(const StepModel& m, const StepInput& u, const VectorXd& s, double t,
-                  const VectorXd& z, LcpProblem* lcp, VectorXd* v1);
-
-/// LcpAlongInto's w = M z + q and ν_ℓ+1 for a Stewart–Trinkle-family model on plain contacts
+/// at the freeze point (StewartTrinkle::BuildLcpInto of its assembly) into *lcp.
+bool FrozenLcpInto(const StepModel& m, LcpProblem* lcp);
+/// The LCP's w = M z + q (StewartTrinkle::BuildLcpInto's M and q) and ν_ℓ+1 = VelocityAfter for
+/// the impulses z, for the frozen model moved to x_ℓ + t s — its contacts moved along s as
+/// StateDirectionalDerivative moves them, assembled there; t = 0: the freeze's own assembly. For a
+/// Stewart–Trinkle-family model on plain contacts
 /// (no joints, corners, support points or compliant pairs; false otherwise, nothing written),
 /// without forming M: BuildLcpInto's rows through ν_ℓ+1 = ν* + W G z — G_nᵀ ν_ℓ+1 +
 /// ∂ψ_n/∂t (+ ψ_n/h but for Anitescu–Potra), G_fᵀ ν_ℓ+1 + ∂ψ_f/∂t + E σ, U p_n − Eᵀ p_f.

@@ -94,8 +94,7 @@ bool PropagateOnLcpBasis(const Simulator& sim, const Params& params,
     if (!(lo <= tol && hi > kClearMargin * tol)) return false;
     (z[i] > b.w[i] ? b.basic : b.nonbasic).push_back(i);
   }
-  LcpAlongInto(*frozen, u, b.unit, 0.0, z, &b.lcp, &b.v1_m);  // M at the freeze
-  if (b.lcp.size() != m) return false;
+  if (!FrozenLcpInto(*frozen, &b.lcp) || b.lcp.size() != m) return false;  // M at the freeze
   const int nb = static_cast<int>(b.basic.size());
   b.m_bb.resize(nb, nb);
   for (int i = 0; i < nb; ++i)
