@@ -9,6 +9,7 @@
 #include <cstring>
 #include <memory>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "test_util.h"
@@ -202,6 +203,43 @@ TEST(EndDetection, AnotherKeyDetectsAfresh) {
   // At its key it is taken.
   EXPECT_TRUE(Detect(scene, x).taken);
   EXPECT_FALSE(internal::HoldsEndDetection());
+}
+
+// The kept end detection read without a scope (KeptEndContacts: StewartTrinkle::Layout of the
+// mode-change flag at x_ℓ+1): the fresh list at its key, null at any other; the layouts alike.
+TEST(EndDetection, KeptEndContactsAreTheFreshListAtTheirKeyOnly) {
+  for (const Case& c : {Cases()[1], Cases()[3], Cases()[4]}) {
+    SCOPED_TRACE(c.name);
+    const Simulator sim(c.scene);
+    const Params p = ParamsOf(sim, c);
+    Workspace ws;
+    State x = sim.InitialState(), next;
+    for (int k = 0; k < 20; ++k) {
+      ASSERT_TRUE(sim.Step(p, x, StepInput{}, &ws, &next).ok);
+      std::swap(x, next);
+    }
+    const Scene& m = *ws.model;
+    const double h = m.options.dt, envelope = m.options.envelope;
+    const std::vector<Contact>* kept = internal::KeptEndContacts(m, x, h, envelope);
+    ASSERT_NE(kept, nullptr);
+    std::vector<BodyKinematics> kin;
+    EXPECT_TRUE(SameContacts(*kept, Fresh(m, x, &kin)));
+    State moved = x;
+    moved.q[0] = std::nextafter(moved.q[0], 1e9);
+    EXPECT_EQ(internal::KeptEndContacts(m, moved, h, envelope), nullptr);
+    EXPECT_EQ(internal::KeptEndContacts(m, x, 2.0 * h, envelope), nullptr);
+    EXPECT_EQ(internal::KeptEndContacts(m, x, h, 2.0 * envelope), nullptr);
+    EXPECT_EQ(internal::KeptEndContacts(Scene(m), x, h, envelope), nullptr);  // another object
+    // Layout with the kept list against a thread that holds none.
+    const StepLayout with = sim.formulation().Layout(m, x);
+    StepLayout without;
+    std::thread([&] { without = sim.formulation().Layout(m, x); }).join();
+    EXPECT_EQ(with.nc, without.nc);
+    EXPECT_EQ(with.nk, without.nk);
+    EXPECT_EQ(with.ns, without.ns);
+    EXPECT_EQ(with.size(), without.size());
+    EXPECT_NE(internal::KeptEndContacts(m, x, h, envelope), nullptr);  // read, not taken
+  }
 }
 
 // A scene whose owner is gone is never matched, even by a new owner of a scene at the same

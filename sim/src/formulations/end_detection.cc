@@ -157,6 +157,17 @@ double EndOfStepMinGap(const Scene& model, const State& x, double h, double chec
   return MinGapOf(t_check, nullptr);
 }
 
+const std::vector<Contact>* KeptEndContacts(const Scene& model, const State& x, double h,
+                                            double envelope) {
+  const EndDetection& e = t_end;
+  if (!e.valid || e.model != &model) return nullptr;
+  const std::shared_ptr<const Scene> owner = e.owner.lock();
+  if (owner.get() != &model || !SameBits(e.t, x.t) || !SameBits(e.h, h) ||
+      !SameBits(e.envelope, envelope) || !SameBits(e.q, x.q) || !SameBits(e.v, x.v))
+    return nullptr;
+  return &e.contacts;
+}
+
 double MinGapOf(const std::vector<Contact>& contacts, const Contact** where) {
   double min_gap = std::numeric_limits<double>::infinity();
   const Contact* min_contact = nullptr;

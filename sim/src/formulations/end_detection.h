@@ -74,6 +74,13 @@ double EndOfStepMinGap(const Scene& model, const State& x, double h, double chec
 /// (may be null) = the first contact with that gap, or null.
 double MinGapOf(const std::vector<Contact>& contacts, const Contact** where);
 
+/// The contacts of the calling thread's kept end detection if it is keyed by exactly `model`
+/// (its owner alive and that owner's scene), x (t, q, ν bitwise), h and `envelope` — the list
+/// FindContacts(model, kinematics at (x.t, h), envelope) returns — else null. Needs no step
+/// scope; reads only (the next step's DetectAtStart may still take it).
+const std::vector<Contact>* KeptEndContacts(const Scene& model, const State& x, double h,
+                                            double envelope);
+
 /// Whether the calling thread holds a kept end detection (tests).
 bool HoldsEndDetection();
 

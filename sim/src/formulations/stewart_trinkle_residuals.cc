@@ -6,6 +6,7 @@
 #include <utility>
 #include <vector>
 
+#include "end_detection.h"
 #include "sparse_lcp.h"
 #include "sparse_rows.h"
 #include "step_util.h"
@@ -56,14 +57,20 @@ void AppendSupportPairs(const SupportRows& sup, const StepLayout& l, const Vecto
 StepLayout StewartTrinkle::Layout(const Scene& model, const State& x) const {
   // Kept per thread between calls (allocation reuse only: both are overwritten by every call).
   thread_local std::vector<BodyKinematics> kin;
-  thread_local std::vector<Contact> contacts;
-  ComputeBodyKinematics(model, x, &kin);
-  for (std::size_t i = 0; i < kin.size(); ++i)  // as in Assemble
-    if (model.bodies[i].kind == BodyKind::kPrescribed &&
-        model.bodies[i].motion.pose == PoseRule::kIntegrated)
-      kin[i] = PrescribedKinematics(model, static_cast<int>(i), x.t, options_.dt);
+  thread_local std::vector<Contact> found;
   CheckShapesSupported(model);
-  FindContacts(model, kin, options_.envelope, &contacts);
+  // The step that ended at x detected there already (end_detection.h): the same list.
+  const std::vector<Contact>* kept =
+      internal::KeptEndContacts(model, x, options_.dt, options_.envelope);
+  if (kept == nullptr) {
+    ComputeBodyKinematics(model, x, &kin);
+    for (std::size_t i = 0; i < kin.size(); ++i)  // as in Assemble
+      if (model.bodies[i].kind == BodyKind::kPrescribed &&
+          model.bodies[i].motion.pose == PoseRule::kIntegrated)
+        kin[i] = PrescribedKinematics(model, static_cast<int>(i), x.t, options_.dt);
+    FindContacts(model, kin, options_.envelope, &found);
+  }
+  const std::vector<Contact>& contacts = kept ? *kept : found;
   StepLayout l;
   l.nq = model.num_positions();
   l.nv = model.num_velocities();
