@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "../formulations/step_record.h"
@@ -27,13 +28,133 @@ constexpr double kMinPivotRatio = 1e-10;
 // A quaternion's central difference step in (q, h ω) along its unit direction.
 constexpr double kRotationStep = 1e-6;
 
+// A singular basic block's solution, and a sticking contact's implied slip rates, must hold to
+// this relative residual (the central differences' error is far below it).
+constexpr double kConsistencyTol = 1e-7;
+constexpr double kPi = 3.14159265358979323846;
+
+// The roles of the step LCP's entries z = [p_n; p_f; σ] in the derivative:
+//   basic      its row held (dw_i = 0), its unknown free: a loaded normal; a sliding contact's σ
+//              and loaded directions; a sticking contact's held directions (a basis of its
+//              tangent space, loaded ones first);
+//   nonbasic   dz_i = 0, w_i > 0 bounds the stable radius;
+//   implied    dz_i = 0 and dw_i = 0 as a combination of held rows (a sticking contact's other
+//              directions; an unloaded contact's normal that touches: checked per column);
+//   free_sign  the held directions of a sticking contact that carry no load (their dz may be
+//              negative: load along −d_j, which other directions carry in the LCP);
+//   cones      a sticking contact's σ row (w_σ > 0) with its free_sign range, for the radius.
+// A separated or touching unloaded contact's friction and σ entries are held at 0 unchecked:
+// with p_n held at 0 the cone admits no friction, and σ moves no velocity.
+struct Cone {
+  int row, first, count;
+};
+
 struct BasisScratch {
   LcpProblem lcp;
   VectorXd w, v1, v1_p, v1_m, g_p, g_m, dg, dz, dv, zero_v, unit, dz_b, rhs;
-  std::vector<int> basic, nonbasic;
+  std::vector<int> basic, nonbasic, implied, free_sign;
+  std::vector<Cone> cones;
+  int sliding = 0;     // contacts with σ basic
+  int degenerate = 0;  // pairs with both sides at zero
   MatrixXd m_bb;
   Eigen::PartialPivLU<MatrixXd> lu;
+  Eigen::FullPivLU<MatrixXd> full_lu;
 };
+
+// Fills the roles above from z*, w* = M z* + q and the activity tolerance; false where some
+// pair has no clear role (a pair between tol and kClearMargin·tol, a contact at its cone's
+// edge, more loaded directions than its tangent space has dimensions, loaded friction on an
+// unloaded contact, or a touching unloaded contact beside a sliding one).
+bool ClassifyContacts(Dim dim, const StewartTrinkle::Assembly& a, const VectorXd& z,
+                      const VectorXd& w, double tol, BasisScratch* b) {
+  const int nc = static_cast<int>(a.contacts.size()), nd = a.nd, nf = nc * nd;
+  const double clear = kClearMargin * tol;
+  const auto basic = [&](int i) { return w[i] <= tol && z[i] > clear; };
+  const auto nonbasic = [&](int i) { return z[i] <= tol && w[i] > clear; };
+  const auto zero = [&](int i) { return z[i] <= tol && w[i] <= tol; };
+  const auto angle = [&](int j) { return 2.0 * kPi * j / nd; };  // planar: ±t at 0, π
+  const int tangent_dim = dim == Dim::kSpatial ? 2 : 1;
+  b->basic.clear();
+  b->nonbasic.clear();
+  b->implied.clear();
+  b->free_sign.clear();
+  b->cones.clear();
+  b->sliding = b->degenerate = 0;
+  int unloaded = 0;  // touching unloaded contacts
+  for (int k = 0; k < nc; ++k) {
+    const int n = k, f0 = nc + k * nd, s = nc + nf + k;
+    if (nonbasic(n) || zero(n)) {  // separated, or touching unloaded
+      // A touching unloaded contact (p_n = 0 = w_n: a redundant corner the solver left without
+      // load) keeps touching only if its gap rate is a combination of the held rows: implied.
+      if (zero(n)) {
+        b->implied.push_back(n);
+        ++b->degenerate;
+        ++unloaded;
+      } else {
+        b->nonbasic.push_back(n);
+      }
+      for (int i = f0; i < f0 + nd; ++i) {
+        if (z[i] > tol) return false;
+        b->degenerate += w[i] <= tol;
+      }
+      b->degenerate += zero(s);
+      continue;
+    }
+    if (!basic(n)) return false;
+    b->basic.push_back(n);
+    if (basic(s)) {  // sliding: every direction strictly complementary
+      ++b->sliding;
+      b->basic.push_back(s);
+      for (int i = f0; i < f0 + nd; ++i) {
+        if (basic(i))
+          b->basic.push_back(i);
+        else if (nonbasic(i))
+          b->nonbasic.push_back(i);
+        else
+          return false;
+      }
+      continue;
+    }
+    if (!nonbasic(s) || nd < 2 * tangent_dim) return false;
+    // Sticking strictly inside the cone (σ = 0 < w_σ): every slip rate w_j = d_jᵀ ν_rel is zero.
+    int chosen[2], held = 0;
+    for (int j = 0; j < nd; ++j) {
+      if (basic(f0 + j)) {
+        if (held == tangent_dim) return false;
+        chosen[held++] = j;
+      } else if (!zero(f0 + j)) {
+        return false;
+      }
+    }
+    const int loaded = held;
+    if (held == 2 && std::abs(std::sin(angle(chosen[0]) - angle(chosen[1]))) < 0.5) return false;
+    while (held < tangent_dim) {  // the unloaded direction most nearly orthogonal to the held
+      int best = -1;
+      double best_sin = -1.0;
+      for (int j = 0; j < nd; ++j) {
+        if (held > 0 && j == chosen[0]) continue;
+        const double sn = held == 0 ? 1.0 : std::abs(std::sin(angle(j) - angle(chosen[0])));
+        if (sn > best_sin + 1e-12) {
+          best = j;
+          best_sin = sn;
+        }
+      }
+      chosen[held++] = best;
+    }
+    const int first = static_cast<int>(b->free_sign.size());
+    for (int t = 0; t < held; ++t) {
+      b->basic.push_back(f0 + chosen[t]);
+      if (t >= loaded) b->free_sign.push_back(f0 + chosen[t]);
+    }
+    for (int j = 0; j < nd; ++j)
+      if (std::find(chosen, chosen + held, j) == chosen + held) b->implied.push_back(f0 + j);
+    b->degenerate += nd - loaded;
+    b->cones.push_back({s, first, held - loaded});
+  }
+  // With a sliding contact the normal split of redundant contacts moves the velocities (each
+  // contact's friction acts at its own point): an unloaded one's share is not the basis' to fix.
+  return unloaded == 0 || b->sliding == 0;
+}
 
 bool FrictionOnly(const Scene& scene, const ParamSelection& selection) {
   for (int index : selection.indices()) {
@@ -87,24 +208,28 @@ bool PropagateOnLcpBasis(const Simulator& sim, const Params& params,
     violation = std::max(violation, std::abs(std::min(z[i], b.w[i])));
   }
   const double tol = options.active_tol * scale + 10.0 * violation;
-  b.basic.clear();
-  b.nonbasic.clear();
-  for (int i = 0; i < m; ++i) {
-    const double lo = std::min(z[i], b.w[i]), hi = std::max(z[i], b.w[i]);
-    if (!(lo <= tol && hi > kClearMargin * tol)) return false;
-    (z[i] > b.w[i] ? b.basic : b.nonbasic).push_back(i);
-  }
+  if (!ClassifyContacts(model.dim, *a0, z, b.w, tol, &b)) return false;
   if (!FrozenLcpInto(*frozen, &b.lcp) || b.lcp.size() != m) return false;  // M at the freeze
   const int nb = static_cast<int>(b.basic.size());
   b.m_bb.resize(nb, nb);
   for (int i = 0; i < nb; ++i)
     for (int j = 0; j < nb; ++j) b.m_bb(i, j) = b.lcp.M(b.basic[i], b.basic[j]);
+  bool singular = false;
   if (nb > 0) {
-    // Singular (redundant contacts): a pivot of the partial-pivoting LU at round-off relative
-    // to the largest.
+    // A pivot of the partial-pivoting LU at round-off relative to the largest: redundant
+    // contacts. Without a sliding contact M_BB = G_Bᵀ W G_B is symmetric positive semidefinite,
+    // null(M_BB) = null(G_B), so every solution of a consistent M_BB dz_B = −dg_B gives the same
+    // dν = W G dz (the general path's minimum-norm solution among them): solved by the
+    // rank-revealing LU, its consistency checked per column. With a sliding contact's σ in B the
+    // block is not of that form: not this path's answer.
     b.lu.compute(b.m_bb);
     const auto pivots = b.lu.matrixLU().diagonal().cwiseAbs();
-    if (!(pivots.minCoeff() > kMinPivotRatio * pivots.maxCoeff())) return false;
+    if (!(pivots.minCoeff() > kMinPivotRatio * pivots.maxCoeff())) {
+      if (b.sliding > 0) return false;
+      b.full_lu.setThreshold(kMinPivotRatio);
+      b.full_lu.compute(b.m_bb);
+      singular = true;
+    }
   }
 
   const int p = selection.size(), ncols = static_cast<int>(S.cols());
@@ -139,8 +264,28 @@ bool PropagateOnLcpBasis(const Simulator& sim, const Params& params,
     if (nb > 0) {
       b.rhs.resize(nb);
       for (int i = 0; i < nb; ++i) b.rhs[i] = -b.dg[b.basic[i]];
-      b.dz_b = b.lu.solve(b.rhs);
+      if (!singular) {
+        b.dz_b = b.lu.solve(b.rhs);
+      } else {
+        b.dz_b = b.full_lu.solve(b.rhs);
+        const double rhs_norm = b.rhs.cwiseAbs().maxCoeff();
+        if (!((b.m_bb * b.dz_b - b.rhs).cwiseAbs().maxCoeff() <= kConsistencyTol * rhs_norm))
+          return false;  // inconsistent along this column: a mode change the basis cannot follow
+      }
       for (int i = 0; i < nb; ++i) b.dz[b.basic[i]] = b.dz_b[i];
+    }
+    // A sticking contact's other friction rows are combinations of its held ones (σ held at 0),
+    // a touching unloaded contact's normal row of the others': their rates must stay zero, so
+    // that both sides of the column hold them.
+    const double dg_norm = m > 0 ? b.dg.cwiseAbs().maxCoeff() : 0.0;
+    for (int i : b.implied) {
+      double rate = b.dg[i], size = std::abs(b.dg[i]);
+      for (int j = 0; j < nb; ++j) {
+        const double t = b.lcp.M(i, b.basic[j]) * b.dz_b[j];
+        rate += t;
+        size += std::abs(t);
+      }
+      if (!(std::abs(rate) <= kConsistencyTol * size + 1e-12 * dg_norm)) return false;
     }
     // The stable radius of Linearization::StableRadius on this basis.
     double rho = std::numeric_limits<double>::infinity();
@@ -150,6 +295,16 @@ bool PropagateOnLcpBasis(const Simulator& sim, const Params& params,
       double rate = b.dg[i];
       for (int j = 0; j < nb; ++j) rate += b.lcp.M(i, b.basic[j]) * b.dz_b[j];
       if (rate < 0.0 && b.w[i] > tol) rho = std::min(rho, b.w[i] / -rate);
+    }
+    // A sticking contact's cone slack w_σ = μ p_n − Σ p_f: an unloaded held direction's impulse
+    // may turn negative, i.e. point along −d_j, which the cone's gauge counts at most twice
+    // (1/cos(π/n_d) ≤ 2 for n_d ≥ 3; planar −d_j is a direction): its rate is bounded below by
+    // the linear one less 3 |dz_j| (the linear rate counts −dz_j).
+    for (const auto& [row, first, count] : b.cones) {
+      double rate = b.dg[row];
+      for (int j = 0; j < nb; ++j) rate += b.lcp.M(row, b.basic[j]) * b.dz_b[j];
+      for (int j = first; j < first + count; ++j) rate -= 3.0 * std::abs(b.dz[b.free_sign[j]]);
+      if (rate < 0.0) rho = std::min(rho, b.w[row] / -rate);
     }
     const double column_scale = c < p ? std::abs(theta[c]) : 1.0;
     if (!(rho >= kMinStableRadius * std::max(1.0, column_scale))) return false;
@@ -201,8 +356,15 @@ bool PropagateOnLcpBasis(const Simulator& sim, const Params& params,
   *st = StepSensitivity();
   st->contact_set_changed = changed;
   st->on_lcp_basis = true;
-  st->status = changed ? SensitivityStatus::kModeChange : SensitivityStatus::kExact;
-  st->message = changed ? "contact set changed" : "";
+  st->degenerate_pairs = b.degenerate;
+  st->status = changed                ? SensitivityStatus::kModeChange
+               : b.degenerate > 0 ? SensitivityStatus::kDegenerate
+                                  : SensitivityStatus::kExact;
+  if (b.degenerate > 0)
+    st->message = std::to_string(b.degenerate) +
+                  " degenerate pair(s) (sticking contacts' unloaded friction directions, slip "
+                  "rate zero on both sides; or a separated contact's friction)";
+  if (changed) st->message += std::string(st->message.empty() ? "" : "; ") + "contact set changed";
   return true;
 }
 

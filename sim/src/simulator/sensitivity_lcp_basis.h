@@ -10,17 +10,27 @@ namespace vinci::sim::internal {
 // PropagateStep (sensitivity.h) on the step LCP's basis, where that gives the general path's
 // derivative: a Stewart–Trinkle, Anitescu–Potra or first-order step on plain contacts (no
 // joints, corners, support friction or compliant pairs, no contact at a feature switch), every
-// selected parameter a friction coefficient, no smoothing, its LCP solution z* strictly
-// complementary (each pair's nonzero side above 10³ times the general path's activity
-// tolerance, SensitivityOptions::active_tol), the basic block M_BB regular (its LU's pivots), and
-// no column near a kink (kMinStableRadius). Then, with B = {z*_i > 0}, N = {w*_i > 0}, the solution
-// is locally z_B = −M_BB⁻¹ q_B, z_N = 0, and along a column (s, θ-part e):
+// selected parameter a friction coefficient, no smoothing, each contact of its LCP solution z*
+// clearly in one mode (each pair's nonzero side above 10³ times the general path's activity
+// tolerance, SensitivityOptions::active_tol), and no column near a kink (kMinStableRadius):
+//   separated   p_n = 0 < w_n: its entries held at 0;
+//   sliding     σ > 0, every friction pair strictly complementary: B ∋ p_n, σ, the loaded p_f;
+//   sticking    σ = 0 < w_σ = μ p_n − Σ p_f (strictly inside the cone), every slip rate w_f = 0:
+//               B ∋ p_n and the directions of a basis of its tangent space (loaded ones first),
+//               held at zero slip with free-signed impulses; its other directions' slip rates
+//               are combinations of those and stay zero (checked per column), so the derivative
+//               is two-sided though those pairs are degenerate (flagged kDegenerate, as the
+//               general path flags them).
+// Then the solution is locally z_B = −M_BB⁻¹ q_B, z_N = 0, and along a column (s, θ-part e):
 //
 //   dg  = ∂(M z* + q)/∂x · s + ∂(M z*)/∂θ · e        (z* held; ∂M/∂μ_c = 1 at (σ_c, p_n,c))
 //   dz_B = −M_BB⁻¹ dg_B,   dz_N = 0,   dw_N = dg_N + M_NB dz_B
 //   dν_ℓ+1 = ∂ν_after(x, z*)/∂x · s + W G dz           (ν_after = ν* + W G z)
 //   dq_ℓ+1 = ∂Int(q, ν_ℓ+1)/∂(q, ν_ℓ+1) · (s_q, dν_ℓ+1)
 //
+// M_BB singular (redundant contacts: a box's four corners) is taken only without a sliding
+// contact, where M_BB = G_Bᵀ W G_B and every solution of a consistent system (checked per column)
+// gives the same dν.
 // The x parts are central differences along the unit direction s/‖s‖∞ (step
 // SensitivityOptions::state_step · max(1, ‖x‖∞), the general path's), of M(x) z* + q(x) and
 // ν_after(x, z*) at the frozen model's contacts moved along s; the positions' part of Int is
