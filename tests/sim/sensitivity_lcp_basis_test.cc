@@ -70,7 +70,7 @@ Scene WithFormulation(Scene s, FormulationType f) {
 
 std::vector<Case> Cases() {
   return {
-      // Slides for 509 steps, then sticks (degenerate: the general path).
+      // Slides for 509 steps, then sticks on its two corners (degenerate pairs, two-sided).
       {"block_sliding", LoadExample("block_sliding.yaml"), {"mu.default"}, 600, 400},
       {"block_sliding_anitescu_potra",
        WithFormulation(LoadExample("block_sliding.yaml"), FormulationType::kAnitescuPotra),
@@ -158,7 +158,8 @@ TEST_P(LcpBasisTest, MatchesTheGeneralPath) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(Scenes, LcpBasisTest, ::testing::Range(0, static_cast<int>(Cases().size())),
+INSTANTIATE_TEST_SUITE_P(Scenes, LcpBasisTest,
+                         ::testing::Range(0, static_cast<int>(Cases().size())),
                          [](const ::testing::TestParamInfo<int>& param) {
                            return Cases()[static_cast<std::size_t>(param.param)].name;
                          });

@@ -357,7 +357,7 @@ bool PropagateOnLcpBasis(const Simulator& sim, const Params& params,
   st->contact_set_changed = changed;
   st->on_lcp_basis = true;
   st->degenerate_pairs = b.degenerate;
-  st->status = changed                ? SensitivityStatus::kModeChange
+  st->status = changed            ? SensitivityStatus::kModeChange
                : b.degenerate > 0 ? SensitivityStatus::kDegenerate
                                   : SensitivityStatus::kExact;
   if (b.degenerate > 0)
