@@ -146,19 +146,6 @@ class StewartTrinkleModel final : public StepModel {
                 const StepInput& u) const {
     return model_.get() == scene && params_ == params && SameStateAndInput(x, u, x_, u_);
   }
-  // internal::FrozenLcpInto (step_record.h).
-  void FrozenLcpInto(LcpProblem* lcp) const {
-    struct Scratch {
-      VectorXd v_star, zero_v;
-      StewartTrinkle::JointElimination joints;
-    };
-    internal::ScratchLease<Scratch> lease;
-    Scratch& w = lease.get();
-    // As StewartTrinkle::Step: first order has no ν_ℓ.
-    const bool first_order = st_.options().formulation == FormulationType::kFirstOrder;
-    const VectorXd& v_l = first_order ? w.zero_v.setZero(x_.v.size()) : x_.v;
-    st_.BuildLcpInto(*model_, freeze_, v_l, &w.v_star, &w.joints, lcp);
-  }
   // internal::PlainLcpAlongInto (step_record.h); the model's assembly has no joints, corners,
   // support points or compliant pairs.
   void PlainLcpAlongInto(const StepInput& u, const VectorXd& s, double t, const VectorXd& z,
@@ -806,13 +793,6 @@ void EvaluateResidualsInto(const StepModel& m, const VectorXd& z, const Params& 
 const StewartTrinkle::Assembly* FrozenAssembly(const StepModel& m) {
   const auto* st = dynamic_cast<const StewartTrinkleModel*>(&m);
   return st ? &st->freeze_assembly() : nullptr;
-}
-
-bool FrozenLcpInto(const StepModel& m, LcpProblem* lcp) {
-  const auto* st = dynamic_cast<const StewartTrinkleModel*>(&m);
-  if (!st) return false;
-  st->FrozenLcpInto(lcp);
-  return true;
 }
 
 bool PlainLcpAlongInto(const StepModel& m, const StepInput& u, const VectorXd& s, double t,

@@ -86,9 +86,6 @@ void StateDirectionalDerivativeInto(const StepModel& m, const VectorXd& z, const
 /// The frozen Stewart–Trinkle-family model's assembly at its freeze point (x_ℓ, the step's
 /// contacts); null for other formulations.
 const StewartTrinkle::Assembly* FrozenAssembly(const StepModel& m);
-/// For a Stewart–Trinkle-family frozen model (false otherwise, nothing written): the step's LCP
-/// at the freeze point (StewartTrinkle::BuildLcpInto of its assembly) into *lcp.
-bool FrozenLcpInto(const StepModel& m, LcpProblem* lcp);
 /// The LCP's w = M z + q (StewartTrinkle::BuildLcpInto's M and q) and ν_ℓ+1 = VelocityAfter for
 /// the impulses z, for the frozen model moved to x_ℓ + t s — its contacts moved along s as
 /// StateDirectionalDerivative moves them, assembled there; t = 0: the freeze's own assembly. For a

@@ -50,8 +50,8 @@ struct Cone {
 };
 
 struct BasisScratch {
-  LcpProblem lcp;
-  VectorXd w, v1, v1_p, v1_m, g_p, g_m, dg, dz, dv, zero_v, unit, dz_b, rhs;
+  MatrixXd m_b, wg;  // M(:, B) (m × |B|); W G_B (nv × |B|)
+  VectorXd g, wg_col, w, v1, v1_p, v1_m, g_p, g_m, dg, dz, dv, zero_v, unit, dz_b, rhs;
   std::vector<int> basic, nonbasic, implied, free_sign;
   std::vector<Cone> cones;
   int sliding = 0;     // contacts with σ basic
@@ -128,19 +128,10 @@ bool ClassifyContacts(Dim dim, const StewartTrinkle::Assembly& a, const VectorXd
     }
     const int loaded = held;
     if (held == 2 && std::abs(std::sin(angle(chosen[0]) - angle(chosen[1]))) < 0.5) return false;
-    while (held < tangent_dim) {  // the unloaded direction most nearly orthogonal to the held
-      int best = -1;
-      double best_sin = -1.0;
-      for (int j = 0; j < nd; ++j) {
-        if (held > 0 && j == chosen[0]) continue;
-        const double sn = held == 0 ? 1.0 : std::abs(std::sin(angle(j) - angle(chosen[0])));
-        if (sn > best_sin + 1e-12) {
-          best = j;
-          best_sin = sn;
-        }
-      }
-      chosen[held++] = best;
-    }
+    // Filled with unloaded directions: the first, then a quarter turn on (to the nearest of the
+    // equally spaced directions: |sin| ≥ sin 72° for n_d ≥ 3).
+    if (held == 0) chosen[held++] = 0;
+    if (held < tangent_dim) chosen[held++] = (chosen[0] + (nd + 2) / 4) % nd;
     const int first = static_cast<int>(b->free_sign.size());
     for (int t = 0; t < held; ++t) {
       b->basic.push_back(f0 + chosen[t]);
@@ -154,6 +145,41 @@ bool ClassifyContacts(Dim dim, const StewartTrinkle::Assembly& a, const VectorXd
   // With a sliding contact the normal split of redundant contacts moves the velocities (each
   // contact's friction acts at its own point): an unloaded one's share is not the basis' to fix.
   return unloaded == 0 || b->sliding == 0;
+}
+
+// M(:, B) into b->m_b, from the frozen assembly: on the impulse entries (p_n, p_f) M = Gᵀ W G,
+// W = M⁻¹ block diagonal, formed as G_iᵀ (W G_B) with W G_B one dense column per basic impulse;
+// E (1 at (p_f,j, σ_c)), −Eᵀ (−1 at (σ_c, p_f,j)) and U (μ_c at (σ_c, p_n,c)) by their pattern.
+// This is StewartTrinkle::BuildLcpInto's matrix on the columns B for a step without joints,
+// corners, supports or compliant pairs (excluded before), without the dense m × m product.
+void BasisColumnsInto(const StewartTrinkle::Assembly& a, BasisScratch* b) {
+  const int nc = static_cast<int>(a.contacts.size()), nd = a.nd, nf = nc * nd, m = nc + nf + nc;
+  const int nb = static_cast<int>(b->basic.size()), nv = a.M_inv.rows();
+  const auto contact_of = [&](int e) { return e < nc ? e : e < nc + nf ? (e - nc) / nd : e - nc - nf; };
+  b->wg.resize(nv, nb);
+  for (int j = 0; j < nb; ++j) {
+    const int e = b->basic[j];
+    if (e >= nc + nf) {  // σ: no impulse
+      b->wg.col(j).setZero();
+      continue;
+    }
+    b->g.setZero(nv);
+    for (SparseMatrixd::InnerIterator it(e < nc ? a.G_n : a.G_f, e < nc ? e : e - nc); it; ++it)
+      b->g[it.row()] = it.value();
+    a.M_inv.Multiply(b->g, &b->wg_col);
+    b->wg.col(j) = b->wg_col;
+  }
+  b->m_b.setZero(m, nb);
+  for (int i = 0; i < nc + nf; ++i)  // G_iᵀ (W G_B), over G_i's nonzeros
+    for (SparseMatrixd::InnerIterator it(i < nc ? a.G_n : a.G_f, i < nc ? i : i - nc); it; ++it)
+      for (int j = 0; j < nb; ++j) b->m_b(i, j) += it.value() * b->wg(it.row(), j);
+  for (int j = 0; j < nb; ++j) {
+    const int e = b->basic[j], c = contact_of(e);
+    if (e >= nc + nf)  // σ_c's column: E on its contact's direction rows
+      b->m_b.col(j).segment(nc + c * nd, nd).setOnes();
+    else
+      b->m_b(nc + nf + c, j) = e < nc ? a.mu[c] : -1.0;
+  }
 }
 
 bool FrictionOnly(const Scene& scene, const ParamSelection& selection) {
@@ -209,26 +235,27 @@ bool PropagateOnLcpBasis(const Simulator& sim, const Params& params,
   }
   const double tol = options.active_tol * scale + 10.0 * violation;
   if (!ClassifyContacts(model.dim, *a0, z, b.w, tol, &b)) return false;
-  if (!FrozenLcpInto(*frozen, &b.lcp) || b.lcp.size() != m) return false;  // M at the freeze
+  BasisColumnsInto(*a0, &b);  // M(:, B) at the freeze
   const int nb = static_cast<int>(b.basic.size());
   b.m_bb.resize(nb, nb);
   for (int i = 0; i < nb; ++i)
-    for (int j = 0; j < nb; ++j) b.m_bb(i, j) = b.lcp.M(b.basic[i], b.basic[j]);
+    for (int j = 0; j < nb; ++j) b.m_bb(i, j) = b.m_b(b.basic[i], j);
   bool singular = false;
   if (nb > 0) {
-    // A pivot of the partial-pivoting LU at round-off relative to the largest: redundant
-    // contacts. Without a sliding contact M_BB = G_Bᵀ W G_B is symmetric positive semidefinite,
-    // null(M_BB) = null(G_B), so every solution of a consistent M_BB dz_B = −dg_B gives the same
-    // dν = W G dz (the general path's minimum-norm solution among them): solved by the
-    // rank-revealing LU, its consistency checked per column. With a sliding contact's σ in B the
-    // block is not of that form: not this path's answer.
-    b.lu.compute(b.m_bb);
-    const auto pivots = b.lu.matrixLU().diagonal().cwiseAbs();
-    if (!(pivots.minCoeff() > kMinPivotRatio * pivots.maxCoeff())) {
-      if (b.sliding > 0) return false;
+    // With a sliding contact (σ in B) M_BB must be regular: no pivot of its partial-pivoting LU
+    // at round-off relative to the largest. Without one M_BB = G_Bᵀ W G_B is symmetric positive
+    // semidefinite and null(M_BB) = null(G_B), so every solution of a consistent
+    // M_BB dz_B = −dg_B gives the same dν = W G dz (the general path's minimum-norm solution
+    // among them): the full-pivoting LU reveals the rank, and a rank-deficient block (redundant
+    // contacts) has its consistency checked per column.
+    if (b.sliding > 0) {
+      b.lu.compute(b.m_bb);
+      const auto pivots = b.lu.matrixLU().diagonal().cwiseAbs();
+      if (!(pivots.minCoeff() > kMinPivotRatio * pivots.maxCoeff())) return false;
+    } else {
       b.full_lu.setThreshold(kMinPivotRatio);
       b.full_lu.compute(b.m_bb);
-      singular = true;
+      singular = b.full_lu.rank() < nb;
     }
   }
 
@@ -264,10 +291,11 @@ bool PropagateOnLcpBasis(const Simulator& sim, const Params& params,
     if (nb > 0) {
       b.rhs.resize(nb);
       for (int i = 0; i < nb; ++i) b.rhs[i] = -b.dg[b.basic[i]];
-      if (!singular) {
+      if (b.sliding > 0)
         b.dz_b = b.lu.solve(b.rhs);
-      } else {
+      else
         b.dz_b = b.full_lu.solve(b.rhs);
+      if (singular) {
         const double rhs_norm = b.rhs.cwiseAbs().maxCoeff();
         if (!((b.m_bb * b.dz_b - b.rhs).cwiseAbs().maxCoeff() <= kConsistencyTol * rhs_norm))
           return false;  // inconsistent along this column: a mode change the basis cannot follow
@@ -281,7 +309,7 @@ bool PropagateOnLcpBasis(const Simulator& sim, const Params& params,
     for (int i : b.implied) {
       double rate = b.dg[i], size = std::abs(b.dg[i]);
       for (int j = 0; j < nb; ++j) {
-        const double t = b.lcp.M(i, b.basic[j]) * b.dz_b[j];
+        const double t = b.m_b(i, j) * b.dz_b[j];
         rate += t;
         size += std::abs(t);
       }
@@ -293,7 +321,7 @@ bool PropagateOnLcpBasis(const Simulator& sim, const Params& params,
       if (b.dz[i] < 0.0 && z[i] > tol) rho = std::min(rho, z[i] / -b.dz[i]);
     for (int i : b.nonbasic) {
       double rate = b.dg[i];
-      for (int j = 0; j < nb; ++j) rate += b.lcp.M(i, b.basic[j]) * b.dz_b[j];
+      for (int j = 0; j < nb; ++j) rate += b.m_b(i, j) * b.dz_b[j];
       if (rate < 0.0 && b.w[i] > tol) rho = std::min(rho, b.w[i] / -rate);
     }
     // A sticking contact's cone slack w_σ = μ p_n − Σ p_f: an unloaded held direction's impulse
@@ -302,7 +330,7 @@ bool PropagateOnLcpBasis(const Simulator& sim, const Params& params,
     // the linear one less 3 |dz_j| (the linear rate counts −dz_j).
     for (const auto& [row, first, count] : b.cones) {
       double rate = b.dg[row];
-      for (int j = 0; j < nb; ++j) rate += b.lcp.M(row, b.basic[j]) * b.dz_b[j];
+      for (int j = 0; j < nb; ++j) rate += b.m_b(row, j) * b.dz_b[j];
       for (int j = first; j < first + count; ++j) rate -= 3.0 * std::abs(b.dz[b.free_sign[j]]);
       if (rate < 0.0) rho = std::min(rho, b.w[row] / -rate);
     }
