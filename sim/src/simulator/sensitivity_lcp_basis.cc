@@ -155,7 +155,9 @@ bool ClassifyContacts(Dim dim, const StewartTrinkle::Assembly& a, const VectorXd
 void BasisColumnsInto(const StewartTrinkle::Assembly& a, BasisScratch* b) {
   const int nc = static_cast<int>(a.contacts.size()), nd = a.nd, nf = nc * nd, m = nc + nf + nc;
   const int nb = static_cast<int>(b->basic.size()), nv = a.M_inv.rows();
-  const auto contact_of = [&](int e) { return e < nc ? e : e < nc + nf ? (e - nc) / nd : e - nc - nf; };
+  const auto contact_of = [&](int e) {
+    return e < nc ? e : e < nc + nf ? (e - nc) / nd : e - nc - nf;
+  };
   b->wg.resize(nv, nb);
   for (int j = 0; j < nb; ++j) {
     const int e = b->basic[j];
