@@ -93,6 +93,10 @@ std::vector<Case> Cases() {
       {"block_on_incline", LoadExample("block_on_incline.yaml"), {"mu.default"}, 300, 0},
       // Flush boxes: contacts at a feature switch, the general path's.
       {"box_stack", LoadExample("box_stack.yaml"), {"mu.default"}, 100, 0},
+      // Parts on moving supports: a tripod on a vibrating plate (spatial), a planar block on a
+      // floor oscillating under it (slips and rides along in turn).
+      {"plate_tripod", LoadExample("plate_tripod.yaml"), {"mu.default"}, 300, 150},
+      {"moving_floor", LoadExample("moving_floor.yaml"), {"mu.default"}, 300, 250},
       // A mass is not a friction coefficient: always the general path.
       {"block_sliding_mass", LoadExample("block_sliding.yaml"), {"mass.block"}, 100, 0},
   };
