@@ -50,7 +50,7 @@ struct Cone {
 };
 
 struct BasisScratch {
-  MatrixXd m_b, wg;  // M(:, B) (m × |B|); W G_B (nv × |B|)
+  MatrixXd m_bt, wgt;  // M(:, B)ᵀ (|B| × m) and (W G_B)ᵀ (|B| × nv): a row of M per column
   VectorXd g, wg_col, w, v1, v1_p, v1_m, g_p, g_m, dg, dz, dv, zero_v, unit, dz_b, rhs;
   std::vector<int> basic, nonbasic, implied, free_sign;
   std::vector<Cone> cones;
@@ -147,7 +147,7 @@ bool ClassifyContacts(Dim dim, const StewartTrinkle::Assembly& a, const VectorXd
   return unloaded == 0 || b->sliding == 0;
 }
 
-// M(:, B) into b->m_b, from the frozen assembly: on the impulse entries (p_n, p_f) M = Gᵀ W G,
+// M(:, B)ᵀ into b->m_bt, from the frozen assembly: on the impulse entries (p_n, p_f) M = Gᵀ W G,
 // W = M⁻¹ block diagonal, formed as G_iᵀ (W G_B) with W G_B one dense column per basic impulse;
 // E (1 at (p_f,j, σ_c)), −Eᵀ (−1 at (σ_c, p_f,j)) and U (μ_c at (σ_c, p_n,c)) by their pattern.
 // This is StewartTrinkle::BuildLcpInto's matrix on the columns B for a step without joints,
@@ -158,29 +158,29 @@ void BasisColumnsInto(const StewartTrinkle::Assembly& a, BasisScratch* b) {
   const auto contact_of = [&](int e) {
     return e < nc ? e : e < nc + nf ? (e - nc) / nd : e - nc - nf;
   };
-  b->wg.resize(nv, nb);
+  b->wgt.resize(nb, nv);
   for (int j = 0; j < nb; ++j) {
     const int e = b->basic[j];
     if (e >= nc + nf) {  // σ: no impulse
-      b->wg.col(j).setZero();
+      b->wgt.row(j).setZero();
       continue;
     }
     b->g.setZero(nv);
     for (SparseMatrixd::InnerIterator it(e < nc ? a.G_n : a.G_f, e < nc ? e : e - nc); it; ++it)
       b->g[it.row()] = it.value();
     a.M_inv.Multiply(b->g, &b->wg_col);
-    b->wg.col(j) = b->wg_col;
+    b->wgt.row(j) = b->wg_col.transpose();
   }
-  b->m_b.setZero(m, nb);
-  for (int i = 0; i < nc + nf; ++i)  // G_iᵀ (W G_B), over G_i's nonzeros
+  b->m_bt.setZero(nb, m);
+  for (int i = 0; i < nc + nf; ++i)  // (W G_B)ᵀ G_i, over G_i's nonzeros
     for (SparseMatrixd::InnerIterator it(i < nc ? a.G_n : a.G_f, i < nc ? i : i - nc); it; ++it)
-      for (int j = 0; j < nb; ++j) b->m_b(i, j) += it.value() * b->wg(it.row(), j);
+      b->m_bt.col(i) += it.value() * b->wgt.col(it.row());
   for (int j = 0; j < nb; ++j) {
     const int e = b->basic[j], c = contact_of(e);
     if (e >= nc + nf)  // σ_c's column: E on its contact's direction rows
-      b->m_b.col(j).segment(nc + c * nd, nd).setOnes();
+      b->m_bt.row(j).segment(nc + c * nd, nd).setOnes();
     else
-      b->m_b(nc + nf + c, j) = e < nc ? a.mu[c] : -1.0;
+      b->m_bt(j, nc + nf + c) = e < nc ? a.mu[c] : -1.0;
   }
 }
 
@@ -241,7 +241,7 @@ bool PropagateOnLcpBasis(const Simulator& sim, const Params& params,
   const int nb = static_cast<int>(b.basic.size());
   b.m_bb.resize(nb, nb);
   for (int i = 0; i < nb; ++i)
-    for (int j = 0; j < nb; ++j) b.m_bb(i, j) = b.m_b(b.basic[i], j);
+    for (int j = 0; j < nb; ++j) b.m_bb(i, j) = b.m_bt(j, b.basic[i]);
   bool singular = false;
   if (nb > 0) {
     // With a sliding contact (σ in B) M_BB must be regular: no pivot of its partial-pivoting LU
@@ -311,7 +311,7 @@ bool PropagateOnLcpBasis(const Simulator& sim, const Params& params,
     for (int i : b.implied) {
       double rate = b.dg[i], size = std::abs(b.dg[i]);
       for (int j = 0; j < nb; ++j) {
-        const double t = b.m_b(i, j) * b.dz_b[j];
+        const double t = b.m_bt(j, i) * b.dz_b[j];
         rate += t;
         size += std::abs(t);
       }
@@ -323,7 +323,7 @@ bool PropagateOnLcpBasis(const Simulator& sim, const Params& params,
       if (b.dz[i] < 0.0 && z[i] > tol) rho = std::min(rho, z[i] / -b.dz[i]);
     for (int i : b.nonbasic) {
       double rate = b.dg[i];
-      for (int j = 0; j < nb; ++j) rate += b.m_b(i, j) * b.dz_b[j];
+      for (int j = 0; j < nb; ++j) rate += b.m_bt(j, i) * b.dz_b[j];
       if (rate < 0.0 && b.w[i] > tol) rho = std::min(rho, b.w[i] / -rate);
     }
     // A sticking contact's cone slack w_σ = μ p_n − Σ p_f: an unloaded held direction's impulse
@@ -332,7 +332,7 @@ bool PropagateOnLcpBasis(const Simulator& sim, const Params& params,
     // the linear one less 3 |dz_j| (the linear rate counts −dz_j).
     for (const auto& [row, first, count] : b.cones) {
       double rate = b.dg[row];
-      for (int j = 0; j < nb; ++j) rate += b.m_b(row, j) * b.dz_b[j];
+      for (int j = 0; j < nb; ++j) rate += b.m_bt(j, row) * b.dz_b[j];
       for (int j = first; j < first + count; ++j) rate -= 3.0 * std::abs(b.dz[b.free_sign[j]]);
       if (rate < 0.0) rho = std::min(rho, b.w[row] / -rate);
     }
@@ -392,8 +392,8 @@ bool PropagateOnLcpBasis(const Simulator& sim, const Params& params,
                                   : SensitivityStatus::kExact;
   if (b.degenerate > 0)
     st->message = std::to_string(b.degenerate) +
-                  " degenerate pair(s) (sticking contacts' unloaded friction directions, slip "
-                  "rate zero on both sides; or a separated contact's friction)";
+                  " degenerate pair(s) (sticking contacts' unloaded friction directions, their "
+                  "slip rates zero on both sides; unloaded contacts' pairs)";
   if (changed) st->message += std::string(st->message.empty() ? "" : "; ") + "contact set changed";
   return true;
 }
