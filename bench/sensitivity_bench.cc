@@ -2,8 +2,10 @@
 // item 6), in process CPU time, on the example scenes:
 //  1. per step: one forward-mode step derivative for ONE parameter (PropagateStep with one
 //     column: the parameter's own column plus ∂x_ℓ+1/∂x_ℓ along the carried sensitivity; by
-//     default, and by the general path only, SensitivityOptions::lcp_basis off), and
-//     StepDerivatives with the full state Jacobian, each relative to Simulator::Step;
+//     default, and by the general path only, SensitivityOptions::lcp_basis off), the step's own
+//     derivative for ONE parameter (StepDerivatives without the state Jacobian: ∂x_ℓ+1/∂θ, no
+//     carried column), and StepDerivatives with the full state Jacobian, each relative to
+//     Simulator::Step;
 //  2. per rollout of N steps (default 1000): the reverse-mode gradient of a terminal objective
 //     with respect to p parameters (RolloutReverse) against the 2p + 1 rollouts of central
 //     differences.
@@ -99,10 +101,21 @@ void Run(const Case& c, int steps, bool fwd_only, bool once, bool roll_only,
     PropagateStep(sim, p, one, tr.states[k], inputs[k], next, S, &S_next, options, ws);
   });
   const double t_roll = t_pair - t_step;
+  // The step's own derivative for one parameter (StepDerivatives without the state Jacobian),
+  // right after the step in the same workspace.
+  const double t_dtheta =
+      per_step([&](int k, Workspace* ws) {
+        State next;
+        sim.Step(p, tr.states[k], inputs[k], ws, &next);
+        StepDerivatives(sim, p, one, tr.states[k], inputs[k], next, false, options, ws);
+      }) -
+      t_step;
   if (fwd_only) {
-    std::printf("%-26s %2d %5d | %9.1f %9.1f %5.2f %9.1f %5.2f %5.0f | %9.1f %5.2f |\n", c.scene,
-                sel.size(), steps, 1e6 * t_step, 1e6 * t_fwd, t_fwd / t_step, 1e6 * t_gen,
-                t_gen / t_step, basis_share, 1e6 * t_roll, t_roll / t_step);
+    std::printf(
+        "%-26s %2d %5d | %9.1f %9.1f %5.2f %9.1f %5.2f %5.0f | %9.1f %5.2f | %9.1f %5.2f |\n",
+        c.scene, sel.size(), steps, 1e6 * t_step, 1e6 * t_fwd, t_fwd / t_step, 1e6 * t_gen,
+        t_gen / t_step, basis_share, 1e6 * t_roll, t_roll / t_step, 1e6 * t_dtheta,
+        t_dtheta / t_step);
     return;
   }
   const double t_full = per_step([&](int k, Workspace* ws) {
@@ -128,11 +141,12 @@ void Run(const Case& c, int steps, bool fwd_only, bool once, bool roll_only,
     }
   const double t_fd = CpuSeconds() - t0;
   std::printf(
-      "%-26s %2d %5d | %9.1f %9.1f %5.2f %9.1f %5.2f %5.0f | %9.1f %5.2f | %9.1f %6.2f | %8.3f "
-      "%8.3f %6.2f | %s%s\n",
+      "%-26s %2d %5d | %9.1f %9.1f %5.2f %9.1f %5.2f %5.0f | %9.1f %5.2f | %9.1f %5.2f | %9.1f "
+      "%6.2f | %8.3f %8.3f %6.2f | %s%s\n",
       c.scene, sel.size(), steps, 1e6 * t_step, 1e6 * t_fwd, t_fwd / t_step, 1e6 * t_gen,
-      t_gen / t_step, basis_share, 1e6 * t_roll, t_roll / t_step, 1e6 * t_full, t_full / t_step,
-      t_rev, t_fd, t_rev / t_fd, rev.ok ? "ok" : "FAILED", std::isfinite(sink) ? "" : " (nan)");
+      t_gen / t_step, basis_share, 1e6 * t_roll, t_roll / t_step, 1e6 * t_dtheta, t_dtheta / t_step,
+      1e6 * t_full, t_full / t_step, t_rev, t_fd, t_rev / t_fd, rev.ok ? "ok" : "FAILED",
+      std::isfinite(sink) ? "" : " (nan)");
 }
 
 }  // namespace
@@ -183,13 +197,16 @@ int main(int argc, char** argv) {
   std::printf(
       "CPU time. step: Simulator::Step; fwd1: one-parameter forward step derivative "
       "(PropagateStep, 1 column); roll: fwd1 right after its step in the same workspace, as in "
-      "RolloutForward (step + fwd1 - step); full: StepDerivatives with the state Jacobian; rev: "
+      "RolloutForward (step + fwd1 - step); dθ: StepDerivatives for one parameter without the "
+      "state Jacobian, right after its step in the same workspace (step + dθ - step); full: "
+      "StepDerivatives with the state Jacobian; rev: "
       "RolloutReverse gradient; fd: 2p+1 rollouts; gen: fwd1 by the general path only "
       "(SensitivityOptions::lcp_basis off); basis%%: the window's steps whose fwd1 was taken on "
       "the step LCP's basis\n");
-  std::printf("%-26s %2s %5s | %9s %9s %5s %9s %5s %5s | %9s %5s | %9s %6s | %8s %8s %6s |\n",
-              "scene", "p", "N", "step(us)", "fwd1(us)", "ratio", "gen(us)", "ratio", "basis%",
-              "roll(us)", "ratio", "full(us)", "ratio", "rev(s)", "fd(s)", "ratio");
+  std::printf(
+      "%-26s %2s %5s | %9s %9s %5s %9s %5s %5s | %9s %5s | %9s %5s | %9s %6s | %8s %8s %6s |\n",
+      "scene", "p", "N", "step(us)", "fwd1(us)", "ratio", "gen(us)", "ratio", "basis%", "roll(us)",
+      "ratio", "dθ(us)", "ratio", "full(us)", "ratio", "rev(s)", "fd(s)", "ratio");
   for (const Case& c : cases) {
     if (!only.empty() && std::string(c.scene).find(only) == std::string::npos) continue;
     Run(c, steps, fwd_only, once, roll_only, options);

@@ -12,6 +12,7 @@
 #include "../solvers/scratch_lease.h"
 #include "frozen_contacts.h"
 #include "sparse_lcp.h"
+#include "sparse_lcp_kernels.h"
 #include "step_record.h"
 #include "step_util.h"
 #include "stewart_trinkle_internal.h"
@@ -173,17 +174,21 @@ class StewartTrinkleModel final : public StepModel {
       sc.v_star = sc.minv_p;
     else
       sc.v_star = x->v + sc.minv_p;
-    sc.impulse.noalias() = a.G_n * z.head(nc);
-    sc.impulse.noalias() += a.G_f * z.segment(nc, nf);
+    // The products by the sparse LCP's kernels (Eigen's `G * x` and `Gᵀ x` bits).
+    namespace k = internal::sparse_lcp_kernels;
+    const int nvb = a.M_inv.block_size();
+    k::SparseTimes(a.G_n, z.data(), true, false, nvb, false, &sc.impulse);
+    k::SparseTimes(a.G_f, z.data() + nc, false, false, nvb, false, &sc.impulse);
     a.M_inv.Multiply(sc.impulse, &sc.dv);
     *v1 = sc.v_star + sc.dv;
     // BuildLcpInto's rows M z + q through ν_after.
     w->resize(nc + nf + nc);
-    sc.gv.noalias() = a.G_n.transpose() * *v1;
-    w->head(nc) = sc.gv + a.dpsi_n;
+    sc.gv.resize(nc + nf);
+    k::SparseTransposeTimes(a.G_n, *v1, true, nvb, false, false, sc.gv.data());
+    k::SparseTransposeTimes(a.G_f, *v1, true, nvb, false, false, sc.gv.data() + nc);
+    w->head(nc) = sc.gv.head(nc) + a.dpsi_n;
     if (o.formulation != FormulationType::kAnitescuPotra) w->head(nc) += a.psi_n / o.dt;
-    sc.gv.noalias() = a.G_f.transpose() * *v1;
-    w->segment(nc, nf) = sc.gv + a.dpsi_f;
+    w->segment(nc, nf) = sc.gv.segment(nc, nf) + a.dpsi_f;
     for (int c = 0; c < nc; ++c) {
       double sum = 0.0;
       for (int j = 0; j < nd; ++j) {

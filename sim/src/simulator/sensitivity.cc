@@ -468,6 +468,20 @@ StepSensitivity StepDerivatives(const Simulator& sim, const Params& params,
   CheckSelection(sim, selection);
   const int nx = static_cast<int>(x.q.size() + x.v.size());
   StepSensitivity out;
+  if (options.lcp_basis) {
+    // On the step LCP's basis: the parameters' columns without a carried sensitivity, then the
+    // state's unit directions.
+    const int p = selection.size();
+    MatrixXd S = MatrixXd::Zero(nx, p + (with_state ? nx : 0)), S_next;
+    if (with_state) S.rightCols(nx).setIdentity();
+    if (internal::PropagateOnLcpBasis(sim, params, selection, x, u, next, S, &S_next, options, ws,
+                                      &out)) {
+      out.d_theta = S_next.leftCols(p);
+      if (with_state) out.d_x = S_next.rightCols(nx);
+      return out;
+    }
+    out = StepSensitivity();
+  }
   StepDifferentiator d(sim, params, selection, x, u, next, options, with_state, ws);
   if (!d.ok()) {
     out.status = SensitivityStatus::kFailed;

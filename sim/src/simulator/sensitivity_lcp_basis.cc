@@ -1,5 +1,6 @@
 #include "sensitivity_lcp_basis.h"
 
+#include <Eigen/Cholesky>
 #include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
@@ -50,15 +51,17 @@ struct Cone {
 };
 
 struct BasisScratch {
-  MatrixXd m_bt, wgt;  // M(:, B)ᵀ (|B| × m) and (W G_B)ᵀ (|B| × nv): a row of M per column
-  VectorXd g, wg_col, w, v1, v1_p, v1_m, g_p, g_m, dg, dz, dv, zero_v, unit, dz_b, rhs;
+  MatrixXd wg;  // W G_B (nv × |B|)
+  VectorXd w, v1, v1_p, v1_m, g_p, g_m, dg, dz, dv, unit, dz_b, rhs;
+  VectorXd dnu, dnu_abs, t, u;  // dν = W G_B dz_B, |W G_B| |dz_B|; row-space work vectors
   std::vector<int> basic, nonbasic, implied, free_sign;
   std::vector<Cone> cones;
   int sliding = 0;     // contacts with σ basic
   int degenerate = 0;  // pairs with both sides at zero
-  MatrixXd m_bb;
-  Eigen::PartialPivLU<MatrixXd> lu;
+  MatrixXd m_bb, lu, a_dense, p;
+  std::vector<int> lu_rows;  // the LU's row interchanges
   Eigen::FullPivLU<MatrixXd> full_lu;
+  Eigen::LLT<MatrixXd> p_llt;
 };
 
 // Fills the roles above from z*, w* = M z* + q and the activity tolerance; false where some
@@ -147,41 +150,143 @@ bool ClassifyContacts(Dim dim, const StewartTrinkle::Assembly& a, const VectorXd
   return unloaded == 0 || b->sliding == 0;
 }
 
-// M(:, B)ᵀ into b->m_bt, from the frozen assembly: on the impulse entries (p_n, p_f) M = Gᵀ W G,
-// W = M⁻¹ block diagonal, formed as G_iᵀ (W G_B) with W G_B one dense column per basic impulse;
-// E (1 at (p_f,j, σ_c)), −Eᵀ (−1 at (σ_c, p_f,j)) and U (μ_c at (σ_c, p_n,c)) by their pattern.
-// This is StewartTrinkle::BuildLcpInto's matrix on the columns B for a step without joints,
-// corners, supports or compliant pairs (excluded before), without the dense m × m product.
-void BasisColumnsInto(const StewartTrinkle::Assembly& a, BasisScratch* b) {
-  const int nc = static_cast<int>(a.contacts.size()), nd = a.nd, nf = nc * nd, m = nc + nf + nc;
+// LU with partial (row) pivoting of a small square block in place, rows[k] the row swapped
+// with k at step k; false where some pivot is at or below kMinPivotRatio times the largest.
+bool SmallLuInPlace(MatrixXd* a, std::vector<int>* rows) {
+  const int n = static_cast<int>(a->rows());
+  rows->resize(n);
+  double largest = 0.0, smallest = std::numeric_limits<double>::infinity();
+  for (int k = 0; k < n; ++k) {
+    int r = k;
+    for (int i = k + 1; i < n; ++i)
+      if (std::abs((*a)(i, k)) > std::abs((*a)(r, k))) r = i;
+    (*rows)[k] = r;
+    if (r != k) a->row(k).swap(a->row(r));
+    const double pivot = (*a)(k, k);
+    largest = std::max(largest, std::abs(pivot));
+    smallest = std::min(smallest, std::abs(pivot));
+    if (pivot == 0.0) return false;
+    for (int i = k + 1; i < n; ++i) {
+      const double l = ((*a)(i, k) /= pivot);
+      for (int j = k + 1; j < n; ++j) (*a)(i, j) -= l * (*a)(k, j);
+    }
+  }
+  return smallest > kMinPivotRatio * largest;
+}
+
+// x ← A⁻¹ x from SmallLuInPlace's factors.
+void SmallLuSolve(const MatrixXd& lu, const std::vector<int>& rows, VectorXd* x) {
+  const int n = static_cast<int>(lu.rows());
+  for (int k = 0; k < n; ++k) std::swap((*x)[k], (*x)[rows[k]]);
+  for (int i = 1; i < n; ++i)
+    for (int j = 0; j < i; ++j) (*x)[i] -= lu(i, j) * (*x)[j];
+  for (int i = n - 1; i >= 0; --i) {
+    for (int j = i + 1; j < n; ++j) (*x)[i] -= lu(i, j) * (*x)[j];
+    (*x)[i] /= lu(i, i);
+  }
+}
+
+// Column e's nonzeros of G = [G_n G_f] (an impulse entry of z, e < nc + nf): fn(row, value).
+template <typename Fn>
+void ForImpulseColumn(const StewartTrinkle::Assembly& a, int e, Fn&& fn) {
+  const int nc = static_cast<int>(a.contacts.size());
+  for (SparseMatrixd::InnerIterator it(e < nc ? a.G_n : a.G_f, e < nc ? e : e - nc); it; ++it)
+    fn(static_cast<int>(it.row()), it.value());
+}
+
+// W G_B into b->wg (nv × |B|, W = M⁻¹ block diagonal; a σ column zero): ν_after moves by
+// W G_B dz_B. Each nonzero G(r, e) adds G(r, e) times column r of r's block of W.
+void ImpulseColumnsInto(const StewartTrinkle::Assembly& a, BasisScratch* b) {
+  const int nc = static_cast<int>(a.contacts.size()), nf = nc * a.nd;
   const int nb = static_cast<int>(b->basic.size()), nv = a.M_inv.rows();
+  const int bs = a.M_inv.block_size();
+  b->wg.setZero(nv, nb);
+  for (int j = 0; j < nb; ++j) {
+    const int e = b->basic[j];
+    if (e >= nc + nf) continue;  // σ: no impulse
+    double* col = b->wg.col(j).data();
+    ForImpulseColumn(a, e, [&](int r, double v) {
+      const int o = r - r % bs;
+      const double* w = a.M_inv.BlockAt(o).col(r - o).data();
+      for (int k = 0; k < bs; ++k) col[o + k] += v * w[k];
+    });
+  }
+}
+
+// M_BB, StewartTrinkle::BuildLcpInto's matrix on the rows and columns B for a step without
+// joints, corners, supports or compliant pairs (excluded before): G_iᵀ (W G_B) on the impulse
+// entries, E (1 at (p_f,j, σ_c)), −Eᵀ (−1 at (σ_c, p_f,j)) and U (μ_c at (σ_c, p_n,c)) by their
+// pattern.
+void BasisBlockInto(const StewartTrinkle::Assembly& a, BasisScratch* b) {
+  const int nc = static_cast<int>(a.contacts.size()), nd = a.nd, nf = nc * nd;
+  const int nb = static_cast<int>(b->basic.size());
   const auto contact_of = [&](int e) {
     return e < nc ? e : e < nc + nf ? (e - nc) / nd : e - nc - nf;
   };
-  b->wgt.resize(nb, nv);
-  for (int j = 0; j < nb; ++j) {
-    const int e = b->basic[j];
-    if (e >= nc + nf) {  // σ: no impulse
-      b->wgt.row(j).setZero();
+  b->m_bb.setZero(nb, nb);
+  for (int i = 0; i < nb; ++i) {
+    const int ei = b->basic[i], ci = contact_of(ei);
+    if (ei < nc + nf) {
+      ForImpulseColumn(a, ei, [&](int r, double v) { b->m_bb.row(i) += v * b->wg.row(r); });
+      if (ei >= nc)  // a friction row: E on its contact's σ column
+        for (int j = 0; j < nb; ++j)
+          if (b->basic[j] == nc + nf + ci) b->m_bb(i, j) = 1.0;
       continue;
     }
-    b->g.setZero(nv);
-    for (SparseMatrixd::InnerIterator it(e < nc ? a.G_n : a.G_f, e < nc ? e : e - nc); it; ++it)
-      b->g[it.row()] = it.value();
-    a.M_inv.Multiply(b->g, &b->wg_col);
-    b->wgt.row(j) = b->wg_col.transpose();
+    for (int j = 0; j < nb; ++j) {  // σ_c's row: U and −Eᵀ on its contact's entries
+      const int ej = b->basic[j];
+      if (ej < nc + nf && contact_of(ej) == ci) b->m_bb(i, j) = ej < nc ? a.mu[ci] : -1.0;
+    }
   }
-  b->m_bt.setZero(nb, m);
-  for (int i = 0; i < nc + nf; ++i)  // (W G_B)ᵀ G_i, over G_i's nonzeros
-    for (SparseMatrixd::InnerIterator it(i < nc ? a.G_n : a.G_f, i < nc ? i : i - nc); it; ++it)
-      b->m_bt.col(i) += it.value() * b->wgt.col(it.row());
-  for (int j = 0; j < nb; ++j) {
-    const int e = b->basic[j], c = contact_of(e);
-    if (e >= nc + nf)  // σ_c's column: E on its contact's direction rows
-      b->m_bt.row(j).segment(nc + c * nd, nd).setOnes();
-    else
-      b->m_bt(j, nc + nf + c) = e < nc ? a.mu[c] : -1.0;
+}
+
+// Row i's rate dw_i = dg_i + (M(:, B) dz_B)_i from dν = W G_B dz_B (b.dnu) and dz (b.dz):
+// G_iᵀ dν on an impulse row, plus dz_σc on a friction row of contact c; μ_c dz_n,c − Σ_j dz_f,c,j
+// on σ_c's row. *size: the same sum over absolute values, |dν| replaced by b.dnu_abs =
+// |W G_B| |dz_B|: the scale of the cancellation in the rate.
+double RowRate(const StewartTrinkle::Assembly& a, const BasisScratch& b, int i, double* size) {
+  const int nc = static_cast<int>(a.contacts.size()), nd = a.nd, nf = nc * nd;
+  double rate = b.dg[i], abs_sum = std::abs(b.dg[i]);
+  if (i < nc + nf) {
+    ForImpulseColumn(a, i, [&](int r, double v) {
+      rate += v * b.dnu[r];
+      abs_sum += std::abs(v) * b.dnu_abs[r];
+    });
+    if (i >= nc) {
+      const double t = b.dz[nc + nf + (i - nc) / nd];
+      rate += t;
+      abs_sum += std::abs(t);
+    }
+  } else {
+    const int c = i - nc - nf;
+    const double t = a.mu[c] * b.dz[c];
+    rate += t;
+    abs_sum += std::abs(t);
+    for (int j = nc + c * nd; j < nc + (c + 1) * nd; ++j) {
+      rate -= b.dz[j];
+      abs_sum += std::abs(b.dz[j]);
+    }
   }
+  if (size) *size = abs_sum;
+  return rate;
+}
+
+// Redundant sticking or resting contacts without a sliding one: M_BB = Aᵀ W A, A = G_B
+// (nv × |B|, more held rows than velocities). If A has full row rank, P = A Aᵀ is positive
+// definite and M_BB dz_B = r has, when consistent, the unique dν = W A dz_B = P⁻¹ A r, and the
+// minimum-norm dz_B = Aᵀ P⁻¹ M dν (A dz_B = M dν). False where P is singular at round-off.
+bool FactorRowSpace(const StewartTrinkle::Assembly& a, BasisScratch* b) {
+  const int nb = static_cast<int>(b->basic.size()), nv = a.M_inv.rows();
+  if (nb <= nv) return false;
+  b->a_dense.setZero(nv, nb);
+  for (int j = 0; j < nb; ++j)
+    ForImpulseColumn(a, b->basic[j], [&](int r, double v) { b->a_dense(r, j) = v; });
+  b->p.noalias() = b->a_dense.lazyProduct(b->a_dense.transpose());
+  b->p_llt.compute(b->p);
+  if (b->p_llt.info() != Eigen::Success) return false;
+  const auto l = b->p_llt.matrixLLT().diagonal();
+  const double lmax = l.cwiseAbs().maxCoeff(), lmin = l.cwiseAbs().minCoeff();
+  return lmin * lmin > kMinPivotRatio * lmax * lmax;
 }
 
 bool FrictionOnly(const Scene& scene, const ParamSelection& selection) {
@@ -237,29 +342,40 @@ bool PropagateOnLcpBasis(const Simulator& sim, const Params& params,
   }
   const double tol = options.active_tol * scale + 10.0 * violation;
   if (!ClassifyContacts(model.dim, *a0, z, b.w, tol, &b)) return false;
-  BasisColumnsInto(*a0, &b);  // M(:, B) at the freeze
-  const int nb = static_cast<int>(b.basic.size());
-  b.m_bb.resize(nb, nb);
-  for (int i = 0; i < nb; ++i)
-    for (int j = 0; j < nb; ++j) b.m_bb(i, j) = b.m_bt(j, b.basic[i]);
-  bool singular = false;
-  if (nb > 0) {
-    // With a sliding contact (σ in B) M_BB must be regular: no pivot of its partial-pivoting LU
-    // at round-off relative to the largest. Without one M_BB = G_Bᵀ W G_B is symmetric positive
-    // semidefinite and null(M_BB) = null(G_B), so every solution of a consistent
-    // M_BB dz_B = −dg_B gives the same dν = W G dz (the general path's minimum-norm solution
-    // among them): the full-pivoting LU reveals the rank, and a rank-deficient block (redundant
-    // contacts) has its consistency checked per column.
-    if (b.sliding > 0) {
-      b.lu.compute(b.m_bb);
-      const auto pivots = b.lu.matrixLU().diagonal().cwiseAbs();
-      if (!(pivots.minCoeff() > kMinPivotRatio * pivots.maxCoeff())) return false;
-    } else {
+  // How M_BB dz_B = −dg_B is solved (the block at the freeze):
+  //  - with a sliding contact (σ in B) M_BB must be regular: no pivot of its partial-pivoting LU
+  //    at round-off relative to the largest;
+  //  - without one M_BB = G_Bᵀ W G_B is symmetric positive semidefinite and null(M_BB) =
+  //    null(G_B), so every solution of a consistent system gives the same dν = W G_B dz_B (the
+  //    general path's minimum-norm solution among them). A regular block (|B| ≤ nv) by the
+  //    partial-pivoting LU; more held rows than velocities (redundant contacts) in G_B's row
+  //    space (FactorRowSpace); else the full-pivoting LU reveals the rank. A singular block has
+  //    its consistency checked per column.
+  enum class Solve { kNone, kLu, kRowSpace, kFullLu } solve = Solve::kNone;
+  const int nb = static_cast<int>(b.basic.size()), nv = a0->M_inv.rows();
+  if (nv != nx - nq) return false;
+  const auto regular_lu = [&] {
+    b.lu = b.m_bb;
+    return SmallLuInPlace(&b.lu, &b.lu_rows);
+  };
+  if (nb > 0) ImpulseColumnsInto(*a0, &b);
+  if (nb > 0 && b.sliding == 0 && FactorRowSpace(*a0, &b)) {
+    solve = Solve::kRowSpace;
+  } else if (nb > 0) {
+    BasisBlockInto(*a0, &b);
+    if (b.sliding > 0 || nb <= nv) {
+      if (regular_lu())
+        solve = Solve::kLu;
+      else if (b.sliding > 0)
+        return false;
+    }
+    if (solve == Solve::kNone) {
       b.full_lu.setThreshold(kMinPivotRatio);
       b.full_lu.compute(b.m_bb);
-      singular = b.full_lu.rank() < nb;
+      solve = Solve::kFullLu;
     }
   }
+  const bool singular = solve == Solve::kFullLu && b.full_lu.rank() < nb;
 
   const int p = selection.size(), ncols = static_cast<int>(S.cols());
   const VectorXd theta = selection.Get(params);
@@ -290,31 +406,42 @@ bool PropagateOnLcpBasis(const Simulator& sim, const Params& params,
         if (a0->contacts[k].mu_param == index) b.dg[nc + nf + k] += z[k];
     }
     b.dz.setZero(m);
-    if (nb > 0) {
-      b.rhs.resize(nb);
-      for (int i = 0; i < nb; ++i) b.rhs[i] = -b.dg[b.basic[i]];
-      if (b.sliding > 0)
-        b.dz_b = b.lu.solve(b.rhs);
-      else
-        b.dz_b = b.full_lu.solve(b.rhs);
-      if (singular) {
-        const double rhs_norm = b.rhs.cwiseAbs().maxCoeff();
-        if (!((b.m_bb * b.dz_b - b.rhs).cwiseAbs().maxCoeff() <= kConsistencyTol * rhs_norm))
-          return false;  // inconsistent along this column: a mode change the basis cannot follow
-      }
+    b.dnu.setZero(nv);
+    b.dnu_abs.setZero(nv);
+    b.rhs.resize(nb);
+    for (int i = 0; i < nb; ++i) b.rhs[i] = -b.dg[b.basic[i]];
+    const double rhs_norm = nb > 0 ? b.rhs.cwiseAbs().maxCoeff() : 0.0;
+    if (solve == Solve::kRowSpace) {
+      // dν = P⁻¹ A r, consistent if Aᵀ dν = r; dz_B = Aᵀ P⁻¹ M dν.
+      b.t.noalias() = b.a_dense * b.rhs;
+      b.dnu = b.p_llt.solve(b.t);
+      b.dz_b.noalias() = b.a_dense.transpose() * b.dnu;
+      if (!((b.dz_b - b.rhs).cwiseAbs().maxCoeff() <= kConsistencyTol * rhs_norm)) return false;
+      a0->M.Multiply(b.dnu, &b.t);
+      b.u = b.p_llt.solve(b.t);
+      b.dz_b.noalias() = b.a_dense.transpose() * b.u;
       for (int i = 0; i < nb; ++i) b.dz[b.basic[i]] = b.dz_b[i];
+    } else if (solve != Solve::kNone) {
+      if (solve == Solve::kLu) {
+        b.dz_b = b.rhs;
+        SmallLuSolve(b.lu, b.lu_rows, &b.dz_b);
+      } else {
+        b.dz_b = b.full_lu.solve(b.rhs);
+      }
+      if (singular &&
+          !((b.m_bb * b.dz_b - b.rhs).cwiseAbs().maxCoeff() <= kConsistencyTol * rhs_norm))
+        return false;  // inconsistent along this column: a mode change the basis cannot follow
+      for (int i = 0; i < nb; ++i) b.dz[b.basic[i]] = b.dz_b[i];
+      b.dnu.noalias() = b.wg * b.dz_b;
     }
+    if (nb > 0) b.dnu_abs.noalias() = b.wg.cwiseAbs() * b.dz_b.cwiseAbs();
     // A sticking contact's other friction rows are combinations of its held ones (σ held at 0),
     // a touching unloaded contact's normal row of the others': their rates must stay zero, so
     // that both sides of the column hold them.
     const double dg_norm = m > 0 ? b.dg.cwiseAbs().maxCoeff() : 0.0;
     for (int i : b.implied) {
-      double rate = b.dg[i], size = std::abs(b.dg[i]);
-      for (int j = 0; j < nb; ++j) {
-        const double t = b.m_bt(j, i) * b.dz_b[j];
-        rate += t;
-        size += std::abs(t);
-      }
+      double size = 0.0;
+      const double rate = RowRate(*a0, b, i, &size);
       if (!(std::abs(rate) <= kConsistencyTol * size + 1e-12 * dg_norm)) return false;
     }
     // The stable radius of Linearization::StableRadius on this basis.
@@ -322,8 +449,7 @@ bool PropagateOnLcpBasis(const Simulator& sim, const Params& params,
     for (int i : b.basic)
       if (b.dz[i] < 0.0 && z[i] > tol) rho = std::min(rho, z[i] / -b.dz[i]);
     for (int i : b.nonbasic) {
-      double rate = b.dg[i];
-      for (int j = 0; j < nb; ++j) rate += b.m_bt(j, i) * b.dz_b[j];
+      const double rate = RowRate(*a0, b, i, nullptr);
       if (rate < 0.0 && b.w[i] > tol) rho = std::min(rho, b.w[i] / -rate);
     }
     // A sticking contact's cone slack w_σ = μ p_n − Σ p_f: an unloaded held direction's impulse
@@ -331,17 +457,14 @@ bool PropagateOnLcpBasis(const Simulator& sim, const Params& params,
     // (1/cos(π/n_d) ≤ 2 for n_d ≥ 3; planar −d_j is a direction): its rate is bounded below by
     // the linear one less 3 |dz_j| (the linear rate counts −dz_j).
     for (const auto& [row, first, count] : b.cones) {
-      double rate = b.dg[row];
-      for (int j = 0; j < nb; ++j) rate += b.m_bt(j, row) * b.dz_b[j];
+      double rate = RowRate(*a0, b, row, nullptr);
       for (int j = first; j < first + count; ++j) rate -= 3.0 * std::abs(b.dz[b.free_sign[j]]);
       if (rate < 0.0) rho = std::min(rho, b.w[row] / -rate);
     }
     const double column_scale = c < p ? std::abs(theta[c]) : 1.0;
     if (!(rho >= kMinStableRadius * std::max(1.0, column_scale))) return false;
-    // dν_ℓ+1 = (ν_after's x part) + W G dz (ν_after with ν* = 0 is W G z).
-    b.zero_v.setZero(nx - nq);
-    stewart->VelocityAfterInto(*a0, b.zero_v, b.dz, StewartTrinkle::JointElimination(), &b.v1_p);
-    b.dv += b.v1_p;
+    // dν_ℓ+1 = (ν_after's x part) + W G dz (VelocityAfterWith without joints or supports).
+    b.dv += b.dnu;
     out.col(c).tail(nx - nq) = b.dv;
     // dq_ℓ+1 per dynamic body: positions q + h ν exactly, a quaternion by central differences.
     for (int bi : model.dynamic_bodies()) {

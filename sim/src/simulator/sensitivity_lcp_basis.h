@@ -30,7 +30,9 @@ namespace vinci::sim::internal {
 //
 // M_BB singular (redundant contacts: a box's four corners) is taken only without a sliding
 // contact, where M_BB = G_Bᵀ W G_B and every solution of a consistent system (checked per column)
-// gives the same dν.
+// gives the same dν; with more held rows than velocities and G_B of full row rank that dν is
+// P⁻¹ G_B r (P = G_B G_Bᵀ, r = −dg_B) and dz_B the minimum-norm one, else the full-pivoting LU's.
+// Rates of the rows outside B come from dν (G_iᵀ dν and the σ couplings), M(:, B) is not formed.
 // The x parts are central differences along the unit direction s/‖s‖∞ (step
 // SensitivityOptions::state_step · max(1, ‖x‖∞), the general path's), of M(x) z* + q(x) and
 // ν_after(x, z*) at the frozen model's contacts moved along s; the positions' part of Int is

@@ -83,10 +83,12 @@ struct SensitivityOptions {
   double state_step = 1e-7;
   /// Relative central-difference step of motion parameters (max(step·|θ|, step)).
   double motion_step = 1e-6;
-  /// PropagateStep on a strictly complementary Stewart–Trinkle-family step on plain contacts,
-  /// friction coefficients selected: the derivative on the step LCP's basic block instead of
-  /// the whole step system's linearization — the same derivative to the central differences'
-  /// error, at a fraction of the cost (docs/sensitivity.md). false: always the general path.
+  /// PropagateStep and StepDerivatives on a Stewart–Trinkle-family step on plain contacts whose
+  /// LCP solution is clear of mode boundaries (sliding, sticking strictly inside the cone,
+  /// separated), friction coefficients selected: the derivative on the step LCP's basic block
+  /// instead of the whole step system's linearization — the same derivative to the central
+  /// differences' error, at a fraction of the cost (docs/sensitivity.md). false: always the general
+  /// path.
   bool lcp_basis = true;
 };
 
