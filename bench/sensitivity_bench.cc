@@ -8,7 +8,7 @@
 //     Simulator::Step;
 //  2. per rollout of N steps (default 1000): the reverse-mode gradient of a terminal objective
 //     with respect to p parameters (RolloutReverse) against the 2p + 1 rollouts of central
-//     differences.
+//     differences, for the case's parameters and for the friction coefficient alone.
 // Prints a table. --steps N sets N; --quick runs 50 steps of one scene (the ctest smoke run);
 // --scene S runs only the scenes whose file name contains S; --fwd-only measures only step and
 // fwd1 (for a profiler: `perf record build/bench/sensitivity_bench --scene box --fwd-only`);
@@ -22,6 +22,7 @@
 #include <cstring>
 #include <ctime>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "vinci/sim/model/scene_file.h"
@@ -128,25 +129,32 @@ void Run(const Case& c, int steps, bool fwd_only, bool once, bool roll_only,
     (*grad)[0] = 1.0;
     return xN.q[0];
   };
-  double t0 = CpuSeconds();
-  const RolloutGradient rev = RolloutReverse(sim, p, sel, x0, inputs, g);
-  const double t_rev = CpuSeconds() - t0;
-  t0 = CpuSeconds();
-  double sink = sim.Rollout(p, x0, inputs).states.back().q[0];
-  for (int j = 0; j < sel.size(); ++j)
-    for (double s : {1.0, -1.0}) {
-      VectorXd v = sel.Get(p);
-      v[j] += s * 1e-6 * std::max(1.0, std::abs(v[j]));
-      sink += sim.Rollout(sel.Set(p, v), x0, inputs).states.back().q[0];
-    }
-  const double t_fd = CpuSeconds() - t0;
+  // The reverse-mode gradient with respect to `selection` and its 2p + 1 rollouts, CPU s.
+  bool rev_ok = true;
+  double sink = 0.0;
+  const auto gradient_times = [&](const ParamSelection& selection) {
+    double t0 = CpuSeconds();
+    rev_ok = RolloutReverse(sim, p, selection, x0, inputs, g).ok && rev_ok;
+    const double t_rev = CpuSeconds() - t0;
+    t0 = CpuSeconds();
+    sink += sim.Rollout(p, x0, inputs).states.back().q[0];
+    for (int j = 0; j < selection.size(); ++j)
+      for (double s : {1.0, -1.0}) {
+        VectorXd v = selection.Get(p);
+        v[j] += s * 1e-6 * std::max(1.0, std::abs(v[j]));
+        sink += sim.Rollout(selection.Set(p, v), x0, inputs).states.back().q[0];
+      }
+    return std::pair<double, double>(t_rev, CpuSeconds() - t0);
+  };
+  const auto [t_rev, t_fd] = gradient_times(sel);
+  const auto [t_rev1, t_fd1] = gradient_times(one);  // the friction coefficient alone
   std::printf(
       "%-26s %2d %5d | %9.1f %9.1f %5.2f %9.1f %5.2f %5.0f | %9.1f %5.2f | %9.1f %5.2f | %9.1f "
-      "%6.2f | %8.3f %8.3f %6.2f | %s%s\n",
+      "%6.2f | %8.3f %8.3f %6.2f | %8.3f %8.3f %6.2f | %s%s\n",
       c.scene, sel.size(), steps, 1e6 * t_step, 1e6 * t_fwd, t_fwd / t_step, 1e6 * t_gen,
       t_gen / t_step, basis_share, 1e6 * t_roll, t_roll / t_step, 1e6 * t_dtheta, t_dtheta / t_step,
-      1e6 * t_full, t_full / t_step, t_rev, t_fd, t_rev / t_fd, rev.ok ? "ok" : "FAILED",
-      std::isfinite(sink) ? "" : " (nan)");
+      1e6 * t_full, t_full / t_step, t_rev, t_fd, t_rev / t_fd, t_rev1, t_fd1, t_rev1 / t_fd1,
+      rev_ok ? "ok" : "FAILED", std::isfinite(sink) ? "" : " (nan)");
 }
 
 }  // namespace
@@ -200,13 +208,16 @@ int main(int argc, char** argv) {
       "RolloutForward (step + fwd1 - step); dθ: StepDerivatives for one parameter without the "
       "state Jacobian, right after its step in the same workspace (step + dθ - step); full: "
       "StepDerivatives with the state Jacobian; rev: "
-      "RolloutReverse gradient; fd: 2p+1 rollouts; gen: fwd1 by the general path only "
+      "RolloutReverse gradient; fd: 2p+1 rollouts; rev1, fd1: the same for the friction "
+      "coefficient alone (p = 1); gen: fwd1 by the general path only "
       "(SensitivityOptions::lcp_basis off); basis%%: the window's steps whose fwd1 was taken on "
       "the step LCP's basis\n");
   std::printf(
-      "%-26s %2s %5s | %9s %9s %5s %9s %5s %5s | %9s %5s | %9s %5s | %9s %6s | %8s %8s %6s |\n",
+      "%-26s %2s %5s | %9s %9s %5s %9s %5s %5s | %9s %5s | %9s %5s | %9s %6s | %8s %8s %6s | %8s "
+      "%8s %6s |\n",
       "scene", "p", "N", "step(us)", "fwd1(us)", "ratio", "gen(us)", "ratio", "basis%", "roll(us)",
-      "ratio", "dθ(us)", "ratio", "full(us)", "ratio", "rev(s)", "fd(s)", "ratio");
+      "ratio", "dθ(us)", "ratio", "full(us)", "ratio", "rev(s)", "fd(s)", "ratio", "rev1(s)",
+      "fd1(s)", "ratio");
   for (const Case& c : cases) {
     if (!only.empty() && std::string(c.scene).find(only) == std::string::npos) continue;
     Run(c, steps, fwd_only, once, roll_only, options);

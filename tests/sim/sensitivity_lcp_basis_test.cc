@@ -179,7 +179,7 @@ TEST_P(LcpBasisTest, StepDerivativesMatchTheGeneralPath) {
   double worst = 0.0;
   // A column's scale at least `floor`: a zero column is zero up to the central differences'
   // round-off. ∂x_ℓ+1/∂x_ℓ is near the identity: its round-off is ~1e-9 absolute (both paths
-  // difference at a relative step of 1e-7), hence floor 1e-3 for d_x.
+  // difference at a relative step of 1e-7, a quaternion at its own), hence floor 1e-2 for d_x.
   const auto compare = [&](const MatrixXd& fast, const MatrixXd& slow, int k, const char* what,
                            double floor) {
     ASSERT_EQ(fast.rows(), slow.rows());
@@ -215,7 +215,7 @@ TEST_P(LcpBasisTest, StepDerivativesMatchTheGeneralPath) {
       (with_state ? state_on_basis : on_basis) += 1;
       EXPECT_EQ(a.degenerate_pairs, b.degenerate_pairs) << "step " << k;
       compare(a.d_theta, b.d_theta, k, "d_theta", 1e-9 * b.d_theta.cwiseAbs().maxCoeff());
-      if (with_state) compare(a.d_x, b.d_x, k, "d_x", 1e-3);
+      if (with_state) compare(a.d_x, b.d_x, k, "d_x", 1e-2);
     }
   }
   std::printf(

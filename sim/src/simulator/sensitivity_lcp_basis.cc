@@ -30,8 +30,13 @@ constexpr double kMinPivotRatio = 1e-10;
 constexpr double kRotationStep = 1e-6;
 
 // A singular basic block's solution, and a sticking contact's implied slip rates, must hold to
-// this relative residual (the central differences' error is far below it).
+// this relative residual (the central differences' error is far below it), the latter also
+// within kDifferenceRoundoff's absolute floor.
 constexpr double kConsistencyTol = 1e-7;
+// An evaluation of the frozen rows along s is taken to hold each entry to this relative
+// round-off (a few hundred operations of ε): an implied row's rate at or below the difference
+// of two such errors over 2·step is zero as far as the differences can tell.
+constexpr double kDifferenceRoundoff = 100 * std::numeric_limits<double>::epsilon();
 constexpr double kPi = 3.14159265358979323846;
 
 // The roles of the step LCP's entries z = [p_n; p_f; σ] in the derivative:
@@ -390,6 +395,7 @@ bool PropagateOnLcpBasis(const Simulator& sim, const Params& params,
     b.dv.setZero(nx - nq);
     const double sn = s.cwiseAbs().maxCoeff();
     if (!std::isfinite(sn)) return false;
+    double noise = 0.0;  // dg's round-off from the central differences
     if (sn > 0.0) {
       // Along the unit direction, scaled back (a carried column may have decayed to denormals).
       b.unit = s / sn;
@@ -397,6 +403,10 @@ bool PropagateOnLcpBasis(const Simulator& sim, const Params& params,
           !PlainLcpAlongInto(*frozen, u, b.unit, -step, z, &b.g_m, &b.v1_m))
         return false;
       b.dg = (b.g_p - b.g_m) * (sn / (2 * step));
+      if (m > 0)
+        noise = kDifferenceRoundoff *
+                std::max(b.g_p.cwiseAbs().maxCoeff(), b.g_m.cwiseAbs().maxCoeff()) * sn /
+                (2 * step);
       b.dv = (b.v1_p - b.v1_m) * (sn / (2 * step));
     }
     if (c < p) {
@@ -442,7 +452,7 @@ bool PropagateOnLcpBasis(const Simulator& sim, const Params& params,
     for (int i : b.implied) {
       double size = 0.0;
       const double rate = RowRate(*a0, b, i, &size);
-      if (!(std::abs(rate) <= kConsistencyTol * size + 1e-12 * dg_norm)) return false;
+      if (!(std::abs(rate) <= kConsistencyTol * size + 1e-12 * dg_norm + noise)) return false;
     }
     // The stable radius of Linearization::StableRadius on this basis.
     double rho = std::numeric_limits<double>::infinity();
