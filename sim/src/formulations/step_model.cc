@@ -154,49 +154,15 @@ class StewartTrinkleModel final : public StepModel {
     struct Along {
       State x;
       StewartTrinkle::Assembly a;
-      VectorXd v_star, minv_p, impulse, dv, gv;
     };
+    if (t == 0.0) {
+      internal::PlainLcpAtInto(st_, freeze_, x_, z, w, v1);
+      return;
+    }
     internal::ScratchLease<Along> lease;
     Along& sc = lease.get();
-    const StewartTrinkle::Assembly* at = &freeze_;
-    const State* x = &x_;
-    if (t != 0.0) {
-      AssembleAlong(u, s, t, &sc.x, &sc.a);
-      at = &sc.a;
-      x = &sc.x;
-    }
-    const StewartTrinkle::Assembly& a = *at;
-    const StepperOptions& o = st_.options();
-    const int nc = static_cast<int>(a.contacts.size()), nd = a.nd, nf = nc * nd;
-    // ν* = ν_ℓ + M⁻¹ p_ext (first order: no ν_ℓ), ν_after = ν* + M⁻¹ (G_n p_n + G_f p_f).
-    a.M_inv.Multiply(a.p_ext, &sc.minv_p);
-    if (o.formulation == FormulationType::kFirstOrder)
-      sc.v_star = sc.minv_p;
-    else
-      sc.v_star = x->v + sc.minv_p;
-    // The products by the sparse LCP's kernels (Eigen's `G * x` and `Gᵀ x` bits).
-    namespace k = internal::sparse_lcp_kernels;
-    const int nvb = a.M_inv.block_size();
-    k::SparseTimes(a.G_n, z.data(), true, false, nvb, false, &sc.impulse);
-    k::SparseTimes(a.G_f, z.data() + nc, false, false, nvb, false, &sc.impulse);
-    a.M_inv.Multiply(sc.impulse, &sc.dv);
-    *v1 = sc.v_star + sc.dv;
-    // BuildLcpInto's rows M z + q through ν_after.
-    w->resize(nc + nf + nc);
-    sc.gv.resize(nc + nf);
-    k::SparseTransposeTimes(a.G_n, *v1, true, nvb, false, false, sc.gv.data());
-    k::SparseTransposeTimes(a.G_f, *v1, true, nvb, false, false, sc.gv.data() + nc);
-    w->head(nc) = sc.gv.head(nc) + a.dpsi_n;
-    if (o.formulation != FormulationType::kAnitescuPotra) w->head(nc) += a.psi_n / o.dt;
-    w->segment(nc, nf) = sc.gv.segment(nc, nf) + a.dpsi_f;
-    for (int c = 0; c < nc; ++c) {
-      double sum = 0.0;
-      for (int j = 0; j < nd; ++j) {
-        (*w)[nc + c * nd + j] += z[nc + nf + c];
-        sum += z[nc + c * nd + j];
-      }
-      (*w)[nc + nf + c] = a.mu[c] * z[c] - sum;
-    }
+    AssembleAlong(u, s, t, &sc.x, &sc.a);
+    internal::PlainLcpAtInto(st_, sc.a, sc.x, z, w, v1);
   }
   // The frozen contacts moved to x_ℓ + t s (MoveContactsAlong) and assembled there, into *x and
   // *a (their storage reused).
@@ -761,6 +727,53 @@ void CheckFreezeInputs(const Scene* model, const Params& params, const State& x)
 }  // namespace
 
 namespace internal {
+
+void PlainLcpAtInto(const StewartTrinkle& st, const StewartTrinkle::Assembly& a, const State& x,
+                    const VectorXd& z, VectorXd* w, VectorXd* v1) {
+  struct Products {
+    VectorXd v_star, minv_p, impulse, dv, gv;
+  };
+  ScratchLease<Products> lease;
+  Products& sc = lease.get();
+  const StepperOptions& o = st.options();
+  const int nc = static_cast<int>(a.contacts.size()), nd = a.nd, nf = nc * nd;
+  // ν* = ν_ℓ + M⁻¹ p_ext (first order: no ν_ℓ), ν_after = ν* + M⁻¹ (G_n p_n + G_f p_f).
+  a.M_inv.Multiply(a.p_ext, &sc.minv_p);
+  if (o.formulation == FormulationType::kFirstOrder)
+    sc.v_star = sc.minv_p;
+  else
+    sc.v_star = x.v + sc.minv_p;
+  // The products by the sparse LCP's kernels (Eigen's `G * x` and `Gᵀ x` bits).
+  namespace k = sparse_lcp_kernels;
+  const int nvb = a.M_inv.block_size();
+  k::SparseTimes(a.G_n, z.data(), true, false, nvb, false, &sc.impulse);
+  k::SparseTimes(a.G_f, z.data() + nc, false, false, nvb, false, &sc.impulse);
+  a.M_inv.Multiply(sc.impulse, &sc.dv);
+  *v1 = sc.v_star + sc.dv;
+  // BuildLcpInto's rows M z + q through ν_after.
+  w->resize(nc + nf + nc);
+  sc.gv.resize(nc + nf);
+  k::SparseTransposeTimes(a.G_n, *v1, true, nvb, false, false, sc.gv.data());
+  k::SparseTransposeTimes(a.G_f, *v1, true, nvb, false, false, sc.gv.data() + nc);
+  w->head(nc) = sc.gv.head(nc) + a.dpsi_n;
+  if (o.formulation != FormulationType::kAnitescuPotra) w->head(nc) += a.psi_n / o.dt;
+  w->segment(nc, nf) = sc.gv.segment(nc, nf) + a.dpsi_f;
+  for (int c = 0; c < nc; ++c) {
+    double sum = 0.0;
+    for (int j = 0; j < nd; ++j) {
+      (*w)[nc + c * nd + j] += z[nc + nf + c];
+      sum += z[nc + c * nd + j];
+    }
+    (*w)[nc + nf + c] = a.mu[c] * z[c] - sum;
+  }
+}
+
+const StewartTrinkle::Assembly* StepAssembly(const StewartTrinkle& st,
+                                             const std::shared_ptr<const Scene>& scene,
+                                             const State& x, const StepInput& u) {
+  const StepScratch* step = IdleThreadStepScratch();
+  return step && step->record.Holds(st, scene, x, u) ? &step->assembly : nullptr;
+}
 
 void FreezeInto(const Formulation& formulation, std::shared_ptr<const Scene> scene,
                 const Params& params, const State& x, const StepInput& u,

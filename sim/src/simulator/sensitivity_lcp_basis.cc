@@ -294,6 +294,8 @@ bool FactorRowSpace(const StewartTrinkle::Assembly& a, BasisScratch* b) {
   return lmin * lmin > kMinPivotRatio * lmax * lmax;
 }
 
+bool IsPolytope(ShapeType t) { return t == ShapeType::kBox || t == ShapeType::kPolyhedron; }
+
 bool FrictionOnly(const Scene& scene, const ParamSelection& selection) {
   for (int index : selection.indices()) {
     const ParamKind k = scene.param_table().info(index).kind;
@@ -313,12 +315,27 @@ bool PropagateOnLcpBasis(const Simulator& sim, const Params& params,
   Workspace own_ws;
   Workspace* w = ws ? ws : &own_ws;
   const Scene& model = sim.ResolveWithInputs(params, u, w);
+  const std::shared_ptr<const Scene>& scene = u.motions.empty() ? w->model : w->motion_model;
+  // Without a state direction (the parameters' own columns, as StepDerivatives asks) nothing
+  // moves the contacts: the step's own assembly serves, where this thread's last step made it.
+  // A contact between two polytopes may sit at a feature switch, which only the freeze counts
+  // (StepModel::feature_kinks): such a step is frozen.
+  bool moves = false;
+  for (int c = 0; c < S.cols() && !moves; ++c) moves = !(S.col(c).cwiseAbs().maxCoeff() == 0.0);
+  const StewartTrinkle::Assembly* a0 = moves ? nullptr : StepAssembly(*stewart, scene, x, u);
+  for (std::size_t k = 0; a0 && k < a0->contacts.size(); ++k) {
+    const Contact& ct = a0->contacts[k];
+    if (!ct.point.corner && IsPolytope(model.bodies[ct.body_a].shapes[ct.shape_a].type) &&
+        IsPolytope(model.bodies[ct.body_b].shapes[ct.shape_b].type))
+      a0 = nullptr;
+  }
   ScratchLease<std::unique_ptr<StepModel>> frozen_lease;
   std::unique_ptr<StepModel>& frozen = frozen_lease.get();
-  FreezeInto(sim.formulation(), u.motions.empty() ? w->model : w->motion_model, params, x, u,
-             &frozen);
-  const StewartTrinkle::Assembly* a0 = FrozenAssembly(*frozen);
-  if (!a0 || frozen->feature_kinks() > 0) return false;
+  if (!a0) {
+    FreezeInto(sim.formulation(), scene, params, x, u, &frozen);
+    a0 = FrozenAssembly(*frozen);
+    if (!a0 || frozen->feature_kinks() > 0) return false;
+  }
   const int nc = static_cast<int>(a0->contacts.size()), nd = a0->nd, nf = nc * nd;
   if (a0->psi_b.size() > 0 || !a0->corner_contact.empty() || a0->support.points() > 0) return false;
   for (const CompliantNormalRow& law : a0->compliance)
@@ -332,7 +349,7 @@ bool PropagateOnLcpBasis(const Simulator& sim, const Params& params,
   const int nq = static_cast<int>(x.q.size()), nx = nq + static_cast<int>(x.v.size());
   b.unit.setZero(nx);
   // w* = M z* + q and ν_after(z*) at the freeze (no M formed: most rejections come below).
-  if (!PlainLcpAlongInto(*frozen, u, b.unit, 0.0, z, &b.w, &b.v1)) return false;
+  PlainLcpAtInto(*stewart, *a0, x, z, &b.w, &b.v1);
   // The freeze's LCP must give the step's own end velocity (the step may have changed z after
   // its solve, e.g. spread indeterminate normals).
   if (b.w.size() != m || b.v1.size() != next.v.size() ||
@@ -512,8 +529,8 @@ bool PropagateOnLcpBasis(const Simulator& sim, const Params& params,
   }
   // A mode change within the step: the contact set found at the end differs (as the general
   // path).
+  const StepLayout l = StewartTrinkle::LayoutOf(model, *a0);  // before Layout may step
   const StepLayout end = sim.formulation().Layout(model, next);
-  const StepLayout& l = frozen->layout();
   const bool changed = end.nc != l.nc || end.nk != l.nk || end.ns != l.ns;
   *S_next = std::move(out);
   *st = StepSensitivity();
