@@ -1,6 +1,5 @@
 #include "sensitivity_lcp_basis.h"
 
-#include <Eigen/Cholesky>
 #include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
@@ -66,7 +65,6 @@ struct BasisScratch {
   MatrixXd m_bb, lu, a_dense, p;
   std::vector<int> lu_rows;  // the LU's row interchanges
   Eigen::FullPivLU<MatrixXd> full_lu;
-  Eigen::LLT<MatrixXd> p_llt;
 };
 
 // Fills the roles above from z*, w* = M z* + q and the activity tolerance; false where some
@@ -179,6 +177,43 @@ bool SmallLuInPlace(MatrixXd* a, std::vector<int>* rows) {
   return smallest > kMinPivotRatio * largest;
 }
 
+// The Cholesky factor L (P = L Lᵀ) of a small symmetric positive definite block in place, from
+// and into its lower triangle; false where a pivot is not positive or L's smallest diagonal
+// entry squared is at or below kMinPivotRatio times its largest squared.
+bool SmallCholeskyInPlace(MatrixXd* p) {
+  MatrixXd& l = *p;
+  const int n = static_cast<int>(l.rows());
+  double largest = 0.0, smallest = std::numeric_limits<double>::infinity();
+  for (int j = 0; j < n; ++j) {
+    double d = l(j, j);
+    for (int k = 0; k < j; ++k) d -= l(j, k) * l(j, k);
+    if (!(d > 0.0)) return false;
+    const double ljj = std::sqrt(d);
+    l(j, j) = ljj;
+    largest = std::max(largest, ljj);
+    smallest = std::min(smallest, ljj);
+    for (int i = j + 1; i < n; ++i) {
+      double sum = l(i, j);
+      for (int k = 0; k < j; ++k) sum -= l(i, k) * l(j, k);
+      l(i, j) = sum / ljj;
+    }
+  }
+  return smallest * smallest > kMinPivotRatio * largest * largest;
+}
+
+// x ← P⁻¹ x from SmallCholeskyInPlace's factor.
+void SmallCholeskySolve(const MatrixXd& l, VectorXd* x) {
+  const int n = static_cast<int>(l.rows());
+  for (int i = 0; i < n; ++i) {
+    for (int k = 0; k < i; ++k) (*x)[i] -= l(i, k) * (*x)[k];
+    (*x)[i] /= l(i, i);
+  }
+  for (int i = n - 1; i >= 0; --i) {
+    for (int k = i + 1; k < n; ++k) (*x)[i] -= l(k, i) * (*x)[k];
+    (*x)[i] /= l(i, i);
+  }
+}
+
 // x ← A⁻¹ x from SmallLuInPlace's factors.
 void SmallLuSolve(const MatrixXd& lu, const std::vector<int>& rows, VectorXd* x) {
   const int n = static_cast<int>(lu.rows());
@@ -286,12 +321,18 @@ bool FactorRowSpace(const StewartTrinkle::Assembly& a, BasisScratch* b) {
   b->a_dense.setZero(nv, nb);
   for (int j = 0; j < nb; ++j)
     ForImpulseColumn(a, b->basic[j], [&](int r, double v) { b->a_dense(r, j) = v; });
-  b->p.noalias() = b->a_dense.lazyProduct(b->a_dense.transpose());
-  b->p_llt.compute(b->p);
-  if (b->p_llt.info() != Eigen::Success) return false;
-  const auto l = b->p_llt.matrixLLT().diagonal();
-  const double lmax = l.cwiseAbs().maxCoeff(), lmin = l.cwiseAbs().minCoeff();
-  return lmin * lmin > kMinPivotRatio * lmax * lmax;
+  // P's lower triangle (a sum of the columns' outer products), then its Cholesky factor in
+  // place.
+  b->p.setZero(nv, nv);
+  for (int j = 0; j < nb; ++j) {
+    const double* col = b->a_dense.col(j).data();
+    for (int c = 0; c < nv; ++c) {
+      if (col[c] == 0.0) continue;
+      double* pc = b->p.col(c).data();
+      for (int r = c; r < nv; ++r) pc[r] += col[r] * col[c];
+    }
+  }
+  return SmallCholeskyInPlace(&b->p);
 }
 
 bool IsPolytope(ShapeType t) { return t == ShapeType::kBox || t == ShapeType::kPolyhedron; }
@@ -440,12 +481,13 @@ bool PropagateOnLcpBasis(const Simulator& sim, const Params& params,
     const double rhs_norm = nb > 0 ? b.rhs.cwiseAbs().maxCoeff() : 0.0;
     if (solve == Solve::kRowSpace) {
       // dν = P⁻¹ A r, consistent if Aᵀ dν = r; dz_B = Aᵀ P⁻¹ M dν.
-      b.t.noalias() = b.a_dense * b.rhs;
-      b.dnu = b.p_llt.solve(b.t);
+      b.dnu.noalias() = b.a_dense * b.rhs;
+      SmallCholeskySolve(b.p, &b.dnu);
       b.dz_b.noalias() = b.a_dense.transpose() * b.dnu;
       if (!((b.dz_b - b.rhs).cwiseAbs().maxCoeff() <= kConsistencyTol * rhs_norm)) return false;
       a0->M.Multiply(b.dnu, &b.t);
-      b.u = b.p_llt.solve(b.t);
+      b.u = b.t;
+      SmallCholeskySolve(b.p, &b.u);
       b.dz_b.noalias() = b.a_dense.transpose() * b.u;
       for (int i = 0; i < nb; ++i) b.dz[b.basic[i]] = b.dz_b[i];
     } else if (solve != Solve::kNone) {
