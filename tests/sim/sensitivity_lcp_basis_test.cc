@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <memory>
 #include <random>
 #include <sstream>
 #include <string>
@@ -102,17 +103,30 @@ std::vector<Case> Cases() {
   };
 }
 
-class LcpBasisTest : public ::testing::TestWithParam<int> {};
+// The case's scene, its default parameters and selection, and its rollout.
+class LcpBasisTest : public ::testing::TestWithParam<int> {
+ protected:
+  void SetUp() override {
+    c_ = std::make_unique<Case>(Cases()[static_cast<std::size_t>(GetParam())]);
+    sim_ = std::make_unique<Simulator>(c_->scene);
+    p_ = sim_->DefaultParams();
+    sel_ = std::make_unique<ParamSelection>(sim_->scene().param_table(), c_->params);
+    tr_ = sim_->Rollout(p_, sim_->InitialState(), c_->steps);
+  }
+  std::unique_ptr<Case> c_;
+  std::unique_ptr<Simulator> sim_;
+  Params p_;
+  std::unique_ptr<ParamSelection> sel_;
+  Trajectory tr_;
+};
 
 // Along a rollout, each step's PropagateStep with two columns — the parameter's, carrying a
 // random sensitivity, and a random state direction — on the basis and by the general path.
 TEST_P(LcpBasisTest, MatchesTheGeneralPath) {
-  const Case c = Cases()[static_cast<std::size_t>(GetParam())];
+  const Case& c = *c_;
+  const Simulator& sim = *sim_;
+  const Trajectory& tr = tr_;
   SCOPED_TRACE(c.name);
-  const Simulator sim(c.scene);
-  const Params p = sim.DefaultParams();
-  const ParamSelection sel(sim.scene().param_table(), c.params);
-  const Trajectory tr = sim.Rollout(p, sim.InitialState(), c.steps);
   ASSERT_TRUE(tr.ok) << tr.failure;
   const int nx = static_cast<int>(tr.states[0].q.size() + tr.states[0].v.size());
   std::mt19937 rng(7);
@@ -128,10 +142,11 @@ TEST_P(LcpBasisTest, MatchesTheGeneralPath) {
     MatrixXd fast, slow;
     Workspace ws;
     State next;
-    ASSERT_TRUE(sim.Step(p, tr.states[k], {}, &ws, &next).ok);
-    const StepSensitivity a = PropagateStep(sim, p, sel, tr.states[k], {}, next, S, &fast, {}, &ws);
+    ASSERT_TRUE(sim.Step(p_, tr.states[k], {}, &ws, &next).ok);
+    const StepSensitivity a =
+        PropagateStep(sim, p_, *sel_, tr.states[k], {}, next, S, &fast, {}, &ws);
     const StepSensitivity b =
-        PropagateStep(sim, p, sel, tr.states[k], {}, next, S, &slow, general, &ws);
+        PropagateStep(sim, p_, *sel_, tr.states[k], {}, next, S, &slow, general, &ws);
     EXPECT_FALSE(b.on_lcp_basis);
     on_basis += a.on_lcp_basis;
     exact += a.on_lcp_basis && a.status == SensitivityStatus::kExact;
@@ -166,12 +181,10 @@ TEST_P(LcpBasisTest, MatchesTheGeneralPath) {
 // state Jacobian's unit directions) against the general path, every third step: the same
 // columns to the central differences' error, the same status.
 TEST_P(LcpBasisTest, StepDerivativesMatchTheGeneralPath) {
-  const Case c = Cases()[static_cast<std::size_t>(GetParam())];
+  const Case& c = *c_;
+  const Simulator& sim = *sim_;
+  const Trajectory& tr = tr_;
   SCOPED_TRACE(c.name);
-  const Simulator sim(c.scene);
-  const Params p = sim.DefaultParams();
-  const ParamSelection sel(sim.scene().param_table(), c.params);
-  const Trajectory tr = sim.Rollout(p, sim.InitialState(), c.steps);
   ASSERT_TRUE(tr.ok) << tr.failure;
   SensitivityOptions general;
   general.lcp_basis = false;
@@ -198,11 +211,11 @@ TEST_P(LcpBasisTest, StepDerivativesMatchTheGeneralPath) {
     for (bool with_state : {false, true}) {
       Workspace ws;
       State next;
-      ASSERT_TRUE(sim.Step(p, tr.states[k], {}, &ws, &next).ok);
+      ASSERT_TRUE(sim.Step(p_, tr.states[k], {}, &ws, &next).ok);
       const StepSensitivity a =
-          StepDerivatives(sim, p, sel, tr.states[k], {}, next, with_state, {}, &ws);
+          StepDerivatives(sim, p_, *sel_, tr.states[k], {}, next, with_state, {}, &ws);
       const StepSensitivity b =
-          StepDerivatives(sim, p, sel, tr.states[k], {}, next, with_state, general, &ws);
+          StepDerivatives(sim, p_, *sel_, tr.states[k], {}, next, with_state, general, &ws);
       EXPECT_FALSE(b.on_lcp_basis);
       EXPECT_EQ(a.status, b.status) << "step " << k << ": " << a.message << " / " << b.message;
       EXPECT_EQ(a.contact_set_changed, b.contact_set_changed) << "step " << k;
