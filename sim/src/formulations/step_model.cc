@@ -12,7 +12,6 @@
 #include "../solvers/scratch_lease.h"
 #include "frozen_contacts.h"
 #include "sparse_lcp.h"
-#include "sparse_lcp_kernels.h"
 #include "step_record.h"
 #include "step_util.h"
 #include "stewart_trinkle_internal.h"
@@ -728,53 +727,6 @@ void CheckFreezeInputs(const Scene* model, const Params& params, const State& x)
 
 namespace internal {
 
-void PlainLcpAtInto(const StewartTrinkle& st, const StewartTrinkle::Assembly& a, const State& x,
-                    const VectorXd& z, VectorXd* w, VectorXd* v1) {
-  struct Products {
-    VectorXd v_star, minv_p, impulse, dv, gv;
-  };
-  ScratchLease<Products> lease;
-  Products& sc = lease.get();
-  const StepperOptions& o = st.options();
-  const int nc = static_cast<int>(a.contacts.size()), nd = a.nd, nf = nc * nd;
-  // ν* = ν_ℓ + M⁻¹ p_ext (first order: no ν_ℓ), ν_after = ν* + M⁻¹ (G_n p_n + G_f p_f).
-  a.M_inv.Multiply(a.p_ext, &sc.minv_p);
-  if (o.formulation == FormulationType::kFirstOrder)
-    sc.v_star = sc.minv_p;
-  else
-    sc.v_star = x.v + sc.minv_p;
-  // The products by the sparse LCP's kernels (Eigen's `G * x` and `Gᵀ x` bits).
-  namespace k = sparse_lcp_kernels;
-  const int nvb = a.M_inv.block_size();
-  k::SparseTimes(a.G_n, z.data(), true, false, nvb, false, &sc.impulse);
-  k::SparseTimes(a.G_f, z.data() + nc, false, false, nvb, false, &sc.impulse);
-  a.M_inv.Multiply(sc.impulse, &sc.dv);
-  *v1 = sc.v_star + sc.dv;
-  // BuildLcpInto's rows M z + q through ν_after.
-  w->resize(nc + nf + nc);
-  sc.gv.resize(nc + nf);
-  k::SparseTransposeTimes(a.G_n, *v1, true, nvb, false, false, sc.gv.data());
-  k::SparseTransposeTimes(a.G_f, *v1, true, nvb, false, false, sc.gv.data() + nc);
-  w->head(nc) = sc.gv.head(nc) + a.dpsi_n;
-  if (o.formulation != FormulationType::kAnitescuPotra) w->head(nc) += a.psi_n / o.dt;
-  w->segment(nc, nf) = sc.gv.segment(nc, nf) + a.dpsi_f;
-  for (int c = 0; c < nc; ++c) {
-    double sum = 0.0;
-    for (int j = 0; j < nd; ++j) {
-      (*w)[nc + c * nd + j] += z[nc + nf + c];
-      sum += z[nc + c * nd + j];
-    }
-    (*w)[nc + nf + c] = a.mu[c] * z[c] - sum;
-  }
-}
-
-const StewartTrinkle::Assembly* StepAssembly(const StewartTrinkle& st,
-                                             const std::shared_ptr<const Scene>& scene,
-                                             const State& x, const StepInput& u) {
-  const StepScratch* step = IdleThreadStepScratch();
-  return step && step->record.Holds(st, scene, x, u) ? &step->assembly : nullptr;
-}
-
 void FreezeInto(const Formulation& formulation, std::shared_ptr<const Scene> scene,
                 const Params& params, const State& x, const StepInput& u,
                 std::unique_ptr<StepModel>* frozen) {
@@ -784,9 +736,7 @@ void FreezeInto(const Formulation& formulation, std::shared_ptr<const Scene> sce
     return;
   }
   CheckFreezeInputs(scene.get(), params, x);
-  const StepScratch* step = IdleThreadStepScratch();
-  const StewartTrinkle::Assembly* assembled =
-      step && step->record.Holds(*st, scene, x, u) ? &step->assembly : nullptr;
+  const StewartTrinkle::Assembly* assembled = StepAssembly(*st, scene, x, u);
   auto* reuse = dynamic_cast<StewartTrinkleModel*>(frozen->get());
   // Frozen at these already (the model holds its scene: the address names it).
   if (reuse && &reuse->formulation() == st && reuse->FrozenAt(scene.get(), params, x, u)) return;

@@ -69,11 +69,6 @@ const StewartTrinkle::Assembly* StepAssembly(const StewartTrinkle& st,
                                              const std::shared_ptr<const Scene>& scene,
                                              const State& x, const StepInput& u);
 
-/// At an assembly `a` of x (no joints, corners, support points or compliant pairs): the step
-/// LCP's w = M z + q (BuildLcpInto's rows, formed through ν_after) and ν_after = ν* + W G z.
-void PlainLcpAtInto(const StewartTrinkle& st, const StewartTrinkle::Assembly& a, const State& x,
-                    const VectorXd& z, VectorXd* w, VectorXd* v1);
-
 /// *frozen = Freeze(formulation, model, params, x, u): the same model (same results), made
 /// cheaper for the Stewart–Trinkle family: where *frozen already holds a model of this
 /// formulation its storage is reused, and where the calling thread's last step assembled

@@ -64,4 +64,11 @@ void StampStepOwner(const std::shared_ptr<const Scene>& scene) {
 
 const StepScratch* IdleThreadStepScratch() { return t_scratch_in_use ? nullptr : &t_scratch; }
 
+const StewartTrinkle::Assembly* StepAssembly(const StewartTrinkle& st,
+                                             const std::shared_ptr<const Scene>& scene,
+                                             const State& x, const StepInput& u) {
+  const StepScratch* step = IdleThreadStepScratch();
+  return step && step->record.Holds(st, scene, x, u) ? &step->assembly : nullptr;
+}
+
 }  // namespace vinci::sim::internal

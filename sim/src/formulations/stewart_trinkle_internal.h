@@ -17,6 +17,12 @@ BodyKinematics PrescribedKinematics(const Scene& model, int body, double t, doub
 /// GI-only kinds), so the error does not depend on whether such a shape is near another one.
 void CheckShapesSupported(const Scene& model);
 
+/// At an assembly `a` of x without joints, corners, support points or compliant pairs: the step
+/// LCP's w = M z + q (BuildLcpInto's rows, formed through ν_after, no M formed) and ν_after =
+/// ν* + W G z into *v1.
+void PlainLcpAtInto(const StewartTrinkle& st, const StewartTrinkle::Assembly& a, const State& x,
+                    const VectorXd& z, VectorXd* w, VectorXd* v1);
+
 // ν_ℓ+1 = ν* + W G_c p_c (+ the joints' correction) into *v1, with the intermediate vectors in
 // *impulse, *product and *dv (their storage reused): StewartTrinkle::VelocityAfter's body.
 void VelocityAfterWith(const StewartTrinkle::Assembly& a, const VectorXd& v_star, const VectorXd& z,

@@ -262,6 +262,35 @@ void VelocityAfterWith(const StewartTrinkle::Assembly& a, const VectorXd& v_star
   *v1 = v_star + *dv;
 }
 
+void PlainLcpAtInto(const StewartTrinkle& st, const StewartTrinkle::Assembly& a, const State& x,
+                    const VectorXd& z, VectorXd* w, VectorXd* v1) {
+  thread_local VectorXd minv_p, v_star, impulse, product, dv, gv;
+  const StepperOptions& o = st.options();
+  const int nc = static_cast<int>(a.contacts.size()), nd = a.nd, nf = nc * nd;
+  // ν* = ν_ℓ + M⁻¹ p_ext (first order: no ν_ℓ).
+  a.M_inv.Multiply(a.p_ext, &minv_p);
+  if (o.formulation == FormulationType::kFirstOrder)
+    v_star = minv_p;
+  else
+    v_star = x.v + minv_p;
+  VelocityAfterWith(a, v_star, z, StewartTrinkle::JointElimination(), &impulse, &product, &dv, v1);
+  // BuildLcpInto's rows M z + q through ν_after.
+  w->resize(nc + nf + nc);
+  gv.noalias() = a.G_n.transpose() * *v1;
+  w->head(nc) = gv + a.dpsi_n;
+  if (o.formulation != FormulationType::kAnitescuPotra) w->head(nc) += a.psi_n / o.dt;
+  gv.noalias() = a.G_f.transpose() * *v1;
+  w->segment(nc, nf) = gv + a.dpsi_f;
+  for (int c = 0; c < nc; ++c) {
+    double sum = 0.0;
+    for (int j = 0; j < nd; ++j) {
+      (*w)[nc + c * nd + j] += z[nc + nf + c];
+      sum += z[nc + c * nd + j];
+    }
+    (*w)[nc + nf + c] = a.mu[c] * z[c] - sum;
+  }
+}
+
 }  // namespace internal
 
 VectorXd StewartTrinkle::VelocityAfter(const Assembly& a, const VectorXd& v_star, const VectorXd& z,

@@ -61,8 +61,6 @@ void FlippedBallOnHalf(const ContactPoint& c, double r, const BodyRate& ra, cons
   out->gap = d.gap;
 }
 
-bool IsPolytopeType(ShapeType t) { return t == ShapeType::kBox || t == ShapeType::kPolyhedron; }
-
 // The face of P (shape frame) whose normal is n_P within tol, or −1.
 int FaceWithNormal(const collision_internal::Polytope& P, const Vector3d& n_P, double tol) {
   for (int f = 0; f < P.num_faces(); ++f)
@@ -101,6 +99,8 @@ Vector3d EdgeThrough(const collision_internal::Polytope& P, const Vector3d& x_P,
 }
 
 }  // namespace
+
+bool IsPolytopeType(ShapeType t) { return t == ShapeType::kBox || t == ShapeType::kPolyhedron; }
 
 PolytopeFeature ClassifyPolytopeContact(const Shape& a, const Isometry3d& X_WA, const Shape& b,
                                         const Isometry3d& X_WB, const ContactPoint& c,

@@ -480,7 +480,6 @@ StepSensitivity StepDerivatives(const Simulator& sim, const Params& params,
       if (with_state) out.d_x = S_next.rightCols(nx);
       return out;
     }
-    out = StepSensitivity();
   }
   StepDifferentiator d(sim, params, selection, x, u, next, options, with_state, ws);
   if (!d.ok()) {

@@ -9,9 +9,11 @@
 #include <vector>
 
 #include "../formulations/step_record.h"
+#include "../formulations/stewart_trinkle_internal.h"
 #include "../solvers/scratch_lease.h"
 #include "sensitivity_linearization.h"
 #include "vinci/sim/formulations/stewart_trinkle.h"
+#include "vinci/sim/geometry/contact_rate.h"
 #include "vinci/sim/model/kinematics.h"
 
 namespace vinci::sim::internal {
@@ -335,8 +337,6 @@ bool FactorRowSpace(const StewartTrinkle::Assembly& a, BasisScratch* b) {
   return SmallCholeskyInPlace(&b->p);
 }
 
-bool IsPolytope(ShapeType t) { return t == ShapeType::kBox || t == ShapeType::kPolyhedron; }
-
 bool FrictionOnly(const Scene& scene, const ParamSelection& selection) {
   for (int index : selection.indices()) {
     const ParamKind k = scene.param_table().info(index).kind;
@@ -366,8 +366,8 @@ bool PropagateOnLcpBasis(const Simulator& sim, const Params& params,
   const StewartTrinkle::Assembly* a0 = moves ? nullptr : StepAssembly(*stewart, scene, x, u);
   for (std::size_t k = 0; a0 && k < a0->contacts.size(); ++k) {
     const Contact& ct = a0->contacts[k];
-    if (!ct.point.corner && IsPolytope(model.bodies[ct.body_a].shapes[ct.shape_a].type) &&
-        IsPolytope(model.bodies[ct.body_b].shapes[ct.shape_b].type))
+    if (!ct.point.corner && IsPolytopeType(model.bodies[ct.body_a].shapes[ct.shape_a].type) &&
+        IsPolytopeType(model.bodies[ct.body_b].shapes[ct.shape_b].type))
       a0 = nullptr;
   }
   ScratchLease<std::unique_ptr<StepModel>> frozen_lease;

@@ -61,6 +61,9 @@ struct PolytopeFeature {
   Vector3d e_A_W = Vector3d::Zero(), e_B_W = Vector3d::Zero();
 };
 
+/// Boxes and convex polyhedra: the shapes whose contacts have vertex / edge / face features.
+bool IsPolytopeType(ShapeType t);
+
 /// Classifies contact `c` of shapes a (pose X_WA) and b (X_WB) as CollideShapes(a, ·, b, ·)
 /// reports it. A vertex of a is preferred where both sides fit (the collision routine emits
 /// a's vertices first and drops the later duplicate). Tolerance for "is a vertex" / "is a face
