@@ -1,12 +1,16 @@
-// The frozen step model's contacts at a moved start state (internal to step_model.cc): the
+// The frozen step model's contacts at a moved start state (internal to step_model.cc and
+// step_model_mcp.cc): the
 // contact set found once at x_ℓ, its witness points, normals and gaps moved to x (re-collided
 // for the same features, or along closed-form rates), and the vertex each polytope contact
 // keeps. The equations are in step_model.h's header comment.
 #pragma once
 
+#include <memory>
+#include <string>
 #include <vector>
 
 #include "vinci/sim/formulations/contact.h"
+#include "vinci/sim/formulations/step_model.h"
 #include "vinci/sim/geometry/contact_rate.h"
 #include "vinci/sim/model/kinematics.h"
 #include "vinci/sim/model/scene.h"
@@ -16,6 +20,20 @@ namespace vinci::sim::internal {
 /// Same time and positions, bitwise.
 inline bool SamePose(const State& a, const State& b) {
   return a.t == b.t && a.q.size() == b.q.size() && (a.q.array() == b.q.array()).all();
+}
+
+/// x and u are bitwise the freeze state and input (the assembly made there can be reused).
+inline bool SameStateAndInput(const State& x, const StepInput& u, const State& x0,
+                              const StepInput& u0) {
+  return SamePose(x, x0) && x.v.size() == x0.v.size() && (x.v.array() == x0.v.array()).all() &&
+         u.generalized_force.size() == u0.generalized_force.size() &&
+         (u.generalized_force.array() == u0.generalized_force.array()).all();
+}
+
+/// The frozen models' size error: "<what>has <got> entries; the frozen step needs <want>".
+inline std::string SizeMismatch(const char* what, Eigen::Index got, Eigen::Index want) {
+  return std::string(what) + "has " + std::to_string(got) + " entries; the frozen step needs " +
+         std::to_string(want);
 }
 
 /// The frozen contacts moved to x: witness points and normals as the collision routine finds
@@ -48,5 +66,11 @@ void FrozenSidesInto(const Scene& model, const std::vector<Contact>& contacts,
                      int* near);
 std::vector<PolytopeFeature> FrozenSides(const Scene& model, const std::vector<Contact>& contacts,
                                          const std::vector<BodyKinematics>& k0, int* near);
+
+/// Freeze (step_model.h) for the MCP formulations — NCP, quasistatic DLC / DQC, geometrically
+/// implicit (step_model_mcp.cc) — or null for any other formulation.
+std::unique_ptr<StepModel> FreezeMcp(const Formulation& formulation,
+                                     std::shared_ptr<const Scene> scene, const Params& params,
+                                     const State& x, const StepInput& u);
 
 }  // namespace vinci::sim::internal

@@ -16,9 +16,6 @@
 #include "step_util.h"
 #include "stewart_trinkle_internal.h"
 #include "vinci/sim/formulations/contact.h"
-#include "vinci/sim/formulations/geometrically_implicit.h"
-#include "vinci/sim/formulations/ncp.h"
-#include "vinci/sim/formulations/quasistatic.h"
 #include "vinci/sim/formulations/stewart_trinkle.h"
 #include "vinci/sim/geometry/contact_rate.h"
 #include "vinci/sim/model/kinematics.h"
@@ -26,29 +23,17 @@
 namespace vinci::sim {
 namespace {
 
-using internal::FrozenSides;
 using internal::FrozenSidesInto;
 using internal::MoveContacts;
 using internal::MoveContactsAlong;
-using internal::SamePose;
-
-// x and u are bitwise the freeze state and input (the assembly made there can be reused).
-bool SameStateAndInput(const State& x, const StepInput& u, const State& x0, const StepInput& u0) {
-  return SamePose(x, x0) && x.v.size() == x0.v.size() && (x.v.array() == x0.v.array()).all() &&
-         u.generalized_force.size() == u0.generalized_force.size() &&
-         (u.generalized_force.array() == u0.generalized_force.array()).all();
-}
+using internal::SameStateAndInput;
+using internal::SizeMismatch;
 
 // [w]×: [w]× v = w × v.
 Matrix3d Skew(const Vector3d& w) {
   Matrix3d S;
   S << 0.0, -w.z(), w.y(), w.z(), 0.0, -w.x(), -w.y(), w.x(), 0.0;
   return S;
-}
-
-std::string Sizes(const char* what, Eigen::Index got, Eigen::Index want) {
-  return std::string(what) + "has " + std::to_string(got) + " entries; the frozen step needs " +
-         std::to_string(want);
 }
 
 // --- Stewart–Trinkle, Anitescu–Potra, first order -----------------------------------------------
@@ -192,7 +177,7 @@ class StewartTrinkleModel final : public StepModel {
     const VectorXd& w = next.warm_start;
     if (w.size() != lcp_size_)
       throw std::invalid_argument("StepModel::UnknownsFromStep: next.warm_start " +
-                                  Sizes("", w.size(), lcp_size_) +
+                                  SizeMismatch("", w.size(), lcp_size_) +
                                   " (the LCP solution of this contact set)");
     VectorXd z = VectorXd::Zero(l.size());
     z.segment(l.q1(), l.nq) = next.q;
@@ -245,143 +230,6 @@ class StewartTrinkleModel final : public StepModel {
   StewartTrinkle::Assembly freeze_;     // at (model_, x_, u_)
   Eigen::Index lcp_size_ = 0;
   MatrixXd G_b_;
-};
-
-// --- NCP ---------------------------------------------------------------------------------------
-
-class NcpModel final : public StepModel {
- public:
-  NcpModel(const NcpStepper& ncp, std::shared_ptr<const Scene> model, Params params, State x,
-           StepInput u)
-      : StepModel(std::move(model), std::move(params), std::move(x), std::move(u),
-                  ncp.assembler().options().dt),
-        ncp_(ncp) {
-    ncp_.assembler().AssembleInto(*model_, x_, u_, &freeze_);  // as StewartTrinkleModel
-    contacts_ = freeze_.contacts;
-    G_b_ = freeze_.G_b;
-    k0_ = ComputeBodyKinematics(*model_, x_);
-    sides_ = FrozenSides(*model_, contacts_, k0_, &feature_kinks_);
-    Init(ncp_.Layout(*model_, x_).size());  // the contact set at x_ℓ is the frozen one
-  }
-
- protected:
-  StepResiduals Residuals(const Scene& model, const Params& theta, const State& x,
-                          const StepInput& u, const VectorXd& z, bool) const override {
-    if (&model == model_.get() && SameStateAndInput(x, u, x_, u_))
-      return ncp_.EvaluateAssembly(model, theta, freeze_, x, z);
-    return ncp_.EvaluateAssembly(model, theta, AssembleAt(model, x, u), x, z);
-  }
-  StepResiduals ResidualsAlong(const VectorXd& z, const StepInput& u, const VectorXd& s,
-                               double t) const override {
-    const State x = StateAlong(s, t);
-    internal::ScratchLease<StewartTrinkle::Assembly> lease;  // as StewartTrinkleModel's
-    StewartTrinkle::Assembly& a = lease.get();
-    a.contacts = MoveContactsAlong(*model_, contacts_, x_, x, s, t, dt_, k0_, sides_);
-    ncp_.assembler().AssembleAtInto(*model_, x, u, /*select_corner_edges=*/false, &a);
-    return ncp_.EvaluateAssembly(*model_, params_, a, x, z);
-  }
-  // The MCP solution [p_n (nc); (p_t, p_o) per contact (2 nc); σ (nc)] is z's p_n, p_f, σ.
-  VectorXd Unknowns(const State& next) const override {
-    const StepLayout& l = layout_;
-    const VectorXd& w = next.warm_start;
-    if (w.size() != 4 * l.nc)
-      throw std::invalid_argument("StepModel::UnknownsFromStep: next.warm_start " +
-                                  Sizes("", w.size(), 4 * l.nc) + " (the NCP step's solution)");
-    VectorXd z = VectorXd::Zero(l.size());
-    z.segment(l.q1(), l.nq) = next.q;
-    z.segment(l.v1(), l.nv) = next.v;
-    z.segment(l.pn(), 4 * l.nc) = w;
-    RecoverJointImpulses(G_b_, &z);
-    return z;
-  }
-  VectorXd WarmStart(const VectorXd& z) const override {
-    return z.segment(layout_.pn(), 4 * layout_.nc);
-  }
-
- private:
-  StewartTrinkle::Assembly AssembleAt(const Scene& model, const State& x,
-                                      const StepInput& u) const {
-    return ncp_.assembler().AssembleAt(model, x, u,
-                                       MoveContacts(model, contacts_, x_, x, dt_, &k0_, &sides_),
-                                       /*select_corner_edges=*/false);
-  }
-  const NcpStepper& ncp_;
-  std::vector<Contact> contacts_;
-  std::vector<BodyKinematics> k0_;      // at x_
-  std::vector<PolytopeFeature> sides_;  // per contact: the vertex a box–box contact keeps
-  StewartTrinkle::Assembly freeze_;     // at (model_, x_, u_)
-  MatrixXd G_b_;
-};
-
-// --- Quasistatic DLC / DQC, dynamic DQC --------------------------------------------------------
-
-class QuasistaticModel final : public StepModel {
- public:
-  QuasistaticModel(const Quasistatic& qs, std::shared_ptr<const Scene> model, Params params,
-                   State x, StepInput u)
-      : StepModel(std::move(model), std::move(params), std::move(x), std::move(u),
-                  qs.assembler().options().dt),
-        qs_(qs) {
-    contacts_ = qs_.assembler().Assemble(*model_, x_, u_).contacts;
-    Init(qs_.Layout(*model_, x_).size());  // the contact set at x_ℓ is the frozen one
-  }
-
- protected:
-  StepResiduals Residuals(const Scene& model, const Params& theta, const State& x,
-                          const StepInput& u, const VectorXd& z, bool) const override {
-    return qs_.EvaluateAssembly(
-        model, theta, qs_.AssembleAt(model, x, u, MoveContacts(model, contacts_, x_, x, dt_)), x,
-        z);
-  }
-  // The MCP unknowns y = z without q_ℓ+1.
-  VectorXd Unknowns(const State& next) const override {
-    const StepLayout& l = layout_;
-    const VectorXd& w = next.warm_start;
-    if (w.size() != l.size() - l.nq)
-      throw std::invalid_argument("StepModel::UnknownsFromStep: next.warm_start " +
-                                  Sizes("", w.size(), l.size() - l.nq) +
-                                  " (the quasistatic step's solution)");
-    VectorXd z(l.size());
-    z << next.q, w;
-    return z;
-  }
-  VectorXd WarmStart(const VectorXd& z) const override { return z.tail(z.size() - layout_.nq); }
-
- private:
-  const Quasistatic& qs_;
-  std::vector<Contact> contacts_;
-};
-
-// --- Geometrically implicit ----------------------------------------------------------------------
-
-class GiModel final : public StepModel {
- public:
-  GiModel(const GeometricallyImplicit& gi, std::shared_ptr<const Scene> model, Params params,
-          State x, StepInput u)
-      : StepModel(std::move(model), std::move(params), std::move(x), std::move(u), gi.options().dt),
-        gi_(gi) {
-    frozen_ = gi_.FreezePairs(*model_, x_);
-    Init(frozen_.layout.size());
-  }
-
- protected:
-  StepResiduals Residuals(const Scene& model, const Params& theta, const State& x,
-                          const StepInput& u, const VectorXd& z, bool) const override {
-    return gi_.EvaluateFrozen(model, theta, frozen_, x, u, z);
-  }
-  VectorXd Unknowns(const State& next) const override {
-    return gi_.UnknownsFromStep(*model_, frozen_, x_, next);
-  }
-  VectorXd WarmStart(const VectorXd& z) const override {
-    return gi_.StateFromUnknowns(*model_, frozen_, x_, z).warm_start;
-  }
-  State EndState(const VectorXd& z, const State& x) const override {
-    return gi_.StateFromUnknowns(*model_, frozen_, x, z);
-  }
-
- private:
-  const GeometricallyImplicit& gi_;
-  GeometricallyImplicit::FrozenPairs frozen_;
 };
 
 // *S = D.sparseView(0, 0) (the entries that are not exactly 0, column by column), its storage
@@ -528,10 +376,11 @@ void StepModel::EvaluateInto(const VectorXd& z, const Params& theta, const State
                              StepModelValues* values) const {
   const Scene& s0 = *model_;
   if (z.size() != layout_.size())
-    throw std::invalid_argument("StepModel::Evaluate: z " + Sizes("", z.size(), layout_.size()));
+    throw std::invalid_argument("StepModel::Evaluate: z " +
+                                SizeMismatch("", z.size(), layout_.size()));
   if (theta.values.size() != s0.param_table().size())
     throw std::invalid_argument("StepModel::Evaluate: θ " +
-                                Sizes("", theta.values.size(), s0.param_table().size()));
+                                SizeMismatch("", theta.values.size(), s0.param_table().size()));
   if (x.q.size() != s0.num_positions() || x.v.size() != s0.num_velocities())
     throw std::invalid_argument(
         "StepModel::Evaluate: x_ℓ has " + std::to_string(x.q.size()) + " positions / " +
@@ -544,7 +393,7 @@ void StepModel::EvaluateInto(const VectorXd& z, const Params& theta, const State
   const int nv = s0.num_velocities();
   if (u.generalized_force.size() != 0 && u.generalized_force.size() != nv)
     throw std::invalid_argument("StepModel::Evaluate: input force " +
-                                Sizes("", u.generalized_force.size(), nv));
+                                SizeMismatch("", u.generalized_force.size(), nv));
   if (!(options.state_step > 0.0))
     throw std::invalid_argument("StepModel::Evaluate: state_step must be > 0");
   AppliedScene applied;
@@ -638,10 +487,10 @@ StepResiduals StepModel::StateDirectionalDerivative(const VectorXd& z, const Ste
                                                     const VectorXd& s, double step) const {
   if (z.size() != layout_.size())
     throw std::invalid_argument("StepModel::StateDirectionalDerivative: z " +
-                                Sizes("", z.size(), layout_.size()));
+                                SizeMismatch("", z.size(), layout_.size()));
   if (s.size() != x_.q.size() + x_.v.size())
     throw std::invalid_argument("StepModel::StateDirectionalDerivative: s " +
-                                Sizes("", s.size(), x_.q.size() + x_.v.size()));
+                                SizeMismatch("", s.size(), x_.q.size() + x_.v.size()));
   if (!(step > 0.0))
     throw std::invalid_argument("StepModel::StateDirectionalDerivative: step must be > 0");
   StepResiduals p = ResidualsAlong(z, u, s, step);
@@ -656,7 +505,7 @@ StepResiduals StepModel::EvaluateResiduals(const VectorXd& z, const Params& thet
                                            const StepInput& u, bool jacobians) const {
   if (z.size() != layout_.size())
     throw std::invalid_argument("StepModel::EvaluateResiduals: z " +
-                                Sizes("", z.size(), layout_.size()));
+                                SizeMismatch("", z.size(), layout_.size()));
   if (!(theta == params_))
     throw std::invalid_argument(
         "StepModel::EvaluateResiduals: θ must be the freeze parameters (use Evaluate)");
@@ -675,14 +524,14 @@ VectorXd StepModel::UnknownsFromStep(const State& next) const {
 State StepModel::StateFromUnknowns(const VectorXd& z) const {
   if (z.size() != layout_.size())
     throw std::invalid_argument("StepModel::StateFromUnknowns: z " +
-                                Sizes("", z.size(), layout_.size()));
+                                SizeMismatch("", z.size(), layout_.size()));
   return EndState(z, x_);
 }
 
 State StepModel::StateFromUnknowns(const VectorXd& z, const State& x) const {
   if (z.size() != layout_.size())
     throw std::invalid_argument("StepModel::StateFromUnknowns: z " +
-                                Sizes("", z.size(), layout_.size()));
+                                SizeMismatch("", z.size(), layout_.size()));
   if (x.q.size() != x_.q.size() || x.v.size() != x_.v.size() || x.t != x_.t)
     throw std::invalid_argument(
         "StepModel::StateFromUnknowns: x must have the freeze state's sizes and time");
@@ -717,8 +566,8 @@ namespace {
 void CheckFreezeInputs(const Scene* model, const Params& params, const State& x) {
   if (!model) throw std::invalid_argument("Freeze: null scene");
   if (params.values.size() != model->param_table().size())
-    throw std::invalid_argument("Freeze: params " +
-                                Sizes("", params.values.size(), model->param_table().size()));
+    throw std::invalid_argument(
+        "Freeze: params " + SizeMismatch("", params.values.size(), model->param_table().size()));
   if (x.q.size() != model->num_positions() || x.v.size() != model->num_velocities())
     throw std::invalid_argument("Freeze: x has the wrong size for the scene");
 }
@@ -808,12 +657,8 @@ std::unique_ptr<StepModel> Freeze(const Formulation& formulation,
   CheckFreezeInputs(scene.get(), params, x);
   if (const auto* st = dynamic_cast<const StewartTrinkle*>(&formulation))
     return std::make_unique<StewartTrinkleModel>(*st, scene, params, x, u, nullptr);
-  if (const auto* ncp = dynamic_cast<const NcpStepper*>(&formulation))
-    return std::make_unique<NcpModel>(*ncp, scene, params, x, u);
-  if (const auto* qs = dynamic_cast<const Quasistatic*>(&formulation))
-    return std::make_unique<QuasistaticModel>(*qs, scene, params, x, u);
-  if (const auto* gi = dynamic_cast<const GeometricallyImplicit*>(&formulation))
-    return std::make_unique<GiModel>(*gi, scene, params, x, u);
+  if (std::unique_ptr<StepModel> mcp = internal::FreezeMcp(formulation, scene, params, x, u))
+    return mcp;
   throw std::invalid_argument("Freeze: formulation '" + std::string(formulation.name()) +
                               "' has no frozen step model");
 }
