@@ -200,7 +200,8 @@ int main(int argc, char** argv) {
        0},
       {"sphere_on_incline.yaml", {"mu.default", "mass.ball"}, 50},
       {"box_on_plane.yaml", {"mu.default", "mass.box"}, 100},
-      {"disc_on_plane.yaml", {"mu.default", "mass.disc"}, 20},  // geometrically implicit
+      {"disc_on_plane.yaml", {"mu.default", "mass.disc"}, 20},     // geometrically implicit
+      {"box_diagonal_push.yaml", {"mu.default", "mass.box"}, 20},  // NCP (quadratic cone)
   };
   std::printf(
       "CPU time. step: Simulator::Step; fwd1: one-parameter forward step derivative "

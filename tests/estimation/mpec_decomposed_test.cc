@@ -214,15 +214,18 @@ TEST(MpecDecomposed, EpisodesAboveTheToleranceDoNotStopTheOuterLoop) {
 // A relaxed episode whose warm-started tail ends within 10× the complementarity tolerance is
 // kept as it is at each θ of the outer loop (no homotopy from the start after the tail); once
 // the loop converges, each such episode is solved again in full at θ̂, once. Two block
-// episodes whose homotopy stops at ε = 1e-4 without the polish, against a tolerance of 7.5e-4:
-// alone they end at 8.4e-4 (so θ_0 is the scene's 0.5), their tails along the run at 3e-4 …
-// 6.3e-3 (without the rule, its factor set to 0: 8 homotopies from the start before the loop
-// converged and 737 Ipopt iterations in all, against 2 and 471 with it).
+// episodes whose homotopy stops at ε = 1e-4 without the polish, against a tolerance of 6.6e-4:
+// alone they end at 7.0e-4 … 8.5e-4 (so θ_0 is the scene's 0.5), their tails along the run at
+// 2.7e-3 … 6.3e-3, within 10× the tolerance (without the rule, its factor set to 0: 8
+// homotopies from the start before the loop converged and 737 Ipopt iterations in all, against
+// 2 and 471 with it). These violations differ between CPUs in their second digit (the first
+// episode alone: 8.4e-4 on one, 7.0e-4 on another, below the earlier tolerance 7.5e-4), so the
+// tolerance sits where both machines measured keep a margin of ≥ 5 % on each side.
 TEST(MpecDecomposed, LooseTailsAreKeptUntilTheFinalPass) {
   const sim::Simulator sim(sim::ParseScene(testing::kPlanarBlock, "block.yaml"));
   Log log;
   std::vector<std::string> lines;
-  const MpecEstimateResult r = RelaxedTwoEpisodes(sim, 7.5e-4, &log, &lines);
+  const MpecEstimateResult r = RelaxedTwoEpisodes(sim, 6.6e-4, &log, &lines);
   EXPECT_FALSE(r.converged);
   EXPECT_EQ(r.reason.find("an episode failed"), std::string::npos) << r.reason;
   EXPECT_NEAR(r.estimates[0], kTrueMu, 1e-2) << r.reason;

@@ -522,16 +522,22 @@ StepResiduals NcpStepper::Evaluate(const Scene& model, const Params& params, con
   return EvaluateAssembly(model, params, st_.Assemble(model, x, u), x, z);
 }
 
-StepResiduals NcpStepper::EvaluateAssembly(const Scene& model, const Params& params,
-                                           const StewartTrinkle::Assembly& a, const State& x,
-                                           const VectorXd& z) const {
-  StepResiduals r;
-  StepLayout& l = r.layout;
+StepLayout NcpStepper::LayoutOfAssembly(const Scene& model, const StewartTrinkle::Assembly& a) {
+  StepLayout l;
   l.nq = model.num_positions();
   l.nv = model.num_velocities();
   l.nc = static_cast<int>(a.contacts.size());
   l.nd = 2;
   l.nb = static_cast<int>(a.psi_b.size());
+  return l;
+}
+
+StepResiduals NcpStepper::EvaluateAssembly(const Scene& model, const Params& params,
+                                           const StewartTrinkle::Assembly& a, const State& x,
+                                           const VectorXd& z) const {
+  StepResiduals r;
+  StepLayout& l = r.layout;
+  l = LayoutOfAssembly(model, a);
   if (z.size() != l.size())
     throw std::invalid_argument("NcpStepper::Evaluate: z has " + std::to_string(z.size()) +
                                 " entries, the step layout needs " + std::to_string(l.size()));

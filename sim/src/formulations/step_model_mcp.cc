@@ -7,6 +7,7 @@
 
 #include "../solvers/scratch_lease.h"
 #include "frozen_contacts.h"
+#include "step_util.h"
 #include "vinci/sim/formulations/geometrically_implicit.h"
 #include "vinci/sim/formulations/ncp.h"
 #include "vinci/sim/formulations/quasistatic.h"
@@ -35,7 +36,12 @@ class NcpModel final : public StepModel {
     G_b_ = freeze_.G_b;
     k0_ = ComputeBodyKinematics(*model_, x_);
     sides_ = FrozenSides(*model_, contacts_, k0_, &feature_kinks_);
-    Init(ncp_.Layout(*model_, x_).size());  // the contact set at x_ℓ is the frozen one
+    // The frozen contact set's layout and the scene's differentiable parameters, as
+    // EvaluateAssembly at the freeze gives them (no evaluation).
+    const StepLayout l = NcpStepper::LayoutOfAssembly(*model_, freeze_);
+    std::vector<int> param_columns;
+    internal::DifferentiableParamColumns(model_->param_table(), l.size(), &param_columns);
+    InitLayout(l, std::move(param_columns));
   }
 
  protected:

@@ -264,23 +264,45 @@ void VelocityAfterWith(const StewartTrinkle::Assembly& a, const VectorXd& v_star
 
 void PlainLcpAtInto(const StewartTrinkle& st, const StewartTrinkle::Assembly& a, const State& x,
                     const VectorXd& z, VectorXd* w, VectorXd* v1) {
-  thread_local VectorXd minv_p, v_star, impulse, product, dv, gv;
+  thread_local VectorXd minv_p, impulse, dv;
   const StepperOptions& o = st.options();
   const int nc = static_cast<int>(a.contacts.size()), nd = a.nd, nf = nc * nd;
+  const int nv = static_cast<int>(a.M_inv.rows());
   // ν* = ν_ℓ + M⁻¹ p_ext (first order: no ν_ℓ).
   a.M_inv.Multiply(a.p_ext, &minv_p);
+  // ν_after = ν* + W (G_n p_n + G_f p_f (+ G_s p_s)), G's columns accumulated directly (a
+  // column whose impulse is zero skipped).
+  impulse.setZero(nv);
+  const auto add_columns = [&](const SparseMatrixd& g, int first) {
+    for (int j = 0; j < g.outerSize(); ++j) {
+      const double zj = z[first + j];
+      if (zj == 0.0) continue;
+      for (SparseMatrixd::InnerIterator it(g, j); it; ++it) impulse[it.row()] += it.value() * zj;
+    }
+  };
+  add_columns(a.G_n, 0);
+  add_columns(a.G_f, nc);
+  if (a.support.columns() > 0)
+    impulse.noalias() += a.support.G_s * z.segment(nc + nf + nc, a.support.columns());
+  a.M_inv.Multiply(impulse, &dv);
   if (o.formulation == FormulationType::kFirstOrder)
-    v_star = minv_p;
+    *v1 = minv_p + dv;
   else
-    v_star = x.v + minv_p;
-  VelocityAfterWith(a, v_star, z, StewartTrinkle::JointElimination(), &impulse, &product, &dv, v1);
-  // BuildLcpInto's rows M z + q through ν_after.
+    *v1 = x.v + minv_p + dv;
+  // BuildLcpInto's rows M z + q through ν_after: G_iᵀ ν_after + ψ̇_i (+ ψ_n / h), the friction
+  // rows' E σ, the cone rows μ p_n − Eᵀ p_f.
   w->resize(nc + nf + nc);
-  gv.noalias() = a.G_n.transpose() * *v1;
-  w->head(nc) = gv + a.dpsi_n;
-  if (o.formulation != FormulationType::kAnitescuPotra) w->head(nc) += a.psi_n / o.dt;
-  gv.noalias() = a.G_f.transpose() * *v1;
-  w->segment(nc, nf) = gv + a.dpsi_f;
+  const auto dots = [&](const SparseMatrixd& g, const VectorXd& offset, int first) {
+    for (int j = 0; j < g.outerSize(); ++j) {
+      double sum = offset[j];
+      for (SparseMatrixd::InnerIterator it(g, j); it; ++it) sum += it.value() * (*v1)[it.row()];
+      (*w)[first + j] = sum;
+    }
+  };
+  dots(a.G_n, a.dpsi_n, 0);
+  if (o.formulation != FormulationType::kAnitescuPotra)
+    for (int c = 0; c < nc; ++c) (*w)[c] += a.psi_n[c] / o.dt;
+  dots(a.G_f, a.dpsi_f, nc);
   for (int c = 0; c < nc; ++c) {
     double sum = 0.0;
     for (int j = 0; j < nd; ++j) {

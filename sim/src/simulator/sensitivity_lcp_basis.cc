@@ -56,12 +56,34 @@ struct Cone {
   int row, first, count;
 };
 
+// A list of at most `capacity` entries in storage kept across calls (push_back inlined: the
+// classification fills ~80 entries a step on a resting box).
+template <typename T>
+class ShortList {
+ public:
+  void Reset(int capacity) {
+    if (static_cast<int>(items_.size()) < capacity)
+      items_.resize(static_cast<std::size_t>(capacity));
+    n_ = 0;
+  }
+  void push_back(const T& item) { items_[static_cast<std::size_t>(n_++)] = item; }
+  std::size_t size() const { return static_cast<std::size_t>(n_); }
+  const T& operator[](int k) const { return items_[static_cast<std::size_t>(k)]; }
+  const T* begin() const { return items_.data(); }
+  const T* end() const { return items_.data() + n_; }
+
+ private:
+  std::vector<T> items_;
+  int n_ = 0;
+};
+
 struct BasisScratch {
   MatrixXd wg;  // W G_B (nv × |B|)
   VectorXd w, v1, v1_p, v1_m, g_p, g_m, dg, dz, dv, unit, dz_b, rhs;
-  VectorXd dnu, dnu_abs, t, u;  // dν = W G_B dz_B, |W G_B| |dz_B|; row-space work vectors
-  std::vector<int> basic, nonbasic, implied, free_sign;
-  std::vector<Cone> cones;
+  VectorXd dnu, dnu_abs, u;  // dν = W G_B dz_B, its cancellation scale; row-space work
+  VectorXd g_abs;            // |G_B| |dz_B| (row space)
+  ShortList<int> basic, nonbasic, implied, free_sign;  // each holds at most m entries
+  ShortList<Cone> cones;                               // at most nc
   int sliding = 0;     // contacts with σ basic
   int degenerate = 0;  // pairs with both sides at zero
   MatrixXd m_bb, lu, a_dense, p;
@@ -82,11 +104,12 @@ bool ClassifyContacts(Dim dim, const StewartTrinkle::Assembly& a, const VectorXd
   const auto zero = [&](int i) { return z[i] <= tol && w[i] <= tol; };
   const auto angle = [&](int j) { return 2.0 * kPi * j / nd; };  // planar: ±t at 0, π
   const int tangent_dim = dim == Dim::kSpatial ? 2 : 1;
-  b->basic.clear();
-  b->nonbasic.clear();
-  b->implied.clear();
-  b->free_sign.clear();
-  b->cones.clear();
+  const int m = nc + nf + nc;
+  b->basic.Reset(m);
+  b->nonbasic.Reset(m);
+  b->implied.Reset(m);
+  b->free_sign.Reset(m);
+  b->cones.Reset(nc);
   b->sliding = b->degenerate = 0;
   int unloaded = 0;  // touching unloaded contacts
   for (int k = 0; k < nc; ++k) {
@@ -206,13 +229,17 @@ bool SmallCholeskyInPlace(MatrixXd* p) {
 // x ← P⁻¹ x from SmallCholeskyInPlace's factor.
 void SmallCholeskySolve(const MatrixXd& l, VectorXd* x) {
   const int n = static_cast<int>(l.rows());
+  const double* L = l.data();  // L(i, k) = L[i + k n]
+  double* v = x->data();
   for (int i = 0; i < n; ++i) {
-    for (int k = 0; k < i; ++k) (*x)[i] -= l(i, k) * (*x)[k];
-    (*x)[i] /= l(i, i);
+    double sum = v[i];
+    for (int k = 0; k < i; ++k) sum -= L[i + k * n] * v[k];
+    v[i] = sum / L[i + i * n];
   }
   for (int i = n - 1; i >= 0; --i) {
-    for (int k = i + 1; k < n; ++k) (*x)[i] -= l(k, i) * (*x)[k];
-    (*x)[i] /= l(i, i);
+    double sum = v[i];
+    for (int k = i + 1; k < n; ++k) sum -= L[k + i * n] * v[k];
+    v[i] = sum / L[i + i * n];
   }
 }
 
@@ -285,14 +312,15 @@ void BasisBlockInto(const StewartTrinkle::Assembly& a, BasisScratch* b) {
 // Row i's rate dw_i = dg_i + (M(:, B) dz_B)_i from dν = W G_B dz_B (b.dnu) and dz (b.dz):
 // G_iᵀ dν on an impulse row, plus dz_σc on a friction row of contact c; μ_c dz_n,c − Σ_j dz_f,c,j
 // on σ_c's row. *size: the same sum over absolute values, |dν| replaced by b.dnu_abs =
-// |W G_B| |dz_B|: the scale of the cancellation in the rate.
+// |W G_B| |dz_B| (or its bound |W| |G_B| |dz_B|): the scale of the cancellation in the rate.
 double RowRate(const StewartTrinkle::Assembly& a, const BasisScratch& b, int i, double* size) {
   const int nc = static_cast<int>(a.contacts.size()), nd = a.nd, nf = nc * nd;
   double rate = b.dg[i], abs_sum = std::abs(b.dg[i]);
   if (i < nc + nf) {
+    const double *dnu = b.dnu.data(), *dnu_abs = b.dnu_abs.data();
     ForImpulseColumn(a, i, [&](int r, double v) {
-      rate += v * b.dnu[r];
-      abs_sum += std::abs(v) * b.dnu_abs[r];
+      rate += v * dnu[r];
+      abs_sum += std::abs(v) * dnu_abs[r];
     });
     if (i >= nc) {
       const double t = b.dz[nc + nf + (i - nc) / nd];
@@ -421,10 +449,10 @@ bool PropagateOnLcpBasis(const Simulator& sim, const Params& params,
     b.lu = b.m_bb;
     return SmallLuInPlace(&b.lu, &b.lu_rows);
   };
-  if (nb > 0) ImpulseColumnsInto(*a0, &b);
   if (nb > 0 && b.sliding == 0 && FactorRowSpace(*a0, &b)) {
-    solve = Solve::kRowSpace;
+    solve = Solve::kRowSpace;  // W G_B is not formed
   } else if (nb > 0) {
+    ImpulseColumnsInto(*a0, &b);
     BasisBlockInto(*a0, &b);
     if (b.sliding > 0 || nb <= nv) {
       if (regular_lu())
@@ -485,8 +513,7 @@ bool PropagateOnLcpBasis(const Simulator& sim, const Params& params,
       SmallCholeskySolve(b.p, &b.dnu);
       b.dz_b.noalias() = b.a_dense.transpose() * b.dnu;
       if (!((b.dz_b - b.rhs).cwiseAbs().maxCoeff() <= kConsistencyTol * rhs_norm)) return false;
-      a0->M.Multiply(b.dnu, &b.t);
-      b.u = b.t;
+      a0->M.Multiply(b.dnu, &b.u);
       SmallCholeskySolve(b.p, &b.u);
       b.dz_b.noalias() = b.a_dense.transpose() * b.u;
       for (int i = 0; i < nb; ++i) b.dz[b.basic[i]] = b.dz_b[i];
@@ -503,7 +530,27 @@ bool PropagateOnLcpBasis(const Simulator& sim, const Params& params,
       for (int i = 0; i < nb; ++i) b.dz[b.basic[i]] = b.dz_b[i];
       b.dnu.noalias() = b.wg * b.dz_b;
     }
-    if (nb > 0) b.dnu_abs.noalias() = b.wg.cwiseAbs() * b.dz_b.cwiseAbs();
+    // The scale of the cancellation in dν: |W G_B| |dz_B|, in the row space its bound
+    // |W| |G_B| |dz_B| (W G_B not formed; equal where W's blocks are diagonal).
+    if (solve == Solve::kRowSpace) {
+      b.g_abs.setZero(nv);
+      for (int j = 0; j < nb; ++j) {
+        const double d = std::abs(b.dz_b[j]);
+        ForImpulseColumn(*a0, b.basic[j], [&](int r, double v) { b.g_abs[r] += std::abs(v) * d; });
+      }
+      const int bs = a0->M_inv.block_size();
+      for (int o = 0; o < nv; o += bs) {
+        const auto block = a0->M_inv.BlockAt(o);
+        for (int k = 0; k < bs; ++k)
+          for (int i = 0; i < bs; ++i) b.dnu_abs[o + i] += std::abs(block(i, k)) * b.g_abs[o + k];
+      }
+    } else if (nb > 0) {
+      for (int j = 0; j < nb; ++j) {
+        const double d = std::abs(b.dz_b[j]);
+        const double* col = b.wg.col(j).data();
+        for (int i = 0; i < nv; ++i) b.dnu_abs[i] += std::abs(col[i]) * d;
+      }
+    }
     // A sticking contact's other friction rows are combinations of its held ones (σ held at 0),
     // a touching unloaded contact's normal row of the others': their rates must stay zero, so
     // that both sides of the column hold them.

@@ -84,6 +84,8 @@ class NcpStepper final : public Formulation {
   StepResiduals EvaluateAssembly(const Scene& model, const Params& params,
                                  const StewartTrinkle::Assembly& a, const State& x,
                                  const VectorXd& z) const;
+  /// EvaluateAssembly's layout for the assembly `a` (its contacts and joint rows), nd = 2.
+  static StepLayout LayoutOfAssembly(const Scene& model, const StewartTrinkle::Assembly& a);
   /// The Stewart–Trinkle stepper (n_d = 4) that assembles this stepper's contact rows.
   const StewartTrinkle& assembler() const { return st_; }
 
