@@ -17,6 +17,7 @@
 #include "sensitivity_lcp_basis.h"
 #include "sensitivity_linearization.h"
 #include "vinci/sim/formulations/geometrically_implicit.h"
+#include "vinci/sim/formulations/ncp.h"
 #include "vinci/sim/formulations/step_model.h"
 #include "vinci/sim/solvers/lemke.h"
 
@@ -138,8 +139,11 @@ class StepDifferentiator {
     const int nz = frozen_->layout().size();
     internal::EvaluateResidualsInto(*frozen_, z_, params, x, u, &vals_, &jac_);
     const bool gi = dynamic_cast<const GeometricallyImplicit*>(&sim.formulation()) != nullptr;
+    // The NCP stepper's pairs: [(p_n, normal) nc; (σ, quadratic cone) nc].
+    const int quadratic_from =
+        dynamic_cast<const NcpStepper*>(&sim.formulation()) ? frozen_->layout().nc : -1;
     lin_->Compute(vals_, jac_, nz, options, options.smoothing > 0.0,
-                  gi ? &frozen_->layout() : nullptr);
+                  gi ? &frozen_->layout() : nullptr, quadratic_from);
     lin_computed_ = true;
     if (!lin_->ok()) {
       message_ = lin_->message();
@@ -153,7 +157,7 @@ class StepDifferentiator {
       if (shift.size() == z_.size()) {
         z_ += shift;
         internal::EvaluateResidualsInto(*frozen_, z_, params, x, u, &vals_, &jac_);
-        lin_->Compute(vals_, jac_, nz, options, false, nullptr);
+        lin_->Compute(vals_, jac_, nz, options, false, nullptr, quadratic_from);
         if (!lin_->ok()) {
           message_ = lin_->message();
           return;

@@ -34,12 +34,18 @@ class Linearization {
   // `vals` holds the step equations and `J` their Jacobians (by rows) at the linearization point,
   // the first `nz` columns those of the unknowns z. `gi`: the step layout if the model is the
   // geometrically implicit stepper's (its unloaded candidate pairs are pinned, below), else null.
+  // `quadratic_from` (≥ 0): the pairs from this one on have a b side quadratic in the impulses
+  // (the NCP stepper's cone pairs σ ⊥ μ² p_n² − p_t²/e_t² − p_o²/e_o²); their b is judged active
+  // by its first-order distance to the cone's surface, b / max|∂b/∂z| (impulse units, as the
+  // linear cone row's), not by its value: at p_n ~ 1e-5 N·s a slack of 0.7 % of μ² p_n² is
+  // ~1e-12, below the tolerance set by the velocity rows' residuals.
   Linearization() = default;
 
   // (Re)computes everything from `vals`, reusing this object's storage (no result depends on an
   // earlier Compute: every member read later is overwritten or reset here).
   void Compute(const StepResiduals& vals, const SparseJacobians& J, int nz,
-               const SensitivityOptions& options, bool smoothed, const StepLayout* gi) {
+               const SensitivityOptions& options, bool smoothed, const StepLayout* gi,
+               int quadratic_from = -1) {
     ok_ = false;
     message_.clear();
     degenerate_ = 0;
@@ -65,6 +71,11 @@ class Linearization {
     a_ = a;
     b_ = b;
     tol_ = tol;
+    b_unit_.assign(static_cast<std::size_t>(np), 1.0);
+    for (int i = std::max(quadratic_from, 0); quadratic_from >= 0 && i < np; ++i) {
+      const double g = B_.RowMaxAbs(i, nz_);
+      if (g > 0.0) b_unit_[static_cast<std::size_t>(i)] = 1.0 / g;
+    }
     smoothed_ = smoothed;
     side_.assign(np, 'a');
     weight_a_ = VectorXd::Zero(np);
@@ -75,7 +86,8 @@ class Linearization {
     std::vector<int>& inert = inert_;  // GI pairs whose cone pair is inert
     inert.clear();
     for (int i = 0; i < np; ++i) {
-      const bool a0 = a[i] <= tol, b0 = b[i] <= tol;
+      const double bi = b[i] * b_unit_[static_cast<std::size_t>(i)];
+      const bool a0 = a[i] <= tol, b0 = bi <= tol;
       if (gi && !smoothed && a0 && b0 && B_.RowMaxAbs(i, nz_) <= inert_tol) {
         // A GI cone pair (σ, μ² p_n² − ‖p_t‖²) of an unloaded pair, p_n = p_t = 0: b has no
         // first-order variation and the pair's friction rows μ p_n v_t' + σ p_t are 0 = 0 to
@@ -106,7 +118,7 @@ class Linearization {
             break;
         }
       } else {
-        side_[i] = a[i] <= b[i] ? 'a' : 'b';
+        side_[i] = a[i] <= bi ? 'a' : 'b';
       }
     }
     for (int i = 0; i < np; ++i) {
@@ -342,8 +354,8 @@ class Linearization {
     for (int i = 0; i < static_cast<int>(side_.size()); ++i) {
       double slack = 0.0, rate = 0.0;
       if (side_[i] == 'a') {
-        slack = b_[i];
-        rate = db_->RowDot(i, dz, nz_) + r.b[i];
+        slack = b_[i] * b_unit_[static_cast<std::size_t>(i)];
+        rate = (db_->RowDot(i, dz, nz_) + r.b[i]) * b_unit_[static_cast<std::size_t>(i)];
       } else if (side_[i] == 'b') {
         slack = a_[i];
         rate = da_->RowDot(i, dz, nz_) + r.a[i];
@@ -370,6 +382,7 @@ class Linearization {
   VectorXd weight_a_, weight_b_;
   VectorXd a_, b_;    // the pairs' sides at the linearization point
   double tol_ = 0.0;  // a side at most this is 0 (active)
+  std::vector<double> b_unit_;  // per pair, b's factor into the units tol_ applies to
   bool smoothed_ = false;
   std::vector<char> side_;  // per pair: 'a' / 'b' held, 'd' degenerate, 'i' inert GI pair
   std::vector<int> deg_;
