@@ -229,17 +229,13 @@ bool SmallCholeskyInPlace(MatrixXd* p) {
 // x ← P⁻¹ x from SmallCholeskyInPlace's factor.
 void SmallCholeskySolve(const MatrixXd& l, VectorXd* x) {
   const int n = static_cast<int>(l.rows());
-  const double* L = l.data();  // L(i, k) = L[i + k n]
-  double* v = x->data();
   for (int i = 0; i < n; ++i) {
-    double sum = v[i];
-    for (int k = 0; k < i; ++k) sum -= L[i + k * n] * v[k];
-    v[i] = sum / L[i + i * n];
+    for (int k = 0; k < i; ++k) (*x)[i] -= l(i, k) * (*x)[k];
+    (*x)[i] /= l(i, i);
   }
   for (int i = n - 1; i >= 0; --i) {
-    double sum = v[i];
-    for (int k = i + 1; k < n; ++k) sum -= L[k + i * n] * v[k];
-    v[i] = sum / L[i + i * n];
+    for (int k = i + 1; k < n; ++k) (*x)[i] -= l(k, i) * (*x)[k];
+    (*x)[i] /= l(i, i);
   }
 }
 
@@ -317,10 +313,9 @@ double RowRate(const StewartTrinkle::Assembly& a, const BasisScratch& b, int i, 
   const int nc = static_cast<int>(a.contacts.size()), nd = a.nd, nf = nc * nd;
   double rate = b.dg[i], abs_sum = std::abs(b.dg[i]);
   if (i < nc + nf) {
-    const double *dnu = b.dnu.data(), *dnu_abs = b.dnu_abs.data();
     ForImpulseColumn(a, i, [&](int r, double v) {
-      rate += v * dnu[r];
-      abs_sum += std::abs(v) * dnu_abs[r];
+      rate += v * b.dnu[r];
+      abs_sum += std::abs(v) * b.dnu_abs[r];
     });
     if (i >= nc) {
       const double t = b.dz[nc + nf + (i - nc) / nd];
