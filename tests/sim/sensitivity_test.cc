@@ -209,6 +209,34 @@ TEST(SensitivityTest, NcpPushedBoxForwardModeMatchesClosedForm) {
     EXPECT_NEAR(d(i, 0), 0.0, 1e-9) << "row " << i;
 }
 
+// A step's derivative taken right after the step in its workspace freezes the step's own
+// assembly (copied from the thread's NCP step record) into the thread's model, refrozen in
+// place; with a workspace of its own (another scene owner: no record applies) it assembles
+// afresh. Both are the same numbers, bitwise, step after step (the reused model alternating
+// between the two).
+TEST(SensitivityTest, NcpStepRecordGivesTheFreshAssemblysDerivatives) {
+  const Simulator sim(LoadExample("box_diagonal_push.yaml"));
+  const Params p = sim.DefaultParams();
+  const ParamSelection sel(sim.scene().param_table(), {"mu.default", "mass.box"});
+  State x = sim.Rollout(p, sim.InitialState(), 20).states.back();
+  Workspace ws;
+  for (int k = 0; k < 10; ++k) {
+    State next;
+    ASSERT_TRUE(sim.Step(p, x, StepInput{}, &ws, &next).ok);
+    const StepSensitivity recorded =
+        StepDerivatives(sim, p, sel, x, StepInput{}, next, true, {}, &ws);
+    Workspace other;
+    const StepSensitivity fresh =
+        StepDerivatives(sim, p, sel, x, StepInput{}, next, true, {}, &other);
+    ASSERT_EQ(recorded.status, SensitivityStatus::kExact)
+        << "step " << k << ": " << recorded.message;
+    EXPECT_EQ(recorded.status, fresh.status);
+    EXPECT_EQ(recorded.d_theta, fresh.d_theta) << "step " << k;
+    EXPECT_EQ(recorded.d_x, fresh.d_x) << "step " << k;
+    x = next;
+  }
+}
+
 // Reverse mode gives the forward-mode gradient of the same objective, and both match central
 // differences along random directions of (θ, x_0).
 TEST(SensitivityTest, ReverseModeMatchesForwardModeAndFiniteDifferences) {

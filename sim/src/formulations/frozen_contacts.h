@@ -9,7 +9,9 @@
 #include <string>
 #include <vector>
 
+#include "sparse_rows.h"
 #include "vinci/sim/formulations/contact.h"
+#include "vinci/sim/formulations/ncp.h"
 #include "vinci/sim/formulations/step_model.h"
 #include "vinci/sim/geometry/contact_rate.h"
 #include "vinci/sim/model/kinematics.h"
@@ -72,5 +74,17 @@ std::vector<PolytopeFeature> FrozenSides(const Scene& model, const std::vector<C
 std::unique_ptr<StepModel> FreezeMcp(const Formulation& formulation,
                                      std::shared_ptr<const Scene> scene, const Params& params,
                                      const State& x, const StepInput& u);
+
+/// FreezeInto (step_record.h) for the NCP stepper: *frozen = Freeze(ncp, scene, params, x, u),
+/// an NCP model already there refrozen in its storage, the assembly copied from the thread's
+/// last step where that step was this one. The inputs are checked by the caller.
+void FreezeNcpInto(const NcpStepper& ncp, std::shared_ptr<const Scene> scene, const Params& params,
+                   const State& x, const StepInput& u, std::unique_ptr<StepModel>* frozen);
+/// internal::EvaluateResidualsInto (step_record.h) for a frozen NCP model at its freeze's state
+/// and input: the Jacobians by rows directly (no dense matrices); false (nothing written) for any
+/// other model or point.
+bool McpFreezeResidualsInto(const StepModel& m, const VectorXd& z, const Params& theta,
+                            const State& x, const StepInput& u, StepResiduals* out,
+                            SparseJacobians* jac);
 
 }  // namespace vinci::sim::internal

@@ -8,7 +8,10 @@
 #include <vector>
 
 #include "../solvers/scratch_lease.h"
+#include "ncp_internal.h"
+#include "step_record.h"
 #include "step_util.h"
+#include "stewart_trinkle_internal.h"
 #include "vinci/sim/model/kinematics.h"
 
 namespace vinci::sim {
@@ -352,9 +355,31 @@ struct NcpStepScratch {
   NcpStepper::StepProblem sp;
   NcpData d;
   VectorXd z, z_lcp, v1;
+  internal::StepRecord record;  // what sp.assembly was made from (step_record.h)
 };
 
 }  // namespace
+
+void internal::ClearNcpStepRecord() {
+  ScratchLease<NcpStepScratch> lease;  // a nested lease's scratch is fresh: nothing to clear
+  lease.get().record.Clear();
+}
+
+void internal::StampNcpStepOwner(const std::shared_ptr<const Scene>& scene) {
+  ScratchLease<NcpStepScratch> lease;
+  StepRecord& r = lease.get().record;
+  if (r.valid && r.model == scene.get()) r.owner = scene;
+}
+
+bool internal::CopyNcpStepAssembly(const NcpStepper& ncp, const std::shared_ptr<const Scene>& scene,
+                                   const State& x, const StepInput& u,
+                                   StewartTrinkle::Assembly* out) {
+  ScratchLease<NcpStepScratch> lease;
+  const NcpStepScratch& s = lease.get();
+  if (!s.record.Holds(ncp.assembler(), scene, x, u)) return false;
+  *out = s.sp.assembly;
+  return true;
+}
 
 void NcpStepper::Step(const Scene& model, const State& x, const StepInput& u, Workspace* ws,
                       State* next, StepInfo* info) const {
@@ -364,7 +389,10 @@ void NcpStepper::Step(const Scene& model, const State& x, const StepInput& u, Wo
   NcpStepScratch& scratch = lease.get();
   StepProblem& sp = scratch.sp;
   NcpData* d = &scratch.d;
+  // Kept for the step derivative's frozen model, with what it was made from (step_record.h).
+  scratch.record.Clear();
   BuildInto(model, x, u, &sp, d);
+  scratch.record.Stamp(st_, model, x, u);
   // Bound to this thread's data (a pointer: the std::function holds it without allocating).
   sp.mcp.evaluate = [d](const VectorXd& z, VectorXd* F, MatrixXd* J) { EvaluateNcp(*d, z, F, J); };
   const StewartTrinkle::Assembly& a = sp.assembly;
@@ -536,19 +564,50 @@ StepResiduals NcpStepper::EvaluateAssembly(const Scene& model, const Params& par
                                            const StewartTrinkle::Assembly& a, const State& x,
                                            const VectorXd& z) const {
   StepResiduals r;
+  internal::SparseJacobians jac;
+  internal::NcpEvaluateAssemblyInto(*this, model, params, a, x, z, &r, &jac);
+  const int ncol = r.layout.size() + static_cast<int>(r.param_columns.size());
+  const auto dense = [ncol](const internal::SparseRows& from, MatrixXd* to) {
+    to->setZero(from.rows(), ncol);
+    for (int i = 0; i < from.rows(); ++i)
+      for (int k = from.ptr[i]; k < from.ptr[i + 1]; ++k) (*to)(i, from.col[k]) = from.val[k];
+  };
+  dense(jac.equality, &r.d_equality);
+  dense(jac.comp_a, &r.d_comp_a);
+  dense(jac.comp_b, &r.d_comp_b);
+  return r;
+}
+
+void internal::NcpEvaluateAssemblyInto(const NcpStepper& ncp, const Scene& model,
+                                       const Params& params, const StewartTrinkle::Assembly& a,
+                                       const State& x, const VectorXd& z, StepResiduals* out,
+                                       SparseJacobians* jac) {
+  StepResiduals& r = *out;
   StepLayout& l = r.layout;
-  l = LayoutOfAssembly(model, a);
+  l = NcpStepper::LayoutOfAssembly(model, a);
   if (z.size() != l.size())
     throw std::invalid_argument("NcpStepper::Evaluate: z has " + std::to_string(z.size()) +
                                 " entries, the step layout needs " + std::to_string(l.size()));
   const int nc = l.nc, nv = l.nv, nq = l.nq, nb = l.nb, nd = a.nd;
   const bool planar = model.dim == Dim::kPlanar;
+  r.d_equality.resize(0, 0);
+  r.d_comp_a.resize(0, 0);
+  r.d_comp_b.resize(0, 0);
 
   // The Stewart–Trinkle equations with p_f = (p_t, p_o, 0, 0) (planar (p_t, 0)) give the
   // dynamics, kinematics, joint and normal rows.
+  struct Scratch {
+    VectorXd zs;
+    StepResiduals rs;
+    SparseJacobians js;
+    std::vector<int> col;
+  };
+  ScratchLease<Scratch> lease;
+  Scratch& sc = lease.get();
   StepLayout ls = l;
   ls.nd = nd;
-  VectorXd zs = VectorXd::Zero(ls.size());
+  VectorXd& zs = sc.zs;
+  zs.setZero(ls.size());
   zs.head(nq + nv + nc) = z.head(nq + nv + nc);
   for (int c = 0; c < nc; ++c) {
     zs[ls.pf() + c * nd] = z[l.pf() + 2 * c];
@@ -556,36 +615,46 @@ StepResiduals NcpStepper::EvaluateAssembly(const Scene& model, const Params& par
   }
   zs.segment(ls.sigma(), nc) = z.segment(l.sigma(), nc);
   zs.segment(ls.pb(), nb) = z.segment(l.pb(), nb);
-  const StepResiduals rs = st_.EvaluateAssembly(model, params, a, x, zs);
+  const StepResiduals& rs = sc.rs;
+  EvaluateAssemblyInto(ncp.assembler(), model, params, a, x, zs, jac != nullptr, &sc.rs,
+                       jac ? &sc.js : nullptr, /*normal_pairs_only=*/true);
   r.param_columns = rs.param_columns;
   const int np = static_cast<int>(r.param_columns.size());
   const int ncol = l.size() + np;
-  // Column of the ST layout → column of ours (−1: an ST unknown we do not have).
-  std::vector<int> col(ls.size() + np, -1);
-  for (int i = 0; i < nq + nv + nc; ++i) col[i] = i;
-  for (int c = 0; c < nc; ++c) {
-    col[ls.pf() + c * nd] = l.pf() + 2 * c;
-    if (!planar) col[ls.pf() + c * nd + 1] = l.pf() + 2 * c + 1;
-    col[ls.sigma() + c] = l.sigma() + c;
-  }
-  for (int i = 0; i < nb; ++i) col[ls.pb() + i] = l.pb() + i;
-  for (int i = 0; i < np; ++i) col[ls.size() + i] = l.size() + i;
-  const auto remap = [&](const MatrixXd& from, int row, MatrixXd* to, int to_row) {
-    for (int j = 0; j < from.cols(); ++j)
-      if (col[j] >= 0) (*to)(to_row, col[j]) = from(row, j);
-  };
-
   const int ne = nv + nq + nb;
   r.equality.resize(ne + 2 * nc);
-  r.d_equality = MatrixXd::Zero(ne + 2 * nc, ncol);
   r.equality.head(ne) = rs.equality;
-  for (int i = 0; i < ne; ++i) remap(rs.d_equality, i, &r.d_equality, i);
   r.comp_a.resize(2 * nc);
   r.comp_b.resize(2 * nc);
-  r.d_comp_a = MatrixXd::Zero(2 * nc, ncol);
-  r.d_comp_b = MatrixXd::Zero(2 * nc, ncol);
+  // Column of the ST layout → column of ours (−1: an ST unknown we do not have); increasing
+  // where defined, so a remapped row keeps its column order.
+  std::vector<int>& col = sc.col;
+  if (jac) {
+    col.assign(ls.size() + np, -1);
+    for (int i = 0; i < nq + nv + nc; ++i) col[i] = i;
+    for (int c = 0; c < nc; ++c) {
+      col[ls.pf() + c * nd] = l.pf() + 2 * c;
+      if (!planar) col[ls.pf() + c * nd + 1] = l.pf() + 2 * c + 1;
+      col[ls.sigma() + c] = l.sigma() + c;
+    }
+    for (int i = 0; i < nb; ++i) col[ls.pb() + i] = l.pb() + i;
+    for (int i = 0; i < np; ++i) col[ls.size() + i] = l.size() + i;
+    jac->equality.Reset(ncol);
+    jac->comp_a.Reset(ncol);
+    jac->comp_b.Reset(ncol);
+  }
+  const auto remap = [&col](const SparseRows& from, int row, SparseRows* to) {
+    for (int k = from.ptr[row]; k < from.ptr[row + 1]; ++k)
+      if (col[from.col[k]] >= 0) to->Push(col[from.col[k]], from.val[k]);
+    to->EndRow();
+  };
+  for (int i = 0; jac && i < ne; ++i) remap(sc.js.equality, i, &jac->equality);
   const auto v1 = z.segment(l.v1(), nv);
-  const double et2 = ncp_.e_t * ncp_.e_t, eo2 = ncp_.e_o * ncp_.e_o;
+  const NcpOptions& o = ncp.ncp_options();
+  const double et2 = o.e_t * o.e_t, eo2 = o.e_o * o.e_o;
+  const auto push = [](SparseRows* to, int c, double v) {
+    if (v != 0.0) to->Push(c, v);
+  };
   for (int c = 0; c < nc; ++c) {
     const double pn = z[l.pn() + c], pt = z[l.pf() + 2 * c], po = z[l.pf() + 2 * c + 1];
     const double s = z[l.sigma() + c], mu = a.mu[c];
@@ -593,44 +662,58 @@ StepResiduals NcpStepper::EvaluateAssembly(const Scene& model, const Params& par
         l.size() + static_cast<int>(std::find(r.param_columns.begin(), r.param_columns.end(),
                                               a.contacts[c].mu_param) -
                                     r.param_columns.begin());
-    // Normal pair.
-    r.comp_a[c] = pn;
-    r.d_comp_a(c, l.pn() + c) = 1.0;
-    r.comp_b[c] = rs.comp_b[c];
-    remap(rs.d_comp_b, c, &r.d_comp_b, c);
-    // Friction equalities.
+    // Friction equalities: e² μ p_n u + p σ = 0 per direction (planar: p_o = 0).
     const int et = ne + 2 * c, eo = et + 1;
     const double ut = a.G_f.col(c * nd).dot(v1) + a.dpsi_f[c * nd];
     r.equality[et] = et2 * mu * pn * ut + pt * s;
-    r.d_equality.block(et, l.v1(), 1, nv) = et2 * mu * pn * a.G_f.col(c * nd).toDense().transpose();
-    r.d_equality(et, l.pn() + c) = et2 * mu * ut;
-    r.d_equality(et, l.pf() + 2 * c) = s;
-    r.d_equality(et, l.sigma() + c) = pt;
-    r.d_equality(et, mu_col) += et2 * pn * ut;
-    if (planar) {
-      r.equality[eo] = po;
-      r.d_equality(eo, l.pf() + 2 * c + 1) = 1.0;
-    } else {
-      const double uo = a.G_f.col(c * nd + 1).dot(v1) + a.dpsi_f[c * nd + 1];
-      r.equality[eo] = eo2 * mu * pn * uo + po * s;
-      r.d_equality.block(eo, l.v1(), 1, nv) =
-          eo2 * mu * pn * a.G_f.col(c * nd + 1).toDense().transpose();
-      r.d_equality(eo, l.pn() + c) = eo2 * mu * uo;
-      r.d_equality(eo, l.pf() + 2 * c + 1) = s;
-      r.d_equality(eo, l.sigma() + c) = po;
-      r.d_equality(eo, mu_col) += eo2 * pn * uo;
+    const double uo = planar ? 0.0 : a.G_f.col(c * nd + 1).dot(v1) + a.dpsi_f[c * nd + 1];
+    r.equality[eo] = planar ? po : eo2 * mu * pn * uo + po * s;
+    // Cone pair: σ ⊥ μ² p_n² − p_t²/e_t² − p_o²/e_o².
+    r.comp_a[c] = pn;
+    r.comp_b[c] = rs.comp_b[c];
+    r.comp_a[nc + c] = s;
+    r.comp_b[nc + c] = mu * mu * pn * pn - pt * pt / et2 - po * po / eo2;
+    if (!jac) continue;
+    // Rows in column order: ν_ℓ+1, p_n, p_f, σ, θ.
+    for (int f = 0; f < (planar ? 1 : 2); ++f) {
+      const int d = c * nd + f;
+      const double e2 = f == 0 ? et2 : eo2, u = f == 0 ? ut : uo;
+      SparseRows& E = jac->equality;
+      for (SparseMatrixd::InnerIterator it(a.G_f, d); it; ++it)
+        push(&E, l.v1() + static_cast<int>(it.row()), e2 * mu * pn * it.value());
+      push(&E, l.pn() + c, e2 * mu * u);
+      push(&E, l.pf() + 2 * c + f, s);
+      push(&E, l.sigma() + c, f == 0 ? pt : po);
+      if (mu_col < ncol) push(&E, mu_col, e2 * pn * u);
+      E.EndRow();
     }
-    // Cone pair.
-    const int k = nc + c;
-    r.comp_a[k] = s;
-    r.d_comp_a(k, l.sigma() + c) = 1.0;
-    r.comp_b[k] = mu * mu * pn * pn - pt * pt / et2 - po * po / eo2;
-    r.d_comp_b(k, l.pn() + c) = 2.0 * mu * mu * pn;
-    r.d_comp_b(k, l.pf() + 2 * c) = -2.0 * pt / et2;
-    r.d_comp_b(k, l.pf() + 2 * c + 1) = -2.0 * po / eo2;
-    r.d_comp_b(k, mu_col) += 2.0 * mu * pn * pn;
+    if (planar) {
+      jac->equality.Push(l.pf() + 2 * c + 1, 1.0);
+      jac->equality.EndRow();
+    }
   }
-  return r;
+  if (!jac) return;
+  for (int c = 0; c < nc; ++c) {  // normal pairs: p_n ⊥ the ST normal row
+    jac->comp_a.Push(l.pn() + c, 1.0);
+    jac->comp_a.EndRow();
+    remap(sc.js.comp_b, c, &jac->comp_b);
+  }
+  for (int c = 0; c < nc; ++c) {  // cone pairs
+    const double pn = z[l.pn() + c], pt = z[l.pf() + 2 * c], po = z[l.pf() + 2 * c + 1];
+    const double mu = a.mu[c];
+    const int mu_col =
+        l.size() + static_cast<int>(std::find(r.param_columns.begin(), r.param_columns.end(),
+                                              a.contacts[c].mu_param) -
+                                    r.param_columns.begin());
+    jac->comp_a.Push(l.sigma() + c, 1.0);
+    jac->comp_a.EndRow();
+    SparseRows& B = jac->comp_b;
+    push(&B, l.pn() + c, 2.0 * mu * mu * pn);
+    push(&B, l.pf() + 2 * c, -2.0 * pt / et2);
+    push(&B, l.pf() + 2 * c + 1, -2.0 * po / eo2);
+    if (mu_col < ncol) push(&B, mu_col, 2.0 * mu * pn * pn);
+    B.EndRow();
+  }
 }
 
 }  // namespace vinci::sim

@@ -580,6 +580,11 @@ void FreezeInto(const Formulation& formulation, std::shared_ptr<const Scene> sce
                 const Params& params, const State& x, const StepInput& u,
                 std::unique_ptr<StepModel>* frozen) {
   const auto* st = dynamic_cast<const StewartTrinkle*>(&formulation);
+  if (const auto* ncp = dynamic_cast<const NcpStepper*>(&formulation)) {
+    CheckFreezeInputs(scene.get(), params, x);
+    FreezeNcpInto(*ncp, std::move(scene), params, x, u, frozen);
+    return;
+  }
   if (!st) {
     *frozen = Freeze(formulation, std::move(scene), params, x, u);
     return;
@@ -601,6 +606,7 @@ void EvaluateResidualsInto(const StepModel& m, const VectorXd& z, const Params& 
                            SparseJacobians* jac) {
   const auto* st = dynamic_cast<const StewartTrinkleModel*>(&m);
   if (st && st->FreezeResidualsInto(z, theta, x, u, out, jac)) return;
+  if (McpFreezeResidualsInto(m, z, theta, x, u, out, jac)) return;
   *out = m.EvaluateResiduals(z, theta, x, u, true);
   jac->equality.FromDense(out->d_equality);
   jac->comp_a.FromDense(out->d_comp_a);

@@ -7,6 +7,7 @@
 
 #include "../solvers/scratch_lease.h"
 #include "frozen_contacts.h"
+#include "ncp_internal.h"
 #include "step_util.h"
 #include "vinci/sim/formulations/geometrically_implicit.h"
 #include "vinci/sim/formulations/ncp.h"
@@ -31,25 +32,35 @@ class NcpModel final : public StepModel {
       : StepModel(std::move(model), std::move(params), std::move(x), std::move(u),
                   ncp.assembler().options().dt),
         ncp_(ncp) {
-    ncp_.assembler().AssembleInto(*model_, x_, u_, &freeze_);  // as StewartTrinkleModel
-    contacts_ = freeze_.contacts;
-    G_b_ = freeze_.G_b;
-    k0_ = ComputeBodyKinematics(*model_, x_);
-    sides_ = FrozenSides(*model_, contacts_, k0_, &feature_kinks_);
-    // The frozen contact set's layout and the scene's differentiable parameters, as
-    // EvaluateAssembly at the freeze gives them (no evaluation).
-    const StepLayout l = NcpStepper::LayoutOfAssembly(*model_, freeze_);
-    std::vector<int> param_columns;
-    internal::DifferentiableParamColumns(model_->param_table(), l.size(), &param_columns);
-    InitLayout(l, std::move(param_columns));
+    Build();
+  }
+  const NcpStepper& formulation() const { return ncp_; }
+  // As StewartTrinkleModel's: frozen at (scene, params, x, u) bitwise; refrozen in place.
+  bool FrozenAt(const Scene* scene, const Params& params, const State& x,
+                const StepInput& u) const {
+    return model_.get() == scene && params_ == params && SameStateAndInput(x, u, x_, u_);
+  }
+  void Refreeze(std::shared_ptr<const Scene> model, const Params& params, const State& x,
+                const StepInput& u) {
+    model_ = std::move(model);
+    params_ = params;
+    x_ = x;
+    u_ = u;
+    dt_ = ncp_.assembler().options().dt;
+    Build();
   }
 
  protected:
   StepResiduals Residuals(const Scene& model, const Params& theta, const State& x,
-                          const StepInput& u, const VectorXd& z, bool) const override {
-    if (&model == model_.get() && SameStateAndInput(x, u, x_, u_))
-      return ncp_.EvaluateAssembly(model, theta, freeze_, x, z);
-    return ncp_.EvaluateAssembly(model, theta, AssembleAt(model, x, u), x, z);
+                          const StepInput& u, const VectorXd& z, bool jacobians) const override {
+    const bool at_freeze = &model == model_.get() && SameStateAndInput(x, u, x_, u_);
+    if (jacobians)
+      return ncp_.EvaluateAssembly(model, theta, at_freeze ? freeze_ : AssembleAt(model, x, u), x,
+                                   z);
+    StepResiduals r;
+    internal::NcpEvaluateAssemblyInto(
+        ncp_, model, theta, at_freeze ? freeze_ : AssembleAt(model, x, u), x, z, &r, nullptr);
+    return r;
   }
   StepResiduals ResidualsAlong(const VectorXd& z, const StepInput& u, const VectorXd& s,
                                double t) const override {
@@ -58,8 +69,23 @@ class NcpModel final : public StepModel {
     StewartTrinkle::Assembly& a = lease.get();
     a.contacts = MoveContactsAlong(*model_, contacts_, x_, x, s, t, dt_, k0_, sides_);
     ncp_.assembler().AssembleAtInto(*model_, x, u, /*select_corner_edges=*/false, &a);
-    return ncp_.EvaluateAssembly(*model_, params_, a, x, z);
+    StepResiduals r;
+    internal::NcpEvaluateAssemblyInto(ncp_, *model_, params_, a, x, z, &r, nullptr);
+    return r;
   }
+
+ public:
+  // EvaluateResiduals(z, θ, x, u, true) into *out with the Jacobians by rows into *jac (out's d_
+  // matrices left empty), if x and u are the freeze's (bitwise): else false (nothing written).
+  bool FreezeResidualsInto(const VectorXd& z, const Params& theta, const State& x,
+                           const StepInput& u, StepResiduals* out,
+                           internal::SparseJacobians* jac) const {
+    if (z.size() != layout_.size() || !SameStateAndInput(x, u, x_, u_)) return false;
+    internal::NcpEvaluateAssemblyInto(ncp_, *model_, theta, freeze_, x, z, out, jac);
+    return true;
+  }
+
+ protected:
   // The MCP solution [p_n (nc); (p_t, p_o) per contact (2 nc); σ (nc)] is z's p_n, p_f, σ.
   VectorXd Unknowns(const State& next) const override {
     const StepLayout& l = layout_;
@@ -85,6 +111,21 @@ class NcpModel final : public StepModel {
     return ncp_.assembler().AssembleAt(model, x, u,
                                        MoveContacts(model, contacts_, x_, x, dt_, &k0_, &sides_),
                                        /*select_corner_edges=*/false);
+  }
+  // The assembly at the freeze (the thread's last step's if it was this one: step_record.h),
+  // in this object's storage, and what is derived from it.
+  void Build() {
+    if (!internal::CopyNcpStepAssembly(ncp_, model_, x_, u_, &freeze_))
+      ncp_.assembler().AssembleInto(*model_, x_, u_, &freeze_);  // as StewartTrinkleModel
+    contacts_ = freeze_.contacts;
+    G_b_ = freeze_.G_b;
+    ComputeBodyKinematics(*model_, x_, &k0_);
+    internal::FrozenSidesInto(*model_, contacts_, k0_, &sides_, &feature_kinks_);
+    // The frozen contact set's layout and the scene's differentiable parameters, as
+    // EvaluateAssembly at the freeze gives them (no evaluation).
+    layout_ = NcpStepper::LayoutOfAssembly(*model_, freeze_);
+    param_columns_.clear();
+    internal::DifferentiableParamColumns(model_->param_table(), layout_.size(), &param_columns_);
   }
   const NcpStepper& ncp_;
   std::vector<Contact> contacts_;
@@ -168,6 +209,24 @@ class GiModel final : public StepModel {
 }  // namespace
 
 namespace internal {
+
+void FreezeNcpInto(const NcpStepper& ncp, std::shared_ptr<const Scene> scene, const Params& params,
+                   const State& x, const StepInput& u, std::unique_ptr<StepModel>* frozen) {
+  auto* reuse = dynamic_cast<NcpModel*>(frozen->get());
+  if (reuse && &reuse->formulation() == &ncp) {
+    if (!reuse->FrozenAt(scene.get(), params, x, u))
+      reuse->Refreeze(std::move(scene), params, x, u);
+    return;
+  }
+  *frozen = std::make_unique<NcpModel>(ncp, std::move(scene), params, x, u);
+}
+
+bool McpFreezeResidualsInto(const StepModel& m, const VectorXd& z, const Params& theta,
+                            const State& x, const StepInput& u, StepResiduals* out,
+                            SparseJacobians* jac) {
+  const auto* ncp = dynamic_cast<const NcpModel*>(&m);
+  return ncp && ncp->FreezeResidualsInto(z, theta, x, u, out, jac);
+}
 
 std::unique_ptr<StepModel> FreezeMcp(const Formulation& formulation,
                                      std::shared_ptr<const Scene> scene, const Params& params,

@@ -1,6 +1,7 @@
 // What the calling thread's last Stewart–Trinkle-family step assembled (internal header), so
 // that the step derivative's frozen model (step_model.h) reuses that assembly instead of
-// assembling the same step again.
+// assembling the same step again. The NCP stepper keeps a StepRecord of its own step's assembly
+// the same way (ncp_internal.h).
 //
 // The step assembles into its thread's StepScratch (sparse_lcp.h) and stamps the scratch's
 // StepRecord with what the assembly is a function of: the formulation, the scene, x (t, q, ν)

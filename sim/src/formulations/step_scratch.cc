@@ -6,6 +6,7 @@
 #include <emmintrin.h>
 #endif
 
+#include "ncp_internal.h"
 #include "sparse_lcp.h"
 
 namespace vinci::sim::internal {
@@ -55,11 +56,13 @@ StepScratchLease::~StepScratchLease() {
 
 void ClearStepRecord() {
   if (!t_scratch_in_use) t_scratch.record.Clear();
+  ClearNcpStepRecord();
 }
 
 void StampStepOwner(const std::shared_ptr<const Scene>& scene) {
   StepRecord& r = t_scratch.record;
   if (!t_scratch_in_use && r.valid && r.model == scene.get()) r.owner = scene;
+  StampNcpStepOwner(scene);
 }
 
 const StepScratch* IdleThreadStepScratch() { return t_scratch_in_use ? nullptr : &t_scratch; }

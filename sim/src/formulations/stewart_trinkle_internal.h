@@ -32,8 +32,11 @@ void VelocityAfterWith(const StewartTrinkle::Assembly& a, const VectorXd& v_star
 /// StewartTrinkle::EvaluateAssembly into *r, its storage reused (every field overwritten; the
 /// same numbers). Without `jacobians` the d_ matrices are left empty; with `sparse` the
 /// Jacobians (the same entries) go to *sparse by rows and r's d_ matrices are left empty.
+/// `normal_pairs_only`: of the pairs' Jacobians only the normal rows' b side is written (the
+/// other rows empty, every value still computed): what the NCP stepper's equations read.
 void EvaluateAssemblyInto(const StewartTrinkle& st, const Scene& model, const Params& params,
                           const StewartTrinkle::Assembly& a, const State& x, const VectorXd& z,
-                          bool jacobians, StepResiduals* r, SparseJacobians* sparse = nullptr);
+                          bool jacobians, StepResiduals* r, SparseJacobians* sparse = nullptr,
+                          bool normal_pairs_only = false);
 
 }  // namespace vinci::sim::internal

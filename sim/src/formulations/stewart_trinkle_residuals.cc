@@ -22,10 +22,11 @@ using internal::CheckShapesSupported;
 using internal::PrescribedKinematics;
 
 // Appends the support-friction pairs (p_s, G_sᵀν + E_s σ_s) and (σ_s, h μ_s N − E_sᵀ p_s) to
-// the complementarity block of r (after every other pair).
+// the complementarity block of r (after every other pair); with `jacobians` the rows are added
+// to Ja and Jb, with `entries` too their entries.
 void AppendSupportPairs(const SupportRows& sup, const StepLayout& l, const VectorXd& z,
-                        bool jacobians, StepResiduals* r, internal::JacobianWriter* Ja,
-                        internal::JacobianWriter* Jb) {
+                        bool jacobians, bool entries, StepResiduals* r,
+                        internal::JacobianWriter* Ja, internal::JacobianWriter* Jb) {
   const int old = static_cast<int>(r->comp_a.size());
   const int add = l.nps + l.ns;
   r->comp_a.conservativeResize(old + add);
@@ -35,6 +36,8 @@ void AppendSupportPairs(const SupportRows& sup, const StepLayout& l, const Vecto
   if (jacobians) {
     Ja->AddRows(add);
     Jb->AddRows(add);
+  }
+  if (jacobians && entries) {
     Ja->Identity(old, l.ps(), add);
     Jb->DenseBlock(old, l.v1(), sup.G_s.transpose());
   }
@@ -45,7 +48,7 @@ void AppendSupportPairs(const SupportRows& sup, const StepLayout& l, const Vecto
       const int col = sup.first[k] + j;
       r->comp_b[old + col] += z[l.sigma_s() + k];
       r->comp_b[row] -= z[l.ps() + col];
-      if (!jacobians) continue;
+      if (!jacobians || !entries) continue;
       Jb->Set(old + col, l.sigma_s() + k, 1.0);
       Jb->Set(row, l.ps() + col, -1.0);
     }
@@ -115,7 +118,8 @@ StepResiduals StewartTrinkle::EvaluateAssembly(const Scene& model, const Params&
 void internal::EvaluateAssemblyInto(const StewartTrinkle& st, const Scene& model,
                                     const Params& params, const StewartTrinkle::Assembly& a,
                                     const State& x, const VectorXd& z, bool jacobians,
-                                    StepResiduals* out, SparseJacobians* sparse) {
+                                    StepResiduals* out, SparseJacobians* sparse,
+                                    bool normal_pairs_only) {
   const StepperOptions& options = st.options();
   const bool velocity_level = options.formulation == FormulationType::kAnitescuPotra;
   const bool first_order = options.formulation == FormulationType::kFirstOrder;
@@ -155,6 +159,7 @@ void internal::EvaluateAssemblyInto(const StewartTrinkle& st, const Scene& model
   // stay empty and every write to them below is skipped.
   // With `sparse`, the Jacobians go there (by rows) and the d_ matrices stay empty.
   const bool jac = jacobians;
+  const bool pair_jac = jac && !normal_pairs_only;  // the Jacobians of the other pairs' rows
   const int ncomp_all = nc + nc * l.nd + nc + l.nk;
   // Sparse: the writers kept with *sparse (their row patterns reused from the last evaluation).
   JacobianWriter dense_e, dense_a, dense_b;
@@ -247,11 +252,11 @@ void internal::EvaluateAssemblyInto(const StewartTrinkle& st, const Scene& model
   r.comp_a.resize(ncomp);
   r.comp_b.resize(ncomp);
   r.comp_a << pn, pf, sigma, cc;
-  if (jac) {
-    if (!sparse) {
-      Ja.Dense(&r.d_comp_a, ncomp, ncol);
-      Jb.Dense(&r.d_comp_b, ncomp, ncol);
-    }
+  if (jac && !sparse) {
+    Ja.Dense(&r.d_comp_a, ncomp, ncol);
+    Jb.Dense(&r.d_comp_b, ncomp, ncol);
+  }
+  if (pair_jac) {
     Ja.Identity(0, l.pn(), nc + nf + nc);  // contiguous
     Ja.Identity(ncomp - nk, l.corner(), nk);
   }
@@ -268,18 +273,18 @@ void internal::EvaluateAssemblyInto(const StewartTrinkle& st, const Scene& model
   }
 
   r.comp_b.segment(nc, nf) = a.G_f.transpose() * v1 + a.dpsi_f;
-  if (jac) Jb.BlockTransposed(nc, l.v1(), a.G_f);
+  if (pair_jac) Jb.BlockTransposed(nc, l.v1(), a.G_f);
   for (int c = 0; c < nc; ++c) {
     double sum_pf = 0.0;
     for (int j = 0; j < nd; ++j) {
       r.comp_b[nc + c * nd + j] += sigma[c];
       sum_pf += pf[c * nd + j];
-      if (!jac) continue;
+      if (!pair_jac) continue;
       Jb.Set(nc + c * nd + j, l.sigma() + c, 1.0);
       Jb.Set(nc + nf + c, l.pf() + c * nd + j, -1.0);
     }
     r.comp_b[nc + nf + c] = a.mu[c] * pn[c] - sum_pf;
-    if (!jac) continue;
+    if (!pair_jac) continue;
     Jb.Set(nc + nf + c, l.pn() + c, a.mu[c]);
     Jb.Set(nc + nf + c, column_of[a.contacts[c].mu_param], pn[c]);
   }
@@ -291,15 +296,15 @@ void internal::EvaluateAssemblyInto(const StewartTrinkle& st, const Scene& model
     r.comp_b[row] = cc[k] - ((a.psi_1[k] - a.psi_n[c]) / h + D.dot(v1) + a.dpsi_1[k] - a.dpsi_n[c]);
     r.comp_b[c] += cc[k];
     if (velocity_level) r.comp_b[c] += a.psi_n[c] / h;  // corners stay position-level
-    if (!jac) continue;
+    if (jac) Jb.Set(c, l.corner() + k, 1.0);
+    if (!pair_jac) continue;
     Jb.Set(row, l.corner() + k, 1.0);
     Jb.DenseBlock(row, l.v1(), -D.transpose());
-    Jb.Set(c, l.corner() + k, 1.0);
   }
   if (l.ns > 0) {
-    AppendSupportPairs(a.support, l, z, jac, &r, &Ja, &Jb);
+    AppendSupportPairs(a.support, l, z, jac, pair_jac, &r, &Ja, &Jb);
     // A static distribution scales with the mass: ∂(h μ_s N_k)/∂m = h μ_s N_k / m.
-    for (int i = 0; jac && i < model.param_table().size(); ++i) {
+    for (int i = 0; pair_jac && i < model.param_table().size(); ++i) {
       const ParamInfo& info = model.param_table().info(i);
       if (info.kind == ParamKind::kSupportFriction) {  // ∂(h μ_s N_k)/∂μ_s = h N_k
         for (int k = 0; k < l.ns; ++k)

@@ -5,6 +5,13 @@
 
 #include <Eigen/LU>
 #include <Eigen/QR>
+#ifdef __SSE2__
+#include <emmintrin.h>
+#endif
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <utility>
 #include <vector>
 
 #include "../formulations/sparse_rows.h"
@@ -19,14 +26,167 @@ void CheckSelection(const Simulator& sim, const ParamSelection& selection);
 /// Adds one step's status to the matching counter.
 void Count(SensitivityStatus s, int* exact, int* degenerate, int* mode_change, int* failed);
 
+// LU with complete pivoting of a small square matrix, P A Q = L U (L unit lower triangular),
+// stopped at the first pivot at most `threshold` times the largest one before it: its rank r is
+// the number of pivots taken (what Eigen::FullPivLU's rank() gives at the same threshold, the
+// remaining Schur complement being as small). Plain loops over column-major storage: at the
+// sizes of a step's core (≤ ~30) Eigen's generic visitors and its kernel() cost several times
+// the arithmetic.
+class CompletePivotLu {
+ public:
+  void Compute(const MatrixXd& a, double threshold) {
+    const int n = static_cast<int>(a.rows());
+    n_ = n;
+    lu_ = a;
+    row_swap_.resize(n);
+    col_swap_.resize(n);
+    // col_max_[j]: max |entry| of column j over the trailing rows, kept by the updates (the
+    // search for the next pivot then reads n numbers, not the trailing block).
+    col_max_.resize(n);
+    rank_ = 0;
+    double* m = lu_.data();
+    for (int j = 0; j < n; ++j) col_max_[j] = MaxAbs(m + static_cast<std::ptrdiff_t>(j) * n, n);
+    double max_pivot = 0.0;
+    for (int k = 0; k < n; ++k) {
+      // The pivot: the first column holding the largest |entry| of the trailing block, its
+      // first row holding it.
+      double best = 0.0;
+      int bi = k, bj = k;
+      for (int j = k; j < n; ++j)
+        if (col_max_[j] > best) {
+          best = col_max_[j];
+          bj = j;
+        }
+      if (!(best > threshold * max_pivot) || best == 0.0) break;
+      for (const double* c = m + static_cast<std::ptrdiff_t>(bj) * n; std::abs(c[bi]) != best;)
+        ++bi;
+      max_pivot = std::max(max_pivot, best);
+      row_swap_[k] = bi;
+      col_swap_[k] = bj;
+      if (bi != k)
+        for (int j = 0; j < n; ++j) std::swap(m[j * n + k], m[j * n + bi]);
+      if (bj != k) {
+        for (int i = 0; i < n; ++i) std::swap(m[k * n + i], m[bj * n + i]);
+        std::swap(col_max_[k], col_max_[bj]);
+      }
+      double* ck = m + static_cast<std::ptrdiff_t>(k) * n;
+      const double inv = 1.0 / ck[k];
+      for (int i = k + 1; i < n; ++i) ck[i] *= inv;
+      // A column with a 0 in the pivot row keeps its entries and its maximum (the one entry
+      // leaving its trailing rows is that 0).
+      for (int j = k + 1; j < n; ++j) {
+        double* cj = m + static_cast<std::ptrdiff_t>(j) * n;
+        const double f = cj[k];
+        if (f != 0.0) col_max_[j] = AxpyMaxAbs(cj + k + 1, ck + k + 1, f, n - k - 1);
+      }
+      ++rank_;
+    }
+  }
+  int rank() const { return rank_; }
+  bool invertible() const { return rank_ == n_; }
+
+  /// A solution of A x = b if one exists: the free unknowns (Q's last n − r) 0, the equations
+  /// P's last n − r ignored (the caller checks the residual).
+  void Solve(const VectorXd& b, VectorXd* x) const {
+    VectorXd& c = *x;
+    c = b;
+    const double* m = lu_.data();
+    const int n = n_, r = rank_;
+    for (int k = 0; k < r; ++k) std::swap(c[k], c[row_swap_[k]]);
+    for (int k = 0; k < r; ++k) {
+      const double* ck = m + static_cast<std::ptrdiff_t>(k) * n;
+      const double v = c[k];
+      if (v != 0.0)
+        for (int i = k + 1; i < r; ++i) c[i] -= ck[i] * v;
+    }
+    for (int i = r; i < n; ++i) c[i] = 0.0;
+    BackSubstitute(&c);
+    for (int k = r - 1; k >= 0; --k) std::swap(c[k], c[col_swap_[k]]);
+  }
+
+  /// A basis of the null space of the rank-r factorization (n − r columns): the free unknown
+  /// j set to 1, the others to 0, the pivot unknowns from U₁₁ y = −U₁₂ e_j.
+  void Kernel(MatrixXd* out) const {
+    const int n = n_, r = rank_;
+    out->setZero(n, n - r);
+    VectorXd y(n);
+    for (int j = r; j < n; ++j) {
+      y.setZero();
+      for (int i = 0; i < r; ++i) y[i] = -lu_(i, j);
+      y[j] = 1.0;
+      BackSubstitute(&y);
+      for (int k = r - 1; k >= 0; --k) std::swap(y[k], y[col_swap_[k]]);
+      out->col(j - r) = y;
+    }
+  }
+
+ private:
+  // max_i |c[i]| over len entries, two at a time where SSE2 is available (the pivot search is
+  // most of a complete-pivoting LU's instructions at these sizes).
+  static double MaxAbs(const double* c, int len) {
+    int i = 0;
+    double m = 0.0;
+#ifdef __SSE2__
+    const __m128d sign = _mm_set1_pd(-0.0);
+    __m128d acc = _mm_setzero_pd();
+    for (; i + 1 < len; i += 2) acc = _mm_max_pd(acc, _mm_andnot_pd(sign, _mm_loadu_pd(c + i)));
+    double pair[2];
+    _mm_storeu_pd(pair, acc);
+    m = std::max(pair[0], pair[1]);
+#endif
+    for (; i < len; ++i) m = std::max(m, std::abs(c[i]));
+    return m;
+  }
+  // y ← y − f x over len entries; returns max_i |y_i| after the update (SSE2 where available,
+  // the same numbers: no fused multiply-add either way).
+  static double AxpyMaxAbs(double* y, const double* x, double f, int len) {
+    int i = 0;
+    double m = 0.0;
+#ifdef __SSE2__
+    const __m128d sign = _mm_set1_pd(-0.0), fv = _mm_set1_pd(f);
+    __m128d acc = _mm_setzero_pd();
+    for (; i + 1 < len; i += 2) {
+      const __m128d v = _mm_sub_pd(_mm_loadu_pd(y + i), _mm_mul_pd(_mm_loadu_pd(x + i), fv));
+      _mm_storeu_pd(y + i, v);
+      acc = _mm_max_pd(acc, _mm_andnot_pd(sign, v));
+    }
+    double pair[2];
+    _mm_storeu_pd(pair, acc);
+    m = std::max(pair[0], pair[1]);
+#endif
+    for (; i < len; ++i) {
+      y[i] -= x[i] * f;
+      m = std::max(m, std::abs(y[i]));
+    }
+    return m;
+  }
+  // y[0..r) ← U₁₁⁻¹ y[0..r) (U by columns, upper triangle of lu_).
+  void BackSubstitute(VectorXd* y) const {
+    const double* m = lu_.data();
+    const int n = n_;
+    for (int k = rank_ - 1; k >= 0; --k) {
+      const double* ck = m + static_cast<std::ptrdiff_t>(k) * n;
+      const double v = ((*y)[k] /= ck[k]);
+      if (v != 0.0)
+        for (int i = 0; i < k; ++i) (*y)[i] -= ck[i] * v;
+    }
+  }
+  int n_ = 0, rank_ = 0;
+  MatrixXd lu_;
+  std::vector<int> row_swap_, col_swap_;  // step k swapped row k with row_swap_[k] (cols: col_)
+  std::vector<double> col_max_;
+};
+
 // A square system K dz = b factored structurally: singleton rows (a held impulse, dp = 0; a
 // variable fixed by one row) are eliminated first, then singleton columns (a variable that only
 // one remaining row reads, e.g. q_ℓ+1 in its kinematics row, recovered last), and the small core
 // left (the dynamics and the loaded contacts' rows) is factored by LU with complete pivoting,
-// which reveals its rank. Only a rank-deficient core (redundant contacts: a box face on a plane,
-// its four corners loaded) is factored by the complete orthogonal decomposition, whose solution
-// is the minimum-norm one of the core. The caller checks the residual of every solution (an
-// inconsistent singular system is not solvable).
+// which reveals its rank. A rank-deficient core (redundant contacts: a box face on a plane, its
+// four corners loaded) takes the minimum-norm solution: the LU's particular solution (free
+// unknowns 0) projected off the LU's kernel (x − N Nᵀ x, N orthonormal) — for a consistent
+// right side the same solution as a complete orthogonal decomposition's, which only a core that
+// is not square takes. The caller checks the residual of every solution (an inconsistent
+// singular system is not solvable).
 class StructuredSolver {
  public:
   /// Factors K (square, by rows; kept by pointer: it must outlive this solver's use).
@@ -99,12 +259,22 @@ class StructuredSolver {
       for (int k = K.ptr[rows_[r]]; k < K.ptr[rows_[r] + 1]; ++k)
         if (core_col_[K.col[k]] >= 0) core_(r, core_col_[K.col[k]]) = K.val[k];
     use_lu_ = false;
+    null_basis_.resize(nc, 0);
     if (nr == nc && nr > 0) {
-      lu_.setThreshold(1e-10);
-      lu_.compute(core_);
-      use_lu_ = lu_.isInvertible();
-    }
-    if (!use_lu_ && nr > 0 && nc > 0) {
+      lu_.Compute(core_, 1e-10);
+      use_lu_ = lu_.invertible();
+      if (!use_lu_) {
+        // The core's null space, orthonormalized (modified Gram–Schmidt, twice): a solution's
+        // projection off it is the minimum-norm solution of the (consistent) core system.
+        lu_.Kernel(&null_basis_);
+        for (int k = 0; k < null_basis_.cols(); ++k)
+          for (int pass = 0; pass < 2; ++pass) {
+            for (int j = 0; j < k; ++j)
+              null_basis_.col(k) -= null_basis_.col(j).dot(null_basis_.col(k)) * null_basis_.col(j);
+            null_basis_.col(k).normalize();
+          }
+      }
+    } else if (nr > 0 && nc > 0) {
       cod_.setThreshold(1e-12);
       cod_.compute(core_);
     }
@@ -128,7 +298,13 @@ class StructuredSolver {
     if (!cols_.empty() && !rows_.empty()) {
       VectorXd bc(rows_.size());
       for (std::size_t r = 0; r < rows_.size(); ++r) bc[r] = b[rows_[r]] - RowDot(rows_[r], x);
-      const VectorXd xc = use_lu_ ? VectorXd(lu_.solve(bc)) : VectorXd(cod_.solve(bc));
+      VectorXd xc;
+      if (rows_.size() != cols_.size()) {
+        xc = cod_.solve(bc);
+      } else {
+        lu_.Solve(bc, &xc);  // singular: the particular solution whose free unknowns are 0
+        if (!use_lu_) xc -= null_basis_ * (null_basis_.transpose() * xc);
+      }
       for (std::size_t c = 0; c < cols_.size(); ++c) x[cols_[c]] = xc[c];
     }
     for (auto it = ops_.rbegin(); it != ops_.rend(); ++it)
@@ -142,8 +318,9 @@ class StructuredSolver {
   MatrixXd NullSpace() const {
     const int n = K_->rows();
     if (use_lu_ || cols_.empty() || rows_.size() != cols_.size()) return MatrixXd(n, 0);
-    const MatrixXd Nc = lu_.kernel();
     if (lu_.rank() == static_cast<int>(cols_.size())) return MatrixXd(n, 0);
+    MatrixXd Nc;
+    lu_.Kernel(&Nc);
     MatrixXd N = MatrixXd::Zero(n, Nc.cols());
     for (int k = 0; k < Nc.cols(); ++k) {
       VectorXd x = VectorXd::Zero(n);
@@ -180,8 +357,9 @@ class StructuredSolver {
   std::vector<int> rows_, cols_;
   MatrixXd core_;
   bool use_lu_ = false;
-  Eigen::FullPivLU<MatrixXd> lu_;
-  Eigen::CompleteOrthogonalDecomposition<MatrixXd> cod_;
+  CompletePivotLu lu_;
+  MatrixXd null_basis_;  // a square singular core's null space, orthonormal columns
+  Eigen::CompleteOrthogonalDecomposition<MatrixXd> cod_;  // a core that is not square
 };
 
 }  // namespace vinci::sim::internal

@@ -176,10 +176,10 @@ class Linearization {
     }
     if (smoothed) deg_.clear();
     // K factored structurally (StructuredSolver): the held impulses and the end positions
-    // eliminated, the small core by LU with complete pivoting, and by the rank-revealing
-    // complete orthogonal decomposition only where the core is singular (redundant contacts: a
-    // box face on a plane, four corners all loaded: impulses not unique; the solutions' state
-    // part is still unique where consistent). Partial-pivoting LU, tried earlier for speed, took
+    // eliminated, the small core by LU with complete pivoting, which reveals its rank; a
+    // singular core (redundant contacts: a box face on a plane, four corners all loaded:
+    // impulses not unique; the solutions' state part is still unique where consistent) takes
+    // the minimum-norm solution. Partial-pivoting LU, tried earlier for speed, took
     // such a K as regular — its rcond estimate was above a 1e-10 cut-off — and returned wrong
     // state derivatives (SensitivityTest.RedundantRestingContacts…).
     solver_.Compute(K_);
