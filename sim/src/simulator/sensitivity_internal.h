@@ -58,7 +58,8 @@ class CompletePivotLu {
           bj = j;
         }
       if (!(best > threshold * max_pivot) || best == 0.0) break;
-      for (const double* c = m + static_cast<std::ptrdiff_t>(bj) * n; std::abs(c[bi]) != best;)
+      for (const double* c = m + static_cast<std::ptrdiff_t>(bj) * n;
+           bi + 1 < n && std::abs(c[bi]) != best;)
         ++bi;
       max_pivot = std::max(max_pivot, best);
       row_swap_[k] = bi;
