@@ -174,7 +174,8 @@ class CompletePivotLu {
   }
   int n_ = 0, rank_ = 0;
   MatrixXd lu_;
-  std::vector<int> row_swap_, col_swap_;  // step k swapped row k with row_swap_[k] (cols: col_)
+  // Step k swapped row k with row row_swap_[k], then column k with column col_swap_[k].
+  std::vector<int> row_swap_, col_swap_;
   std::vector<double> col_max_;
 };
 
