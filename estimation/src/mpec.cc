@@ -430,6 +430,7 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o,
       }
       if (!Solved(last)) {
         stage_failure = what.str() + ": " + StatusText(last);
+        sol.first_stage_failed = first;
         if (o.progress && !first) o.progress(stage_failure + ", stopped the homotopy");
         break;
       }

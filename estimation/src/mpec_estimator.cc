@@ -53,6 +53,27 @@ MpecEstimateResult EstimateMpec(const sim::Simulator& simulator, const Log& log,
   if (!so.progress) so.progress = options.progress;
   if (!stated) so.early_polish_tolerance = -1.0;  // the objective's scale is unknown
   const MpecSolution sol = SolveMpec(problem, so);
+  if (sol.first_stage_failed && !options.tracking_guess) {
+    // No relaxation stage solved from the smoothed poses (Ipopt took the first stage to a point
+    // of local infeasibility: measured on a noise-free block log without orientation, whose
+    // polish then "solved" at μ̂ = 0 with χ²/2 = 2.6e4): the whole estimation again from the
+    // tracking guess, where every step equation and complementarity pair holds at the start.
+    if (options.progress) {
+      options.progress("mpec: the first relaxation stage failed from the smoothed guess (" +
+                       sol.reason + "); restarted from the tracking guess");
+    }
+    MpecOptions retry = options;
+    retry.tracking_guess = true;
+    MpecEstimateResult rt = EstimateMpec(simulator, log, retry);
+    rt.iterations += sol.iterations;
+    rt.stages += sol.stages;
+    rt.reason =
+        "restarted from the tracking guess (the first relaxation stage failed from the "
+        "smoothed guess: " +
+        sol.reason + "); " + rt.reason;
+    rt.time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return rt;
+  }
   r.estimates = problem.Parameters(sol.x);
   r.iterations = sol.iterations;
   r.stages = sol.stages;
@@ -142,6 +163,14 @@ void mpec_internal::BootstrapOverEpisodes(
     cov /= static_cast<double>(draws.size() - 1);
   }
   r->covariance = mpec_internal::CovarianceWithStdErrors(cov, nt, 1.0, &r->std_errors);
+  // The resamples' spread can be exactly 0 (every resample the same data): a standard error of
+  // 0, not an undefined one (CovarianceWithStdErrors takes a 0 variance as undefined).
+  for (Eigen::Index i = 0; cov.rows() == nt && i < nt; ++i) {
+    if (cov(i, i) != 0.0) continue;
+    r->std_errors[i] = 0.0;
+    r->covariance.row(i) = cov.row(i);
+    r->covariance.col(i) = cov.col(i);
+  }
 }
 
 sim::MatrixXd mpec_internal::CovarianceWithStdErrors(const sim::MatrixXd& covariance,

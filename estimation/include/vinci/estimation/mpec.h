@@ -243,6 +243,9 @@ struct MpecSolution {
   /// iterate.
   bool iterate_solved = false;
   bool polished = false;  ///< the polish stage succeeded and gave the final iterate
+  /// Scholtes: the first relaxation stage did not solve, so no stage of the homotopy did; the
+  /// result (polished or not) comes from that stage's failed iterate.
+  bool first_stage_failed = false;
   /// The last polish attempt's biactive pairs (MpecSolverOptions::biactive_factor) and how
   /// many of them the multipliers fixed at the larger side instead of the smaller.
   int biactive_pairs = 0;
