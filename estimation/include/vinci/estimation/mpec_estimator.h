@@ -117,7 +117,9 @@ struct MpecOptions {
   /// guessed poses (from each state, the generalized force on the observed bodies that reaches
   /// the next guessed pose in one step, refined twice against the step's contact response), so
   /// that every step equation and complementarity pair holds exactly at the start and the frozen
-  /// contact sets come from non-penetrating states; false: the guessed poses themselves.
+  /// contact sets come from non-penetrating states; false: the guessed poses themselves (and
+  /// if the first relaxation stage fails from them, the estimation restarts from the tracking
+  /// guess).
   bool tracking_guess = false;
   int threads = 1;  ///< threads evaluating the step equations (the result is bitwise the same)
   /// Several episodes: one joint NLP, or the decomposition over episodes (EstimateMpecDecomposed
