@@ -655,13 +655,16 @@ void internal::NcpEvaluateAssemblyInto(const NcpStepper& ncp, const Scene& model
   const auto push = [](SparseRows* to, int c, double v) {
     if (v != 0.0) to->Push(c, v);
   };
+  // Contact c's friction coefficient's column among [z; θ] (ncol if it is not differentiable).
+  const auto mu_column = [&](int c) {
+    const auto& pc = r.param_columns;
+    return l.size() +
+           static_cast<int>(std::find(pc.begin(), pc.end(), a.contacts[c].mu_param) - pc.begin());
+  };
   for (int c = 0; c < nc; ++c) {
     const double pn = z[l.pn() + c], pt = z[l.pf() + 2 * c], po = z[l.pf() + 2 * c + 1];
     const double s = z[l.sigma() + c], mu = a.mu[c];
-    const int mu_col =
-        l.size() + static_cast<int>(std::find(r.param_columns.begin(), r.param_columns.end(),
-                                              a.contacts[c].mu_param) -
-                                    r.param_columns.begin());
+    const int mu_col = mu_column(c);
     // Friction equalities: e² μ p_n u + p σ = 0 per direction (planar: p_o = 0).
     const int et = ne + 2 * c, eo = et + 1;
     const double ut = a.G_f.col(c * nd).dot(v1) + a.dpsi_f[c * nd];
@@ -701,10 +704,7 @@ void internal::NcpEvaluateAssemblyInto(const NcpStepper& ncp, const Scene& model
   for (int c = 0; c < nc; ++c) {  // cone pairs
     const double pn = z[l.pn() + c], pt = z[l.pf() + 2 * c], po = z[l.pf() + 2 * c + 1];
     const double mu = a.mu[c];
-    const int mu_col =
-        l.size() + static_cast<int>(std::find(r.param_columns.begin(), r.param_columns.end(),
-                                              a.contacts[c].mu_param) -
-                                    r.param_columns.begin());
+    const int mu_col = mu_column(c);
     jac->comp_a.Push(l.sigma() + c, 1.0);
     jac->comp_a.EndRow();
     SparseRows& B = jac->comp_b;

@@ -380,8 +380,8 @@ class Linearization {
   mutable MatrixXd W_, lcp_M_;    // K⁻¹ E_D and B_D K⁻¹ E_D, computed on first need
   mutable bool w_ready_ = false;  // W_, lcp_M_ hold this Compute's
   VectorXd weight_a_, weight_b_;
-  VectorXd a_, b_;    // the pairs' sides at the linearization point
-  double tol_ = 0.0;  // a side at most this is 0 (active)
+  VectorXd a_, b_;              // the pairs' sides at the linearization point
+  double tol_ = 0.0;            // a side at most this is 0 (active)
   std::vector<double> b_unit_;  // per pair, b's factor into the units tol_ applies to
   bool smoothed_ = false;
   std::vector<char> side_;  // per pair: 'a' / 'b' held, 'd' degenerate, 'i' inert GI pair
