@@ -94,7 +94,7 @@ estimation::EstimateResult RunLeastSquares(const EstimateOptions& o,
   lo.params = o.params;
   lo.noise_sigma = o.noise;
   lo.threads = o.threads;
-  lo.max_iterations = o.max_iterations;
+  if (o.max_iterations) lo.max_iterations = *o.max_iterations;
   lo.estimate_initial_state = !o.fixed_initial_state;
   if (o.shooting == "multiple")
     lo.shooting = estimation::Shooting::kMultiple;
@@ -335,7 +335,8 @@ Command RegisterEstimateCommand(CLI::App& app) {
       ->type_name("N")
       ->check(CLI::PositiveNumber);
   sub->add_option("--max-iterations", options->max_iterations,
-                  "Solver iterations at most (mpec: Ipopt iterations per NLP)")
+                  "Solver iterations at most: lsq Ceres iterations (default 100), mpec Ipopt "
+                  "iterations per NLP (default 3000); the filter has none")
       ->type_name("N")
       ->check(CLI::PositiveNumber);
   sub->add_flag("--fixed-initial-state", options->fixed_initial_state,

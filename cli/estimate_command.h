@@ -25,7 +25,9 @@ struct EstimateOptions {
   std::string method = "lsq";
   double noise = 0.0;  ///< stated measurement noise σ (m); 0: estimated from the residuals
   int threads = 1;
-  int max_iterations = 100;
+  /// Solver iterations at most; empty: each method's default (lsq: Ceres' 100 iterations; mpec:
+  /// Ipopt's 3 000 per NLP). The filter has none.
+  std::optional<int> max_iterations;
   bool fixed_initial_state = false;
   std::string shooting = "single";  ///< lsq: single | multiple
   int segment_samples = 20;         ///< lsq multiple shooting: samples per segment

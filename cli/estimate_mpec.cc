@@ -101,7 +101,7 @@ ExitCode RunEstimateMpec(const EstimateOptions& o) {
   mo.substeps = std::max(0, o.mpec_substeps);
   if (!o.mpec_episodes.empty()) mo.episodes = estimation::ParseMpecEpisodes(o.mpec_episodes);
   mo.solver.method = estimation::ParseComplementarityMethod(o.complementarity);
-  mo.solver.max_iterations = o.max_iterations;
+  if (o.max_iterations) mo.solver.max_iterations = *o.max_iterations;
   if (o.complementarity_tolerance)
     mo.solver.complementarity_tolerance = *o.complementarity_tolerance;
   mo.Validate();
