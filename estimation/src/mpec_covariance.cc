@@ -31,13 +31,16 @@ namespace {
 // estimated 1e-12 of the start could end at a true ‖r‖ of 2e-2 of it, its variance 2% off
 // (bench/README.md, push18). true when the best iterate's ‖r‖ (returned in y) is below 1e-12 of
 // max(‖r₀‖, ‖Kr⁻¹ b‖), or below kAccepted of it once the restarts stop reducing it; false
-// otherwise (the caller then tries a larger δ, whose rounding floor is lower). Deterministic
+// otherwise (the caller then tries a larger δ, whose rounding floor is lower). `max_krylov` > 0
+// caps the vectors per cycle (else 200 to 1000 by the basis' memory, ≤ ~400 MB). Deterministic
 // (ordered arithmetic only).
 template <class Factor>
-bool SolveRefined(const sim::SparseMatrixXd& K, const Factor& kr, const VectorXd& b, VectorXd* y) {
-  // Krylov basis ≤ ~400 MB (5e7 doubles), 200 to 1000 vectors per cycle.
-  const int kMaxKrylov = static_cast<int>(
-      std::clamp<long long>(50000000LL / std::max<long long>(1, b.size()), 200, 1000));
+bool SolveRefined(const sim::SparseMatrixXd& K, const Factor& kr, const VectorXd& b, VectorXd* y,
+                  int max_krylov = 0) {
+  const int kMaxKrylov =
+      max_krylov > 0 ? max_krylov
+                     : static_cast<int>(std::clamp<long long>(
+                           50000000LL / std::max<long long>(1, b.size()), 200, 1000));
   constexpr int kMaxCycles = 8;
   // The true ‖r‖ accepted when the restarts stall at rounding level (relative): measured on
   // the noisy 1 mm block logs, iterates with ‖r‖ ≤ 2e-5 had their variance within 2e-4 of the
@@ -191,9 +194,14 @@ bool MpecEstimationProblem::ParameterCovariance(const VectorXd& x,
   // (check false) preconditions SolveRefined; a direct one (check true: K's own factorization,
   // pivots set aside) gives y = factor⁻¹ e_θ, accepted if ‖e_θ − K y‖ ≤ kExactResidual ‖e_θ‖, else
   // refined by SolveRefined and accepted within kDirectResidual (its preconditioned residual
-  // does not see e_θ's components in the rows of the pivots set aside).
+  // does not see e_θ's components in the rows of the pivots set aside). A direct solution
+  // already within kDirectResidual is refined by at most kShortKrylov steps: at a rounding-level
+  // residual the full refinement stagnates (measured on a box sliding down an incline: 1 000
+  // Krylov steps, more than half the estimation's time, left the residual 6.7e-12 and y_θ as
+  // they were, bench/README.md).
   auto columns = [&](const auto& factor, bool check, sim::MatrixXd* out) {
     constexpr double kExactResidual = 1e-13, kDirectResidual = 1e-8;
+    constexpr int kShortKrylov = 50;
     *out = sim::MatrixXd::Constant(I.ntheta, I.ntheta, std::numeric_limits<double>::quiet_NaN());
     for (int i = 0; i < I.ntheta; ++i) {
       const int fi = map[i];
@@ -202,9 +210,14 @@ bool MpecEstimationProblem::ParameterCovariance(const VectorXd& x,
       b[fi] = d[fi];
       VectorXd y;
       // A direct factor's own solution first: it usually solves K y = b to rounding.
-      if (check) y = factor.solve(b);
-      if (!check || !(y.allFinite() && (b - Ks * y).norm() <= kExactResidual * b.norm())) {
-        if (!SolveRefined(Ks, factor, b, &y)) return false;
+      double residual = std::numeric_limits<double>::infinity();
+      if (check) {
+        y = factor.solve(b);
+        if (y.allFinite()) residual = (b - Ks * y).norm();
+      }
+      if (!check || !(residual <= kExactResidual * b.norm())) {
+        const bool near = residual <= kDirectResidual * b.norm();
+        if (!SolveRefined(Ks, factor, b, &y, near ? kShortKrylov : 0)) return false;
         if (check && !((b - Ks * y).norm() <= kDirectResidual * b.norm())) return false;
       }
       for (int j = 0; j < I.ntheta; ++j)
