@@ -37,10 +37,10 @@ namespace {
 template <class Factor>
 bool SolveRefined(const sim::SparseMatrixXd& K, const Factor& kr, const VectorXd& b, VectorXd* y,
                   int max_krylov = 0) {
-  const int kMaxKrylov =
-      max_krylov > 0 ? max_krylov
-                     : static_cast<int>(std::clamp<long long>(
-                           50000000LL / std::max<long long>(1, b.size()), 200, 1000));
+  const int kMaxKrylov = max_krylov > 0
+                             ? max_krylov
+                             : static_cast<int>(std::clamp<long long>(
+                                   50000000LL / std::max<long long>(1, b.size()), 200, 1000));
   constexpr int kMaxCycles = 8;
   // The true ‖r‖ accepted when the restarts stall at rounding level (relative): measured on
   // the noisy 1 mm block logs, iterates with ‖r‖ ≤ 2e-5 had their variance within 2e-4 of the
