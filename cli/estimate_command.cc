@@ -179,6 +179,15 @@ std::string EstimateLines(const std::vector<std::string>& names, const sim::Vect
     s << names[i] << " = " << estimates[k] << " ± " << std_errors[k] << " (from "
       << initial_values[k] << ")\n";
   }
+  for (size_t i = 0; i < names.size(); ++i) {
+    const auto k = static_cast<Eigen::Index>(i);
+    if (std::isfinite(std_errors[k]) && std_errors[k] > std::abs(estimates[k])) {
+      s << "warning: " << names[i]
+        << " is not determined by these logs (its standard error exceeds its value): the "
+           "logged motion hardly depends on it (e.g. a contact that never slides, or friction "
+           "that only scales a quasistatic limit surface)\n";
+    }
+  }
   return s.str();
 }
 

@@ -77,7 +77,8 @@ std::unique_ptr<estimation::HoldoutResult> FittedHoldout(const EstimateOptions& 
                                                          const sim::VectorXd& estimates,
                                                          const estimation::Log& held_out);
 
-/// One line per parameter, "name = value ± s.e. (from initial)", printed on stdout.
+/// One line per parameter, "name = value ± s.e. (from initial)", printed on stdout, then a
+/// warning line per parameter whose standard error exceeds |value| (not determined by the logs).
 std::string EstimateLines(const std::vector<std::string>& names, const sim::VectorXd& estimates,
                           const sim::VectorXd& std_errors, const sim::VectorXd& initial_values);
 
