@@ -162,27 +162,21 @@ void mpec_internal::BootstrapOverEpisodes(
     for (const VectorXd& d : draws) cov += (d - mean) * (d - mean).transpose();
     cov /= static_cast<double>(draws.size() - 1);
   }
-  r->covariance = mpec_internal::CovarianceWithStdErrors(cov, nt, 1.0, &r->std_errors);
   // The resamples' spread can be exactly 0 (every resample the same data): a standard error of
-  // 0, not an undefined one (CovarianceWithStdErrors takes a 0 variance as undefined).
-  for (Eigen::Index i = 0; cov.rows() == nt && i < nt; ++i) {
-    if (cov(i, i) != 0.0) continue;
-    r->std_errors[i] = 0.0;
-    r->covariance.row(i) = cov.row(i);
-    r->covariance.col(i) = cov.col(i);
-  }
+  // 0, not an undefined one.
+  r->covariance = mpec_internal::CovarianceWithStdErrors(cov, nt, 1.0, &r->std_errors, true);
 }
 
 sim::MatrixXd mpec_internal::CovarianceWithStdErrors(const sim::MatrixXd& covariance,
                                                      Eigen::Index p, double scale,
-                                                     VectorXd* std_errors) {
+                                                     VectorXd* std_errors, bool zero_is_defined) {
   const double nan = std::numeric_limits<double>::quiet_NaN();
   sim::MatrixXd c = sim::MatrixXd::Constant(p, p, nan);
   *std_errors = VectorXd::Constant(p, nan);
   if (covariance.rows() != p || covariance.cols() != p) return c;
   c = 0.5 * scale * (covariance + covariance.transpose());  // the solves' rounding
   for (Eigen::Index i = 0; i < p; ++i) {
-    if (c(i, i) > 0) {
+    if (c(i, i) > 0 || (zero_is_defined && c(i, i) == 0)) {
       (*std_errors)[i] = std::sqrt(c(i, i));
     } else {
       c.row(i).setConstant(nan);

@@ -180,9 +180,10 @@ bool ProfileCovariance(const MpecEstimationProblem& p, const MpecSolution& sol,
 
 // `covariance` (empty if none) times `scale` as a result's p × p covariance, and its diagonal's
 // square roots in *std_errors; a parameter whose variance is not positive (or NaN) gets NaN in
-// both (its row and column).
+// both (its row and column) — except an exactly zero variance when `zero_is_defined` (a
+// bootstrap whose resamples all agree: standard error 0).
 sim::MatrixXd CovarianceWithStdErrors(const sim::MatrixXd& covariance, Eigen::Index p, double scale,
-                                      sim::VectorXd* std_errors);
+                                      sim::VectorXd* std_errors, bool zero_is_defined = false);
 
 }  // namespace mpec_internal
 
