@@ -182,10 +182,15 @@ std::string EstimateLines(const std::vector<std::string>& names, const sim::Vect
   for (size_t i = 0; i < names.size(); ++i) {
     const auto k = static_cast<Eigen::Index>(i);
     if (std::isfinite(std_errors[k]) && std_errors[k] > std::abs(estimates[k])) {
+      const bool mass = names[i].rfind("mass.", 0) == 0;
       s << "warning: " << names[i]
         << " is not determined by these logs (its standard error exceeds its value): the "
-           "logged motion hardly depends on it (e.g. a contact that never slides, or friction "
-           "that only scales a quasistatic limit surface)\n";
+           "logged motion hardly depends on it ("
+        << (mass ? "e.g. a body moved only by gravity and its contacts, whose forces all scale "
+                   "with its mass"
+                 : "e.g. a contact that never slides, a part that rolls without slipping, or "
+                   "friction that only scales a quasistatic limit surface")
+        << ")\n";
     }
   }
   return s.str();
