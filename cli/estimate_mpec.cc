@@ -44,6 +44,7 @@ std::string MpecJson(const EstimateOptions& o, const estimation::MpecEstimateRes
     << "      \"time_s\": " << JsonNumber(r.time_s) << ",\n"
     << "      \"converged\": " << (r.converged ? "true" : "false") << ",\n"
     << "      \"reason\": " << JsonString(r.reason) << ",\n"
+    << "      \"noise_contradicted\": " << (r.noise_contradicted ? "true" : "false") << ",\n"
     << "      \"complementarity\": " << JsonString(r.complementarity) << ",\n"
     << "      \"complementarity_violation\": " << JsonNumber(r.complementarity_violation) << ",\n"
     << "      \"complementarity_tolerance\": " << JsonNumber(ComplementarityTolerance(o)) << ",\n"

@@ -668,7 +668,11 @@ MpecEstimateResult EstimateMpecDecomposed(const sim::Simulator& simulator, const
   int p_count = nt;
   for (const Episode& ep : log.episodes)
     for (const BodyTrack& b : ep.bodies) p_count += b.dynamic ? (planar ? 6 : 12) : 0;
-  r.sigma = stated ? options.noise_sigma : std::sqrt(ss / std::max(1, r.num_residuals - p_count));
+  if (mpec_internal::ResidualSigma(ss, r.num_residuals, p_count, options.noise_sigma, &r.sigma,
+                                   &r.reason)) {
+    r.noise_contradicted = r.converged;
+    r.converged = false;
+  }
   r.robust_std_errors = VectorXd::Constant(nt, std::numeric_limits<double>::quiet_NaN());
   {
     // C = (Σ_e C_e⁻¹)⁻¹ over the free θ (a θ with no information, e.g. at a bound: NaN).
@@ -705,7 +709,7 @@ MpecEstimateResult EstimateMpecDecomposed(const sim::Simulator& simulator, const
       for (std::size_t i = 0; i < free.size() && robust.size() > 0; ++i)
         if (robust(i, i) > 0) r.robust_std_errors[free[i]] = std::sqrt(robust(i, i));
     }
-    const double scale = stated ? 1.0 : (r.sigma * r.sigma) / (sigma_w * sigma_w);
+    const double scale = (r.sigma * r.sigma) / (sigma_w * sigma_w);
     r.covariance = mpec_internal::CovarianceWithStdErrors(full, nt, scale, &r.std_errors);
   }
 

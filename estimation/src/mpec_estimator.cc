@@ -85,12 +85,17 @@ MpecEstimateResult EstimateMpec(const sim::Simulator& simulator, const Log& log,
   r.final_cost = 0.5 * ss;
   problem.StepViolation(sol.x, &r.equality_violation, &r.complementarity_violation);
   r.dropped_jacobian = problem.dropped_jacobian();
-  // σ: stated, or estimated from the residuals (p = parameters + observed initial states).
+  // σ: stated (unless the residuals contradict it), or estimated from the residuals (p =
+  // parameters + observed initial states).
   const bool planar = simulator.scene().dim == sim::Dim::kPlanar;
   int p = static_cast<int>(options.params.size());
   for (const Episode& ep : log.episodes)
     for (const BodyTrack& b : ep.bodies) p += b.dynamic ? (planar ? 6 : 12) : 0;
-  r.sigma = stated ? options.noise_sigma : std::sqrt(ss / std::max(1, r.num_residuals - p));
+  if (mpec_internal::ResidualSigma(ss, r.num_residuals, p, options.noise_sigma, &r.sigma,
+                                   &r.reason)) {
+    r.noise_contradicted = r.converged;
+    r.converged = false;
+  }
   sim::MatrixXd cov;
   bool have_cov = false;
   if (!sol.polished && sol.relaxed.lambda.size() > 0) {
@@ -105,7 +110,7 @@ MpecEstimateResult EstimateMpec(const sim::Simulator& simulator, const Log& log,
     have_cov = problem.ParameterCovariance(
         sol.x, problem.ClassifyPairs(sol.x, mpec_internal::kBiactive), &cov);
   }
-  const double scale = stated ? 1.0 : (r.sigma * r.sigma) / (sigma_w * sigma_w);
+  const double scale = (r.sigma * r.sigma) / (sigma_w * sigma_w);
   r.covariance = mpec_internal::CovarianceWithStdErrors(have_cov ? cov : sim::MatrixXd(),
                                                         r.estimates.size(), scale, &r.std_errors);
   r.robust_std_errors = VectorXd::Constant(r.estimates.size(), std::nan(""));  // decomposed only
@@ -143,12 +148,17 @@ void mpec_internal::BootstrapOverEpisodes(
     Log resample;
     for (int k = 0; k < ne; ++k) resample.episodes.push_back(log.episodes[pick(rng)]);
     const MpecEstimateResult rb = estimate(simulator, resample, bo);
-    r->bootstrap_converged += rb.converged;
-    if (rb.converged) draws.push_back(rb.estimates);
+    // A resample whose residuals contradict the stated noise counts if its solver converged:
+    // model error is what the bootstrap's spread is for.
+    const bool usable = rb.converged || rb.noise_contradicted;
+    r->bootstrap_converged += usable;
+    if (usable) draws.push_back(rb.estimates);
     if (options.progress) {
       std::ostringstream s;
       s << "mpec bootstrap " << b + 1 << "/" << options.bootstrap << ": "
-        << (rb.converged ? "converged" : "not converged");
+        << (rb.converged ? "converged"
+            : usable     ? "converged, its residuals contradict the stated noise"
+                         : "not converged");
       options.progress(s.str());
     }
   }
@@ -165,6 +175,24 @@ void mpec_internal::BootstrapOverEpisodes(
   // The resamples' spread can be exactly 0 (every resample the same data): a standard error of
   // 0, not an undefined one.
   r->covariance = mpec_internal::CovarianceWithStdErrors(cov, nt, 1.0, &r->std_errors, true);
+}
+
+bool mpec_internal::ResidualSigma(double ss, int num_residuals, int p, double stated_sigma,
+                                  double* sigma, std::string* reason) {
+  const int dof = num_residuals - p;
+  const double sigma_hat = std::sqrt(ss / std::max(1, dof));
+  *sigma = stated_sigma > 0 ? stated_sigma : sigma_hat;
+  if (!(stated_sigma > 0) || dof <= 0 ||
+      !(ss / (stated_sigma * stated_sigma) > dof + 4.0 * std::sqrt(2.0 * dof)))
+    return false;
+  std::ostringstream m;
+  m << "; the residuals contradict the stated noise (σ̂ = " << sigma_hat << " m for --noise "
+    << stated_sigma
+    << " m): a local minimum, a model mismatch (e.g. a step coarser than the motion needs, "
+       "--mpec-substeps) or more noise than stated; the standard errors use σ̂";
+  *reason += m.str();
+  *sigma = sigma_hat;
+  return true;
 }
 
 sim::MatrixXd mpec_internal::CovarianceWithStdErrors(const sim::MatrixXd& covariance,

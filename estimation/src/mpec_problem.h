@@ -185,6 +185,16 @@ bool ProfileCovariance(const MpecEstimationProblem& p, const MpecSolution& sol,
 sim::MatrixXd CovarianceWithStdErrors(const sim::MatrixXd& covariance, Eigen::Index p, double scale,
                                       sim::VectorXd* std_errors, bool zero_is_defined = false);
 
+// The σ an MPEC result's standard errors use (*sigma), and whether its measurement residuals
+// contradict a stated noise σ (> 0; the return value). ss = Σ r² over the num_residuals measured
+// residuals, p the parameters and observed initial-state components, dof = num_residuals − p.
+// Contradicted when ss / σ² exceeds its χ²_dof mean by 4 standard deviations (p < 1e-4; the
+// least squares' test): *reason then gets the explanation and *sigma is σ̂ = √(ss / dof);
+// otherwise *sigma is the stated σ (σ̂ without one). The process noise w only lowers ss (it
+// absorbs part of the residuals), so the test errs on the side of accepting.
+bool ResidualSigma(double ss, int num_residuals, int p, double stated_sigma, double* sigma,
+                   std::string* reason);
+
 }  // namespace mpec_internal
 
 struct MpecEstimationProblem::Impl {

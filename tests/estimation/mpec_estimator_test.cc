@@ -358,6 +358,36 @@ TEST(MpecEstimator, TwoParametersAndTheirCovariance) {
   EXPECT_LT(rho, 1.0);
 }
 
+// Residuals that contradict the stated noise (a 0.1 mm log stated as 0.025 mm: Σ r² / σ² ≈ 16
+// dof) make the result not converged, say so, and scale the standard errors by σ̂; the same log
+// with the right noise is accepted. (The decomposed and bootstrap paths: the slow
+// MpecNoise.ContradictedNoiseDecomposedAndBootstrap.)
+TEST(MpecEstimator, ResidualsThatContradictTheStatedNoiseAreReported) {
+  const sim::Simulator sim(sim::ParseScene(testing::kPlanarBlock, "block.yaml"));
+  const Log log =
+      ReadLog({testing::SyntheticLog(sim, "block", kTrueMu, 0.2, 5, 1e-4, 41, "mpec_chi2.csv")},
+              sim.scene());
+  MpecOptions o;
+  o.params = {"mu.default"};
+  o.noise_sigma = 1e-4;
+  const MpecEstimateResult right = EstimateMpec(sim, log, o);
+  ASSERT_TRUE(right.converged) << right.reason;
+  EXPECT_FALSE(right.noise_contradicted);
+  EXPECT_EQ(right.sigma, 1e-4);
+  EXPECT_EQ(right.reason.find("contradict"), std::string::npos) << right.reason;
+
+  o.noise_sigma = 2.5e-5;
+  const MpecEstimateResult low = EstimateMpec(sim, log, o);
+  EXPECT_FALSE(low.converged);
+  EXPECT_TRUE(low.noise_contradicted) << low.reason;
+  EXPECT_NE(low.reason.find("the residuals contradict the stated noise"), std::string::npos)
+      << low.reason;
+  EXPECT_GT(low.sigma, 0.6e-4);  // σ̂ ≈ the log's 0.1 mm (less what w absorbs)
+  EXPECT_LT(low.sigma, 1.4e-4);
+  ASSERT_TRUE(std::isfinite(low.std_errors[0]));
+  EXPECT_NEAR(low.estimates[0], kTrueMu, 3 * low.std_errors[0]);
+}
+
 TEST(MpecEstimator, RejectsBadInput) {
   const sim::Simulator sim(sim::ParseScene(testing::kPlanarBlock, "block.yaml"));
   const std::string path =

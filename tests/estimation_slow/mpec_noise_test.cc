@@ -76,6 +76,35 @@ const std::string kPlateBoxFile =
 // Bootstrap over episodes: identical episodes make every resample the same data, so (the
 // solver being deterministic) the bootstrap standard error is exactly 0; episodes with
 // independent noise give a positive one of the order of the Laplace approximation.
+// Two 0.1 mm logs stated as 0.025 mm: the decomposed estimator reports the contradiction (not
+// converged, σ̂ ≈ 0.1 mm) as the joint one does (MpecEstimator.
+// ResidualsThatContradictTheStatedNoiseAreReported), and a bootstrap keeps the resamples whose
+// only fault is that contradiction (model error is what its spread is for).
+TEST(MpecNoise, ContradictedNoiseDecomposedAndBootstrap) {
+  const sim::Simulator sim(sim::ParseScene(testing::kPlanarBlock, "block.yaml"));
+  const Log log = ReadLog({SyntheticLog(sim, "block", kTrueMu, 0.3, 5, 1e-4, 41, "chi2_a.csv"),
+                           SyntheticLog(sim, "block", kTrueMu, 0.3, 5, 1e-4, 42, "chi2_b.csv")},
+                          sim.scene());
+  MpecOptions o;
+  o.params = {"mu.default"};
+  o.noise_sigma = 2.5e-5;
+  o.episodes = MpecEpisodes::kDecomposed;
+  const MpecEstimateResult dec = EstimateMpec(sim, log, o);
+  EXPECT_FALSE(dec.converged);
+  EXPECT_TRUE(dec.noise_contradicted) << dec.reason;
+  EXPECT_NE(dec.reason.find("the residuals contradict the stated noise"), std::string::npos);
+  EXPECT_GT(dec.sigma, 0.6e-4);
+  EXPECT_LT(dec.sigma, 1.4e-4);
+
+  o.episodes = MpecEpisodes::kJoint;
+  o.bootstrap = 3;
+  const MpecEstimateResult boot = EstimateMpec(sim, log, o);
+  EXPECT_TRUE(boot.noise_contradicted) << boot.reason;
+  EXPECT_EQ(boot.std_error_method, "bootstrap");
+  EXPECT_EQ(boot.bootstrap_converged, 3);
+  EXPECT_TRUE(std::isfinite(boot.std_errors[0]));
+}
+
 TEST(MpecNoise, BootstrapOverEpisodes) {
   const sim::Simulator sim(sim::LoadSceneFile(kPlateBoxFile));
   std::vector<std::string> same, noisy;

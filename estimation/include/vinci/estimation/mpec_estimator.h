@@ -155,11 +155,19 @@ struct MpecEstimateResult : EstimateResult {
   double max_process_noise = 0.0;  ///< max |w| at the solution (N, N·m)
   /// Largest Jacobian entry dropped for falling outside the structure (0: none).
   double dropped_jacobian = 0.0;
+  /// The solver converged but the measurement residuals contradict the stated noise (Σ r² / σ²
+  /// above its χ² mean by 4 standard deviations: a wrong local solution or a model mismatch,
+  /// e.g. a coarse MpecOptions::substeps), so converged is false. Whenever the residuals
+  /// contradict the stated noise (converged or not) the reason says so and the standard errors
+  /// use σ̂ = √(Σ r² / dof) (sigma).
+  bool noise_contradicted = false;
   /// "laplace" (reduced Hessian of the polished NLP), "profile" (a relaxed, unpolished
   /// iterate: the curvature of the relaxed problem's profile over θ, mpec_estimator.cc) or
   /// "bootstrap" (MpecOptions::bootstrap).
   std::string std_error_method = "laplace";
-  int bootstrap_converged = 0;  ///< resamples whose estimation converged (bootstrap only)
+  /// Resamples used (bootstrap only): converged, or converged with residuals that contradict the
+  /// stated noise (noise_contradicted).
+  int bootstrap_converged = 0;
   /// The parameters' covariance (p × p, in names' order) by std_error_method: std_errors are
   /// the square roots of its diagonal. NaN rows and columns where there is none (a θ at a
   /// bound, a failed covariance).
