@@ -73,9 +73,6 @@ TEST(MpecNoise, EstimatedSigmaStandardErrorsAreHonest) {
 const std::string kPlateBoxFile =
     std::string(VINCI_SOURCE_DIR) + "/tests/data/scenes/plate_box_planar.yaml";
 
-// Bootstrap over episodes: identical episodes make every resample the same data, so (the
-// solver being deterministic) the bootstrap standard error is exactly 0; episodes with
-// independent noise give a positive one of the order of the Laplace approximation.
 // Two 0.1 mm logs stated as 0.025 mm: the decomposed estimator reports the contradiction (not
 // converged, σ̂ ≈ 0.1 mm) as the joint one does (MpecEstimator.
 // ResidualsThatContradictTheStatedNoiseAreReported), and a bootstrap keeps the resamples whose
@@ -105,6 +102,9 @@ TEST(MpecNoise, ContradictedNoiseDecomposedAndBootstrap) {
   EXPECT_TRUE(std::isfinite(boot.std_errors[0]));
 }
 
+// Bootstrap over episodes: identical episodes make every resample the same data, so (the
+// solver being deterministic) the bootstrap standard error is exactly 0; episodes with
+// independent noise give a positive one of the order of the Laplace approximation.
 TEST(MpecNoise, BootstrapOverEpisodes) {
   const sim::Simulator sim(sim::LoadSceneFile(kPlateBoxFile));
   std::vector<std::string> same, noisy;
