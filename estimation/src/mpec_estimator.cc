@@ -113,6 +113,13 @@ MpecEstimateResult EstimateMpec(const sim::Simulator& simulator, const Log& log,
   const double scale = (r.sigma * r.sigma) / (sigma_w * sigma_w);
   r.covariance = mpec_internal::CovarianceWithStdErrors(have_cov ? cov : sim::MatrixXd(),
                                                         r.estimates.size(), scale, &r.std_errors);
+  if (r.std_error_method == "laplace") {
+    VectorXd yl, yu, gl, gu;
+    problem.Bounds(&yl, &yu, &gl, &gu);
+    r.reason +=
+        mpec_internal::MissingStdErrors(r.names, r.estimates, r.std_errors, problem.Parameters(yl),
+                                        problem.Parameters(yu), have_cov);
+  }
   r.robust_std_errors = VectorXd::Constant(r.estimates.size(), std::nan(""));  // decomposed only
   for (int e = 0; e < static_cast<int>(log.episodes.size()); ++e) {
     EpisodeEstimate ee;
@@ -193,6 +200,31 @@ bool mpec_internal::ResidualSigma(double ss, int num_residuals, int p, double st
   *reason += m.str();
   *sigma = sigma_hat;
   return true;
+}
+
+std::string mpec_internal::MissingStdErrors(const std::vector<std::string>& names,
+                                            const VectorXd& estimates, const VectorXd& std_errors,
+                                            const VectorXd& lower, const VectorXd& upper,
+                                            bool have_covariance) {
+  std::ostringstream s;
+  if (!have_covariance) {
+    if (!std_errors.array().isNaN().all()) return "";
+    s << "; no standard errors: the Laplace covariance's KKT solves failed";
+    return s.str();
+  }
+  for (Eigen::Index i = 0; i < estimates.size(); ++i) {
+    if (!std::isnan(std_errors[i])) continue;
+    const double v = estimates[i];
+    auto at = [v](double b) { return std::abs(v - b) <= 1e-9 * std::max(1.0, std::abs(b)); };
+    s << "; no standard error for " << names[static_cast<std::size_t>(i)] << ": ";
+    if (at(lower[i]) || at(upper[i])) {
+      s << "it ends at the bound " << (at(lower[i]) ? lower[i] : upper[i])
+        << " of its range, where the Laplace approximation does not apply";
+    } else {
+      s << "its variance is not positive (the data do not determine it)";
+    }
+  }
+  return s.str();
 }
 
 sim::MatrixXd mpec_internal::CovarianceWithStdErrors(const sim::MatrixXd& covariance,

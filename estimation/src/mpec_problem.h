@@ -185,6 +185,14 @@ bool ProfileCovariance(const MpecEstimationProblem& p, const MpecSolution& sol,
 sim::MatrixXd CovarianceWithStdErrors(const sim::MatrixXd& covariance, Eigen::Index p, double scale,
                                       sim::VectorXd* std_errors, bool zero_is_defined = false);
 
+// The reason's suffix for parameters whose Laplace standard error is NaN: each such parameter
+// named, at a bound of its range [lower, upper] (an estimate within 1e-9 of it) or with a
+// non-positive variance; or, without a covariance at all, the failed KKT solves. "" if every
+// standard error is a number.
+std::string MissingStdErrors(const std::vector<std::string>& names, const sim::VectorXd& estimates,
+                             const sim::VectorXd& std_errors, const sim::VectorXd& lower,
+                             const sim::VectorXd& upper, bool have_covariance);
+
 // The σ an MPEC result's standard errors use (*sigma), and whether its measurement residuals
 // contradict a stated noise σ (> 0; the return value). ss = Σ r² over the num_residuals measured
 // residuals, p the parameters and observed initial-state components, dof = num_residuals − p.
