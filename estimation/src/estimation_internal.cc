@@ -300,6 +300,10 @@ void FailOption(const std::string& method, const std::string& field, double valu
   throw std::invalid_argument(m.str());
 }
 
+bool ResidualsContradictNoise(double ss, int dof, double sigma) {
+  return dof > 0 && ss / (sigma * sigma) > dof + 4.0 * std::sqrt(2.0 * dof);
+}
+
 void CheckDifferentiable(const sim::Scene& scene, const std::vector<std::string>& params) {
   const sim::ParamTable& table = scene.param_table();
   for (const std::string& name : params) {

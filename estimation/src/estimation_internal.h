@@ -72,6 +72,11 @@ sim::VectorXd VectorAt(const sim::Simulator& sim, const Episode& ep, const sim::
 [[noreturn]] void FailOption(const std::string& method, const std::string& field, double value,
                              const std::string& expected);
 
+/// Whether measured residuals contradict a stated noise σ > 0: ss / σ² (ss = Σ r² over dof
+/// degrees of freedom) above its χ²_dof mean by 4 standard deviations (p < 1e-4). False for
+/// dof ≤ 0. The least squares' and the MPEC's convergence test.
+bool ResidualsContradictNoise(double ss, int dof, double sigma);
+
 /// Throws std::invalid_argument for an unknown or non-differentiable parameter name.
 void CheckDifferentiable(const sim::Scene& scene, const std::vector<std::string>& params);
 

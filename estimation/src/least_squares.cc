@@ -550,9 +550,8 @@ EstimateResult EstimateLeastSquares(const sim::Simulator& simulator, const Log& 
   // A stated σ the residuals contradict (Σ r² / σ² beyond its χ²_dof mean by 4 standard
   // deviations, p < 1e-4): the fit stalled in a local minimum (another stick–slip pattern that
   // fits almost as well) or the model does not match; the standard errors cannot cover that.
-  if (options.noise_sigma > 0 && dof > 0 && all_evaluated &&
-      measured_ss / (options.noise_sigma * options.noise_sigma) >
-          dof + 4.0 * std::sqrt(2.0 * dof)) {
+  if (options.noise_sigma > 0 && all_evaluated &&
+      internal::ResidualsContradictNoise(measured_ss, dof, options.noise_sigma)) {
     result.converged = false;
     std::ostringstream m;
     m << "; the residuals contradict the stated noise (σ̂ = " << result.sigma_residual

@@ -6,6 +6,7 @@
 #include <random>
 #include <sstream>
 
+#include "estimation_internal.h"
 #include "mpec_problem.h"
 #include "vinci/estimation/mpec_decomposed.h"
 
@@ -189,8 +190,7 @@ bool mpec_internal::ResidualSigma(double ss, int num_residuals, int p, double st
   const int dof = num_residuals - p;
   const double sigma_hat = std::sqrt(ss / std::max(1, dof));
   *sigma = stated_sigma > 0 ? stated_sigma : sigma_hat;
-  if (!(stated_sigma > 0) || dof <= 0 ||
-      !(ss / (stated_sigma * stated_sigma) > dof + 4.0 * std::sqrt(2.0 * dof)))
+  if (!(stated_sigma > 0) || !internal::ResidualsContradictNoise(ss, dof, stated_sigma))
     return false;
   std::ostringstream m;
   m << "; the residuals contradict the stated noise (σ̂ = " << sigma_hat << " m for --noise "
@@ -206,12 +206,8 @@ std::string mpec_internal::MissingStdErrors(const std::vector<std::string>& name
                                             const VectorXd& estimates, const VectorXd& std_errors,
                                             const VectorXd& lower, const VectorXd& upper,
                                             bool have_covariance) {
+  if (!have_covariance) return "; no standard errors: the Laplace covariance's KKT solves failed";
   std::ostringstream s;
-  if (!have_covariance) {
-    if (!std_errors.array().isNaN().all()) return "";
-    s << "; no standard errors: the Laplace covariance's KKT solves failed";
-    return s.str();
-  }
   for (Eigen::Index i = 0; i < estimates.size(); ++i) {
     if (!std::isnan(std_errors[i])) continue;
     const double v = estimates[i];

@@ -187,8 +187,8 @@ sim::MatrixXd CovarianceWithStdErrors(const sim::MatrixXd& covariance, Eigen::In
 
 // The reason's suffix for parameters whose Laplace standard error is NaN: each such parameter
 // named, at a bound of its range [lower, upper] (an estimate within 1e-9 of it) or with a
-// non-positive variance; or, without a covariance at all, the failed KKT solves. "" if every
-// standard error is a number.
+// non-positive variance; or, without a covariance at all (every standard error NaN), the failed
+// KKT solves. "" if every standard error is a number.
 std::string MissingStdErrors(const std::vector<std::string>& names, const sim::VectorXd& estimates,
                              const sim::VectorXd& std_errors, const sim::VectorXd& lower,
                              const sim::VectorXd& upper, bool have_covariance);
@@ -196,8 +196,8 @@ std::string MissingStdErrors(const std::vector<std::string>& names, const sim::V
 // The σ an MPEC result's standard errors use (*sigma), and whether its measurement residuals
 // contradict a stated noise σ (> 0; the return value). ss = Σ r² over the num_residuals measured
 // residuals, p the parameters and observed initial-state components, dof = num_residuals − p.
-// Contradicted when ss / σ² exceeds its χ²_dof mean by 4 standard deviations (p < 1e-4; the
-// least squares' test): *reason then gets the explanation and *sigma is σ̂ = √(ss / dof);
+// Contradicted as internal::ResidualsContradictNoise decides (the least squares' test):
+// *reason then gets the explanation and *sigma is σ̂ = √(ss / dof);
 // otherwise *sigma is the stated σ (σ̂ without one). The process noise w only lowers ss (it
 // absorbs part of the residuals), so the test errs on the side of accepting.
 bool ResidualSigma(double ss, int num_residuals, int p, double stated_sigma, double* sigma,
