@@ -8,7 +8,8 @@
 // smooth_initial_guess off); --tracking-guess (MpecOptions::tracking_guess); --penalty START (the
 // first ρ); --epsilon START FACTOR; --stall N; --relaxation-curvature 0|1
 // (MpecSolverOptions::relaxation_curvature); --push-per-epsilon X
-// (MpecSolverOptions::warm_start_push_per_epsilon); --predictor 0|1
+// (MpecSolverOptions::warm_start_push_per_epsilon); --cold-push X
+// (MpecSolverOptions::cold_bound_push); --seed N (the noise's generator, default 7); --predictor 0|1
 // (MpecSolverOptions::epsilon_predictor); --early-polish-rise K
 // (MpecSolverOptions::early_polish_rise_factor); --early-polish-epsilon E
 // (MpecSolverOptions::early_polish_epsilon); --help. An unknown flag or a missing value is an
@@ -59,11 +60,11 @@ const std::string kPlateFile =
 // Simulates with mu.default = mu and writes `samples` samples (every step) of the body's x, y,
 // θ with N(0, sigma²) position noise (angles sigma / 0.1 m).
 std::string WriteLog(const sim::Simulator& s, const std::string& body, double mu, int samples,
-                     double sigma, const std::string& path) {
+                     double sigma, unsigned seed, const std::string& path) {
   sim::Params p = s.DefaultParams();
   p.values[s.scene().param_table().Index("mu.default")] = mu;
   const sim::Trajectory tr = s.Rollout(p, s.InitialState(), samples - 1);
-  std::mt19937 rng(7);
+  std::mt19937 rng(seed);
   std::normal_distribution<double> n01(0.0, 1.0);
   const int qo = s.scene().index(s.scene().FindBody(body)).q;
   std::ofstream f(path);
@@ -89,6 +90,8 @@ int main(int argc, char** argv) {
   bool raw_guess = false;      // --raw-guess: MpecOptions::smooth_initial_guess off
   bool tracking = false;       // --tracking-guess: MpecOptions::tracking_guess on
   double push = -1.0;        // --push-per-epsilon X: MpecSolverOptions::warm_start_push_per_epsilon
+  double cold_push = -1.0;   // --cold-push X: MpecSolverOptions::cold_bound_push
+  unsigned seed = 7;         // --seed N: the noise's generator
   int predictor = -1;        // --predictor 0|1: MpecSolverOptions::epsilon_predictor
   double polish_eps = -1.0;  // --early-polish-epsilon E: MpecSolverOptions::early_polish_epsilon
   double rise = -1.0;        // --early-polish-rise K: MpecSolverOptions::early_polish_rise_factor
@@ -98,7 +101,8 @@ int main(int argc, char** argv) {
       "                  [--method scholtes|penalty] [--threads N[,N...]] [--csv FILE]\n"
       "                  [--raw-guess] [--tracking-guess] [--penalty START] [--epsilon START "
       "FACTOR]\n"
-      "                  [--stall N] [--push-per-epsilon C] [--predictor 0|1]\n"
+      "                  [--stall N] [--push-per-epsilon C] [--cold-push X] [--seed N]\n"
+      "                  [--predictor 0|1]\n"
       "                  [--early-polish-rise K] [--early-polish-epsilon E]\n"
       "                  [--relaxation-curvature 0|1]\n"
       "environment: MPEC_BENCH_SAMPLES=N (default 500), MPEC_BENCH_VERBOSE=1 (stage log),\n"
@@ -129,6 +133,10 @@ int main(int argc, char** argv) {
       stall = std::atoi(argv[++i]);
     } else if (flag("--push-per-epsilon", 1)) {
       push = std::atof(argv[++i]);
+    } else if (flag("--cold-push", 1)) {
+      cold_push = std::atof(argv[++i]);
+    } else if (flag("--seed", 1)) {
+      seed = static_cast<unsigned>(std::strtoul(argv[++i], nullptr, 10));
     } else if (flag("--predictor", 1)) {
       predictor = std::atoi(argv[++i]);
     } else if (flag("--early-polish-rise", 1)) {
@@ -196,7 +204,7 @@ int main(int argc, char** argv) {
     const sim::Simulator s(c.plate ? sim::LoadSceneFile(kPlateFile)
                                    : sim::ParseScene(kBlock, "block.yaml"));
     const std::string path =
-        WriteLog(s, c.body, c.mu, samples, c.sigma, dir + "/mpec_bench_" + c.name + ".csv");
+        WriteLog(s, c.body, c.mu, samples, c.sigma, seed, dir + "/mpec_bench_" + c.name + ".csv");
     const estimation::Log log = estimation::ReadLog({path}, s.scene());
     for (const auto method : {estimation::ComplementarityMethod::kScholtes,
                               estimation::ComplementarityMethod::kPenalty}) {
@@ -219,6 +227,7 @@ int main(int argc, char** argv) {
         if (epsilon_factor > 0) o.solver.epsilon_factor = epsilon_factor;
         if (stall >= 0) o.solver.stall_iterations = stall;
         if (push >= 0) o.solver.warm_start_push_per_epsilon = push;
+        if (cold_push >= 0) o.solver.cold_bound_push = cold_push;
         if (predictor >= 0) o.solver.epsilon_predictor = predictor != 0;
         if (rise >= 0) o.solver.early_polish_rise_factor = rise;
         if (polish_eps > 0) o.solver.early_polish_epsilon = polish_eps;

@@ -190,6 +190,8 @@ void MpecSolverOptions::Validate() const {
     fail("biactive_factor", biactive_factor, "finite ≥ 0");
   if (!(warm_start_push_per_epsilon >= 0) || !std::isfinite(warm_start_push_per_epsilon))
     fail("warm_start_push_per_epsilon", warm_start_push_per_epsilon, "finite ≥ 0");
+  if (!(cold_bound_push >= 0) || !std::isfinite(cold_bound_push))
+    fail("cold_bound_push", cold_bound_push, "finite ≥ 0");
   if (!(stall_objective_change > 0)) fail("stall_objective_change", stall_objective_change, "> 0");
   if (!(early_polish_rise_factor >= 0) || !std::isfinite(early_polish_rise_factor))
     fail("early_polish_rise_factor", early_polish_rise_factor, "finite ≥ 0");
@@ -277,6 +279,8 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o,
       opt.SetNumericValue("acceptable_obj_change_tol", o.stall_objective_change);
       opt.SetNumericValue("acceptable_constr_viol_tol", o.stall_constraint_violation);
     }
+    if (!warm && stage == Stage::kScholtes && o.cold_bound_push > 0)
+      opt.SetNumericValue("bound_push", o.cold_bound_push);
     if (warm) {
       const double push =
           stage == Stage::kScholtes ? std::max(1e-9, o.warm_start_push_per_epsilon * param) : 1e-9;

@@ -117,7 +117,11 @@ TEST(MpecDecomposed, RobustStandardErrorCarriesTheEpisodesDisagreement) {
   for (int e = 0; e < 3; ++e) c += 2.0 / 3.0 * std::pow(d[e] - d_mean, 2);
   EXPECT_NEAR(dec.estimates[0], mu_hat, 2e-2 * 0.02);  // measured 1.2 % of the spread
   ASSERT_TRUE(std::isfinite(dec.robust_std_errors[0]));
-  EXPECT_NEAR(dec.robust_std_errors[0], std::sqrt(c), 0.02 * std::sqrt(c));  // measured 0.2 %
+  // The closed form takes each f_e quadratic with its own curvature; the jackknife uses f_e's
+  // curvature at θ̂, ~0.02 from the episodes' own μ, which depends on the local solution each
+  // episode's NLP ends at there: measured 0.2 % off (session 21), 1.7 % (session 31), 4.3 %
+  // (the solver's pushes of session 32; θ̂ and Σ f_e the same to 7 digits).
+  EXPECT_NEAR(dec.robust_std_errors[0], std::sqrt(c), 0.06 * std::sqrt(c));
   EXPECT_GT(dec.robust_std_errors[0], 5 * dec.std_errors[0]);
 }
 
@@ -214,18 +218,18 @@ TEST(MpecDecomposed, EpisodesAboveTheToleranceDoNotStopTheOuterLoop) {
 // A relaxed episode whose warm-started tail ends within 10× the complementarity tolerance is
 // kept as it is at each θ of the outer loop (no homotopy from the start after the tail); once
 // the loop converges, each such episode is solved again in full at θ̂, once. Two block
-// episodes whose homotopy stops at ε = 1e-4 without the polish, against a tolerance of 6.6e-4:
-// alone they end at 7.0e-4 … 8.5e-4 (so θ_0 is the scene's 0.5), their tails along the run at
-// 2.7e-3 … 6.3e-3, within 10× the tolerance (without the rule, its factor set to 0: 8
-// homotopies from the start before the loop converged and 737 Ipopt iterations in all, against
-// 2 and 471 with it). These violations differ between CPUs in their second digit (the first
-// episode alone: 8.4e-4 on one, 7.0e-4 on another, below the earlier tolerance 7.5e-4), so the
-// tolerance sits where both machines measured keep a margin of ≥ 5 % on each side.
+// episodes whose homotopy stops at ε = 1e-4 without the polish, against a tolerance of 1.2e-3:
+// alone they end at 2.2e-3 … 2.7e-3 (so θ_0 is the scene's 0.5), their tails along the run at
+// 3.2e-3 … 6.7e-3, within 10× the tolerance (537 Ipopt iterations before the final pass).
+// These violations depend on the warm-start pushes (with the pushes before session 32: alone
+// 7.0e-4 … 8.5e-4, tails 2.7e-3 … 6.3e-3, tolerance 6.6e-4; without the rule, its factor set to
+// 0: 8 homotopies from the start and 737 Ipopt iterations against 2 and 471) and differ between
+// CPUs in their second digit, so the tolerance keeps a margin of ≥ 75 % on each side.
 TEST(MpecDecomposed, LooseTailsAreKeptUntilTheFinalPass) {
   const sim::Simulator sim(sim::ParseScene(testing::kPlanarBlock, "block.yaml"));
   Log log;
   std::vector<std::string> lines;
-  const MpecEstimateResult r = RelaxedTwoEpisodes(sim, 6.6e-4, &log, &lines);
+  const MpecEstimateResult r = RelaxedTwoEpisodes(sim, 1.2e-3, &log, &lines);
   EXPECT_FALSE(r.converged);
   EXPECT_EQ(r.reason.find("an episode failed"), std::string::npos) << r.reason;
   EXPECT_NEAR(r.estimates[0], kTrueMu, 1e-2) << r.reason;
