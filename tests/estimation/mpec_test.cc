@@ -181,13 +181,14 @@ INSTANTIATE_TEST_SUITE_P(Toys, MacMpecTest,
                                   (std::get<2>(i.param) ? "_polish" : "_relaxed");
                          });
 
-// The estimator's warm-start push (0.1 ε) and the ε predictor change the homotopy's path, not
-// its end point.
+// The estimator's pushes (the cold stage 0.1 inside its bounds, the warm ones ε) and the ε
+// predictor change the homotopy's path, not its end point.
 TEST(MpecSolver, WarmStartPushAndPredictorReachTheKnownOptima) {
   for (const Toy& toy : kToys) {
     for (const bool predictor : {false, true}) {
       MpecSolverOptions o;
-      o.warm_start_push_per_epsilon = 0.1;
+      o.cold_bound_push = 0.1;
+      o.warm_start_push_per_epsilon = 1.0;
       o.epsilon_predictor = predictor;
       o.polish = false;
       const MpecSolution s = SolveMpec(toy.make(), o);
@@ -305,6 +306,9 @@ TEST(MpecSolver, RejectsBadOptionsAndPairs) {
   MpecSolverOptions w;
   w.warm_start_push_per_epsilon = -0.1;
   EXPECT_THROW(SolveMpec(p, w), std::invalid_argument);
+  MpecSolverOptions cp;
+  cp.cold_bound_push = -0.1;
+  EXPECT_THROW(SolveMpec(p, cp), std::invalid_argument);
   MpecSolverOptions c;
   c.continued_max_iterations = -1;
   EXPECT_THROW(SolveMpec(p, c), std::invalid_argument);
