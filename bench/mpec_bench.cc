@@ -9,8 +9,8 @@
 // first ρ); --epsilon START FACTOR; --stall N; --relaxation-curvature 0|1
 // (MpecSolverOptions::relaxation_curvature); --push-per-epsilon X
 // (MpecSolverOptions::warm_start_push_per_epsilon); --cold-push X
-// (MpecSolverOptions::cold_bound_push); --seed N (the noise's generator, default 7); --predictor 0|1
-// (MpecSolverOptions::epsilon_predictor); --early-polish-rise K
+// (MpecSolverOptions::cold_bound_push); --seed N (the noise's generator, default 7); --predictor
+// 0|1 (MpecSolverOptions::epsilon_predictor); --early-polish-rise K
 // (MpecSolverOptions::early_polish_rise_factor); --early-polish-epsilon E
 // (MpecSolverOptions::early_polish_epsilon); --help. An unknown flag or a missing value is an
 // error (exit 2). Environment:

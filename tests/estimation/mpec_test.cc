@@ -181,8 +181,8 @@ INSTANTIATE_TEST_SUITE_P(Toys, MacMpecTest,
                                   (std::get<2>(i.param) ? "_polish" : "_relaxed");
                          });
 
-// The estimator's pushes (the cold stage 0.1 inside its bounds, the warm ones ε) and the ε
-// predictor change the homotopy's path, not its end point.
+// The warm-started stages' push (the estimator's ε), a cold first stage pushed 0.1 inside its
+// bounds and the ε predictor change the homotopy's path, not its end point.
 TEST(MpecSolver, WarmStartPushAndPredictorReachTheKnownOptima) {
   for (const Toy& toy : kToys) {
     for (const bool predictor : {false, true}) {

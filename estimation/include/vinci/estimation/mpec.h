@@ -166,8 +166,9 @@ struct MpecSolverOptions {
   double warm_start_push_per_epsilon = 0.0;
   /// Scholtes: the first (cold-started) stage's Ipopt bound_push, the least distance of its
   /// starting point from a lower bound of 0 (relative to max(1, |bound|)). 0: Ipopt's default
-  /// (1e-2). The guess has most impulses and slacks at their bounds; a start further inside
-  /// took fewer iterations on noisy logs (docs/estimation.md, "Cold and warm pushes").
+  /// (1e-2). The estimator leaves it at 0: 0.1 took fewer iterations on noisy planar logs and
+  /// more, or failed, on noisy spatial ones (docs/estimation.md, "Warm push ε, and the cold push
+  /// measured").
   double cold_bound_push = 0.0;
   /// Scholtes: before each warm-started stage ε, every pair with x_a x_b > ε has its smaller
   /// side moved onto the new hyperbola, x_min ← ε / x_max (a predictor along the relaxation

@@ -53,10 +53,9 @@
 
 namespace vinci::estimation {
 
-/// MpecSolverOptions with the homotopy start the estimator uses (epsilon_start = 1e-2), its
-/// cold first stage started 0.1 inside its bounds (MpecSolverOptions::cold_bound_push), the
-/// warm-started Scholtes stages ε inside theirs (MpecSolverOptions::warm_start_push_per_epsilon),
-/// the relaxation rows' curvature left out of
+/// MpecSolverOptions with the homotopy start the estimator uses (epsilon_start = 1e-2), the
+/// warm-started Scholtes stages ε inside their bounds
+/// (MpecSolverOptions::warm_start_push_per_epsilon), the relaxation rows' curvature left out of
 /// the Hessian (MpecSolverOptions::relaxation_curvature), and the early polish on after the ε =
 /// 1e-4 stage, accepted if its objective (χ² with a stated σ_R) is at most the stage's value +
 /// 1e-3 + 2 ε Σ λ_k (MpecSolverOptions::early_polish_rise_factor: twice the relaxation's
@@ -71,7 +70,6 @@ inline MpecSolverOptions EstimatorSolverDefaults() {
   o.epsilon_start = 1e-2;
   o.early_polish_epsilon = 1e-4;
   o.relaxation_curvature = false;
-  o.cold_bound_push = 0.1;
   o.warm_start_push_per_epsilon = 1.0;
   o.penalty_start = 10;  // ρ = 1 left products of 0.45–0.67 on noisy block logs: never an entry
   o.penalty_entry_epsilon = 1e-4;  // the entry's product bound, measured on the noisy block
