@@ -664,15 +664,7 @@ MpecEstimateResult EstimateMpecDecomposed(const sim::Simulator& simulator, const
   }
   r.reason = reason.str();
   r.final_cost = 0.5 * ss;
-  const bool planar = simulator.scene().dim == sim::Dim::kPlanar;
-  int p_count = nt;
-  for (const Episode& ep : log.episodes)
-    for (const BodyTrack& b : ep.bodies) p_count += b.dynamic ? (planar ? 6 : 12) : 0;
-  if (mpec_internal::ResidualSigma(ss, r.num_residuals, p_count, options.noise_sigma, &r.sigma,
-                                   &r.reason)) {
-    r.noise_contradicted = r.converged;
-    r.converged = false;
-  }
+  mpec_internal::SetResidualSigma(simulator, log, nt, options.noise_sigma, ss, &r);
   r.robust_std_errors = VectorXd::Constant(nt, std::numeric_limits<double>::quiet_NaN());
   {
     // C = (Σ_e C_e⁻¹)⁻¹ over the free θ (a θ with no information, e.g. at a bound: NaN).

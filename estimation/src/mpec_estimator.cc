@@ -86,17 +86,8 @@ MpecEstimateResult EstimateMpec(const sim::Simulator& simulator, const Log& log,
   r.final_cost = 0.5 * ss;
   problem.StepViolation(sol.x, &r.equality_violation, &r.complementarity_violation);
   r.dropped_jacobian = problem.dropped_jacobian();
-  // σ: stated (unless the residuals contradict it), or estimated from the residuals (p =
-  // parameters + observed initial states).
-  const bool planar = simulator.scene().dim == sim::Dim::kPlanar;
-  int p = static_cast<int>(options.params.size());
-  for (const Episode& ep : log.episodes)
-    for (const BodyTrack& b : ep.bodies) p += b.dynamic ? (planar ? 6 : 12) : 0;
-  if (mpec_internal::ResidualSigma(ss, r.num_residuals, p, options.noise_sigma, &r.sigma,
-                                   &r.reason)) {
-    r.noise_contradicted = r.converged;
-    r.converged = false;
-  }
+  mpec_internal::SetResidualSigma(simulator, log, static_cast<int>(options.params.size()),
+                                  options.noise_sigma, ss, &r);
   sim::MatrixXd cov;
   bool have_cov = false;
   if (!sol.polished && sol.relaxed.lambda.size() > 0) {
@@ -185,21 +176,25 @@ void mpec_internal::BootstrapOverEpisodes(
   r->covariance = mpec_internal::CovarianceWithStdErrors(cov, nt, 1.0, &r->std_errors, true);
 }
 
-bool mpec_internal::ResidualSigma(double ss, int num_residuals, int p, double stated_sigma,
-                                  double* sigma, std::string* reason) {
-  const int dof = num_residuals - p;
+void mpec_internal::SetResidualSigma(const sim::Simulator& simulator, const Log& log,
+                                     int num_params, double stated_sigma, double ss,
+                                     MpecEstimateResult* r) {
+  int p = num_params;
+  for (const Episode& ep : log.episodes)
+    p += internal::ObservedDynamic(ep) * internal::StateBlockSize(internal::Planar(simulator));
+  const int dof = r->num_residuals - p;
   const double sigma_hat = std::sqrt(ss / std::max(1, dof));
-  *sigma = stated_sigma > 0 ? stated_sigma : sigma_hat;
-  if (!(stated_sigma > 0) || !internal::ResidualsContradictNoise(ss, dof, stated_sigma))
-    return false;
+  r->sigma = stated_sigma > 0 ? stated_sigma : sigma_hat;
+  if (!(stated_sigma > 0) || !internal::ResidualsContradictNoise(ss, dof, stated_sigma)) return;
   std::ostringstream m;
   m << "; the residuals contradict the stated noise (σ̂ = " << sigma_hat << " m for --noise "
     << stated_sigma
     << " m): a local minimum, a model mismatch (e.g. a step coarser than the motion needs, "
        "--mpec-substeps) or more noise than stated; the standard errors use σ̂";
-  *reason += m.str();
-  *sigma = sigma_hat;
-  return true;
+  r->reason += m.str();
+  r->sigma = sigma_hat;
+  r->noise_contradicted = r->converged;
+  r->converged = false;
 }
 
 std::string mpec_internal::MissingStdErrors(const std::vector<std::string>& names,

@@ -193,15 +193,16 @@ std::string MissingStdErrors(const std::vector<std::string>& names, const sim::V
                              const sim::VectorXd& std_errors, const sim::VectorXd& lower,
                              const sim::VectorXd& upper, bool have_covariance);
 
-// The σ an MPEC result's standard errors use (*sigma), and whether its measurement residuals
-// contradict a stated noise σ (> 0; the return value). ss = Σ r² over the num_residuals measured
-// residuals, p the parameters and observed initial-state components, dof = num_residuals − p.
-// Contradicted as internal::ResidualsContradictNoise decides (the least squares' test):
-// *reason then gets the explanation and *sigma is σ̂ = √(ss / dof);
-// otherwise *sigma is the stated σ (σ̂ without one). The process noise w only lowers ss (it
-// absorbs part of the residuals), so the test errs on the side of accepting.
-bool ResidualSigma(double ss, int num_residuals, int p, double stated_sigma, double* sigma,
-                   std::string* reason);
+// The σ an MPEC result's standard errors use (r->sigma), and whether its measurement residuals
+// contradict a stated noise σ (> 0). ss = Σ r² over r->num_residuals measured residuals, with
+// dof = r->num_residuals − p, p = num_params + the observed dynamic bodies' initial-state
+// components over the log's episodes. Contradicted as internal::ResidualsContradictNoise decides
+// (the least squares' test): r->reason gets the explanation, r->sigma is σ̂ = √(ss / dof), and
+// the result is not converged (r->noise_contradicted if it was); otherwise r->sigma is the
+// stated σ (σ̂ without one). The process noise w only lowers ss (it absorbs part of the
+// residuals), so the test errs on the side of accepting.
+void SetResidualSigma(const sim::Simulator& simulator, const Log& log, int num_params,
+                      double stated_sigma, double ss, MpecEstimateResult* r);
 
 }  // namespace mpec_internal
 
