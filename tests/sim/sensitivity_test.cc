@@ -35,7 +35,8 @@ void ExpectMatrixNear(const MatrixXd& a, const MatrixXd& b, double rel, const st
 // initial state). At a degenerate step the exact columns are one-sided (along +e_j), so they are
 // compared with forward differences there, with central ones otherwise.
 void CheckStepAgainstFd(const Simulator& sim, const std::vector<std::string>& names, int warmup,
-                        double rel, SensitivityStatus expected) {
+                        double rel, SensitivityStatus expected,
+                        const SensitivityOptions& options = {}) {
   const Params p = sim.DefaultParams();
   const ParamSelection sel(sim.scene().param_table(), names);
   State x = sim.InitialState();
@@ -43,7 +44,7 @@ void CheckStepAgainstFd(const Simulator& sim, const std::vector<std::string>& na
   Workspace ws;
   State next;
   ASSERT_TRUE(sim.Step(p, x, {}, &ws, &next).ok);
-  const StepSensitivity s = StepDerivatives(sim, p, sel, x, {}, next, true);
+  const StepSensitivity s = StepDerivatives(sim, p, sel, x, {}, next, true, options);
   EXPECT_EQ(s.status, expected) << SensitivityStatusName(s.status) << ": " << s.message;
   const bool central = s.status == SensitivityStatus::kExact;
   const int nq = static_cast<int>(x.q.size()), nx = nq + static_cast<int>(x.v.size());
@@ -117,6 +118,84 @@ TEST(SensitivityTest, RollingSphereStepMatchesFiniteDifferences) {
   const Simulator sim(LoadExample("sphere_on_incline.yaml"));
   CheckStepAgainstFd(sim, sim.scene().param_table().DifferentiableNames(), 50, 1e-6,
                      SensitivityStatus::kDegenerate);
+}
+
+// A box sliding at 1.2 m/s with its four corners within the contact envelope. The corners'
+// friction directions against the slip have p_f = 0 = w_j (σ equal to the slip speed) while their
+// normal impulse is held at 0: 0.8 mm above the floor the contacts are separated and the step is
+// free flight (∂ν_x/∂ν_x = 1, not the 0.375 of friction at unloaded corners); resting on its face
+// one corner is touching and unloaded, and would slide with the others if it took load (its
+// friction then ∂ω_z/∂ν_x = −6 where the differences are 0). Both on the general path
+// (`lcp_basis` off), the first also on the basis path.
+std::string SlidingBox(double z) {
+  return "dimension: 3\n"
+         "stepper: {dt: 0.002, duration: 0.1, friction_directions: 8, envelope: 0.002}\n"
+         "friction: {default: 0.4}\n"
+         "bodies:\n"
+         "  - {name: floor, kind: static, shapes: [{type: halfspace}]}\n"
+         "  - name: box\n"
+         "    mass: 1.0\n"
+         "    pose: {position: [0, 0, " +
+         std::to_string(z) +
+         "]}\n"
+         "    velocity: {linear: [1.2, 0, 0]}\n"
+         "    shapes: [{type: box, half_extents: [0.1, 0.1, 0.05]}]\n";
+}
+
+// The first step's state Jacobian against forward differences of 1e-5 (the step's LCP leaves
+// ~1e-8 of noise in ν, so smaller differences are noise; the errors fixed were 0.4 … 1200).
+MatrixXd FirstStepJacobian(const Simulator& sim, const SensitivityOptions& options,
+                           SensitivityStatus* status, MatrixXd* forward) {
+  const Params p = sim.DefaultParams();
+  const ParamSelection sel(sim.scene().param_table(), {"mu.default"});
+  const State x = sim.InitialState();
+  const auto step = [&](const State& from) {
+    Workspace ws;
+    State next;
+    EXPECT_TRUE(sim.Step(p, from, {}, &ws, &next).ok);
+    return next;
+  };
+  const State next = step(x);
+  const StepSensitivity s = StepDerivatives(sim, p, sel, x, {}, next, true, options);
+  *status = s.status;
+  const int nq = static_cast<int>(x.q.size()), nx = nq + static_cast<int>(x.v.size());
+  forward->resize(nx, nx);
+  for (int j = 0; j < nx; ++j) {
+    State xp = x;
+    (j < nq ? xp.q[j] : xp.v[j - nq]) += 1e-5;
+    const State n = step(xp);
+    forward->col(j) << (n.q - next.q) / 1e-5, (n.v - next.v) / 1e-5;
+  }
+  return s.d_x;
+}
+
+TEST(SensitivityTest, UnloadedSlidingCornersCarryNoFriction) {
+  SensitivityOptions general;
+  general.lcp_basis = false;
+  for (const bool basis : {false, true}) {
+    // Free flight within the envelope: ∂x_ℓ+1/∂ν_ℓ = [h I; I] in the body's block (the basis
+    // path's rows by central differences: to ~1e-9).
+    SensitivityOptions options;
+    options.lcp_basis = basis;
+    const Simulator above(ParseScene(SlidingBox(0.0508), "above.yaml"));
+    SensitivityStatus status;
+    MatrixXd fd;
+    const MatrixXd d = FirstStepJacobian(above, options, &status, &fd);
+    EXPECT_EQ(status, SensitivityStatus::kExact) << basis;
+    const int nq = above.scene().num_positions(), nv = above.scene().num_velocities();
+    EXPECT_LT((d.bottomRightCorner(nv, nv) - MatrixXd::Identity(nv, nv)).cwiseAbs().maxCoeff(),
+              1e-8)
+        << basis;
+    const double h = above.scene().options.dt;
+    EXPECT_LT((d.block(0, nq, 3, 3) - h * MatrixXd::Identity(3, 3)).cwiseAbs().maxCoeff(), 1e-10)
+        << basis;
+  }
+  const Simulator resting(ParseScene(SlidingBox(0.05), "resting.yaml"));
+  SensitivityStatus status;
+  MatrixXd fd;
+  const MatrixXd d = FirstStepJacobian(resting, general, &status, &fd);
+  EXPECT_EQ(status, SensitivityStatus::kDegenerate);  // the touching unloaded corner's normal
+  ExpectMatrixNear(d, fd, 1e-3, "resting box, d/dx");
 }
 
 // Columns whose degenerate-pair right-hand side q is the K solve's round-off (a rolling sphere's

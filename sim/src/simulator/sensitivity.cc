@@ -143,7 +143,7 @@ class StepDifferentiator {
     const int quadratic_from =
         dynamic_cast<const NcpStepper*>(&sim.formulation()) ? frozen_->layout().nc : -1;
     lin_->Compute(vals_, jac_, nz, options, options.smoothing > 0.0,
-                  gi ? &frozen_->layout() : nullptr, quadratic_from);
+                  gi ? &frozen_->layout() : nullptr, quadratic_from, &frozen_->layout());
     lin_computed_ = true;
     if (!lin_->ok()) {
       message_ = lin_->message();
@@ -157,7 +157,7 @@ class StepDifferentiator {
       if (shift.size() == z_.size()) {
         z_ += shift;
         internal::EvaluateResidualsInto(*frozen_, z_, params, x, u, &vals_, &jac_);
-        lin_->Compute(vals_, jac_, nz, options, false, nullptr, quadratic_from);
+        lin_->Compute(vals_, jac_, nz, options, false, nullptr, quadratic_from, &frozen_->layout());
         if (!lin_->ok()) {
           message_ = lin_->message();
           return;

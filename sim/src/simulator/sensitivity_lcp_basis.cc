@@ -84,8 +84,8 @@ struct BasisScratch {
   VectorXd g_abs;            // |G_B| |dz_B| (row space)
   ShortList<int> basic, nonbasic, implied, free_sign;  // each holds at most m entries
   ShortList<Cone> cones;                               // at most nc
-  int sliding = 0;     // contacts with σ basic
-  int degenerate = 0;  // pairs with both sides at zero
+  int sliding = 0;                                     // contacts with σ basic
+  int degenerate = 0;                                  // pairs with both sides at zero
   MatrixXd m_bb, lu, a_dense, p;
   std::vector<int> lu_rows;  // the LU's row interchanges
   Eigen::FullPivLU<MatrixXd> full_lu;
@@ -124,10 +124,16 @@ bool ClassifyContacts(Dim dim, const StewartTrinkle::Assembly& a, const VectorXd
       } else {
         b->nonbasic.push_back(n);
       }
+      int at_zero = 0;
       for (int i = f0; i < f0 + nd; ++i) {
         if (z[i] > tol) return false;
-        b->degenerate += w[i] <= tol;
+        at_zero += w[i] <= tol;
       }
+      // Counted as the general path counts them (Linearization::HoldUnloadedFriction): with slip
+      // (σ > 0) a separated contact's friction stays 0 on both sides, and a touching unloaded
+      // one whose slip attains one direction's maximum slides along it if it takes load.
+      const bool slipping = z[s] > tol;
+      if (!(slipping && (nonbasic(n) || at_zero == 1))) b->degenerate += at_zero;
       b->degenerate += zero(s);
       continue;
     }

@@ -38,14 +38,16 @@ class Linearization {
   // (the NCP stepper's cone pairs σ ⊥ μ² p_n² − p_t²/e_t² − p_o²/e_o²); their b is judged active
   // by its first-order distance to the cone's surface, b / max|∂b/∂z| (impulse units, as the
   // linear cone row's), not by its value: at p_n ~ 1e-5 N·s a slack of 0.7 % of μ² p_n² is
-  // ~1e-12, below the tolerance set by the velocity rows' residuals.
+  // ~1e-12, below the tolerance set by the velocity rows' residuals. `layout`: the step's unknowns'
+  // layout, to find a Stewart–Trinkle-family contact's pairs (HoldUnloadedFriction); null skips
+  // that rule.
   Linearization() = default;
 
   // (Re)computes everything from `vals`, reusing this object's storage (no result depends on an
   // earlier Compute: every member read later is overwritten or reset here).
   void Compute(const StepResiduals& vals, const SparseJacobians& J, int nz,
                const SensitivityOptions& options, bool smoothed, const StepLayout* gi,
-               int quadratic_from = -1) {
+               int quadratic_from = -1, const StepLayout* layout = nullptr) {
     ok_ = false;
     message_.clear();
     degenerate_ = 0;
@@ -121,6 +123,9 @@ class Linearization {
         side_[i] = a[i] <= bi ? 'a' : 'b';
       }
     }
+    if (layout && !gi && !smoothed && quadratic_from < 0 &&
+        options.degenerate == DegenerateRule::kDirectional)
+      HoldUnloadedFriction(*layout);
     for (int i = 0; i < np; ++i) {
       if (smoothed) {
         // ∂φ_ε = (1 − a/r) da + (1 − b/r) db,  r = √(a² + b² + 2ε) > 0.
@@ -342,6 +347,53 @@ class Linearization {
       }
     }
     return moved ? shift : VectorXd();
+  }
+
+  // The friction pairs of a contact whose normal impulse is held at 0 while its σ > 0 (w_σ =
+  // μ p_n − Σ p_f = 0 held; a contact with tangential slip ν_t, σ = max_j(−d_jᵀ ν_t)): the
+  // directions attaining that maximum have p_f,j = 0 = w_j and would be taken as degenerate, yet
+  // with p_n and every p_f held at 0 the cone row is 0 = 0 and leaves dσ free, so K's minimum-norm
+  // solution sets dσ = 0 and the sensitivity LCP sees w_j's rate d_jᵀ dν_t as if σ could not follow
+  // it: friction at an unloaded point (∂ν_x/∂ν_x = 0.375 on a box sliding 1 mm above the floor).
+  //   Separated (p_n's pair held at p_n = 0, the gap rate > 0): the cone admits no friction for
+  //   any small perturbation; the directions are held at dp_f,j = 0 (not degenerate).
+  //   Touching and unloaded (p_n's pair degenerate), one direction attaining the maximum: the
+  //   contact slides along −d_j if it takes load; w_j = 0 is held (dσ = −d_jᵀ dν_t), p_f,j free,
+  //   tied to dp_n by the cone row. Several directions (ν_t bisecting two): left degenerate.
+  // Pairs are mapped to contacts through their a sides (p_n, p_f, σ at the StepLayout's columns,
+  // the Stewart–Trinkle pair order [p_n; p_f; σ; ...]); any other layout is left as it is.
+  void HoldUnloadedFriction(const StepLayout& l) {
+    const int nc = l.nc, nd = l.nd, np = static_cast<int>(side_.size());
+    if (nc == 0 || nd == 0 || np < nc * (nd + 2)) return;
+    const auto unit_at = [&](int pair, int col) {
+      const SparseRows& A = *da_;
+      int count = 0;
+      bool hit = false;
+      for (int k = A.ptr[pair]; k < A.ptr[pair + 1]; ++k) {
+        if (A.col[k] >= nz_ || A.val[k] == 0.0) continue;
+        ++count;
+        hit = A.col[k] == col && A.val[k] == 1.0;
+      }
+      return count == 1 && hit;
+    };
+    bool changed = false;
+    for (int k = 0; k < nc; ++k) {
+      const int n = k, f0 = nc + k * nd, s = nc + nc * nd + k;
+      if (!unit_at(n, l.pn() + k) || !unit_at(s, l.sigma() + k) || !unit_at(f0, l.pf() + k * nd))
+        return;
+      if (side_[s] != 'b' || a_[n] > tol_ || (side_[n] != 'a' && side_[n] != 'd')) continue;
+      int held = 0;
+      for (int i = f0; i < f0 + nd; ++i) held += side_[i] == 'd';
+      if (held == 0 || (side_[n] == 'd' && held > 1)) continue;
+      for (int i = f0; i < f0 + nd; ++i)
+        if (side_[i] == 'd') side_[i] = side_[n] == 'a' ? 'a' : 'b';
+      degenerate_ -= held;
+      changed = true;
+    }
+    if (!changed) return;
+    deg_.clear();
+    for (int i = 0; i < np; ++i)
+      if (side_[i] == 'd') deg_.push_back(i);
   }
 
   // How far along a column (dz its solution, r its residual column) the held active set stays
