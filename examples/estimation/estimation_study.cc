@@ -3,7 +3,7 @@
 //
 //   estimation_study STUDY [--trials N] [--noise S1,S2,..] [--windows W1,W2,..]
 //                    [--particles N1,N2,..] [--episodes N] [--methods
-//                    lsq,lsq_ms,filter,mpec,mpec_pen,mpec_dec]
+//                    lsq,lsq_sens,lsq_ms,filter,mpec,mpec_pen,mpec_dec]
 //                    [--guess MU] [--first-trial K] [--threads N] [--mpec-substeps N]
 //                    [--out FILE.csv]
 //
@@ -22,7 +22,8 @@
 // noise_m, window, particles, episodes, trial, true_mu, mu_hat, std_error, converged,
 // iterations, time_s (wall), samples, cpu_s (the process's CPU time: meaningful on a loaded
 // machine, summed over threads and over the worker processes of mpec_dec), robust_se (mpec_dec: the
-// s.e. from the episodes' jackknife; nan otherwise). Methods: lsq (single shooting), lsq_ms
+// s.e. from the episodes' jackknife; nan otherwise). Methods: lsq (single shooting), lsq_sens
+// (single shooting with step-sensitivity Jacobians, LeastSquaresJacobian::kSensitivity), lsq_ms
 // (multiple shooting, 25-sample segments), filter (the UKF with μ in the state), mpec (Ipopt,
 // Scholtes relaxation homotopy), mpec_pen (Ipopt, ℓ1 penalty homotopy), mpec_dec (mpec with the
 // episodes decomposed: MpecEpisodes::kDecomposed, mpec_decomposed.h). The defaults are the full
@@ -97,12 +98,14 @@ bool g_mpec_raw_guess = false;
 int g_verbose = 0;
 
 std::vector<std::pair<std::string, Estimator>> Methods() {
-  auto lsq = [](est::Shooting shooting) {
-    return [shooting](const sim::Simulator& s, const Log& log, double sigma) {
+  auto lsq = [](est::Shooting shooting,
+                est::LeastSquaresJacobian jacobian = est::LeastSquaresJacobian::kFiniteDifference) {
+    return [shooting, jacobian](const sim::Simulator& s, const Log& log, double sigma) {
       est::LeastSquaresOptions o;
       o.params = {"mu.default"};
       o.noise_sigma = sigma;
       o.shooting = shooting;
+      o.jacobian = jacobian;
       o.segment_samples = 25;
       o.max_iterations = 50;
       o.threads = g_threads;
@@ -130,6 +133,7 @@ std::vector<std::pair<std::string, Estimator>> Methods() {
   };
   return {
       {"lsq", lsq(est::Shooting::kSingle)},
+      {"lsq_sens", lsq(est::Shooting::kSingle, est::LeastSquaresJacobian::kSensitivity)},
       {"lsq_ms", lsq(est::Shooting::kMultiple)},
       {"filter",
        [](const sim::Simulator& s, const Log& log, double sigma) {
@@ -292,7 +296,8 @@ std::vector<std::string> ParseNames(const std::string& s) {
 constexpr const char* kUsage =
     "usage: estimation_study plate|particles|block|cube [--trials N] [--first-trial K]\n"
     "         [--noise S1,S2] [--windows W1,W2] [--particles N1,N2] [--episodes N]\n"
-    "         [--methods lsq,lsq_ms,filter,mpec,mpec_pen,mpec_dec] [--guess MU] [--threads N]\n"
+    "         [--methods lsq,lsq_sens,lsq_ms,filter,mpec,mpec_pen,mpec_dec] [--guess MU]\n"
+    "         [--threads N]\n"
     "         [--mpec-substeps N] [--mpec-raw-guess 1] [--verbose 0|1|IPOPT_PRINT_LEVEL]\n"
     "         [--only-episode K[,L...]]\n"
     "         [--out F.csv]\n";
@@ -390,7 +395,7 @@ int Run(int argc, char** argv) {
     for (const auto& k : Methods()) known |= k.first == m;
     if (!known) {
       std::cerr << "--methods: unknown method '" << m
-                << "' (lsq, lsq_ms, filter, mpec, mpec_pen, mpec_dec)\n";
+                << "' (lsq, lsq_sens, lsq_ms, filter, mpec, mpec_pen, mpec_dec)\n";
       return 1;
     }
   }
