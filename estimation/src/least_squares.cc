@@ -64,25 +64,6 @@ bool EpisodeResiduals(const sim::Simulator& simulator, const Params& params, con
 
 namespace {
 
-// Runs f(0), ..., f(n − 1) on up to `threads` threads (indices handed out dynamically; each f(i)
-// must write only its own outputs, so the results do not depend on the thread count).
-template <typename F>
-void ParallelFor(int n, int threads, const F& f) {
-  const int workers = std::min(threads, n);
-  if (workers <= 1) {
-    for (int i = 0; i < n; ++i) f(i);
-    return;
-  }
-  std::atomic<int> next{0};
-  auto work = [&] {
-    for (int i = next++; i < n; i = next++) f(i);
-  };
-  std::vector<std::thread> pool;
-  for (int t = 1; t < workers; ++t) pool.emplace_back(work);
-  work();
-  for (std::thread& t : pool) t.join();
-}
-
 // One segment's residuals and Jacobian blocks, evaluated by ParallelEvaluation at the point
 // Ceres is about to evaluate, for SegmentCeresCost to hand over.
 struct SegmentSlot {
@@ -413,6 +394,9 @@ EstimateResult EstimateLeastSquares(const sim::Simulator& simulator, const Log& 
     problem.AddResidualBlock(new SegmentCeresCost(cost, &slots[k]), nullptr, blocks);
   }
   result.num_continuity_residuals = continuity_rows;
+  // Threads left over by the segments go to each segment's finite-difference columns.
+  for (const std::unique_ptr<SegmentCost>& c : owned_costs)
+    c->set_column_threads(options.threads / static_cast<int>(owned_costs.size()));
 
   // Initial-state components the residuals do not see at the start have a zero Jacobian column
   // and are held fixed, so that the problem stays well-posed. The typical case is a velocity

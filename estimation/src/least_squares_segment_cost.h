@@ -93,6 +93,9 @@ class SegmentCost : public ceres::CostFunction {
     return true;
   }
   int continuity_rows() const { return continuity_rows_; }
+  /// Threads for the finite-difference columns of one evaluation (when the problem has fewer
+  /// segments than threads); the columns are the same for any count.
+  void set_column_threads(int threads) { column_threads_ = std::max(1, threads); }
   const Episode& segment() const { return ep_; }
   const sim::State& ref() const { return ref_; }
 
@@ -107,8 +110,10 @@ class SegmentCost : public ceres::CostFunction {
   }
 
  private:
+  // The residuals at (θ, s, s_next). A failed rollout is recorded in failures_, or with
+  // `failure` given, described there instead.
   bool Residuals(const sim::VectorXd& theta, const sim::VectorXd& s, const double* s_next,
-                 sim::VectorXd* r) const {
+                 sim::VectorXd* r, std::string* failure_out = nullptr) const {
     const sim::Params p = sel_.Set(base_, theta);
     const sim::State x0 = StateFromVector(sim_, ep_, ref_, s.data());
     std::string failure;
@@ -116,8 +121,12 @@ class SegmentCost : public ceres::CostFunction {
     sim::Trajectory tr;
     if (!RolloutResiduals(sim_, p, ep_, x0, opt_.orientation_length, &measured, &failure,
                           next_ ? &tr : nullptr)) {
-      failures_->Record(index_,
-                        ep_.file + " (t = " + std::to_string(ep_.t.front()) + "): " + failure);
+      const std::string what =
+          ep_.file + " (t = " + std::to_string(ep_.t.front()) + "): " + failure;
+      if (failure_out)
+        *failure_out = what;
+      else
+        failures_->Record(index_, what);
       return false;
     }
     r->resize(num_residuals());
@@ -196,37 +205,47 @@ class SegmentCost : public ceres::CostFunction {
       J.setZero();
       J.bottomRows(continuity_rows_).diagonal() = -*weight_ * scale_;
     }
+    // Central differences, column by column (on column_threads_ threads, each column from its
+    // own copy of (θ, s)); a failed rollout is recorded for the lowest failing column.
     const sim::VectorXd lo = sel_.lower(), hi = sel_.upper();
-    for (int block = 0; block < (with_state_ ? 2 : 1); ++block) {
-      if (!jacobians[block]) continue;
-      sim::VectorXd& x = block == 0 ? theta : s;
-      const int n = static_cast<int>(x.size());
-      Eigen::Map<RowMajor> J(jacobians[block], m, n);
-      for (int j = 0; j < n; ++j) {
-        const double xj = x[j];
-        const double h = opt_.fd_relative_step * std::max(1.0, std::abs(xj));
-        const bool down_ok = block != 0 || xj - h >= lo[j];
-        const bool up_ok = block != 0 || xj + h <= hi[j];
-        sim::VectorXd rp, rm;
-        double width = 0.0;
-        if (up_ok) {
-          x[j] = xj + h;
-          if (!Residuals(theta, s, s_next, &rp)) return false;
-          width += h;
-        } else {
-          rp = r;
-        }
-        if (down_ok) {
-          x[j] = xj - h;
-          if (!Residuals(theta, s, s_next, &rm)) return false;
-          width += h;
-        } else {
-          rm = r;
-        }
-        x[j] = xj;
-        if (width == 0.0) return false;
-        J.col(j) = (rp - rm) / width;
+    std::vector<std::pair<int, int>> columns;  // (block, index)
+    for (int block = 0; block < (with_state_ ? 2 : 1); ++block)
+      if (jacobians[block])
+        for (int j = 0; j < (block == 0 ? np : static_cast<int>(s.size())); ++j)
+          columns.emplace_back(block, j);
+    const int nc = static_cast<int>(columns.size());
+    std::vector<std::string> failed(nc);
+    std::vector<char> ok(nc, 1);
+    const auto column = [&](int c) {
+      const auto [block, j] = columns[c];
+      sim::VectorXd th = theta, st = s;
+      sim::VectorXd& x = block == 0 ? th : st;
+      const double xj = x[j];
+      const double h = opt_.fd_relative_step * std::max(1.0, std::abs(xj));
+      const bool down_ok = block != 0 || xj - h >= lo[j];
+      const bool up_ok = block != 0 || xj + h <= hi[j];
+      sim::VectorXd rp = r, rm = r;
+      double width = 0.0;
+      if (up_ok) {
+        x[j] = xj + h;
+        if (!Residuals(th, st, s_next, &rp, &failed[c])) return false;
+        width += h;
       }
+      if (down_ok) {
+        x[j] = xj - h;
+        if (!Residuals(th, st, s_next, &rm, &failed[c])) return false;
+        width += h;
+      }
+      if (width == 0.0) return false;
+      Eigen::Map<RowMajor> J(jacobians[block], m, block == 0 ? np : static_cast<int>(s.size()));
+      J.col(j) = (rp - rm) / width;
+      return true;
+    };
+    ParallelFor(nc, column_threads_, [&](int c) { ok[c] = column(c); });
+    for (int c = 0; c < nc; ++c) {
+      if (ok[c]) continue;
+      if (!failed[c].empty()) failures_->Record(index_, failed[c]);
+      return false;
     }
     return true;
   }
@@ -246,6 +265,7 @@ class SegmentCost : public ceres::CostFunction {
   OrderedLog* failures_;
   JacobianStats* stats_;
   int measured_rows_ = 0, continuity_rows_ = 0;
+  int column_threads_ = 1;
 };
 
 }  // namespace vinci::estimation::internal

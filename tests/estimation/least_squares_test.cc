@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <string>
+#include <tuple>
 #include <utility>
 
 #include "estimation_test_util.h"
@@ -79,19 +80,22 @@ TEST(LeastSquares, SeveralEpisodesShareMu) {
 }
 
 // Bit-identical results for any thread count (the segments are evaluated in parallel into
-// their own storage, Ceres itself runs on one thread): several noisy episodes, single and
-// multiple shooting (finite-difference and sensitivity Jacobians), 1, 2 and 3 threads, and a
-// repeat of the 2-thread run.
+// their own storage, and a lone segment's finite-difference columns; Ceres itself runs on one
+// thread): several noisy episodes, single and multiple shooting (finite-difference and
+// sensitivity Jacobians), one episode by single shooting (its columns in parallel), 1, 2 and 3
+// threads, and a repeat of the 2-thread run.
 TEST(LeastSquares, ThreadCountDoesNotChangeTheBits) {
   const sim::Simulator sim(sim::ParseScene(testing::kPlanarBlock, "block.yaml"));
   const std::string a = SyntheticLog(sim, "block", kTrueMu, 0.3, 4, 1e-3, 11, "bits_a.csv", false);
   const std::string b = SyntheticLog(sim, "block", kTrueMu, 0.2, 3, 1e-3, 12, "bits_b.csv", false);
-  const Log log = ReadLog({a, b}, sim.scene());
-  const std::pair<Shooting, LeastSquaresJacobian> cases[] = {
-      {Shooting::kSingle, LeastSquaresJacobian::kFiniteDifference},
-      {Shooting::kMultiple, LeastSquaresJacobian::kFiniteDifference},
-      {Shooting::kMultiple, LeastSquaresJacobian::kSensitivity}};
-  for (const auto& [shooting, jacobian] : cases) {
+  const Log two = ReadLog({a, b}, sim.scene()), lone = ReadLog({a}, sim.scene());
+  const std::tuple<Shooting, LeastSquaresJacobian, const Log*> cases[] = {
+      {Shooting::kSingle, LeastSquaresJacobian::kFiniteDifference, &two},
+      {Shooting::kMultiple, LeastSquaresJacobian::kFiniteDifference, &two},
+      {Shooting::kMultiple, LeastSquaresJacobian::kSensitivity, &two},
+      {Shooting::kSingle, LeastSquaresJacobian::kFiniteDifference, &lone}};
+  for (const auto& [shooting, jacobian, log_ptr] : cases) {
+    const Log& log = *log_ptr;
     auto run = [&, shooting = shooting, jacobian = jacobian](int threads) {
       LeastSquaresOptions o;
       o.params = {"mu.default"};
@@ -106,7 +110,8 @@ TEST(LeastSquares, ThreadCountDoesNotChangeTheBits) {
     ASSERT_TRUE(std::isfinite(one.estimates[0])) << one.reason;
     for (int threads : {2, 3, 2}) {  // 2 twice: run to run
       const EstimateResult r = run(threads);
-      SCOPED_TRACE(std::string(ToString(shooting)) + ", " + ToString(jacobian) + ", threads " +
+      SCOPED_TRACE(std::string(ToString(shooting)) + ", " + ToString(jacobian) + ", " +
+                   std::to_string(log.episodes.size()) + " episode(s), threads " +
                    std::to_string(threads));
       EXPECT_EQ(r.iterations, one.iterations);
       EXPECT_EQ(r.estimates[0], one.estimates[0]);  // bits, not a tolerance
