@@ -344,8 +344,10 @@ Command RegisterEstimateCommand(CLI::App& app) {
                   "(default: estimated from the residuals)")
       ->type_name("SIGMA");
   sub->add_option("--threads,-j", options->threads,
-                  "Threads: lsq evaluates episodes and segments in parallel, mpec steps; "
-                  "mpec with --mpec-episodes decomposed solves episodes in N worker processes")
+                  "Threads (default 1): lsq evaluates episodes and segments in parallel, and "
+                  "with fewer of them than threads each one's finite-difference columns; mpec "
+                  "steps; mpec with --mpec-episodes decomposed solves episodes in N worker "
+                  "processes. Results are the same for any N")
       ->type_name("N")
       ->check(CLI::PositiveNumber);
   sub->add_option("--max-iterations", options->max_iterations,
