@@ -61,12 +61,13 @@ void PairDerivative(const PairFunction& f, const State& a, const State& b, const
       out->col(c).setZero();
       continue;
     }
-    const double h = kObservationStep / m;
-    const VectorXd fp =
-        f(Perturb(a, Sa.col(c), h, quaternions), Perturb(b, Sb.col(c), h, quaternions));
-    const VectorXd fm =
-        f(Perturb(a, Sa.col(c), -h, quaternions), Perturb(b, Sb.col(c), -h, quaternions));
-    out->col(c) = (fp - fm) / (2 * h);
+    // Along the unit column: kObservationStep / m overflows for a column that decayed to
+    // denormals (~1e-310 after a few sticking steps), and ∞ · 0 poisoned the Jacobian with NaN.
+    const VectorXd ua = Sa.col(c) / m, ub = Sb.col(c) / m;
+    const double h = kObservationStep;
+    const VectorXd fp = f(Perturb(a, ua, h, quaternions), Perturb(b, ub, h, quaternions));
+    const VectorXd fm = f(Perturb(a, ua, -h, quaternions), Perturb(b, ub, -h, quaternions));
+    out->col(c) = (fp - fm) * (m / (2 * h));
   }
 }
 

@@ -112,6 +112,25 @@ TEST(LeastSquaresJacobian, SensitivityAgreesWithFiniteDifferencesOnTheSlidingBox
   }
 }
 
+// A contact removes a velocity perturbation into it to round-off every step (×1e-17), so such a
+// column of the forward sensitivities passes through the denormals within ~20 steps. The
+// observation map's central difference along it divided by its size (∞ for a denormal) and
+// ∞ · 0 put NaN into the Jacobian: two of 80 noisy block fits of the studies failed at their
+// first evaluation. Positions of the sliding block every 5th step for 0.3 s with 1 mm noise,
+// evaluated at μ = 0.5: seed 45 was one of 60 that failed so.
+TEST(LeastSquaresJacobian, ColumnsDecayingThroughDenormalsStayFinite) {
+  const sim::Simulator sim(sim::ParseScene(testing::kPlanarBlock, "block.yaml"));
+  for (const unsigned seed : {45u, 1u, 2u}) {
+    SCOPED_TRACE("seed " + std::to_string(seed));
+    const Log log = ReadLog(
+        {SyntheticLog(sim, "block", 0.3, 0.3, 5, 1e-3, seed, "denormal.csv", false)}, sim.scene());
+    const Jacobians j =
+        Both(sim, log, 0, log.episodes[0].num_samples() - 1, 0.5, Shooting::kSingle);
+    EXPECT_TRUE(j.sens.allFinite());
+    EXPECT_TRUE(j.r_sens.allFinite());
+  }
+}
+
 TEST(LeastSquaresJacobian, ParsesTheOption) {
   EXPECT_EQ(ParseLeastSquaresJacobian("sensitivity"), LeastSquaresJacobian::kSensitivity);
   EXPECT_EQ(ParseLeastSquaresJacobian("fd"), LeastSquaresJacobian::kFiniteDifference);
