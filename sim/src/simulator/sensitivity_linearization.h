@@ -376,11 +376,13 @@ class Linearization {
       }
       return count == 1 && hit;
     };
+    for (int k = 0; k < nc; ++k)
+      if (!unit_at(k, l.pn() + k) || !unit_at(nc + nc * nd + k, l.sigma() + k) ||
+          !unit_at(nc + k * nd, l.pf() + k * nd))
+        return;
     bool changed = false;
     for (int k = 0; k < nc; ++k) {
       const int n = k, f0 = nc + k * nd, s = nc + nc * nd + k;
-      if (!unit_at(n, l.pn() + k) || !unit_at(s, l.sigma() + k) || !unit_at(f0, l.pf() + k * nd))
-        return;
       if (side_[s] != 'b' || a_[n] > tol_ || (side_[n] != 'a' && side_[n] != 'd')) continue;
       int held = 0;
       for (int i = f0; i < f0 + nd; ++i) held += side_[i] == 'd';
