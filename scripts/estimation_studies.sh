@@ -6,13 +6,13 @@
 #
 #   scripts/estimation_studies.sh [BUILD_DIR] [OUT_DIR] [TRIALS] [METHODS]
 #
-# Defaults: build, estimation_results, 20 trials, lsq,lsq_ms,filter,mpec,mpec_pen. The full run takes
+# Defaults: build, estimation_results, 20 trials, lsq,lsq_sens,lsq_ms,filter,mpec,mpec_pen. The full run takes
 # hours (the cube and mpec dominate); run it on an idle machine, or cut TRIALS / METHODS.
 set -eu
 BUILD=${1:-build}
 OUT=${2:-estimation_results}
 TRIALS=${3:-20}
-METHODS=${4:-lsq,lsq_ms,filter,mpec,mpec_pen}
+METHODS=${4:-lsq,lsq_sens,lsq_ms,filter,mpec,mpec_pen}
 STUDY="$BUILD/examples/estimation_study"
 [ -x "$STUDY" ] || { echo "no $STUDY: build the estimation_study target first" >&2; exit 1; }
 HERE=$(dirname "$0")
