@@ -8,7 +8,8 @@ within 3 reported standard errors (of all trials, and of the converged ones; in_
 robust standard errors, where the CSV has them, i.e. mpec_dec), convergence, mean
 iterations, mean wall time and (where the CSV has it) mean CPU time, against the noise level and the
 window length (the `particles` study: against the number of particles). Writes PREFIX_<study>.png
-(default prefix: the first CSV without .csv) and prints a table.
+(default prefix: the first CSV without .csv) and prints a table. The plots leave out groups of
+fewer than 5 trials (a cut-short run); the table lists them with their n.
 """
 import csv
 import math
@@ -27,6 +28,9 @@ def load(paths):
         with open(p) as f:
             rows += list(csv.DictReader(f))
     return rows
+
+
+MIN_PLOTTED_TRIALS = 5
 
 
 def summarize(rows):
@@ -86,7 +90,7 @@ def main():
               f"  {v['coverage_converged']:11.2f}  {v['coverage_robust']:7.2f}"
               f"  {v['iterations']:5.1f}  {v['time']:7.3f}  {v['cpu']:7.3f}")
     for study in sorted({k[0] for k in s}):
-        keys = [k for k in s if k[0] == study]
+        keys = [k for k in s if k[0] == study and s[k]["n"] >= MIN_PLOTTED_TRIALS]
         fig, (ax, cx) = plt.subplots(1, 2, figsize=(11, 4))
         methods = sorted({k[1] for k in keys})
         for metric, axis in (("rms", ax), ("coverage", cx)):
