@@ -110,8 +110,8 @@ class SegmentCost : public ceres::CostFunction {
   }
 
  private:
-  // The residuals at (θ, s, s_next). A failed rollout is recorded in failures_, or with
-  // `failure` given, described there instead.
+  // The residuals at (θ, s, s_next). A failed rollout is recorded in failures_, or, with
+  // `failure_out` given, described there instead.
   bool Residuals(const sim::VectorXd& theta, const sim::VectorXd& s, const double* s_next,
                  sim::VectorXd* r, std::string* failure_out = nullptr) const {
     const sim::Params p = sel_.Set(base_, theta);
