@@ -229,6 +229,8 @@ ExitCode RunEstimateCommand(const EstimateOptions& o) {
     throw std::invalid_argument("--complementarity-tolerance: only for --method mpec");
   if (!o.mpec_episodes.empty() && o.method != "mpec")
     throw std::invalid_argument("--mpec-episodes: only for --method mpec");
+  if (!o.mpec_ordering.empty() && o.method != "mpec")
+    throw std::invalid_argument("--mpec-ordering: only for --method mpec");
   if (!o.jacobian.empty() && o.method != "lsq")
     throw std::invalid_argument("--jacobian: only for --method lsq");
   if (o.method == "mpec") return RunEstimateMpec(o);
@@ -318,6 +320,11 @@ Command RegisterEstimateCommand(CLI::App& app) {
                   "over the shared parameters: each episode's NLP at fixed θ, Newton steps on θ; "
                   "docs/estimation.md)")
       ->type_name("joint|decomposed");
+  sub->add_option("--mpec-ordering", options->mpec_ordering,
+                  "mpec: MUMPS' fill-reducing ordering, scotch (default) or qamd; try qamd where "
+                  "Ipopt's iterations take seconds (several bodies sharing the parameters, e.g. "
+                  "eight particles: docs/estimation.md)")
+      ->type_name("scotch|qamd");
   sub->add_option("--shooting", options->shooting,
                   "lsq: single (one rollout per episode; default) or multiple (segments of "
                   "--segment-samples samples from their own start states, with continuity)")

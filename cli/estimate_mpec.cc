@@ -65,6 +65,8 @@ std::string MpecJson(const EstimateOptions& o, const estimation::MpecEstimateRes
     << "      \"num_steps\": " << r.num_steps << ",\n"
     << "      \"substeps\": " << std::max(0, o.mpec_substeps) << ",\n"
     << "      \"episode_mode\": \"" << (o.mpec_episodes.empty() ? "joint" : o.mpec_episodes)
+    << "\",\n"
+    << "      \"ordering\": \"" << (o.mpec_ordering.empty() ? "scotch" : o.mpec_ordering)
     << "\",\n";
   if (holdout) j << HoldoutJson(o, *holdout);
   j << "      \"episodes\": [";
@@ -101,6 +103,7 @@ ExitCode RunEstimateMpec(const EstimateOptions& o) {
   mo.threads = o.threads;
   mo.substeps = std::max(0, o.mpec_substeps);
   if (!o.mpec_episodes.empty()) mo.episodes = estimation::ParseMpecEpisodes(o.mpec_episodes);
+  if (!o.mpec_ordering.empty()) mo.solver.ordering = estimation::ParseMpecOrdering(o.mpec_ordering);
   mo.solver.method = estimation::ParseComplementarityMethod(o.complementarity);
   if (o.max_iterations) mo.solver.max_iterations = *o.max_iterations;
   if (o.complementarity_tolerance)

@@ -145,6 +145,12 @@ const char* ToString(ComplementarityMethod method) {
   return method == ComplementarityMethod::kScholtes ? "scholtes" : "penalty";
 }
 
+MpecSolverOptions::Ordering ParseMpecOrdering(const std::string& name) {
+  if (name == "scotch") return MpecSolverOptions::Ordering::kScotch;
+  if (name == "qamd") return MpecSolverOptions::Ordering::kQamd;
+  throw std::invalid_argument("mpec ordering '" + name + "': expected scotch or qamd");
+}
+
 ComplementarityMethod ParseComplementarityMethod(const std::string& name) {
   if (name == "scholtes") return ComplementarityMethod::kScholtes;
   if (name == "penalty") return ComplementarityMethod::kPenalty;
@@ -260,7 +266,9 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o,
     // every time, and its orderings cost half the CPU of QAMD's factorizations here
     // (bench/README.md); QAMD where SCOTCH is not found.
     const ScotchRandomSeed scotch_seed =
-        o.deterministic_ordering ? FindScotchRandomSeed() : nullptr;
+        o.deterministic_ordering && o.ordering == MpecSolverOptions::Ordering::kScotch
+            ? FindScotchRandomSeed()
+            : nullptr;
     if (o.deterministic_ordering) opt.SetIntegerValue("mumps_pivot_order", scotch_seed ? 3 : 6);
     opt.SetIntegerValue("mumps_mem_percent", o.mumps_mem_percent);
     // The penalty ρ Σ x_a x_b is bounded below by 0 only on x_a, x_b ≥ 0. Ipopt relaxes every

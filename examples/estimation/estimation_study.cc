@@ -32,7 +32,8 @@
 // mpec/mpec_pen (steps in parallel) and mpec_dec (episodes in worker processes); --mpec-substeps N
 // (default 0: the scene's dt) the MPEC's steps per log interval (MpecOptions::substeps);
 // --mpec-raw-guess 1 the MPEC's initial guess from the raw log (MpecOptions::smooth_initial_guess
-// off). Plots: scripts/plot_estimation_study.py FILE.csv.
+// off); --mpec-ordering scotch|qamd MUMPS' ordering (MpecSolverOptions::ordering). Plots:
+// scripts/plot_estimation_study.py FILE.csv.
 //
 // To add a method, add one line to Methods() below.
 #include <sys/resource.h>
@@ -93,6 +94,8 @@ int g_mpec_substeps = 0;
 // --mpec-raw-guess: the MPEC's initial guess from the raw log (MpecOptions::smooth_initial_guess
 // off; the estimator before 2026-11-25's smoothing, for comparisons).
 bool g_mpec_raw_guess = false;
+// --mpec-ordering: MUMPS' ordering (MpecSolverOptions::ordering).
+est::MpecSolverOptions::Ordering g_mpec_ordering = est::MpecSolverOptions::Ordering::kScotch;
 // --verbose 1: the MPEC's progress lines (setup, each NLP) on stderr; ≥ 2: also Ipopt's output
 // at that print_level.
 int g_verbose = 0;
@@ -124,6 +127,7 @@ std::vector<std::pair<std::string, Estimator>> Methods() {
           o.threads = g_threads;
           o.substeps = g_mpec_substeps;
           o.smooth_initial_guess = !g_mpec_raw_guess;
+          o.solver.ordering = g_mpec_ordering;
           if (g_verbose > 0)
             o.progress = [](const std::string& line) { std::cerr << "  " << line << "\n"; };
           if (g_verbose > 1) o.solver.print_level = g_verbose;
@@ -298,7 +302,8 @@ constexpr const char* kUsage =
     "         [--noise S1,S2] [--windows W1,W2] [--particles N1,N2] [--episodes N]\n"
     "         [--methods lsq,lsq_sens,lsq_ms,filter,mpec,mpec_pen,mpec_dec] [--guess MU]\n"
     "         [--threads N]\n"
-    "         [--mpec-substeps N] [--mpec-raw-guess 1] [--verbose 0|1|IPOPT_PRINT_LEVEL]\n"
+    "         [--mpec-substeps N] [--mpec-raw-guess 1] [--mpec-ordering scotch|qamd]\n"
+    "         [--verbose 0|1|IPOPT_PRINT_LEVEL]\n"
     "         [--only-episode K[,L...]]\n"
     "         [--out F.csv]\n";
 
@@ -377,6 +382,8 @@ int Run(int argc, char** argv) {
       g_threads = std::stoi(value);
     } else if (flag == "--mpec-raw-guess") {
       g_mpec_raw_guess = value != "0";
+    } else if (flag == "--mpec-ordering") {
+      g_mpec_ordering = est::ParseMpecOrdering(value);
     } else if (flag == "--mpec-substeps") {
       g_mpec_substeps = std::stoi(value);
     } else if (flag == "--verbose") {

@@ -180,7 +180,9 @@ TEST(MpecEstimator, JacobianStructureHoldsEveryNonZero) {
   }
 }
 
-void ExpectPlanarBlockNoiseFreeRecoversMu(ComplementarityMethod method) {
+void ExpectPlanarBlockNoiseFreeRecoversMu(
+    ComplementarityMethod method,
+    MpecSolverOptions::Ordering ordering = MpecSolverOptions::Ordering::kScotch) {
   const sim::Simulator sim(sim::ParseScene(testing::kPlanarBlock, "block.yaml"));
   const std::string path =
       testing::SyntheticLog(sim, "block", kTrueMu, 0.6, 5, 0.0, 1, "mpec_block_exact.csv");
@@ -190,6 +192,7 @@ void ExpectPlanarBlockNoiseFreeRecoversMu(ComplementarityMethod method) {
     o.params = {"mu.default"};
     o.noise_sigma = 1e-3;
     o.solver.method = method;
+    o.solver.ordering = ordering;
     const MpecEstimateResult r = EstimateMpec(sim, log, o);
     EXPECT_TRUE(r.converged) << ToString(method) << ": " << r.reason;
     ASSERT_EQ(r.estimates.size(), 1);
@@ -206,6 +209,20 @@ void ExpectPlanarBlockNoiseFreeRecoversMu(ComplementarityMethod method) {
 
 TEST(MpecEstimator, PlanarBlockNoiseFreeRecoversMu) {
   ExpectPlanarBlockNoiseFreeRecoversMu(ComplementarityMethod::kScholtes);
+}
+
+// The QAMD ordering (MpecSolverOptions::ordering) gives the same estimate; the names parse.
+TEST(MpecEstimator, PlanarBlockNoiseFreeRecoversMuWithTheQamdOrdering) {
+  ExpectPlanarBlockNoiseFreeRecoversMu(ComplementarityMethod::kScholtes,
+                                       MpecSolverOptions::Ordering::kQamd);
+  EXPECT_EQ(ParseMpecOrdering("scotch"), MpecSolverOptions::Ordering::kScotch);
+  EXPECT_EQ(ParseMpecOrdering("qamd"), MpecSolverOptions::Ordering::kQamd);
+  try {
+    ParseMpecOrdering("metis");
+    ADD_FAILURE() << "metis accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_STREQ(e.what(), "mpec ordering 'metis': expected scotch or qamd");
+  }
 }
 
 TEST(MpecEstimator, PlanarBlockNoiseFreeRecoversMuWithThePenalty) {

@@ -207,6 +207,13 @@ struct MpecSolverOptions {
   /// here). Off: MUMPS' automatic choice (SCOTCH on large systems, whose random state persists
   /// between solves: last-digit differences).
   bool deterministic_ordering = false;
+  /// With deterministic_ordering, MUMPS' fill-reducing ordering: SCOTCH (seeded, where found;
+  /// else QAMD) or QAMD. Measured (bench/README.md, session 33): SCOTCH halves QAMD's
+  /// factorization cost on one body's log (10.3 against 18.2 s on four particles), but on eight
+  /// particles sharing μ its ordering made every factorization take tens of seconds (3 Ipopt
+  /// iterations in 2 minutes) where QAMD runs ~6 iterations a second.
+  enum class Ordering { kScotch, kQamd };
+  Ordering ordering = Ordering::kScotch;
   /// MUMPS' working storage beyond its analysis estimate, in percent (Ipopt's
   /// mumps_mem_percent; Ipopt's own default is 1000). MUMPS allocates and clears that storage
   /// at every factorization, so on these KKT systems (fronts of ≤ ~50 rows) a large reserve
@@ -218,6 +225,9 @@ struct MpecSolverOptions {
   /// Throws std::invalid_argument naming the first invalid field.
   void Validate() const;
 };
+
+/// Parses "scotch" / "qamd"; throws std::invalid_argument naming the value otherwise.
+MpecSolverOptions::Ordering ParseMpecOrdering(const std::string& name);
 
 /// Multipliers to warm-start a Scholtes stage from a relaxed solution (MpecSolution::relaxed).
 struct MpecMultipliers {
