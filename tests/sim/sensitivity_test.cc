@@ -35,8 +35,7 @@ void ExpectMatrixNear(const MatrixXd& a, const MatrixXd& b, double rel, const st
 // initial state). At a degenerate step the exact columns are one-sided (along +e_j), so they are
 // compared with forward differences there, with central ones otherwise.
 void CheckStepAgainstFd(const Simulator& sim, const std::vector<std::string>& names, int warmup,
-                        double rel, SensitivityStatus expected,
-                        const SensitivityOptions& options = {}) {
+                        double rel, SensitivityStatus expected) {
   const Params p = sim.DefaultParams();
   const ParamSelection sel(sim.scene().param_table(), names);
   State x = sim.InitialState();
@@ -44,7 +43,7 @@ void CheckStepAgainstFd(const Simulator& sim, const std::vector<std::string>& na
   Workspace ws;
   State next;
   ASSERT_TRUE(sim.Step(p, x, {}, &ws, &next).ok);
-  const StepSensitivity s = StepDerivatives(sim, p, sel, x, {}, next, true, options);
+  const StepSensitivity s = StepDerivatives(sim, p, sel, x, {}, next, true);
   EXPECT_EQ(s.status, expected) << SensitivityStatusName(s.status) << ": " << s.message;
   const bool central = s.status == SensitivityStatus::kExact;
   const int nq = static_cast<int>(x.q.size()), nx = nq + static_cast<int>(x.v.size());
