@@ -3,14 +3,36 @@
 // initial-state guess, rollouts against logged samples. Not installed.
 #pragma once
 
+#include <algorithm>
+#include <atomic>
 #include <mutex>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "vinci/estimation/log.h"
 #include "vinci/sim/simulator/simulator.h"
 
 namespace vinci::estimation::internal {
+
+// Runs f(0), ..., f(n − 1) on up to `threads` threads (indices handed out dynamically; each f(i)
+// must write only its own outputs, so the results do not depend on the thread count).
+template <typename F>
+void ParallelFor(int n, int threads, const F& f) {
+  const int workers = std::min(threads, n);
+  if (workers <= 1) {
+    for (int i = 0; i < n; ++i) f(i);
+    return;
+  }
+  std::atomic<int> next{0};
+  auto work = [&] {
+    for (int i = next++; i < n; i = next++) f(i);
+  };
+  std::vector<std::thread> pool;
+  for (int t = 1; t < workers; ++t) pool.emplace_back(work);
+  work();
+  for (std::thread& t : pool) t.join();
+}
 
 bool Planar(const sim::Simulator& s);
 /// Unknowns per observed dynamic body: planar x, y, θ, vx, vy, ω; spatial p, δ, v_W, w_W.

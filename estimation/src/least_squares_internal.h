@@ -3,11 +3,9 @@
 // thread-safe logs of the segment evaluations. Private to vinci::estimation.
 #pragma once
 
-#include <algorithm>
 #include <atomic>
 #include <mutex>
 #include <string>
-#include <thread>
 #include <utility>
 #include <vector>
 
@@ -31,25 +29,6 @@ sim::MatrixXd EpisodeInformation(const std::vector<SegmentDerivatives>& chain,
 /// The diagonal of the inverse of a parameter information matrix; false if it is singular (a
 /// parameter the data do not determine), judged on its correlation form.
 bool ParameterVariances(const sim::MatrixXd& information, sim::VectorXd* variances);
-
-// Runs f(0), ..., f(n − 1) on up to `threads` threads (indices handed out dynamically; each f(i)
-// must write only its own outputs, so the results do not depend on the thread count).
-template <typename F>
-void ParallelFor(int n, int threads, const F& f) {
-  const int workers = std::min(threads, n);
-  if (workers <= 1) {
-    for (int i = 0; i < n; ++i) f(i);
-    return;
-  }
-  std::atomic<int> next{0};
-  auto work = [&] {
-    for (int i = next++; i < n; i = next++) f(i);
-  };
-  std::vector<std::thread> pool;
-  for (int t = 1; t < workers; ++t) pool.emplace_back(work);
-  work();
-  for (std::thread& t : pool) t.join();
-}
 
 // Events of segment evaluations (failures, fallbacks), counted, with one reported: the first
 // by evaluation pass, then by segment, so that the message does not depend on which thread got

@@ -9,9 +9,9 @@
 #include <map>
 #include <memory>
 #include <string>
-#include <thread>
 #include <vector>
 
+#include "estimation_internal.h"
 #include "vinci/estimation/mpec_estimator.h"
 #include "vinci/sim/formulations/step_model.h"
 
@@ -49,22 +49,7 @@ struct StepBlock {
   sim::VectorXd z_guess;
 };
 
-// Runs f(i) for i in [0, n) on `threads` threads.
-template <class F>
-void ParallelFor(int n, int threads, const F& f) {
-  threads = std::max(1, std::min(threads, n));
-  if (threads == 1) {
-    for (int i = 0; i < n; ++i) f(i);
-    return;
-  }
-  std::vector<std::thread> pool;
-  for (int t = 0; t < threads; ++t) {
-    pool.emplace_back([&, t] {
-      for (int i = t; i < n; i += threads) f(i);
-    });
-  }
-  for (std::thread& th : pool) th.join();
-}
+using internal::ParallelFor;  // estimation_internal.h
 
 /// Bootstrap standard errors over episodes (MpecOptions::bootstrap ≥ 1, ≥ 2 episodes): B
 /// resamples of the episodes with replacement (seeded by options.bootstrap_seed), each estimated
