@@ -321,10 +321,10 @@ Command RegisterEstimateCommand(CLI::App& app) {
                   "docs/estimation.md)")
       ->type_name("joint|decomposed");
   sub->add_option("--mpec-ordering", options->mpec_ordering,
-                  "mpec: MUMPS' fill-reducing ordering, scotch (default) or qamd; try qamd where "
-                  "Ipopt's iterations take seconds (several bodies sharing the parameters, e.g. "
-                  "eight particles: docs/estimation.md)")
-      ->type_name("scotch|qamd");
+                  "mpec: MUMPS' fill-reducing ordering: auto (default: scotch, or qamd where "
+                  "MUMPS' analysis predicts scotch's factorization 1000x dearer, e.g. seven or "
+                  "more particles sharing the parameters; docs/estimation.md), scotch or qamd")
+      ->type_name("auto|scotch|qamd");
   sub->add_option("--shooting", options->shooting,
                   "lsq: single (one rollout per episode; default) or multiple (segments of "
                   "--segment-samples samples from their own start states, with continuity)")

@@ -43,7 +43,7 @@ struct EstimateOptions {
   /// mpec: steps per log interval (MpecOptions::substeps; 0: the scene's dt); −1: not given.
   int mpec_substeps = -1;
   std::string mpec_episodes;  ///< "" (joint), "joint" or "decomposed"; mpec only
-  std::string mpec_ordering;  ///< "" (scotch), "scotch" or "qamd"; mpec only
+  std::string mpec_ordering;  ///< "" (auto), "auto", "scotch" or "qamd"; mpec only
 };
 
 /// Adds the `estimate` subcommand to `app`.

@@ -66,8 +66,8 @@ std::string MpecJson(const EstimateOptions& o, const estimation::MpecEstimateRes
     << "      \"substeps\": " << std::max(0, o.mpec_substeps) << ",\n"
     << "      \"episode_mode\": \"" << (o.mpec_episodes.empty() ? "joint" : o.mpec_episodes)
     << "\",\n"
-    << "      \"ordering\": \"" << (o.mpec_ordering.empty() ? "scotch" : o.mpec_ordering)
-    << "\",\n";
+    << "      \"ordering\": \"" << (o.mpec_ordering.empty() ? "auto" : o.mpec_ordering) << "\",\n";
+  if (!r.ordering.empty()) j << "      \"ordering_used\": \"" << r.ordering << "\",\n";
   if (holdout) j << HoldoutJson(o, *holdout);
   j << "      \"episodes\": [";
   for (size_t e = 0; e < r.episodes.size(); ++e) {

@@ -14,6 +14,7 @@
 #include <stdexcept>
 
 #include "mpec_relaxed_nlp.h"
+#include "mumps_ldlt.h"
 
 namespace vinci::estimation {
 namespace {
@@ -52,6 +53,91 @@ void UseOneBlasThreadUnlessSet() {
     return set != nullptr;
   }();
   (void)done;
+}
+
+// SCOTCH on one thread with its generator reset: the same pattern gets the same ordering every
+// time (MpecSolverOptions::deterministic_ordering).
+void ResetScotch(ScotchRandomSeed seed) {
+  const char* threads = std::getenv("SCOTCH_PTHREAD_NUMBER");
+  if (threads == nullptr || std::strcmp(threads, "1") != 0) setenv("SCOTCH_PTHREAD_NUMBER", "1", 1);
+  seed(1);
+}
+
+// MpecSolverOptions::Ordering::kAuto resolved for `problem` (SCOTCH found: `seed`) from the
+// pattern of Ipopt's KKT matrix [W 0 J_cᵀ J_dᵀ; 0 Σ_s 0 −I; J_c 0 0 0; J_d −I 0 0] over the
+// variables Ipopt keeps (fixed ones are parameters to it), the slacks s of the inequality rows
+// d (the problem's and, with `relaxation_rows`, the Scholtes rows x_a x_b ≤ ε) and the
+// equality rows c; W with the pairs' relaxation curvature.
+MpecSolverOptions::Ordering ResolveAutoOrdering(
+    const MpecProblem& problem, const std::vector<std::pair<int, int>>& pairs, bool relaxation_rows,
+    ScotchRandomSeed seed, const std::function<void(const std::string&)>& progress) {
+  const int n = problem.num_variables(), m = problem.num_constraints();
+  VectorXd xl, xu, gl, gu;
+  problem.Bounds(&xl, &xu, &gl, &gu);
+  std::vector<int> index(n, -1);
+  int dim = 0;
+  for (int i = 0; i < n; ++i)
+    if (!(xl[i] == xu[i])) index[i] = dim++;
+  const int rows = dim;
+  dim += m;
+  std::vector<std::pair<int, int>> lower;
+  auto add = [&](int r, int c) {
+    if (r < 0 || c < 0) return;
+    lower.emplace_back(std::max(r, c), std::min(r, c));
+  };
+  for (const Entry& e : problem.HessianStructure()) add(index[e.row], index[e.col]);
+  for (const auto& [a, b] : pairs) add(index[a], index[b]);
+  for (const Entry& e : problem.JacobianStructure())
+    if (index[e.col] >= 0) add(rows + e.row, index[e.col]);
+  for (int j = 0; j < m; ++j)
+    if (!(gl[j] == gu[j])) add(rows + j, dim++);  // the row's slack
+  if (relaxation_rows) {
+    for (const auto& [a, b] : pairs) {
+      add(dim, index[a]);
+      add(dim, index[b]);
+      add(dim, dim + 1);  // its slack
+      dim += 2;
+    }
+  }
+  for (int i = 0; i < dim; ++i) add(i, i);
+  std::sort(lower.begin(), lower.end());
+  lower.erase(std::unique(lower.begin(), lower.end()), lower.end());
+
+  // Dense vertices by AMD's rule; the decision needs one that joins otherwise disconnected parts.
+  std::vector<int> degree(dim, 0);
+  for (const auto& [r, c] : lower)
+    if (r != c) ++degree[r], ++degree[c];
+  const double dense = std::max(16.0, 10.0 * std::sqrt(static_cast<double>(dim)));
+  std::vector<int> parent(dim);
+  for (int i = 0; i < dim; ++i) parent[i] = i;
+  auto root = [&](int i) {
+    while (parent[i] != i) i = parent[i] = parent[parent[i]];
+    return i;
+  };
+  bool has_dense = false;
+  for (const auto& [r, c] : lower) {
+    if (degree[r] > dense || degree[c] > dense) {
+      has_dense = has_dense || r != c;
+      continue;
+    }
+    parent[root(r)] = root(c);
+  }
+  if (!has_dense) return MpecSolverOptions::Ordering::kScotch;
+  int parts = 0;
+  for (int i = 0; i < dim; ++i) parts += degree[i] <= dense && root(i) == i;
+  if (parts < 2) return MpecSolverOptions::Ordering::kScotch;
+
+  ResetScotch(seed);
+  const double scotch = mpec_internal::EstimatedFactorizationFlops(dim, lower, 3);
+  const double qamd = mpec_internal::EstimatedFactorizationFlops(dim, lower, 6);
+  const bool use_qamd = !(scotch <= 1000.0 * qamd);
+  if (progress) {
+    std::ostringstream line;
+    line << "ordering " << (use_qamd ? "qamd" : "scotch") << ": a dense column joins " << parts
+         << " parts; MUMPS estimates " << scotch << " flops with SCOTCH, " << qamd << " with QAMD";
+    progress(line.str());
+  }
+  return use_qamd ? MpecSolverOptions::Ordering::kQamd : MpecSolverOptions::Ordering::kScotch;
 }
 
 const char* StatusText(Ipopt::ApplicationReturnStatus s) {
@@ -145,10 +231,23 @@ const char* ToString(ComplementarityMethod method) {
   return method == ComplementarityMethod::kScholtes ? "scholtes" : "penalty";
 }
 
+const char* ToString(MpecSolverOptions::Ordering ordering) {
+  switch (ordering) {
+    case MpecSolverOptions::Ordering::kScotch:
+      return "scotch";
+    case MpecSolverOptions::Ordering::kQamd:
+      return "qamd";
+    case MpecSolverOptions::Ordering::kAuto:
+      break;
+  }
+  return "auto";
+}
+
 MpecSolverOptions::Ordering ParseMpecOrdering(const std::string& name) {
+  if (name == "auto") return MpecSolverOptions::Ordering::kAuto;
   if (name == "scotch") return MpecSolverOptions::Ordering::kScotch;
   if (name == "qamd") return MpecSolverOptions::Ordering::kQamd;
-  throw std::invalid_argument("mpec ordering '" + name + "': expected scotch or qamd");
+  throw std::invalid_argument("mpec ordering '" + name + "': expected auto, scotch or qamd");
 }
 
 ComplementarityMethod ParseComplementarityMethod(const std::string& name) {
@@ -208,6 +307,18 @@ void MpecSolverOptions::Validate() const {
     fail("epsilon_floor", epsilon_floor, "finite ≥ 0");
 }
 
+MpecSolverOptions::Ordering ResolveOrdering(const MpecProblem& problem,
+                                            const MpecSolverOptions& o) {
+  if (!o.deterministic_ordering) return MpecSolverOptions::Ordering::kAuto;
+  const ScotchRandomSeed seed = FindScotchRandomSeed();
+  if (seed == nullptr || o.ordering == MpecSolverOptions::Ordering::kQamd)
+    return MpecSolverOptions::Ordering::kQamd;
+  if (o.ordering == MpecSolverOptions::Ordering::kScotch)
+    return MpecSolverOptions::Ordering::kScotch;
+  return ResolveAutoOrdering(problem, problem.ComplementarityPairs(),
+                             o.method == ComplementarityMethod::kScholtes, seed, o.progress);
+}
+
 MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o,
                        const MpecMultipliers* warm_start) {
   o.Validate();
@@ -229,6 +340,7 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o,
 
   MpecSolution sol;
   sol.first_at_zero.assign(pairs.size(), true);
+  sol.ordering = ResolveOrdering(problem, o);
   VectorXd lambda, zl, zu;
   bool have_multipliers = false;
   Ipopt::ApplicationReturnStatus last = Ipopt::Internal_Error;
@@ -265,11 +377,9 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o,
     // SCOTCH with its generator reset before every NLP orders the same structure the same way
     // every time, and its orderings cost half the CPU of QAMD's factorizations here
     // (bench/README.md); QAMD where SCOTCH is not found.
-    const ScotchRandomSeed scotch_seed =
-        o.deterministic_ordering && o.ordering == MpecSolverOptions::Ordering::kScotch
-            ? FindScotchRandomSeed()
-            : nullptr;
-    if (o.deterministic_ordering) opt.SetIntegerValue("mumps_pivot_order", scotch_seed ? 3 : 6);
+    if (o.deterministic_ordering)
+      opt.SetIntegerValue("mumps_pivot_order",
+                          sol.ordering == MpecSolverOptions::Ordering::kScotch ? 3 : 6);
     opt.SetIntegerValue("mumps_mem_percent", o.mumps_mem_percent);
     // The penalty ρ Σ x_a x_b is bounded below by 0 only on x_a, x_b ≥ 0. Ipopt relaxes every
     // bound by 1e-8 (bound_relax_factor), so a side at its bound sits at ≈ −1e-8 and the
@@ -304,15 +414,11 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o,
         problem, pairs, stage, param, fixed, !o.limited_memory, o.relaxation_curvature, x,
         warm ? &lambda : nullptr, warm ? &zl : nullptr, warm ? &zu : nullptr);
     last = app->Initialize();
-    if (scotch_seed) {
-      // SCOTCH 7 orders with several threads unless told otherwise (read at every ordering):
-      // one thread and a fixed seed give the same ordering every time (measured: two runs in
-      // one process, or two processes, differed in the last digits of μ̂ without either).
-      const char* threads = std::getenv("SCOTCH_PTHREAD_NUMBER");
-      if (threads == nullptr || std::strcmp(threads, "1") != 0)
-        setenv("SCOTCH_PTHREAD_NUMBER", "1", 1);
-      scotch_seed(1);
-    }
+    // SCOTCH 7 orders with several threads unless told otherwise (read at every ordering): one
+    // thread and a fixed seed give the same ordering every time (measured: two runs in one
+    // process, or two processes, differed in the last digits of μ̂ without either).
+    if (sol.ordering == MpecSolverOptions::Ordering::kScotch && o.deterministic_ordering)
+      ResetScotch(FindScotchRandomSeed());
     if (stage == Stage::kScholtes && param < kRelativeRelaxationBelow)
       nlp->relaxation_scale_ = 1.0 / param;
     if (stage == Stage::kPolish && !pairs.empty()) {

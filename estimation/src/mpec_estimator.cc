@@ -81,6 +81,7 @@ MpecEstimateResult EstimateMpec(const sim::Simulator& simulator, const Log& log,
   r.polished = sol.polished;
   r.converged = sol.converged;
   r.reason = sol.reason;
+  if (so.deterministic_ordering) r.ordering = ToString(sol.ordering);
   std::vector<double> per_episode;
   const double ss = problem.SquaredResiduals(sol.x, &per_episode, &r.max_process_noise);
   r.final_cost = 0.5 * ss;

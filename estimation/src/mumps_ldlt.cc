@@ -95,4 +95,39 @@ sim::VectorXd MumpsLdlt::solve(const sim::VectorXd& b) const {
 
 int MumpsLdlt::null_pivots() const { return impl_->factored ? impl_->id.infog[27] : 0; }
 
+double EstimatedFactorizationFlops(int n, const std::vector<std::pair<int, int>>& lower,
+                                   int ordering) {
+  DMUMPS_STRUC_C id{};
+  id.job = -1;
+  id.par = 1;
+  id.sym = 2;
+  id.comm_fortran = kUseCommWorld;
+  dmumps_c(&id);
+  if (id.infog[0] < 0) return std::numeric_limits<double>::quiet_NaN();
+  std::vector<MUMPS_INT> irn, jcn;
+  irn.reserve(lower.size());
+  jcn.reserve(lower.size());
+  for (const auto& [r, c] : lower) {
+    irn.push_back(static_cast<MUMPS_INT>(r + 1));
+    jcn.push_back(static_cast<MUMPS_INT>(c + 1));
+  }
+  id.n = static_cast<MUMPS_INT>(n);
+  id.nnz = static_cast<MUMPS_INT8>(irn.size());
+  id.irn = irn.data();
+  id.jcn = jcn.data();
+  Icntl(id, 1) = -1;
+  Icntl(id, 2) = -1;
+  Icntl(id, 3) = -1;
+  Icntl(id, 4) = 0;
+  Icntl(id, 6) = 0;  // no maximum matching: it needs the values, which a pattern has not
+  Icntl(id, 7) = ordering;
+  id.job = 1;
+  dmumps_c(&id);
+  const double flops = id.infog[0] < 0 ? std::numeric_limits<double>::quiet_NaN()
+                                       : static_cast<double>(id.rinfog[0]);
+  id.job = -2;
+  dmumps_c(&id);
+  return flops;
+}
+
 }  // namespace vinci::estimation::mpec_internal

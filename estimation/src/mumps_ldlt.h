@@ -3,6 +3,8 @@
 #pragma once
 
 #include <memory>
+#include <utility>
+#include <vector>
 
 #include "vinci/sim/formulations/step_model.h"
 
@@ -29,5 +31,12 @@ class MumpsLdlt {
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
+
+/// MUMPS' analysis alone of a symmetric pattern of dimension n (0-based (row, col) entries of
+/// its lower triangle, row ≥ col, the diagonal included) ordered by ICNTL(7) = `ordering` (3:
+/// SCOTCH, 6: QAMD): the factorization's estimated floating-point operations (RINFOG(1)),
+/// before numerical pivoting; NaN if MUMPS failed.
+double EstimatedFactorizationFlops(int n, const std::vector<std::pair<int, int>>& lower,
+                                   int ordering);
 
 }  // namespace vinci::estimation::mpec_internal

@@ -32,7 +32,7 @@
 // mpec/mpec_pen (steps in parallel) and mpec_dec (episodes in worker processes); --mpec-substeps N
 // (default 0: the scene's dt) the MPEC's steps per log interval (MpecOptions::substeps);
 // --mpec-raw-guess 1 the MPEC's initial guess from the raw log (MpecOptions::smooth_initial_guess
-// off); --mpec-ordering scotch|qamd MUMPS' ordering (MpecSolverOptions::ordering). Plots:
+// off); --mpec-ordering auto|scotch|qamd MUMPS' ordering (MpecSolverOptions::ordering). Plots:
 // scripts/plot_estimation_study.py FILE.csv.
 //
 // To add a method, add one line to Methods() below.
@@ -95,7 +95,7 @@ int g_mpec_substeps = 0;
 // off; the estimator before 2026-11-25's smoothing, for comparisons).
 bool g_mpec_raw_guess = false;
 // --mpec-ordering: MUMPS' ordering (MpecSolverOptions::ordering).
-est::MpecSolverOptions::Ordering g_mpec_ordering = est::MpecSolverOptions::Ordering::kScotch;
+est::MpecSolverOptions::Ordering g_mpec_ordering = est::MpecSolverOptions::Ordering::kAuto;
 // --verbose 1: the MPEC's progress lines (setup, each NLP) on stderr; ≥ 2: also Ipopt's output
 // at that print_level.
 int g_verbose = 0;
@@ -302,7 +302,7 @@ constexpr const char* kUsage =
     "         [--noise S1,S2] [--windows W1,W2] [--particles N1,N2] [--episodes N]\n"
     "         [--methods lsq,lsq_sens,lsq_ms,filter,mpec,mpec_pen,mpec_dec] [--guess MU]\n"
     "         [--threads N]\n"
-    "         [--mpec-substeps N] [--mpec-raw-guess 1] [--mpec-ordering scotch|qamd]\n"
+    "         [--mpec-substeps N] [--mpec-raw-guess 1] [--mpec-ordering auto|scotch|qamd]\n"
     "         [--verbose 0|1|IPOPT_PRINT_LEVEL]\n"
     "         [--only-episode K[,L...]]\n"
     "         [--out F.csv]\n";

@@ -221,7 +221,85 @@ TEST(MpecEstimator, PlanarBlockNoiseFreeRecoversMuWithTheQamdOrdering) {
     ParseMpecOrdering("metis");
     ADD_FAILURE() << "metis accepted";
   } catch (const std::invalid_argument& e) {
-    EXPECT_STREQ(e.what(), "mpec ordering 'metis': expected scotch or qamd");
+    EXPECT_STREQ(e.what(), "mpec ordering 'metis': expected auto, scotch or qamd");
+  }
+  EXPECT_EQ(ParseMpecOrdering("auto"), MpecSolverOptions::Ordering::kAuto);
+  EXPECT_STREQ(ToString(MpecSolverOptions::Ordering::kQamd), "qamd");
+}
+
+// `particles` discs of 2 mm on a plate vibrating at 20 Hz (the particles study's scene), sharing
+// μ (the scene's 0.3).
+std::string PlateParticlesScene(int particles) {
+  std::ostringstream y;
+  y << "dimension: 2\ngravity: [0, -9.81]\n"
+    << "stepper: {dt: 0.001, duration: 1, envelope: 0.001, prescribed_velocity: exact}\n"
+    << "friction: {default: 0.3}\nbodies:\n"
+    << "  - name: plate\n    kind: prescribed\n    shapes: [{type: halfplane}]\n"
+    << "    motion:\n      frequency: 20\n"
+    << "      x: {harmonics: [{order: 1, amplitude: 1.2665e-3, phase: 0}]}\n"
+    << "      y: {harmonics: [{order: 1, amplitude: 3.166e-4, phase: 1.5707963267948966}]}\n";
+  for (int i = 0; i < particles; ++i) {
+    y << "  - name: p" << i << "\n    mass: 0.01\n    inertia: 1.0\n"
+      << "    pose: {position: [" << 0.05 * i << ", 0.0023]}\n"
+      << "    shapes: [{type: disc, radius: 0.002}]\n";
+  }
+  return y.str();
+}
+
+// A noise-free log of the particles' positions at 500 Hz, 0.1 s after 0.2 s of warm-up, μ = 0.2.
+std::string PlateParticlesLog(const sim::Simulator& sim, int particles) {
+  sim::Params p = sim.DefaultParams();
+  p.values[sim.scene().param_table().Index("mu.default")] = 0.2;
+  const sim::Trajectory tr = sim.Rollout(p, sim.InitialState(), 300);
+  std::string text = "t";
+  for (int i = 0; i < particles; ++i)
+    text += ",p" + std::to_string(i) + ".x,p" + std::to_string(i) + ".y";
+  text += "\n";
+  char buf[64];
+  for (int k = 200; k <= 300; k += 2) {
+    std::snprintf(buf, sizeof buf, "%.17g", tr.states[k].t);
+    text += buf;
+    for (int i = 0; i < particles; ++i) {
+      const int qo = sim.scene().index(sim.scene().FindBody("p" + std::to_string(i))).q;
+      std::snprintf(buf, sizeof buf, ",%.17g,%.17g", tr.states[k].q[qo], tr.states[k].q[qo + 1]);
+      text += buf;
+    }
+    text += "\n";
+  }
+  return testing::WriteFile("particles" + std::to_string(particles) + ".csv", text);
+}
+
+// MpecSolverOptions::Ordering::kAuto: SCOTCH where one body's log makes one connected KKT
+// pattern; QAMD on eight particles sharing μ, whose only link is θ's column: there MUMPS'
+// analysis of SCOTCH's ordering predicts ~10⁵× QAMD's factorization flops (in Ipopt a front of
+// 5 628 rows, tens of seconds a factorization; bench/README.md, session 34). Fails if the
+// decision were a fixed choice either way.
+TEST(MpecOrdering, AutoTakesQamdWhereTheSharedParameterJoinsEightParticles) {
+  for (const int particles : {1, 8}) {
+    const sim::Simulator sim(sim::ParseScene(PlateParticlesScene(particles), "particles.yaml"));
+    const std::string path = PlateParticlesLog(sim, particles);
+    const Log log = ReadLog({path}, sim.scene());
+    MpecOptions o;
+    o.params = {"mu.default"};
+    o.noise_sigma = 1e-5;
+    const MpecEstimationProblem problem(sim, log, o, 1e-5);
+    MpecSolverOptions so = EstimatorSolverDefaults();
+    ASSERT_EQ(so.ordering, MpecSolverOptions::Ordering::kAuto);
+    std::string told;
+    so.progress = [&](const std::string& line) { told += line; };
+    const MpecSolverOptions::Ordering chosen = ResolveOrdering(problem, so);
+    if (particles == 1) {
+      EXPECT_EQ(chosen, MpecSolverOptions::Ordering::kScotch);
+      EXPECT_EQ(told, "");  // one connected pattern: no analysis
+    } else {
+      EXPECT_EQ(chosen, MpecSolverOptions::Ordering::kQamd) << told;
+      EXPECT_NE(told.find("ordering qamd: a dense column joins 8 parts"), std::string::npos)
+          << told;
+    }
+    so.ordering = MpecSolverOptions::Ordering::kScotch;
+    EXPECT_EQ(ResolveOrdering(problem, so), MpecSolverOptions::Ordering::kScotch);
+    so.deterministic_ordering = false;
+    EXPECT_EQ(ResolveOrdering(problem, so), MpecSolverOptions::Ordering::kAuto);
   }
 }
 

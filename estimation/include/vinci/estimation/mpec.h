@@ -208,12 +208,18 @@ struct MpecSolverOptions {
   /// between solves: last-digit differences).
   bool deterministic_ordering = false;
   /// With deterministic_ordering, MUMPS' fill-reducing ordering: SCOTCH (seeded, where found;
-  /// else QAMD) or QAMD. Measured (bench/README.md, session 33): SCOTCH halves QAMD's
-  /// factorization cost on one body's log (10.3 against 18.2 s on four particles), but on eight
-  /// particles sharing μ its ordering made every factorization take tens of seconds (3 Ipopt
-  /// iterations in 2 minutes) where QAMD runs ~6 iterations a second.
-  enum class Ordering { kScotch, kQamd };
-  Ordering ordering = Ordering::kScotch;
+  /// else QAMD), QAMD, or kAuto: SCOTCH unless the KKT pattern has a dense vertex (degree above
+  /// AMD's max(16, 10 √N)) joining parts that are otherwise disconnected and MUMPS' analysis of
+  /// the pattern estimates ≥ 1000× QAMD's factorization flops with SCOTCH; then QAMD. One
+  /// decision per SolveMpec, from the pattern of its NLPs (two MUMPS analyses, ~0.1 s on 27 000
+  /// rows, only where that structure is found). Measured (bench/README.md, sessions 33–34): SCOTCH
+  /// halves QAMD's factorization cost on one body's log (fewer delayed pivots); with k particles
+  /// sharing μ (θ's column meets every step's rows, the particles only through θ) SCOTCH's
+  /// largest front grows 65, 63, 156, 395, 753, 5 217, 5 628 for k = 1 … 8 (estimated flops
+  /// 12× … 54 000× QAMD's; a factorization took 10 s at k = 7) while QAMD's stays at 17; with
+  /// θ's edges removed SCOTCH's stays at ≤ 51.
+  enum class Ordering { kAuto, kScotch, kQamd };
+  Ordering ordering = Ordering::kAuto;
   /// MUMPS' working storage beyond its analysis estimate, in percent (Ipopt's
   /// mumps_mem_percent; Ipopt's own default is 1000). MUMPS allocates and clears that storage
   /// at every factorization, so on these KKT systems (fronts of ≤ ~50 rows) a large reserve
@@ -226,8 +232,14 @@ struct MpecSolverOptions {
   void Validate() const;
 };
 
-/// Parses "scotch" / "qamd"; throws std::invalid_argument naming the value otherwise.
+/// Parses "auto" / "scotch" / "qamd"; throws std::invalid_argument naming the value otherwise.
 MpecSolverOptions::Ordering ParseMpecOrdering(const std::string& name);
+/// "auto", "scotch" or "qamd".
+const char* ToString(MpecSolverOptions::Ordering ordering);
+/// The ordering SolveMpec(problem, o) uses (MpecSolution::ordering): o.ordering with
+/// o.deterministic_ordering, kAuto resolved (o.progress told why when MUMPS' analyses decide),
+/// QAMD where SCOTCH is not found; kAuto (MUMPS' own choice) without deterministic_ordering.
+MpecSolverOptions::Ordering ResolveOrdering(const MpecProblem& problem, const MpecSolverOptions& o);
 
 /// Multipliers to warm-start a Scholtes stage from a relaxed solution (MpecSolution::relaxed).
 struct MpecMultipliers {
@@ -266,6 +278,9 @@ struct MpecSolution {
   /// many of them the multipliers fixed at the larger side instead of the smaller.
   int biactive_pairs = 0;
   int biactive_switched = 0;
+  /// The ordering the NLPs used: kScotch or kQamd with deterministic_ordering (kAuto resolved),
+  /// else kAuto (MUMPS' own choice).
+  MpecSolverOptions::Ordering ordering = MpecSolverOptions::Ordering::kAuto;
   std::string reason;  ///< how the last NLP ended, and why not converged
   double time_s = 0.0;
 };

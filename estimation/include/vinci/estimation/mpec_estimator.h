@@ -155,6 +155,9 @@ struct MpecEstimateResult : EstimateResult {
   double max_process_noise = 0.0;  ///< max |w| at the solution (N, N·m)
   /// Largest Jacobian entry dropped for falling outside the structure (0: none).
   double dropped_jacobian = 0.0;
+  /// MUMPS' ordering the NLPs used ("scotch" or "qamd", MpecSolution::ordering); empty where
+  /// the estimate comes from several solves that may differ (MpecEpisodes::kDecomposed).
+  std::string ordering;
   /// The solver converged but the measurement residuals contradict the stated noise (Σ r² / σ²
   /// above its χ² mean by 4 standard deviations: a wrong local solution or a model mismatch,
   /// e.g. a coarse MpecOptions::substeps), so converged is false. Whenever the residuals
