@@ -322,8 +322,9 @@ Command RegisterEstimateCommand(CLI::App& app) {
       ->type_name("joint|decomposed");
   sub->add_option("--mpec-ordering", options->mpec_ordering,
                   "mpec: MUMPS' fill-reducing ordering: auto (default: scotch, or qamd where "
-                  "MUMPS' analysis predicts scotch's factorization 1000x dearer, e.g. seven or "
-                  "more particles sharing the parameters; docs/estimation.md), scotch or qamd")
+                  "MUMPS' analysis predicts scotch's factorization 100x dearer: e.g. six or more "
+                  "particles, or four or more log files, sharing the parameters; "
+                  "docs/estimation.md), scotch or qamd")
       ->type_name("auto|scotch|qamd");
   sub->add_option("--shooting", options->shooting,
                   "lsq: single (one rollout per episode; default) or multiple (segments of "

@@ -130,7 +130,7 @@ MpecSolverOptions::Ordering ResolveAutoOrdering(
   ResetScotch(seed);
   const double scotch = mpec_internal::EstimatedFactorizationFlops(dim, lower, 3);
   const double qamd = mpec_internal::EstimatedFactorizationFlops(dim, lower, 6);
-  const bool use_qamd = !(scotch <= 1000.0 * qamd);
+  const bool use_qamd = !(scotch <= 100.0 * qamd);
   if (progress) {
     std::ostringstream line;
     line << "ordering " << (use_qamd ? "qamd" : "scotch") << ": a dense column joins " << parts

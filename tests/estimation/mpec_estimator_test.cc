@@ -303,6 +303,36 @@ TEST(MpecOrdering, AutoTakesQamdWhereTheSharedParameterJoinsEightParticles) {
   }
 }
 
+// Episodes (log files) share only θ: the joint NLP of four block logs has the same structure, and
+// SCOTCH's analysis predicts ~10⁴× QAMD's flops (a factorization of 1.5–2.2 s in Ipopt against
+// 0.08 s, bench/README.md session 34); at two episodes the ratio is ~10 and SCOTCH is kept.
+TEST(MpecOrdering, AutoTakesQamdForTheJointNlpOfFourEpisodes) {
+  const sim::Simulator sim(sim::ParseScene(testing::kPlanarBlock, "block.yaml"));
+  std::vector<std::string> paths;
+  for (int e = 0; e < 4; ++e) {
+    paths.push_back(testing::SyntheticLog(sim, "block", kTrueMu, 0.6, 5, 1e-4, 10 + e,
+                                          "mpec_ordering_episode" + std::to_string(e) + ".csv"));
+  }
+  for (const int episodes : {2, 4}) {
+    const Log log =
+        ReadLog(std::vector<std::string>(paths.begin(), paths.begin() + episodes), sim.scene());
+    MpecOptions o;
+    o.params = {"mu.default"};
+    o.noise_sigma = 1e-4;
+    const MpecEstimationProblem problem(sim, log, o, 1e-4);
+    std::string told;
+    MpecSolverOptions so = EstimatorSolverDefaults();
+    so.progress = [&](const std::string& line) { told += line; };
+    const MpecSolverOptions::Ordering chosen = ResolveOrdering(problem, so);
+    EXPECT_EQ(chosen, episodes == 2 ? MpecSolverOptions::Ordering::kScotch
+                                    : MpecSolverOptions::Ordering::kQamd)
+        << episodes << " episodes: " << told;
+    EXPECT_NE(told.find("a dense column joins " + std::to_string(episodes) + " parts"),
+              std::string::npos)
+        << told;
+  }
+}
+
 TEST(MpecEstimator, PlanarBlockNoiseFreeRecoversMuWithThePenalty) {
   // Was an open bug: Ipopt's default bound relaxation (1e-8) let a pair's side go slightly
   // negative, so ρ x_a x_b ran to −∞ along a ray where the other side grew freely; the penalty

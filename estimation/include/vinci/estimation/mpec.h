@@ -210,7 +210,7 @@ struct MpecSolverOptions {
   /// With deterministic_ordering, MUMPS' fill-reducing ordering: SCOTCH (seeded, where found;
   /// else QAMD), QAMD, or kAuto: SCOTCH unless the KKT pattern has a dense vertex (degree above
   /// AMD's max(16, 10 √N)) joining parts that are otherwise disconnected and MUMPS' analysis of
-  /// the pattern estimates ≥ 1000× QAMD's factorization flops with SCOTCH; then QAMD. One
+  /// the pattern estimates > 100× QAMD's factorization flops with SCOTCH; then QAMD. One
   /// decision per SolveMpec, from the pattern of its NLPs (two MUMPS analyses, ~0.1 s on 27 000
   /// rows, only where that structure is found). Measured (bench/README.md, sessions 33–34): SCOTCH
   /// halves QAMD's factorization cost on one body's log (fewer delayed pivots); with k particles
