@@ -217,7 +217,9 @@ struct MpecSolverOptions {
   /// sharing μ (θ's column meets every step's rows, the particles only through θ) SCOTCH's
   /// largest front grows 65, 63, 156, 395, 753, 5 217, 5 628 for k = 1 … 8 (estimated flops
   /// 12× … 54 000× QAMD's; a factorization took 10 s at k = 7) while QAMD's stays at 17; with
-  /// θ's edges removed SCOTCH's stays at ≤ 51.
+  /// θ's edges removed SCOTCH's stays at ≤ 51. The joint NLP of several episodes (log files
+  /// sharing only θ) has the same structure: on four block logs SCOTCH's factorizations took
+  /// 0.9–2.2 s against QAMD's 0.08 s.
   enum class Ordering { kAuto, kScotch, kQamd };
   Ordering ordering = Ordering::kAuto;
   /// MUMPS' working storage beyond its analysis estimate, in percent (Ipopt's
