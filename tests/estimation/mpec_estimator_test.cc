@@ -300,9 +300,10 @@ TEST(MpecOrdering, AutoTakesQamdWhereTheSharedParameterJoinsEightParticles) {
   }
 }
 
-// Episodes (log files) share only θ: the joint NLP of four block logs has the same structure, and
-// SCOTCH's analysis predicts ~10⁴× QAMD's flops (a factorization of 1.5–2.2 s in Ipopt against
-// 0.08 s, bench/README.md session 34); at two episodes the ratio is ~10 and SCOTCH is kept.
+// Episodes (log files) share only θ: the joint NLP of four block logs has the same structure.
+// On these logs the pattern's ratio is 439× (in Ipopt, SCOTCH's largest front 3 517 and 0.9 s
+// factorizations against QAMD's 0.08 s); at two episodes it is ~10× and SCOTCH is kept (15 s
+// against QAMD's 27 s for the whole estimate). bench/README.md, session 34.
 TEST(MpecOrdering, AutoTakesQamdForTheJointNlpOfFourEpisodes) {
   const sim::Simulator sim(sim::ParseScene(testing::kPlanarBlock, "block.yaml"));
   std::vector<std::string> paths;
