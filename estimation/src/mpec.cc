@@ -114,15 +114,10 @@ MpecSolverOptions::Ordering ResolveAutoOrdering(
     while (parent[i] != i) i = parent[i] = parent[parent[i]];
     return i;
   };
-  bool has_dense = false;
-  for (const auto& [r, c] : lower) {
-    if (degree[r] > dense || degree[c] > dense) {
-      has_dense = has_dense || r != c;
-      continue;
-    }
-    parent[root(r)] = root(c);
-  }
-  if (!has_dense) return MpecSolverOptions::Ordering::kScotch;
+  if (std::none_of(degree.begin(), degree.end(), [&](int d) { return d > dense; }))
+    return MpecSolverOptions::Ordering::kScotch;
+  for (const auto& [r, c] : lower)
+    if (degree[r] <= dense && degree[c] <= dense) parent[root(r)] = root(c);
   int parts = 0;
   for (int i = 0; i < dim; ++i) parts += degree[i] <= dense && root(i) == i;
   if (parts < 2) return MpecSolverOptions::Ordering::kScotch;

@@ -12,6 +12,22 @@ namespace {
 // MUMPS' 1-based control and information arrays.
 constexpr int kUseCommWorld = -987654;  // the sequential library's stand-in communicator
 int& Icntl(DMUMPS_STRUC_C& id, int i) { return id.icntl[i - 1]; }
+
+// A sequential symmetric (not necessarily definite) instance without any output; false if
+// MUMPS failed.
+bool InitSymmetric(DMUMPS_STRUC_C& id) {
+  id.job = -1;
+  id.par = 1;
+  id.sym = 2;
+  id.comm_fortran = kUseCommWorld;
+  dmumps_c(&id);
+  if (id.infog[0] < 0) return false;
+  Icntl(id, 1) = -1;  // no error, diagnostic or statistics output
+  Icntl(id, 2) = -1;
+  Icntl(id, 3) = -1;
+  Icntl(id, 4) = 0;
+  return true;
+}
 }  // namespace
 
 struct MumpsLdlt::Impl {
@@ -35,12 +51,7 @@ bool MumpsLdlt::Compute(const sim::SparseMatrixXd& K) {
   Impl& m = *impl_;
   DMUMPS_STRUC_C& id = m.id;
   if (!m.initialized) {
-    id.job = -1;
-    id.par = 1;
-    id.sym = 2;  // symmetric, not necessarily definite
-    id.comm_fortran = kUseCommWorld;
-    dmumps_c(&id);
-    if (id.infog[0] < 0) return false;
+    if (!InitSymmetric(id)) return false;
     m.initialized = true;
   }
   m.factored = false;
@@ -60,10 +71,6 @@ bool MumpsLdlt::Compute(const sim::SparseMatrixXd& K) {
   id.irn = m.irn.data();
   id.jcn = m.jcn.data();
   id.a = m.a.data();
-  Icntl(id, 1) = -1;  // no error, diagnostic or statistics output
-  Icntl(id, 2) = -1;
-  Icntl(id, 3) = -1;
-  Icntl(id, 4) = 0;
   Icntl(id, 7) = 6;    // QAMD ordering: deterministic
   Icntl(id, 24) = 1;   // null pivot detection
   Icntl(id, 14) = 50;  // working storage beyond the analysis' estimate, percent
@@ -98,12 +105,7 @@ int MumpsLdlt::null_pivots() const { return impl_->factored ? impl_->id.infog[27
 double EstimatedFactorizationFlops(int n, const std::vector<std::pair<int, int>>& lower,
                                    int ordering) {
   DMUMPS_STRUC_C id{};
-  id.job = -1;
-  id.par = 1;
-  id.sym = 2;
-  id.comm_fortran = kUseCommWorld;
-  dmumps_c(&id);
-  if (id.infog[0] < 0) return std::numeric_limits<double>::quiet_NaN();
+  if (!InitSymmetric(id)) return std::numeric_limits<double>::quiet_NaN();
   std::vector<MUMPS_INT> irn, jcn;
   irn.reserve(lower.size());
   jcn.reserve(lower.size());
@@ -115,10 +117,6 @@ double EstimatedFactorizationFlops(int n, const std::vector<std::pair<int, int>>
   id.nnz = static_cast<MUMPS_INT8>(irn.size());
   id.irn = irn.data();
   id.jcn = jcn.data();
-  Icntl(id, 1) = -1;
-  Icntl(id, 2) = -1;
-  Icntl(id, 3) = -1;
-  Icntl(id, 4) = 0;
   Icntl(id, 6) = 0;  // no maximum matching: it needs the values, which a pattern has not
   Icntl(id, 7) = ordering;
   id.job = 1;
