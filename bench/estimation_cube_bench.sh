@@ -15,7 +15,8 @@
 # 7× larger). Writes estimation_cube_bench_<METHODS>_<EPISODES>.csv in the current directory and
 # prints a table (wall and CPU time). Run it on an idle machine; one method at a time is fine; a
 # smaller EPISODES gives the per-toss cost. VERBOSE=1 in the environment prints every NLP's
-# summary line on stderr as it ends (progress on the long runs).
+# summary line on stderr as it ends (progress on the long runs). LSQ_HORIZON=H fits lsq and
+# lsq_sens with a growing horizon from H samples (--lsq-horizon; docs/estimation.md).
 set -eu
 BUILD=${1:-build}
 METHODS=${2:-lsq,lsq_ms,filter,mpec,mpec_pen}
@@ -27,7 +28,8 @@ STUDY="$BUILD/examples/estimation_study"
 OUT=estimation_cube_bench_$(echo "$METHODS" | tr , _)_$EPISODES.csv
 echo "# $(date -u +%FT%TZ) $(git rev-parse --short HEAD 2>/dev/null || echo '?') load: $(cut -d' ' -f1-3 /proc/loadavg)" >&2
 "$STUDY" cube --trials 1 --episodes "$EPISODES" --methods "$METHODS" \
-  --threads "$THREADS" --mpec-substeps "$SUBSTEPS" --verbose "${VERBOSE:-0}" --out "$OUT"
+  --threads "$THREADS" --mpec-substeps "$SUBSTEPS" --lsq-horizon "${LSQ_HORIZON:-0}" \
+  --verbose "${VERBOSE:-0}" --out "$OUT"
 /usr/bin/python3 - "$OUT" <<'PY'
 import csv, sys
 rows = list(csv.DictReader(open(sys.argv[1])))

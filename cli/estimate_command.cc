@@ -51,6 +51,9 @@ std::string ResultJson(const EstimateOptions& o, const estimation::EstimateResul
     << "      \"num_unknowns\": " << r.num_unknowns << ",\n";
   if (r.method == "lsq") {
     j << "      \"shooting\": " << JsonString(o.shooting) << ",\n"
+      << "      \"horizons\": [";
+    for (size_t i = 0; i < r.horizons.size(); ++i) j << (i ? ", " : "") << r.horizons[i];
+    j << "],\n"
       << "      \"num_segments\": " << r.num_segments << ",\n"
       << "      \"num_continuity_residuals\": " << r.num_continuity_residuals << ",\n"
       << "      \"continuity_defect\": " << JsonNumber(r.continuity_defect) << ",\n"
@@ -101,8 +104,25 @@ estimation::EstimateResult RunLeastSquares(const EstimateOptions& o,
   else if (o.shooting != "single")
     throw std::invalid_argument("--shooting " + o.shooting + ": expected single or multiple");
   lo.segment_samples = o.segment_samples;
+  if (o.lsq_horizon != 0 && lo.shooting == estimation::Shooting::kMultiple)
+    throw std::invalid_argument(
+        "--lsq-horizon: only for --shooting single (multiple shooting's segments are short "
+        "already)");
+  lo.horizon_samples = o.lsq_horizon;
+  if (o.lsq_horizon_growth) lo.horizon_growth = *o.lsq_horizon_growth;
   if (!o.jacobian.empty()) lo.jacobian = estimation::ParseLeastSquaresJacobian(o.jacobian);
   lo.progress = ProgressPrinter(o);
+  if (!o.quiet) {
+    lo.horizon_progress = [&o](int horizon, const estimation::EstimateResult& fit) {
+      std::ostringstream line;
+      line.precision(8);
+      line << "horizon " << horizon << " samples fitted:";
+      for (size_t i = 0; i < o.params.size(); ++i)
+        line << "  " << o.params[i] << " " << fit.estimates[static_cast<Eigen::Index>(i)];
+      line << "  residual sigma " << fit.sigma_residual << " m";
+      std::cerr << line.str() << "\n";
+    };
+  }
   return estimation::EstimateLeastSquares(simulator, log, lo);
 }
 
@@ -233,6 +253,14 @@ ExitCode RunEstimateCommand(const EstimateOptions& o) {
     throw std::invalid_argument("--mpec-ordering: only for --method mpec");
   if (!o.jacobian.empty() && o.method != "lsq")
     throw std::invalid_argument("--jacobian: only for --method lsq");
+  if ((o.lsq_horizon != 0 || o.lsq_horizon_growth) && o.method != "lsq")
+    throw std::invalid_argument("--lsq-horizon, --lsq-horizon-growth: only for --method lsq");
+  if (o.lsq_horizon_growth && o.lsq_horizon == 0)
+    throw std::invalid_argument("--lsq-horizon-growth: only with --lsq-horizon H");
+  if (o.lsq_horizon == 1)
+    throw std::invalid_argument("--lsq-horizon 1: expected 0 (the whole log at once) or H ≥ 2");
+  if (o.lsq_horizon_growth && !(*o.lsq_horizon_growth > 1 && *o.lsq_horizon_growth <= 16))
+    throw std::invalid_argument("--lsq-horizon-growth: expected 1 < G ≤ 16");
   if (o.method == "mpec") return RunEstimateMpec(o);
   if (o.method != "lsq" && o.method != "filter")
     throw std::invalid_argument("--method " + o.method + ": expected lsq, mpec or filter");
@@ -334,6 +362,17 @@ Command RegisterEstimateCommand(CLI::App& app) {
                   "lsq --shooting multiple: logged samples per segment (default 20)")
       ->type_name("N")
       ->check(CLI::Range(2, 1000000));
+  sub->add_option("--lsq-horizon", options->lsq_horizon,
+                  "lsq single shooting: fit each log's first H samples, then a growing horizon "
+                  "(x --lsq-horizon-growth each time) up to the whole log, each fit started "
+                  "from the last: for bodies that tumble or bounce, whose long rollouts stop a "
+                  "fit in local minima (0, default: the whole log at once)")
+      ->type_name("H")
+      ->check(CLI::Range(0, 1000000));
+  sub->add_option("--lsq-horizon-growth", options->lsq_horizon_growth,
+                  "lsq --lsq-horizon: the horizon's growth factor per fit, in (1, 16] "
+                  "(default 1.2)")
+      ->type_name("G");
   sub->add_option("--jacobian", options->jacobian,
                   "lsq: how the residuals' Jacobians are computed: fd (central differences of "
                   "rollouts; default) or sensitivity (forward step sensitivities along each "

@@ -31,7 +31,9 @@ struct EstimateOptions {
   bool fixed_initial_state = false;
   std::string shooting = "single";  ///< lsq: single | multiple
   int segment_samples = 20;         ///< lsq multiple shooting: samples per segment
-  int holdout = 0;                  ///< K: every K-th episode held out of the fit (0: none)
+  int lsq_horizon = 0;  ///< lsq single shooting: first horizon in samples (0: the whole log)
+  std::optional<double> lsq_horizon_growth;  ///< its growth factor; empty: the library's
+  int holdout = 0;  ///< K: every K-th episode held out of the fit (0: none)
   std::string out;
   bool quiet = false;
   std::string complementarity = "scholtes";  ///< mpec: scholtes | penalty

@@ -91,6 +91,9 @@ using Estimator = std::function<StudyResult(const sim::Simulator&, const Log&, d
 int g_threads = 1;
 // MPEC steps per log interval (MpecOptions::substeps; 0: the scene's dt); --mpec-substeps.
 int g_mpec_substeps = 0;
+// Single-shooting least squares' first horizon (LeastSquaresOptions::horizon_samples; 0: the
+// whole log at once); --lsq-horizon.
+int g_lsq_horizon = 0;
 // --mpec-raw-guess: the MPEC's initial guess from the raw log (MpecOptions::smooth_initial_guess
 // off; the estimator before 2026-11-25's smoothing, for comparisons).
 bool g_mpec_raw_guess = false;
@@ -112,6 +115,12 @@ std::vector<std::pair<std::string, Estimator>> Methods() {
       o.segment_samples = 25;
       o.max_iterations = 50;
       o.threads = g_threads;
+      if (shooting == est::Shooting::kSingle) o.horizon_samples = g_lsq_horizon;
+      if (g_verbose > 0)
+        o.horizon_progress = [](int horizon, const EstimateResult& fit) {
+          std::cerr << "  horizon " << horizon << ": mu " << fit.estimates[0] << ", sigma_hat "
+                    << fit.sigma_residual << ", " << fit.iterations << " iterations\n";
+        };
       return StudyResult{est::EstimateLeastSquares(s, log, o)};
     };
   };
@@ -301,7 +310,7 @@ constexpr const char* kUsage =
     "usage: estimation_study plate|particles|block|cube [--trials N] [--first-trial K]\n"
     "         [--noise S1,S2] [--windows W1,W2] [--particles N1,N2] [--episodes N]\n"
     "         [--methods lsq,lsq_sens,lsq_ms,filter,mpec,mpec_pen,mpec_dec] [--guess MU]\n"
-    "         [--threads N]\n"
+    "         [--threads N] [--lsq-horizon H]\n"
     "         [--mpec-substeps N] [--mpec-raw-guess 1] [--mpec-ordering auto|scotch|qamd]\n"
     "         [--verbose 0|1|IPOPT_PRINT_LEVEL]\n"
     "         [--only-episode K[,L...]]\n"
@@ -386,6 +395,8 @@ int Run(int argc, char** argv) {
       g_mpec_ordering = est::ParseMpecOrdering(value);
     } else if (flag == "--mpec-substeps") {
       g_mpec_substeps = std::stoi(value);
+    } else if (flag == "--lsq-horizon") {
+      g_lsq_horizon = std::stoi(value);
     } else if (flag == "--verbose") {
       g_verbose = std::stoi(value);
     } else if (flag == "--guess") {
@@ -412,9 +423,10 @@ int Run(int argc, char** argv) {
       return 1;
     }
   }
-  if (trials < 1 || episodes < 1 || first_trial < 0 || g_threads < 1 || g_mpec_substeps < 0) {
+  if (trials < 1 || episodes < 1 || first_trial < 0 || g_threads < 1 || g_mpec_substeps < 0 ||
+      g_lsq_horizon < 0 || g_lsq_horizon == 1) {
     std::cerr << "--trials, --episodes and --threads must be ≥ 1, --first-trial and "
-                 "--mpec-substeps ≥ 0\n";
+                 "--mpec-substeps ≥ 0, --lsq-horizon 0 or ≥ 2\n";
     return 1;
   }
   std::ofstream csv(out);

@@ -61,6 +61,21 @@ inline const char* kSpatialBox =
     "    velocity: {linear: [1.2, 0, 0]}\n"
     "    shapes: [{type: box, half_extents: [0.1, 0.1, 0.05]}]\n";
 
+// A 5 cm, 0.1 kg cube tossed onto a table from 12 cm, spinning (the studies' cube,
+// examples/estimation/estimation_study.cc, at its scene's launch): it lands after ~0.2 s,
+// bounces, tumbles and slides to rest. The scene's μ = 0.6.
+inline const char* kTossedCube =
+    "dimension: 3\n"
+    "stepper: {dt: 0.001, duration: 1, friction_directions: 8, envelope: 0.002}\n"
+    "friction: {default: 0.6}\n"
+    "bodies:\n"
+    "  - {name: table, kind: static, shapes: [{type: halfspace}]}\n"
+    "  - name: cube\n"
+    "    mass: 0.1\n"
+    "    pose: {position: [0, 0, 0.12], rotation: {axis: [1, 1, 0], angle: 0.4}}\n"
+    "    velocity: {linear: [0.8, 0.2, 0.5], angular: [3, -2, 5]}\n"
+    "    shapes: [{type: box, half_extents: [0.025, 0.025, 0.025]}]\n";
+
 // Simulates `sim` from its initial state with mu.default = mu for `duration` and writes the
 // body's pose (planar x, y, theta; spatial x, y, z, qw..qz) at irregular times (every
 // `every`-th step, with every third gap one step longer), with Gaussian position noise of

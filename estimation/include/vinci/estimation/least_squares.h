@@ -68,6 +68,8 @@ const char* ToString(LeastSquaresJacobian j);
 /// Parses "sensitivity" or "fd"; throws std::invalid_argument naming the value otherwise.
 LeastSquaresJacobian ParseLeastSquaresJacobian(const std::string& name);
 
+struct EstimateResult;
+
 struct LeastSquaresOptions {
   std::vector<std::string> params;  ///< names in the scene's ParamTable, differentiable
   /// Estimate each episode's initial state (else it is taken from the log's first sample, with
@@ -76,6 +78,20 @@ struct LeastSquaresOptions {
   double noise_sigma = 0.0;  ///< measurement noise σ (m); 0: estimated from residuals
   Shooting shooting = Shooting::kSingle;
   int segment_samples = 20;  ///< multiple shooting: logged samples per segment (≥ 2)
+  /// Single shooting: a growing-horizon continuation. 0: each episode's whole log in one fit.
+  /// H ≥ 2: first fit each episode's first H samples, then ⌈g H⌉, ⌈g ⌈g H⌉⌉, … (g =
+  /// horizon_growth, at least one sample more each time) and finally the whole log, each fit
+  /// started from the one before (every episode's initial state, and θ after a geometric line
+  /// search of each positive parameter: ×2^{±1/2}, 2^{±1}, repeated from an end point, by the
+  /// new horizon's rollout cost at those initial states). A rollout over a short horizon is a
+  /// smooth function of the initial state and θ; over a long one it may not be (impacts that
+  /// tumble a body), and a fit started far from the data then stops in a local minimum.
+  /// Horizons too short for the unknowns are skipped. Not with multiple shooting (its segments
+  /// are short already).
+  int horizon_samples = 0;
+  /// g > 1 of horizon_samples. Measured on tossed cubes (docs/estimation.md): g = 2 let the
+  /// first impact in at once and stalled more often than 1.2.
+  double horizon_growth = 1.2;
   /// Multiple shooting: weight w of the continuity residuals relative to the measurements.
   double continuity_weight = 1e3;
   double orientation_length = 0.1;  ///< m per rad for orientation residuals
@@ -92,6 +108,9 @@ struct LeastSquaresOptions {
   /// Called after every solver iteration with its number (0 = the starting point), the cost
   /// ½ Σ r² (m²) and the current parameter values. May be empty. Must not throw.
   std::function<void(int iteration, double cost, const sim::VectorXd& params)> progress;
+  /// With horizon_samples: called after each horizon's fit (but the last) with the samples
+  /// per episode it fitted and its result. May be empty. Must not throw.
+  std::function<void(int horizon, const EstimateResult& fit)> horizon_progress;
   /// Throws std::invalid_argument naming the first invalid field.
   void Validate() const;
 };
@@ -117,12 +136,17 @@ struct EstimateResult {
   std::vector<std::string> names;
   sim::VectorXd estimates, std_errors;  ///< std_errors NaN where the covariance failed
   sim::VectorXd initial_values;
-  int iterations = 0;
+  int iterations = 0;  ///< solver iterations, summed over the horizons of a continuation
   double time_s = 0.0;
   bool converged = false;
   std::string reason;  ///< the solver's termination message (and any rollout failure)
-  double initial_cost = 0.0, final_cost = 0.0;  ///< ½ Σ r² (m²)
-  int num_residuals = 0, num_unknowns = 0;      ///< unknowns: parameters + free state components
+  /// ½ Σ r² (m²) over the whole log: at the start of its fit (with horizon_samples, the start
+  /// of the last horizon's fit) and at the solution.
+  double initial_cost = 0.0, final_cost = 0.0;
+  /// Samples per episode of each fit of a horizon continuation, in order (empty without one);
+  /// the last is the whole log (its longest episode).
+  std::vector<int> horizons;
+  int num_residuals = 0, num_unknowns = 0;  ///< unknowns: parameters + free state components
   int num_segments = 0;  ///< shooting segments over all episodes (= episodes for single shooting)
   int num_continuity_residuals = 0;  ///< multiple shooting: continuity rows (not in num_residuals)
   /// Multiple shooting: largest continuity defect |x(t_j+1) − s_j+1| ⊙ c at the solution (m).
