@@ -18,20 +18,6 @@ namespace {
 
 using sim::VectorXd;
 
-// A 5 cm cube (0.1 kg) tossed onto a table from 12 cm, sideways and spinning (the cube study's
-// scene, examples/estimation/estimation_study.cc); the scene says μ = 0.6.
-const char* kTossedCube =
-    "dimension: 3\n"
-    "stepper: {dt: 0.001, duration: 1, friction_directions: 8, envelope: 0.002}\n"
-    "friction: {default: 0.6}\n"
-    "bodies:\n"
-    "  - {name: table, kind: static, shapes: [{type: halfspace}]}\n"
-    "  - name: cube\n"
-    "    mass: 0.1\n"
-    "    pose: {position: [0, 0, 0.12], rotation: {axis: [1, 1, 0], angle: 0.4}}\n"
-    "    velocity: {linear: [0.8, 0.2, 0.5], angular: [3, -2, 5]}\n"
-    "    shapes: [{type: box, half_extents: [0.025, 0.025, 0.025]}]\n";
-
 // The rollout of `sim` with mu.default = mu for `steps` steps and its log: the dynamic body's
 // position and orientation (quaternion) every `every`-th state, noise-free.
 struct Logged {
@@ -119,7 +105,7 @@ TEST(MpecSpatial, SlidingBoxTrajectorySatisfiesConstraints) {
 }
 
 TEST(MpecSpatial, TossedCubeTrajectorySatisfiesConstraints) {
-  const sim::Simulator sim(sim::ParseScene(kTossedCube, "cube.yaml"));
+  const sim::Simulator sim(sim::ParseScene(testing::kTossedCube, "cube.yaml"));
   // 0.45 s: flight, impacts on edges and corners, sliding and tumbling.
   const Logged d = SimulateAndLog(sim, "cube", 0.4, 450, 1);
   ASSERT_TRUE(d.rollout.ok) << d.rollout.failure;
