@@ -365,8 +365,9 @@ Command RegisterEstimateCommand(CLI::App& app) {
   sub->add_option("--lsq-horizon", options->lsq_horizon,
                   "lsq single shooting: fit each log's first H samples, then a growing horizon "
                   "(x --lsq-horizon-growth each time) up to the whole log, each fit started "
-                  "from the last: for bodies that tumble or bounce, whose long rollouts stop a "
-                  "fit in local minima (0, default: the whole log at once)")
+                  "from the last (its parameters line-searched first): for bodies that tumble "
+                  "or bounce, whose long rollouts stop a fit in local minima (0, default: the "
+                  "whole log at once)")
       ->type_name("H")
       ->check(CLI::Range(0, 1000000));
   sub->add_option("--lsq-horizon-growth", options->lsq_horizon_growth,
@@ -398,7 +399,8 @@ Command RegisterEstimateCommand(CLI::App& app) {
       ->type_name("N")
       ->check(CLI::PositiveNumber);
   sub->add_option("--max-iterations", options->max_iterations,
-                  "Solver iterations at most: lsq Ceres iterations (default 100), mpec Ipopt "
+                  "Solver iterations at most: lsq Ceres iterations (default 100; per fit with "
+                  "--lsq-horizon), mpec Ipopt "
                   "iterations per NLP (default 3000); the filter has none")
       ->type_name("N")
       ->check(CLI::PositiveNumber);
