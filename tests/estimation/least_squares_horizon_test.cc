@@ -1,6 +1,6 @@
 // Single-shooting least squares with a growing horizon (LeastSquaresOptions::horizon_samples):
-// the schedule, the warm starts, and the options it rejects. The tossed cube, the case it is
-// for, is in tests/estimation_slow/least_squares_horizon_cube_test.cc.
+// the schedule, the warm starts, a noise-free tossed cube, and the options it rejects. Noisy
+// tossed cubes are in tests/estimation_slow/least_squares_horizon_cube_test.cc.
 #include <gtest/gtest.h>
 
 #include <stdexcept>
@@ -18,10 +18,10 @@ using testing::SyntheticLog;
 
 constexpr double kTrueMu = 0.3;
 
-// Two noise-free block logs of different lengths (61 and 26 samples with the helper's
-// irregular gaps), horizon 2 from μ = 0.5: the first horizon is lengthened to 3 samples (7
-// unknowns per episode, 3 residuals per sample: x, y, θ), grows by ⌈1.5 h⌉ to the longer log,
-// and recovers μ as the whole-log fit does.
+// Two noise-free block logs of different lengths (70 and 31 samples with the helper's
+// irregular gaps), horizon 2 from μ = 0.5: the 2-sample horizon is skipped (7 unknowns per
+// episode, 3 residuals per sample: x, y, θ), the fits grow from 3 samples by ⌈1.5 h⌉ to the
+// longer log, and μ is recovered as by the whole-log fit.
 TEST(LeastSquaresHorizon, GrowsToTheWholeLogAndRecoversMu) {
   const sim::Simulator sim(sim::ParseScene(testing::kPlanarBlock, "block.yaml"));
   const std::string a = SyntheticLog(sim, "block", kTrueMu, 0.6, 4, 0.0, 1, "hz_a.csv");
@@ -34,11 +34,7 @@ TEST(LeastSquaresHorizon, GrowsToTheWholeLogAndRecoversMu) {
   o.horizon_samples = 2;
   o.horizon_growth = 1.5;
   std::vector<int> reported;
-  std::vector<double> reported_mu;
-  o.horizon_progress = [&](int h, const EstimateResult& fit) {
-    reported.push_back(h);
-    reported_mu.push_back(fit.estimates[0]);
-  };
+  o.horizon_progress = [&](int h, const EstimateResult&) { reported.push_back(h); };
   int last_iteration = -1;
   bool progress_monotone = true;
   o.progress = [&](int it, double, const sim::VectorXd&) {
@@ -49,7 +45,7 @@ TEST(LeastSquaresHorizon, GrowsToTheWholeLogAndRecoversMu) {
   EXPECT_TRUE(r.converged) << r.reason;
   EXPECT_NEAR(r.estimates[0], kTrueMu, 1e-4) << r.reason;
   EXPECT_EQ(r.initial_values[0], 0.5);
-  // No stated noise, so no back-off: 3, ⌈4.5⌉ = 5, 8, 12, … longest.
+  // 3, ⌈4.5⌉ = 5, 8, 12, … longest.
   ASSERT_GE(r.horizons.size(), 3u);
   EXPECT_EQ(r.horizons.front(), 3);
   EXPECT_EQ(r.horizons.back(), longest);
