@@ -295,6 +295,19 @@ bool SegmentJacobian(const sim::Simulator& simulator, const Log& log, int episod
 
 namespace {
 
+// Throws std::invalid_argument (CheckEnoughSamples) if `log` has fewer residuals than the fit's
+// unknowns: the parameters and, unless held, each episode's initial state.
+void CheckEnoughSamplesForFit(const sim::Simulator& simulator, const Log& log,
+                              const LeastSquaresOptions& options, int num_params) {
+  const int block = StateBlockSize(Planar(simulator));
+  std::vector<int> own;
+  for (const Episode& ep : log.episodes)
+    own.push_back(options.estimate_initial_state ? ObservedDynamic(ep) * block : 0);
+  // Multiple shooting adds as many continuity residuals as segment-state unknowns: the same
+  // count suffices.
+  CheckEnoughSamples(log, simulator.scene().dim, num_params, own);
+}
+
 // One least-squares fit of the whole `log`. theta_start: θ's starting values (empty: the
 // scene's). *first_states: each episode's first-segment state unknowns to start from (empty:
 // guessed from the log); on return, the solution's.
@@ -308,13 +321,7 @@ EstimateResult Fit(const sim::Simulator& simulator, const Log& log,
   if (log.episodes.empty()) throw std::invalid_argument("no log episode");
   const sim::ParamSelection sel(table, options.params);
   const bool planar = Planar(simulator);
-  std::vector<int> own;
-  for (const Episode& ep : log.episodes)
-    own.push_back(options.estimate_initial_state ? ObservedDynamic(ep) * StateBlockSize(planar)
-                                                 : 0);
-  // Multiple shooting adds as many continuity residuals as segment-state unknowns: the same
-  // count suffices.
-  CheckEnoughSamples(log, scene.dim, sel.size(), own);
+  CheckEnoughSamplesForFit(simulator, log, options, sel.size());
 
   const Params base = simulator.DefaultParams();
   EstimateResult result;
@@ -693,14 +700,8 @@ EstimateResult EstimateLeastSquares(const sim::Simulator& simulator, const Log& 
   // Horizons with fewer residuals than unknowns are skipped.
   const sim::ParamSelection sel(simulator.scene().param_table(), options.params);
   auto enough = [&](int h) {
-    const Log part = FirstSamples(log, h);
-    std::vector<int> own;
-    for (const Episode& ep : part.episodes)
-      own.push_back(options.estimate_initial_state
-                        ? ObservedDynamic(ep) * StateBlockSize(Planar(simulator))
-                        : 0);
     try {
-      CheckEnoughSamples(part, simulator.scene().dim, sel.size(), own);
+      CheckEnoughSamplesForFit(simulator, FirstSamples(log, h), options, sel.size());
     } catch (const std::invalid_argument&) {
       return false;
     }
@@ -724,12 +725,11 @@ EstimateResult EstimateLeastSquares(const sim::Simulator& simulator, const Log& 
   EstimateResult result;
   for (size_t i = 0; i < horizons.size(); ++i) {
     const bool last = i + 1 == horizons.size();
+    const Log part = FirstSamples(log, horizons[i]);  // the whole log for the last
     std::vector<VectorXd> states = from;
     if (theta.size() > 0 && !from.empty())
-      ScanParameters(simulator, sel, last ? log : FirstSamples(log, horizons[i]), from,
-                     options.orientation_length, &theta);
-    EstimateResult fit =
-        Fit(simulator, last ? log : FirstSamples(log, horizons[i]), o, theta, &states);
+      ScanParameters(simulator, sel, part, from, options.orientation_length, &theta);
+    EstimateResult fit = Fit(simulator, part, o, theta, &states);
     done += fit.iterations;
     if (last) {
       result = std::move(fit);

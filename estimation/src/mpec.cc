@@ -108,14 +108,14 @@ MpecSolverOptions::Ordering ResolveAutoOrdering(
   for (const auto& [r, c] : lower)
     if (r != c) ++degree[r], ++degree[c];
   const double dense = std::max(16.0, 10.0 * std::sqrt(static_cast<double>(dim)));
+  if (std::none_of(degree.begin(), degree.end(), [&](int d) { return d > dense; }))
+    return MpecSolverOptions::Ordering::kScotch;
   std::vector<int> parent(dim);
   for (int i = 0; i < dim; ++i) parent[i] = i;
   auto root = [&](int i) {
     while (parent[i] != i) i = parent[i] = parent[parent[i]];
     return i;
   };
-  if (std::none_of(degree.begin(), degree.end(), [&](int d) { return d > dense; }))
-    return MpecSolverOptions::Ordering::kScotch;
   for (const auto& [r, c] : lower)
     if (degree[r] <= dense && degree[c] <= dense) parent[root(r)] = root(c);
   int parts = 0;
