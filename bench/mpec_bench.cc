@@ -12,10 +12,10 @@
 // (MpecSolverOptions::cold_bound_push); --seed N (the noise's generator, default 7); --predictor
 // 0|1 (MpecSolverOptions::epsilon_predictor); --early-polish-rise K
 // (MpecSolverOptions::early_polish_rise_factor); --early-polish-epsilon E
-// (MpecSolverOptions::early_polish_epsilon); --help. An unknown flag or a missing value is an
-// error (exit 2). Environment:
-// MPEC_BENCH_VERBOSE=1 (progress lines), MPEC_BENCH_IPOPT_PRINT=N (Ipopt's print_level),
-// MPEC_BENCH_SAMPLES=N (N samples instead of 500).
+// (MpecSolverOptions::early_polish_epsilon); --lsq-start N (MpecOptions::least_squares_start,
+// N Ceres iterations per fit) with --lsq-horizon H, --lsq-growth G; --help. An unknown flag or a
+// missing value is an error (exit 2). Environment: MPEC_BENCH_VERBOSE=1 (progress lines),
+// MPEC_BENCH_IPOPT_PRINT=N (Ipopt's print_level), MPEC_BENCH_SAMPLES=N (N samples instead of 500).
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -89,6 +89,9 @@ int main(int argc, char** argv) {
   double penalty_start = 0.0;  // --penalty START: MpecSolverOptions::penalty_start (0: default)
   bool raw_guess = false;      // --raw-guess: MpecOptions::smooth_initial_guess off
   bool tracking = false;       // --tracking-guess: MpecOptions::tracking_guess on
+  int lsq_start = 0;     // --lsq-start N: MpecOptions::least_squares_start, N iterations (0: off)
+  int lsq_horizon = -1;  // --lsq-horizon H: MpecOptions::least_squares_horizon
+  double lsq_growth = -1.0;  // --lsq-growth G: MpecOptions::least_squares_horizon_growth
   double push = -1.0;        // --push-per-epsilon X: MpecSolverOptions::warm_start_push_per_epsilon
   double cold_push = -1.0;   // --cold-push X: MpecSolverOptions::cold_bound_push
   unsigned seed = 7;         // --seed N: the noise's generator
@@ -99,7 +102,8 @@ int main(int argc, char** argv) {
   const char* usage =
       "usage: mpec_bench [--quick] [--case block|block_noisy|plate|plate_noisy]\n"
       "                  [--method scholtes|penalty] [--threads N[,N...]] [--csv FILE]\n"
-      "                  [--raw-guess] [--tracking-guess] [--penalty START] [--epsilon START "
+      "                  [--raw-guess] [--tracking-guess] [--lsq-start N] [--penalty START]\n"
+      "                  [--epsilon START "
       "FACTOR]\n"
       "                  [--stall N] [--push-per-epsilon C] [--cold-push X] [--seed N]\n"
       "                  [--predictor 0|1]\n"
@@ -116,6 +120,12 @@ int main(int argc, char** argv) {
       quick = true;
     } else if (flag("--raw-guess", 0)) {
       raw_guess = true;
+    } else if (flag("--lsq-start", 1)) {
+      lsq_start = std::atoi(argv[++i]);
+    } else if (flag("--lsq-horizon", 1)) {
+      lsq_horizon = std::atoi(argv[++i]);
+    } else if (flag("--lsq-growth", 1)) {
+      lsq_growth = std::atof(argv[++i]);
     } else if (flag("--tracking-guess", 0)) {
       tracking = true;
     } else if (flag("--penalty", 1)) {
@@ -220,6 +230,10 @@ int main(int argc, char** argv) {
         o.solver.method = method;
         o.smooth_initial_guess = !raw_guess;
         o.tracking_guess = tracking;
+        o.least_squares_start = lsq_start > 0;
+        if (lsq_start > 0) o.least_squares_iterations = lsq_start;
+        if (lsq_horizon >= 0) o.least_squares_horizon = lsq_horizon;
+        if (lsq_growth > 0) o.least_squares_horizon_growth = lsq_growth;
         if (const char* pl = std::getenv("MPEC_BENCH_IPOPT_PRINT"))
           o.solver.print_level = std::atoi(pl);
         if (penalty_start > 0) o.solver.penalty_start = penalty_start;

@@ -251,6 +251,8 @@ ExitCode RunEstimateCommand(const EstimateOptions& o) {
     throw std::invalid_argument("--mpec-episodes: only for --method mpec");
   if (!o.mpec_ordering.empty() && o.method != "mpec")
     throw std::invalid_argument("--mpec-ordering: only for --method mpec");
+  if (!o.mpec_start.empty() && o.method != "mpec")
+    throw std::invalid_argument("--mpec-start: only for --method mpec");
   if (!o.jacobian.empty() && o.method != "lsq")
     throw std::invalid_argument("--jacobian: only for --method lsq");
   if ((o.lsq_horizon != 0 || o.lsq_horizon_growth) && o.method != "lsq")
@@ -354,6 +356,13 @@ Command RegisterEstimateCommand(CLI::App& app) {
                   "particles, or four or more log files, sharing the parameters; "
                   "docs/estimation.md), scotch or qamd")
       ->type_name("auto|scotch|qamd");
+  sub->add_option("--mpec-start", options->mpec_start,
+                  "mpec: the initial guess: log (the logged poses, smoothed; the relaxation "
+                  "homotopy from there; default) or lsq (a rough least-squares fit over a "
+                  "growing horizon, its rollout as the guess, and that rollout's contact modes "
+                  "solved as one NLP, kept if its χ² fits --noise, else the log start; needs "
+                  "--noise; docs/estimation.md)")
+      ->type_name("log|lsq");
   sub->add_option("--shooting", options->shooting,
                   "lsq: single (one rollout per episode; default) or multiple (segments of "
                   "--segment-samples samples from their own start states, with continuity)")

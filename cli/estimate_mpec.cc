@@ -66,7 +66,8 @@ std::string MpecJson(const EstimateOptions& o, const estimation::MpecEstimateRes
     << "      \"substeps\": " << std::max(0, o.mpec_substeps) << ",\n"
     << "      \"episode_mode\": \"" << (o.mpec_episodes.empty() ? "joint" : o.mpec_episodes)
     << "\",\n"
-    << "      \"ordering\": \"" << (o.mpec_ordering.empty() ? "auto" : o.mpec_ordering) << "\",\n";
+    << "      \"ordering\": \"" << (o.mpec_ordering.empty() ? "auto" : o.mpec_ordering) << "\",\n"
+    << "      \"start\": \"" << (o.mpec_start.empty() ? "log" : o.mpec_start) << "\",\n";
   if (!r.ordering.empty()) j << "      \"ordering_used\": \"" << r.ordering << "\",\n";
   if (holdout) j << HoldoutJson(o, *holdout);
   j << "      \"episodes\": [";
@@ -104,6 +105,15 @@ ExitCode RunEstimateMpec(const EstimateOptions& o) {
   mo.substeps = std::max(0, o.mpec_substeps);
   if (!o.mpec_episodes.empty()) mo.episodes = estimation::ParseMpecEpisodes(o.mpec_episodes);
   if (!o.mpec_ordering.empty()) mo.solver.ordering = estimation::ParseMpecOrdering(o.mpec_ordering);
+  if (!o.mpec_start.empty() && o.mpec_start != "log" && o.mpec_start != "lsq")
+    throw std::invalid_argument("--mpec-start " + o.mpec_start + ": expected log or lsq");
+  mo.least_squares_start = o.mpec_start == "lsq";
+  if (mo.least_squares_start && !(o.noise > 0))
+    throw std::invalid_argument(
+        "--mpec-start lsq: needs --noise SIGMA (the start's solution is kept only if its χ² "
+        "fits the stated noise)");
+  if (mo.least_squares_start && mo.episodes == estimation::MpecEpisodes::kDecomposed)
+    throw std::invalid_argument("--mpec-start lsq: not with --mpec-episodes decomposed");
   mo.solver.method = estimation::ParseComplementarityMethod(o.complementarity);
   if (o.max_iterations) mo.solver.max_iterations = *o.max_iterations;
   if (o.complementarity_tolerance)

@@ -21,12 +21,52 @@ using sim::Params;
 using sim::State;
 using sim::VectorXd;
 
+namespace {
+
+double Seconds(std::chrono::steady_clock::time_point since) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
+}
+
+// MpecOptions::least_squares_start: the fit, then EstimateMpec from its rollout.
+MpecEstimateResult EstimateFromLeastSquares(const sim::Simulator& simulator, const Log& log,
+                                            const MpecOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  const EstimateResult ls =
+      EstimateLeastSquares(simulator, log, mpec_internal::StartFitOptions(options));
+  std::ostringstream note;
+  note << "least-squares start (" << ls.iterations << " iterations, " << ls.time_s << " s):";
+  for (Eigen::Index i = 0; i < ls.estimates.size(); ++i)
+    note << " " << options.params[i] << " " << ls.estimates[i];
+  MpecOptions o = options;
+  o.least_squares_start = false;
+  o.bootstrap = 0;
+  const bool usable = ls.estimates.size() == static_cast<Eigen::Index>(options.params.size()) &&
+                      ls.estimates.allFinite() && ls.episodes.size() == log.episodes.size();
+  if (usable) {
+    o.start_theta = ls.estimates;
+    for (const EpisodeEstimate& e : ls.episodes) o.start_states.push_back(e.x0);
+  } else {
+    note << " unusable (" << ls.reason << "), the log's poses instead";
+  }
+  if (options.progress) options.progress("mpec: " + note.str());
+  MpecEstimateResult r = EstimateMpec(simulator, log, o);
+  r.initial_values = ls.initial_values;
+  r.reason = note.str() + "; " + r.reason;
+  if (options.bootstrap > 0 && log.episodes.size() >= 2)
+    mpec_internal::BootstrapOverEpisodes(simulator, log, options, EstimateMpec, &r);
+  r.time_s = Seconds(start);
+  return r;
+}
+
+}  // namespace
+
 MpecEstimateResult EstimateMpec(const sim::Simulator& simulator, const Log& log,
                                 const MpecOptions& options) {
   const auto start = std::chrono::steady_clock::now();
   options.Validate();
   if (options.episodes == MpecEpisodes::kDecomposed && log.episodes.size() >= 2)
     return EstimateMpecDecomposed(simulator, log, options);
+  if (options.least_squares_start) return EstimateFromLeastSquares(simulator, log, options);
   const bool stated = options.noise_sigma > 0;
   const double sigma_w = stated ? options.noise_sigma : kDefaultSigma;
   MpecEstimationProblem problem(simulator, log, options, sigma_w);
@@ -53,8 +93,43 @@ MpecEstimateResult EstimateMpec(const sim::Simulator& simulator, const Log& log,
   MpecSolverOptions so = options.solver;
   if (!so.progress) so.progress = options.progress;
   if (!stated) so.early_polish_tolerance = -1.0;  // the objective's scale is unknown
-  const MpecSolution sol = SolveMpec(problem, so);
-  if (sol.first_stage_failed && !options.tracking_guess) {
+  MpecSolution sol;
+  const bool simulated = !options.start_states.empty();
+  if (simulated && stated && options.start_polish_iterations > 0) {
+    // The simulated start is exactly complementary: its active set's NLP (every pair's zero
+    // side fixed, θ free) instead of the homotopy, accepted if it solves with its objective
+    // (χ² of the measurements plus the process noise's) consistent with the stated noise.
+    // Otherwise the estimation restarts from the log's poses.
+    const mpec_internal::FixedThetaProblem kept(problem, VectorXd(), x0, true);
+    MpecSolverOptions ko = so;
+    ko.max_iterations = options.start_polish_iterations;
+    sol = SolveMpec(kept, ko);
+    const int dof = mpec_internal::ResidualDof(simulator, log, r.names.size(), r.num_residuals);
+    const bool fits =
+        sol.converged && sol.x.allFinite() &&
+        !internal::ResidualsContradictNoise(sol.objective * sigma_w * sigma_w, dof, sigma_w);
+    if (!fits) {
+      std::ostringstream why;
+      why << "the start's active set: " << sol.reason;
+      if (sol.converged) why << ", objective " << sol.objective << " for " << dof << " d.o.f.";
+      if (options.progress)
+        options.progress("mpec: " + why.str() + "; restarted from the log's poses");
+      MpecOptions retry = options;
+      retry.start_theta.resize(0);
+      retry.start_states.clear();
+      MpecEstimateResult rt = EstimateMpec(simulator, log, retry);
+      rt.iterations += sol.iterations;
+      rt.stages += sol.stages;
+      rt.reason = "restarted from the log's poses (" + why.str() + "); " + rt.reason;
+      rt.time_s = Seconds(start);
+      return rt;
+    }
+    sol.polished = true;
+    sol.reason = "the start's active set: " + sol.reason;
+  } else {
+    sol = SolveMpec(problem, so);
+  }
+  if (sol.first_stage_failed && !options.tracking_guess && !simulated) {
     // No relaxation stage solved from the smoothed poses (Ipopt took the first stage to a point
     // of local infeasibility: measured on a noise-free block log without orientation, whose
     // polish then "solved" at μ̂ = 0 with χ²/2 = 2.6e4): the whole estimation again from the
@@ -177,13 +252,18 @@ void mpec_internal::BootstrapOverEpisodes(
   r->covariance = mpec_internal::CovarianceWithStdErrors(cov, nt, 1.0, &r->std_errors, true);
 }
 
-void mpec_internal::SetResidualSigma(const sim::Simulator& simulator, const Log& log,
-                                     int num_params, double stated_sigma, double ss,
-                                     MpecEstimateResult* r) {
+int mpec_internal::ResidualDof(const sim::Simulator& simulator, const Log& log, int num_params,
+                               int num_residuals) {
   int p = num_params;
   for (const Episode& ep : log.episodes)
     p += internal::ObservedDynamic(ep) * internal::StateBlockSize(internal::Planar(simulator));
-  const int dof = r->num_residuals - p;
+  return num_residuals - p;
+}
+
+void mpec_internal::SetResidualSigma(const sim::Simulator& simulator, const Log& log,
+                                     int num_params, double stated_sigma, double ss,
+                                     MpecEstimateResult* r) {
+  const int dof = ResidualDof(simulator, log, num_params, r->num_residuals);
   const double sigma_hat = std::sqrt(ss / std::max(1, dof));
   r->sigma = stated_sigma > 0 ? stated_sigma : sigma_hat;
   if (!(stated_sigma > 0) || !internal::ResidualsContradictNoise(ss, dof, stated_sigma)) return;

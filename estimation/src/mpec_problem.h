@@ -79,6 +79,13 @@ class FixedThetaProblem final : public MpecProblem {
       }
     }
   }
+  // The NLP of a given active set: zero_sides[k] is the side of pair k fixed at 0.
+  FixedThetaProblem(const MpecEstimationProblem& p, const sim::VectorXd& theta,
+                    const sim::VectorXd& start, std::vector<int> zero_sides)
+      : p_(p), theta_(theta), start_(start), keep_(true), zero_(std::move(zero_sides)) {
+    start_.head(theta.size()) = theta;
+    for (int i : zero_) start_[i] = 0.0;
+  }
   int num_variables() const override { return p_.num_variables(); }
   int num_constraints() const override { return p_.num_constraints(); }
   void Bounds(sim::VectorXd* x_l, sim::VectorXd* x_u, sim::VectorXd* g_l,
@@ -177,6 +184,13 @@ sim::MatrixXd CovarianceWithStdErrors(const sim::MatrixXd& covariance, Eigen::In
 std::string MissingStdErrors(const std::vector<std::string>& names, const sim::VectorXd& estimates,
                              const sim::VectorXd& std_errors, const sim::VectorXd& lower,
                              const sim::VectorXd& upper, bool have_covariance);
+
+// The least-squares fit of MpecOptions::least_squares_start.
+LeastSquaresOptions StartFitOptions(const MpecOptions& o);
+
+// The measured residuals' degrees of freedom: num_residuals − p, p = num_params + the observed
+// dynamic bodies' initial-state components over the log's episodes.
+int ResidualDof(const sim::Simulator& simulator, const Log& log, int num_params, int num_residuals);
 
 // The σ an MPEC result's standard errors use (r->sigma), and whether its measurement residuals
 // contradict a stated noise σ (> 0). ss = Σ r² over r->num_residuals measured residuals, with
@@ -366,6 +380,9 @@ struct MpecEstimationProblem::Impl {
   // failed step ends the tracking there (the later nodes keep their guess, their w is 0).
   std::vector<VectorXd> TrackGuess(const Episode& ep, const std::vector<double>& step_h,
                                    std::vector<State>* guess);
+  // MpecOptions::start_states: replaces the guess by the model's rollout from x0 (w = 0); a
+  // failed step ends it there (the later nodes keep the log's poses).
+  void RolloutGuess(const State& x0, const std::vector<double>& step_h, std::vector<State>* guess);
   void BuildStructure();
 };
 

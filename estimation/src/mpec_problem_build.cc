@@ -26,6 +26,18 @@ using sim::VectorXd;
 using internal::LoggedQuaternion;
 using internal::RotationLog;
 
+LeastSquaresOptions mpec_internal::StartFitOptions(const MpecOptions& o) {
+  LeastSquaresOptions lo;
+  lo.params = o.params;
+  lo.noise_sigma = o.noise_sigma;
+  lo.threads = o.threads;
+  lo.orientation_length = o.orientation_length;
+  lo.max_iterations = o.least_squares_iterations;
+  lo.horizon_samples = o.least_squares_horizon;
+  lo.horizon_growth = o.least_squares_horizon_growth;
+  return lo;
+}
+
 void MpecOptions::Validate() const {
   auto fail = [](const std::string& field, double v, const std::string& expected) {
     std::ostringstream m;
@@ -41,6 +53,26 @@ void MpecOptions::Validate() const {
   if (bootstrap < 0) fail("bootstrap", bootstrap, "≥ 0");
   if (!std::isfinite(contact_margin)) fail("contact_margin", contact_margin, "finite");
   if (substeps < 0) fail("substeps", substeps, "≥ 0 (0: the scene's dt)");
+  if (start_theta.size() > 0 || !start_states.empty()) {
+    if (start_theta.size() != static_cast<Eigen::Index>(params.size()) || start_states.empty())
+      throw std::invalid_argument(
+          "mpec: start_theta needs one value per parameter and start_states one state per "
+          "episode (or both empty)");
+    if (!start_theta.allFinite()) throw std::invalid_argument("mpec: start_theta not finite");
+  }
+  if (start_polish_iterations < 0) fail("start_polish_iterations", start_polish_iterations, "≥ 0");
+  if (least_squares_start) {
+    if (episodes == MpecEpisodes::kDecomposed)
+      throw std::invalid_argument("mpec: least_squares_start is not for decomposed episodes");
+    if (!(noise_sigma > 0))
+      throw std::invalid_argument(
+          "mpec: least_squares_start needs a stated noise (its solution is accepted by its χ²)");
+    try {
+      mpec_internal::StartFitOptions(*this).Validate();
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument(std::string("mpec: least_squares_start: ") + e.what());
+    }
+  }
   solver.Validate();
 }
 
@@ -68,6 +100,16 @@ void MpecEstimationProblem::Impl::Build(const Log& log) {
     CheckEnoughSamples(log, scene.dim, sel.size(), own);
   }
   base = sim.DefaultParams();
+  const bool simulated = !opts.start_states.empty();
+  if (simulated) {
+    if (opts.start_states.size() != log.episodes.size())
+      throw std::invalid_argument(
+          "mpec: start_states: " + std::to_string(opts.start_states.size()) + " states for " +
+          std::to_string(log.episodes.size()) + " episodes");
+    VectorXd th = opts.start_theta;
+    for (int i = 0; i < sel.size(); ++i) th[i] = std::clamp(th[i], sel.lower()[i], sel.upper()[i]);
+    base = sel.Set(base, th);
+  }
   model_dt = std::make_shared<const sim::Scene>(scene.ApplyParams(base));
   ntheta = sel.size();
   nq = scene.num_positions();
@@ -192,9 +234,10 @@ void MpecEstimationProblem::Impl::Build(const Log& log) {
         guess[0].v.segment(ix.v, planar ? 3 : 6) = guess[1].v.segment(ix.v, planar ? 3 : 6);
       }
     }
+    if (simulated) RolloutGuess(opts.start_states[e], step_h, &guess);
     const std::vector<VectorXd> w_guess =
-        opts.tracking_guess ? TrackGuess(ep, step_h, &guess)
-                            : std::vector<VectorXd>(nodes - 1, VectorXd::Zero(nv));
+        opts.tracking_guess && !simulated ? TrackGuess(ep, step_h, &guess)
+                                          : std::vector<VectorXd>(nodes - 1, VectorXd::Zero(nv));
 
     // Variables and step blocks.
     x0_col.push_back(add_vars(nx, -kInf, kInf));
@@ -507,6 +550,30 @@ std::vector<VectorXd> MpecEstimationProblem::Impl::TrackGuess(const Episode& ep,
     s = next;
   }
   return w;
+}
+
+void MpecEstimationProblem::Impl::RolloutGuess(const State& x0, const std::vector<double>& step_h,
+                                               std::vector<State>* guess) {
+  if (x0.q.size() != nq || x0.v.size() != nv || !x0.q.allFinite() || !x0.v.allFinite())
+    throw std::invalid_argument("mpec: start_states: a state of the wrong size or not finite");
+  State s = x0;
+  s.t = (*guess)[0].t;
+  (*guess)[0] = s;
+  sim::StepInput u;
+  u.generalized_force = VectorXd::Zero(nv);
+  for (std::size_t l = 0; l < step_h.size(); ++l) {
+    std::shared_ptr<const sim::Scene> model;
+    const sim::Formulation& form = FormulationFor(step_h[l], &model);
+    sim::Workspace ws;
+    sim::StepInfo info;
+    State next;
+    form.Step(*model, s, u, &ws, &next, &info);
+    // A failed step leaves the rest of the guess at the log's poses.
+    if (!info.ok || !next.q.allFinite() || !next.v.allFinite()) return;
+    next.t = (*guess)[l + 1].t;
+    (*guess)[l + 1] = next;
+    s = next;
+  }
 }
 
 void MpecEstimationProblem::Impl::BuildStructure() {

@@ -121,6 +121,33 @@ struct MpecOptions {
   /// if the first relaxation stage fails from them, the estimation restarts from the tracking
   /// guess).
   bool tracking_guess = false;
+  /// The initial guess from a simulation instead of the log: θ_0 = start_theta (in params'
+  /// order, clamped to the table's bounds) and per episode the model's rollout at θ_0 from
+  /// start_states[e] (one per episode, at its first logged time) on the MPEC's grid, w = 0, so
+  /// that every step equation and complementarity pair holds at the start (the contact sets are
+  /// frozen at the rollout's states). Both empty: the log's poses (above). Set by
+  /// least_squares_start.
+  sim::VectorXd start_theta;
+  std::vector<sim::State> start_states;
+  /// With start_states and a stated noise_sigma: the first NLP is the start's active set (every
+  /// pair's zero side at the guess fixed, the other ≥ 0; θ free; no homotopy), at most this
+  /// many Ipopt iterations, accepted if it solves with its objective (measurements' and process
+  /// noise's χ²) consistent with the stated noise (the least squares' χ² test); otherwise the
+  /// estimation restarts from the log's poses. When the rollout has the solution's contact
+  /// modes it converges in a few iterations. 0, or no stated noise: the homotopy from the
+  /// simulated guess.
+  int start_polish_iterations = 100;
+  /// Start from a least-squares fit (EstimateLeastSquares: single shooting over a growing
+  /// horizon, least_squares_horizon samples first, × least_squares_horizon_growth, at most
+  /// least_squares_iterations iterations per fit — a rough fit, only the start; the same
+  /// parameters, noise, threads and orientation_length): start_theta and start_states from its
+  /// θ̂ and initial states. Needs a stated noise_sigma. The result's iterations (Ipopt's) and
+  /// time include the fit; its reason says what the start was. Not with
+  /// MpecEpisodes::kDecomposed.
+  bool least_squares_start = false;
+  int least_squares_iterations = 10;
+  int least_squares_horizon = 10;
+  double least_squares_horizon_growth = 4.0;
   int threads = 1;  ///< threads evaluating the step equations (the result is bitwise the same)
   /// Several episodes: one joint NLP, or the decomposition over episodes (EstimateMpecDecomposed
   /// in mpec_decomposed.h; with one episode both are the joint NLP).
