@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -30,6 +31,23 @@ inline std::string WriteFile(const std::string& name, const std::string& text) {
   const std::string path = TempDir() + "/" + name;
   std::ofstream(path) << text;
   return path;
+}
+
+// A small box (4 cm × 1 cm, 20 g) on a plate vibrating at 20 Hz, sticking and slipping twice
+// per cycle; the scene says μ = 0.5 (tests/data/scenes/plate_box_planar.yaml).
+inline const std::string kPlateBoxFile =
+    std::string(VINCI_SOURCE_DIR) + "/tests/data/scenes/plate_box_planar.yaml";
+
+// Largest constraint violation and complementarity violation at an MPEC's starting point.
+inline void StartViolation(const MpecEstimationProblem& problem, double* constraints,
+                           double* pairs) {
+  const sim::VectorXd x = problem.StartingPoint();
+  sim::VectorXd g;
+  ASSERT_TRUE(problem.Constraints(x, &g));
+  *constraints = g.cwiseAbs().maxCoeff();
+  *pairs = 0.0;
+  for (const auto& [a, b] : problem.ComplementarityPairs())
+    *pairs = std::max(*pairs, std::abs(std::min(x[a], x[b])));
 }
 
 // A planar block (0.4 × 0.2 m, 1 kg) launched at 1.5 m/s along a floor; the scene's μ = 0.5

@@ -19,11 +19,7 @@ using sim::VectorXd;
 
 constexpr double kTrueMu = 0.3;
 
-// A small box (4 cm × 1 cm, 20 g) on a plate vibrating at 20 Hz, sticking and slipping twice
-// per cycle; true μ = 0.2, the scene says 0.5 (tests/data/scenes/plate_box_planar.yaml).
-const std::string kPlateBoxFile =
-    std::string(VINCI_SOURCE_DIR) + "/tests/data/scenes/plate_box_planar.yaml";
-
+// The plate's box (testing::kPlateBoxFile): true μ = 0.2 in these tests.
 // A simulated trajectory of the sliding block satisfies the MPEC's constraints (the frozen step
 // equations, slack rows) and complementarity to 1e-9 at the unknowns mapped from the rollout.
 TEST(MpecEstimator, SimulatedTrajectorySatisfiesConstraints) {
@@ -73,7 +69,7 @@ TEST(MpecEstimator, SimulatedTrajectorySatisfiesConstraints) {
 // The same on the vibrating plate (a prescribed body: the step model evaluates its motion at the
 // grid times).
 TEST(MpecEstimator, SimulatedPlateTrajectorySatisfiesConstraints) {
-  const sim::Simulator sim(sim::LoadSceneFile(kPlateBoxFile));
+  const sim::Simulator sim(sim::LoadSceneFile(testing::kPlateBoxFile));
   const std::string path =
       testing::SyntheticLog(sim, "box", 0.2, 0.1, 1, 0.0, 1, "mpec_plate_constraints.csv");
   const Log log = ReadLog({path}, sim.scene());
@@ -104,7 +100,7 @@ TEST(MpecEstimator, SimulatedPlateTrajectorySatisfiesConstraints) {
 // gives the true μ. Before the unknowns were scaled, the products x_a x_b ≤ ε compared impulses
 // with speeds and the homotopy ended at μ̂ = 0.
 TEST(MpecEstimator, PlateNoiseFreeRecoversMu) {
-  const sim::Simulator sim(sim::LoadSceneFile(kPlateBoxFile));
+  const sim::Simulator sim(sim::LoadSceneFile(testing::kPlateBoxFile));
   const std::string path =
       testing::SyntheticLog(sim, "box", 0.2, 0.1, 2, 0.0, 1, "mpec_plate_exact.csv");
   const Log log = ReadLog({path}, sim.scene());
@@ -125,7 +121,7 @@ TEST(MpecEstimator, PlateNoiseFreeRecoversMu) {
 TEST(MpecEstimator, JacobianStructureHoldsEveryNonZero) {
   for (const char* which : {"plate", "block"}) {
     const bool plate = std::string(which) == "plate";
-    const sim::Simulator sim(plate ? sim::LoadSceneFile(kPlateBoxFile)
+    const sim::Simulator sim(plate ? sim::LoadSceneFile(testing::kPlateBoxFile)
                                    : sim::ParseScene(testing::kPlanarBlock, "block.yaml"));
     const std::string path =
         testing::SyntheticLog(sim, plate ? "box" : "block", 0.25, 0.02, 1, 1e-5, 5,
@@ -342,7 +338,7 @@ TEST(MpecEstimator, PlanarBlockNoiseFreeRecoversMuWithThePenalty) {
 // reduction is ordered, and the linear algebra runs on one thread: the result is bitwise the
 // same for 1 and 3 threads, run after run.
 TEST(MpecEstimator, BitIdenticalForAnyThreadCount) {
-  const sim::Simulator sim(sim::LoadSceneFile(kPlateBoxFile));
+  const sim::Simulator sim(sim::LoadSceneFile(testing::kPlateBoxFile));
   const std::string path =
       testing::SyntheticLog(sim, "box", 0.2, 0.05, 1, 1e-5, 3, "mpec_threads.csv");
   const Log log = ReadLog({path}, sim.scene());

@@ -18,17 +18,6 @@ using sim::VectorXd;
 
 constexpr double kTrueMu = 0.3;
 
-// Largest constraint violation and complementarity violation at the starting point.
-void StartViolation(const MpecEstimationProblem& problem, double* constraints, double* pairs) {
-  const VectorXd x = problem.StartingPoint();
-  VectorXd g;
-  ASSERT_TRUE(problem.Constraints(x, &g));
-  *constraints = g.cwiseAbs().maxCoeff();
-  *pairs = 0.0;
-  for (const auto& [a, b] : problem.ComplementarityPairs())
-    *pairs = std::max(*pairs, std::abs(std::min(x[a], x[b])));
-}
-
 // A noisy log (1 mm, every step): the guessed poses penetrate the floor and their backward
 // differences are far from any step's dynamics; the tracking simulation is feasible.
 TEST(MpecTrackingGuess, StartsFeasibleOnANoisyLog) {
@@ -39,9 +28,9 @@ TEST(MpecTrackingGuess, StartsFeasibleOnANoisyLog) {
   MpecOptions o;
   o.params = {"mu.default"};
   double c_guess = 0, p_guess = 0, c_track = 0, p_track = 0;
-  StartViolation(MpecEstimationProblem(sim, log, o, 1e-3), &c_guess, &p_guess);
+  testing::StartViolation(MpecEstimationProblem(sim, log, o, 1e-3), &c_guess, &p_guess);
   o.tracking_guess = true;
-  StartViolation(MpecEstimationProblem(sim, log, o, 1e-3), &c_track, &p_track);
+  testing::StartViolation(MpecEstimationProblem(sim, log, o, 1e-3), &c_track, &p_track);
   EXPECT_GT(c_guess, 1e-2);
   EXPECT_LE(c_track, 1e-6) << "guessed poses: " << c_guess;
   EXPECT_LE(p_track, 1e-6);

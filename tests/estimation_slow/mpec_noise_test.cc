@@ -69,10 +69,6 @@ TEST(MpecNoise, EstimatedSigmaStandardErrorsAreHonest) {
   CheckHonest(ComplementarityMethod::kScholtes, false);
 }
 
-// A box on a vibrating plate (tests/data/scenes/plate_box_planar.yaml).
-const std::string kPlateBoxFile =
-    std::string(VINCI_SOURCE_DIR) + "/tests/data/scenes/plate_box_planar.yaml";
-
 // Two 0.1 mm logs stated as 0.025 mm: the decomposed estimator reports the contradiction (not
 // converged, σ̂ ≈ 0.1 mm) as the joint one does (MpecEstimator.
 // ResidualsThatContradictTheStatedNoiseAreReported), and a bootstrap keeps the resamples whose
@@ -106,7 +102,7 @@ TEST(MpecNoise, ContradictedNoiseDecomposedAndBootstrap) {
 // solver being deterministic) the bootstrap standard error is exactly 0; episodes with
 // independent noise give a positive one of the order of the Laplace approximation.
 TEST(MpecNoise, BootstrapOverEpisodes) {
-  const sim::Simulator sim(sim::LoadSceneFile(kPlateBoxFile));
+  const sim::Simulator sim(sim::LoadSceneFile(testing::kPlateBoxFile));
   std::vector<std::string> same, noisy;
   for (int k = 0; k < 3; ++k) {
     same.push_back(SyntheticLog(sim, "box", 0.2, 0.03, 1, 1e-5, 11,
