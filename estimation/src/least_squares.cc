@@ -740,7 +740,15 @@ EstimateResult EstimateLeastSquares(const sim::Simulator& simulator, const Log& 
     const bool failed = !fit.estimates.allFinite() || (fit.num_residuals > fit.num_unknowns &&
                                                        !std::isfinite(fit.sigma_residual));
     if (!failed) {
+      // A parameter this horizon does not determine (standard error ≥ its magnitude, or none)
+      // keeps its value from before the fit: over a flat direction Levenberg–Marquardt's
+      // scaled step can carry it anywhere (measured: a box on a vibrating plate, μ 0.5 → 3.2
+      // over its first 10 samples with σ̂ at the noise, then stuck at 6.5 and 9.1).
+      const VectorXd before =
+          theta.size() > 0 ? theta : VectorXd(sel.Get(simulator.DefaultParams()));
       theta = fit.estimates;
+      for (Eigen::Index k = 0; k < theta.size(); ++k)
+        if (!(fit.std_errors[k] < std::abs(fit.estimates[k]))) theta[k] = before[k];
       from = std::move(states);
     }
     if (options.horizon_progress) {

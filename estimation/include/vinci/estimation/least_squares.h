@@ -85,7 +85,9 @@ struct LeastSquaresOptions {
   /// search of each positive parameter: ×2^{±1/2}, 2^{±1}, repeated from an end point, by the
   /// new horizon's rollout cost at those initial states). A rollout over a short horizon is a
   /// smooth function of the initial state and θ; over a long one it may not be (impacts that
-  /// tumble a body), and a fit started far from the data then stops in a local minimum.
+  /// tumble a body), and a fit started far from the data then stops in a local minimum. A
+  /// parameter a fit leaves undetermined (standard error ≥ its magnitude, or none) keeps its
+  /// value from before that fit.
   /// Horizons too short for the unknowns are skipped. Not with multiple shooting (its segments
   /// are short already).
   int horizon_samples = 0;
