@@ -3,7 +3,7 @@
 //
 //   estimation_study STUDY [--trials N] [--noise S1,S2,..] [--windows W1,W2,..]
 //                    [--particles N1,N2,..] [--episodes N] [--methods
-//                    lsq,lsq_sens,lsq_ms,filter,mpec,mpec_pen,mpec_dec]
+//                    lsq,lsq_sens,lsq_ms,filter,mpec,mpec_pen,mpec_dec,mpec_lsq]
 //                    [--guess MU] [--first-trial K] [--threads N] [--mpec-substeps N]
 //                    [--out FILE.csv]
 //
@@ -26,7 +26,8 @@
 // (single shooting with step-sensitivity Jacobians, LeastSquaresJacobian::kSensitivity), lsq_ms
 // (multiple shooting, 25-sample segments), filter (the UKF with μ in the state), mpec (Ipopt,
 // Scholtes relaxation homotopy), mpec_pen (Ipopt, ℓ1 penalty homotopy), mpec_dec (mpec with the
-// episodes decomposed: MpecEpisodes::kDecomposed, mpec_decomposed.h). The defaults are the full
+// episodes decomposed: MpecEpisodes::kDecomposed, mpec_decomposed.h), mpec_lsq (mpec started
+// from a rough least-squares fit: MpecOptions::least_squares_start). The defaults are the full
 // study (20 trials); --trials and --methods cut it down (scripts/estimation_studies.sh runs all
 // four studies). --threads N (default 1) is passed to lsq/lsq_ms (episodes in parallel),
 // mpec/mpec_pen (steps in parallel) and mpec_dec (episodes in worker processes); --mpec-substeps N
@@ -38,6 +39,7 @@
 // To add a method, add one line to Methods() below.
 #include <sys/resource.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -125,24 +127,25 @@ std::vector<std::pair<std::string, Estimator>> Methods() {
     };
   };
   auto mpec = [](est::ComplementarityMethod method,
-                 est::MpecEpisodes episodes = est::MpecEpisodes::kJoint) {
-    return
-        [method, episodes](const sim::Simulator& s, const Log& log, double sigma) -> StudyResult {
-          est::MpecOptions o;
-          o.episodes = episodes;
-          o.params = {"mu.default"};
-          o.noise_sigma = sigma;
-          o.solver.method = method;
-          o.threads = g_threads;
-          o.substeps = g_mpec_substeps;
-          o.smooth_initial_guess = !g_mpec_raw_guess;
-          o.solver.ordering = g_mpec_ordering;
-          if (g_verbose > 0)
-            o.progress = [](const std::string& line) { std::cerr << "  " << line << "\n"; };
-          if (g_verbose > 1) o.solver.print_level = g_verbose;
-          const est::MpecEstimateResult r = est::EstimateMpec(s, log, o);
-          return StudyResult{r, r.robust_std_errors[0]};
-        };
+                 est::MpecEpisodes episodes = est::MpecEpisodes::kJoint, bool lsq_start = false) {
+    return [method, episodes, lsq_start](const sim::Simulator& s, const Log& log,
+                                         double sigma) -> StudyResult {
+      est::MpecOptions o;
+      o.episodes = episodes;
+      o.least_squares_start = lsq_start;
+      o.params = {"mu.default"};
+      o.noise_sigma = sigma;
+      o.solver.method = method;
+      o.threads = g_threads;
+      o.substeps = g_mpec_substeps;
+      o.smooth_initial_guess = !g_mpec_raw_guess;
+      o.solver.ordering = g_mpec_ordering;
+      if (g_verbose > 0)
+        o.progress = [](const std::string& line) { std::cerr << "  " << line << "\n"; };
+      if (g_verbose > 1) o.solver.print_level = g_verbose;
+      const est::MpecEstimateResult r = est::EstimateMpec(s, log, o);
+      return StudyResult{r, r.robust_std_errors[0]};
+    };
   };
   return {
       {"lsq", lsq(est::Shooting::kSingle)},
@@ -158,6 +161,8 @@ std::vector<std::pair<std::string, Estimator>> Methods() {
       {"mpec", mpec(est::ComplementarityMethod::kScholtes)},
       {"mpec_pen", mpec(est::ComplementarityMethod::kPenalty)},
       {"mpec_dec", mpec(est::ComplementarityMethod::kScholtes, est::MpecEpisodes::kDecomposed)},
+      {"mpec_lsq",
+       mpec(est::ComplementarityMethod::kScholtes, est::MpecEpisodes::kJoint, /*lsq_start=*/true)},
   };
 }
 
@@ -309,7 +314,8 @@ std::vector<std::string> ParseNames(const std::string& s) {
 constexpr const char* kUsage =
     "usage: estimation_study plate|particles|block|cube [--trials N] [--first-trial K]\n"
     "         [--noise S1,S2] [--windows W1,W2] [--particles N1,N2] [--episodes N]\n"
-    "         [--methods lsq,lsq_sens,lsq_ms,filter,mpec,mpec_pen,mpec_dec] [--guess MU]\n"
+    "         [--methods lsq,lsq_sens,lsq_ms,filter,mpec,mpec_pen,mpec_dec,mpec_lsq]\n"
+    "         [--guess MU]\n"
     "         [--threads N] [--lsq-horizon H]\n"
     "         [--mpec-substeps N] [--mpec-raw-guess 1] [--mpec-ordering auto|scotch|qamd]\n"
     "         [--verbose 0|1|IPOPT_PRINT_LEVEL]\n"
@@ -413,7 +419,7 @@ int Run(int argc, char** argv) {
     for (const auto& k : Methods()) known |= k.first == m;
     if (!known) {
       std::cerr << "--methods: unknown method '" << m
-                << "' (lsq, lsq_sens, lsq_ms, filter, mpec, mpec_pen, mpec_dec)\n";
+                << "' (lsq, lsq_sens, lsq_ms, filter, mpec, mpec_pen, mpec_dec, mpec_lsq)\n";
       return 1;
     }
   }
@@ -479,6 +485,22 @@ int Run(int argc, char** argv) {
               std::fprintf(stderr, " (robust s.e. %.5f)", result.robust_se);
             std::fprintf(stderr, "\n");
             if (!r.converged) std::cerr << "  reason: " << r.reason << "\n";
+            if (r.episodes.size() >= 3) {
+              // The worst-fitting episodes (by rms residual, against the median): a wrong local
+              // solution shows up here.
+              double median = 0.0;
+              const std::vector<int> poor = est::PoorlyFittingEpisodes(r.episodes, 3.0, &median);
+              std::vector<int> order(r.episodes.size());
+              for (std::size_t e = 0; e < order.size(); ++e) order[e] = static_cast<int>(e);
+              std::sort(order.begin(), order.end(), [&](int a, int b) {
+                return r.episodes[a].rms_residual > r.episodes[b].rms_residual;
+              });
+              std::fprintf(stderr, "  rms residual: median %.3g m, largest", median);
+              for (std::size_t i = 0; i < std::min<std::size_t>(5, order.size()); ++i)
+                std::fprintf(stderr, " episode %d %.3g", order[i],
+                             r.episodes[order[i]].rms_residual);
+              std::fprintf(stderr, "; %zu poorly fitting (> 3x the median)\n", poor.size());
+            }
           }
         }
       }
