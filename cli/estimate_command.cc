@@ -361,7 +361,8 @@ Command RegisterEstimateCommand(CLI::App& app) {
                   "homotopy from there; default) or lsq (a rough least-squares fit over a "
                   "growing horizon, its rollout as the guess, and that rollout's contact modes "
                   "solved as one NLP, kept if its χ² fits --noise, else the log start; needs "
-                  "--noise; 5-15x faster, but a local solution on the rollout's contact modes: "
+                  "--noise; several times faster on noisy logs, but a local solution on the "
+                  "rollout's contact modes: "
                   "for logs whose noise is small against the motion, docs/estimation.md)")
       ->type_name("log|lsq");
   sub->add_option("--shooting", options->shooting,
