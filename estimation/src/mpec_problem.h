@@ -62,9 +62,10 @@ void BootstrapOverEpisodes(const sim::Simulator& simulator, const Log& log,
                                                                   const MpecOptions&)>& estimate,
                            MpecEstimateResult* r);
 
-// An episode's MPEC with θ fixed (its bounds set to the given values) and a chosen start. With
-// keep_active_set, the NLP of the start's active set instead (the polish NLP of mpec.h: no
-// pairs; of every pair the smaller side at the start fixed at 0, the other ≥ 0).
+// An episode's MPEC with θ fixed (its bounds set to the given values; an empty theta leaves θ
+// free) and a chosen start. With keep_active_set, the NLP of the start's active set instead (the
+// polish NLP of mpec.h: no pairs; of every pair the smaller side at the start fixed at 0, the
+// other ≥ 0).
 class FixedThetaProblem final : public MpecProblem {
  public:
   FixedThetaProblem(const MpecEstimationProblem& p, const sim::VectorXd& theta,
@@ -78,13 +79,6 @@ class FixedThetaProblem final : public MpecProblem {
         start_[zero] = 0.0;
       }
     }
-  }
-  // The NLP of a given active set: zero_sides[k] is the side of pair k fixed at 0.
-  FixedThetaProblem(const MpecEstimationProblem& p, const sim::VectorXd& theta,
-                    const sim::VectorXd& start, std::vector<int> zero_sides)
-      : p_(p), theta_(theta), start_(start), keep_(true), zero_(std::move(zero_sides)) {
-    start_.head(theta.size()) = theta;
-    for (int i : zero_) start_[i] = 0.0;
   }
   int num_variables() const override { return p_.num_variables(); }
   int num_constraints() const override { return p_.num_constraints(); }
