@@ -720,14 +720,14 @@ EstimateResult EstimateLeastSquares(const sim::Simulator& simulator, const Log& 
     o.progress = [&done, &options](int it, double cost, const VectorXd& p) {
       options.progress(done + it, cost, p);
     };
-  VectorXd theta;              // the last fit's θ (empty: the scene's)
+  VectorXd theta = sel.Get(simulator.DefaultParams());  // the last fit's θ (first: the scene's)
   std::vector<VectorXd> from;  // and its initial states (empty: guessed from the log)
   EstimateResult result;
   for (size_t i = 0; i < horizons.size(); ++i) {
     const bool last = i + 1 == horizons.size();
     const Log part = FirstSamples(log, horizons[i]);  // the whole log for the last
     std::vector<VectorXd> states = from;
-    if (theta.size() > 0 && !from.empty())
+    if (!from.empty())
       ScanParameters(simulator, sel, part, from, options.orientation_length, &theta);
     EstimateResult fit = Fit(simulator, part, o, theta, &states);
     done += fit.iterations;
@@ -744,11 +744,8 @@ EstimateResult EstimateLeastSquares(const sim::Simulator& simulator, const Log& 
       // keeps its value from before the fit: over a flat direction Levenberg–Marquardt's
       // scaled step can carry it anywhere (measured: a box on a vibrating plate, μ 0.5 → 3.2
       // over its first 10 samples with σ̂ at the noise, then stuck at 6.5 and 9.1).
-      const VectorXd before =
-          theta.size() > 0 ? theta : VectorXd(sel.Get(simulator.DefaultParams()));
-      theta = fit.estimates;
       for (Eigen::Index k = 0; k < theta.size(); ++k)
-        if (!(fit.std_errors[k] < std::abs(fit.estimates[k]))) theta[k] = before[k];
+        if (fit.std_errors[k] < std::abs(fit.estimates[k])) theta[k] = fit.estimates[k];
       from = std::move(states);
     }
     if (options.horizon_progress) {

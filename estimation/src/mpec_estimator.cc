@@ -147,7 +147,7 @@ MpecEstimateResult EstimateMpec(const sim::Simulator& simulator, const Log& log,
         "restarted from the tracking guess (the first relaxation stage failed from the "
         "smoothed guess: " +
         sol.reason + "); " + rt.reason;
-    rt.time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    rt.time_s = Seconds(start);
     return rt;
   }
   r.estimates = problem.Parameters(sol.x);
@@ -200,7 +200,7 @@ MpecEstimateResult EstimateMpec(const sim::Simulator& simulator, const Log& log,
   }
   if (options.bootstrap > 0 && log.episodes.size() >= 2)
     mpec_internal::BootstrapOverEpisodes(simulator, log, options, EstimateMpec, &r);
-  r.time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  r.time_s = Seconds(start);
   return r;
 }
 
