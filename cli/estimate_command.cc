@@ -357,14 +357,14 @@ Command RegisterEstimateCommand(CLI::App& app) {
                   "docs/estimation.md), scotch or qamd")
       ->type_name("auto|scotch|qamd");
   sub->add_option("--mpec-start", options->mpec_start,
-                  "mpec: the initial guess: log (the logged poses, smoothed; the relaxation "
-                  "homotopy from there; default) or lsq (a rough least-squares fit over a "
+                  "mpec: the initial guess: auto (default: lsq with --noise, the scholtes "
+                  "homotopy and joint episodes, else log), log (the logged poses, smoothed; the "
+                  "relaxation homotopy from there) or lsq (a rough least-squares fit over a "
                   "growing horizon, its rollout as the guess, and that rollout's contact modes "
-                  "solved as one NLP, kept if its χ² fits --noise, else the log start; needs "
-                  "--noise; several times faster on noisy logs, but a local solution on the "
-                  "rollout's contact modes: "
-                  "for logs whose noise is small against the motion, docs/estimation.md)")
-      ->type_name("log|lsq");
+                  "solved as one NLP, kept if its χ² fits --noise and every parameter's standard "
+                  "error is within 3 % of its value, else the log start; needs --noise; several "
+                  "times faster on noisy logs; docs/estimation.md)")
+      ->type_name("auto|log|lsq");
   sub->add_option("--shooting", options->shooting,
                   "lsq: single (one rollout per episode; default) or multiple (segments of "
                   "--segment-samples samples from their own start states, with continuity)")

@@ -46,7 +46,7 @@ struct EstimateOptions {
   int mpec_substeps = -1;
   std::string mpec_episodes;  ///< "" (joint), "joint" or "decomposed"; mpec only
   std::string mpec_ordering;  ///< "" (auto), "auto", "scotch" or "qamd"; mpec only
-  std::string mpec_start;     ///< "" (log), "log" or "lsq" (MpecOptions::least_squares_start)
+  std::string mpec_start;     ///< "" or "auto", "log" or "lsq" (MpecOptions::least_squares_start)
 };
 
 /// Adds the `estimate` subcommand to `app`.

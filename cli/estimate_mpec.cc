@@ -26,6 +26,13 @@ double ComplementarityTolerance(const EstimateOptions& o) {
       estimation::MpecOptions().solver.complementarity_tolerance);
 }
 
+// --mpec-start resolved: auto is lsq with a stated noise and joint episodes, else log.
+std::string MpecStart(const EstimateOptions& o) {
+  if (!o.mpec_start.empty() && o.mpec_start != "auto") return o.mpec_start;
+  const bool scholtes = o.complementarity.empty() || o.complementarity == "scholtes";
+  return o.noise > 0 && scholtes && o.mpec_episodes != "decomposed" ? "lsq" : "log";
+}
+
 std::string MpecJson(const EstimateOptions& o, const estimation::MpecEstimateResult& r,
                      const estimation::HoldoutResult* holdout) {
   std::ostringstream j;
@@ -67,7 +74,8 @@ std::string MpecJson(const EstimateOptions& o, const estimation::MpecEstimateRes
     << "      \"episode_mode\": \"" << (o.mpec_episodes.empty() ? "joint" : o.mpec_episodes)
     << "\",\n"
     << "      \"ordering\": \"" << (o.mpec_ordering.empty() ? "auto" : o.mpec_ordering) << "\",\n"
-    << "      \"start\": \"" << (o.mpec_start.empty() ? "log" : o.mpec_start) << "\",\n";
+    << "      \"start\": \"" << MpecStart(o) << "\",\n"
+    << "      \"start_kept\": " << (r.start_kept ? "true" : "false") << ",\n";
   if (!r.ordering.empty()) j << "      \"ordering_used\": \"" << r.ordering << "\",\n";
   if (holdout) j << HoldoutJson(o, *holdout);
   j << "      \"episodes\": [";
@@ -105,9 +113,10 @@ ExitCode RunEstimateMpec(const EstimateOptions& o) {
   mo.substeps = std::max(0, o.mpec_substeps);
   if (!o.mpec_episodes.empty()) mo.episodes = estimation::ParseMpecEpisodes(o.mpec_episodes);
   if (!o.mpec_ordering.empty()) mo.solver.ordering = estimation::ParseMpecOrdering(o.mpec_ordering);
-  if (!o.mpec_start.empty() && o.mpec_start != "log" && o.mpec_start != "lsq")
-    throw std::invalid_argument("--mpec-start " + o.mpec_start + ": expected log or lsq");
-  mo.least_squares_start = o.mpec_start == "lsq";
+  if (!o.mpec_start.empty() && o.mpec_start != "auto" && o.mpec_start != "log" &&
+      o.mpec_start != "lsq")
+    throw std::invalid_argument("--mpec-start " + o.mpec_start + ": expected auto, log or lsq");
+  mo.least_squares_start = MpecStart(o) == "lsq";
   if (mo.least_squares_start && !(o.noise > 0))
     throw std::invalid_argument(
         "--mpec-start lsq: needs --noise SIGMA (the start's solution is kept only if its χ² "

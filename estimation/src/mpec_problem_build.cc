@@ -61,6 +61,8 @@ void MpecOptions::Validate() const {
     if (!start_theta.allFinite()) throw std::invalid_argument("mpec: start_theta not finite");
   }
   if (start_polish_iterations < 0) fail("start_polish_iterations", start_polish_iterations, "≥ 0");
+  if (!(start_max_relative_std_error > 0))
+    fail("start_max_relative_std_error", start_max_relative_std_error, "> 0 (+∞: no test)");
   if (least_squares_start) {
     if (episodes == MpecEpisodes::kDecomposed)
       throw std::invalid_argument("mpec: least_squares_start is not for decomposed episodes");
