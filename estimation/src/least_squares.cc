@@ -635,7 +635,7 @@ Log FirstSamples(const Log& log, int samples) {
 
 // Before a horizon's fit: a geometric line search of each positive parameter in turn over
 // θ_k × 2^{±1/2}, 2^{±1} (within its bounds), repeated from the best while that is an end
-// point (up to 2^{±8}), then refined about the best by halving steps down to 2^{±1/16}, at the
+// point (up to 2^{±8}), then refined about the best by halving steps down to 2^{±1/64}, at the
 // initial states `states` (the last fit's), by the rollouts' sum of squared residuals over
 // `log`; θ_k moves to the cheapest. Levenberg–Marquardt from the
 // last fit's θ follows the local slope, and when a new impact enters the horizon that slope
@@ -681,7 +681,7 @@ void ScanParameters(const sim::Simulator& simulator, const sim::ParamSelection& 
       }
       if (moved != 0.5 && moved != 2.0) break;
     }
-    // Then finer, about the best: θ_k × 2^{±1/4}, 2^{±1/8}, 2^{±1/16} (at an impact the cost
+    // Then finer, about the best: θ_k × 2^{±1/4}, 2^{±1/8}, …, 2^{±1/64} (at an impact the cost
     // can be sharp in μ: measured on a tossed cube, σ̂ 0.9 mm at μ = 0.424 and 35 µm at 0.4 from
     // the same initial state).
     for (const double step : {0.25, 0.125, 0.0625, 0.03125, 0.015625}) {
