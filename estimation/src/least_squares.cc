@@ -663,22 +663,24 @@ void ScanParameters(const sim::Simulator& simulator, const sim::ParamSelection& 
     return c;
   };
   double best = cost(*theta);
+  // θ_k of `center` scaled by f, within its bounds: taken (true) if cheaper than the best.
+  auto improves = [&](const VectorXd& center, Eigen::Index k, double f) {
+    VectorXd th = center;
+    th[k] *= f;
+    if (th[k] < sel.lower()[k] || th[k] > sel.upper()[k]) return false;
+    const double c = cost(th);
+    if (!(c < best)) return false;
+    best = c;
+    *theta = th;
+    return true;
+  };
   for (Eigen::Index k = 0; k < theta->size(); ++k) {
     if (!((*theta)[k] > 0)) continue;
     for (int pass = 0; pass < 8; ++pass) {
       const VectorXd center = *theta;
       double moved = 1.0;
-      for (const double f : {0.5, M_SQRT1_2, M_SQRT2, 2.0}) {
-        VectorXd th = center;
-        th[k] *= f;
-        if (th[k] < sel.lower()[k] || th[k] > sel.upper()[k]) continue;
-        const double c = cost(th);
-        if (c < best) {
-          best = c;
-          *theta = th;
-          moved = f;
-        }
-      }
+      for (const double f : {0.5, M_SQRT1_2, M_SQRT2, 2.0})
+        if (improves(center, k, f)) moved = f;
       if (moved != 0.5 && moved != 2.0) break;
     }
     // Then finer, about the best: θ_k × 2^{±1/4}, 2^{±1/8}, …, 2^{±1/64} (at an impact the cost
@@ -686,16 +688,7 @@ void ScanParameters(const sim::Simulator& simulator, const sim::ParamSelection& 
     // the same initial state).
     for (const double step : {0.25, 0.125, 0.0625, 0.03125, 0.015625}) {
       const VectorXd center = *theta;
-      for (const double f : {std::exp2(-step), std::exp2(step)}) {
-        VectorXd th = center;
-        th[k] *= f;
-        if (th[k] < sel.lower()[k] || th[k] > sel.upper()[k]) continue;
-        const double c = cost(th);
-        if (c < best) {
-          best = c;
-          *theta = th;
-        }
-      }
+      for (const double f : {std::exp2(-step), std::exp2(step)}) improves(center, k, f);
     }
   }
 }
