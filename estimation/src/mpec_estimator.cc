@@ -95,19 +95,22 @@ MpecEstimateResult EstimateMpec(const sim::Simulator& simulator, const Log& log,
   if (!stated) so.early_polish_tolerance = -1.0;  // the objective's scale is unknown
   MpecSolution sol;
   const bool simulated = !options.start_states.empty();
-  // The start's solution rejected: the whole estimation again from the log's poses.
-  const auto restart = [&](const std::string& why, int iterations, int stages) {
-    if (options.progress) options.progress("mpec: " + why + "; restarted from the log's poses");
-    MpecOptions retry = options;
-    retry.start_theta.resize(0);
-    retry.start_states.clear();
+  // The whole estimation again with `retry` (from `guess`), counting the iterations and NLPs
+  // spent so far (sol's) and saying why.
+  const auto restart = [&](const MpecOptions& retry, const std::string& guess,
+                           const std::string& why) {
+    if (options.progress) options.progress("mpec: " + why + "; restarted from " + guess);
     MpecEstimateResult rt = EstimateMpec(simulator, log, retry);
-    rt.iterations += iterations;
-    rt.stages += stages;
-    rt.reason = "restarted from the log's poses (" + why + "); " + rt.reason;
+    rt.iterations += sol.iterations;
+    rt.stages += sol.stages;
+    rt.reason = "restarted from " + guess + " (" + why + "); " + rt.reason;
     rt.time_s = Seconds(start);
     return rt;
   };
+  // The start's solution rejected: from the log's poses.
+  MpecOptions from_log = options;
+  from_log.start_theta.resize(0);
+  from_log.start_states.clear();
   bool from_start = false;
   if (simulated && stated && options.start_polish_iterations > 0) {
     // The simulated start is exactly complementary: its active set's NLP (every pair's zero
@@ -139,7 +142,7 @@ MpecEstimateResult EstimateMpec(const sim::Simulator& simulator, const Log& log,
       std::ostringstream why;
       why << "the start's active set: " << sol.reason;
       if (sol.converged) why << ", objective " << sol.objective << " for " << dof << " d.o.f.";
-      return restart(why.str(), sol.iterations, sol.stages);
+      return restart(from_log, "the log's poses", why.str());
     }
     from_start = true;
     sol.polished = true;
@@ -152,21 +155,10 @@ MpecEstimateResult EstimateMpec(const sim::Simulator& simulator, const Log& log,
     // of local infeasibility: measured on a noise-free block log without orientation, whose
     // polish then "solved" at μ̂ = 0 with χ²/2 = 2.6e4): the whole estimation again from the
     // tracking guess, where every step equation and complementarity pair holds at the start.
-    if (options.progress) {
-      options.progress("mpec: the first relaxation stage failed from the smoothed guess (" +
-                       sol.reason + "); restarted from the tracking guess");
-    }
-    MpecOptions retry = options;
-    retry.tracking_guess = true;
-    MpecEstimateResult rt = EstimateMpec(simulator, log, retry);
-    rt.iterations += sol.iterations;
-    rt.stages += sol.stages;
-    rt.reason =
-        "restarted from the tracking guess (the first relaxation stage failed from the "
-        "smoothed guess: " +
-        sol.reason + "); " + rt.reason;
-    rt.time_s = Seconds(start);
-    return rt;
+    MpecOptions tracking = options;
+    tracking.tracking_guess = true;
+    return restart(tracking, "the tracking guess",
+                   "the first relaxation stage failed from the smoothed guess: " + sol.reason);
   }
   r.estimates = problem.Parameters(sol.x);
   r.iterations = sol.iterations;
@@ -212,7 +204,7 @@ MpecEstimateResult EstimateMpec(const sim::Simulator& simulator, const Log& log,
       why << "the start's active set: " << r.names[i] << " = " << r.estimates[i] << " ± "
           << r.std_errors[i] << ", a standard error above " << options.start_max_relative_std_error
           << " of its value";
-      return restart(why.str(), sol.iterations, sol.stages);
+      return restart(from_log, "the log's poses", why.str());
     }
   }
   if (r.std_error_method == "laplace") {
