@@ -257,14 +257,17 @@ void Bracket(const std::vector<State>& states, double t, int* k, double* al) {
   *al = span > 0 ? std::clamp((t - states[*k].t) / span, 0.0, 1.0) : 0.0;
 }
 
+State ColdStart(State x) {
+  x.warm_start.resize(0);
+  return x;
+}
+
 bool RolloutResiduals(const sim::Simulator& simulator, const Params& params, const Episode& ep,
                       const State& x0, double orientation_length, VectorXd* residuals,
                       std::string* failure, sim::Trajectory* tr_out) {
   const int steps = StepsTo(simulator, ep.t.front(), ep.t.back());
-  sim::RolloutOptions ro;
-  ro.warm_start = sim::WarmStartPolicy::kCold;  // a function of (params, t, q, v) only
   std::vector<sim::StepInput> inputs(steps);
-  sim::Trajectory tr = simulator.Rollout(params, x0, inputs, ro);
+  sim::Trajectory tr = simulator.Rollout(params, ColdStart(x0), inputs);
   if (!tr.ok || static_cast<int>(tr.states.size()) != steps + 1) {
     if (failure) *failure = "rollout failed: " + tr.failure;
     return false;

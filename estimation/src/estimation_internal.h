@@ -64,9 +64,16 @@ sim::State GuessInitialState(const sim::Simulator& simulator, const Episode& ep,
 /// The samples first..last (inclusive) of an episode as an episode of their own.
 Episode Slice(const Episode& ep, int first, int last);
 
-/// Rolls out from x0 (at ep.t.front()) to ep.t.back() with the scene's dt (cold-started solver)
-/// and returns the residuals at the logged times (EpisodeResiduals) and, if tr is not null, the
-/// trajectory. False (with *failure) if the rollout failed.
+/// x without its warm start: a rollout from it (WarmStartPolicy::kKeep) solves its first step
+/// cold and each next one from the last one's solution, as `vinci simulate` runs from a scene's
+/// initial state, and is a function of (params, t, q, v) alone. Where a step's contact solution
+/// is not unique (a cube landing flat) the solver's start picks one, so the estimators' rollouts
+/// must be the simulator's: a noise-free `vinci simulate` log is then one of them.
+sim::State ColdStart(sim::State x);
+
+/// Rolls out from ColdStart(x0) (at ep.t.front()) to ep.t.back() with the scene's dt and returns
+/// the residuals at the logged times (EpisodeResiduals) and, if tr is not null, the trajectory.
+/// False (with *failure) if the rollout failed.
 bool RolloutResiduals(const sim::Simulator& simulator, const sim::Params& params, const Episode& ep,
                       const sim::State& x0, double orientation_length, sim::VectorXd* residuals,
                       std::string* failure, sim::Trajectory* tr);

@@ -96,10 +96,8 @@ RolloutError EvaluateRollouts(const sim::Simulator& simulator, const sim::Params
   for (const Episode& ep : log.episodes) {
     const State x0 = InitialStateFromLog(simulator, ep);
     const int steps = StepsTo(simulator, ep.t.front(), ep.t.back());
-    sim::RolloutOptions ro;
-    ro.warm_start = sim::WarmStartPolicy::kCold;
     const sim::Trajectory tr =
-        simulator.Rollout(params, x0, std::vector<sim::StepInput>(steps), ro);
+        simulator.Rollout(params, ColdStart(x0), std::vector<sim::StepInput>(steps));
     const bool ok = tr.ok && static_cast<int>(tr.states.size()) == steps + 1;
     if (!ok) ++fit.failed;
     for (const BodyTrack& b : ep.bodies) {

@@ -737,6 +737,7 @@ EstimateResult EstimateLeastSquares(const sim::Simulator& simulator, const Log& 
     const bool last = i + 1 == horizons.size();
     const Log part = FirstSamples(log, horizons[i]);  // the whole log for the last
     std::vector<VectorXd> states = from;
+    const VectorXd before = theta;
     if (!from.empty())
       ScanParameters(simulator, sel, part, from, options.orientation_length, &theta);
     EstimateResult fit = Fit(simulator, part, o, theta, &states);
@@ -751,11 +752,14 @@ EstimateResult EstimateLeastSquares(const sim::Simulator& simulator, const Log& 
                                                        !std::isfinite(fit.sigma_residual));
     if (!failed) {
       // A parameter this horizon does not determine (standard error ≥ its magnitude, or none)
-      // keeps its value from before the fit: over a flat direction Levenberg–Marquardt's
-      // scaled step can carry it anywhere (measured: a box on a vibrating plate, μ 0.5 → 3.2
-      // over its first 10 samples with σ̂ at the noise, then stuck at 6.5 and 9.1).
+      // keeps its value from before the scan and the fit: over a flat direction
+      // Levenberg–Marquardt's scaled step can carry it anywhere (measured: a box on a vibrating
+      // plate, μ 0.5 → 3.2 over its first 10 samples with σ̂ at the noise, then stuck at 6.5
+      // and 9.1), and so can the scan's noise-level gains (a tossed cube's first impact sticks,
+      // where any μ above the threshold fits alike: the scan took μ from 0.6 to 1.7, where the
+      // next impact slips at 0.4 and no step of the next scan was cheaper, 0.85 sticking too).
       for (Eigen::Index k = 0; k < theta.size(); ++k)
-        if (fit.std_errors[k] < std::abs(fit.estimates[k])) theta[k] = fit.estimates[k];
+        theta[k] = fit.std_errors[k] < std::abs(fit.estimates[k]) ? fit.estimates[k] : before[k];
       from = std::move(states);
     }
     if (options.horizon_progress) {

@@ -201,9 +201,12 @@ MpecEstimateResult EstimateMpec(const sim::Simulator& simulator, const Log& log,
       if (r.std_errors[i] <= options.start_max_relative_std_error * std::abs(r.estimates[i]))
         continue;
       std::ostringstream why;
-      why << "the start's active set: " << r.names[i] << " = " << r.estimates[i] << " ± "
-          << r.std_errors[i] << ", a standard error above " << options.start_max_relative_std_error
-          << " of its value";
+      why << "the start's active set: " << r.names[i] << " = " << r.estimates[i];
+      if (std::isfinite(r.std_errors[i]))
+        why << " ± " << r.std_errors[i] << ", a standard error above "
+            << options.start_max_relative_std_error << " of its value";
+      else
+        why << " without a standard error";
       return restart(from_log, "the log's poses", why.str());
     }
   }

@@ -569,11 +569,12 @@ void MpecEstimationProblem::Impl::RolloutGuess(const State& x0, const std::vecto
     sim::Workspace ws;
     sim::StepInfo info;
     State next;
-    // Cold, as the least squares' rollouts (RolloutResiduals): where the contact solution is
-    // not unique (a cube landing flat) a warm-started step picks another one, and the guess
-    // left the data the fit had matched (measured: objective 4.1e5 at the start instead of
-    // ~1e3, the active set's NLP stalled at 1.1e4).
-    s.warm_start.resize(0);
+    // As the least squares' rollouts (RolloutResiduals: the first step cold, each next one
+    // from the last one's solution): where the contact solution is not unique (a cube landing
+    // flat) a step started elsewhere picks another one, and the guess left the data the fit had
+    // matched (measured: objective 4.1e5 at the start instead of ~1e3, the active set's NLP
+    // stalled at 1.1e4).
+    if (l == 0) s.warm_start.resize(0);
     form.Step(*model, s, u, &ws, &next, &info);
     // A failed step leaves the rest of the guess at the log's poses.
     if (!info.ok || !next.q.allFinite() || !next.v.allFinite()) return;

@@ -104,7 +104,8 @@ SegmentSensitivityResult SegmentSensitivity(const sim::Simulator& sim,
     S.col(np + j) = (rp - rm) / (2 * h);
   }
 
-  // The cold-started rollout (as RolloutResiduals) with S_ℓ propagated.
+  // RolloutResiduals' rollout (its first step cold, each next one from the last one's
+  // solution) with S_ℓ propagated.
   const int steps = StepsTo(sim, ep.t.front(), ep.t.back());
   std::vector<State> states;
   std::vector<MatrixXd> sens;
@@ -140,7 +141,6 @@ SegmentSensitivityResult SegmentSensitivity(const sim::Simulator& sim,
       }
     }
     x = std::move(nx_state);
-    x.warm_start.resize(0);
     states.push_back(x);
     sens.push_back(sens_ok ? S : MatrixXd());
   }

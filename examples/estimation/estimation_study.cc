@@ -5,7 +5,7 @@
 //                    [--particles N1,N2,..] [--episodes N] [--methods
 //                    lsq,lsq_sens,lsq_ms,filter,mpec,mpec_pen,mpec_dec,mpec_lsq]
 //                    [--guess MU] [--first-trial K] [--threads N] [--mpec-substeps N]
-//                    [--out FILE.csv]
+//                    [--only-episode K[,L...]] [--write-logs DIR] [--out FILE.csv]
 //
 // STUDY:
 //   plate      a particle on a vibrating plate (planar, true μ = 0.2), windows in samples
@@ -18,7 +18,8 @@
 // trial is N episodes estimated together (shared μ, per-episode initial states); the cube's
 // episodes are different tosses (seeded launch velocities around the scene's), the planar
 // studies' differ only in their noise; --only-episode K[,L...] estimates only those of them (the
-// same seeded log). One CSV row per trial and method: study, method,
+// same seeded log); --write-logs DIR writes each estimated episode's log to DIR/<episode>.csv
+// (`vinci estimate`'s format; DIR must exist). One CSV row per trial and method: study, method,
 // noise_m, window, particles, episodes, trial, true_mu, mu_hat, std_error, converged,
 // iterations, time_s (wall), samples, cpu_s (the process's CPU time: meaningful on a loaded
 // machine, summed over threads and over the worker processes of mpec_dec), robust_se (mpec_dec: the
@@ -49,6 +50,7 @@
 #include <iostream>
 #include <random>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -303,6 +305,40 @@ std::vector<double> ParseList(const std::string& s) {
   return v;
 }
 
+// Writes `ep` as a log `vinci estimate` reads: DIR/<ep.file>.csv, a `#` line saying what it is,
+// then t and the observed bodies' columns at full precision.
+void WriteEpisode(const std::string& dir, const std::string& what, bool planar,
+                  const est::Episode& ep) {
+  const std::string path = dir + "/" + ep.file + ".csv";
+  std::ofstream f(path);
+  if (!f) throw std::runtime_error("cannot write " + path);
+  f << "# " << what << "\n"
+    << "t";
+  for (const est::BodyTrack& b : ep.bodies) {
+    for (const char* c : {"x", "y", "z"}) {
+      if (planar && c[0] == 'z') continue;
+      f << "," << b.body << "." << c;
+    }
+    if (!b.has_orientation) continue;
+    if (planar) {
+      f << "," << b.body << ".theta";
+    } else {
+      for (const char* c : {"qw", "qx", "qy", "qz"}) f << "," << b.body << "." << c;
+    }
+  }
+  f << "\n";
+  f.precision(17);
+  for (int i = 0; i < ep.num_samples(); ++i) {
+    f << ep.t[i];
+    for (const est::BodyTrack& b : ep.bodies) {
+      const int cols = (planar ? 2 : 3) + (b.has_orientation ? (planar ? 1 : 4) : 0);
+      for (int j = 0; j < cols; ++j) f << "," << b.pose(i, j);
+    }
+    f << "\n";
+  }
+  if (!f) throw std::runtime_error("cannot write " + path);
+}
+
 std::vector<std::string> ParseNames(const std::string& s) {
   std::vector<std::string> v;
   std::stringstream ss(s);
@@ -319,7 +355,7 @@ constexpr const char* kUsage =
     "         [--threads N] [--lsq-horizon H]\n"
     "         [--mpec-substeps N] [--mpec-raw-guess 1] [--mpec-ordering auto|scotch|qamd]\n"
     "         [--verbose 0|1|IPOPT_PRINT_LEVEL]\n"
-    "         [--only-episode K[,L...]]\n"
+    "         [--only-episode K[,L...]] [--write-logs DIR]\n"
     "         [--out F.csv]\n";
 
 int Run(int argc, char** argv) {
@@ -367,6 +403,7 @@ int Run(int argc, char** argv) {
   int trials = 20, first_trial = 0, episodes = 1;
   std::vector<int> only_episodes;  // of the trial's episodes keep only these (--only-episode)
   std::string out = "estimation_study_" + which + ".csv";
+  std::string logs_dir;  // --write-logs: each estimated episode's log is written there
   std::vector<std::string> method_names;
   for (const auto& m : Methods()) method_names.push_back(m.first);
   for (int i = 2; i < argc; i += 2) {
@@ -409,6 +446,8 @@ int Run(int argc, char** argv) {
       st.guess_mu = std::stod(value);
     } else if (flag == "--out") {
       out = value;
+    } else if (flag == "--write-logs") {
+      logs_dir = value;
     } else {
       std::cerr << "unknown option " << flag << "\n" << kUsage;
       return 1;
@@ -457,6 +496,13 @@ int Run(int argc, char** argv) {
             std::vector<est::Episode> kept;
             for (const int k : only_episodes) kept.push_back(log.episodes.at(k));
             log.episodes = std::move(kept);
+          }
+          if (!logs_dir.empty()) {
+            std::ostringstream what;
+            what << which << " study, trial " << trial << " (seed " << seed << "), true mu "
+                 << st.true_mu << ", position noise " << sigma << " m";
+            for (const est::Episode& ep : log.episodes)
+              WriteEpisode(logs_dir, what.str(), truth.scene().dim == sim::Dim::kPlanar, ep);
           }
           for (const auto& [name, estimator] : Methods()) {
             bool wanted = false;
