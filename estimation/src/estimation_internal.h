@@ -67,8 +67,9 @@ Episode Slice(const Episode& ep, int first, int last);
 /// x without its warm start: a rollout from it (WarmStartPolicy::kKeep) solves its first step
 /// cold and each next one from the last one's solution, as `vinci simulate` runs from a scene's
 /// initial state, and is a function of (params, t, q, v) alone. Where a step's contact solution
-/// is not unique (a cube landing flat) the solver's start picks one, so the estimators' rollouts
-/// must be the simulator's: a noise-free `vinci simulate` log is then one of them.
+/// is not unique (a cube landing flat) the solver's start picks one, so from the same state the
+/// estimators' rollouts are the simulator's, to the bit; a rollout whose every step starts
+/// cold can leave it by millimetres.
 sim::State ColdStart(sim::State x);
 
 /// Rolls out from ColdStart(x0) (at ep.t.front()) to ep.t.back() with the scene's dt and returns
