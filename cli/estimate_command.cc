@@ -360,7 +360,8 @@ Command RegisterEstimateCommand(CLI::App& app) {
                   "mpec: the initial guess: auto (default: lsq with --noise, the scholtes "
                   "homotopy and joint episodes, else log), log (the logged poses, smoothed; the "
                   "relaxation homotopy from there) or lsq (a rough least-squares fit over a "
-                  "growing horizon, its rollout as the guess, and that rollout's contact modes "
+                  "growing horizon, fitted again carefully if its residuals contradict --noise, "
+                  "its rollout as the guess, and that rollout's contact modes "
                   "solved as one NLP, kept if its χ² fits --noise and every parameter's standard "
                   "error is within 3 % of its value, else the log start; needs --noise; several "
                   "times faster on noisy logs; docs/estimation.md)")

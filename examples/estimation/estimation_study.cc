@@ -19,8 +19,8 @@
 // episodes are different tosses (seeded launch velocities around the scene's), the planar
 // studies' differ only in their noise; --only-episode K[,L...] estimates only those of them (the
 // same seeded log); --write-logs DIR writes each estimated episode's log to DIR/<episode>.csv
-// (`vinci estimate`'s format; DIR must exist). One CSV row per trial and method: study, method,
-// noise_m, window, particles, episodes, trial, true_mu, mu_hat, std_error, converged,
+// (`vinci estimate`'s format; DIR is created if missing). One CSV row per trial and method: study,
+// method, noise_m, window, particles, episodes, trial, true_mu, mu_hat, std_error, converged,
 // iterations, time_s (wall), samples, cpu_s (the process's CPU time: meaningful on a loaded
 // machine, summed over threads and over the worker processes of mpec_dec), robust_se (mpec_dec: the
 // s.e. from the episodes' jackknife; nan otherwise). Methods: lsq (single shooting), lsq_sens
@@ -45,6 +45,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
+#include <filesystem>
 #include <fstream>
 #include <functional>
 #include <iostream>
@@ -309,6 +310,7 @@ std::vector<double> ParseList(const std::string& s) {
 // then t and the observed bodies' columns at full precision.
 void WriteEpisode(const std::string& dir, const std::string& what, bool planar,
                   const est::Episode& ep) {
+  std::filesystem::create_directories(dir);
   const std::string path = dir + "/" + ep.file + ".csv";
   std::ofstream f(path);
   if (!f) throw std::runtime_error("cannot write " + path);
