@@ -36,7 +36,7 @@ MpecEstimateResult EstimateFromLeastSquares(const sim::Simulator& simulator, con
   std::ostringstream note;
   note << "least-squares start (" << ls.iterations << " iterations, " << ls.time_s << " s";
   // A rough fit whose residuals contradict the stated noise has not found the data's contact
-  // modes, and its rollout is no start (measured: a tossed cube's, σ̂ 346 µm for 30 µm; the
+  // modes, and its rollout is no start (measured: a tossed cube's, σ̂ 358 µm for 30 µm; the
   // start's NLP from it ended at a χ² 13 times its degrees of freedom). It is fitted again with
   // the careful continuation (LeastSquaresOptions' growth and iterations), which fits tossed cubes
   // at the noise, and the better of the two fits is the start.
