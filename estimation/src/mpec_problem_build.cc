@@ -6,6 +6,7 @@
 #include <random>
 #include <sstream>
 #include <stdexcept>
+#include <utility>
 
 #include "estimation_internal.h"
 #include "log_smoothing.h"
@@ -561,6 +562,12 @@ void MpecEstimationProblem::Impl::RolloutGuess(const State& x0, const std::vecto
   State s = x0;
   s.t = (*guess)[0].t;
   (*guess)[0] = s;
+  // Stepped as the least squares' rollouts (RolloutResiduals: the first step cold, each next one
+  // from the last one's solution): where the contact solution is not unique (a cube landing flat)
+  // a step started elsewhere picks another one, and the guess left the data the fit had matched
+  // (measured: objective 4.1e5 at the start instead of ~1e3, the active set's NLP stalled at
+  // 1.1e4).
+  s = internal::ColdStart(std::move(s));
   sim::StepInput u;
   u.generalized_force = VectorXd::Zero(nv);
   for (std::size_t l = 0; l < step_h.size(); ++l) {
@@ -569,12 +576,6 @@ void MpecEstimationProblem::Impl::RolloutGuess(const State& x0, const std::vecto
     sim::Workspace ws;
     sim::StepInfo info;
     State next;
-    // As the least squares' rollouts (RolloutResiduals: the first step cold, each next one
-    // from the last one's solution): where the contact solution is not unique (a cube landing
-    // flat) a step started elsewhere picks another one, and the guess left the data the fit had
-    // matched (measured: objective 4.1e5 at the start instead of ~1e3, the active set's NLP
-    // stalled at 1.1e4).
-    if (l == 0) s.warm_start.resize(0);
     form.Step(*model, s, u, &ws, &next, &info);
     // A failed step leaves the rest of the guess at the log's poses.
     if (!info.ok || !next.q.allFinite() || !next.v.allFinite()) return;

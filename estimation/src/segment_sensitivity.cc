@@ -111,8 +111,7 @@ SegmentSensitivityResult SegmentSensitivity(const sim::Simulator& sim,
   std::vector<MatrixXd> sens;
   states.reserve(steps + 1);
   sens.reserve(steps + 1);
-  State x = x0, nx_state;
-  x.warm_start.resize(0);
+  State x = ColdStart(x0), nx_state;
   states.push_back(x);
   sens.push_back(S);
   sim::Workspace ws;

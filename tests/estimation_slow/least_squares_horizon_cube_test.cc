@@ -15,20 +15,26 @@
 namespace vinci::estimation {
 namespace {
 
+constexpr double kNoise = 3e-5;  // the logs' position noise (m)
+
+// μ (from the scene's 0.6) fitted with a growing horizon of 10 samples at the stated noise.
+EstimateResult FitWithGrowingHorizon(const sim::Simulator& sim, const Log& log) {
+  LeastSquaresOptions o;
+  o.params = {"mu.default"};
+  o.noise_sigma = kNoise;
+  o.horizon_samples = 10;
+  o.threads = 2;
+  return EstimateLeastSquares(sim, log, o);
+}
+
 // 30 µm and 0.3 mrad of noise, three draws: each fit agrees with the noise (the χ² test of
 // `converged`) and μ̂ is within 3 of its standard errors of the true 0.4.
 TEST(LeastSquaresHorizonCube, NoisyTossesAreCovered) {
   const sim::Simulator sim(sim::ParseScene(testing::kTossedCube, "cube.yaml"));
   for (unsigned seed : {11u, 12u, 13u}) {
-    const std::string path = testing::SyntheticLog(sim, "cube", 0.4, 0.7, 7, 3e-5, seed,
+    const std::string path = testing::SyntheticLog(sim, "cube", 0.4, 0.7, 7, kNoise, seed,
                                                    "cube_" + std::to_string(seed) + ".csv");
-    const Log log = ReadLog({path}, sim.scene());
-    LeastSquaresOptions o;
-    o.params = {"mu.default"};
-    o.noise_sigma = 3e-5;
-    o.horizon_samples = 10;
-    o.threads = 2;
-    const EstimateResult r = EstimateLeastSquares(sim, log, o);
+    const EstimateResult r = FitWithGrowingHorizon(sim, ReadLog({path}, sim.scene()));
     EXPECT_TRUE(r.converged) << "seed " << seed << ": " << r.reason;
     EXPECT_LT(std::abs(r.estimates[0] - 0.4), 3.0 * r.std_errors[0])
         << "seed " << seed << ": μ̂ " << r.estimates[0] << " ± " << r.std_errors[0];
@@ -42,16 +48,10 @@ TEST(LeastSquaresHorizonCube, NoisyTossesAreCovered) {
 void ExpectStudyTossFitted(const std::string& name) {
   SCOPED_TRACE(name);
   const sim::Simulator sim(sim::ParseScene(testing::kTossedCube, "cube.yaml"));
-  const Log log =
-      ReadLog({std::string(VINCI_SOURCE_DIR) + "/tests/data/logs/" + name}, sim.scene());
-  LeastSquaresOptions o;
-  o.params = {"mu.default"};
-  o.noise_sigma = 3e-5;
-  o.horizon_samples = 10;
-  o.threads = 2;
-  const EstimateResult r = EstimateLeastSquares(sim, log, o);
+  const EstimateResult r = FitWithGrowingHorizon(
+      sim, ReadLog({std::string(VINCI_SOURCE_DIR) + "/tests/data/logs/" + name}, sim.scene()));
   EXPECT_TRUE(r.converged) << r.reason;
-  EXPECT_LT(r.sigma_residual, 1.2 * o.noise_sigma);
+  EXPECT_LT(r.sigma_residual, 1.2 * kNoise);
   EXPECT_LT(std::abs(r.estimates[0] - 0.4), 3.0 * r.std_errors[0])
       << "μ̂ " << r.estimates[0] << " ± " << r.std_errors[0];
 }
