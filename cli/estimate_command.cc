@@ -113,13 +113,18 @@ estimation::EstimateResult RunLeastSquares(const EstimateOptions& o,
   if (!o.jacobian.empty()) lo.jacobian = estimation::ParseLeastSquaresJacobian(o.jacobian);
   lo.progress = ProgressPrinter(o);
   if (!o.quiet) {
-    lo.horizon_progress = [&o](int horizon, const estimation::EstimateResult& fit) {
+    lo.horizon_progress = [&o](int horizon, const estimation::EstimateResult& fit,
+                               const std::vector<int>& discarded) {
       std::ostringstream line;
       line.precision(8);
       line << "horizon " << horizon << " samples fitted:";
       for (size_t i = 0; i < o.params.size(); ++i)
         line << "  " << o.params[i] << " " << fit.estimates[static_cast<Eigen::Index>(i)];
       line << "  residual sigma " << fit.sigma_residual << " m";
+      if (!discarded.empty()) {
+        line << "  discarded (the residuals contradict --noise; approached in smaller steps):";
+        for (int e : discarded) line << " " << fit.episodes[static_cast<size_t>(e)].file;
+      }
       std::cerr << line.str() << "\n";
     };
   }
@@ -378,8 +383,9 @@ Command RegisterEstimateCommand(CLI::App& app) {
                   "lsq single shooting: fit each log's first H samples, then a growing horizon "
                   "(x --lsq-horizon-growth each time) up to the whole log, each fit started "
                   "from the last (its parameters line-searched first): for bodies that tumble "
-                  "or bounce, whose long rollouts stop a fit in local minima (0, default: the "
-                  "whole log at once)")
+                  "or bounce, whose long rollouts stop a fit in local minima; with --noise and "
+                  "one log, a fit that loses its agreement with the noise is discarded and its "
+                  "horizon approached in halved steps (0, default: the whole log at once)")
       ->type_name("H")
       ->check(CLI::Range(0, 1000000));
   sub->add_option("--lsq-horizon-growth", options->lsq_horizon_growth,

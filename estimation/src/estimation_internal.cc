@@ -328,6 +328,13 @@ namespace vinci::estimation {
 // Below 1 nm no residual is "far worse" (noise-free logs fit to rounding).
 constexpr double kMinPoorResidual = 1e-9;
 
+bool EpisodeContradictsNoise(const EpisodeEstimate& episode, double sigma) {
+  if (!(sigma > 0) || !std::isfinite(episode.rms_residual)) return false;
+  const double ss = episode.rms_residual * episode.rms_residual * episode.num_residuals;
+  return internal::ResidualsContradictNoise(ss, episode.num_residuals - episode.num_state_unknowns,
+                                            sigma);
+}
+
 std::vector<int> PoorlyFittingEpisodes(const std::vector<EpisodeEstimate>& episodes, double factor,
                                        double* median) {
   if (!(factor > 1.0)) throw std::invalid_argument("PoorlyFittingEpisodes: factor must be > 1");

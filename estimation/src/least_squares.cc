@@ -615,6 +615,9 @@ EstimateResult Fit(const sim::Simulator& simulator, const Log& log,
     ee.rms_residual = episode_rows[e] > 0 && all_evaluated
                           ? std::sqrt(episode_ss[e] / episode_rows[e])
                           : std::numeric_limits<double>::quiet_NaN();
+    ee.num_residuals = episode_rows[e];
+    if (options.estimate_initial_state)
+      ee.num_state_unknowns = static_cast<int>(states[k].size() - frozen_components[e].size());
     result.episodes.push_back(ee);
   }
   first_states->clear();
@@ -693,6 +696,86 @@ void ScanParameters(const sim::Simulator& simulator, const sim::ParamSelection& 
   }
 }
 
+// Where a horizon continuation stands: θ and every episode's initial state of the last kept fit
+// (empty: guessed from the log), its samples per episode (0: none yet) and whether each
+// episode's residuals agreed with the stated noise there; the iterations and the horizons of
+// all fits so far.
+struct Continuation {
+  VectorXd theta;
+  std::vector<VectorXd> from;
+  std::vector<int> kept;
+  std::vector<bool> agreed;
+  int iterations = 0;
+  std::vector<int> fitted;
+};
+
+// Fits `log` over `horizons` (increasing samples per episode; the last is the whole log) from
+// *c, each fit after ScanParameters from the last kept one; returns the last horizon's fit and
+// leaves *c's iterations and horizons counted. With one episode, a fit that loses its agreement
+// with the noise (EpisodeContradictsNoise where the last kept fit agreed) over a step of ≥ 2
+// samples is discarded (θ back to the kept fit's) and the halfway horizon fitted first. Not with
+// several: measured on 50 tossed cubes, continuing such an episode alone from its kept fit (its
+// state replacing the joint fit's) did not last into the next joint fit, and μ̂ ended further
+// from the truth (docs/estimation.md).
+EstimateResult Continue(const sim::Simulator& simulator, const Log& log,
+                        const LeastSquaresOptions& o, const sim::ParamSelection& sel,
+                        const std::vector<int>& horizons, Continuation* c) {
+  const size_t ne = log.episodes.size();
+  std::vector<int> pending(horizons.rbegin(), horizons.rend());  // the next at the back
+  for (;;) {
+    const int h = pending.back();
+    const bool last = pending.size() == 1;
+    const Log part = FirstSamples(log, h);  // the whole log for the last
+    std::vector<VectorXd> states = c->from;
+    const VectorXd before = c->theta;
+    if (!c->from.empty())
+      ScanParameters(simulator, sel, part, c->from, o.orientation_length, &c->theta);
+    EstimateResult fit = Fit(simulator, part, o, c->theta, &states);
+    c->iterations += fit.iterations;
+    c->fitted.push_back(h);
+    std::vector<int> lost;
+    std::vector<bool> agrees(ne, true);
+    for (size_t e = 0; e < ne && e < fit.episodes.size(); ++e) {
+      agrees[e] = !EpisodeContradictsNoise(fit.episodes[e], o.noise_sigma);
+      if (o.horizon_refinement && ne == 1 && c->agreed[e] && !agrees[e] && c->kept[e] > 0 &&
+          h - c->kept[e] >= 2)
+        lost.push_back(static_cast<int>(e));
+    }
+    if (o.horizon_progress && (!last || !lost.empty())) {
+      try {
+        o.horizon_progress(h, fit, lost);
+      } catch (...) {
+        // progress reporting must not end the solve
+      }
+    }
+    if (!lost.empty()) {
+      c->theta = before;
+      pending.push_back(c->kept[0] + (h - c->kept[0]) / 2);
+      continue;
+    }
+    if (last) return fit;
+    // A failed fit (a rollout that failed: σ̂ NaN with residuals to spare) does not carry over:
+    // the next starts from the last finite one.
+    const bool failed = !fit.estimates.allFinite() || (fit.num_residuals > fit.num_unknowns &&
+                                                       !std::isfinite(fit.sigma_residual));
+    if (!failed) {
+      // A parameter this horizon does not determine (standard error ≥ its magnitude, or none)
+      // keeps its value from before the scan and the fit: over a flat direction
+      // Levenberg–Marquardt's scaled step can carry it anywhere (measured: a box on a vibrating
+      // plate, μ 0.5 → 3.2 over its first 10 samples with σ̂ at the noise, then stuck at 6.5
+      // and 9.1), and so can the scan's noise-level gains (a tossed cube's first impact sticks,
+      // where any μ above the threshold fits alike: the scan took μ from 0.6 to 1.7, where the
+      // next impact slips at 0.4 and no step of the next scan was cheaper, 0.85 sticking too).
+      for (Eigen::Index k = 0; k < c->theta.size(); ++k)
+        c->theta[k] = fit.std_errors[k] < std::abs(fit.estimates[k]) ? fit.estimates[k] : before[k];
+      c->from = std::move(states);
+      c->kept.assign(ne, h);
+      c->agreed = std::move(agrees);
+    }
+    pending.pop_back();
+  }
+}
+
 }  // namespace
 
 EstimateResult EstimateLeastSquares(const sim::Simulator& simulator, const Log& log,
@@ -724,54 +807,18 @@ EstimateResult EstimateLeastSquares(const sim::Simulator& simulator, const Log& 
   horizons.push_back(longest);
 
   const auto start = std::chrono::steady_clock::now();
+  Continuation c;
+  c.theta = sel.Get(simulator.DefaultParams());  // the scene's
+  c.kept.assign(log.episodes.size(), 0);
+  c.agreed.assign(log.episodes.size(), false);
   LeastSquaresOptions o = options;
-  int done = 0;  // iterations of the earlier fits, so that progress counts on
-  if (options.progress)
-    o.progress = [&done, &options](int it, double cost, const VectorXd& p) {
-      options.progress(done + it, cost, p);
+  if (options.progress)  // iterations count on across the fits
+    o.progress = [&c, &options](int it, double cost, const VectorXd& p) {
+      options.progress(c.iterations + it, cost, p);
     };
-  VectorXd theta = sel.Get(simulator.DefaultParams());  // the last fit's θ (first: the scene's)
-  std::vector<VectorXd> from;  // and its initial states (empty: guessed from the log)
-  EstimateResult result;
-  for (size_t i = 0; i < horizons.size(); ++i) {
-    const bool last = i + 1 == horizons.size();
-    const Log part = FirstSamples(log, horizons[i]);  // the whole log for the last
-    std::vector<VectorXd> states = from;
-    const VectorXd before = theta;
-    if (!from.empty())
-      ScanParameters(simulator, sel, part, from, options.orientation_length, &theta);
-    EstimateResult fit = Fit(simulator, part, o, theta, &states);
-    done += fit.iterations;
-    if (last) {
-      result = std::move(fit);
-      break;
-    }
-    // A failed fit (a rollout that failed: σ̂ NaN with residuals to spare) does not carry over:
-    // the next starts from the last finite one.
-    const bool failed = !fit.estimates.allFinite() || (fit.num_residuals > fit.num_unknowns &&
-                                                       !std::isfinite(fit.sigma_residual));
-    if (!failed) {
-      // A parameter this horizon does not determine (standard error ≥ its magnitude, or none)
-      // keeps its value from before the scan and the fit: over a flat direction
-      // Levenberg–Marquardt's scaled step can carry it anywhere (measured: a box on a vibrating
-      // plate, μ 0.5 → 3.2 over its first 10 samples with σ̂ at the noise, then stuck at 6.5
-      // and 9.1), and so can the scan's noise-level gains (a tossed cube's first impact sticks,
-      // where any μ above the threshold fits alike: the scan took μ from 0.6 to 1.7, where the
-      // next impact slips at 0.4 and no step of the next scan was cheaper, 0.85 sticking too).
-      for (Eigen::Index k = 0; k < theta.size(); ++k)
-        theta[k] = fit.std_errors[k] < std::abs(fit.estimates[k]) ? fit.estimates[k] : before[k];
-      from = std::move(states);
-    }
-    if (options.horizon_progress) {
-      try {
-        options.horizon_progress(horizons[i], fit);
-      } catch (...) {
-        // progress reporting must not end the solve
-      }
-    }
-  }
-  result.iterations = done;
-  result.horizons = horizons;
+  EstimateResult result = Continue(simulator, log, o, sel, horizons, &c);
+  result.iterations = c.iterations;
+  result.horizons = c.fitted;
   result.time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;
 }

@@ -38,8 +38,8 @@ MpecEstimateResult EstimateFromLeastSquares(const sim::Simulator& simulator, con
   // A rough fit whose residuals contradict the stated noise has not found the data's contact
   // modes, and its rollout is no start (measured: a tossed cube's, σ̂ 358 µm for 30 µm; the
   // start's NLP from it ended at a χ² 13 times its degrees of freedom). It is fitted again with
-  // the careful continuation (LeastSquaresOptions' growth and iterations), which fits tossed cubes
-  // at the noise, and the better of the two fits is the start.
+  // the careful continuation (LeastSquaresOptions' growth, iterations and refinement), which fits
+  // tossed cubes at the noise, and the better of the two fits is the start.
   const auto contradicted = [&](const EstimateResult& f) {
     const int dof = f.num_residuals - f.num_unknowns;
     return !std::isfinite(f.sigma_residual) ||
@@ -51,6 +51,7 @@ MpecEstimateResult EstimateFromLeastSquares(const sim::Simulator& simulator, con
     const LeastSquaresOptions defaults;
     careful.horizon_growth = defaults.horizon_growth;
     careful.max_iterations = defaults.max_iterations;
+    careful.horizon_refinement = defaults.horizon_refinement;
     EstimateResult again = EstimateLeastSquares(simulator, log, careful);
     note << "; its residuals contradict the noise (σ̂ = " << ls.sigma_residual
          << " m), fitted again with growth " << careful.horizon_growth << ": " << again.iterations

@@ -36,6 +36,7 @@ LeastSquaresOptions mpec_internal::StartFitOptions(const MpecOptions& o) {
   lo.max_iterations = o.least_squares_iterations;
   lo.horizon_samples = o.least_squares_horizon;
   lo.horizon_growth = o.least_squares_horizon_growth;
+  lo.horizon_refinement = false;  // a rough fit; EstimateFromLeastSquares refits carefully
   return lo;
 }
 

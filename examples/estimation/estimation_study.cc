@@ -122,9 +122,13 @@ std::vector<std::pair<std::string, Estimator>> Methods() {
       o.threads = g_threads;
       if (shooting == est::Shooting::kSingle) o.horizon_samples = g_lsq_horizon;
       if (g_verbose > 0)
-        o.horizon_progress = [](int horizon, const EstimateResult& fit) {
+        o.horizon_progress = [](int horizon, const EstimateResult& fit,
+                                const std::vector<int>& discarded) {
           std::cerr << "  horizon " << horizon << ": mu " << fit.estimates[0] << ", sigma_hat "
-                    << fit.sigma_residual << ", " << fit.iterations << " iterations\n";
+                    << fit.sigma_residual << ", " << fit.iterations << " iterations";
+          if (!discarded.empty()) std::cerr << " (discarded, smaller steps:";
+          for (int e : discarded) std::cerr << " episode " << e;
+          std::cerr << (discarded.empty() ? "" : ")") << "\n";
         };
       return StudyResult{est::EstimateLeastSquares(s, log, o)};
     };

@@ -34,7 +34,9 @@ TEST(LeastSquaresHorizon, GrowsToTheWholeLogAndRecoversMu) {
   o.horizon_samples = 2;
   o.horizon_growth = 1.5;
   std::vector<int> reported;
-  o.horizon_progress = [&](int h, const EstimateResult&) { reported.push_back(h); };
+  o.horizon_progress = [&](int h, const EstimateResult&, const std::vector<int>&) {
+    reported.push_back(h);
+  };
   int last_iteration = -1;
   bool progress_monotone = true;
   o.progress = [&](int it, double, const sim::VectorXd&) {
@@ -104,7 +106,9 @@ TEST(LeastSquaresHorizon, UndeterminedParameterKeepsItsValue) {
   o.horizon_growth = 4;
   o.max_iterations = 10;
   std::vector<double> fitted;
-  o.horizon_progress = [&](int, const EstimateResult& fit) { fitted.push_back(fit.estimates[0]); };
+  o.horizon_progress = [&](int, const EstimateResult& fit, const std::vector<int>&) {
+    fitted.push_back(fit.estimates[0]);
+  };
   const EstimateResult r = EstimateLeastSquares(sim, ReadLog({path}, sim.scene()), o);
   ASSERT_EQ(fitted.size(), 2u);
   EXPECT_GT(fitted[0], 1.0);  // the first horizon's own fit wandered

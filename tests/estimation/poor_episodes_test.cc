@@ -1,6 +1,8 @@
-// PoorlyFittingEpisodes: the episodes whose fit is far worse than the others' (least_squares.h).
+// PoorlyFittingEpisodes: the episodes whose fit is far worse than the others'; and
+// EpisodeContradictsNoise: an episode's residuals against a stated noise (least_squares.h).
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -48,6 +50,25 @@ TEST(PoorlyFittingEpisodes, NeedsThreeEpisodesAndResidualsAboveRounding) {
       PoorlyFittingEpisodes(Episodes({1e-4, 1e-4, 1e-2, std::numeric_limits<double>::quiet_NaN()}))
           .empty());
   EXPECT_THROW(PoorlyFittingEpisodes(Episodes({1.0, 1.0, 1.0}), 1.0), std::invalid_argument);
+}
+
+// The χ² test at 4 standard deviations (p < 1e-4): 600 rows less 13 state unknowns at σ = 30 µm
+// is 587 ± 34.3 d.o.f., so Σ r²/σ² up to 724 agrees (rms 32.9 µm), beyond it contradicts.
+TEST(EpisodeContradictsNoise, ChiSquareOverTheEpisodesDegreesOfFreedom) {
+  EpisodeEstimate e;
+  e.num_residuals = 600;
+  e.num_state_unknowns = 13;
+  const double limit = 3e-5 * std::sqrt((587 + 4 * std::sqrt(2.0 * 587)) / 600.0);
+  e.rms_residual = 0.999 * limit;
+  EXPECT_FALSE(EpisodeContradictsNoise(e, 3e-5));
+  e.rms_residual = 1.001 * limit;
+  EXPECT_TRUE(EpisodeContradictsNoise(e, 3e-5));
+  EXPECT_FALSE(EpisodeContradictsNoise(e, 0.0));  // no stated noise: nothing to contradict
+  e.num_state_unknowns = 600;                     // no degrees of freedom
+  EXPECT_FALSE(EpisodeContradictsNoise(e, 3e-5));
+  e.num_state_unknowns = 13;
+  e.rms_residual = std::numeric_limits<double>::quiet_NaN();  // a failed rollout
+  EXPECT_FALSE(EpisodeContradictsNoise(e, 3e-5));
 }
 
 }  // namespace

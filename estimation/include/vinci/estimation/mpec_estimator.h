@@ -147,16 +147,16 @@ struct MpecOptions {
   double start_max_relative_std_error = 0.03;
   /// Start from a least-squares fit (EstimateLeastSquares: single shooting over a growing
   /// horizon, least_squares_horizon samples first, × least_squares_horizon_growth, at most
-  /// least_squares_iterations iterations per fit — a rough fit, only the start; the same
-  /// parameters, noise, threads and orientation_length; if its residuals contradict the stated
-  /// noise, fitted again with LeastSquaresOptions' horizon_growth and max_iterations and the
-  /// cheaper fit kept): start_theta and start_states from its θ̂ and initial states. Needs a stated
-  /// noise_sigma. The result's iterations (Ipopt's) and time include the fit; its reason says what
-  /// the start was. Not with MpecEpisodes::kDecomposed. The result is the MPEC on the rollout's
-  /// contact modes, not the homotopy's: measured (docs/estimation.md) within a standard error of it
-  /// on 79 of 80 block logs and most 10 µm plate logs; where the noise is large against the motion
-  /// (a plate particle at 0.1 mm) it is biased, and start_max_relative_std_error sends those logs
-  /// to the homotopy.
+  /// least_squares_iterations iterations per fit, no horizon_refinement — a rough fit, only the
+  /// start; the same parameters, noise, threads and orientation_length; if its residuals
+  /// contradict the stated noise, fitted again with LeastSquaresOptions' horizon_growth,
+  /// max_iterations and horizon_refinement and the cheaper fit kept): start_theta and start_states
+  /// from its θ̂ and initial states. Needs a stated noise_sigma. The result's iterations (Ipopt's)
+  /// and time include the fit; its reason says what the start was. Not with
+  /// MpecEpisodes::kDecomposed. The result is the MPEC on the rollout's contact modes, not the
+  /// homotopy's: measured (docs/estimation.md) within a standard error of it on 79 of 80 block logs
+  /// and most 10 µm plate logs; where the noise is large against the motion (a plate particle at
+  /// 0.1 mm) it is biased, and start_max_relative_std_error sends those logs to the homotopy.
   bool least_squares_start = false;
   int least_squares_iterations = 10;
   int least_squares_horizon = 10;
