@@ -63,7 +63,20 @@ std::string ResultJson(const EstimateOptions& o, const estimation::EstimateResul
       << "      \"jacobian_note\": " << JsonString(r.jacobian_note) << ",\n"
       << "      \"jacobian_fallbacks\": " << r.jacobian_fallbacks << ",\n"
       << "      \"degenerate_steps\": " << r.degenerate_steps << ",\n"
-      << "      \"mode_change_steps\": " << r.mode_change_steps << ",\n";
+      << "      \"mode_change_steps\": " << r.mode_change_steps << ",\n"
+      << "      \"std_error_method\": "
+      << JsonString(r.std_error_method.empty() ? "linearized" : r.std_error_method) << ",\n";
+    if (r.std_error_method == "profile") {
+      j << "      \"linearized_std_errors\": " << JsonNamedNumbers(r.names, r.linearized_std_errors)
+        << ",\n"
+        << "      \"profile_interval\": {";
+      for (size_t i = 0; i < r.names.size(); ++i) {
+        const auto k = static_cast<Eigen::Index>(i);
+        j << (i ? ", " : "") << JsonString(r.names[i]) << ": [" << JsonNumber(r.profile_low[k])
+          << ", " << JsonNumber(r.profile_high[k]) << "]";
+      }
+      j << "},\n";
+    }
   }
   if (holdout) j << HoldoutJson(o, *holdout);
   j << "      \"episodes\": [";
@@ -111,6 +124,8 @@ estimation::EstimateResult RunLeastSquares(const EstimateOptions& o,
   lo.horizon_samples = o.lsq_horizon;
   if (o.lsq_horizon_growth) lo.horizon_growth = *o.lsq_horizon_growth;
   if (!o.jacobian.empty()) lo.jacobian = estimation::ParseLeastSquaresJacobian(o.jacobian);
+  if (!o.lsq_std_errors.empty())
+    lo.std_errors = estimation::ParseLeastSquaresStdErrors(o.lsq_std_errors);
   lo.progress = ProgressPrinter(o);
   if (!o.quiet) {
     lo.horizon_progress = [&o](int horizon, const estimation::EstimateResult& fit,
@@ -260,6 +275,8 @@ ExitCode RunEstimateCommand(const EstimateOptions& o) {
     throw std::invalid_argument("--mpec-start: only for --method mpec");
   if (!o.jacobian.empty() && o.method != "lsq")
     throw std::invalid_argument("--jacobian: only for --method lsq");
+  if (!o.lsq_std_errors.empty() && o.method != "lsq")
+    throw std::invalid_argument("--lsq-std-errors: only for --method lsq");
   if ((o.lsq_horizon != 0 || o.lsq_horizon_growth) && o.method != "lsq")
     throw std::invalid_argument("--lsq-horizon, --lsq-horizon-growth: only for --method lsq");
   if (o.lsq_horizon_growth && o.lsq_horizon == 0)
@@ -294,6 +311,15 @@ ExitCode RunEstimateCommand(const EstimateOptions& o) {
     std::ostringstream s;
     s.precision(6);
     s << EstimateLines(r.names, r.estimates, r.std_errors, r.initial_values);
+    if (r.std_error_method == "profile") {
+      s << "standard errors from the cost's profile; Δχ² ≤ 9 interval and linearized s.e.:";
+      for (size_t i = 0; i < r.names.size(); ++i) {
+        const auto k = static_cast<Eigen::Index>(i);
+        s << "  " << r.names[i] << " [" << r.profile_low[k] << ", " << r.profile_high[k] << "] "
+          << r.linearized_std_errors[k];
+      }
+      s << "\n";
+    }
     s << "iterations " << r.iterations << ", " << r.time_s << " s, "
       << (r.converged ? "converged" : "did not converge") << ": " << r.reason << "\n";
     s << PoorEpisodesLine(r.episodes);
@@ -397,6 +423,14 @@ Command RegisterEstimateCommand(CLI::App& app) {
                   "rollouts; default) or sensitivity (forward step sensitivities along each "
                   "rollout, experimental: see docs/estimation.md)")
       ->type_name("fd|sensitivity");
+  sub->add_option("--lsq-std-errors", options->lsq_std_errors,
+                  "lsq: linearized (the Gauss-Newton covariance at the solution; default) or "
+                  "profile (the cost's profile in each parameter, the others and the initial "
+                  "states fitted again: the interval where it rises by 9 sigma^2 / 2, its wider "
+                  "side / 3; for logs that stick and slip, where the cost has kinks in mu; 4-8 "
+                  "extra fits per parameter; docs/estimation.md)")
+      ->type_name("linearized|profile")
+      ->check(CLI::IsMember({"linearized", "profile"}));
   sub->add_option("--bootstrap", options->bootstrap,
                   "mpec: standard errors from B bootstrap resamples of the episodes (log files; "
                   "at least 2 fitted) instead of the reduced Hessian")

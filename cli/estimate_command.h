@@ -40,8 +40,9 @@ struct EstimateOptions {
   double process_noise = 0.0;                ///< mpec: σ_Q (N, N·m); 0: 1% of the weight
   /// mpec: MpecSolverOptions::complementarity_tolerance; empty: not given (its default).
   std::optional<double> complementarity_tolerance;
-  int bootstrap = 0;     ///< mpec: B bootstrap resamples over episodes (0: reduced Hessian)
-  std::string jacobian;  ///< lsq: sensitivity | fd ("": sensitivity)
+  int bootstrap = 0;           ///< mpec: B bootstrap resamples over episodes (0: reduced Hessian)
+  std::string jacobian;        ///< lsq: sensitivity | fd ("": sensitivity)
+  std::string lsq_std_errors;  ///< lsq: linearized | profile ("": the library's)
   /// mpec: steps per log interval (MpecOptions::substeps; 0: the scene's dt); −1: not given.
   int mpec_substeps = -1;
   std::string mpec_episodes;  ///< "" (joint), "joint" or "decomposed"; mpec only

@@ -68,6 +68,25 @@ const char* ToString(LeastSquaresJacobian j);
 /// Parses "sensitivity" or "fd"; throws std::invalid_argument naming the value otherwise.
 LeastSquaresJacobian ParseLeastSquaresJacobian(const std::string& name);
 
+/// How least squares' standard errors are computed.
+enum class LeastSquaresStdErrors {
+  /// σ √diag of the Gauss–Newton covariance at the solution: the local curvature.
+  kLinearized,
+  /// From the profile of the cost in each parameter (the other parameters and the initial
+  /// states fitted again at each value): the interval where Δχ² = 2 Δcost / σ² ≤ 9, its wider
+  /// side divided by 3. Where a log sticks and slips the cost is not quadratic in μ: a kink at
+  /// the solution makes the local curvature steep, and the linearized standard error covered the
+  /// truth in 1 of 4 such fits (docs/estimation.md); the profile reads the curvature at the scale
+  /// a 3-standard-error interval is judged at. 2–4 extra fits per side and parameter. A profile
+  /// point cheaper than the solution by Δχ² > 1 makes the result not converged (a local minimum).
+  /// Not with multiple shooting (its later segments' states would restart from the log).
+  kProfile,
+};
+/// "linearized" / "profile".
+const char* ToString(LeastSquaresStdErrors s);
+/// Parses "linearized" or "profile"; throws std::invalid_argument naming the value otherwise.
+LeastSquaresStdErrors ParseLeastSquaresStdErrors(const std::string& name);
+
 struct EstimateResult;
 
 struct LeastSquaresOptions {
@@ -119,6 +138,7 @@ struct LeastSquaresOptions {
   /// corners (tilt columns), docs/estimation.md; opt in with kSensitivity.
   LeastSquaresJacobian jacobian = LeastSquaresJacobian::kFiniteDifference;
   double fd_relative_step = 1e-6;  ///< central-difference step, relative (absolute ≥ this)
+  LeastSquaresStdErrors std_errors = LeastSquaresStdErrors::kLinearized;
   /// Called after every solver iteration with its number (0 = the starting point), the cost
   /// ½ Σ r² (m²) and the current parameter values. May be empty. Must not throw.
   std::function<void(int iteration, double cost, const sim::VectorXd& params)> progress;
@@ -158,6 +178,12 @@ struct EstimateResult {
   std::string method = "lsq";  ///< "lsq", "filter"
   std::vector<std::string> names;
   sim::VectorXd estimates, std_errors;  ///< std_errors NaN where the covariance failed
+  /// LeastSquaresStdErrors::kProfile (else empty): the linearized standard errors, and the
+  /// profile's interval Δχ² ≤ 9 per parameter (a side NaN where the profile did not reach 9
+  /// within 512 linearized standard errors or a bound, or a fit failed; the standard error is
+  /// then NaN). `std_error_method` is "profile" or "linearized".
+  sim::VectorXd linearized_std_errors, profile_low, profile_high;
+  std::string std_error_method;
   sim::VectorXd initial_values;
   int iterations = 0;  ///< solver iterations, summed over the horizons of a continuation
   double time_s = 0.0;
