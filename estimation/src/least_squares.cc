@@ -803,8 +803,8 @@ EstimateResult Continue(const sim::Simulator& simulator, const Log& log,
 // `states`) for d = s, 2 s, 4 s, … (s: the linearized standard error, else 1e-3 |θ̂_k|), on each
 // side until Δχ² = 2 (cost − cost at θ̂) / σ² reaches 9 or a bound; the crossing interpolated
 // linearly in √Δχ². θ_k's standard error: the wider side's distance / 3. A profile point cheaper
-// than the solution is said in the reason, and by more than Δχ² = 1 makes it not converged (the
-// fit stopped in a local minimum).
+// than the solution by more than Δχ² = 0.01 is said in the reason, and by more than 1 makes it
+// not converged (the fit stopped in a local minimum).
 void ProfileStdErrors(const sim::Simulator& simulator, const Log& log,
                       const LeastSquaresOptions& options, const sim::ParamSelection& sel,
                       const std::vector<VectorXd>& states, EstimateResult* r) {
@@ -845,7 +845,11 @@ void ProfileStdErrors(const sim::Simulator& simulator, const Log& log,
         std::vector<VectorXd> st = states;
         const EstimateResult f = Fit(simulator, log, po, theta, &st, {static_cast<int>(k)});
         r->iterations += f.iterations;
-        if (!std::isfinite(f.final_cost) || !f.estimates.allFinite()) break;
+        // A failed fit (Ceres reports a cost of −1 when it cannot start, e.g. a rollout that
+        // fails at a mass near its bound 0) ends this side without a crossing.
+        if (!(f.final_cost >= 0) || !std::isfinite(f.final_cost) || !f.estimates.allFinite() ||
+            !std::isfinite(f.sigma_residual))
+          break;
         if (f.final_cost < cheapest) {
           cheapest = f.final_cost;
           cheapest_theta = f.estimates;
@@ -864,10 +868,10 @@ void ProfileStdErrors(const sim::Simulator& simulator, const Log& log,
     r->profile_high[k] = center + width[1];
     r->std_errors[k] = std::max(width[0], width[1]) / 3.0;  // NaN if a side is
   }
-  if (cheapest_theta.size() > 0) {
+  const double gain = scale * (r->final_cost - cheapest);
+  if (cheapest_theta.size() > 0 && gain > 0.01) {
     // Below Δχ² = 1 the kinks' shallow local minima (measured on a plate's box: 0.2) do not
     // move the interval; beyond it the fit is not at the cost's minimum.
-    const double gain = scale * (r->final_cost - cheapest);
     std::ostringstream m;
     m << "; the profile found a lower cost (Δχ² " << gain << ") at";
     for (Eigen::Index i = 0; i < np; ++i) m << " " << r->names[i] << " " << cheapest_theta[i];

@@ -72,6 +72,28 @@ TEST(LeastSquaresProfile, CoversTheTruthWhereAStickSlipKinkMakesTheLinearizedErr
   EXPECT_GT(r.profile_high[0], 0.3);
 }
 
+// Two parameters, one the log does not determine (the sliding block's mass: friction and
+// gravity both scale with it): μ's profile fits the mass at each point (bounds and the held
+// component together), the mass's profile reaches neither Δχ² = 9 nor a usable fit near its
+// bound 0, so its interval and standard error are NaN, and that is no local minimum.
+TEST(LeastSquaresProfile, AnUndeterminedParameterHasNoInterval) {
+  const sim::Simulator sim(sim::ParseScene(testing::kPlanarBlock, "block.yaml"));
+  const std::string path =
+      testing::SyntheticLog(sim, "block", 0.3, 0.6, 5, 1e-4, 21, "profile_block2.csv", false);
+  LeastSquaresOptions o;
+  o.params = {"mu.default", "mass.block"};
+  o.noise_sigma = 1e-4;
+  o.threads = 2;
+  o.std_errors = LeastSquaresStdErrors::kProfile;
+  const EstimateResult r = EstimateLeastSquares(sim, ReadLog({path}, sim.scene()), o);
+  EXPECT_TRUE(r.converged) << r.reason;
+  EXPECT_LT(std::abs(r.estimates[0] - 0.3), 3.0 * r.std_errors[0]) << r.std_errors[0];
+  EXPECT_LT(r.profile_low[0], r.estimates[0]);
+  EXPECT_GT(r.profile_high[0], r.estimates[0]);
+  EXPECT_TRUE(std::isnan(r.std_errors[1]));
+  EXPECT_EQ(r.reason.find("local minimum"), std::string::npos) << r.reason;
+}
+
 TEST(LeastSquaresProfile, NotWithMultipleShooting) {
   LeastSquaresOptions o;
   o.params = {"mu.default"};
