@@ -99,6 +99,9 @@ int g_mpec_substeps = 0;
 // Single-shooting least squares' first horizon (LeastSquaresOptions::horizon_samples; 0: the
 // whole log at once); --lsq-horizon.
 int g_lsq_horizon = 0;
+// Single-shooting least squares' standard errors (LeastSquaresOptions::std_errors);
+// --lsq-std-errors linearized|profile.
+est::LeastSquaresStdErrors g_lsq_std_errors = est::LeastSquaresStdErrors::kLinearized;
 // --mpec-raw-guess: the MPEC's initial guess from the raw log (MpecOptions::smooth_initial_guess
 // off; the estimator before 2026-11-25's smoothing, for comparisons).
 bool g_mpec_raw_guess = false;
@@ -120,7 +123,10 @@ std::vector<std::pair<std::string, Estimator>> Methods() {
       o.segment_samples = 25;
       o.max_iterations = 50;
       o.threads = g_threads;
-      if (shooting == est::Shooting::kSingle) o.horizon_samples = g_lsq_horizon;
+      if (shooting == est::Shooting::kSingle) {
+        o.horizon_samples = g_lsq_horizon;
+        o.std_errors = g_lsq_std_errors;
+      }
       if (g_verbose > 0)
         o.horizon_progress = [](int horizon, const EstimateResult& fit,
                                 const std::vector<int>& discarded) {
@@ -358,7 +364,7 @@ constexpr const char* kUsage =
     "         [--noise S1,S2] [--windows W1,W2] [--particles N1,N2] [--episodes N]\n"
     "         [--methods lsq,lsq_sens,lsq_ms,filter,mpec,mpec_pen,mpec_dec,mpec_lsq]\n"
     "         [--guess MU]\n"
-    "         [--threads N] [--lsq-horizon H]\n"
+    "         [--threads N] [--lsq-horizon H] [--lsq-std-errors linearized|profile]\n"
     "         [--mpec-substeps N] [--mpec-raw-guess 1] [--mpec-ordering auto|scotch|qamd]\n"
     "         [--verbose 0|1|IPOPT_PRINT_LEVEL]\n"
     "         [--only-episode K[,L...]] [--write-logs DIR]\n"
@@ -446,6 +452,8 @@ int Run(int argc, char** argv) {
       g_mpec_substeps = std::stoi(value);
     } else if (flag == "--lsq-horizon") {
       g_lsq_horizon = std::stoi(value);
+    } else if (flag == "--lsq-std-errors") {
+      g_lsq_std_errors = est::ParseLeastSquaresStdErrors(value);
     } else if (flag == "--verbose") {
       g_verbose = std::stoi(value);
     } else if (flag == "--guess") {
