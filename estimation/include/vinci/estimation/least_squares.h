@@ -181,11 +181,12 @@ struct EstimateResult {
   /// LeastSquaresStdErrors::kProfile (else empty): the linearized standard errors, and the
   /// profile's interval Δχ² ≤ 9 per parameter (a side NaN where the profile did not reach 9
   /// within 512 linearized standard errors or a bound, or a fit failed; the standard error is
-  /// then NaN). `std_error_method` is "profile" or "linearized".
+  /// then NaN). `std_error_method`: "profile", else empty (linearized).
   sim::VectorXd linearized_std_errors, profile_low, profile_high;
   std::string std_error_method;
   sim::VectorXd initial_values;
-  int iterations = 0;  ///< solver iterations, summed over the horizons of a continuation
+  /// Solver iterations, summed over the horizons of a continuation and the profile's fits.
+  int iterations = 0;
   double time_s = 0.0;
   bool converged = false;
   std::string reason;  ///< the solver's termination message (and any rollout failure)
