@@ -308,10 +308,8 @@ bool SegmentJacobian(const sim::Simulator& simulator, const Log& log, int episod
   return true;
 }
 
-namespace {
+namespace internal {
 
-// Throws std::invalid_argument (CheckEnoughSamples) if `log` has fewer residuals than the fit's
-// unknowns: the parameters and, unless held, each episode's initial state.
 void CheckEnoughSamplesForFit(const sim::Simulator& simulator, const Log& log,
                               const LeastSquaresOptions& options, int num_params) {
   const int block = StateBlockSize(Planar(simulator));
@@ -323,12 +321,9 @@ void CheckEnoughSamplesForFit(const sim::Simulator& simulator, const Log& log,
   CheckEnoughSamples(log, simulator.scene().dim, num_params, own);
 }
 
-// One least-squares fit of the whole `log`. theta_start: θ's starting values (empty: the
-// scene's). *first_states: each episode's first-segment state unknowns to start from (empty:
-// guessed from the log); on return, the solution's.
 EstimateResult Fit(const sim::Simulator& simulator, const Log& log,
                    const LeastSquaresOptions& options, const VectorXd& theta_start,
-                   std::vector<VectorXd>* first_states, const std::vector<int>& held = {}) {
+                   std::vector<VectorXd>* first_states, const std::vector<int>& held) {
   const auto start = std::chrono::steady_clock::now();
   const sim::Scene& scene = simulator.scene();
   const sim::ParamTable& table = scene.param_table();
@@ -647,292 +642,19 @@ EstimateResult Fit(const sim::Simulator& simulator, const Log& log,
   return result;
 }
 
-// The log with every episode cut to its first `samples` samples.
-Log FirstSamples(const Log& log, int samples) {
-  Log part = log;
-  for (Episode& ep : part.episodes)
-    if (ep.num_samples() > samples) ep = Slice(ep, 0, samples - 1);
-  return part;
-}
-
-// Before a horizon's fit: a geometric line search of each positive parameter in turn over
-// θ_k × 2^{±1/2}, 2^{±1} (within its bounds), repeated from the best while that is an end
-// point (up to 2^{±8}), then refined about the best by halving steps down to 2^{±1/64}, at the
-// initial states `states` (the last fit's), by the rollouts' sum of squared residuals over
-// `log`; θ_k moves to the cheapest. Levenberg–Marquardt from the
-// last fit's θ follows the local slope, and when a new impact enters the horizon that slope
-// can lead away from the data (measured on tossed cubes: to μ = 6 and 774 for 0.4).
-void ScanParameters(const sim::Simulator& simulator, const sim::ParamSelection& sel, const Log& log,
-                    const std::vector<VectorXd>& states, double orientation_length,
-                    VectorXd* theta) {
-  const Params base = simulator.DefaultParams();
-  std::vector<State> x0;
-  for (size_t e = 0; e < log.episodes.size(); ++e) {
-    VectorXd se;
-    const State ref = GuessInitialState(simulator, log.episodes[e], &se);
-    x0.push_back(StateFromVector(simulator, log.episodes[e], ref, states[e].data()));
-  }
-  auto cost = [&](const VectorXd& th) {
-    const Params p = sel.Set(base, th);
-    double c = 0.0;
-    for (size_t e = 0; e < log.episodes.size(); ++e) {
-      VectorXd r;
-      std::string failure;
-      if (!EpisodeResiduals(simulator, p, log.episodes[e], x0[e], orientation_length, &r, &failure))
-        return std::numeric_limits<double>::infinity();
-      c += r.squaredNorm();
-    }
-    return c;
-  };
-  double best = cost(*theta);
-  // θ_k of `center` scaled by f, within its bounds: taken (true) if cheaper than the best.
-  auto improves = [&](const VectorXd& center, Eigen::Index k, double f) {
-    VectorXd th = center;
-    th[k] *= f;
-    if (th[k] < sel.lower()[k] || th[k] > sel.upper()[k]) return false;
-    const double c = cost(th);
-    if (!(c < best)) return false;
-    best = c;
-    *theta = th;
-    return true;
-  };
-  for (Eigen::Index k = 0; k < theta->size(); ++k) {
-    if (!((*theta)[k] > 0)) continue;
-    for (int pass = 0; pass < 8; ++pass) {
-      const VectorXd center = *theta;
-      double moved = 1.0;
-      for (const double f : {0.5, M_SQRT1_2, M_SQRT2, 2.0})
-        if (improves(center, k, f)) moved = f;
-      if (moved != 0.5 && moved != 2.0) break;
-    }
-    // Then finer, about the best: θ_k × 2^{±1/4}, 2^{±1/8}, …, 2^{±1/64} (at an impact the cost
-    // can be sharp in μ: measured on a tossed cube, σ̂ 0.9 mm at μ = 0.424 and 35 µm at 0.4 from
-    // the same initial state).
-    for (const double step : {0.25, 0.125, 0.0625, 0.03125, 0.015625}) {
-      const VectorXd center = *theta;
-      for (const double f : {std::exp2(-step), std::exp2(step)}) improves(center, k, f);
-    }
-  }
-}
-
-// Where a horizon continuation stands: θ and every episode's initial state of the last kept fit
-// (empty: guessed from the log), its samples per episode (0: none yet) and whether each
-// episode's residuals agreed with the stated noise there; the iterations and the horizons of
-// all fits so far.
-struct Continuation {
-  VectorXd theta;
-  std::vector<VectorXd> from;
-  std::vector<int> kept;
-  std::vector<bool> agreed;
-  int iterations = 0;
-  std::vector<int> fitted;
-};
-
-// Fits `log` over `horizons` (increasing samples per episode; the last is the whole log) from
-// *c, each fit after ScanParameters from the last kept one; returns the last horizon's fit and
-// leaves *c's iterations and horizons counted and c->from its initial states. With one episode, a
-// fit that loses its agreement with the noise (EpisodeContradictsNoise where the last kept fit
-// agreed) over a step of ≥ 2 samples is discarded (θ back to the kept fit's) and the halfway
-// horizon fitted first. Not with several: measured on 50 tossed cubes, continuing such an episode
-// alone from its kept fit (its state replacing the joint fit's) did not last into the next joint
-// fit, and μ̂ ended further from the truth (docs/estimation.md).
-EstimateResult Continue(const sim::Simulator& simulator, const Log& log,
-                        const LeastSquaresOptions& o, const sim::ParamSelection& sel,
-                        const std::vector<int>& horizons, Continuation* c) {
-  const size_t ne = log.episodes.size();
-  std::vector<int> pending(horizons.rbegin(), horizons.rend());  // the next at the back
-  for (;;) {
-    const int h = pending.back();
-    const bool last = pending.size() == 1;
-    const Log part = FirstSamples(log, h);  // the whole log for the last
-    std::vector<VectorXd> states = c->from;
-    const VectorXd before = c->theta;
-    if (!c->from.empty())
-      ScanParameters(simulator, sel, part, c->from, o.orientation_length, &c->theta);
-    EstimateResult fit = Fit(simulator, part, o, c->theta, &states);
-    c->iterations += fit.iterations;
-    c->fitted.push_back(h);
-    std::vector<int> lost;
-    std::vector<bool> agrees(ne, true);
-    for (size_t e = 0; e < ne && e < fit.episodes.size(); ++e) {
-      agrees[e] = !EpisodeContradictsNoise(fit.episodes[e], o.noise_sigma);
-      if (o.horizon_refinement && ne == 1 && c->agreed[e] && !agrees[e] && c->kept[e] > 0 &&
-          h - c->kept[e] >= 2)
-        lost.push_back(static_cast<int>(e));
-    }
-    if (o.horizon_progress && (!last || !lost.empty())) {
-      try {
-        o.horizon_progress(h, fit, lost);
-      } catch (...) {
-        // progress reporting must not end the solve
-      }
-    }
-    if (!lost.empty()) {
-      c->theta = before;
-      pending.push_back(c->kept[0] + (h - c->kept[0]) / 2);
-      continue;
-    }
-    if (last) {
-      c->from = std::move(states);  // the whole log's fit's (Fit's output)
-      return fit;
-    }
-    // A failed fit (a rollout that failed: σ̂ NaN with residuals to spare) does not carry over:
-    // the next starts from the last finite one.
-    const bool failed = !fit.estimates.allFinite() || (fit.num_residuals > fit.num_unknowns &&
-                                                       !std::isfinite(fit.sigma_residual));
-    if (!failed) {
-      // A parameter this horizon does not determine (standard error ≥ its magnitude, or none)
-      // keeps its value from before the scan and the fit: over a flat direction
-      // Levenberg–Marquardt's scaled step can carry it anywhere (measured: a box on a vibrating
-      // plate, μ 0.5 → 3.2 over its first 10 samples with σ̂ at the noise, then stuck at 6.5
-      // and 9.1), and so can the scan's noise-level gains (a tossed cube's first impact sticks,
-      // where any μ above the threshold fits alike: the scan took μ from 0.6 to 1.7, where the
-      // next impact slips at 0.4 and no step of the next scan was cheaper, 0.85 sticking too).
-      for (Eigen::Index k = 0; k < c->theta.size(); ++k)
-        c->theta[k] = fit.std_errors[k] < std::abs(fit.estimates[k]) ? fit.estimates[k] : before[k];
-      c->from = std::move(states);
-      c->kept.assign(ne, h);
-      c->agreed = std::move(agrees);
-    }
-    pending.pop_back();
-  }
-}
-
-// LeastSquaresStdErrors::kProfile: for each parameter θ_k, the cost with θ_k held at
-// θ̂_k ± d (the other parameters and the initial states fitted again from the solution's,
-// `states`) for d = s, 2 s, 4 s, … (s: the linearized standard error, else 1e-3 |θ̂_k|), on each
-// side until Δχ² = 2 (cost − cost at θ̂) / σ² reaches 9 or a bound; the crossing interpolated
-// linearly in √Δχ². θ_k's standard error: the wider side's distance / 3. A profile point cheaper
-// than the solution by more than Δχ² = 0.01 is said in the reason, and by more than 1 makes it
-// not converged (the fit stopped in a local minimum).
-void ProfileStdErrors(const sim::Simulator& simulator, const Log& log,
-                      const LeastSquaresOptions& options, const sim::ParamSelection& sel,
-                      const std::vector<VectorXd>& states, EstimateResult* r) {
-  const Eigen::Index np = r->estimates.size();
-  const double nan = std::numeric_limits<double>::quiet_NaN();
-  r->std_error_method = "profile";
-  r->linearized_std_errors = r->std_errors;
-  r->profile_low = VectorXd::Constant(np, nan);
-  r->profile_high = VectorXd::Constant(np, nan);
-  r->std_errors = VectorXd::Constant(np, nan);
-  if (!r->estimates.allFinite() || !(r->sigma > 0) || !std::isfinite(r->final_cost) ||
-      static_cast<int>(states.size()) != static_cast<int>(log.episodes.size())) {
-    r->reason += "; no profile standard errors (no usable solution)";
-    return;
-  }
-  LeastSquaresOptions po = options;
-  po.progress = nullptr;
-  const double scale = 2.0 / (r->sigma * r->sigma);  // Δχ² per unit of cost
-  double cheapest = r->final_cost;
-  VectorXd cheapest_theta;
-  for (Eigen::Index k = 0; k < np; ++k) {
-    const double center = r->estimates[k];
-    const double lin = r->linearized_std_errors[k];
-    const double step =
-        std::isfinite(lin) && lin > 0 ? lin : 1e-3 * std::max(std::abs(center), 1e-3);
-    double width[2] = {nan, nan};
-    for (int side = 0; side < 2; ++side) {
-      const double sign = side == 0 ? -1.0 : 1.0;
-      const double bound = side == 0 ? sel.lower()[k] : sel.upper()[k];
-      double prev_d = 0.0, prev_q = 0.0;
-      for (int m = 0; m < 10; ++m) {
-        double d = step * std::exp2(m);
-        const bool at_bound = sign * (center + sign * d - bound) >= 0;
-        if (at_bound) d = std::abs(bound - center);
-        if (!(d > prev_d)) break;
-        VectorXd theta = r->estimates;
-        theta[k] = center + sign * d;
-        std::vector<VectorXd> st = states;
-        const EstimateResult f = Fit(simulator, log, po, theta, &st, {static_cast<int>(k)});
-        r->iterations += f.iterations;
-        // A failed fit (Ceres reports a cost of −1 when it cannot start, e.g. a rollout that
-        // fails at a mass near its bound 0) ends this side without a crossing.
-        if (!(f.final_cost >= 0) || !std::isfinite(f.final_cost) || !f.estimates.allFinite() ||
-            !std::isfinite(f.sigma_residual))
-          break;
-        if (f.final_cost < cheapest) {
-          cheapest = f.final_cost;
-          cheapest_theta = f.estimates;
-        }
-        const double q = std::sqrt(std::max(0.0, scale * (f.final_cost - r->final_cost)));
-        if (q >= 3.0) {
-          width[side] = prev_d + (d - prev_d) * (3.0 - prev_q) / (q - prev_q);
-          break;
-        }
-        if (at_bound) break;
-        prev_d = d;
-        prev_q = q;
-      }
-    }
-    r->profile_low[k] = center - width[0];
-    r->profile_high[k] = center + width[1];
-    r->std_errors[k] = std::max(width[0], width[1]) / 3.0;  // NaN if a side is
-  }
-  const double gain = scale * (r->final_cost - cheapest);
-  if (cheapest_theta.size() > 0 && gain > 0.01) {
-    // Below Δχ² = 1 the kinks' shallow local minima (measured on a plate's box: 0.2) do not
-    // move the interval; beyond it the fit is not at the cost's minimum.
-    std::ostringstream m;
-    m << "; the profile found a lower cost (Δχ² " << gain << ") at";
-    for (Eigen::Index i = 0; i < np; ++i) m << " " << r->names[i] << " " << cheapest_theta[i];
-    m << (gain > 1.0 ? ": the fit stopped in a local minimum" : "");
-    r->reason += m.str();
-    if (gain > 1.0) r->converged = false;
-  }
-}
-
-}  // namespace
+}  // namespace internal
 
 EstimateResult EstimateLeastSquares(const sim::Simulator& simulator, const Log& log,
                                     const LeastSquaresOptions& options) {
   options.Validate();
-  const sim::ParamSelection sel(simulator.scene().param_table(), options.params);
-  if (options.horizon_samples == 0) {
-    std::vector<VectorXd> states;
-    EstimateResult result = Fit(simulator, log, options, VectorXd(), &states);
-    if (options.std_errors == LeastSquaresStdErrors::kProfile) {
-      const auto start = std::chrono::steady_clock::now();
-      ProfileStdErrors(simulator, log, options, sel, states, &result);
-      result.time_s +=
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    }
-    return result;
-  }
-
-  // Growing horizon: H, ⌈g H⌉, … samples per episode, then the whole log; each fit starts
-  // from the last one's θ and initial states.
-  int longest = 0;
-  for (const Episode& ep : log.episodes) longest = std::max(longest, ep.num_samples());
-  // Horizons with fewer residuals than unknowns are skipped.
-  auto enough = [&](int h) {
-    try {
-      CheckEnoughSamplesForFit(simulator, FirstSamples(log, h), options, sel.size());
-    } catch (const std::invalid_argument&) {
-      return false;
-    }
-    return true;
-  };
-  std::vector<int> horizons;
-  for (double h = options.horizon_samples; h < longest;
-       h = std::max(h + 1, std::ceil(h * options.horizon_growth)))
-    if (enough(static_cast<int>(h))) horizons.push_back(static_cast<int>(h));
-  horizons.push_back(longest);
-
   const auto start = std::chrono::steady_clock::now();
-  Continuation c;
-  c.theta = sel.Get(simulator.DefaultParams());  // the scene's
-  c.kept.assign(log.episodes.size(), 0);
-  c.agreed.assign(log.episodes.size(), false);
-  LeastSquaresOptions o = options;
-  if (options.progress)  // iterations count on across the fits
-    o.progress = [&c, &options](int it, double cost, const VectorXd& p) {
-      options.progress(c.iterations + it, cost, p);
-    };
-  EstimateResult result = Continue(simulator, log, o, sel, horizons, &c);
-  result.iterations = c.iterations;
-  result.horizons = c.fitted;
+  const sim::ParamSelection sel(simulator.scene().param_table(), options.params);
+  std::vector<VectorXd> states;  // the solution's initial states
+  EstimateResult result = options.horizon_samples == 0
+                              ? Fit(simulator, log, options, VectorXd(), &states)
+                              : FitGrowingHorizon(simulator, log, options, sel, &states);
   if (options.std_errors == LeastSquaresStdErrors::kProfile)
-    ProfileStdErrors(simulator, log, options, sel, c.from, &result);
+    ProfileStdErrors(simulator, log, options, sel, states, &result);
   result.time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;
 }

@@ -1,6 +1,7 @@
 // Least squares (least_squares.cc) internals shared with its covariance
-// (least_squares_covariance.cc): the segment derivatives, the information about θ, the
-// thread-safe logs of the segment evaluations. Private to vinci::estimation.
+// (least_squares_covariance.cc), its growing horizon (least_squares_horizon.cc) and its profile
+// standard errors (least_squares_profile.cc): one fit, the segment derivatives, the information
+// about θ, the thread-safe logs of the segment evaluations. Private to vinci::estimation.
 #pragma once
 
 #include <atomic>
@@ -10,9 +11,37 @@
 #include <vector>
 
 #include "vinci/estimation/least_squares.h"
+#include "vinci/sim/model/params.h"
 #include "vinci/sim/types.h"
 
 namespace vinci::estimation::internal {
+
+/// Throws std::invalid_argument (CheckEnoughSamples) if `log` has fewer residuals than the fit's
+/// unknowns: the parameters and, unless held, each episode's initial state.
+void CheckEnoughSamplesForFit(const sim::Simulator& simulator, const Log& log,
+                              const LeastSquaresOptions& options, int num_params);
+
+/// One least-squares fit of the whole `log` (least_squares.cc). theta_start: θ's starting values
+/// (empty: the scene's). *first_states: each episode's first-segment state unknowns to start
+/// from (empty: guessed from the log); on return, the solution's. `held`: indices of θ held at
+/// theta_start.
+EstimateResult Fit(const sim::Simulator& simulator, const Log& log,
+                   const LeastSquaresOptions& options, const sim::VectorXd& theta_start,
+                   std::vector<sim::VectorXd>* first_states, const std::vector<int>& held = {});
+
+/// options.horizon_samples > 0: the growing-horizon continuation (LeastSquaresOptions::
+/// horizon_samples; least_squares_horizon.cc). Returns the whole log's fit with the iterations
+/// and horizons of all fits; *final_states: its initial states (Fit's).
+EstimateResult FitGrowingHorizon(const sim::Simulator& simulator, const Log& log,
+                                 const LeastSquaresOptions& options, const sim::ParamSelection& sel,
+                                 std::vector<sim::VectorXd>* final_states);
+
+/// LeastSquaresStdErrors::kProfile (least_squares_profile.cc): replaces r's standard errors by
+/// the profile's, keeping the linearized ones and the Δχ² ≤ 9 intervals in r. `states`: the
+/// solution's initial states.
+void ProfileStdErrors(const sim::Simulator& simulator, const Log& log,
+                      const LeastSquaresOptions& options, const sim::ParamSelection& sel,
+                      const std::vector<sim::VectorXd>& states, EstimateResult* r);
 
 // Derivatives of one shooting segment's rollout: its measured residuals and its end state (the
 // next segment's start state coordinates) with respect to θ and its own start state s_j.
