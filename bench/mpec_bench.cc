@@ -13,7 +13,8 @@
 // 0|1 (MpecSolverOptions::epsilon_predictor); --early-polish-rise K
 // (MpecSolverOptions::early_polish_rise_factor); --early-polish-epsilon E
 // (MpecSolverOptions::early_polish_epsilon); --lsq-start N (MpecOptions::least_squares_start,
-// N Ceres iterations per fit) with --lsq-horizon H, --lsq-growth G; --help. An unknown flag or a
+// N Ceres iterations per fit) with --lsq-horizon H, --lsq-growth G; --ordering auto|scotch|qamd
+// (MpecSolverOptions::ordering); --help. An unknown flag or a
 // missing value is an error (exit 2). Environment: MPEC_BENCH_VERBOSE=1 (progress lines),
 // MPEC_BENCH_IPOPT_PRINT=N (Ipopt's print_level), MPEC_BENCH_SAMPLES=N (N samples instead of 500).
 #include <algorithm>
@@ -99,6 +100,7 @@ int main(int argc, char** argv) {
   double polish_eps = -1.0;  // --early-polish-epsilon E: MpecSolverOptions::early_polish_epsilon
   double rise = -1.0;        // --early-polish-rise K: MpecSolverOptions::early_polish_rise_factor
   int curvature = -1;        // --relaxation-curvature 0|1: MpecSolverOptions::relaxation_curvature
+  std::string ordering;      // --ordering NAME: MpecSolverOptions::ordering (empty: default)
   const char* usage =
       "usage: mpec_bench [--quick] [--case block|block_noisy|plate|plate_noisy]\n"
       "                  [--method scholtes|penalty] [--threads N[,N...]] [--csv FILE]\n"
@@ -108,7 +110,7 @@ int main(int argc, char** argv) {
       "                  [--stall N] [--push-per-epsilon C] [--cold-push X] [--seed N]\n"
       "                  [--predictor 0|1]\n"
       "                  [--early-polish-rise K] [--early-polish-epsilon E]\n"
-      "                  [--relaxation-curvature 0|1]\n"
+      "                  [--relaxation-curvature 0|1] [--ordering auto|scotch|qamd]\n"
       "environment: MPEC_BENCH_SAMPLES=N (default 500), MPEC_BENCH_VERBOSE=1 (stage log),\n"
       "             MPEC_BENCH_IPOPT_PRINT=N (Ipopt's print_level)\n";
   for (int i = 1; i < argc; ++i) {
@@ -153,6 +155,8 @@ int main(int argc, char** argv) {
       rise = std::atof(argv[++i]);
     } else if (flag("--early-polish-epsilon", 1)) {
       polish_eps = std::atof(argv[++i]);
+    } else if (flag("--ordering", 1)) {
+      ordering = argv[++i];
     } else if (flag("--relaxation-curvature", 1)) {
       curvature = std::atoi(argv[++i]);
     } else if (flag("--threads", 1)) {
@@ -176,6 +180,14 @@ int main(int argc, char** argv) {
       estimation::ParseComplementarityMethod(only_method);
     } catch (const std::invalid_argument& e) {
       std::fprintf(stderr, "mpec_bench: --method: %s\n", e.what());
+      return 2;
+    }
+  }
+  if (!ordering.empty()) {
+    try {
+      estimation::ParseMpecOrdering(ordering);
+    } catch (const std::invalid_argument& e) {
+      std::fprintf(stderr, "mpec_bench: --ordering: %s\n", e.what());
       return 2;
     }
   }
@@ -246,6 +258,7 @@ int main(int argc, char** argv) {
         if (rise >= 0) o.solver.early_polish_rise_factor = rise;
         if (polish_eps > 0) o.solver.early_polish_epsilon = polish_eps;
         if (curvature >= 0) o.solver.relaxation_curvature = curvature != 0;
+        if (!ordering.empty()) o.solver.ordering = estimation::ParseMpecOrdering(ordering);
         const std::clock_t cpu0 = std::clock();
         // MPEC_BENCH_VERBOSE=1: the estimator's progress lines with the CPU time so far (setup,
         // each NLP; what follows the last NLP is the standard error).
