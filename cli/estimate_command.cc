@@ -126,6 +126,7 @@ estimation::EstimateResult RunLeastSquares(const EstimateOptions& o,
   if (!o.jacobian.empty()) lo.jacobian = estimation::ParseLeastSquaresJacobian(o.jacobian);
   if (!o.lsq_std_errors.empty())
     lo.std_errors = estimation::ParseLeastSquaresStdErrors(o.lsq_std_errors);
+  if (!o.lsq_episode_restarts.empty()) lo.episode_restarts = o.lsq_episode_restarts == "on";
   lo.progress = ProgressPrinter(o);
   if (!o.quiet) {
     lo.horizon_progress = [&o](int horizon, const estimation::EstimateResult& fit,
@@ -277,6 +278,12 @@ ExitCode RunEstimateCommand(const EstimateOptions& o) {
     throw std::invalid_argument("--jacobian: only for --method lsq");
   if (!o.lsq_std_errors.empty() && o.method != "lsq")
     throw std::invalid_argument("--lsq-std-errors: only for --method lsq");
+  if (!o.lsq_episode_restarts.empty() && o.method != "lsq")
+    throw std::invalid_argument("--lsq-episode-restarts: only for --method lsq");
+  if (!o.lsq_episode_restarts.empty() && o.lsq_episode_restarts != "on" &&
+      o.lsq_episode_restarts != "off")
+    throw std::invalid_argument("--lsq-episode-restarts '" + o.lsq_episode_restarts +
+                                "': expected on or off");
   if ((o.lsq_horizon != 0 || o.lsq_horizon_growth) && o.method != "lsq")
     throw std::invalid_argument("--lsq-horizon, --lsq-horizon-growth: only for --method lsq");
   if (o.lsq_horizon_growth && o.lsq_horizon == 0)
@@ -423,6 +430,12 @@ Command RegisterEstimateCommand(CLI::App& app) {
                   "rollouts; default) or sensitivity (forward step sensitivities along each "
                   "rollout, experimental: see docs/estimation.md)")
       ->type_name("fd|sensitivity");
+  sub->add_option("--lsq-episode-restarts", options->lsq_episode_restarts,
+                  "lsq with several logs, single shooting and --noise: on (default) fits each "
+                  "log whose residuals contradict the noise alone, then at the joint estimate, "
+                  "and refits all logs from those initial states, kept if cheaper; off: the "
+                  "joint fit only (docs/estimation.md)")
+      ->type_name("on|off");
   sub->add_option("--lsq-std-errors", options->lsq_std_errors,
                   "lsq: linearized (the Gauss-Newton covariance at the solution; default) or "
                   "profile (the cost's profile in each parameter, the others and the initial "

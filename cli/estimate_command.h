@@ -43,6 +43,7 @@ struct EstimateOptions {
   int bootstrap = 0;           ///< mpec: B bootstrap resamples over episodes (0: reduced Hessian)
   std::string jacobian;        ///< lsq: sensitivity | fd ("": sensitivity)
   std::string lsq_std_errors;  ///< lsq: linearized | profile ("": the library's)
+  std::string lsq_episode_restarts;  ///< lsq: on | off ("": the library's, on)
   /// mpec: steps per log interval (MpecOptions::substeps; 0: the scene's dt); −1: not given.
   int mpec_substeps = -1;
   std::string mpec_episodes;  ///< "" (joint), "joint" or "decomposed"; mpec only

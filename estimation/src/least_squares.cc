@@ -653,6 +653,7 @@ EstimateResult EstimateLeastSquares(const sim::Simulator& simulator, const Log& 
   EstimateResult result = options.horizon_samples == 0
                               ? Fit(simulator, log, options, VectorXd(), &states)
                               : FitGrowingHorizon(simulator, log, options, sel, &states);
+  RestartStrayEpisodes(simulator, log, options, sel, &states, &result);
   if (options.std_errors == LeastSquaresStdErrors::kProfile)
     ProfileStdErrors(simulator, log, options, sel, states, &result);
   result.time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

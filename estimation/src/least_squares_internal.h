@@ -36,6 +36,17 @@ EstimateResult FitGrowingHorizon(const sim::Simulator& simulator, const Log& log
                                  const LeastSquaresOptions& options, const sim::ParamSelection& sel,
                                  std::vector<sim::VectorXd>* final_states);
 
+/// LeastSquaresOptions::episode_restarts (least_squares_restart.cc): after a fit *r of several
+/// episodes by single shooting with a stated σ, from its initial states *states, each episode
+/// whose residuals contradict the noise is fitted alone (θ free, the options' horizon), then
+/// with θ held at r's θ̂ from that fit's initial state; where the latter fits the episode better
+/// than *r did, its initial state replaces *r's and the whole log is fitted again from there,
+/// replacing *r and *states if cheaper. r->reason names the episodes and the outcome; the
+/// iterations of every fit are added to r's.
+void RestartStrayEpisodes(const sim::Simulator& simulator, const Log& log,
+                          const LeastSquaresOptions& options, const sim::ParamSelection& sel,
+                          std::vector<sim::VectorXd>* states, EstimateResult* r);
+
 /// LeastSquaresStdErrors::kProfile (least_squares_profile.cc): replaces r's standard errors by
 /// the profile's, keeping the linearized ones and the Δχ² ≤ 9 intervals in r. `states`: the
 /// solution's initial states.

@@ -52,6 +52,7 @@ MpecEstimateResult EstimateFromLeastSquares(const sim::Simulator& simulator, con
     careful.horizon_growth = defaults.horizon_growth;
     careful.max_iterations = defaults.max_iterations;
     careful.horizon_refinement = defaults.horizon_refinement;
+    careful.episode_restarts = defaults.episode_restarts;
     EstimateResult again = EstimateLeastSquares(simulator, log, careful);
     note << "; its residuals contradict the noise (σ̂ = " << ls.sigma_residual
          << " m), fitted again with growth " << careful.horizon_growth << ": " << again.iterations

@@ -37,6 +37,7 @@ LeastSquaresOptions mpec_internal::StartFitOptions(const MpecOptions& o) {
   lo.horizon_samples = o.least_squares_horizon;
   lo.horizon_growth = o.least_squares_horizon_growth;
   lo.horizon_refinement = false;  // a rough fit; EstimateFromLeastSquares refits carefully
+  lo.episode_restarts = false;    // likewise
   return lo;
 }
 
