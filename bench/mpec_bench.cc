@@ -25,6 +25,7 @@
 #include <ctime>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <random>
 #include <stdexcept>
 #include <string>
@@ -100,7 +101,8 @@ int main(int argc, char** argv) {
   double polish_eps = -1.0;  // --early-polish-epsilon E: MpecSolverOptions::early_polish_epsilon
   double rise = -1.0;        // --early-polish-rise K: MpecSolverOptions::early_polish_rise_factor
   int curvature = -1;        // --relaxation-curvature 0|1: MpecSolverOptions::relaxation_curvature
-  std::string ordering;      // --ordering NAME: MpecSolverOptions::ordering (empty: default)
+  // --ordering NAME: MpecSolverOptions::ordering (none: the estimator's default).
+  std::optional<estimation::MpecSolverOptions::Ordering> ordering;
   const char* usage =
       "usage: mpec_bench [--quick] [--case block|block_noisy|plate|plate_noisy]\n"
       "                  [--method scholtes|penalty] [--threads N[,N...]] [--csv FILE]\n"
@@ -156,7 +158,12 @@ int main(int argc, char** argv) {
     } else if (flag("--early-polish-epsilon", 1)) {
       polish_eps = std::atof(argv[++i]);
     } else if (flag("--ordering", 1)) {
-      ordering = argv[++i];
+      try {
+        ordering = estimation::ParseMpecOrdering(argv[++i]);
+      } catch (const std::invalid_argument& e) {
+        std::fprintf(stderr, "mpec_bench: --ordering: %s\n", e.what());
+        return 2;
+      }
     } else if (flag("--relaxation-curvature", 1)) {
       curvature = std::atoi(argv[++i]);
     } else if (flag("--threads", 1)) {
@@ -180,14 +187,6 @@ int main(int argc, char** argv) {
       estimation::ParseComplementarityMethod(only_method);
     } catch (const std::invalid_argument& e) {
       std::fprintf(stderr, "mpec_bench: --method: %s\n", e.what());
-      return 2;
-    }
-  }
-  if (!ordering.empty()) {
-    try {
-      estimation::ParseMpecOrdering(ordering);
-    } catch (const std::invalid_argument& e) {
-      std::fprintf(stderr, "mpec_bench: --ordering: %s\n", e.what());
       return 2;
     }
   }
@@ -258,7 +257,7 @@ int main(int argc, char** argv) {
         if (rise >= 0) o.solver.early_polish_rise_factor = rise;
         if (polish_eps > 0) o.solver.early_polish_epsilon = polish_eps;
         if (curvature >= 0) o.solver.relaxation_curvature = curvature != 0;
-        if (!ordering.empty()) o.solver.ordering = estimation::ParseMpecOrdering(ordering);
+        if (ordering) o.solver.ordering = *ordering;
         const std::clock_t cpu0 = std::clock();
         // MPEC_BENCH_VERBOSE=1: the estimator's progress lines with the CPU time so far (setup,
         // each NLP; what follows the last NLP is the standard error).

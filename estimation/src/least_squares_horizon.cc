@@ -126,7 +126,8 @@ EstimateResult FitGrowingHorizon(const sim::Simulator& simulator, const Log& log
   // discarded (θ back to the kept fit's) and the halfway horizon fitted first. Not with several:
   // measured on 50 tossed cubes, continuing such an episode alone from its kept fit (its state
   // replacing the joint fit's) did not last into the next joint fit, and μ̂ ended further from
-  // the truth (docs/estimation.md).
+  // the truth (docs/estimation.md); several episodes are restarted after the whole log's fit
+  // instead (LeastSquaresOptions::episode_restarts, least_squares_restart.cc).
   const bool refine = options.horizon_refinement && log.episodes.size() == 1;
   bool agreed = false;  // the kept fit's residuals agreed with the stated noise
   std::vector<int> fitted;
