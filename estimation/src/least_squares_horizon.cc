@@ -91,7 +91,7 @@ void ScanParameters(const sim::Simulator& simulator, const sim::ParamSelection& 
 
 EstimateResult FitGrowingHorizon(const sim::Simulator& simulator, const Log& log,
                                  const LeastSquaresOptions& options, const sim::ParamSelection& sel,
-                                 std::vector<VectorXd>* final_states) {
+                                 std::vector<VectorXd>* final_states, const VectorXd* held_theta) {
   // Growing horizon: H, ⌈g H⌉, … samples per episode, then the whole log; each fit starts
   // from the last one's θ and initial states.
   int longest = 0;
@@ -117,10 +117,13 @@ EstimateResult FitGrowingHorizon(const sim::Simulator& simulator, const Log& log
     o.progress = [&done, &options](int it, double cost, const VectorXd& p) {
       options.progress(done + it, cost, p);
     };
-  VectorXd theta =
-      sel.Get(simulator.DefaultParams());  // the last kept fit's θ (first: the scene's)
-  std::vector<VectorXd> from;              // and its initial states (empty: guessed from the log)
-  int kept = 0;                            // its samples per episode (0: none yet)
+  // The last kept fit's θ (first: the scene's, or the held one).
+  VectorXd theta = held_theta ? *held_theta : sel.Get(simulator.DefaultParams());
+  std::vector<int> held;
+  if (held_theta)
+    for (int i = 0; i < sel.size(); ++i) held.push_back(i);
+  std::vector<VectorXd> from;  // and its initial states (empty: guessed from the log)
+  int kept = 0;                // its samples per episode (0: none yet)
   // One log (horizon_refinement): a fit whose residuals contradict the stated noise
   // (EpisodeContradictsNoise) where the kept fit's agreed, over a step of ≥ 2 samples, is
   // discarded (θ back to the kept fit's) and the halfway horizon fitted first. Not with several:
@@ -138,9 +141,9 @@ EstimateResult FitGrowingHorizon(const sim::Simulator& simulator, const Log& log
     const Log part = FirstSamples(log, h);  // the whole log for the last
     std::vector<VectorXd> states = from;
     const VectorXd before = theta;
-    if (!from.empty())
+    if (!from.empty() && !held_theta)
       ScanParameters(simulator, sel, part, from, options.orientation_length, &theta);
-    EstimateResult fit = Fit(simulator, part, o, theta, &states);
+    EstimateResult fit = Fit(simulator, part, o, theta, &states, held);
     done += fit.iterations;
     fitted.push_back(h);
     const bool agrees = !refine || !EpisodeContradictsNoise(fit.episodes[0], options.noise_sigma);
@@ -175,7 +178,7 @@ EstimateResult FitGrowingHorizon(const sim::Simulator& simulator, const Log& log
       // and 9.1), and so can the scan's noise-level gains (a tossed cube's first impact sticks,
       // where any μ above the threshold fits alike: the scan took μ from 0.6 to 1.7, where the
       // next impact slips at 0.4 and no step of the next scan was cheaper, 0.85 sticking too).
-      for (Eigen::Index k = 0; k < theta.size(); ++k)
+      for (Eigen::Index k = 0; k < theta.size() && !held_theta; ++k)
         theta[k] = fit.std_errors[k] < std::abs(fit.estimates[k]) ? fit.estimates[k] : before[k];
       from = std::move(states);
       kept = h;

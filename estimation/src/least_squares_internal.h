@@ -31,17 +31,20 @@ EstimateResult Fit(const sim::Simulator& simulator, const Log& log,
 
 /// options.horizon_samples > 0: the growing-horizon continuation (LeastSquaresOptions::
 /// horizon_samples; least_squares_horizon.cc). Returns the whole log's fit with the iterations
-/// and horizons of all fits; *final_states: its initial states (Fit's).
+/// and horizons of all fits; *final_states: its initial states (Fit's). `held_theta` non-null:
+/// θ is held at *held_theta in every fit (no scan), only the initial states are fitted.
 EstimateResult FitGrowingHorizon(const sim::Simulator& simulator, const Log& log,
                                  const LeastSquaresOptions& options, const sim::ParamSelection& sel,
-                                 std::vector<sim::VectorXd>* final_states);
+                                 std::vector<sim::VectorXd>* final_states,
+                                 const sim::VectorXd* held_theta = nullptr);
 
 /// LeastSquaresOptions::episode_restarts (least_squares_restart.cc): after a fit *r of several
 /// episodes by single shooting with a stated σ, from its initial states *states, each episode
 /// whose residuals contradict the noise is fitted alone (θ free, the options' horizon), then
-/// with θ held at r's θ̂ from that fit's initial state; where the latter fits the episode better
-/// than *r did, its initial state replaces *r's and the whole log is fitted again from there,
-/// replacing *r and *states if cheaper. r->reason names the episodes and the outcome; the
+/// with θ held at r's θ̂ from that fit's initial state, and (with a horizon) alone over the
+/// growing horizon with θ held at r's θ̂ throughout; where the better of these fits the episode
+/// better than *r did, its initial state replaces *r's and the whole log is fitted again from
+/// there, replacing *r and *states if cheaper. r->reason names the episodes and the outcome; the
 /// iterations of every fit are added to r's.
 void RestartStrayEpisodes(const sim::Simulator& simulator, const Log& log,
                           const LeastSquaresOptions& options, const sim::ParamSelection& sel,

@@ -34,19 +34,30 @@ void RestartStrayEpisodes(const sim::Simulator& simulator, const Log& log,
     Log one;
     one.episodes = {log.episodes[e]};
     // Alone, θ free (the options' horizon), then θ held at the joint θ̂ from there: the episode's
-    // own basin, moved to the shared θ.
+    // own basin, moved to the shared θ. The better of that and the next candidate is kept.
+    double best = r->episodes[e].rms_residual;
+    const auto consider = [&](const EstimateResult& at, std::vector<VectorXd>& state) {
+      iterations += at.iterations;
+      if (state.size() != 1 || at.episodes.size() != 1 || !(at.episodes[0].rms_residual < best))
+        return;
+      best = at.episodes[0].rms_residual;
+      tried[e] = state[0];
+    };
     std::vector<VectorXd> own;
     const EstimateResult fit = options.horizon_samples == 0
                                    ? Fit(simulator, one, alone, VectorXd(), &own)
                                    : FitGrowingHorizon(simulator, one, alone, sel, &own);
     iterations += fit.iterations;
-    if (own.size() != 1 || !fit.estimates.allFinite()) continue;
-    const EstimateResult at = Fit(simulator, one, alone, r->estimates, &own, held);
-    iterations += at.iterations;
-    if (at.episodes.size() == 1 && at.episodes[0].rms_residual < r->episodes[e].rms_residual) {
-      tried[e] = own[0];
-      replaced.push_back(e);
+    if (own.size() == 1 && fit.estimates.allFinite())
+      consider(Fit(simulator, one, alone, r->estimates, &own, held), own);
+    // And the episode's states alone at the joint θ̂ from the log's guess, the horizon growing
+    // with θ held there: an episode whose own θ̂ is far from the joint one can settle in another
+    // basin of its state when moved to it.
+    if (options.horizon_samples > 0) {
+      std::vector<VectorXd> at_joint;
+      consider(FitGrowingHorizon(simulator, one, alone, sel, &at_joint, &r->estimates), at_joint);
     }
+    if (best < r->episodes[e].rms_residual) replaced.push_back(e);
   }
   if (replaced.empty()) return;
   EstimateResult again = Fit(simulator, log, options, r->estimates, &tried);

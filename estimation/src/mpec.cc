@@ -383,11 +383,16 @@ MpecSolution SolveMpec(const MpecProblem& problem, const MpecSolverOptions& o,
     // followed such a ray (objective −338 after 60 iterations, |x| ~ 1e8) to its iteration
     // limit. Exact bounds keep the penalty ≥ 0.
     if (stage == Stage::kPenalty) opt.SetNumericValue("bound_relax_factor", 0.0);
-    if (stage != Stage::kPolish && o.stall_iterations > 0) {
+    if ((stage != Stage::kPolish || pairs.empty()) && o.stall_iterations > 0) {
       // Ipopt's acceptable level, made a stall test: the overall error bound is loose (the
       // dual infeasibility oscillates at a degenerate solution), the objective change and the
-      // constraint violation decide.
-      opt.SetIntegerValue("acceptable_iter", o.stall_iterations);
+      // constraint violation decide. Also for an NLP without pairs (e.g. the least-squares
+      // start's active set), whose dual infeasibility can stall above `tolerance` at the
+      // rounding of the central-difference state columns, or whose free rays (unbounded
+      // unknowns absent from the objective) the barrier keeps following; as its solution is
+      // the estimate, over Ipopt's own count of iterations (15) at least.
+      opt.SetIntegerValue("acceptable_iter",
+                          pairs.empty() ? std::max(15, o.stall_iterations) : o.stall_iterations);
       opt.SetNumericValue("acceptable_tol", 1e-2);
       opt.SetNumericValue("acceptable_obj_change_tol", o.stall_objective_change);
       opt.SetNumericValue("acceptable_constr_viol_tol", o.stall_constraint_violation);

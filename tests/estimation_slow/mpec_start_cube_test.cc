@@ -40,9 +40,11 @@ TEST(MpecStartCube, NoisyTossOnTheSimulatorsGridIsCovered) {
 // for 30 µm of noise, and the start's NLP from its rollout ended at a χ² 13 times its degrees of
 // freedom, so the estimation restarted from the log's poses — a homotopy on 42 000 unknowns that
 // had not finished after 10 minutes. The rough fit is now fitted again carefully (σ̂ 29.5 µm),
-// and the start's NLP from it needs 188 Ipopt iterations (start_polish_iterations: 300; at 100
-// it stopped at the same objective, not yet accepted). The homotopy is capped here so that a
-// start that is not kept fails the test instead of running for hours.
+// and the start's NLP from it needed 188 Ipopt iterations in session 38 (start_polish_iterations:
+// 300; at 100 it stopped at the same objective, not yet accepted); since session 41 it ends by
+// the stall exit of a problem without pairs (MpecSolverOptions::stall_iterations) after ~60,
+// where its dual infeasibility had alternated between 3e-8 and 5e-4 up to the cap. The homotopy
+// is capped here so that a start that is not kept fails the test instead of running for hours.
 TEST(MpecStartCube, ARoughFitThatContradictsTheNoiseIsFittedAgain) {
   const sim::Simulator sim(sim::ParseScene(testing::kTossedCube, "cube.yaml"));
   MpecOptions o;

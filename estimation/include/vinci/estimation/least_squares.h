@@ -124,12 +124,13 @@ struct LeastSquaresOptions {
   bool horizon_refinement = true;
   /// With noise_sigma, several episodes and single shooting: after the fit, each episode whose
   /// residuals contradict the noise (EpisodeContradictsNoise) is fitted alone (θ free, the
-  /// horizon above), then with θ held at the joint θ̂ from there; where that fits it better, its
-  /// initial state replaces the joint fit's and the whole log is fitted again from the new
-  /// states, kept if cheaper (reason: "episodes … started again from their own fits"). The
-  /// shared θ can hold an episode's initial state in a local minimum that the episode alone
-  /// leaves (measured on 50 tossed cubes: toss 27 at 42 µm rms jointly for 30 µm noise, 30 µm
-  /// alone; with the restarts the joint fit passes the χ² test, docs/estimation.md).
+  /// horizon above), then with θ held at the joint θ̂ from there, and (with the horizon) over
+  /// the growing horizon with θ held at the joint θ̂ throughout; where the better of the two fits
+  /// it better than the joint fit, its initial state replaces the joint fit's and the whole log is
+  /// fitted again from the new states, kept if cheaper (reason: "episodes … started again from
+  /// their own fits"). The shared θ can hold an episode's initial state in a local minimum that the
+  /// episode alone leaves (measured on 50 tossed cubes: toss 27 at 42 µm rms jointly for 30 µm
+  /// noise, 30 µm alone; with the restarts the joint fit passes the χ² test, docs/estimation.md).
   bool episode_restarts = true;
   /// g > 1 of horizon_samples. Measured on tossed cubes (docs/estimation.md): g = 2 let the
   /// first impact in at once and stalled more often than 1.2.
