@@ -117,8 +117,8 @@ class ParallelEvaluation : public ceres::EvaluationCallback {
 
  private:
   // A slot that already holds this point (and its Jacobians, if asked for) is kept: with bounds
-  // on θ, Ceres' projected line search evaluates the trust-region step's point with gradients,
-  // then evaluates it again as the candidate, then asks for its Jacobians once accepted.
+  // on θ, Ceres' projected line search evaluates the trust-region step's point, then Ceres
+  // evaluates it again as the candidate, then asks for its Jacobians once accepted.
   static void Fill(const SegmentCost& cost, SegmentSlot* slot, bool with_jacobians) {
     const int nb = static_cast<int>(slot->blocks.size());
     const std::vector<int32_t>& sizes = cost.parameter_block_sizes();
@@ -515,9 +515,8 @@ EstimateResult Fit(const sim::Simulator& simulator, const Log& log,
   so.minimizer_type = ceres::TRUST_REGION;
   // With bounds on θ, Ceres scales every trust-region step by a projected Armijo line search.
   // Its default cubic interpolation asks for the gradient (all the Jacobians: finite-difference
-  // rollouts) at every trial point, most of which a contraction or the trust region rejects; the
-  // quadratic one reads the values only (measured on 6 tossed cubes: 348 → 71 Jacobian
-  // evaluations, 35 → 11 s; bench/README.md).
+  // rollouts) at every trial point, many of which a contraction or the trust region rejects; the
+  // quadratic one reads the values only (bench/README.md, session 41).
   so.line_search_interpolation_type = ceres::QUADRATIC;
   so.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
   so.linear_solver_type = ceres::DENSE_QR;

@@ -130,7 +130,7 @@ struct LeastSquaresOptions {
   /// fitted again from the new states, kept if cheaper (reason: "episodes … started again from
   /// their own fits"). The shared θ can hold an episode's initial state in a local minimum that the
   /// episode alone leaves (measured on 50 tossed cubes: toss 27 at 42 µm rms jointly for 30 µm
-  /// noise, 30 µm alone; with the restarts the joint fit passes the χ² test, docs/estimation.md).
+  /// noise, 30 µm alone; docs/estimation.md, "Episode restarts").
   bool episode_restarts = true;
   /// g > 1 of horizon_samples. Measured on tossed cubes (docs/estimation.md): g = 2 let the
   /// first impact in at once and stalled more often than 1.2.
