@@ -86,6 +86,20 @@ struct SegmentSlot {
   VectorXd residuals;
   std::vector<RowMajor> jacobians;  // per block; empty if not evaluated
   bool valid = false, ok = false;
+
+  // Whether the slot was evaluated at `params` (block b at params[b]) with the Jacobian of
+  // every block b for which need_jacobian(b).
+  template <class Params, class NeedJacobian>
+  bool Holds(const Params& params, const std::vector<int32_t>& sizes,
+             NeedJacobian need_jacobian) const {
+    const int nb = static_cast<int>(sizes.size());
+    if (!valid || static_cast<int>(point.size()) != nb) return false;
+    for (int b = 0; b < nb; ++b) {
+      if (Eigen::Map<const VectorXd>(params[b], sizes[b]) != point[b]) return false;
+      if (need_jacobian(b) && jacobians[b].size() == 0) return false;
+    }
+    return true;
+  }
 };
 
 // Determinism: Ceres with several threads sums the cost and gradient over residual blocks in
@@ -122,7 +136,8 @@ class ParallelEvaluation : public ceres::EvaluationCallback {
   static void Fill(const SegmentCost& cost, SegmentSlot* slot, bool with_jacobians) {
     const int nb = static_cast<int>(slot->blocks.size());
     const std::vector<int32_t>& sizes = cost.parameter_block_sizes();
-    if (Holds(*slot, sizes, with_jacobians)) return;
+    if (slot->Holds(slot->blocks, sizes, [&](int b) { return with_jacobians && slot->wanted[b]; }))
+      return;
     slot->point.resize(nb);
     slot->jacobians.resize(nb);
     std::vector<const double*> params(nb);
@@ -143,17 +158,6 @@ class ParallelEvaluation : public ceres::EvaluationCallback {
     slot->valid = true;
   }
 
-  static bool Holds(const SegmentSlot& slot, const std::vector<int32_t>& sizes,
-                    bool with_jacobians) {
-    const int nb = static_cast<int>(slot.blocks.size());
-    if (!slot.valid || static_cast<int>(slot.point.size()) != nb) return false;
-    for (int b = 0; b < nb; ++b) {
-      if (Eigen::Map<const VectorXd>(slot.blocks[b], sizes[b]) != slot.point[b]) return false;
-      if (with_jacobians && slot.wanted[b] && slot.jacobians[b].size() == 0) return false;
-    }
-    return true;
-  }
-
   int threads_;
   JacobianStats* stats_;
   OrderedLog* failures_;
@@ -172,13 +176,9 @@ class SegmentCeresCost : public ceres::CostFunction {
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override {
     const int nb = static_cast<int>(parameter_block_sizes().size());
-    bool cached = slot_->valid && static_cast<int>(slot_->point.size()) == nb;
-    for (int b = 0; b < nb && cached; ++b) {
-      cached =
-          Eigen::Map<const VectorXd>(parameters[b], parameter_block_sizes()[b]) == slot_->point[b];
-      if (jacobians && jacobians[b] && slot_->jacobians[b].size() == 0) cached = false;
-    }
-    if (!cached) return cost_->Evaluate(parameters, residuals, jacobians);
+    if (!slot_->Holds(parameters, parameter_block_sizes(),
+                      [&](int b) { return jacobians && jacobians[b]; }))
+      return cost_->Evaluate(parameters, residuals, jacobians);
     if (!slot_->ok) return false;
     Eigen::Map<VectorXd>(residuals, num_residuals()) = slot_->residuals;
     for (int b = 0; b < nb && jacobians; ++b)

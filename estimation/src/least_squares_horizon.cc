@@ -178,8 +178,9 @@ EstimateResult FitGrowingHorizon(const sim::Simulator& simulator, const Log& log
       // and 9.1), and so can the scan's noise-level gains (a tossed cube's first impact sticks,
       // where any μ above the threshold fits alike: the scan took μ from 0.6 to 1.7, where the
       // next impact slips at 0.4 and no step of the next scan was cheaper, 0.85 sticking too).
-      for (Eigen::Index k = 0; k < theta.size() && !held_theta; ++k)
-        theta[k] = fit.std_errors[k] < std::abs(fit.estimates[k]) ? fit.estimates[k] : before[k];
+      if (!held_theta)
+        for (Eigen::Index k = 0; k < theta.size(); ++k)
+          theta[k] = fit.std_errors[k] < std::abs(fit.estimates[k]) ? fit.estimates[k] : before[k];
       from = std::move(states);
       kept = h;
       agreed = agrees;
